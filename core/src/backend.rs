@@ -1,0 +1,130 @@
+//! The `Backend` trait: one plan, resident state, steps, read-back.
+//!
+//! A backend is created from a [`Plan`] and an initial [`State`] (by its
+//! own constructor), keeps the state resident between steps, and executes
+//! exactly the kernel sequence of [`Plan::substep_kernels`], `substeps`
+//! times per step. Kernels can also be run one at a time
+//! ([`Backend::run_kernel`]) so each can be checked against the golden path
+//! in isolation.
+
+use crate::{BackendError, Kernel, Plan, StageName, State};
+
+/// Largest constraint violation of one family after a step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FamilyResidual {
+    /// `constraints[i]` or `obstacles[i]`.
+    pub label: String,
+    /// max over elements of |C(x)| (equalities) or max(0, −C(x))
+    /// (contacts), in the constraint's own units: length for distance and
+    /// contact, length^(2k) for the squared k-measure, length^N for the
+    /// oriented measure.
+    pub max_violation: f64,
+}
+
+/// What one step did.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct StepReport {
+    /// Kernel calls per stage in this step, in stage order.
+    pub kernel_calls: Vec<(StageName, u64)>,
+    /// Constraint violation per family at the end of the step.
+    pub residuals: Vec<FamilyResidual>,
+    /// Contacts with a positive multiplier in the last substep.
+    pub active_contacts: usize,
+}
+
+impl StepReport {
+    /// Largest violation over all families (0 with no families).
+    pub fn max_violation(&self) -> f64 {
+        self.residuals
+            .iter()
+            .map(|r| r.max_violation)
+            .fold(0.0, f64::max)
+    }
+}
+
+/// A physics backend executing a [`Plan`].
+pub trait Backend {
+    /// Short name, e.g. `cpu-f64`.
+    fn name(&self) -> String;
+
+    /// The plan this backend executes.
+    fn plan(&self) -> &Plan;
+
+    /// Advances one step of `plan().dt`. On error the state is exactly as
+    /// before the call.
+    fn step(&mut self) -> Result<StepReport, BackendError>;
+
+    /// Copies the current state out.
+    fn read_state(&mut self) -> Result<State, BackendError>;
+
+    /// Replaces the current state (same particle count and dimension).
+    fn write_state(&mut self, state: &State) -> Result<(), BackendError>;
+
+    /// Replaces the constant external forces (flat, `particles × dim`).
+    /// Only possible when the plan has a force term.
+    fn set_forces(&mut self, forces: &[f64]) -> Result<(), BackendError>;
+
+    /// Runs one kernel on the resident state (for kernel-level checks).
+    /// `Kernel::Predict` starts a substep: it saves p = x and resets the
+    /// multipliers used by the following `Project` calls.
+    fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError>;
+}
+
+/// Checks that a replacement state fits the plan.
+pub fn check_state(plan: &Plan, state: &State) -> Result<(), BackendError> {
+    let expected = plan.particle_count() * plan.dim;
+    if state.dim != plan.dim
+        || state.positions.len() != expected
+        || state.velocities.len() != expected
+    {
+        return Err(BackendError::InvalidCall(format!(
+            "state has dim {} with {} position and {} velocity values; the plan needs dim {} and {} each",
+            state.dim,
+            state.positions.len(),
+            state.velocities.len(),
+            plan.dim,
+            expected
+        )));
+    }
+    Ok(())
+}
+
+/// Checks a replacement force vector against the plan.
+pub fn check_forces(plan: &Plan, forces: &[f64]) -> Result<(), BackendError> {
+    if forces.len() != plan.particle_count() * plan.dim {
+        return Err(BackendError::InvalidCall(format!(
+            "forces has {} values; the plan needs {}",
+            forces.len(),
+            plan.particle_count() * plan.dim
+        )));
+    }
+    if !plan.predict.force {
+        return Err(BackendError::InvalidCall(
+            "the plan has no external-force term (the scene authors no nonzero force on a dynamic particle), so forces would be ignored; author a force in the scene to enable it".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Checks a kernel call against the plan.
+pub fn check_kernel(plan: &Plan, kernel: Kernel) -> Result<(), BackendError> {
+    let ok = match kernel {
+        Kernel::Project { family, color } => plan
+            .families
+            .get(family)
+            .is_some_and(|f| color < f.color_count()),
+        Kernel::Friction { family } => plan
+            .families
+            .get(family)
+            .is_some_and(|f| f.kind.is_inequality()),
+        Kernel::Damping => plan.damping.is_some(),
+        Kernel::Predict | Kernel::Velocity => true,
+    };
+    if ok {
+        Ok(())
+    } else {
+        Err(BackendError::InvalidCall(format!(
+            "{kernel:?} does not exist in this plan"
+        )))
+    }
+}

@@ -1,0 +1,40 @@
+//! Constraint functions C(x) and their gradients ∇C, shared by every backend
+//! and by validation (rest values, degenerate-geometry checks).
+//!
+//! Each evaluator takes the element's points gathered into one flat slice
+//! (`points[j * dim + a]` is coordinate `a` of point `j`) and writes the
+//! gradient with respect to every point into `grad` with the same layout.
+//! Where ∇C vanishes (coincident points, a collapsed simplex) the gradient is
+//! zero and the projection reports no response rather than inventing a
+//! direction.
+
+mod distance;
+mod linalg;
+mod oriented_measure;
+mod simplex_measure;
+
+pub use distance::distance;
+pub use linalg::{adjugate, determinant};
+pub use oriented_measure::oriented_measure;
+pub use simplex_measure::simplex_squared_measure;
+
+/// Reusable scratch space so evaluation allocates nothing per element.
+#[derive(Debug, Default, Clone)]
+pub struct Scratch {
+    pub(crate) edges: Vec<f64>,
+    pub(crate) gram: Vec<f64>,
+    pub(crate) adj: Vec<f64>,
+    pub(crate) minor: Vec<f64>,
+}
+
+impl Scratch {
+    /// Empty scratch; buffers grow on first use.
+    pub fn new() -> Self {
+        Scratch::default()
+    }
+}
+
+/// Factorial as f64 (exact up to 18!).
+pub fn factorial(k: usize) -> f64 {
+    (1..=k).fold(1.0, |acc, i| acc * i as f64)
+}

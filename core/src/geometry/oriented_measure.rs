@@ -1,0 +1,81 @@
+//! Signed full-dimensional measure of an N-simplex in R^N.
+//!
+//! ```text
+//! D = [x1 − x0 … xN − x0]           (N × N, column j−1 = x_j − x_0)
+//! V = det(D) / N!
+//! ∂det/∂D[a][j] = adj(D)[j][a]      so ∇_j V = row j−1 of adj(D) / N!
+//! ∇_0 V = −Σ_j ∇_j V
+//! ```
+//! Reflection or an odd vertex permutation flips the sign of V.
+
+use super::{Scratch, adjugate, determinant, factorial};
+
+/// V for the N + 1 points `points` in R^`dim` (N = dim).
+pub fn oriented_measure(
+    points: &[f64],
+    dim: usize,
+    grad: &mut [f64],
+    scratch: &mut Scratch,
+) -> f64 {
+    let n = dim;
+    let scale = 1.0 / factorial(n);
+    let Scratch {
+        edges, adj, minor, ..
+    } = scratch;
+    edges.resize(n * n, 0.0);
+    adj.resize(n * n, 0.0);
+    minor.resize(n * n, 0.0);
+    for j in 0..n {
+        for a in 0..n {
+            edges[a * n + j] = points[(j + 1) * n + a] - points[a];
+        }
+    }
+    adjugate(edges, n, adj, minor);
+    minor.copy_from_slice(&edges[..n * n]);
+    let measure = determinant(minor, n) * scale;
+    grad[..n].fill(0.0);
+    for j in 0..n {
+        for a in 0..n {
+            let gj = adj[j * n + a] * scale;
+            grad[(j + 1) * n + a] = gj;
+            grad[a] -= gj;
+        }
+    }
+    measure
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unit_simplices_and_orientation() {
+        let mut s = Scratch::new();
+        let tri = [0.0, 0.0, 1.0, 0.0, 0.0, 1.0];
+        approx::assert_relative_eq!(oriented_measure(&tri, 2, &mut [0.0; 6], &mut s), 0.5);
+        let flipped = [0.0, 0.0, 0.0, 1.0, 1.0, 0.0];
+        approx::assert_relative_eq!(oriented_measure(&flipped, 2, &mut [0.0; 6], &mut s), -0.5);
+        let seg = [2.0, 5.0];
+        approx::assert_relative_eq!(oriented_measure(&seg, 1, &mut [0.0; 2], &mut s), 3.0);
+    }
+
+    #[test]
+    fn gradient_matches_finite_differences_in_4d() {
+        let pts = [
+            0.1, 0.0, 0.2, -0.1, 1.1, 0.1, 0.0, 0.2, 0.0, 0.9, 0.1, 0.0, 0.2, 0.1, 1.2, 0.1, -0.1,
+            0.0, 0.3, 0.8,
+        ];
+        let mut g = [0.0; 20];
+        let mut s = Scratch::new();
+        oriented_measure(&pts, 4, &mut g, &mut s);
+        let eps = 1e-6;
+        for i in 0..pts.len() {
+            let mut p = pts;
+            p[i] += eps;
+            let up = oriented_measure(&p, 4, &mut [0.0; 20], &mut s);
+            p[i] -= 2.0 * eps;
+            let down = oriented_measure(&p, 4, &mut [0.0; 20], &mut s);
+            approx::assert_abs_diff_eq!((up - down) / (2.0 * eps), g[i], epsilon = 1e-8);
+        }
+    }
+}

@@ -1,0 +1,31 @@
+//! hyperpbd-core: the scene model, its validation, the compiled [`Plan`],
+//! the [`Backend`] trait, typed errors, and the constraint math every
+//! backend shares.
+//!
+//! ```text
+//! Scene ──validate──▶ Plan::compile ──▶ Backend::step … read_state
+//! ```
+//! Nothing here knows about wgpu.
+
+mod backend;
+pub mod builders;
+mod coloring;
+mod error;
+pub mod geometry;
+mod json;
+mod plan;
+mod scene;
+mod state;
+mod validate;
+
+pub use backend::{Backend, FamilyResidual, StepReport, check_forces, check_kernel, check_state};
+pub use builders::SceneBuilder;
+pub use coloring::greedy_colors;
+pub use error::{BackendError, GpuError, SceneError, StageName, StepError};
+pub use plan::{Family, FamilyKind, Kernel, Plan, PredictTerms};
+pub use scene::{ConstraintFamily, ConstraintKind, Damping, Obstacle, Particle, Scene};
+pub use state::State;
+pub use validate::DEGENERATE_VOLUME_RATIO;
+
+/// The scalar of the golden path.
+pub type Real = f64;

@@ -1,0 +1,479 @@
+//! The Plan: a validated scene compiled into the stages it calls for.
+//!
+//! ```text
+//! per step, substeps × {
+//!   Predict                      v += h (s g + w f); p = x; x += h v; λ = 0
+//!                                (gravity / force terms only if authored)
+//!   iterations × for family in order, for color in family:
+//!     Project(family, color)     one XPBD update per element of the color
+//!   Velocity                     v = (x − p) / h
+//!   Friction(family)             per hyperplane with μ > 0
+//!   Damping                      v *= exp(−rate h), if rate > 0
+//! }
+//! ```
+//! Constraint families are projected in authored order, then each
+//! hyperplane obstacle as one contact family (every dynamic particle, one
+//! color). A stage the scene does not use is absent: it costs nothing.
+//! Both backends execute [`Plan::substep_kernels`], so they run the same
+//! algorithm in the same order.
+
+use crate::coloring::greedy_colors;
+use crate::geometry::{Scratch, distance, oriented_measure, simplex_squared_measure};
+use crate::{ConstraintKind, Obstacle, Scene, SceneError, StageName};
+
+/// What one family projects.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FamilyKind {
+    /// |x1 − x0| = rest.
+    Distance,
+    /// det(EᵀE)/(k!)² = rest for k-simplices.
+    SimplexMeasure {
+        /// Simplex order k (k + 1 particles per element).
+        k: usize,
+    },
+    /// det([x1−x0 … xN−x0])/N! = rest.
+    OrientedMeasure,
+    /// n·x − rest ≥ 0 with rest = offset + radius, per dynamic particle.
+    HyperplaneContact {
+        /// Unit normal.
+        normal: Vec<f64>,
+        /// Coulomb coefficient μ (static in the projection, dynamic as a
+        /// velocity response).
+        friction: f64,
+    },
+}
+
+impl FamilyKind {
+    /// Short name as printed by `hyperpbd plan`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            FamilyKind::Distance => "distance",
+            FamilyKind::SimplexMeasure { .. } => "simplex_measure",
+            FamilyKind::OrientedMeasure => "oriented_measure",
+            FamilyKind::HyperplaneContact { .. } => "hyperplane_contact",
+        }
+    }
+
+    /// True for inequality (C ≥ 0) families.
+    pub fn is_inequality(&self) -> bool {
+        matches!(self, FamilyKind::HyperplaneContact { .. })
+    }
+}
+
+/// One compiled family: elements reordered color by color (authored order
+/// within a color).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Family {
+    /// Where it came from: `constraints[2]` or `obstacles[0]`.
+    pub label: String,
+    /// The relation.
+    pub kind: FamilyKind,
+    /// Compliance α ≥ 0.
+    pub compliance: f64,
+    /// Particles per element.
+    pub arity: usize,
+    /// Particle indices, `arity` per element, color-ordered.
+    pub elements: Vec<u32>,
+    /// Rest value per (color-ordered) element.
+    pub rest: Vec<f64>,
+    /// Authored element index per (color-ordered) element.
+    pub source: Vec<u32>,
+    /// Elements of color c are `color_starts[c]..color_starts[c + 1]`.
+    pub color_starts: Vec<usize>,
+}
+
+impl Family {
+    /// Number of elements.
+    pub fn len(&self) -> usize {
+        self.rest.len()
+    }
+
+    /// True for a family without elements.
+    pub fn is_empty(&self) -> bool {
+        self.rest.is_empty()
+    }
+
+    /// Number of colors.
+    pub fn color_count(&self) -> usize {
+        self.color_starts.len().saturating_sub(1)
+    }
+
+    /// Element range of color `c`.
+    pub fn color(&self, c: usize) -> std::ops::Range<usize> {
+        self.color_starts[c]..self.color_starts[c + 1]
+    }
+}
+
+/// Which terms prediction includes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PredictTerms {
+    /// s_i g (scene gravity nonzero and some dynamic particle with s ≠ 0).
+    pub gravity: bool,
+    /// w_i f_i (some dynamic particle with a nonzero force).
+    pub force: bool,
+}
+
+/// One call of one kernel; a step is `substeps` repetitions of
+/// [`Plan::substep_kernels`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kernel {
+    /// Prediction, saving p = x and resetting every multiplier.
+    Predict,
+    /// XPBD update of every element of one color of one family.
+    Project {
+        /// Family index in [`Plan::families`].
+        family: usize,
+        /// Color index within the family.
+        color: usize,
+    },
+    /// v = (x − p) / h.
+    Velocity,
+    /// Dynamic Coulomb friction of one hyperplane contact family.
+    Friction {
+        /// Family index in [`Plan::families`].
+        family: usize,
+    },
+    /// v *= exp(−rate h).
+    Damping,
+}
+
+impl Kernel {
+    /// The stage this kernel belongs to.
+    pub fn stage(self) -> StageName {
+        match self {
+            Kernel::Predict => StageName::Predict,
+            Kernel::Project { .. } => StageName::Project,
+            Kernel::Velocity => StageName::Velocity,
+            Kernel::Friction { .. } => StageName::Friction,
+            Kernel::Damping => StageName::Damping,
+        }
+    }
+}
+
+/// The compiled scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// Dimension N.
+    pub dim: usize,
+    /// Step length.
+    pub dt: f64,
+    /// Substeps per step.
+    pub substeps: u32,
+    /// Projection iterations per substep.
+    pub iterations: u32,
+    /// Substep length h = dt / substeps.
+    pub h: f64,
+    /// Gravity (zeros when absent).
+    pub gravity: Vec<f64>,
+    /// Prediction terms in use.
+    pub predict: PredictTerms,
+    /// Inverse mass per particle; 0 for fixed particles.
+    pub inverse_mass: Vec<f64>,
+    /// Gravity scale per particle.
+    pub gravity_scale: Vec<f64>,
+    /// Radius per particle.
+    pub radius: Vec<f64>,
+    /// External force per particle, flat.
+    pub force: Vec<f64>,
+    /// Families in projection order.
+    pub families: Vec<Family>,
+    /// Damping rate (1/s) and the per-substep factor exp(−rate h), when used.
+    pub damping: Option<(f64, f64)>,
+    /// Stages run in each substep, in order.
+    pub stages: Vec<StageName>,
+    /// Kernel calls of one substep, in order.
+    pub substep_kernels: Vec<Kernel>,
+}
+
+impl Plan {
+    /// Validates `scene` and compiles it.
+    pub fn compile(scene: &Scene) -> Result<Plan, SceneError> {
+        scene.validate()?;
+        let dim = scene.dim;
+        let n = scene.particles.len();
+        let h = scene.dt / f64::from(scene.substeps);
+        let inverse_mass: Vec<f64> = scene
+            .particles
+            .iter()
+            .map(|p| match (p.fixed, p.mass) {
+                (false, Some(m)) => 1.0 / m,
+                _ => 0.0,
+            })
+            .collect();
+        let dynamic = |i: usize| inverse_mass[i] > 0.0;
+        let gravity = scene.gravity.clone().unwrap_or_else(|| vec![0.0; dim]);
+        let gravity_scale: Vec<f64> = scene.particles.iter().map(|p| p.gravity_scale).collect();
+        let mut force = vec![0.0; n * dim];
+        for (i, p) in scene.particles.iter().enumerate() {
+            if let Some(f) = &p.force {
+                force[i * dim..(i + 1) * dim].copy_from_slice(f);
+            }
+        }
+        let predict = PredictTerms {
+            gravity: gravity.iter().any(|&g| g != 0.0)
+                && (0..n).any(|i| dynamic(i) && gravity_scale[i] != 0.0),
+            force: (0..n)
+                .any(|i| dynamic(i) && force[i * dim..(i + 1) * dim].iter().any(|&f| f != 0.0)),
+        };
+        let radius: Vec<f64> = scene.particles.iter().map(|p| p.radius).collect();
+
+        let mut families = Vec::new();
+        let mut scratch = Scratch::new();
+        for (f, authored) in scene.constraints.iter().enumerate() {
+            if authored.elements.is_empty() {
+                continue;
+            }
+            let arity = authored.elements[0].len();
+            let kind = match authored.kind {
+                ConstraintKind::Distance => FamilyKind::Distance,
+                ConstraintKind::SimplexMeasure => FamilyKind::SimplexMeasure { k: arity - 1 },
+                ConstraintKind::OrientedMeasure => FamilyKind::OrientedMeasure,
+            };
+            let flat: Vec<usize> = authored.elements.iter().flatten().copied().collect();
+            let rest: Vec<f64> = match &authored.rest {
+                Some(rest) => rest.clone(),
+                None => {
+                    let mut points = vec![0.0; arity * dim];
+                    let mut grad = vec![0.0; arity * dim];
+                    flat.chunks_exact(arity)
+                        .map(|element| {
+                            for (j, &i) in element.iter().enumerate() {
+                                points[j * dim..(j + 1) * dim]
+                                    .copy_from_slice(&scene.particles[i].position);
+                            }
+                            match kind {
+                                FamilyKind::Distance => distance(&points, dim, &mut grad),
+                                FamilyKind::SimplexMeasure { .. } => {
+                                    simplex_squared_measure(&points, dim, &mut grad, &mut scratch)
+                                }
+                                _ => oriented_measure(&points, dim, &mut grad, &mut scratch),
+                            }
+                        })
+                        .collect()
+                }
+            };
+            families.push(colored_family(
+                format!("constraints[{f}]"),
+                kind,
+                authored.compliance,
+                arity,
+                &flat,
+                &rest,
+                &inverse_mass,
+            ));
+        }
+        for (o, obstacle) in scene.obstacles.iter().enumerate() {
+            let Obstacle::Hyperplane {
+                normal,
+                offset,
+                friction,
+                compliance,
+            } = obstacle;
+            let length = normal.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let unit: Vec<f64> = normal.iter().map(|x| x / length).collect();
+            let particles: Vec<usize> = (0..n).filter(|&i| dynamic(i)).collect();
+            if particles.is_empty() {
+                continue;
+            }
+            let rest: Vec<f64> = particles.iter().map(|&i| offset + radius[i]).collect();
+            families.push(colored_family(
+                format!("obstacles[{o}]"),
+                FamilyKind::HyperplaneContact {
+                    normal: unit,
+                    friction: *friction,
+                },
+                *compliance,
+                1,
+                &particles,
+                &rest,
+                &inverse_mass,
+            ));
+        }
+
+        let any_dynamic = (0..n).any(dynamic);
+        let damping = scene
+            .damping
+            .as_ref()
+            .filter(|d| d.rate > 0.0)
+            .map(|d| (d.rate, libm::exp(-d.rate * h)));
+        let mut substep_kernels = Vec::new();
+        if any_dynamic {
+            substep_kernels.push(Kernel::Predict);
+            for _ in 0..scene.iterations {
+                for (family, fam) in families.iter().enumerate() {
+                    for color in 0..fam.color_count() {
+                        substep_kernels.push(Kernel::Project { family, color });
+                    }
+                }
+            }
+            substep_kernels.push(Kernel::Velocity);
+            for (family, fam) in families.iter().enumerate() {
+                if let FamilyKind::HyperplaneContact { friction, .. } = fam.kind
+                    && friction > 0.0
+                {
+                    substep_kernels.push(Kernel::Friction { family });
+                }
+            }
+            if damping.is_some() {
+                substep_kernels.push(Kernel::Damping);
+            }
+        }
+        let mut stages: Vec<StageName> = Vec::new();
+        for k in &substep_kernels {
+            if stages.last() != Some(&k.stage()) {
+                stages.push(k.stage());
+            }
+        }
+        Ok(Plan {
+            dim,
+            dt: scene.dt,
+            substeps: scene.substeps,
+            iterations: scene.iterations,
+            h,
+            gravity,
+            predict,
+            inverse_mass,
+            gravity_scale,
+            radius,
+            force,
+            families,
+            damping,
+            stages,
+            substep_kernels,
+        })
+    }
+
+    /// Number of particles.
+    pub fn particle_count(&self) -> usize {
+        self.inverse_mass.len()
+    }
+
+    /// Kernel calls per step for each stage, in stage order.
+    pub fn kernel_counts(&self) -> Vec<(StageName, u64)> {
+        self.stages
+            .iter()
+            .map(|&s| {
+                let per_substep = self
+                    .substep_kernels
+                    .iter()
+                    .filter(|k| k.stage() == s)
+                    .count();
+                (s, per_substep as u64 * u64::from(self.substeps))
+            })
+            .collect()
+    }
+
+    /// Constraint projections (element updates) per step.
+    pub fn projections_per_step(&self) -> u64 {
+        let per_iteration: u64 = self.families.iter().map(|f| f.len() as u64).sum();
+        per_iteration * u64::from(self.iterations) * u64::from(self.substeps)
+    }
+
+    /// A human-readable description: stages, families, colors, counts.
+    pub fn describe(&self) -> String {
+        use std::fmt::Write;
+        let mut s = String::new();
+        let dynamic = self.inverse_mass.iter().filter(|&&w| w > 0.0).count();
+        let _ = writeln!(
+            s,
+            "dim {}  particles {} ({} dynamic, {} fixed)  dt {}  substeps {}  iterations {}  h {:e}",
+            self.dim,
+            self.particle_count(),
+            dynamic,
+            self.particle_count() - dynamic,
+            self.dt,
+            self.substeps,
+            self.iterations,
+            self.h
+        );
+        let names: Vec<&str> = self.stages.iter().map(|s| s.as_str()).collect();
+        let _ = writeln!(
+            s,
+            "stages per substep: {}",
+            if names.is_empty() {
+                "(none: nothing moves)".to_string()
+            } else {
+                names.join(" -> ")
+            }
+        );
+        let _ = writeln!(
+            s,
+            "predict terms: gravity {}, external force {}",
+            on_off(self.predict.gravity),
+            on_off(self.predict.force)
+        );
+        for (i, f) in self.families.iter().enumerate() {
+            let sizes: Vec<String> = (0..f.color_count())
+                .map(|c| f.color(c).len().to_string())
+                .collect();
+            let _ = write!(
+                s,
+                "family {i} {} {}: {} elements, compliance {:e}, {} colors [{}]",
+                f.label,
+                f.kind.name(),
+                f.len(),
+                f.compliance,
+                f.color_count(),
+                sizes.join(", ")
+            );
+            if let FamilyKind::HyperplaneContact { friction, .. } = f.kind {
+                let _ = write!(s, ", friction {friction}");
+            }
+            s.push('\n');
+        }
+        if let Some((rate, factor)) = self.damping {
+            let _ = writeln!(s, "damping: rate {rate} 1/s, factor {factor} per substep");
+        }
+        let counts: Vec<String> = self
+            .kernel_counts()
+            .iter()
+            .map(|(stage, n)| format!("{stage} {n}"))
+            .collect();
+        let _ = writeln!(s, "kernel calls per step: {}", counts.join(", "));
+        let _ = writeln!(
+            s,
+            "constraint projections per step: {}",
+            self.projections_per_step()
+        );
+        s
+    }
+}
+
+fn on_off(b: bool) -> &'static str {
+    if b { "on" } else { "off" }
+}
+
+fn colored_family(
+    label: String,
+    kind: FamilyKind,
+    compliance: f64,
+    arity: usize,
+    flat: &[usize],
+    rest: &[f64],
+    inverse_mass: &[f64],
+) -> Family {
+    let colors = greedy_colors(flat, arity, inverse_mass);
+    let color_count = colors.iter().max().map_or(0, |&c| c as usize + 1);
+    let mut order: Vec<usize> = (0..colors.len()).collect();
+    order.sort_by_key(|&e| (colors[e], e));
+    let mut color_starts = vec![0; color_count + 1];
+    for &c in &colors {
+        color_starts[c as usize + 1] += 1;
+    }
+    for c in 0..color_count {
+        color_starts[c + 1] += color_starts[c];
+    }
+    Family {
+        label,
+        kind,
+        compliance,
+        arity,
+        elements: order
+            .iter()
+            .flat_map(|&e| flat[e * arity..(e + 1) * arity].iter().map(|&i| i as u32))
+            .collect(),
+        rest: order.iter().map(|&e| rest[e]).collect(),
+        source: order.iter().map(|&e| e as u32).collect(),
+        color_starts,
+    }
+}

@@ -1,0 +1,253 @@
+//! The scene: what the user authored, before any compilation.
+//!
+//! A scene is plain data. It is built with [`crate::SceneBuilder`] or loaded
+//! from JSON ([`Scene::from_json_str`]), and must pass [`Scene::validate`]
+//! before it can be compiled into a [`crate::Plan`]. The serde field names
+//! are the JSON keys; unknown keys are rejected.
+
+use serde::{Deserialize, Serialize};
+
+/// A whole scene in R^`dim`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Spatial dimension N ≥ 1.
+    pub dim: usize,
+    /// Time step of one `step` (seconds).
+    pub dt: f64,
+    /// Substeps per step; h = dt / substeps.
+    #[serde(default = "one")]
+    pub substeps: u32,
+    /// Projection iterations per substep.
+    #[serde(default = "one")]
+    pub iterations: u32,
+    /// Gravitational acceleration (length `dim`); omitted means none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gravity: Option<Vec<f64>>,
+    /// The particles, indexed from 0 in this order.
+    #[serde(default)]
+    pub particles: Vec<Particle>,
+    /// Constraint families, projected in this order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub constraints: Vec<ConstraintFamily>,
+    /// Static obstacles; each hyperplane contacts every dynamic particle.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub obstacles: Vec<Obstacle>,
+    /// Exponential velocity damping, applied after friction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damping: Option<Damping>,
+}
+
+fn one() -> u32 {
+    1
+}
+
+fn unit() -> f64 {
+    1.0
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
+fn is_one(x: &f64) -> bool {
+    *x == 1.0
+}
+
+fn is_false(x: &bool) -> bool {
+    !*x
+}
+
+/// A point mass.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Particle {
+    /// Position (length `dim`).
+    pub position: Vec<f64>,
+    /// Velocity (length `dim`); omitted means zero.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub velocity: Option<Vec<f64>>,
+    /// Mass > 0; required unless `fixed`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass: Option<f64>,
+    /// A fixed particle never moves (inverse mass 0).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub fixed: bool,
+    /// Radius ≥ 0, used by contacts: the admissible set of a hyperplane is
+    /// n·x ≥ offset + radius.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub radius: f64,
+    /// Multiplier of the scene gravity for this particle.
+    #[serde(default = "unit", skip_serializing_if = "is_one")]
+    pub gravity_scale: f64,
+    /// Constant external force (length `dim`); omitted means zero.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub force: Option<Vec<f64>>,
+}
+
+impl Particle {
+    /// A dynamic particle at rest at `position` with mass `mass`.
+    pub fn new(position: Vec<f64>, mass: f64) -> Self {
+        Particle {
+            position,
+            velocity: None,
+            mass: Some(mass),
+            fixed: false,
+            radius: 0.0,
+            gravity_scale: 1.0,
+            force: None,
+        }
+    }
+
+    /// A fixed particle at `position`.
+    pub fn fixed(position: Vec<f64>) -> Self {
+        Particle {
+            fixed: true,
+            mass: None,
+            ..Particle::new(position, 0.0)
+        }
+    }
+
+    /// Sets the velocity.
+    pub fn with_velocity(mut self, velocity: Vec<f64>) -> Self {
+        self.velocity = Some(velocity);
+        self
+    }
+
+    /// Sets the radius.
+    pub fn with_radius(mut self, radius: f64) -> Self {
+        self.radius = radius;
+        self
+    }
+
+    /// Sets the constant external force.
+    pub fn with_force(mut self, force: Vec<f64>) -> Self {
+        self.force = Some(force);
+        self
+    }
+
+    /// Sets the gravity scale.
+    pub fn with_gravity_scale(mut self, scale: f64) -> Self {
+        self.gravity_scale = scale;
+        self
+    }
+}
+
+/// Which scalar relation a constraint family imposes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ConstraintKind {
+    /// C = |x1 − x0| − rest (2 particles).
+    Distance,
+    /// C = det(EᵀE)/(k!)² − rest for a k-simplex (k+1 particles, 1 ≤ k ≤ N),
+    /// E = [x1−x0 … xk−x0]: the unsigned squared k-measure.
+    SimplexMeasure,
+    /// C = det([x1−x0 … xN−x0])/N! − rest (N+1 particles): the signed
+    /// full-dimensional measure.
+    OrientedMeasure,
+}
+
+impl ConstraintKind {
+    /// JSON name of the kind.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ConstraintKind::Distance => "distance",
+            ConstraintKind::SimplexMeasure => "simplex_measure",
+            ConstraintKind::OrientedMeasure => "oriented_measure",
+        }
+    }
+}
+
+/// One kind, one compliance, many elements.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConstraintFamily {
+    /// The relation every element imposes.
+    #[serde(rename = "type")]
+    pub kind: ConstraintKind,
+    /// Compliance α ≥ 0 (inverse stiffness; 0 is rigid).
+    #[serde(default)]
+    pub compliance: f64,
+    /// Particle indices of each element.
+    pub elements: Vec<Vec<usize>>,
+    /// Rest value per element; omitted means the authored geometry.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rest: Option<Vec<f64>>,
+}
+
+impl ConstraintFamily {
+    /// A family with rest values taken from the authored geometry.
+    pub fn new(kind: ConstraintKind, compliance: f64, elements: Vec<Vec<usize>>) -> Self {
+        ConstraintFamily {
+            kind,
+            compliance,
+            elements,
+            rest: None,
+        }
+    }
+}
+
+/// A static obstacle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Obstacle {
+    /// The half-space n·x ≥ offset (+ particle radius) is admissible.
+    Hyperplane {
+        /// Outward normal; normalized on load (need not be unit here).
+        normal: Vec<f64>,
+        /// Offset along the normalized normal.
+        #[serde(default)]
+        offset: f64,
+        /// Coulomb friction coefficient μ ≥ 0 (static and dynamic).
+        #[serde(default)]
+        friction: f64,
+        /// Contact compliance α ≥ 0.
+        #[serde(default)]
+        compliance: f64,
+    },
+}
+
+/// Timestep-invariant exponential velocity damping: v ← v·exp(−rate·h).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Damping {
+    /// Decay rate in 1/s (≥ 0).
+    pub rate: f64,
+}
+
+impl Scene {
+    /// An empty scene in R^dim with the given step settings and no gravity.
+    pub fn new(dim: usize, dt: f64, substeps: u32, iterations: u32) -> Self {
+        Scene {
+            dim,
+            dt,
+            substeps,
+            iterations,
+            gravity: None,
+            particles: Vec::new(),
+            constraints: Vec::new(),
+            obstacles: Vec::new(),
+            damping: None,
+        }
+    }
+
+    /// The largest distance between any particle and the first one — a
+    /// length scale for relative error measures (1 if there are fewer than
+    /// two particles or all coincide).
+    pub fn extent(&self) -> f64 {
+        let Some(first) = self.particles.first() else {
+            return 1.0;
+        };
+        let mut extent: f64 = 0.0;
+        for p in &self.particles {
+            let d2: f64 = p
+                .position
+                .iter()
+                .zip(&first.position)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum();
+            extent = extent.max(d2.sqrt());
+        }
+        if extent > 0.0 { extent } else { 1.0 }
+    }
+}

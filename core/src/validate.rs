@@ -1,0 +1,271 @@
+//! `Scene::validate`: every rule a scene must satisfy before it compiles.
+//!
+//! The first violated rule is reported, in document order, with the path of
+//! the offending field. Nothing downstream re-checks what is checked here.
+
+use crate::geometry::{Scratch, factorial, oriented_measure};
+use crate::{ConstraintKind, Obstacle, Scene, SceneError};
+
+/// Relative volume below which an oriented rest simplex counts as
+/// degenerate: |V| ≤ 1e-12 · (longest edge)^N / N!. Below that the
+/// constraint has no meaningful orientation to preserve.
+pub const DEGENERATE_VOLUME_RATIO: f64 = 1e-12;
+
+fn finite(path: impl FnOnce() -> String, value: f64) -> Result<(), SceneError> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(SceneError::NonFinite {
+            path: path(),
+            value,
+        })
+    }
+}
+
+fn vector(path: &str, v: &[f64], dim: usize) -> Result<(), SceneError> {
+    if v.len() != dim {
+        return Err(SceneError::WrongLength {
+            path: path.to_string(),
+            expected: dim,
+            found: v.len(),
+        });
+    }
+    for (a, &x) in v.iter().enumerate() {
+        finite(|| format!("{path}[{a}]"), x)?;
+    }
+    Ok(())
+}
+
+fn non_negative(path: impl Fn() -> String, value: f64) -> Result<(), SceneError> {
+    finite(&path, value)?;
+    if value < 0.0 {
+        return Err(SceneError::Negative {
+            path: path(),
+            value,
+        });
+    }
+    Ok(())
+}
+
+fn compliance(path: String, value: f64) -> Result<(), SceneError> {
+    finite(|| path.clone(), value)?;
+    if value < 0.0 {
+        return Err(SceneError::NegativeCompliance { path, value });
+    }
+    Ok(())
+}
+
+impl Scene {
+    /// Checks every rule; returns the first violation with its field path.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let dim = self.dim;
+        if dim == 0 {
+            return Err(SceneError::ZeroDimension);
+        }
+        finite(|| "dt".into(), self.dt)?;
+        if self.dt <= 0.0 {
+            return Err(SceneError::NonPositiveTimeStep { value: self.dt });
+        }
+        if self.substeps == 0 {
+            return Err(SceneError::ZeroSubsteps);
+        }
+        if self.iterations == 0 {
+            return Err(SceneError::ZeroIterations);
+        }
+        if let Some(g) = &self.gravity {
+            vector("gravity", g, dim)?;
+        }
+        self.validate_particles()?;
+        self.validate_constraints()?;
+        self.validate_obstacles()?;
+        if let Some(d) = &self.damping {
+            non_negative(|| "damping.rate".into(), d.rate)?;
+        }
+        Ok(())
+    }
+
+    fn validate_particles(&self) -> Result<(), SceneError> {
+        let dim = self.dim;
+        for (i, p) in self.particles.iter().enumerate() {
+            let at = |field: &str| format!("particles[{i}].{field}");
+            vector(&at("position"), &p.position, dim)?;
+            if let Some(v) = &p.velocity {
+                vector(&at("velocity"), v, dim)?;
+                if p.fixed && v.iter().any(|&x| x != 0.0) {
+                    return Err(SceneError::FixedParticleVelocity {
+                        path: at("velocity"),
+                    });
+                }
+            }
+            if let Some(f) = &p.force {
+                vector(&at("force"), f, dim)?;
+            }
+            match p.mass {
+                Some(m) => {
+                    finite(|| at("mass"), m)?;
+                    if m <= 0.0 {
+                        return Err(SceneError::NonPositiveMass {
+                            path: at("mass"),
+                            value: m,
+                        });
+                    }
+                }
+                None if !p.fixed => return Err(SceneError::MissingMass { path: at("mass") }),
+                None => {}
+            }
+            non_negative(|| at("radius"), p.radius)?;
+            finite(|| at("gravity_scale"), p.gravity_scale)?;
+        }
+        Ok(())
+    }
+
+    fn validate_constraints(&self) -> Result<(), SceneError> {
+        let dim = self.dim;
+        let count = self.particles.len();
+        let mut scratch = Scratch::new();
+        let mut points = Vec::new();
+        for (f, family) in self.constraints.iter().enumerate() {
+            let at = |field: &str| format!("constraints[{f}].{field}");
+            compliance(at("compliance"), family.compliance)?;
+            let kind = family.kind.as_str();
+            let first_arity = family.elements.first().map_or(0, Vec::len);
+            for (e, element) in family.elements.iter().enumerate() {
+                let path = format!("constraints[{f}].elements[{e}]");
+                let arity_error = |expected: String| SceneError::WrongArity {
+                    path: path.clone(),
+                    kind,
+                    expected,
+                    found: element.len(),
+                };
+                match family.kind {
+                    ConstraintKind::Distance if element.len() != 2 => {
+                        return Err(arity_error("2".into()));
+                    }
+                    ConstraintKind::SimplexMeasure if !(2..=dim + 1).contains(&element.len()) => {
+                        return Err(arity_error(format!(
+                            "k + 1 with 1 <= k <= {dim} (2..={})",
+                            dim + 1
+                        )));
+                    }
+                    ConstraintKind::SimplexMeasure if element.len() != first_arity => {
+                        return Err(arity_error(format!(
+                            "{first_arity} (one k per family, as in elements[0])"
+                        )));
+                    }
+                    ConstraintKind::OrientedMeasure if element.len() != dim + 1 => {
+                        return Err(arity_error(format!("{} (dim + 1)", dim + 1)));
+                    }
+                    _ => {}
+                }
+                for (j, &index) in element.iter().enumerate() {
+                    if index >= count {
+                        return Err(SceneError::IndexOutOfRange {
+                            path: format!("{path}[{j}]"),
+                            index,
+                            count,
+                        });
+                    }
+                    if element[..j].contains(&index) {
+                        return Err(SceneError::RepeatedParticle {
+                            path: format!("{path}[{j}]"),
+                            particle: index,
+                        });
+                    }
+                }
+            }
+            if let Some(rest) = &family.rest {
+                if rest.len() != family.elements.len() {
+                    return Err(SceneError::RestCountMismatch {
+                        path: at("rest"),
+                        expected: family.elements.len(),
+                        found: rest.len(),
+                    });
+                }
+                for (e, &r) in rest.iter().enumerate() {
+                    let path = format!("constraints[{f}].rest[{e}]");
+                    finite(|| path.clone(), r)?;
+                    let why = match family.kind {
+                        ConstraintKind::Distance if r < 0.0 => "a rest length must be >= 0",
+                        ConstraintKind::SimplexMeasure if r < 0.0 => {
+                            "a squared measure must be >= 0"
+                        }
+                        ConstraintKind::OrientedMeasure if r == 0.0 => {
+                            "an oriented rest measure of zero has no orientation to preserve"
+                        }
+                        _ => continue,
+                    };
+                    return Err(SceneError::DegenerateRest {
+                        path,
+                        why: why.into(),
+                    });
+                }
+            } else if family.kind == ConstraintKind::OrientedMeasure {
+                for (e, element) in family.elements.iter().enumerate() {
+                    points.clear();
+                    let mut longest: f64 = 0.0;
+                    for &i in element {
+                        points.extend_from_slice(&self.particles[i].position);
+                    }
+                    for &i in element {
+                        for &j in element {
+                            longest = longest.max(distance(
+                                &self.particles[i].position,
+                                &self.particles[j].position,
+                            ));
+                        }
+                    }
+                    let mut grad = vec![0.0; points.len()];
+                    let v = oriented_measure(&points, dim, &mut grad, &mut scratch);
+                    let floor = DEGENERATE_VOLUME_RATIO * longest.powi(dim as i32) / factorial(dim);
+                    if !v.is_finite() || v.abs() <= floor {
+                        return Err(SceneError::DegenerateRest {
+                            path: format!("constraints[{f}].elements[{e}]"),
+                            why: format!(
+                                "the authored simplex has signed volume {v:e}, not above the \
+                                 degeneracy floor {floor:e}"
+                            ),
+                        });
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn validate_obstacles(&self) -> Result<(), SceneError> {
+        for (o, obstacle) in self.obstacles.iter().enumerate() {
+            let at = |field: &str| format!("obstacles[{o}].{field}");
+            match obstacle {
+                Obstacle::Hyperplane {
+                    normal,
+                    offset,
+                    friction,
+                    compliance: alpha,
+                } => {
+                    vector(&at("normal"), normal, self.dim)?;
+                    if normal.iter().all(|&x| x == 0.0) {
+                        return Err(SceneError::ZeroNormal { path: at("normal") });
+                    }
+                    finite(|| at("offset"), *offset)?;
+                    finite(|| at("friction"), *friction)?;
+                    if *friction < 0.0 {
+                        return Err(SceneError::NegativeFriction {
+                            path: at("friction"),
+                            value: *friction,
+                        });
+                    }
+                    compliance(at("compliance"), *alpha)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt()
+}

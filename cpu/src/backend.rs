@@ -1,0 +1,195 @@
+//! `CpuBackend`: resident f64 state and the transactional step.
+//!
+//! ```text
+//! step:  save (x, v)
+//!        repeat substeps: for kernel in plan.substep_kernels: run kernel
+//!        on any non-finite value: restore (x, v) byte for byte, return error
+//! ```
+
+use hyperpbd_core::{
+    Backend, BackendError, Kernel, Plan, StageName, State, StepError, StepReport, check_forces,
+    check_kernel, check_state,
+};
+
+use crate::project::{Batch, Workspace, project};
+use crate::{friction, integrate, residual};
+
+/// The golden backend.
+pub struct CpuBackend {
+    plan: Plan,
+    x: Vec<f64>,
+    v: Vec<f64>,
+    /// Positions at the start of the current substep.
+    p: Vec<f64>,
+    force: Vec<f64>,
+    /// Multipliers per family, color-ordered like the family's elements.
+    lambda: Vec<Vec<f64>>,
+    saved_x: Vec<f64>,
+    saved_v: Vec<f64>,
+    workspace: Workspace,
+    /// Substep being run (for error messages).
+    substep: u32,
+}
+
+impl CpuBackend {
+    /// Loads `plan` with `state`.
+    pub fn new(plan: Plan, state: &State) -> Result<Self, BackendError> {
+        check_state(&plan, state)?;
+        let lambda = plan.families.iter().map(|f| vec![0.0; f.len()]).collect();
+        Ok(CpuBackend {
+            force: plan.force.clone(),
+            x: state.positions.clone(),
+            v: state.velocities.clone(),
+            p: state.positions.clone(),
+            saved_x: Vec::with_capacity(state.positions.len()),
+            saved_v: Vec::with_capacity(state.velocities.len()),
+            lambda,
+            plan,
+            workspace: Workspace::default(),
+            substep: 0,
+        })
+    }
+
+    /// Multipliers of family `family` from the last projection
+    /// (color-ordered), for inspection and kernel-level tests.
+    pub fn multipliers(&self, family: usize) -> Option<&[f64]> {
+        self.lambda.get(family).map(Vec::as_slice)
+    }
+
+    fn particle_error(&self, stage: StageName, particle: usize) -> BackendError {
+        StepError::NonFiniteParticle {
+            stage,
+            substep: self.substep,
+            particle,
+        }
+        .into()
+    }
+
+    fn kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
+        let plan = &self.plan;
+        match kernel {
+            Kernel::Predict => {
+                for l in &mut self.lambda {
+                    l.fill(0.0);
+                }
+                integrate::predict(plan, &mut self.x, &mut self.v, &mut self.p, &self.force)
+                    .map_err(|i| self.particle_error(StageName::Predict, i))
+            }
+            Kernel::Project { family, color } => {
+                let fam = &plan.families[family];
+                let batch = Batch {
+                    dim: plan.dim,
+                    inverse_mass: &plan.inverse_mass,
+                    family: fam,
+                    alpha_tilde: fam.compliance / (plan.h * plan.h),
+                    start: &self.p,
+                };
+                project(
+                    &batch,
+                    fam.color(color),
+                    &mut self.x,
+                    &mut self.lambda[family],
+                    &mut self.workspace,
+                )
+                .map_err(|slot| {
+                    StepError::NonFiniteConstraint {
+                        stage: StageName::Project,
+                        substep: self.substep,
+                        family,
+                        family_label: fam.label.clone(),
+                        element: fam.source[slot] as usize,
+                    }
+                    .into()
+                })
+            }
+            Kernel::Velocity => integrate::velocity(plan, &self.x, &mut self.v, &self.p)
+                .map_err(|i| self.particle_error(StageName::Velocity, i)),
+            Kernel::Friction { family } => friction::friction(
+                plan.dim,
+                plan.h,
+                &plan.inverse_mass,
+                &plan.families[family],
+                &self.lambda[family],
+                &mut self.v,
+            )
+            .map_err(|i| self.particle_error(StageName::Friction, i)),
+            Kernel::Damping => {
+                integrate::damping(plan, &mut self.v);
+                Ok(())
+            }
+        }
+    }
+
+    fn report(&mut self) -> StepReport {
+        let plan = &self.plan;
+        let ws = &mut self.workspace;
+        StepReport {
+            kernel_calls: plan.kernel_counts(),
+            residuals: plan
+                .families
+                .iter()
+                .map(|f| residual::residual(plan.dim, f, &self.x, ws))
+                .collect(),
+            active_contacts: plan
+                .families
+                .iter()
+                .zip(&self.lambda)
+                .filter(|(f, _)| f.kind.is_inequality())
+                .map(|(_, l)| l.iter().filter(|&&l| l > 0.0).count())
+                .sum(),
+        }
+    }
+}
+
+impl Backend for CpuBackend {
+    fn name(&self) -> String {
+        "cpu-f64".into()
+    }
+
+    fn plan(&self) -> &Plan {
+        &self.plan
+    }
+
+    fn step(&mut self) -> Result<StepReport, BackendError> {
+        self.saved_x.clone_from(&self.x);
+        self.saved_v.clone_from(&self.v);
+        for substep in 0..self.plan.substeps {
+            self.substep = substep;
+            for k in 0..self.plan.substep_kernels.len() {
+                let kernel = self.plan.substep_kernels[k];
+                if let Err(e) = self.kernel(kernel) {
+                    self.x.clone_from(&self.saved_x);
+                    self.v.clone_from(&self.saved_v);
+                    return Err(e);
+                }
+            }
+        }
+        Ok(self.report())
+    }
+
+    fn read_state(&mut self) -> Result<State, BackendError> {
+        Ok(State {
+            dim: self.plan.dim,
+            positions: self.x.clone(),
+            velocities: self.v.clone(),
+        })
+    }
+
+    fn write_state(&mut self, state: &State) -> Result<(), BackendError> {
+        check_state(&self.plan, state)?;
+        self.x.clone_from(&state.positions);
+        self.v.clone_from(&state.velocities);
+        Ok(())
+    }
+
+    fn set_forces(&mut self, forces: &[f64]) -> Result<(), BackendError> {
+        check_forces(&self.plan, forces)?;
+        self.force.copy_from_slice(forces);
+        Ok(())
+    }
+
+    fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
+        check_kernel(&self.plan, kernel)?;
+        self.kernel(kernel)
+    }
+}

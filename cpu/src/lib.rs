@@ -1,0 +1,15 @@
+//! hyperpbd-cpu: the f64 golden backend.
+//!
+//! Sequential, deterministic, and simple enough to audit line by line
+//! against DESIGN.md: every kernel of [`hyperpbd_core::Kernel`] is one
+//! function in its own file, run in the order the [`Plan`] lists. The
+//! transcendental (damping factor) goes through `libm`, so results are
+//! bit-identical across runs and machines.
+
+mod backend;
+mod friction;
+mod integrate;
+mod project;
+mod residual;
+
+pub use backend::CpuBackend;

@@ -1,0 +1,240 @@
+//! XPBD projection of one color of one family.
+//!
+//! ```text
+//! α~ = α / h²
+//! Δλ = (−C − α~ λ) / (Σ_j w_j |∇_j C|² + α~)
+//! inequality (C ≥ 0):  λ' = max(λ + Δλ, 0);  Δλ = λ' − λ
+//! x_j += w_j ∇_j C Δλ
+//! ```
+//! Σ_j w_j |∇_j C|² is w_0 + w_1 for distance and w for contacts (their
+//! gradients are unit vectors); measure kinds sum the computed gradients.
+//! If that sum is 0 (no dynamic particle, or ∇C = 0: coincident points, a
+//! collapsed simplex) the element makes no response.
+//!
+//! Static friction (hyperplane contact with μ > 0), after the normal update
+//! of an active contact (λ > 0):
+//! ```text
+//! Δx = x − p;  Δt = Δx − (n·Δx) n          (tangential motion this substep)
+//! if |Δt| ≤ μ · w λ  (the normal correction):  x −= Δt
+//! ```
+//! The whole tangent vector is cancelled or none of it — never per axis.
+
+use hyperpbd_core::geometry::{Scratch, oriented_measure, simplex_squared_measure};
+use hyperpbd_core::{Family, FamilyKind};
+
+/// Inputs shared by every element of a batch.
+pub struct Batch<'a> {
+    pub dim: usize,
+    pub inverse_mass: &'a [f64],
+    pub family: &'a Family,
+    /// α / h².
+    pub alpha_tilde: f64,
+    /// Positions at the start of the substep (for static friction).
+    pub start: &'a [f64],
+}
+
+/// Per-batch scratch.
+#[derive(Default)]
+pub struct Workspace {
+    pub points: Vec<f64>,
+    pub grad: Vec<f64>,
+    pub scratch: Scratch,
+}
+
+/// Projects elements `range` (color-ordered slots) of `batch.family`.
+/// Returns the slot of the first element whose update was non-finite.
+pub fn project(
+    batch: &Batch,
+    range: std::ops::Range<usize>,
+    x: &mut [f64],
+    lambda: &mut [f64],
+    ws: &mut Workspace,
+) -> Result<(), usize> {
+    match &batch.family.kind {
+        FamilyKind::Distance => distance(batch, range, x, lambda, ws),
+        FamilyKind::HyperplaneContact { normal, friction } => {
+            contact(batch, normal, *friction, range, x, lambda)
+        }
+        FamilyKind::SimplexMeasure { .. } | FamilyKind::OrientedMeasure => {
+            measure(batch, range, x, lambda, ws)
+        }
+    }
+}
+
+fn distance(
+    batch: &Batch,
+    range: std::ops::Range<usize>,
+    x: &mut [f64],
+    lambda: &mut [f64],
+    ws: &mut Workspace,
+) -> Result<(), usize> {
+    match batch.dim {
+        1 => distance_dim::<1>(batch, range, x, lambda),
+        2 => distance_dim::<2>(batch, range, x, lambda),
+        3 => distance_dim::<3>(batch, range, x, lambda),
+        4 => distance_dim::<4>(batch, range, x, lambda),
+        _ => measure(batch, range, x, lambda, ws),
+    }
+}
+
+/// Distance projection with the dimension known at compile time: the same
+/// arithmetic, in the same order, as the generic path.
+fn distance_dim<const D: usize>(
+    batch: &Batch,
+    range: std::ops::Range<usize>,
+    x: &mut [f64],
+    lambda: &mut [f64],
+) -> Result<(), usize> {
+    let f = batch.family;
+    let w = batch.inverse_mass;
+    let alpha_tilde = batch.alpha_tilde;
+    for e in range {
+        let i = f.elements[2 * e] as usize;
+        let j = f.elements[2 * e + 1] as usize;
+        let (wi, wj) = (w[i], w[j]);
+        let mut d = [0.0; D];
+        let mut d2 = 0.0;
+        for a in 0..D {
+            d[a] = x[j * D + a] - x[i * D + a];
+            d2 += d[a] * d[a];
+        }
+        let len = d2.sqrt();
+        let wsum = wi + wj;
+        if !(len > 0.0) || wsum == 0.0 {
+            if !len.is_finite() {
+                return Err(e);
+            }
+            continue;
+        }
+        let c = len - f.rest[e];
+        let dl = (-c - alpha_tilde * lambda[e]) / (wsum + alpha_tilde);
+        if !dl.is_finite() {
+            return Err(e);
+        }
+        lambda[e] += dl;
+        let inv = 1.0 / len;
+        for a in 0..D {
+            let n = d[a] * inv;
+            x[i * D + a] += wi * -n * dl;
+            x[j * D + a] += wj * n * dl;
+        }
+    }
+    Ok(())
+}
+
+/// Generic path: gather, evaluate C and ∇C, update.
+fn measure(
+    batch: &Batch,
+    range: std::ops::Range<usize>,
+    x: &mut [f64],
+    lambda: &mut [f64],
+    ws: &mut Workspace,
+) -> Result<(), usize> {
+    let dim = batch.dim;
+    let f = batch.family;
+    let w = batch.inverse_mass;
+    let arity = f.arity;
+    ws.points.resize(arity * dim, 0.0);
+    ws.grad.resize(arity * dim, 0.0);
+    for e in range {
+        let element = &f.elements[e * arity..(e + 1) * arity];
+        for (j, &i) in element.iter().enumerate() {
+            let i = i as usize;
+            ws.points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
+        }
+        let value = match f.kind {
+            FamilyKind::Distance => {
+                hyperpbd_core::geometry::distance(&ws.points, dim, &mut ws.grad)
+            }
+            FamilyKind::SimplexMeasure { .. } => {
+                simplex_squared_measure(&ws.points, dim, &mut ws.grad, &mut ws.scratch)
+            }
+            _ => oriented_measure(&ws.points, dim, &mut ws.grad, &mut ws.scratch),
+        };
+        if !value.is_finite() {
+            return Err(e);
+        }
+        let mut wsum = 0.0;
+        if f.kind == FamilyKind::Distance {
+            if value > 0.0 {
+                wsum = w[element[0] as usize] + w[element[1] as usize];
+            }
+        } else {
+            for (j, &i) in element.iter().enumerate() {
+                let g2: f64 = ws.grad[j * dim..(j + 1) * dim].iter().map(|g| g * g).sum();
+                wsum += w[i as usize] * g2;
+            }
+        }
+        if wsum == 0.0 {
+            continue;
+        }
+        let c = value - f.rest[e];
+        let dl = (-c - batch.alpha_tilde * lambda[e]) / (wsum + batch.alpha_tilde);
+        if !dl.is_finite() {
+            return Err(e);
+        }
+        lambda[e] += dl;
+        for (j, &i) in element.iter().enumerate() {
+            let i = i as usize;
+            let wi = w[i];
+            for a in 0..dim {
+                x[i * dim + a] += wi * ws.grad[j * dim + a] * dl;
+            }
+        }
+    }
+    Ok(())
+}
+
+fn contact(
+    batch: &Batch,
+    normal: &[f64],
+    friction: f64,
+    range: std::ops::Range<usize>,
+    x: &mut [f64],
+    lambda: &mut [f64],
+) -> Result<(), usize> {
+    let dim = batch.dim;
+    let f = batch.family;
+    let alpha_tilde = batch.alpha_tilde;
+    for e in range {
+        let i = f.elements[e] as usize;
+        let w = batch.inverse_mass[i];
+        let xi = &mut x[i * dim..(i + 1) * dim];
+        let c = dot(normal, xi) - f.rest[e];
+        let l = lambda[e];
+        let dl = (-c - alpha_tilde * l) / (w + alpha_tilde);
+        let dl = (l + dl).max(0.0) - l;
+        if !dl.is_finite() {
+            return Err(e);
+        }
+        lambda[e] = l + dl;
+        for a in 0..dim {
+            xi[a] += w * normal[a] * dl;
+        }
+        if friction > 0.0 && lambda[e] > 0.0 {
+            let p = &batch.start[i * dim..(i + 1) * dim];
+            let mut dn = 0.0;
+            for a in 0..dim {
+                dn += (xi[a] - p[a]) * normal[a];
+            }
+            let mut t2 = 0.0;
+            for a in 0..dim {
+                let t = (xi[a] - p[a]) - dn * normal[a];
+                t2 += t * t;
+            }
+            let bound = friction * w * lambda[e];
+            if t2.sqrt() <= bound {
+                for a in 0..dim {
+                    let t = (xi[a] - p[a]) - dn * normal[a];
+                    xi[a] -= t;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// n·x.
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}

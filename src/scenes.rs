@@ -1,0 +1,110 @@
+//! Built-in scenes: the demo and the examples shipped in `scenes/`.
+//!
+//! Each is a plain builder call, so the JSON files in `scenes/` can be
+//! regenerated with `hyperpbd scene NAME --out scenes/NAME.json` and a test
+//! checks that they still match.
+
+use hyperpbd_core::builders::{BlockSpec, ChainSpec, GridSpec};
+use hyperpbd_core::{Scene, SceneBuilder};
+
+/// Names accepted by [`by_name`].
+pub const NAMES: &[&str] = &["cloth", "tesseract", "chain2d", "incline5d"];
+
+/// A built-in scene by name.
+pub fn by_name(name: &str) -> Option<Scene> {
+    match name {
+        "cloth" => Some(cloth(32)),
+        "tesseract" => Some(tesseract()),
+        "chain2d" => Some(chain2d()),
+        "incline5d" => Some(incline5d()),
+        _ => None,
+    }
+}
+
+/// The demo: an `n × n` cloth (1 m square, rigid edges and shear springs)
+/// dropped from 0.5 m onto a ground plane with friction 0.4, light damping.
+pub fn cloth(n: usize) -> Scene {
+    let spacing = 1.0 / (n.max(2) - 1) as f64;
+    let mut b = SceneBuilder::new(3)
+        .dt(1.0 / 60.0)
+        .substeps(10)
+        .iterations(1)
+        .gravity_along(1, 9.81)
+        .damping(0.1);
+    let mut spec = GridSpec::cloth(n, n, spacing, 0.5);
+    // A slight tilt so the cloth lands corner first and folds.
+    spec.origin[1] = 0.5;
+    let grid = b.grid(&spec);
+    let tilt = 0.2;
+    for i in 0..grid.len() {
+        let p = &mut b.scene_mut().particles[grid.first + i];
+        p.position[1] += tilt * p.position[0];
+        p.radius = 0.25 * spacing;
+    }
+    b.hyperplane(vec![0.0, 1.0, 0.0], 0.0, 0.4);
+    b.build()
+        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+}
+
+/// A soft tesseract in R^4: a 2×2×2×2-cell Kuhn block (81 nodes, 384
+/// oriented 4-simplices, slightly compliant) dropped onto the hyperplane
+/// x_3 = 0 with friction.
+pub fn tesseract() -> Scene {
+    let mut b = SceneBuilder::new(4)
+        .dt(1.0 / 60.0)
+        .substeps(20)
+        .iterations(2)
+        .gravity_along(3, 9.81)
+        .damping(0.2);
+    b.soft_block(&BlockSpec {
+        cells: vec![2, 2, 2, 2],
+        origin: vec![-0.5, -0.5, -0.5, 0.3],
+        spacing: 0.5,
+        mass: 0.05,
+        compliance: 1e-6,
+    });
+    b.hyperplane(vec![0.0, 0.0, 0.0, 1.0], 0.0, 0.5);
+    b.build()
+        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+}
+
+/// A 2D chain of 20 links hanging from a fixed point, released sideways.
+pub fn chain2d() -> Scene {
+    let mut b = SceneBuilder::new(2)
+        .dt(1.0 / 60.0)
+        .substeps(20)
+        .iterations(2)
+        .gravity_along(1, 9.81);
+    b.chain(&ChainSpec {
+        start: vec![0.0, 2.0],
+        direction: vec![1.0, 0.0],
+        count: 21,
+        spacing: 0.1,
+        mass: 0.1,
+        compliance: 0.0,
+        fix_first: true,
+    });
+    b.hyperplane(vec![0.0, 1.0], 0.0, 0.3);
+    b.build()
+        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+}
+
+/// Four particles on a 20° incline in R^5 with μ = 0.2 < tan 20° ≈ 0.364:
+/// they slide down the x_0 direction with acceleration g (sin θ − μ cos θ).
+pub fn incline5d() -> Scene {
+    let theta: f64 = 20f64.to_radians();
+    let mut b = SceneBuilder::new(5)
+        .dt(1.0 / 60.0)
+        .substeps(10)
+        .gravity_along(1, 9.81);
+    // Normal tilted from +x1 towards +x0 by θ.
+    let normal = vec![theta.sin(), theta.cos(), 0.0, 0.0, 0.0];
+    b.hyperplane(normal.clone(), 0.0, 0.2);
+    for k in 0..4 {
+        let mut x = vec![0.0; 5];
+        x[2 + (k % 3)] = k as f64;
+        b.particle(hyperpbd_core::Particle::new(x, 1.0));
+    }
+    b.build()
+        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+}
