@@ -36,10 +36,34 @@ impl Scene {
         Scene::from_json_str(&text)
     }
 
-    /// The scene as pretty JSON (f64 values round-trip exactly).
+    /// The scene as JSON, one particle / family / obstacle per line (f64
+    /// values round-trip exactly).
     pub fn to_json_string(&self) -> String {
+        use serde_json::{Value, to_string};
         // Serializing plain data with string keys cannot fail.
-        serde_json::to_string_pretty(self).unwrap_or_default()
+        let Ok(Value::Object(map)) = serde_json::to_value(self) else {
+            return String::new();
+        };
+        let mut out = String::from("{\n");
+        let count = map.len();
+        for (n, (key, value)) in map.iter().enumerate() {
+            out.push_str(&format!("  {}: ", to_string(key).unwrap_or_default()));
+            match value {
+                Value::Array(items) if items.iter().any(Value::is_object) => {
+                    out.push_str("[\n");
+                    for (m, item) in items.iter().enumerate() {
+                        out.push_str("    ");
+                        out.push_str(&to_string(item).unwrap_or_default());
+                        out.push_str(if m + 1 < items.len() { ",\n" } else { "\n" });
+                    }
+                    out.push_str("  ]");
+                }
+                _ => out.push_str(&to_string(value).unwrap_or_default()),
+            }
+            out.push_str(if n + 1 < count { ",\n" } else { "\n" });
+        }
+        out.push('}');
+        out
     }
 }
 

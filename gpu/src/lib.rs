@@ -1,0 +1,16 @@
+//! hyperpbd's wgpu backend.
+//!
+//! For now this crate only finds adapters and creates devices
+//! ([`list_adapters`], [`request_adapter`], [`request_device`]); the step
+//! kernels come with the GPU-backend issue.
+//!
+//! Asking for the GPU and not getting it is always a [`GpuError`], never a
+//! silent fallback to the CPU.
+//!
+//! [`GpuError`]: hyperpbd_core::GpuError
+
+#![deny(missing_docs)]
+
+pub mod adapter;
+
+pub use adapter::*;
