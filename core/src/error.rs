@@ -188,6 +188,9 @@ pub enum GpuError {
         requested: u64,
         maximum: u64,
     },
+    /// The scene or adapter needs something the GPU kernels do not offer.
+    #[error("unsupported on the GPU: {what}")]
+    Unsupported { what: String },
     /// Anything else the device layer reported.
     #[error("GPU error: {message}")]
     Other { message: String },

@@ -12,5 +12,10 @@
 #![deny(missing_docs)]
 
 pub mod adapter;
+mod backend;
+mod params;
+mod pipelines;
+pub mod shader;
 
 pub use adapter::*;
+pub use backend::GpuBackend;

@@ -1,0 +1,119 @@
+//! WGSL sources: one file per kernel family, composed per (dimension,
+//! precision) by prepending a small header.
+//!
+//! ```text
+//! module = header(DIM, real) + prelude.wgsl [+ measure.wgsl] + family.wgsl
+//! ```
+
+use crate::Precision;
+
+/// Largest dimension the GPU kernels are built and tested for. Element
+/// gathers use function-local arrays of (N+1)·N reals, so very large N would
+/// exhaust registers; the CPU golden path has no such limit.
+pub const MAX_GPU_DIM: usize = 8;
+
+const PRELUDE: &str = include_str!("../../shaders/prelude.wgsl");
+const MEASURE: &str = include_str!("../../shaders/measure.wgsl");
+const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
+const PROJECT: &str = include_str!("../../shaders/project.wgsl");
+const FRICTION: &str = include_str!("../../shaders/friction.wgsl");
+const RESIDUAL: &str = include_str!("../../shaders/residual.wgsl");
+
+/// A kernel family: one WGSL file and its entry points.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ShaderFile {
+    /// `integrate.wgsl`: predict, velocity, damping.
+    Integrate,
+    /// `project.wgsl`: XPBD projection of every constraint kind.
+    Project,
+    /// `friction.wgsl`: dynamic Coulomb friction.
+    Friction,
+    /// `residual.wgsl`: constraint violation and its reduction.
+    Residual,
+}
+
+impl ShaderFile {
+    /// Every kernel family.
+    pub const ALL: [ShaderFile; 4] = [
+        ShaderFile::Integrate,
+        ShaderFile::Project,
+        ShaderFile::Friction,
+        ShaderFile::Residual,
+    ];
+
+    /// File name under `shaders/`.
+    pub fn file_name(self) -> &'static str {
+        match self {
+            ShaderFile::Integrate => "integrate.wgsl",
+            ShaderFile::Project => "project.wgsl",
+            ShaderFile::Friction => "friction.wgsl",
+            ShaderFile::Residual => "residual.wgsl",
+        }
+    }
+
+    /// Entry points defined by the file.
+    pub fn entry_points(self) -> &'static [&'static str] {
+        match self {
+            ShaderFile::Integrate => &["predict", "velocity", "damping"],
+            ShaderFile::Project => &[
+                "project_distance",
+                "project_simplex_measure",
+                "project_oriented_measure",
+                "project_contact",
+            ],
+            ShaderFile::Friction => &["friction"],
+            ShaderFile::Residual => &["residual", "reduce"],
+        }
+    }
+
+    fn body(self) -> &'static [&'static str] {
+        match self {
+            ShaderFile::Integrate => &[PRELUDE, INTEGRATE],
+            ShaderFile::Project => &[PRELUDE, MEASURE, PROJECT],
+            ShaderFile::Friction => &[PRELUDE, FRICTION],
+            ShaderFile::Residual => &[PRELUDE, MEASURE, RESIDUAL],
+        }
+    }
+}
+
+/// The complete WGSL module of `file` for dimension `dim` and `precision`.
+pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
+    let real_max = match precision {
+        Precision::F32 => "3.4028234663852886e38",
+        Precision::F64 => "1.7976931348623157e308",
+    };
+    let mut source = format!(
+        "// {file} for DIM = {dim}, real = {precision} (generated header)\n\
+         alias real = {precision};\n\
+         const DIM: u32 = {dim}u;\n\
+         const POINTS: u32 = {points}u;\n\
+         const MAT: u32 = {mat}u;\n\
+         const MINOR: u32 = {minor}u;\n\
+         const REAL_MAX: real = {real_max};\n\n",
+        file = file.file_name(),
+        points = (dim + 1) * dim,
+        mat = dim * dim,
+        minor = (dim.saturating_sub(1) * dim.saturating_sub(1)).max(1),
+    );
+    for part in file.body() {
+        source.push_str(part);
+        source.push('\n');
+    }
+    source
+}
+
+/// Parses and validates a composed module with naga (no GPU needed).
+pub fn validate(
+    source: &str,
+    precision: Precision,
+) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
+    let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
+    let mut capabilities = naga::valid::Capabilities::default();
+    if precision == Precision::F64 {
+        capabilities |= naga::valid::Capabilities::FLOAT64;
+    }
+    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), capabilities)
+        .validate(&module)
+        .map_err(|e| e.emit_to_string(source))?;
+    Ok((module, info))
+}
