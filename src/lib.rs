@@ -13,7 +13,12 @@ pub use hyperpbd_core::*;
 pub use hyperpbd_cpu::CpuBackend;
 pub use hyperpbd_gpu as gpu;
 
+pub mod compare;
 pub mod scenes;
+
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;
 
 /// Compiles `scene` and loads it on the CPU golden backend.
 pub fn cpu_backend(scene: &Scene) -> Result<CpuBackend, String> {

@@ -1,9 +1,11 @@
 //! Subcommands and their shared plumbing.
 
+mod compare;
 mod output;
 mod run;
 
 use clap::{Parser, Subcommand, ValueEnum};
+use hyperpbd::gpu::{GpuBackend, Precision};
 use hyperpbd::{Backend, CpuBackend, Plan, Scene, State};
 use std::path::PathBuf;
 
@@ -36,6 +38,9 @@ enum Command {
         #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
         backend: BackendChoice,
     },
+    /// Run the CPU golden path and a GPU backend side by side and print the
+    /// per-frame divergence against its derived bound (exit 3 when over).
+    Compare(compare::CompareArgs),
     /// Write a built-in scene as JSON (cloth, tesseract, chain2d, incline5d).
     Scene {
         /// Name of the built-in scene.
@@ -51,9 +56,12 @@ enum Command {
 pub enum BackendChoice {
     /// The f64 CPU golden path.
     Cpu,
-    /// The wgpu backend (an error if it cannot run).
+    /// The wgpu backend in f32 (an error if it cannot run).
     Gpu,
-    /// The GPU when it can run the scene, else the CPU, saying why.
+    /// The wgpu backend in f64 (needs SHADER_F64; an error if missing).
+    GpuF64,
+    /// A hardware GPU in f32 when one can run the scene, else the CPU,
+    /// saying which and why.
     Auto,
 }
 
@@ -96,6 +104,7 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
             Ok(())
         }
         Command::Demo { frames, backend } => run::demo(frames, backend),
+        Command::Compare(args) => compare::compare(&args),
         Command::Scene { name, out } => {
             let scene = hyperpbd::scenes::by_name(&name).ok_or_else(|| {
                 CliError::Input(format!(
@@ -139,24 +148,45 @@ pub fn load_backend(
     plan: Plan,
     state: &State,
 ) -> Result<Box<dyn Backend>, CliError> {
-    let cpu = |plan: Plan| -> Result<Box<dyn Backend>, CliError> {
+    let gpu = |plan: Plan, precision: Precision| -> Result<Box<dyn Backend>, CliError> {
         Ok(Box::new(
-            CpuBackend::new(plan, state).map_err(|e| CliError::Input(e.to_string()))?,
+            GpuBackend::new(plan, state, precision)
+                .map_err(|e| CliError::Input(format!("--backend gpu: {e}")))?,
         ))
     };
     match choice {
-        BackendChoice::Cpu => cpu(plan),
-        BackendChoice::Gpu => Err(CliError::Input(
-            "--backend gpu: the GPU step kernels are not part of this build yet (this build \
-             has GPU adapter discovery only, see `hyperpbd info`); use --backend cpu"
-                .into(),
+        BackendChoice::Cpu => Ok(Box::new(
+            CpuBackend::new(plan, state).map_err(|e| CliError::Input(e.to_string()))?,
         )),
+        BackendChoice::Gpu => gpu(plan, Precision::F32),
+        BackendChoice::GpuF64 => gpu(plan, Precision::F64),
         BackendChoice::Auto => {
-            eprintln!(
-                "notice: backend auto -> cpu-f64: the GPU step kernels are not part of this \
-                 build yet, so the scene runs on the f64 CPU golden path"
-            );
-            cpu(plan)
+            let why = match hyperpbd::gpu::request_adapter(Precision::F32) {
+                Err(e) => format!("no GPU adapter ({e})"),
+                Ok((_, summary)) if summary.device_type == "Cpu" => format!(
+                    "the only adapter, {}, is a software rasteriser running on this CPU \
+                     (pass --backend gpu to use it anyway)",
+                    summary.name
+                ),
+                Ok(_) if plan.dim > hyperpbd::gpu::shader::MAX_GPU_DIM => format!(
+                    "dimension {} is above the GPU kernels' limit of {}",
+                    plan.dim,
+                    hyperpbd::gpu::shader::MAX_GPU_DIM
+                ),
+                Ok((adapter, summary)) => {
+                    match GpuBackend::with_adapter(&adapter, plan.clone(), state, Precision::F32) {
+                        Ok(b) => {
+                            eprintln!("notice: backend auto -> gpu-f32 on {}", summary.name);
+                            return Ok(Box::new(b));
+                        }
+                        Err(e) => format!("the GPU backend failed to load on {}: {e}", summary.name),
+                    }
+                }
+            };
+            eprintln!("notice: backend auto -> cpu-f64 (the f64 CPU golden path): {why}");
+            Ok(Box::new(
+                CpuBackend::new(plan, state).map_err(|e| CliError::Input(e.to_string()))?,
+            ))
         }
     }
 }
