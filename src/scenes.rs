@@ -46,9 +46,26 @@ pub fn cloth(n: usize) -> Scene {
         .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
 }
 
+/// An `n × n` 1 m cloth (edges + shear diagonals, rigid) hanging from the
+/// two corners of its far edge: 10 substeps, 1 iteration, gravity, no
+/// obstacle — the benchmark cloth, distance projections only.
+pub fn hanging_cloth(n: usize) -> Scene {
+    let spacing = 1.0 / (n.max(2) - 1) as f64;
+    let mut b = SceneBuilder::new(3)
+        .dt(1.0 / 60.0)
+        .substeps(10)
+        .iterations(1)
+        .gravity_along(1, 9.81);
+    let grid = b.grid(&GridSpec::cloth(n, n, spacing, 1.0));
+    b.fix(grid.index(&[0, n - 1]));
+    b.fix(grid.index(&[n - 1, n - 1]));
+    b.build().unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+}
+
 /// A soft tesseract in R^4: a 2×2×2×2-cell Kuhn block (81 nodes, 384
-/// oriented 4-simplices, slightly compliant) dropped onto the hyperplane
-/// x_3 = 0 with friction.
+/// oriented 4-simplices, slightly compliant, plus the simplices' edges as
+/// compliant springs for shear) dropped onto the hyperplane x_3 = 0 with
+/// friction.
 pub fn tesseract() -> Scene {
     let mut b = SceneBuilder::new(4)
         .dt(1.0 / 60.0)
@@ -62,6 +79,7 @@ pub fn tesseract() -> Scene {
         spacing: 0.5,
         mass: 0.05,
         compliance: 1e-6,
+        edge_compliance: Some(1e-5),
     });
     b.hyperplane(vec![0.0, 0.0, 0.0, 1.0], 0.0, 0.5);
     b.build()

@@ -27,6 +27,11 @@ pub struct BlockSpec {
     pub mass: f64,
     /// Compliance of the oriented-measure family.
     pub compliance: f64,
+    /// Compliance of an edge distance family over every edge of every
+    /// simplex, or `None` for volume only. Volume constraints alone resist
+    /// compression but not shear: without edges the block flows like a
+    /// liquid and its simplices degenerate into slivers.
+    pub edge_compliance: Option<f64>,
 }
 
 /// All permutations of 0..n in lexicographic order.
@@ -63,7 +68,10 @@ pub fn kuhn_simplices(n: usize) -> Vec<Vec<Vec<usize>>> {
 }
 
 impl SceneBuilder {
-    /// Adds the block's nodes and its Kuhn oriented-measure family.
+    /// Adds the block's nodes, its Kuhn oriented-measure family, and (with
+    /// `edge_compliance`) the distance family of the simplices' edges, in
+    /// first-seen order. [`Grid::family`] is the oriented-measure family;
+    /// the edge family, if any, is the one after it.
     pub fn soft_block(&mut self, spec: &BlockSpec) -> Grid {
         let dim = self.scene().dim;
         let first = self.scene().particles.len();
@@ -85,7 +93,7 @@ impl SceneBuilder {
         };
         let pattern = kuhn_simplices(spec.cells.len());
         let cell_count: usize = spec.cells.iter().product();
-        let mut elements = Vec::with_capacity(cell_count * pattern.len());
+        let mut elements: Vec<Vec<usize>> = Vec::with_capacity(cell_count * pattern.len());
         for cell in 0..cell_count {
             let corner = coords_of(cell, &spec.cells);
             for simplex in &pattern {
@@ -101,11 +109,28 @@ impl SceneBuilder {
                 );
             }
         }
+        let edges = spec.edge_compliance.map(|compliance| {
+            let mut seen = std::collections::HashSet::new();
+            let mut edges = Vec::new();
+            for simplex in &elements {
+                for (a, &i) in simplex.iter().enumerate() {
+                    for &j in &simplex[a + 1..] {
+                        if seen.insert((i.min(j), i.max(j))) {
+                            edges.push(vec![i, j]);
+                        }
+                    }
+                }
+            }
+            ConstraintFamily::new(ConstraintKind::Distance, compliance, edges)
+        });
         grid.family = self.family(ConstraintFamily::new(
             ConstraintKind::OrientedMeasure,
             spec.compliance,
             elements,
         ));
+        if let Some(edges) = edges {
+            self.family(edges);
+        }
         grid
     }
 }
