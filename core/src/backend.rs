@@ -106,25 +106,15 @@ pub fn check_forces(plan: &Plan, forces: &[f64]) -> Result<(), BackendError> {
     Ok(())
 }
 
-/// Checks a kernel call against the plan.
+/// Checks a kernel call against the plan: it must be one of the calls of
+/// [`Plan::substep_kernels`] (a frictionless plane has no friction kernel,
+/// a scene without dynamic particles has no kernels at all).
 pub fn check_kernel(plan: &Plan, kernel: Kernel) -> Result<(), BackendError> {
-    let ok = match kernel {
-        Kernel::Project { family, color } => plan
-            .families
-            .get(family)
-            .is_some_and(|f| color < f.color_count()),
-        Kernel::Friction { family } => plan
-            .families
-            .get(family)
-            .is_some_and(|f| f.kind.is_inequality()),
-        Kernel::Damping => plan.damping.is_some(),
-        Kernel::Predict | Kernel::Velocity => true,
-    };
-    if ok {
+    if plan.substep_kernels.contains(&kernel) {
         Ok(())
     } else {
         Err(BackendError::InvalidCall(format!(
-            "{kernel:?} does not exist in this plan"
+            "{kernel:?} is not in this plan's schedule"
         )))
     }
 }
