@@ -20,6 +20,9 @@ pub enum SceneError {
     /// `dim` is 0.
     #[error("dim: the dimension must be at least 1")]
     ZeroDimension,
+    /// `dim` above [`crate::MAX_DIM`].
+    #[error("dim: {value} is above the supported maximum of {max}")]
+    DimensionTooLarge { value: usize, max: usize },
     /// NaN or ±Inf where a finite number is required.
     #[error("{path}: value {value} is not finite")]
     NonFinite { path: String, value: f64 },

@@ -23,9 +23,12 @@ pub use builders::SceneBuilder;
 pub use coloring::greedy_colors;
 pub use error::{BackendError, GpuError, SceneError, StageName, StepError};
 pub use plan::{Family, FamilyKind, Kernel, Plan, PredictTerms};
-pub use scene::{ConstraintFamily, ConstraintKind, Damping, Obstacle, Particle, Scene};
+pub use scene::{
+    ConstraintFamily, ConstraintKind, Damping, Obstacle, ObstacleDocument, ObstacleKind, Particle,
+    Scene,
+};
 pub use state::State;
-pub use validate::DEGENERATE_VOLUME_RATIO;
+pub use validate::{DEGENERATE_VOLUME_RATIO, MAX_DIM};
 
 /// The scalar of the golden path.
 pub type Real = f64;

@@ -18,7 +18,7 @@
 //! algorithm in the same order.
 
 use crate::coloring::greedy_colors;
-use crate::geometry::{Scratch, distance, oriented_measure, simplex_squared_measure};
+use crate::geometry::{Scratch, constraint_value};
 use crate::{ConstraintKind, Obstacle, Scene, SceneError, StageName};
 
 /// What one family projects.
@@ -241,13 +241,7 @@ impl Plan {
                                 points[j * dim..(j + 1) * dim]
                                     .copy_from_slice(&scene.particles[i].position);
                             }
-                            match kind {
-                                FamilyKind::Distance => distance(&points, dim, &mut grad),
-                                FamilyKind::SimplexMeasure { .. } => {
-                                    simplex_squared_measure(&points, dim, &mut grad, &mut scratch)
-                                }
-                                _ => oriented_measure(&points, dim, &mut grad, &mut scratch),
-                            }
+                            constraint_value(authored.kind, &points, dim, &mut grad, &mut scratch)
                         })
                         .collect()
                 }
@@ -269,8 +263,7 @@ impl Plan {
                 friction,
                 compliance,
             } = obstacle;
-            let length = normal.iter().map(|x| x * x).sum::<f64>().sqrt();
-            let unit: Vec<f64> = normal.iter().map(|x| x / length).collect();
+            let unit = unit_vector(normal);
             let particles: Vec<usize> = (0..n).filter(|&i| dynamic(i)).collect();
             if particles.is_empty() {
                 continue;
@@ -437,6 +430,15 @@ impl Plan {
         );
         s
     }
+}
+
+/// n / |n|, scaling by the largest component first so that neither tiny
+/// (1e-200) nor huge (1e200) normals underflow or overflow on the way.
+fn unit_vector(n: &[f64]) -> Vec<f64> {
+    let largest = n.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let scaled: Vec<f64> = n.iter().map(|x| x / largest).collect();
+    let length = scaled.iter().map(|x| x * x).sum::<f64>().sqrt();
+    scaled.iter().map(|x| x / length).collect()
 }
 
 fn on_off(b: bool) -> &'static str {

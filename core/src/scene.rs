@@ -46,8 +46,9 @@ fn unit() -> f64 {
     1.0
 }
 
+/// +0.0 only: a −0.0 is written out so that it round-trips.
 fn is_zero(x: &f64) -> bool {
-    *x == 0.0
+    x.to_bits() == 0
 }
 
 fn is_one(x: &f64) -> bool {
@@ -188,8 +189,17 @@ impl ConstraintFamily {
 }
 
 /// A static obstacle.
+///
+/// Read through [`ObstacleDocument`], a plain struct, rather than as an
+/// internally tagged enum: serde buffers a tagged enum before it knows the
+/// variant, which would cut the error path at `obstacles[i]` instead of
+/// naming the field.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+#[serde(
+    tag = "type",
+    rename_all = "snake_case",
+    try_from = "ObstacleDocument"
+)]
 pub enum Obstacle {
     /// The half-space n·x ≥ offset (+ particle radius) is admissible.
     Hyperplane {
@@ -205,6 +215,45 @@ pub enum Obstacle {
         #[serde(default)]
         compliance: f64,
     },
+}
+
+/// Obstacle kinds as written in JSON.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ObstacleKind {
+    /// `"type": "hyperplane"`.
+    Hyperplane,
+}
+
+/// The JSON form of an obstacle: every key any kind may use, checked
+/// against the kind by `TryFrom`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObstacleDocument {
+    #[serde(rename = "type")]
+    kind: ObstacleKind,
+    normal: Option<Vec<f64>>,
+    #[serde(default)]
+    offset: f64,
+    #[serde(default)]
+    friction: f64,
+    #[serde(default)]
+    compliance: f64,
+}
+
+impl TryFrom<ObstacleDocument> for Obstacle {
+    type Error = String;
+
+    fn try_from(doc: ObstacleDocument) -> Result<Self, String> {
+        match doc.kind {
+            ObstacleKind::Hyperplane => Ok(Obstacle::Hyperplane {
+                normal: doc.normal.ok_or("missing field `normal`")?,
+                offset: doc.offset,
+                friction: doc.friction,
+                compliance: doc.compliance,
+            }),
+        }
+    }
 }
 
 /// Timestep-invariant exponential velocity damping: v ← v·exp(−rate·h).

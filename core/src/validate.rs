@@ -3,8 +3,13 @@
 //! The first violated rule is reported, in document order, with the path of
 //! the offending field. Nothing downstream re-checks what is checked here.
 
-use crate::geometry::{Scratch, factorial, oriented_measure};
+use crate::geometry::{Scratch, constraint_value, factorial};
 use crate::{ConstraintKind, Obstacle, Scene, SceneError};
+
+/// Largest dimension a scene may have. Far beyond any practical scene; it
+/// keeps the per-dimension allocations of a plan bounded, so a typo such as
+/// `"dim": 4611686018427387904` is an error rather than an abort.
+pub const MAX_DIM: usize = 256;
 
 /// Relative volume below which an oriented rest simplex counts as
 /// degenerate: |V| ≤ 1e-12 · (longest edge)^N / N!. Below that the
@@ -61,6 +66,12 @@ impl Scene {
         let dim = self.dim;
         if dim == 0 {
             return Err(SceneError::ZeroDimension);
+        }
+        if dim > MAX_DIM {
+            return Err(SceneError::DimensionTooLarge {
+                value: dim,
+                max: MAX_DIM,
+            });
         }
         finite(|| "dt".into(), self.dt)?;
         if self.dt <= 0.0 {
@@ -124,6 +135,7 @@ impl Scene {
         let count = self.particles.len();
         let mut scratch = Scratch::new();
         let mut points = Vec::new();
+        let mut grad = Vec::new();
         for (f, family) in self.constraints.iter().enumerate() {
             let at = |field: &str| format!("constraints[{f}].{field}");
             compliance(at("compliance"), family.compliance)?;
@@ -199,32 +211,45 @@ impl Scene {
                         why: why.into(),
                     });
                 }
-            } else if family.kind == ConstraintKind::OrientedMeasure {
+            } else {
                 for (e, element) in family.elements.iter().enumerate() {
                     points.clear();
-                    let mut longest: f64 = 0.0;
                     for &i in element {
                         points.extend_from_slice(&self.particles[i].position);
                     }
-                    for &i in element {
-                        for &j in element {
-                            longest = longest.max(distance(
-                                &self.particles[i].position,
-                                &self.particles[j].position,
-                            ));
-                        }
-                    }
-                    let mut grad = vec![0.0; points.len()];
-                    let v = oriented_measure(&points, dim, &mut grad, &mut scratch);
-                    let floor = DEGENERATE_VOLUME_RATIO * longest.powi(dim as i32) / factorial(dim);
-                    if !v.is_finite() || v.abs() <= floor {
+                    grad.resize(points.len(), 0.0);
+                    let value = constraint_value(family.kind, &points, dim, &mut grad, &mut scratch);
+                    let path = || format!("constraints[{f}].elements[{e}]");
+                    if !value.is_finite() {
                         return Err(SceneError::DegenerateRest {
-                            path: format!("constraints[{f}].elements[{e}]"),
+                            path: path(),
                             why: format!(
-                                "the authored simplex has signed volume {v:e}, not above the \
-                                 degeneracy floor {floor:e}"
+                                "the authored geometry gives the rest value {value}: the \
+                                 coordinates are too large for {kind}"
                             ),
                         });
+                    }
+                    if family.kind == ConstraintKind::OrientedMeasure {
+                        let mut longest: f64 = 0.0;
+                        for &i in element {
+                            for &j in element {
+                                longest = longest.max(distance(
+                                    &self.particles[i].position,
+                                    &self.particles[j].position,
+                                ));
+                            }
+                        }
+                        let floor =
+                            DEGENERATE_VOLUME_RATIO * longest.powi(dim as i32) / factorial(dim);
+                        if value.abs() <= floor {
+                            return Err(SceneError::DegenerateRest {
+                                path: path(),
+                                why: format!(
+                                    "the authored simplex has signed volume {value:e}, not above \
+                                     the degeneracy floor {floor:e}"
+                                ),
+                            });
+                        }
                     }
                 }
             }

@@ -38,3 +38,21 @@ impl Scratch {
 pub fn factorial(k: usize) -> f64 {
     (1..=k).fold(1.0, |acc, i| acc * i as f64)
 }
+
+/// The value of constraint `kind` at `points` (k + 1 points of length
+/// `dim`): the rest value an element takes from its authored geometry.
+pub fn constraint_value(
+    kind: crate::ConstraintKind,
+    points: &[f64],
+    dim: usize,
+    grad: &mut [f64],
+    scratch: &mut Scratch,
+) -> f64 {
+    match kind {
+        crate::ConstraintKind::Distance => distance(points, dim, grad),
+        crate::ConstraintKind::SimplexMeasure => {
+            simplex_squared_measure(points, dim, grad, scratch)
+        }
+        crate::ConstraintKind::OrientedMeasure => oriented_measure(points, dim, grad, scratch),
+    }
+}

@@ -1,0 +1,656 @@
+//! Property tests over random scenes and random JSON documents.
+//!
+//! (a) Random valid scenes (dim 1..=5; free and fixed particles; distance,
+//!     simplex-measure and oriented-measure families over valid indices;
+//!     hyperplanes; damping; gravity; forces) validate, compile, round-trip
+//!     through JSON, and step without panicking or producing NaN. A step may
+//!     fail with a typed error, but then the state is exactly the state
+//!     before the step, bit for bit. Fixed particles never move, and two
+//!     runs of one scene are bit-identical.
+//! (b) Arbitrary mutations of a valid JSON document (byte edits, inserted
+//!     keys, swapped numbers and values) never panic the loader: the answer
+//!     is a scene or a `SceneError` with a non-empty path and message.
+//!
+//! Case counts are modest so the file runs in seconds in release mode.
+
+use hyperpbd::{
+    Backend, ConstraintFamily, ConstraintKind, Damping, Obstacle, Particle, Plan, Scene,
+    SceneError, State,
+};
+use proptest::prelude::*;
+use proptest::strategy::Union;
+
+// ---------------------------------------------------------------- strategies
+
+fn coords(dim: usize, range: std::ops::Range<f64>) -> impl Strategy<Value = Vec<f64>> {
+    proptest::collection::vec(range, dim)
+}
+
+fn particle(dim: usize) -> impl Strategy<Value = Particle> {
+    (
+        coords(dim, -2.0..2.0),
+        proptest::option::of(coords(dim, -3.0..3.0)),
+        0.1f64..10.0,
+        prop::bool::weighted(0.25),
+        prop_oneof![Just(0.0), 0.0f64..0.2],
+        prop_oneof![Just(1.0), -1.0f64..2.0],
+        proptest::option::of(coords(dim, -5.0..5.0)),
+    )
+        .prop_map(
+            move |(position, velocity, mass, fixed, radius, gravity_scale, force)| {
+                let mut p = Particle::new(position, mass);
+                p.velocity = velocity;
+                p.radius = radius;
+                p.gravity_scale = gravity_scale;
+                p.force = force;
+                if fixed {
+                    p.fixed = true;
+                    // Half of the fixed particles keep their mass, half
+                    // author a zero velocity.
+                    if p.radius > 0.1 {
+                        p.mass = None;
+                        p.velocity = Some(vec![0.0; dim]);
+                    } else {
+                        p.velocity = None;
+                    }
+                }
+                p
+            },
+        )
+}
+
+/// `arity` distinct particle indices below `n`, in random order.
+fn element(n: usize, arity: usize) -> impl Strategy<Value = Vec<usize>> {
+    proptest::sample::subsequence((0..n).collect::<Vec<_>>(), arity).prop_shuffle()
+}
+
+fn compliance() -> impl Strategy<Value = f64> {
+    prop_oneof![Just(0.0), 1e-9f64..1e-2]
+}
+
+/// A family of `kind` with elements of `arity` particles and optional rest
+/// values drawn from `rest`.
+fn family(
+    kind: ConstraintKind,
+    n: usize,
+    arity: usize,
+    rest: impl Strategy<Value = f64> + Clone + 'static,
+) -> BoxedStrategy<ConstraintFamily> {
+    (
+        compliance(),
+        proptest::collection::vec(element(n, arity), 0..=4),
+    )
+        .prop_flat_map(move |(compliance, elements)| {
+            let count = elements.len();
+            (
+                Just(compliance),
+                Just(elements),
+                proptest::option::weighted(0.3, proptest::collection::vec(rest.clone(), count)),
+            )
+        })
+        .prop_map(move |(compliance, elements, rest)| ConstraintFamily {
+            kind,
+            compliance,
+            elements,
+            rest,
+        })
+        .boxed()
+}
+
+fn families(dim: usize, n: usize) -> BoxedStrategy<Vec<ConstraintFamily>> {
+    let mut kinds: Vec<BoxedStrategy<ConstraintFamily>> = Vec::new();
+    if n >= 2 {
+        kinds.push(family(ConstraintKind::Distance, n, 2, 0.0f64..2.0));
+        for k in 1..=dim.min(n - 1) {
+            kinds.push(family(
+                ConstraintKind::SimplexMeasure,
+                n,
+                k + 1,
+                0.0f64..1.0,
+            ));
+        }
+    }
+    if n > dim {
+        let nonzero = prop_oneof![-1.0f64..-1e-3, 1e-3f64..1.0];
+        kinds.push(family(ConstraintKind::OrientedMeasure, n, dim + 1, nonzero));
+    }
+    if kinds.is_empty() {
+        return Just(Vec::new()).boxed();
+    }
+    proptest::collection::vec(Union::new(kinds), 0..=3).boxed()
+}
+
+fn hyperplane(dim: usize) -> impl Strategy<Value = Obstacle> {
+    (
+        coords(dim, -1.0..1.0),
+        0..dim,
+        -3.0f64..0.5,
+        prop_oneof![Just(0.0), 0.0f64..1.0],
+        compliance(),
+    )
+        .prop_map(|(mut normal, axis, offset, friction, compliance)| {
+            normal[axis] += if normal[axis] >= 0.0 { 0.5 } else { -0.5 };
+            Obstacle::Hyperplane {
+                normal,
+                offset,
+                friction,
+                compliance,
+            }
+        })
+}
+
+fn valid_scene() -> impl Strategy<Value = Scene> {
+    (1usize..=5, 0usize..=8)
+        .prop_flat_map(|(dim, n)| {
+            (
+                (Just(dim), 1e-3f64..0.05, 1u32..=4, 1u32..=3),
+                proptest::option::of(coords(dim, -10.0..10.0)),
+                proptest::collection::vec(particle(dim), n),
+                families(dim, n),
+                proptest::collection::vec(hyperplane(dim), 0..=2),
+                proptest::option::of(prop_oneof![Just(0.0), 0.0f64..2.0]),
+            )
+        })
+        .prop_map(
+            |(
+                (dim, dt, substeps, iterations),
+                gravity,
+                particles,
+                constraints,
+                obstacles,
+                rate,
+            )| {
+                let mut s = Scene::new(dim, dt, substeps, iterations);
+                s.gravity = gravity;
+                s.particles = particles;
+                s.constraints = constraints;
+                s.obstacles = obstacles;
+                s.damping = rate.map(|rate| Damping { rate });
+                s
+            },
+        )
+}
+
+/// Valid but extreme: coordinates up to 1e150, speeds up to 1e300, masses
+/// from 1e-300 to 1e300, rigid constraints. Steps may fail here (overflow);
+/// the point is that they fail cleanly.
+fn extreme_particle(dim: usize) -> impl Strategy<Value = Particle> {
+    let big = prop_oneof![-1e150f64..1e150, -1.0f64..1.0];
+    (
+        proptest::collection::vec(big, dim),
+        proptest::option::of(coords(dim, -1e300..1e300)),
+        prop_oneof![1e-300f64..1e-200, 0.1f64..10.0, 1e200f64..1e300],
+        prop::bool::weighted(0.2),
+        proptest::option::of(coords(dim, -1e300..1e300)),
+    )
+        .prop_map(|(position, velocity, mass, fixed, force)| {
+            let mut p = Particle::new(position, mass);
+            p.velocity = velocity;
+            p.force = force;
+            if fixed {
+                p.fixed = true;
+                p.velocity = None;
+            }
+            p
+        })
+}
+
+fn extreme_scene() -> impl Strategy<Value = Scene> {
+    (1usize..=5, 0usize..=6)
+        .prop_flat_map(|(dim, n)| {
+            (
+                (Just(dim), prop_oneof![1e-6f64..1e-3, 1.0f64..1e3], 1u32..=3),
+                proptest::option::of(coords(dim, -1e300..1e300)),
+                proptest::collection::vec(extreme_particle(dim), n),
+                families(dim, n),
+                proptest::collection::vec(hyperplane(dim), 0..=2),
+            )
+        })
+        .prop_map(
+            |((dim, dt, substeps), gravity, particles, constraints, obstacles)| {
+                let mut s = Scene::new(dim, dt, substeps, 2);
+                s.gravity = gravity;
+                s.particles = particles;
+                s.constraints = constraints;
+                s.obstacles = obstacles;
+                s
+            },
+        )
+}
+
+fn bits(state: &State) -> Vec<u64> {
+    state
+        .positions
+        .iter()
+        .chain(&state.velocities)
+        .map(|x| x.to_bits())
+        .collect()
+}
+
+/// Steps `scene` `steps` times, checking every invariant; returns the final
+/// state.
+fn run_checked(scene: &Scene, steps: usize) -> Result<State, TestCaseError> {
+    let plan = Plan::compile(scene).map_err(|e| TestCaseError::fail(e.to_string()))?;
+    let mut backend = hyperpbd::CpuBackend::new(plan, &State::from_scene(scene))
+        .map_err(|e| TestCaseError::fail(e.to_string()))?;
+    let initial = backend.read_state().expect("read");
+    for step in 0..steps {
+        let before = backend.read_state().expect("read");
+        match backend.step() {
+            Ok(report) => {
+                let after = backend.read_state().expect("read");
+                prop_assert!(
+                    after
+                        .positions
+                        .iter()
+                        .chain(&after.velocities)
+                        .all(|x| x.is_finite()),
+                    "step {step} returned Ok with a non-finite state"
+                );
+                for r in &report.residuals {
+                    prop_assert!(
+                        !r.max_violation.is_nan(),
+                        "step {step}: NaN residual for {}",
+                        r.label
+                    );
+                }
+                for (i, p) in scene.particles.iter().enumerate() {
+                    if p.fixed {
+                        // Compared as values, not bits: −0.0 may become
+                        // +0.0 (see `fixed_negative_zero_keeps_its_sign`).
+                        prop_assert_eq!(
+                            after.position(i),
+                            initial.position(i),
+                            "fixed particle {} moved",
+                            i
+                        );
+                        prop_assert!(after.velocity(i).iter().all(|&v| v == 0.0));
+                    }
+                }
+            }
+            Err(e) => {
+                prop_assert!(!e.to_string().is_empty());
+                let after = backend.read_state().expect("read");
+                prop_assert_eq!(
+                    bits(&after),
+                    bits(&before),
+                    "step {} failed ({}) without restoring the state",
+                    step,
+                    e
+                );
+            }
+        }
+    }
+    Ok(backend.read_state().expect("read"))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 160,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn random_valid_scenes_step_without_nan(scene in valid_scene()) {
+        match scene.validate() {
+            Ok(()) => {}
+            // Random points can (very rarely) be nearly coplanar.
+            Err(SceneError::DegenerateRest { .. }) => {
+                prop_assume!(false);
+            }
+            Err(e) => {
+                return Err(TestCaseError::fail(format!("generator made an invalid scene: {e}")));
+            }
+        }
+        let first = run_checked(&scene, 4)?;
+        let second = run_checked(&scene, 4)?;
+        prop_assert_eq!(bits(&first), bits(&second), "two runs differ");
+    }
+
+    #[test]
+    fn extreme_valid_scenes_fail_cleanly(scene in extreme_scene()) {
+        // Authored geometry may itself overflow (an infinite volume) or
+        // collapse; only scenes that validate are stepped.
+        prop_assume!(scene.validate().is_ok());
+        run_checked(&scene, 3)?;
+    }
+
+    #[test]
+    fn random_valid_scenes_round_trip_through_json(scene in valid_scene()) {
+        prop_assume!(scene.validate().is_ok());
+        let text = scene.to_json_string();
+        let back = Scene::from_json_str(&text)
+            .map_err(|e| TestCaseError::fail(format!("{e}\n{text}")))?;
+        prop_assert_eq!(&back, &scene);
+        prop_assert_eq!(back.to_json_string(), text);
+    }
+}
+
+// ---------------------------------------------------------------- JSON mutations
+
+const DOCUMENT: &str = r#"{"dim": 3, "dt": 0.0166666, "substeps": 10, "iterations": 1,
+ "gravity": [0.0, -9.81, 0.0],
+ "particles": [{"position": [0,1,0], "velocity": [0,0,0], "mass": 1.0, "radius": 0.0, "gravity_scale": 1.0, "force": [0,0,0]},
+               {"position": [0,2,0], "fixed": true},
+               {"position": [0.5,1,0], "mass": 1.0},
+               {"position": [0,1,0.5], "mass": 1.0, "velocity": [1,0,0]}],
+ "constraints": [{"type": "distance", "compliance": 0.0, "elements": [[0,1]], "rest": [1.0]},
+                 {"type": "simplex_measure", "compliance": 1e-6, "elements": [[0,2,3]]},
+                 {"type": "oriented_measure", "compliance": 0.0, "elements": [[1,0,2,3]]}],
+ "obstacles": [{"type": "hyperplane", "normal": [0,1,0], "offset": 0.0, "friction": 0.5, "compliance": 0.0}],
+ "damping": {"rate": 0.5}}"#;
+
+/// Replacement tokens: numbers at and beyond the edges of every type, and
+/// values of the wrong type.
+const TOKENS: &[&str] = &[
+    "0",
+    "-0",
+    "1",
+    "-1",
+    "2",
+    "3",
+    "4",
+    "0.5",
+    "-2.5",
+    "1e-320",
+    "1e308",
+    "-1e308",
+    "1.7976931348623157e308",
+    "1e400",
+    "-1e400",
+    "4294967295",
+    "4294967296",
+    "18446744073709551615",
+    "18446744073709551616",
+    "99999999999999999999999",
+    "null",
+    "true",
+    "false",
+    "\"x\"",
+    "\"distance\"",
+    "\"hyperplane\"",
+    "[]",
+    "[0]",
+    "[0,1,2,3]",
+    "[[0,1]]",
+    "{}",
+    "{\"rate\": 1}",
+];
+
+const KEYS: &[&str] = &[
+    "dim",
+    "dt",
+    "substeps",
+    "iterations",
+    "gravity",
+    "particles",
+    "constraints",
+    "obstacles",
+    "damping",
+    "position",
+    "velocity",
+    "mass",
+    "fixed",
+    "radius",
+    "gravity_scale",
+    "force",
+    "type",
+    "compliance",
+    "elements",
+    "rest",
+    "normal",
+    "offset",
+    "friction",
+    "rate",
+    "bogus",
+    "",
+];
+
+#[derive(Debug, Clone)]
+enum Mutation {
+    /// Replace the byte at (position mod len) with `byte`.
+    SetByte(usize, u8),
+    /// Delete the byte at (position mod len).
+    DeleteByte(usize),
+    /// Insert `byte` before (position mod len).
+    InsertByte(usize, u8),
+    /// Truncate to (position mod len) bytes.
+    Truncate(usize),
+    /// Insert `"key": token,` after the (k mod count)-th `{`.
+    InsertKey(usize, usize, usize),
+    /// Replace the (k mod count)-th number with a token.
+    SwapNumber(usize, usize),
+    /// Replace the (k mod count)-th value after a colon with a token.
+    SwapValue(usize, usize),
+    /// Duplicate the bytes in [a, b) (mod len) at b.
+    Duplicate(usize, usize),
+}
+
+fn mutation() -> impl Strategy<Value = Mutation> {
+    let byte = prop_oneof![
+        prop::sample::select(b"{}[],:\"0123456789.-+eE ntfx\\".to_vec()),
+        any::<u8>(),
+    ];
+    prop_oneof![
+        (any::<usize>(), byte.clone()).prop_map(|(p, b)| Mutation::SetByte(p, b)),
+        any::<usize>().prop_map(Mutation::DeleteByte),
+        (any::<usize>(), byte).prop_map(|(p, b)| Mutation::InsertByte(p, b)),
+        any::<usize>().prop_map(Mutation::Truncate),
+        (any::<usize>(), 0..KEYS.len(), 0..TOKENS.len())
+            .prop_map(|(k, key, token)| Mutation::InsertKey(k, key, token)),
+        (any::<usize>(), 0..TOKENS.len()).prop_map(|(k, t)| Mutation::SwapNumber(k, t)),
+        (any::<usize>(), 0..TOKENS.len()).prop_map(|(k, t)| Mutation::SwapValue(k, t)),
+        (any::<usize>(), any::<usize>()).prop_map(|(a, b)| Mutation::Duplicate(a, b)),
+    ]
+}
+
+/// Byte ranges of the numbers in `text`.
+fn numbers(text: &[u8]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < text.len() {
+        let c = text[i];
+        let starts = c.is_ascii_digit() || (c == b'-' && i + 1 < text.len());
+        let in_string = text[..i].iter().filter(|&&b| b == b'"').count() % 2 == 1;
+        if starts && !in_string {
+            let start = i;
+            i += 1;
+            while i < text.len() && (text[i].is_ascii_digit() || b".eE+-".contains(&text[i])) {
+                i += 1;
+            }
+            out.push((start, i));
+        } else {
+            i += 1;
+        }
+    }
+    out
+}
+
+/// Byte ranges of the values that follow a `:` (up to the next `,` `}` or
+/// `]` at the same nesting level).
+fn values(text: &[u8]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    for (colon, _) in text.iter().enumerate().filter(|(_, b)| **b == b':') {
+        let start = colon + 1;
+        let mut depth = 0i32;
+        let mut end = start;
+        let mut in_string = false;
+        while end < text.len() {
+            let c = text[end];
+            if in_string {
+                if c == b'"' {
+                    in_string = false;
+                }
+            } else {
+                match c {
+                    b'"' => in_string = true,
+                    b'[' | b'{' => depth += 1,
+                    b']' | b'}' if depth == 0 => break,
+                    b']' | b'}' => depth -= 1,
+                    b',' if depth == 0 => break,
+                    _ => {}
+                }
+            }
+            end += 1;
+        }
+        out.push((start, end));
+    }
+    out
+}
+
+fn splice(text: &mut Vec<u8>, (start, end): (usize, usize), with: &[u8]) {
+    text.splice(start..end, with.iter().copied());
+}
+
+fn apply(text: &mut Vec<u8>, m: &Mutation) {
+    let len = text.len().max(1);
+    match *m {
+        Mutation::SetByte(p, b) => {
+            if !text.is_empty() {
+                text[p % len] = b;
+            }
+        }
+        Mutation::DeleteByte(p) => {
+            if !text.is_empty() {
+                text.remove(p % len);
+            }
+        }
+        Mutation::InsertByte(p, b) => text.insert(p % len, b),
+        Mutation::Truncate(p) => text.truncate(p % len),
+        Mutation::InsertKey(k, key, token) => {
+            let braces: Vec<usize> = (0..text.len()).filter(|&i| text[i] == b'{').collect();
+            if !braces.is_empty() {
+                let at = braces[k % braces.len()] + 1;
+                let insert = format!("\"{}\": {}, ", KEYS[key], TOKENS[token]);
+                splice(text, (at, at), insert.as_bytes());
+            }
+        }
+        Mutation::SwapNumber(k, token) => {
+            let spans = numbers(text);
+            if !spans.is_empty() {
+                splice(text, spans[k % spans.len()], TOKENS[token].as_bytes());
+            }
+        }
+        Mutation::SwapValue(k, token) => {
+            let spans = values(text);
+            if !spans.is_empty() {
+                let with = format!(" {}", TOKENS[token]);
+                splice(text, spans[k % spans.len()], with.as_bytes());
+            }
+        }
+        Mutation::Duplicate(a, b) => {
+            let (a, b) = (a % len, b % len);
+            let (a, b) = (a.min(b), a.max(b).min(text.len()));
+            let copy: Vec<u8> = text[a..b].to_vec();
+            splice(text, (b, b), &copy);
+        }
+    }
+}
+
+/// Loads `text` and checks the answer; for scenes that load, also compiles
+/// and steps them (small dimensions only: a huge `dim` with no vectors is a
+/// known Plan::compile allocation panic, see tests/validation.rs; and small
+/// substep × iteration counts only, so every case is quick).
+fn check_document(text: &str) -> Result<(), TestCaseError> {
+    match Scene::from_json_str(text) {
+        Ok(scene) => {
+            prop_assert!(scene.validate().is_ok());
+            // Stepping is bounded work only for modest settings (a swapped
+            // number may ask for 4294967295 substeps).
+            let work = u64::from(scene.substeps) * u64::from(scene.iterations);
+            if scene.dim <= 16 && scene.particles.len() <= 64 && work <= 10_000 {
+                run_checked(&scene, 2)?;
+            }
+        }
+        Err(SceneError::Json { path, message }) => {
+            prop_assert!(!path.is_empty(), "empty path: {}", message);
+            prop_assert!(!message.is_empty(), "empty message at {}", path);
+        }
+        Err(e) => {
+            let shown = e.to_string();
+            prop_assert!(!shown.is_empty());
+            // Every validation message starts with the field it names.
+            prop_assert!(
+                shown.contains(": "),
+                "validation message without a path: {}",
+                shown
+            );
+            let is_io = matches!(e, SceneError::Io { .. });
+            prop_assert!(!is_io, "an I/O error from a string: {}", shown);
+        }
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 1500,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn mutated_documents_never_panic(mutations in proptest::collection::vec(mutation(), 1..=4)) {
+        let mut text = DOCUMENT.as_bytes().to_vec();
+        for m in &mutations {
+            apply(&mut text, m);
+        }
+        let text = String::from_utf8_lossy(&text).into_owned();
+        check_document(&text)?;
+    }
+
+    #[test]
+    fn structured_edits_never_panic(
+        swaps in proptest::collection::vec((any::<usize>(), 0..TOKENS.len(), any::<bool>()), 1..=3),
+        key in proptest::option::of((any::<usize>(), 0..KEYS.len(), 0..TOKENS.len())),
+    ) {
+        // Only edits that keep the document well-formed JSON, so nearly
+        // every case reaches the schema and validation checks.
+        let mut text = DOCUMENT.as_bytes().to_vec();
+        for (k, token, number) in swaps {
+            let m = if number {
+                Mutation::SwapNumber(k, token)
+            } else {
+                Mutation::SwapValue(k, token)
+            };
+            apply(&mut text, &m);
+        }
+        if let Some((k, key, token)) = key {
+            apply(&mut text, &Mutation::InsertKey(k, key, token));
+        }
+        let text = String::from_utf8(text).expect("ASCII edits keep UTF-8");
+        check_document(&text)?;
+    }
+}
+
+#[test]
+fn the_unmutated_document_loads() {
+    let scene = Scene::from_json_str(DOCUMENT).expect("valid");
+    assert_eq!(scene.particles.len(), 4);
+    assert!(!numbers(DOCUMENT.as_bytes()).is_empty());
+    assert_eq!(
+        values(DOCUMENT.as_bytes()).len(),
+        DOCUMENT.matches(':').count()
+    );
+}
+
+/// A fixed particle (w = 0) still receives `x += w·∇C·Δλ = ±0.0` from the
+/// projection, and −0.0 + 0.0 = +0.0: a fixed coordinate authored as −0.0
+/// changes its bit pattern after one step although nothing moved.
+#[test]
+#[ignore = "bug (minor): projection adds ±0.0 to fixed particles, turning a -0.0 coordinate into +0.0 (cpu/src/project.rs x += w * grad * dl with w = 0)"]
+fn fixed_negative_zero_keeps_its_sign() {
+    let mut scene = Scene::new(1, 0.01, 1, 1);
+    scene.particles = vec![Particle::fixed(vec![-0.0]), Particle::new(vec![1.0], 1.0)];
+    scene.constraints = vec![ConstraintFamily {
+        kind: ConstraintKind::Distance,
+        compliance: 0.0,
+        elements: vec![vec![0, 1]],
+        rest: Some(vec![0.5]),
+    }];
+    let mut backend = hyperpbd::cpu_backend(&scene).expect("valid");
+    backend.step().expect("step");
+    let state = backend.read_state().expect("read");
+    assert_eq!(state.positions[0].to_bits(), (-0.0f64).to_bits());
+}
