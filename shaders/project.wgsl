@@ -9,7 +9,8 @@
 //   static friction (active contact, μ > 0): Δt = tangential part of x − p;
 //   if |Δt| ≤ μ w λ then x −= Δt
 //
-// Same arithmetic, in the same order, as cpu/src/project.rs.
+// Same arithmetic, in the same order, as cpu/src/project.rs. Fixed
+// particles (w = 0) are never written.
 
 @compute @workgroup_size(64)
 fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -46,9 +47,13 @@ fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     lambda[s] += dl;
     let inv = 1.0 / len;
     for (var a = 0u; a < DIM; a++) {
-        let n = d[a] * inv;
-        x[i * DIM + a] += wi * -n * dl;
-        x[j * DIM + a] += wj * n * dl;
+        let unit = d[a] * inv;
+        if (wi != 0.0) {
+            x[i * DIM + a] += wi * -unit * dl;
+        }
+        if (wj != 0.0) {
+            x[j * DIM + a] += wj * unit * dl;
+        }
     }
 }
 
@@ -91,6 +96,9 @@ fn project_generic(t: u32, kind: u32) {
     for (var j = 0u; j < params.arity; j++) {
         let i = elements[params.elem_base + e * params.arity + j];
         let w = inv_mass[i];
+        if (w == 0.0) {
+            continue;
+        }
         for (var a = 0u; a < DIM; a++) {
             x[i * DIM + a] += w * grad[j * DIM + a] * dl;
         }

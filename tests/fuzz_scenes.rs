@@ -639,7 +639,6 @@ fn the_unmutated_document_loads() {
 /// projection, and −0.0 + 0.0 = +0.0: a fixed coordinate authored as −0.0
 /// changes its bit pattern after one step although nothing moved.
 #[test]
-#[ignore = "bug (minor): projection adds ±0.0 to fixed particles, turning a -0.0 coordinate into +0.0 (cpu/src/project.rs x += w * grad * dl with w = 0)"]
 fn fixed_negative_zero_keeps_its_sign() {
     let mut scene = Scene::new(1, 0.01, 1, 1);
     scene.particles = vec![Particle::fixed(vec![-0.0]), Particle::new(vec![1.0], 1.0)];

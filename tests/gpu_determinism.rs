@@ -512,7 +512,6 @@ fn overflowing_distance_fails_in_project_naming_family_and_element() {
 /// family_label: "obstacles[0]", element: 0 })`. One of the two checks must
 /// move so both backends agree; this test asserts only that they agree.
 #[test]
-#[ignore = "known CPU/GPU mismatch: contact finiteness check before (GPU) vs after (CPU) the clamp"]
 fn contact_overflow_fails_alike_on_cpu_and_gpu() {
     let mut b = SceneBuilder::new(3).dt(1.0 / 60.0);
     b.hyperplane(vec![1.0, 1.0, 0.0], 0.0, 0.0);

@@ -5,9 +5,12 @@
 //! velocity   for dynamic i: v_i = (x_i − p_i) / h
 //! damping    for dynamic i: v_i *= exp(−rate h)        (factor from the plan)
 //! ```
-//! Fixed particles (w = 0) never move; p = x holds for them too.
+//! Fixed particles (w = 0) never move; p = x holds for them too. `p` is
+//! scratch of the substep: after a failed prediction only the particles up
+//! to the failing one have it (the step is rolled back anyway).
 //! Each returns the first particle that became non-finite, if any.
 
+use crate::dim::{Dim, with_dim};
 use hyperpbd_core::Plan;
 
 /// Prediction. `p` receives the substep's start positions.
@@ -18,23 +21,36 @@ pub fn predict(
     p: &mut [f64],
     force: &[f64],
 ) -> Result<(), usize> {
-    let dim = plan.dim;
+    with_dim!(plan.dim, predict_in(plan, x, v, p, force))
+}
+
+fn predict_in<D: Dim>(
+    dim: D,
+    plan: &Plan,
+    x: &mut [f64],
+    v: &mut [f64],
+    p: &mut [f64],
+    force: &[f64],
+) -> Result<(), usize> {
+    let n = dim.n();
     let h = plan.h;
+    let gravity = &plan.gravity[..n];
     p.copy_from_slice(x);
-    for (i, &w) in plan.inverse_mass.iter().enumerate() {
+    let particles = x.chunks_exact_mut(n).zip(v.chunks_exact_mut(n));
+    let parameters = force
+        .chunks_exact(n)
+        .zip(plan.inverse_mass.iter().zip(&plan.gravity_scale));
+    for (i, ((xi, vi), (fi, (&w, &s)))) in particles.zip(parameters).enumerate() {
         if w == 0.0 {
             continue;
         }
-        let s = plan.gravity_scale[i];
-        let range = i * dim..(i + 1) * dim;
-        let (vi, xi) = (&mut v[range.clone()], &mut x[range.clone()]);
-        for a in 0..dim {
+        for a in 0..n {
             let mut acc = 0.0;
             if plan.predict.gravity {
-                acc += s * plan.gravity[a];
+                acc += s * gravity[a];
             }
             if plan.predict.force {
-                acc += w * force[i * dim + a];
+                acc += w * fi[a];
             }
             vi[a] += h * acc;
             xi[a] += h * vi[a];
@@ -48,17 +64,30 @@ pub fn predict(
 
 /// Velocity reconstruction.
 pub fn velocity(plan: &Plan, x: &[f64], v: &mut [f64], p: &[f64]) -> Result<(), usize> {
-    let dim = plan.dim;
+    with_dim!(plan.dim, velocity_in(plan, x, v, p))
+}
+
+fn velocity_in<D: Dim>(
+    dim: D,
+    plan: &Plan,
+    x: &[f64],
+    v: &mut [f64],
+    p: &[f64],
+) -> Result<(), usize> {
+    let n = dim.n();
     let h = plan.h;
-    for (i, &w) in plan.inverse_mass.iter().enumerate() {
+    let particles = v
+        .chunks_exact_mut(n)
+        .zip(x.chunks_exact(n).zip(p.chunks_exact(n)));
+    for (i, ((vi, (xi, pi)), &w)) in particles.zip(&plan.inverse_mass).enumerate() {
         if w == 0.0 {
             continue;
         }
-        for a in i * dim..(i + 1) * dim {
-            v[a] = (x[a] - p[a]) / h;
-            if !v[a].is_finite() {
-                return Err(i);
-            }
+        for a in 0..n {
+            vi[a] = (xi[a] - pi[a]) / h;
+        }
+        if !vi.iter().all(|c| c.is_finite()) {
+            return Err(i);
         }
     }
     Ok(())
@@ -66,13 +95,15 @@ pub fn velocity(plan: &Plan, x: &[f64], v: &mut [f64], p: &[f64]) -> Result<(), 
 
 /// Exponential damping with the plan's per-substep factor.
 pub fn damping(plan: &Plan, v: &mut [f64]) {
-    let Some((_, factor)) = plan.damping else {
-        return;
-    };
-    let dim = plan.dim;
-    for (i, &w) in plan.inverse_mass.iter().enumerate() {
+    if let Some((_, factor)) = plan.damping {
+        with_dim!(plan.dim, damping_in(plan, factor, v));
+    }
+}
+
+fn damping_in<D: Dim>(dim: D, plan: &Plan, factor: f64, v: &mut [f64]) {
+    for (vi, &w) in v.chunks_exact_mut(dim.n()).zip(&plan.inverse_mass) {
         if w > 0.0 {
-            for c in &mut v[i * dim..(i + 1) * dim] {
+            for c in vi {
                 *c *= factor;
             }
         }

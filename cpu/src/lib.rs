@@ -7,6 +7,7 @@
 //! bit-identical across runs and machines.
 
 mod backend;
+mod dim;
 mod friction;
 mod integrate;
 mod project;

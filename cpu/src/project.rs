@@ -9,7 +9,11 @@
 //! Σ_j w_j |∇_j C|² is w_0 + w_1 for distance and w for contacts (their
 //! gradients are unit vectors); measure kinds sum the computed gradients.
 //! If that sum is 0 (no dynamic particle, or ∇C = 0: coincident points, a
-//! collapsed simplex) the element makes no response.
+//! collapsed simplex) the element makes no response. Fixed particles
+//! (w = 0) are never written, not even with ±0.
+//!
+//! A contact checks the raw Δλ for NaN/Inf before the clamp (max(NaN, 0)
+//! would hide it).
 //!
 //! Static friction (hyperplane contact with μ > 0), after the normal update
 //! of an active contact (λ > 0):
@@ -19,6 +23,7 @@
 //! ```
 //! The whole tangent vector is cancelled or none of it — never per axis.
 
+use crate::dim::{Dim, with_dim};
 use hyperpbd_core::geometry::{Scratch, oriented_measure, simplex_squared_measure};
 use hyperpbd_core::{Family, FamilyKind};
 
@@ -68,55 +73,72 @@ fn distance(
     lambda: &mut [f64],
     ws: &mut Workspace,
 ) -> Result<(), usize> {
-    match batch.dim {
-        1 => distance_dim::<1>(batch, range, x, lambda),
-        2 => distance_dim::<2>(batch, range, x, lambda),
-        3 => distance_dim::<3>(batch, range, x, lambda),
-        4 => distance_dim::<4>(batch, range, x, lambda),
-        _ => measure(batch, range, x, lambda, ws),
+    if batch.dim <= MAX_INLINE_DIM {
+        with_dim!(batch.dim, distance_in(batch, range, x, lambda))
+    } else {
+        measure(batch, range, x, lambda, ws)
     }
 }
 
-/// Distance projection with the dimension known at compile time: the same
-/// arithmetic, in the same order, as the generic path.
-fn distance_dim<const D: usize>(
+/// Largest dimension whose distance difference vector lives on the stack.
+const MAX_INLINE_DIM: usize = 8;
+
+/// Distance projection: the same arithmetic, in the same order, as the
+/// generic path with `geometry::distance` (which is its reference).
+fn distance_in<D: Dim>(
+    dim: D,
     batch: &Batch,
     range: std::ops::Range<usize>,
     x: &mut [f64],
     lambda: &mut [f64],
 ) -> Result<(), usize> {
+    let n = dim.n();
     let f = batch.family;
     let w = batch.inverse_mass;
     let alpha_tilde = batch.alpha_tilde;
-    for e in range {
-        let i = f.elements[2 * e] as usize;
-        let j = f.elements[2 * e + 1] as usize;
+    let elements = f.elements[2 * range.start..2 * range.end].chunks_exact(2);
+    let slots = f.rest[range.clone()].iter().zip(&mut lambda[range.clone()]);
+    for (e, (element, (&rest, lambda))) in range.zip(elements.zip(slots)) {
+        let (i, j) = (element[0] as usize, element[1] as usize);
         let (wi, wj) = (w[i], w[j]);
-        let mut d = [0.0; D];
+        let mut d = [0.0; MAX_INLINE_DIM];
         let mut d2 = 0.0;
-        for a in 0..D {
-            d[a] = x[j * D + a] - x[i * D + a];
-            d2 += d[a] * d[a];
+        {
+            let (xi, xj) = (&x[i * n..i * n + n], &x[j * n..j * n + n]);
+            for a in 0..n {
+                d[a] = xj[a] - xi[a];
+                d2 += d[a] * d[a];
+            }
         }
         let len = d2.sqrt();
         let wsum = wi + wj;
-        if !(len > 0.0) || wsum == 0.0 {
+        if len.is_nan() || len <= 0.0 || wsum == 0.0 {
             if !len.is_finite() {
                 return Err(e);
             }
             continue;
         }
-        let c = len - f.rest[e];
-        let dl = (-c - alpha_tilde * lambda[e]) / (wsum + alpha_tilde);
+        let c = len - rest;
+        let dl = (-c - alpha_tilde * *lambda) / (wsum + alpha_tilde);
         if !dl.is_finite() {
             return Err(e);
         }
-        lambda[e] += dl;
+        *lambda += dl;
         let inv = 1.0 / len;
-        for a in 0..D {
-            let n = d[a] * inv;
-            x[i * D + a] += wi * -n * dl;
-            x[j * D + a] += wj * n * dl;
+        for c in &mut d[..n] {
+            *c *= inv;
+        }
+        if wi != 0.0 {
+            let xi = &mut x[i * n..i * n + n];
+            for a in 0..n {
+                xi[a] += wi * -d[a] * dl;
+            }
+        }
+        if wj != 0.0 {
+            let xj = &mut x[j * n..j * n + n];
+            for a in 0..n {
+                xj[a] += wj * d[a] * dl;
+            }
         }
     }
     Ok(())
@@ -177,6 +199,9 @@ fn measure(
         for (j, &i) in element.iter().enumerate() {
             let i = i as usize;
             let wi = w[i];
+            if wi == 0.0 {
+                continue;
+            }
             for a in 0..dim {
                 x[i * dim + a] += wi * ws.grad[j * dim + a] * dl;
             }
@@ -193,38 +218,55 @@ fn contact(
     x: &mut [f64],
     lambda: &mut [f64],
 ) -> Result<(), usize> {
-    let dim = batch.dim;
+    with_dim!(
+        batch.dim,
+        contact_in(batch, normal, friction, range, x, lambda)
+    )
+}
+
+fn contact_in<D: Dim>(
+    dim: D,
+    batch: &Batch,
+    normal: &[f64],
+    friction: f64,
+    range: std::ops::Range<usize>,
+    x: &mut [f64],
+    lambda: &mut [f64],
+) -> Result<(), usize> {
+    let n = dim.n();
+    let normal = &normal[..n];
     let f = batch.family;
     let alpha_tilde = batch.alpha_tilde;
-    for e in range {
-        let i = f.elements[e] as usize;
+    let slots = f.rest[range.clone()].iter().zip(&mut lambda[range.clone()]);
+    for (e, (&i, (&rest, lambda))) in range.clone().zip(f.elements[range].iter().zip(slots)) {
+        let i = i as usize;
         let w = batch.inverse_mass[i];
-        let xi = &mut x[i * dim..(i + 1) * dim];
-        let c = dot(normal, xi) - f.rest[e];
-        let l = lambda[e];
-        let dl = (-c - alpha_tilde * l) / (w + alpha_tilde);
-        let dl = (l + dl).max(0.0) - l;
-        if !dl.is_finite() {
+        let xi = &mut x[i * n..i * n + n];
+        let c = dot(normal, xi) - rest;
+        let l = *lambda;
+        let raw = (-c - alpha_tilde * l) / (w + alpha_tilde);
+        if !raw.is_finite() {
             return Err(e);
         }
-        lambda[e] = l + dl;
-        for a in 0..dim {
+        let dl = (l + raw).max(0.0) - l;
+        *lambda = l + dl;
+        for a in 0..n {
             xi[a] += w * normal[a] * dl;
         }
-        if friction > 0.0 && lambda[e] > 0.0 {
-            let p = &batch.start[i * dim..(i + 1) * dim];
+        if friction > 0.0 && *lambda > 0.0 {
+            let p = &batch.start[i * n..i * n + n];
             let mut dn = 0.0;
-            for a in 0..dim {
+            for a in 0..n {
                 dn += (xi[a] - p[a]) * normal[a];
             }
             let mut t2 = 0.0;
-            for a in 0..dim {
+            for a in 0..n {
                 let t = (xi[a] - p[a]) - dn * normal[a];
                 t2 += t * t;
             }
-            let bound = friction * w * lambda[e];
+            let bound = friction * w * *lambda;
             if t2.sqrt() <= bound {
-                for a in 0..dim {
+                for a in 0..n {
                     let t = (xi[a] - p[a]) - dn * normal[a];
                     xi[a] -= t;
                 }
