@@ -25,7 +25,11 @@ fn load(scene: &Scene, backend: &str) -> Option<Box<dyn Backend>> {
     let mut b: Box<dyn Backend> = match backend {
         "cpu-f64" => Box::new(CpuBackend::new(plan, &state).expect("cpu loads")),
         other => {
-            let precision = if other == "gpu-f64" { Precision::F64 } else { Precision::F32 };
+            let precision = if other == "gpu-f64" {
+                Precision::F64
+            } else {
+                Precision::F32
+            };
             match GpuBackend::new(plan, &state, precision) {
                 Ok(g) => Box::new(g),
                 Err(e) => {
@@ -54,7 +58,9 @@ fn step(c: &mut Criterion) {
     for n in [64, 128, 256, 512] {
         let scene = scenes::hanging_cloth(n);
         for backend in ["cpu-f64", "gpu-f32", "gpu-f64"] {
-            let Some(mut b) = load(&scene, backend) else { continue };
+            let Some(mut b) = load(&scene, backend) else {
+                continue;
+            };
             group.throughput(Throughput::Elements(projections(b.plan())));
             group.bench_function(BenchmarkId::new(backend, n), |bench| {
                 bench.iter(|| black_box(b.step().expect("step")));
@@ -64,7 +70,10 @@ fn step(c: &mut Criterion) {
     group.finish();
 
     let mut group = c.benchmark_group("step_1m");
-    group.sample_size(10).warm_up_time(Duration::from_millis(100)).measurement_time(Duration::from_secs(10));
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(100))
+        .measurement_time(Duration::from_secs(10));
     let scene = scenes::hanging_cloth(1024);
     if let Some(mut b) = load(&scene, "gpu-f32") {
         group.throughput(Throughput::Elements(projections(b.plan())));
@@ -77,16 +86,32 @@ fn step(c: &mut Criterion) {
 
 fn kernels(c: &mut Criterion) {
     let mut group = c.benchmark_group("kernel");
-    group.sample_size(20).warm_up_time(Duration::from_millis(300)).measurement_time(Duration::from_secs(2));
+    group
+        .sample_size(20)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(2));
     let scene = scenes::hanging_cloth(256);
     for backend in ["cpu-f64", "gpu-f32"] {
-        let Some(mut b) = load(&scene, backend) else { continue };
+        let Some(mut b) = load(&scene, backend) else {
+            continue;
+        };
         b.run_kernel(Kernel::Predict).expect("predict");
         let color_len = b.plan().families[0].color(0).len() as u64;
         let cases = [
             ("predict", Kernel::Predict, b.plan().particle_count() as u64),
-            ("project_distance_color0", Kernel::Project { family: 0, color: 0 }, color_len),
-            ("velocity", Kernel::Velocity, b.plan().particle_count() as u64),
+            (
+                "project_distance_color0",
+                Kernel::Project {
+                    family: 0,
+                    color: 0,
+                },
+                color_len,
+            ),
+            (
+                "velocity",
+                Kernel::Velocity,
+                b.plan().particle_count() as u64,
+            ),
         ];
         for (name, kernel, elements) in cases {
             group.throughput(Throughput::Elements(elements));
@@ -100,12 +125,17 @@ fn kernels(c: &mut Criterion) {
 
 fn overhead(c: &mut Criterion) {
     let mut group = c.benchmark_group("overhead");
-    group.sample_size(20).warm_up_time(Duration::from_millis(300)).measurement_time(Duration::from_secs(2));
+    group
+        .sample_size(20)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(2));
     let mut b = SceneBuilder::new(3).substeps(10).gravity_along(1, 9.81);
     b.particle(Particle::new(vec![0.0, 1.0, 0.0], 1.0));
     let scene = b.build().expect("valid");
     for backend in ["cpu-f64", "gpu-f32"] {
-        let Some(mut b) = load(&scene, backend) else { continue };
+        let Some(mut b) = load(&scene, backend) else {
+            continue;
+        };
         group.bench_function(BenchmarkId::new(backend, "one_particle_step"), |bench| {
             bench.iter(|| black_box(b.step().expect("step")));
         });

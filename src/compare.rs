@@ -89,7 +89,10 @@ impl ErrorModel {
 
     /// Position bound after `steps` steps with coordinates up to `scale`.
     pub fn position_bound(&self, scale: f64, steps: u64) -> f64 {
-        self.epsilon * scale.max(f64::MIN_POSITIVE) * self.ops_per_substep * (steps * u64::from(self.substeps)) as f64
+        self.epsilon
+            * scale.max(f64::MIN_POSITIVE)
+            * self.ops_per_substep
+            * (steps * u64::from(self.substeps)) as f64
     }
 
     /// Velocity bound matching [`ErrorModel::position_bound`].
@@ -126,7 +129,13 @@ pub struct Divergence {
 impl Divergence {
     /// Compares `other` against the golden `golden` with `model`; `scale` is
     /// the largest coordinate magnitude seen so far.
-    pub fn measure(model: &ErrorModel, golden: &State, other: &State, scale: f64, steps: u64) -> Self {
+    pub fn measure(
+        model: &ErrorModel,
+        golden: &State,
+        other: &State,
+        scale: f64,
+        steps: u64,
+    ) -> Self {
         Divergence {
             steps,
             position: max_abs_diff(&golden.positions, &other.positions),

@@ -13,6 +13,7 @@ pub use hyperpbd_core::*;
 pub use hyperpbd_cpu::CpuBackend;
 pub use hyperpbd_gpu as gpu;
 
+pub mod accuracy;
 pub mod compare;
 pub mod scenes;
 

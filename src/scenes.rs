@@ -59,7 +59,8 @@ pub fn hanging_cloth(n: usize) -> Scene {
     let grid = b.grid(&GridSpec::cloth(n, n, spacing, 1.0));
     b.fix(grid.index(&[0, n - 1]));
     b.fix(grid.index(&[n - 1, n - 1]));
-    b.build().unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+    b.build()
+        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
 }
 
 /// A soft tesseract in R^4: a 2×2×2×2-cell Kuhn block (81 nodes, 384
@@ -117,7 +118,8 @@ pub fn chain2d() -> Scene {
         links,
     ));
     b.hyperplane(vec![0.0, 1.0], 0.0, 0.3);
-    b.build().unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+    b.build()
+        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
 }
 
 /// Four particles on a 20° incline in R^5 with μ = 0.2 < tan 20° ≈ 0.364:

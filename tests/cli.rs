@@ -787,7 +787,6 @@ fn unwritable_output_exits_4() {
 /// trajectory's temporary file stays behind: run.rs returns from
 /// `write_atomically(path, …)?` before `finish_trajectory` runs.
 #[test]
-#[ignore = "bug: `run --out <unwritable> --trajectory T` exits 4 but leaves T.tmp behind (src/cli/run.rs, early return before finish_trajectory)"]
 fn failed_out_write_leaves_no_trajectory_tmp() {
     let dir = TempDir::new("tmp-left");
     let scene_path = dir.write("scene.json", EXAMPLE);

@@ -7,15 +7,17 @@ use hyperpbd::{Backend, CpuBackend, Plan, Scene, State};
 use std::path::Path;
 
 fn scene_file(name: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
 }
 
 #[test]
 fn shipped_builtin_scenes_match_their_builders() {
     for name in hyperpbd::scenes::NAMES {
         let path = scene_file(&format!("{name}.json"));
-        let loaded = Scene::from_json_file(&path)
-            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let loaded =
+            Scene::from_json_file(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let built = hyperpbd::scenes::by_name(name).expect("listed name");
         assert!(
             loaded == built,
@@ -34,19 +36,28 @@ fn every_shipped_scene_runs() {
         .filter(|p| p.extension().is_some_and(|x| x == "json"))
         .collect();
     names.sort();
-    assert!(names.len() >= 5, "expected the shipped scenes, found {names:?}");
+    assert!(
+        names.len() >= 5,
+        "expected the shipped scenes, found {names:?}"
+    );
     for path in names {
         let scene = Scene::from_json_file(&path).unwrap_or_else(|e| panic!("{e}"));
         let plan = Plan::compile(&scene).unwrap_or_else(|e| panic!("{e}"));
         let mut backend = CpuBackend::new(plan, &State::from_scene(&scene)).expect("loads");
         let mut worst: f64 = 0.0;
         for _ in 0..10 {
-            let report = backend.step().unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            let report = backend
+                .step()
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             worst = worst.max(report.max_violation());
         }
         let state = backend.read_state().expect("cpu read");
         assert!(
-            state.positions.iter().chain(&state.velocities).all(|x| x.is_finite()),
+            state
+                .positions
+                .iter()
+                .chain(&state.velocities)
+                .all(|x| x.is_finite()),
             "{}: non-finite state",
             path.display()
         );

@@ -195,11 +195,7 @@ impl ConstraintFamily {
 /// variant, which would cut the error path at `obstacles[i]` instead of
 /// naming the field.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(
-    tag = "type",
-    rename_all = "snake_case",
-    try_from = "ObstacleDocument"
-)]
+#[serde(tag = "type", rename_all = "snake_case", try_from = "ObstacleDocument")]
 pub enum Obstacle {
     /// The half-space n·x ≥ offset (+ particle radius) is admissible.
     Hyperplane {

@@ -218,7 +218,8 @@ impl Scene {
                         points.extend_from_slice(&self.particles[i].position);
                     }
                     grad.resize(points.len(), 0.0);
-                    let value = constraint_value(family.kind, &points, dim, &mut grad, &mut scratch);
+                    let value =
+                        constraint_value(family.kind, &points, dim, &mut grad, &mut scratch);
                     let path = || format!("constraints[{f}].elements[{e}]");
                     if !value.is_finite() {
                         return Err(SceneError::DegenerateRest {

@@ -40,7 +40,8 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
         PrecisionArg::F64 => Precision::F64,
     };
     let model = ErrorModel::new(&plan, precision.into());
-    let mut cpu = CpuBackend::new(plan.clone(), &state).map_err(|e| CliError::Input(e.to_string()))?;
+    let mut cpu =
+        CpuBackend::new(plan.clone(), &state).map_err(|e| CliError::Input(e.to_string()))?;
     let mut gpu = GpuBackend::new(plan, &state, precision)
         .map_err(|e| CliError::Input(format!("GPU: {e}")))?;
     println!(
@@ -51,7 +52,10 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
         model.epsilon,
         model.ops_per_substep
     );
-    println!("{:>6} {:>13} {:>13} {:>13} {:>13}  status", "frame", "max |dx|", "bound", "max |dv|", "bound");
+    println!(
+        "{:>6} {:>13} {:>13} {:>13} {:>13}  status",
+        "frame", "max |dx|", "bound", "max |dv|", "bound"
+    );
     let mut scale = coordinate_scale(&state);
     let mut worst: Option<Divergence> = None;
     let mut over = 0u64;
@@ -79,8 +83,12 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
                 if ok { "ok" } else { "OVER" }
             );
         }
-        let ratio = |d: &Divergence| (d.position / d.position_bound).max(d.velocity / d.velocity_bound);
-        if worst.as_ref().is_none_or(|w| ratio(&d) > ratio(w) || d.position.is_nan()) {
+        let ratio =
+            |d: &Divergence| (d.position / d.position_bound).max(d.velocity / d.velocity_bound);
+        if worst
+            .as_ref()
+            .is_none_or(|w| ratio(&d) > ratio(w) || d.position.is_nan())
+        {
             worst = Some(d);
         }
     }

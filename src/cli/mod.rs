@@ -1,7 +1,9 @@
 //! Subcommands and their shared plumbing.
 
+mod accuracy;
 mod compare;
 mod output;
+mod render;
 mod run;
 
 use clap::{Parser, Subcommand, ValueEnum};
@@ -41,6 +43,13 @@ enum Command {
     /// Run the CPU golden path and a GPU backend side by side and print the
     /// per-frame divergence against its derived bound (exit 3 when over).
     Compare(compare::CompareArgs),
+    /// Measure what accuracy costs in time: error against wall time per
+    /// backend, substeps and iterations; scaling; effect costs. Writes a
+    /// markdown report with PNG figures.
+    Accuracy(accuracy::AccuracyArgs),
+    /// Draw a run: PNG frames and an animated GIF (orthographic or
+    /// perspective projection of R^N; see docs/rendering.md).
+    Render(render::RenderArgs),
     /// Write a built-in scene as JSON (cloth, tesseract, chain2d, incline5d).
     Scene {
         /// Name of the built-in scene.
@@ -105,6 +114,8 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
         }
         Command::Demo { frames, backend } => run::demo(frames, backend),
         Command::Compare(args) => compare::compare(&args),
+        Command::Render(args) => render::render(&args),
+        Command::Accuracy(args) => accuracy::accuracy(&args),
         Command::Scene { name, out } => {
             let scene = hyperpbd::scenes::by_name(&name).ok_or_else(|| {
                 CliError::Input(format!(
@@ -149,10 +160,9 @@ pub fn load_backend(
     state: &State,
 ) -> Result<Box<dyn Backend>, CliError> {
     let gpu = |plan: Plan, precision: Precision| -> Result<Box<dyn Backend>, CliError> {
-        Ok(Box::new(
-            GpuBackend::new(plan, state, precision)
-                .map_err(|e| CliError::Input(format!("--backend gpu: {e}")))?,
-        ))
+        Ok(Box::new(GpuBackend::new(plan, state, precision).map_err(
+            |e| CliError::Input(format!("--backend gpu: {e}")),
+        )?))
     };
     match choice {
         BackendChoice::Cpu => Ok(Box::new(
@@ -179,7 +189,9 @@ pub fn load_backend(
                             eprintln!("notice: backend auto -> gpu-f32 on {}", summary.name);
                             return Ok(Box::new(b));
                         }
-                        Err(e) => format!("the GPU backend failed to load on {}: {e}", summary.name),
+                        Err(e) => {
+                            format!("the GPU backend failed to load on {}: {e}", summary.name)
+                        }
                     }
                 }
             };

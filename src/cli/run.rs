@@ -133,14 +133,24 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             return Err(e);
         }
     };
-    let state = read(backend.as_mut())?;
     let time = args.frames as f64 * dt;
-    if let Some(path) = &args.out {
-        write_atomically(
-            path,
-            (state_json(time, args.frames, &state) + "\n").as_bytes(),
-        )?;
-    }
+    // Any failure from here on discards the trajectory too: no partial output.
+    let written = read(backend.as_mut()).and_then(|state| {
+        if let Some(path) = &args.out {
+            write_atomically(
+                path,
+                (state_json(time, args.frames, &state) + "\n").as_bytes(),
+            )?;
+        }
+        Ok(state)
+    });
+    let state = match written {
+        Ok(state) => state,
+        Err(e) => {
+            finish_trajectory(trajectory, false)?;
+            return Err(e);
+        }
+    };
     finish_trajectory(trajectory, true)?;
     println!(
         "{}: {} frames, {time} s simulated in {wall:.3} s wall ({})",
@@ -221,6 +231,12 @@ pub fn demo(frames: u64, choice: BackendChoice) -> Result<(), CliError> {
         frames as f64 * dt,
         backend.plan().projections_per_step(),
         state.hash()
+    );
+    let picture = std::path::Path::new("out").join("demo.png");
+    super::render::demo_picture(&scene, &state, frames as f64 * dt, &picture)?;
+    println!(
+        "picture of the last frame: {} (more: hyperpbd render cloth --perspective)",
+        picture.display()
     );
     Ok(())
 }

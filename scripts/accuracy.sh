@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Regenerates the accuracy report from measurements on this machine:
+#   docs/accuracy.md, docs/figures/{accuracy_pareto,accuracy_cloth,scaling}.png,
+#   docs/figures/accuracy.json, and the README section "What accuracy costs".
+#
+#   scripts/accuracy.sh            # the full report (tens of minutes on 2 cores)
+#   scripts/accuracy.sh --reps 5   # extra options go to `hyperpbd accuracy`
+#
+# For a smoke test that leaves docs/ alone (under two minutes):
+#   cargo run --release -- accuracy --quick        # writes target/accuracy/
+#
+# GPU points need a Vulkan adapter; without one they are skipped with a
+# printed notice and the report says so. Like scripts/test.sh, this installs
+# lavapipe (Mesa's software Vulkan driver) when no driver is present.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if ! ls /usr/share/vulkan/icd.d/*.json >/dev/null 2>&1 || ! ldconfig -p | grep -q libvulkan.so.1; then
+    echo "scripts/accuracy.sh: no Vulkan driver found; installing lavapipe (mesa-vulkan-drivers, libvulkan1)"
+    if [ "$(id -u)" -eq 0 ]; then
+        apt-get update
+        DEBIAN_FRONTEND=noninteractive apt-get install -y mesa-vulkan-drivers libvulkan1
+    elif command -v sudo >/dev/null 2>&1; then
+        sudo apt-get update
+        sudo DEBIAN_FRONTEND=noninteractive apt-get install -y mesa-vulkan-drivers libvulkan1
+    else
+        echo "scripts/accuracy.sh: cannot install lavapipe (not root, no sudo); GPU points will be skipped" >&2
+    fi
+fi
+
+# Silence the Mesa device-select layer's XDG_RUNTIME_DIR warnings.
+export NODEVICE_SELECT=1
+exec cargo run --release -- accuracy --out docs --readme README.md "$@"
