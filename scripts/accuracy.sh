@@ -15,18 +15,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-if ! ls /usr/share/vulkan/icd.d/*.json >/dev/null 2>&1 || ! ldconfig -p | grep -q libvulkan.so.1; then
-    echo "scripts/accuracy.sh: no Vulkan driver found; installing lavapipe (mesa-vulkan-drivers, libvulkan1)"
-    if [ "$(id -u)" -eq 0 ]; then
-        apt-get update
-        DEBIAN_FRONTEND=noninteractive apt-get install -y mesa-vulkan-drivers libvulkan1
-    elif command -v sudo >/dev/null 2>&1; then
-        sudo apt-get update
-        sudo DEBIAN_FRONTEND=noninteractive apt-get install -y mesa-vulkan-drivers libvulkan1
-    else
-        echo "scripts/accuracy.sh: cannot install lavapipe (not root, no sudo); GPU points will be skipped" >&2
-    fi
-fi
+source scripts/install-lavapipe.sh
 
 # Silence the Mesa device-select layer's XDG_RUNTIME_DIR warnings.
 export NODEVICE_SELECT=1
