@@ -2,7 +2,7 @@
 //!
 //! Sequential, deterministic, and simple enough to audit line by line
 //! against DESIGN.md: every kernel of [`hyperpbd_core::Kernel`] is one
-//! function in its own file, run in the order the [`Plan`] lists. The
+//! function in its own file, run in the order the [`hyperpbd_core::Plan`] lists. The
 //! transcendental (damping factor) goes through `libm`, so results are
 //! bit-identical across runs and machines.
 
