@@ -56,6 +56,8 @@
 
 mod common;
 
+use common::Lcg;
+
 use common::gpu::adapter_or_skip;
 use hyperpbd::compare::{Divergence, ErrorModel, coordinate_scale, max_abs_diff};
 use hyperpbd::core::builders::{ChainSpec, GridSpec};
@@ -64,19 +66,6 @@ use hyperpbd::{
     Backend, CpuBackend, FamilyKind, Particle, Plan, Scene, SceneBuilder, State, StepReport,
 };
 use hyperpbd_gpu::{GpuBackend, Precision};
-
-/// A deterministic pseudo-random number in [−1, 1).
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        ((self.0 >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    }
-}
 
 fn build(b: SceneBuilder) -> Scene {
     b.build().expect("test scene is valid")

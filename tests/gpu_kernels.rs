@@ -72,6 +72,8 @@
 
 mod common;
 
+use common::Lcg;
+
 use common::gpu::adapter_or_skip;
 use hyperpbd::compare::{coordinate_scale, max_abs_diff};
 use hyperpbd::{
@@ -82,19 +84,6 @@ use hyperpbd_gpu::{GpuBackend, Precision};
 
 /// Roundings allowed for f64 on a chain the driver may contract.
 const R64: f64 = 4.0;
-
-/// A deterministic pseudo-random number in [−1, 1).
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        ((self.0 >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    }
-}
 
 fn eps(precision: Precision) -> f64 {
     hyperpbd::compare::Precision::from(precision).epsilon()

@@ -11,17 +11,7 @@ use hyperpbd::{
 /// The issue's example, with two more particles so that the
 /// `simplex_measure` element [0, 2, 3] and the `oriented_measure` element
 /// [1, 0, 2, 3] of the full example are valid.
-const EXAMPLE: &str = r#"{"dim": 3, "dt": 0.0166666, "substeps": 10, "iterations": 1,
- "gravity": [0.0, -9.81, 0.0],
- "particles": [{"position": [0,1,0], "velocity": [0,0,0], "mass": 1.0, "radius": 0.0, "gravity_scale": 1.0, "force": [0,0,0]},
-               {"position": [0,2,0], "fixed": true},
-               {"position": [0.5,1,0], "mass": 1.0},
-               {"position": [0,1,0.5], "mass": 1.0, "velocity": [1,0,0]}],
- "constraints": [{"type": "distance", "compliance": 0.0, "elements": [[0,1]], "rest": [1.0]},
-                 {"type": "simplex_measure", "compliance": 1e-6, "elements": [[0,2,3]]},
-                 {"type": "oriented_measure", "compliance": 0.0, "elements": [[1,0,2,3]]}],
- "obstacles": [{"type": "hyperplane", "normal": [0,1,0], "offset": 0.0, "friction": 0.5, "compliance": 0.0}],
- "damping": {"rate": 0.5}}"#;
+const EXAMPLE: &str = include_str!("../scenes/example.json");
 
 /// The issue's example exactly as written (two particles, one distance
 /// family).
