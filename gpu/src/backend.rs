@@ -18,6 +18,7 @@ use hyperpbd_core::{
     StepError, StepReport, check_forces, check_kernel, check_state,
 };
 
+use crate::origin::SceneOrigin;
 use crate::params::{Params, params_size, push_reals, read_reals, real_size};
 use crate::pipelines::{Entry, Pipelines};
 use crate::{AdapterSummary, Precision};
@@ -71,6 +72,8 @@ pub struct GpuBackend {
     kernels_per_substep: usize,
     errors: Arc<Mutex<Vec<String>>>,
     lost: Arc<Mutex<Option<String>>>,
+    /// Device positions are world positions − origin (f32 only).
+    origin: SceneOrigin,
 }
 
 fn groups_for(invocations: u32) -> (u32, u32) {
@@ -106,7 +109,27 @@ impl GpuBackend {
         state: &State,
         precision: Precision,
     ) -> Result<Self, BackendError> {
+        let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
+        Self::with_origin(adapter, plan, state, precision, origin)
+    }
+
+    /// Loads `plan` with `state`, storing positions relative to `origin`
+    /// (see [`SceneOrigin`]; [`GpuBackend::with_adapter`] picks it).
+    pub fn with_origin(
+        adapter: &wgpu::Adapter,
+        plan: Plan,
+        state: &State,
+        precision: Precision,
+        origin: SceneOrigin,
+    ) -> Result<Self, BackendError> {
         check_state(&plan, state)?;
+        if origin.as_slice().len() != plan.dim {
+            return Err(BackendError::InvalidCall(format!(
+                "scene origin has {} components; the plan has dim {}",
+                origin.as_slice().len(),
+                plan.dim
+            )));
+        }
         if plan.dim > crate::shader::MAX_GPU_DIM {
             return Err(GpuError::Unsupported {
                 what: format!(
@@ -136,7 +159,7 @@ impl GpuBackend {
 
         let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let built = Self::build(&device, &queue, &plan, state, precision);
+        let built = Self::build(&device, &queue, &plan, state, precision, &origin);
         let validation_error = pollster::block_on(validation.pop());
         let oom = pollster::block_on(scope.pop());
         if let Some(e) = oom {
@@ -168,6 +191,7 @@ impl GpuBackend {
             residual_dispatches,
             errors,
             lost,
+            origin,
         })
     }
 
@@ -178,6 +202,7 @@ impl GpuBackend {
         plan: &Plan,
         state: &State,
         precision: Precision,
+        origin: &SceneOrigin,
     ) -> Result<
         (
             Buffers,
@@ -204,8 +229,14 @@ impl GpuBackend {
         for f in &plan.families {
             bases.push((elements.len() as u32, rest.len() as u32));
             elements.extend_from_slice(&f.elements);
-            rest.extend_from_slice(&f.rest);
+            match &f.kind {
+                FamilyKind::HyperplaneContact { normal, .. } => {
+                    rest.extend(f.rest.iter().map(|&r| origin.local_offset(normal, r)))
+                }
+                _ => rest.extend_from_slice(&f.rest),
+            }
         }
+        let positions = origin.to_local(&state.positions);
         let slots = rest.len();
         let make = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
             create_buffer(device, queue, &limits, label, bytes, usage)
@@ -213,9 +244,9 @@ impl GpuBackend {
         let storage = wgpu::BufferUsages::STORAGE
             | wgpu::BufferUsages::COPY_DST
             | wgpu::BufferUsages::COPY_SRC;
-        let x = make("x", &reals(&state.positions), storage)?;
+        let x = make("x", &reals(&positions), storage)?;
         let v = make("v", &reals(&state.velocities), storage)?;
-        let p = make("p", &reals(&state.positions), storage)?;
+        let p = make("p", &reals(&positions), storage)?;
         let inv_mass = make("inverse_mass", &reals(&plan.inverse_mass), storage)?;
         let gravity_scale = make("gravity_scale", &reals(&plan.gravity_scale), storage)?;
         let force = make("force", &reals(&plan.force), storage)?;
@@ -227,7 +258,7 @@ impl GpuBackend {
         let report_len = 2 * plan.families.len();
         let report = make("report", &reals(&vec![0.0; report_len]), storage)?;
         let state_bytes = (n * dim * real_size(precision)) as u64;
-        let saved_x = make("saved_x", &reals(&state.positions), storage)?;
+        let saved_x = make("saved_x", &reals(&positions), storage)?;
         let saved_v = make("saved_v", &reals(&state.velocities), storage)?;
         let report_bytes = (report_len * real_size(precision)) as u64;
         let report_staging = make(
@@ -424,6 +455,11 @@ impl GpuBackend {
     /// The precision of the kernels.
     pub fn precision(&self) -> Precision {
         self.precision
+    }
+
+    /// The origin device positions are relative to.
+    pub fn origin(&self) -> &SceneOrigin {
+        &self.origin
     }
 
     /// Device bytes per particle and per constraint slot (buffers that
@@ -700,9 +736,11 @@ impl Backend for GpuBackend {
         }
         let data = self.read_mapped(&self.buffers.state_staging, 2 * bytes)?;
         let (xs, vs) = data.split_at(bytes as usize);
+        let mut positions = read_reals(xs, self.precision);
+        self.origin.to_world(&mut positions);
         Ok(State {
             dim: self.plan.dim,
-            positions: read_reals(xs, self.precision),
+            positions,
             velocities: read_reals(vs, self.precision),
         })
     }
@@ -710,7 +748,11 @@ impl Backend for GpuBackend {
     fn write_state(&mut self, state: &State) -> Result<(), BackendError> {
         check_state(&self.plan, state)?;
         let mut x = Vec::new();
-        push_reals(&mut x, &state.positions, self.precision);
+        push_reals(
+            &mut x,
+            &self.origin.to_local(&state.positions),
+            self.precision,
+        );
         let mut v = Vec::new();
         push_reals(&mut v, &state.velocities, self.precision);
         if !x.is_empty() {
