@@ -864,3 +864,32 @@ fn docs_errors_md_quotes_the_cli_messages() {
         assert!(docs.contains(m), "docs/errors.md does not quote {m:?}");
     }
 }
+
+/// `hyperpbd scene cloth | head -c 1`: the reader closes the pipe after one
+/// byte; the writer must stop quietly (exit 0, nothing on stderr) instead
+/// of panicking with "failed printing to stdout: Broken pipe".
+#[test]
+fn a_closed_stdout_pipe_ends_quietly() {
+    use std::io::Read;
+    let dir = TempDir::new("pipe");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_hyperpbd"))
+        .args(["scene", "cloth"])
+        .current_dir(&dir.0)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run the hyperpbd binary");
+    let mut first = [0u8; 1];
+    child
+        .stdout
+        .take()
+        .expect("stdout")
+        .read_exact(&mut first)
+        .expect("one byte");
+    // The pipe's read end is dropped here; the scene is ~170 kB, far more
+    // than a pipe buffer, so the writer hits EPIPE.
+    let out = child.wait_with_output().expect("wait");
+    assert_eq!(first[0], b'{');
+    assert_eq!(out.status.code(), Some(0), "stderr: {}", text(&out.stderr));
+    assert!(out.stderr.is_empty(), "stderr: {}", text(&out.stderr));
+}

@@ -462,6 +462,13 @@ impl GpuBackend {
         &self.origin
     }
 
+    /// Destroys the device, as a driver reset or a removed GPU would:
+    /// every later call answers [`GpuError::DeviceLost`]. For
+    /// fault-injection tests of that path.
+    pub fn destroy_device(&self) {
+        self.device.destroy();
+    }
+
     /// Device bytes per particle and per constraint slot (buffers that
     /// scale with them), for reports.
     pub fn bytes_per_particle_and_slot(&self) -> (usize, usize) {
@@ -508,8 +515,12 @@ impl GpuBackend {
                 submission_index: Some(index),
                 timeout: None,
             })
-            .map_err(|e| GpuError::DeviceLost {
-                message: e.to_string(),
+            .map_err(|e| {
+                // The device-lost callback's reason, when it has fired, says
+                // more than the failed wait.
+                self.check_device().err().unwrap_or(GpuError::DeviceLost {
+                    message: e.to_string(),
+                })
             })?;
         self.check_device()
     }

@@ -1,10 +1,13 @@
 //! Subcommands and their shared plumbing.
 
 mod accuracy;
+mod broken_pipe;
 mod compare;
 mod output;
 mod render;
 mod run;
+
+pub use broken_pipe::exit_quietly_on_broken_pipe;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use hyperpbd::gpu::{GpuBackend, Precision};
