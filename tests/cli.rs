@@ -893,3 +893,37 @@ fn a_closed_stdout_pipe_ends_quietly() {
     assert_eq!(out.status.code(), Some(0), "stderr: {}", text(&out.stderr));
     assert!(out.stderr.is_empty(), "stderr: {}", text(&out.stderr));
 }
+
+/// A run that fails after seven good frames (a particle at 1e308 moving
+/// at 1e307 m/s overflows in frame 8), with a trajectory written every
+/// frame: the seven written lines must not survive under any name —
+/// no partial `--trajectory`, no `--out`, no `.tmp`.
+#[test]
+fn a_failure_mid_run_leaves_no_partial_output() {
+    let dir = TempDir::new("mid-run");
+    let scene_path = dir.write(
+        "scene.json",
+        r#"{"dim": 1, "dt": 1, "particles": [{"position": [1e308], "velocity": [1e307], "mass": 1}]}"#,
+    );
+    let out = hyperpbd([
+        "run".as_ref(),
+        scene_path.as_os_str(),
+        "--backend".as_ref(),
+        "cpu".as_ref(),
+        "--frames".as_ref(),
+        "20".as_ref(),
+        "--out".as_ref(),
+        dir.path("final.json").as_os_str(),
+        "--trajectory".as_ref(),
+        dir.path("traj.jsonl").as_os_str(),
+        "--every".as_ref(),
+        "1".as_ref(),
+    ]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "stderr: {stderr}");
+    assert!(
+        stderr.contains("frame 8: step aborted in stage predict") && stderr.contains("rolled back"),
+        "{stderr}"
+    );
+    assert_eq!(dir.files(), ["scene.json"], "no partial output may remain");
+}
