@@ -1288,3 +1288,32 @@ fn one_particle(kind: Kind) {
         "rounding of n·x at |x| ≤ 1 m",
     );
 }
+
+/// `write_state` and `read_state` go through the same scene origin: a
+/// state written at 1e5 m reads back with the f32 rounding of the *local*
+/// coordinates (|x − o| ≤ 2 m: ≤ ulp(2)/2 = 1.2e-7 m), not of 1e5 m
+/// (3.9e-3 m).
+#[test]
+fn f32_state_round_trips_through_the_scene_origin() {
+    let Some((adapter, _)) = adapter_or_skip("f32_state_round_trips", Precision::F32) else {
+        return;
+    };
+    let d = 1e5;
+    let scene = offset_bridge(d);
+    let plan = Plan::compile(&scene).expect("valid");
+    let initial = State::from_scene(&scene);
+    let mut gpu = GpuBackend::with_adapter(&adapter, plan, &initial, Precision::F32).expect("gpu");
+    assert!(!gpu.origin().is_zero(), "a scene at 1e5 gets an origin");
+    let mut written = initial.clone();
+    for (i, x) in written.positions.iter_mut().enumerate() {
+        *x += 1e-3 * (i % 7) as f64;
+    }
+    gpu.write_state(&written).expect("write");
+    let back = gpu.read_state().expect("read");
+    let error = hyperpbd::compare::max_abs_diff(&back.positions, &written.positions);
+    let bound = f64::from(ulp32(2.0)) / 2.0;
+    println!(
+        "BOUND | f32 write/read at 1e5 | {error:.3e} | {bound:.3e} | ulp(2 m)/2: local coordinates"
+    );
+    assert!(error <= bound, "{error:e} > {bound:e}");
+}
