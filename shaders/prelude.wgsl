@@ -16,7 +16,7 @@ struct Params {
     slot_base: u32,    // offset of the family's slots in `rest`, `lambda`, `resid`
     arity: u32,        // particles per element
     call: u32,         // index of this call within the step (error reports)
-    flags: u32,        // bit 0: gravity term, bit 1: force term
+    flags: u32,        // predict: bit 0 gravity, bit 1 force; project_distance: 1 = tether; residual: family kind
     family: u32,       // family index (report slot)
     alpha_tilde: real, // α / h²
     h: real,           // substep length

@@ -5,6 +5,7 @@
 //   α~ = α / h²
 //   Δλ = (−C − α~ λ) / (Σ_j w_j |∇_j C|² + α~)
 //   contacts (C ≥ 0): λ' = max(λ + Δλ, 0);  Δλ = λ' − λ
+//   tethers (|x1 − x0| ≤ rest, params.flags == 1): λ' = min(λ + Δλ, 0)
 //   x_j += w_j ∇_j C Δλ
 //   static friction (active contact, μ > 0): Δt = tangential part of x − p;
 //   if |Δt| ≤ μ w λ then x −= Δt
@@ -39,10 +40,13 @@ fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
         return;
     }
     let c = len - rest[s];
-    let dl = (-c - params.alpha_tilde * lambda[s]) / (wsum + params.alpha_tilde);
+    var dl = (-c - params.alpha_tilde * lambda[s]) / (wsum + params.alpha_tilde);
     if (!finite(dl)) {
         fail(e);
         return;
+    }
+    if (params.flags == 1u) {
+        dl = min(lambda[s] + dl, 0.0) - lambda[s];
     }
     lambda[s] += dl;
     let inv = 1.0 / len;

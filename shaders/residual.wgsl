@@ -4,6 +4,7 @@
 // result does not depend on the reduction order.
 //
 //   equality:  |C(x)|          contact:  max(0, −C(x)),  active if λ > 0
+//   tether:    max(0, |x1 − x0| − rest)
 
 @compute @workgroup_size(64)
 fn residual(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -16,7 +17,7 @@ fn residual(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     var grad: array<real, POINTS>;
     gather(e, &pts);
     // params.flags holds the family kind here: 0 distance, 1 simplex
-    // measure, 2 oriented measure, 3 hyperplane contact.
+    // measure, 2 oriented measure, 3 hyperplane contact, 4 tether.
     let kind = params.flags;
     var violation: real;
     if (kind == 0u) {
@@ -25,6 +26,8 @@ fn residual(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
         violation = abs(simplex_squared_measure(&pts, params.arity - 1u, &grad) - rest[s]);
     } else if (kind == 2u) {
         violation = abs(oriented_measure(&pts, &grad) - rest[s]);
+    } else if (kind == 4u) {
+        violation = max(distance(&pts, &grad) - rest[s], 0.0);
     } else {
         var nx: real = 0.0;
         for (var a = 0u; a < DIM; a++) {

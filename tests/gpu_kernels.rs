@@ -320,6 +320,8 @@ fn project_roundings(plan: &Plan, family: usize) -> f64 {
     let n = plan.dim as f64;
     match plan.families[family].kind {
         FamilyKind::Distance => 2.0 * n + 13.0,
+        // The distance chain plus the clamp's two roundings (λ + Δλ, − λ).
+        FamilyKind::Tether => 2.0 * n + 15.0,
         FamilyKind::HyperplaneContact { .. } => 4.0 * n + 15.0,
         FamilyKind::SimplexMeasure { k } => 4.0 * n + 8.0 * k as f64 + 20.0,
         FamilyKind::OrientedMeasure => 4.0 * n + 8.0 * n + 20.0,

@@ -430,6 +430,35 @@ fn arity(path: &str, kind: &'static str, expected: &str, found: usize) -> SceneE
     }
 }
 
+/// `constraints[0]` turned into a tether family (same elements and rest).
+fn as_tether(s: &mut Scene) {
+    s.constraints[0].kind = ConstraintKind::Tether;
+}
+
+#[test]
+fn tether_arity_and_rest() {
+    let e = error(|s| {
+        as_tether(s);
+        s.constraints[0].elements[1] = vec![2];
+    });
+    assert_eq!(e, arity("constraints[0].elements[1]", "tether", "2", 1));
+    let e = error(|s| {
+        as_tether(s);
+        s.constraints[0].rest = Some(vec![1.0, -0.5]);
+    });
+    assert_eq!(
+        e,
+        SceneError::DegenerateRest {
+            path: "constraints[0].rest[1]".into(),
+            why: "a rest length must be >= 0".into()
+        }
+    );
+    let mut ok = base();
+    as_tether(&mut ok);
+    ok.validate()
+        .expect("a tether family like the distance family is valid");
+}
+
 #[test]
 fn distance_arity() {
     let e = error(|s| s.constraints[0].elements[1] = vec![2]);
@@ -829,6 +858,10 @@ fn catalogue() -> Vec<String> {
         v(Box::new(|s| s.constraints[0].elements[1] = vec![2, 4])),
         v(Box::new(|s| s.constraints[1].elements[0] = vec![0, 2, 0])),
         v(Box::new(|s| s.constraints[0].elements[1] = vec![2])),
+        v(Box::new(|s| {
+            as_tether(s);
+            s.constraints[0].elements[1] = vec![2];
+        })),
         v(Box::new(|s| s.constraints[1].elements[0] = vec![0])),
         v(Box::new(|s| {
             s.constraints[1].elements = vec![vec![0, 2, 3], vec![0, 2]];

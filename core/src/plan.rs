@@ -33,6 +33,8 @@ pub enum FamilyKind {
     },
     /// det([x1−x0 … xN−x0])/N! = rest.
     OrientedMeasure,
+    /// |x1 − x0| ≤ rest: one-sided distance (λ ≤ 0, it only pulls).
+    Tether,
     /// n·x − rest ≥ 0 with rest = offset + radius, per dynamic particle.
     HyperplaneContact {
         /// Unit normal.
@@ -50,11 +52,14 @@ impl FamilyKind {
             FamilyKind::Distance => "distance",
             FamilyKind::SimplexMeasure { .. } => "simplex_measure",
             FamilyKind::OrientedMeasure => "oriented_measure",
+            FamilyKind::Tether => "tether",
             FamilyKind::HyperplaneContact { .. } => "hyperplane_contact",
         }
     }
 
-    /// True for inequality (C ≥ 0) families.
+    /// True for contact families (inequality C ≥ 0 whose active elements
+    /// are counted as contacts). Tethers are one-sided too but are not
+    /// contacts.
     pub fn is_inequality(&self) -> bool {
         matches!(self, FamilyKind::HyperplaneContact { .. })
     }
@@ -228,6 +233,7 @@ impl Plan {
                 ConstraintKind::Distance => FamilyKind::Distance,
                 ConstraintKind::SimplexMeasure => FamilyKind::SimplexMeasure { k: arity - 1 },
                 ConstraintKind::OrientedMeasure => FamilyKind::OrientedMeasure,
+                ConstraintKind::Tether => FamilyKind::Tether,
             };
             let flat: Vec<usize> = authored.elements.iter().flatten().copied().collect();
             let rest: Vec<f64> = match &authored.rest {

@@ -146,6 +146,9 @@ pub enum ConstraintKind {
     /// C = det([x1−x0 … xN−x0])/N! − rest (N+1 particles): the signed
     /// full-dimensional measure.
     OrientedMeasure,
+    /// |x1 − x0| ≤ rest (2 particles): a one-sided distance, a long-range
+    /// attachment (tether) that only ever pulls.
+    Tether,
 }
 
 impl ConstraintKind {
@@ -155,6 +158,7 @@ impl ConstraintKind {
             ConstraintKind::Distance => "distance",
             ConstraintKind::SimplexMeasure => "simplex_measure",
             ConstraintKind::OrientedMeasure => "oriented_measure",
+            ConstraintKind::Tether => "tether",
         }
     }
 }

@@ -150,7 +150,7 @@ impl Scene {
                     found: element.len(),
                 };
                 match family.kind {
-                    ConstraintKind::Distance if element.len() != 2 => {
+                    ConstraintKind::Distance | ConstraintKind::Tether if element.len() != 2 => {
                         return Err(arity_error("2".into()));
                     }
                     ConstraintKind::SimplexMeasure if !(2..=dim + 1).contains(&element.len()) => {
@@ -197,7 +197,9 @@ impl Scene {
                     let path = format!("constraints[{f}].rest[{e}]");
                     finite(|| path.clone(), r)?;
                     let why = match family.kind {
-                        ConstraintKind::Distance if r < 0.0 => "a rest length must be >= 0",
+                        ConstraintKind::Distance | ConstraintKind::Tether if r < 0.0 => {
+                            "a rest length must be >= 0"
+                        }
                         ConstraintKind::SimplexMeasure if r < 0.0 => {
                             "a squared measure must be >= 0"
                         }

@@ -6,6 +6,9 @@
 //! inequality (C ≥ 0):  λ' = max(λ + Δλ, 0);  Δλ = λ' − λ
 //! x_j += w_j ∇_j C Δλ
 //! ```
+//! Tethers (|x1 − x0| ≤ rest) are distances with the one-sided clamp
+//! λ' = min(λ + Δλ, 0); Δλ = λ' − λ (they only pull).
+//!
 //! Σ_j w_j |∇_j C|² is w_0 + w_1 for distance and w for contacts (their
 //! gradients are unit vectors); measure kinds sum the computed gradients.
 //! If that sum is 0 (no dynamic particle, or ∇C = 0: coincident points, a
@@ -56,7 +59,7 @@ pub fn project(
     ws: &mut Workspace,
 ) -> Result<(), usize> {
     match &batch.family.kind {
-        FamilyKind::Distance => distance(batch, range, x, lambda, ws),
+        FamilyKind::Distance | FamilyKind::Tether => distance(batch, range, x, lambda, ws),
         FamilyKind::HyperplaneContact { normal, friction } => {
             contact(batch, normal, *friction, range, x, lambda)
         }
@@ -96,6 +99,7 @@ fn distance_in<D: Dim>(
     let f = batch.family;
     let w = batch.inverse_mass;
     let alpha_tilde = batch.alpha_tilde;
+    let tether = f.kind == FamilyKind::Tether;
     let elements = f.elements[2 * range.start..2 * range.end].chunks_exact(2);
     let slots = f.rest[range.clone()].iter().zip(&mut lambda[range.clone()]);
     for (e, (element, (&rest, lambda))) in range.zip(elements.zip(slots)) {
@@ -119,9 +123,12 @@ fn distance_in<D: Dim>(
             continue;
         }
         let c = len - rest;
-        let dl = (-c - alpha_tilde * *lambda) / (wsum + alpha_tilde);
+        let mut dl = (-c - alpha_tilde * *lambda) / (wsum + alpha_tilde);
         if !dl.is_finite() {
             return Err(e);
+        }
+        if tether {
+            dl = (*lambda + dl).min(0.0) - *lambda;
         }
         *lambda += dl;
         let inv = 1.0 / len;
@@ -165,7 +172,7 @@ fn measure(
             ws.points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
         }
         let value = match f.kind {
-            FamilyKind::Distance => {
+            FamilyKind::Distance | FamilyKind::Tether => {
                 hyperpbd_core::geometry::distance(&ws.points, dim, &mut ws.grad)
             }
             FamilyKind::SimplexMeasure { .. } => {
@@ -177,7 +184,7 @@ fn measure(
             return Err(e);
         }
         let mut wsum = 0.0;
-        if f.kind == FamilyKind::Distance {
+        if matches!(f.kind, FamilyKind::Distance | FamilyKind::Tether) {
             if value > 0.0 {
                 wsum = w[element[0] as usize] + w[element[1] as usize];
             }
@@ -191,9 +198,12 @@ fn measure(
             continue;
         }
         let c = value - f.rest[e];
-        let dl = (-c - batch.alpha_tilde * lambda[e]) / (wsum + batch.alpha_tilde);
+        let mut dl = (-c - batch.alpha_tilde * lambda[e]) / (wsum + batch.alpha_tilde);
         if !dl.is_finite() {
             return Err(e);
+        }
+        if f.kind == FamilyKind::Tether {
+            dl = (lambda[e] + dl).min(0.0) - lambda[e];
         }
         lambda[e] += dl;
         for (j, &i) in element.iter().enumerate() {

@@ -3,6 +3,7 @@
 //! ```text
 //! equality:   max_e |C_e(x)|
 //! contact:    max_e max(0, −C_e(x))
+//! tether:     max_e max(0, |x1 − x0| − rest)
 //! ```
 
 use crate::dim::{Dim, with_dim};
@@ -35,6 +36,7 @@ pub fn residual(dim: usize, family: &Family, x: &[f64], ws: &mut Workspace) -> F
         }
         let violation = match &family.kind {
             FamilyKind::Distance => (distance(points, dim, grad) - family.rest[e]).abs(),
+            FamilyKind::Tether => (distance(points, dim, grad) - family.rest[e]).max(0.0),
             FamilyKind::SimplexMeasure { .. } => {
                 (simplex_squared_measure(points, dim, grad, scratch) - family.rest[e]).abs()
             }

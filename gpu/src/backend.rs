@@ -91,6 +91,7 @@ fn kind_code(kind: &FamilyKind) -> u32 {
         FamilyKind::SimplexMeasure { .. } => 1,
         FamilyKind::OrientedMeasure => 2,
         FamilyKind::HyperplaneContact { .. } => 3,
+        FamilyKind::Tether => 4,
     }
 }
 
@@ -318,6 +319,11 @@ impl GpuBackend {
                         params.alpha_tilde = f.compliance / (plan.h * plan.h);
                         let entry = match &f.kind {
                             FamilyKind::Distance => Entry::ProjectDistance,
+                            FamilyKind::Tether => {
+                                // project_distance with the one-sided clamp.
+                                params.flags = 1;
+                                Entry::ProjectDistance
+                            }
                             FamilyKind::SimplexMeasure { .. } => Entry::ProjectSimplexMeasure,
                             FamilyKind::OrientedMeasure => Entry::ProjectOrientedMeasure,
                             FamilyKind::HyperplaneContact { normal, friction } => {

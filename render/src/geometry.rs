@@ -74,7 +74,7 @@ fn evaluate(
     scratch: &mut Scratch,
 ) -> f64 {
     match kind {
-        ConstraintKind::Distance => distance(points, dim, grad),
+        ConstraintKind::Distance | ConstraintKind::Tether => distance(points, dim, grad),
         ConstraintKind::SimplexMeasure => simplex_squared_measure(points, dim, grad, scratch),
         ConstraintKind::OrientedMeasure => oriented_measure(points, dim, grad, scratch),
     }
@@ -118,7 +118,7 @@ impl SceneGeometry {
                     .collect(),
             };
             let power = match family.kind {
-                ConstraintKind::Distance => 1,
+                ConstraintKind::Distance | ConstraintKind::Tether => 1,
                 ConstraintKind::SimplexMeasure => 2 * (arity - 1),
                 ConstraintKind::OrientedMeasure => dim,
             };

@@ -1,9 +1,10 @@
 //! Builders for real scenes: particle grids with edge springs (cloth is a
-//! 2-grid in R^3), Kuhn-simplexized soft N-cuboids, chains.
+//! 2-grid in R^3), Kuhn-simplexized soft N-cuboids, chains, tethers.
 
 mod chain;
 mod grid;
 mod kuhn;
+mod tether;
 
 pub use chain::ChainSpec;
 pub use grid::{Grid, GridSpec};

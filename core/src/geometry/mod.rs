@@ -49,7 +49,9 @@ pub fn constraint_value(
     scratch: &mut Scratch,
 ) -> f64 {
     match kind {
-        crate::ConstraintKind::Distance => distance(points, dim, grad),
+        crate::ConstraintKind::Distance | crate::ConstraintKind::Tether => {
+            distance(points, dim, grad)
+        }
         crate::ConstraintKind::SimplexMeasure => {
             simplex_squared_measure(points, dim, grad, scratch)
         }
