@@ -8,6 +8,7 @@
 //! Nothing here knows about wgpu.
 
 mod backend;
+pub mod broadphase;
 pub mod builders;
 mod coloring;
 mod error;
