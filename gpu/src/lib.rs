@@ -13,9 +13,11 @@
 
 pub mod adapter;
 mod backend;
+pub mod broadphase;
 mod params;
 mod pipelines;
 pub mod shader;
 
 pub use adapter::*;
 pub use backend::GpuBackend;
+pub use broadphase::{GpuSweep, SweepStats};
