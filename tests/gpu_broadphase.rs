@@ -174,3 +174,22 @@ fn gpu_sweep_grows_an_overflowing_pair_buffer_and_drops_nothing() {
         );
     }
 }
+
+/// The whole-step GPU backend does not run particle contacts yet: it must
+/// refuse such a plan with a typed error, never drop the contacts.
+#[test]
+fn gpu_backend_refuses_a_plan_with_collisions() {
+    let Some((adapter, _)) = adapter_or_skip("gpu_refuses_collisions", Precision::F32) else {
+        return;
+    };
+    let scene = hyperpbd::scenes::sandpile2d();
+    let plan = hyperpbd::Plan::compile(&scene).expect("valid");
+    let state = hyperpbd::State::from_scene(&scene);
+    match hyperpbd_gpu::GpuBackend::with_adapter(&adapter, plan, &state, Precision::F32) {
+        Err(hyperpbd_core::BackendError::Gpu(hyperpbd_core::GpuError::Unsupported { what })) => {
+            assert!(what.contains("collisions"), "{what}");
+        }
+        Err(e) => panic!("wrong error: {e}"),
+        Ok(_) => panic!("the GPU backend must refuse particle contacts it does not run"),
+    }
+}
