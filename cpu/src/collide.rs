@@ -31,7 +31,6 @@
 //! scheduling; there are no floating-point atomics. Fixed particles
 //! (w = 0) are never written.
 
-
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
 
