@@ -14,6 +14,7 @@
 pub mod adapter;
 mod backend;
 pub mod broadphase;
+pub mod collide;
 mod params;
 mod pipelines;
 pub mod shader;
@@ -21,3 +22,4 @@ pub mod shader;
 pub use adapter::*;
 pub use backend::GpuBackend;
 pub use broadphase::{GpuSweep, SweepStats};
+pub use collide::{CollideInput, GpuCollide};

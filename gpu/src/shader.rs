@@ -21,6 +21,7 @@ const RESIDUAL: &str = include_str!("../../shaders/residual.wgsl");
 const BROADPHASE: &str = include_str!("../../shaders/broadphase.wgsl");
 const RADIX_SORT: &str = include_str!("../../shaders/radix_sort.wgsl");
 const SWEEP: &str = include_str!("../../shaders/sweep.wgsl");
+const COLLIDE: &str = include_str!("../../shaders/collide.wgsl");
 
 /// A kernel family: one WGSL file and its entry points.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -38,17 +39,20 @@ pub enum ShaderFile {
     RadixSort,
     /// `sweep.wgsl`: box keys and the sort-and-sweep count / emit.
     Sweep,
+    /// `collide.wgsl`: one gather-Jacobi iteration of particle contact.
+    Collide,
 }
 
 impl ShaderFile {
     /// Every kernel family.
-    pub const ALL: [ShaderFile; 6] = [
+    pub const ALL: [ShaderFile; 7] = [
         ShaderFile::Integrate,
         ShaderFile::Project,
         ShaderFile::Friction,
         ShaderFile::Residual,
         ShaderFile::RadixSort,
         ShaderFile::Sweep,
+        ShaderFile::Collide,
     ];
 
     /// The files of the step kernels (group-0 state layout).
@@ -71,6 +75,7 @@ impl ShaderFile {
             ShaderFile::Residual => "residual.wgsl",
             ShaderFile::RadixSort => "radix_sort.wgsl",
             ShaderFile::Sweep => "sweep.wgsl",
+            ShaderFile::Collide => "collide.wgsl",
         }
     }
 
@@ -88,6 +93,7 @@ impl ShaderFile {
             ShaderFile::Residual => &["residual", "reduce"],
             ShaderFile::RadixSort => &["histogram", "scatter", "scan_blocks", "scan_add"],
             ShaderFile::Sweep => &["box_keys", "sweep_count", "sweep_emit"],
+            ShaderFile::Collide => &["collide_pairs", "collide_gather"],
         }
     }
 
@@ -108,6 +114,7 @@ impl ShaderFile {
             ShaderFile::Residual => &[PRELUDE, MEASURE, RESIDUAL],
             ShaderFile::RadixSort => &[BROADPHASE, RADIX_SORT],
             ShaderFile::Sweep => &[BROADPHASE, SWEEP],
+            ShaderFile::Collide => &[COLLIDE],
         }
     }
 }
