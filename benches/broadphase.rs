@@ -222,7 +222,12 @@ fn scaling_report() {
     }
 }
 
-criterion_group!(benches, broadphase, granular);
+criterion_group! {
+    name = benches;
+    // No plots: plotters needs a system font that CI machines may lack.
+    config = Criterion::default().without_plots();
+    targets = broadphase, granular
+}
 
 fn main() {
     if std::env::var("HYPERPBD_SCALING").is_ok_and(|v| v == "1") {
@@ -230,7 +235,8 @@ fn main() {
         return;
     }
     benches();
-    criterion::Criterion::default()
+    Criterion::default()
+        .without_plots()
         .configure_from_args()
         .final_summary();
 }
