@@ -184,3 +184,45 @@ fn gpu_collide_matches_cpu_f64() {
 fn gpu_collide_matches_cpu_f32() {
     differential(Precision::F32);
 }
+
+/// The GPU sweep and contact iteration are bit-identical across runs on one
+/// adapter (integer sort and scan; no float atomics; fixed gather order).
+#[test]
+fn gpu_sweep_and_collide_are_deterministic() {
+    for precision in [Precision::F32, Precision::F64] {
+        let Some((adapter, _)) = adapter_or_skip("gpu_collide_determinism", precision) else {
+            return;
+        };
+        let scene = hyperpbd::scenes::ballpit4d();
+        let plan = Plan::compile(&scene).expect("valid");
+        let mut cpu = CpuBackend::new(plan.clone(), &State::from_scene(&scene)).expect("cpu");
+        for _ in 0..20 {
+            cpu.step().expect("step");
+        }
+        let x = cpu.read_state().expect("read").positions;
+        let contacts_plan = plan.contacts.expect("collisions");
+        let mut contacts = Contacts::default();
+        collide::broadphase(&plan, contacts_plan.margin, &x, &x, &mut contacts);
+        let gpu = GpuCollide::with_adapter(&adapter, plan.dim, precision).expect("kernels");
+        let input = CollideInput {
+            x: &x,
+            p: &x,
+            inverse_mass: &plan.inverse_mass,
+            radius: &plan.radius,
+            pairs: &contacts.pairs,
+            offsets: &contacts.offsets,
+            entries: &contacts.entries,
+            friction: contacts_plan.friction,
+        };
+        let bits = |v: Vec<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let first = bits(gpu.iterate(&input, 8).expect("run 1"));
+        let second = bits(gpu.iterate(&input, 8).expect("run 2"));
+        assert!(first == second, "{precision}: collide differs between runs");
+        let boxes = hyperpbd_core::broadphase::Aabbs::particles(4, &x, &plan.radius, 0.02);
+        let mut sweep =
+            hyperpbd_gpu::GpuSweep::with_adapter(&adapter, 4, precision, 8).expect("sweep");
+        let a = sweep.sweep(&boxes, 3).expect("sweep 1");
+        let b = sweep.sweep(&boxes, 3).expect("sweep 2");
+        assert_eq!(a, b, "{precision}: sweep differs between runs");
+    }
+}
