@@ -34,7 +34,7 @@
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
 
-use hyperpbd_core::broadphase::{Aabbs, Pair, sweep_axis, sweep_pairs};
+use hyperpbd_core::broadphase::{Aabbs, Pair, contact_lists, sweep_axis, sweep_pairs};
 use hyperpbd_core::{FamilyResidual, Plan};
 
 /// Candidate pairs and each particle's contact list.
@@ -67,23 +67,7 @@ pub fn broadphase(plan: &Plan, margin: f64, p: &[f64], x: &[f64], contacts: &mut
     let w = &plan.inverse_mass;
     let mut pairs = sweep_pairs(&boxes, sweep_axis(&boxes));
     pairs.retain(|&[i, j]| w[i as usize] + w[j as usize] > 0.0);
-    let mut offsets = vec![0u32; n + 1];
-    for &[i, j] in &pairs {
-        offsets[i as usize + 1] += 1;
-        offsets[j as usize + 1] += 1;
-    }
-    for k in 0..n {
-        offsets[k + 1] += offsets[k];
-    }
-    let mut fill = offsets.clone();
-    let mut entries = vec![0u32; 2 * pairs.len()];
-    for (e, &[i, j]) in pairs.iter().enumerate() {
-        for (side, k) in [(0u32, i), (1, j)] {
-            let at = &mut fill[k as usize];
-            entries[*at as usize] = 2 * e as u32 + side;
-            *at += 1;
-        }
-    }
+    let (offsets, entries) = contact_lists(&pairs, n);
     contacts.corrections.clear();
     contacts.corrections.resize(pairs.len() * dim, 0.0);
     contacts.active.clear();

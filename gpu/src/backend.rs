@@ -19,8 +19,11 @@ use hyperpbd_core::{
 };
 
 use crate::params::{Params, params_size, push_reals, read_reals, real_size};
+
+mod contact_step;
 use crate::pipelines::{Entry, Pipelines};
 use crate::{AdapterSummary, Precision};
+use contact_step::ContactStage;
 
 const WORKGROUP: u32 = 64;
 const MAX_GROUPS_X: u32 = 65_535;
@@ -39,6 +42,8 @@ struct Dispatch {
 struct Buffers {
     x: wgpu::Buffer,
     v: wgpu::Buffer,
+    /// Positions at the substep start (read by the contact broadphase).
+    p: wgpu::Buffer,
     force: wgpu::Buffer,
     status: wgpu::Buffer,
     report: wgpu::Buffer,
@@ -71,6 +76,8 @@ pub struct GpuBackend {
     kernels_per_substep: usize,
     errors: Arc<Mutex<Vec<String>>>,
     lost: Arc<Mutex<Option<String>>>,
+    /// Broadphase and contact kernels, when the plan has collisions.
+    contacts: Option<ContactStage>,
 }
 
 fn groups_for(invocations: u32) -> (u32, u32) {
@@ -117,12 +124,6 @@ impl GpuBackend {
             }
             .into());
         }
-        if plan.contacts.is_some() {
-            return Err(GpuError::Unsupported {
-                what: "particle–particle collisions in a whole GPU step (the GPU broadphase is GpuSweep; the contact solve runs on the CPU backend)".into(),
-            }
-            .into());
-        }
         let summary = AdapterSummary::of(adapter);
         let (device, queue) = crate::request_device(adapter, precision)?;
         let errors: Arc<Mutex<Vec<String>>> = Arc::default();
@@ -159,7 +160,18 @@ impl GpuBackend {
         }
         let (buffers, pipelines, state_group, params_group, step_dispatches, residual_dispatches) =
             built?;
+        let contacts = match plan.contacts {
+            Some(c) => Some(ContactStage::new(
+                &device,
+                &queue,
+                errors.clone(),
+                (plan.dim, plan.particle_count(), precision),
+                c,
+            )?),
+            None => None,
+        };
         Ok(GpuBackend {
+            contacts,
             kernels_per_substep: plan.substep_kernels.len(),
             plan,
             precision,
@@ -276,8 +288,7 @@ impl GpuBackend {
                         params.count = n as u32;
                         (Entry::Velocity, n as u32)
                     }
-                    // Rejected in `with_adapter`: the GPU contact kernels
-                    // are not written yet.
+                    // Run by `contact_step` between these dispatches.
                     Kernel::Broadphase | Kernel::Collide => continue,
                     Kernel::Damping => {
                         params.count = n as u32;
@@ -405,6 +416,7 @@ impl GpuBackend {
         let buffers = Buffers {
             x,
             v,
+            p,
             force,
             status,
             report,
@@ -627,6 +639,9 @@ impl Backend for GpuBackend {
     }
 
     fn step(&mut self) -> Result<StepReport, BackendError> {
+        if self.contacts.is_some() {
+            return self.step_with_contacts();
+        }
         self.reset_status();
         let bytes = self.buffers.state_bytes;
         let mut encoder = self.device.create_command_encoder(&Default::default());
@@ -741,6 +756,13 @@ impl Backend for GpuBackend {
 
     fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
         check_kernel(&self.plan, kernel)?;
+        if self.contacts.is_some() {
+            return Err(BackendError::InvalidCall(
+                "single kernel calls on a plan with collisions are not offered on the GPU; \
+                 the contact kernels are checked alone through GpuSweep and GpuCollide"
+                    .into(),
+            ));
+        }
         let Some(index) = self.plan.substep_kernels.iter().position(|&k| k == kernel) else {
             return Err(BackendError::InvalidCall(format!(
                 "{kernel:?} is not in this plan's schedule"

@@ -227,6 +227,19 @@ impl GpuSweep {
                 v.push(e.to_string());
             }
         }));
+        Self::with_device(device, queue, errors, dim, precision, pair_capacity)
+    }
+
+    /// As [`GpuSweep::with_adapter`] on an existing device, whose
+    /// uncaptured errors land in `errors`.
+    pub(crate) fn with_device(
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        errors: Arc<Mutex<Vec<String>>>,
+        dim: usize,
+        precision: Precision,
+        pair_capacity: usize,
+    ) -> Result<Self, GpuError> {
         let limits = device.limits();
         if limits.max_storage_buffers_per_shader_stage < 7 {
             return Err(GpuError::Unsupported {

@@ -43,6 +43,28 @@ pub struct CollideInput<'a> {
     pub friction: f64,
 }
 
+/// The per-particle data and lists of one broadphase (resident mode).
+#[derive(Clone, Copy)]
+pub(crate) struct ContactLists<'a> {
+    pub(crate) inverse_mass: &'a [f64],
+    pub(crate) radius: &'a [f64],
+    pub(crate) pairs: &'a [Pair],
+    pub(crate) offsets: &'a [u32],
+    pub(crate) entries: &'a [u32],
+    pub(crate) friction: f64,
+}
+
+/// Buffers and bind group of one substep's contact lists, bound to a
+/// backend's resident positions.
+pub(crate) struct Resident {
+    group: wgpu::BindGroup,
+    /// Corrections and active flags, `pairs × (dim + 1)` reals.
+    pub(crate) corr: wgpu::Buffer,
+    pub(crate) corr_bytes: u64,
+    pairs: usize,
+    particles: usize,
+}
+
 /// The contact kernels for one dimension and precision.
 pub struct GpuCollide {
     device: wgpu::Device,
@@ -97,6 +119,17 @@ impl GpuCollide {
                 v.push(e.to_string());
             }
         }));
+        Self::with_device(device, queue, errors, dim, precision)
+    }
+
+    /// As [`GpuCollide::with_adapter`] on an existing device.
+    pub(crate) fn with_device(
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        errors: Arc<Mutex<Vec<String>>>,
+        dim: usize,
+        precision: Precision,
+    ) -> Result<Self, GpuError> {
         let read_only = [true, false, true, true, true, false];
         let entries: Vec<_> = read_only
             .iter()
@@ -141,6 +174,79 @@ impl GpuCollide {
         };
         collide.check_device()?;
         Ok(collide)
+    }
+
+    /// Binds the kernels to resident position buffers `x` and `p` (of this
+    /// device) with the lists of one broadphase, for [`GpuCollide::encode`].
+    pub(crate) fn bind_resident(
+        &self,
+        x: &wgpu::Buffer,
+        p: &wgpu::Buffer,
+        lists: &ContactLists,
+    ) -> Resident {
+        let ContactLists {
+            inverse_mass,
+            radius,
+            pairs,
+            offsets,
+            entries,
+            friction,
+        } = *lists;
+        let n = inverse_mass.len();
+        let mut params = Vec::new();
+        let offsets_at = 2 * pairs.len() as u32;
+        let entries_at = offsets_at + n as u32 + 1;
+        for word in [pairs.len() as u32, n as u32, offsets_at, entries_at] {
+            params.extend_from_slice(&word.to_le_bytes());
+        }
+        push_reals(&mut params, &[friction], self.precision);
+        params.resize(params.len().next_multiple_of(16), 0);
+        let props: Vec<f64> = inverse_mass
+            .iter()
+            .zip(radius)
+            .flat_map(|(&w, &r)| [w, r])
+            .collect();
+        let mut props_bytes = Vec::new();
+        push_reals(&mut props_bytes, &props, self.precision);
+        let mut lists: Vec<u32> = pairs.iter().flatten().copied().collect();
+        lists.extend_from_slice(offsets);
+        lists.extend_from_slice(entries);
+        let params = self.storage("collide params", &params);
+        let props = self.storage("props", &props_bytes);
+        let lists = self.storage("lists", bytemuck::cast_slice(&lists));
+        let corr_bytes = pairs.len() * (self.dim + 1) * real_size(self.precision);
+        let corr = self.storage("corrections", &vec![0u8; corr_bytes]);
+        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("collide resident"),
+            layout: &self.layout,
+            entries: &[&params, x, p, &props, &lists, &corr]
+                .iter()
+                .enumerate()
+                .map(|(b, buffer)| wgpu::BindGroupEntry {
+                    binding: b as u32,
+                    resource: buffer.as_entire_binding(),
+                })
+                .collect::<Vec<_>>(),
+        });
+        Resident {
+            group,
+            corr,
+            corr_bytes: corr_bytes as u64,
+            pairs: pairs.len(),
+            particles: n,
+        }
+    }
+
+    /// Records one iteration (pair kernel, gather kernel) on `resident`
+    /// into `pass`; the caller restores its own bind group 0 afterwards.
+    pub(crate) fn encode(&self, pass: &mut wgpu::ComputePass<'_>, resident: &Resident) {
+        pass.set_bind_group(0, &resident.group, &[]);
+        let (gx, gy) = groups(resident.pairs);
+        pass.set_pipeline(&self.pairs_pipeline);
+        pass.dispatch_workgroups(gx, gy, 1);
+        let (gx, gy) = groups(resident.particles);
+        pass.set_pipeline(&self.gather_pipeline);
+        pass.dispatch_workgroups(gx, gy, 1);
     }
 
     fn check_device(&self) -> Result<(), GpuError> {

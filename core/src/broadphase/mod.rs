@@ -18,11 +18,13 @@
 mod aabb;
 mod exhaustive;
 mod keys;
+mod lists;
 mod sweep;
 
 pub use aabb::Aabbs;
 pub use exhaustive::exhaustive_pairs;
 pub use keys::{F32_MIN_NORMAL, key_down, key_up, sortable_bits};
+pub use lists::contact_lists;
 pub use sweep::{sweep_axis, sweep_pairs};
 
 /// A candidate pair (i, j), i < j.
