@@ -5,7 +5,8 @@
 //! broadphase/cpu_sweep/n         CPU sort-and-sweep, n = 1k, 10k, 100k
 //! broadphase/gpu_sweep_f32/n     GPU sort-and-sweep (upload, sorts, sweep,
 //!                                pair sort, readback), n = 1k, 10k, 100k
-//! granular/cpu_step/column3d     one step of the shipped column3d scene
+//! granular/{cpu_step,gpu_f32_step}/column3d_4320
+//!                                one step of the shipped column3d scene
 //! ```
 //! Boxes: particles of radius 0.5 on a jittered lattice with spacing 1.05
 //! shaped as a column 16 × 16 × (n / 256) long along the sweep axis — the
@@ -24,7 +25,7 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{BenchmarkId, Criterion, criterion_group};
-use hyperpbd::gpu::{GpuSweep, Precision};
+use hyperpbd::gpu::{GpuBackend, GpuSweep, Precision};
 use hyperpbd::{Backend, CpuBackend, Plan, State, scenes};
 use hyperpbd_core::broadphase::{Aabbs, exhaustive_pairs, sweep_pairs};
 
@@ -119,6 +120,15 @@ fn granular(c: &mut Criterion) {
     group.bench_function("cpu_step/column3d_4320", |bench| {
         bench.iter(|| black_box(b.step().expect("step")))
     });
+    let plan = Plan::compile(&scene).expect("compiles");
+    match GpuBackend::new(plan, &State::from_scene(&scene), Precision::F32) {
+        Ok(mut g) => {
+            group.bench_function("gpu_f32_step/column3d_4320", |bench| {
+                bench.iter(|| black_box(g.step().expect("step")))
+            });
+        }
+        Err(e) => eprintln!("SKIPPED gpu step: {e}"),
+    }
     group.finish();
 }
 
