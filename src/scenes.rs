@@ -4,11 +4,26 @@
 //! regenerated with `hyperpbd scene NAME --out scenes/NAME.json` and a test
 //! checks that they still match.
 
+mod granular;
+
+pub use granular::{ballpit4d, column3d, sandpile2d};
 use hyperpbd_core::builders::{BlockSpec, GridSpec};
 use hyperpbd_core::{Scene, SceneBuilder};
 
 /// Names accepted by [`by_name`].
-pub const NAMES: &[&str] = &["cloth", "tesseract", "chain2d", "incline5d"];
+pub const NAMES: &[&str] = &[
+    "cloth",
+    "tesseract",
+    "chain2d",
+    "incline5d",
+    "column3d",
+    "ballpit4d",
+    "sandpile2d",
+];
+
+/// Built-in scenes too large to ship as files; generate them with
+/// `hyperpbd scene NAME --out FILE`.
+pub const LARGE_NAMES: &[&str] = &["column3d_100k"];
 
 /// A built-in scene by name.
 pub fn by_name(name: &str) -> Option<Scene> {
@@ -17,6 +32,10 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "tesseract" => Some(tesseract()),
         "chain2d" => Some(chain2d()),
         "incline5d" => Some(incline5d()),
+        "column3d" => Some(column3d(12, 30)),
+        "column3d_100k" => Some(column3d(40, 64)),
+        "ballpit4d" => Some(ballpit4d()),
+        "sandpile2d" => Some(sandpile2d()),
         _ => None,
     }
 }

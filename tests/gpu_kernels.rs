@@ -387,6 +387,9 @@ fn kernel_bounds(
             )
         }
         Kernel::Damping => (0.0, e * r(2.0) * s.v),
+        Kernel::Broadphase | Kernel::Collide => {
+            unreachable!("these cases have no collisions (the GPU backend refuses them)")
+        }
     }
 }
 

@@ -113,6 +113,8 @@ pub enum StageName {
     Friction,
     /// Exponential damping (velocity response).
     Damping,
+    /// Candidate particle pairs from swept boxes (particle–particle contact).
+    Broadphase,
 }
 
 impl StageName {
@@ -124,6 +126,7 @@ impl StageName {
             StageName::Velocity => "velocity",
             StageName::Friction => "friction",
             StageName::Damping => "damping",
+            StageName::Broadphase => "broadphase",
         }
     }
 }

@@ -8,6 +8,7 @@
 //! Nothing here knows about wgpu.
 
 mod backend;
+pub mod broadphase;
 pub mod builders;
 mod coloring;
 mod error;
@@ -22,10 +23,10 @@ pub use backend::{Backend, FamilyResidual, StepReport, check_forces, check_kerne
 pub use builders::SceneBuilder;
 pub use coloring::greedy_colors;
 pub use error::{BackendError, GpuError, SceneError, StageName, StepError};
-pub use plan::{Family, FamilyKind, Kernel, Plan, PredictTerms};
+pub use plan::{Family, FamilyKind, Kernel, ParticleContacts, Plan, PredictTerms};
 pub use scene::{
-    ConstraintFamily, ConstraintKind, Damping, Obstacle, ObstacleDocument, ObstacleKind, Particle,
-    Scene,
+    Collisions, ConstraintFamily, ConstraintKind, Damping, Obstacle, ObstacleDocument,
+    ObstacleKind, Particle, Scene,
 };
 pub use state::State;
 pub use validate::{DEGENERATE_VOLUME_RATIO, MAX_DIM};

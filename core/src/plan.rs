@@ -7,6 +7,9 @@
 //!   iterations × for family in order, for color in family:
 //!     Project(family, color)     one XPBD update per element of the color
 //!   Velocity                     v = (x − p) / h
+//!   (with `collisions`: Broadphase after Predict, and one Collide — a
+//!    gather-Jacobi sweep over the candidate pairs — at the start of every
+//!    iteration; see hyperpbd-cpu's collide.rs)
 //!   Friction(family)             per hyperplane with μ > 0
 //!   Damping                      v *= exp(−rate h), if rate > 0
 //! }
@@ -140,6 +143,11 @@ pub enum Kernel {
     },
     /// v *= exp(−rate h).
     Damping,
+    /// Candidate particle pairs from boxes swept from p to x (radius +
+    /// margin), and each particle's sorted contact list.
+    Broadphase,
+    /// One gather-Jacobi iteration of particle–particle contact.
+    Collide,
 }
 
 impl Kernel {
@@ -151,8 +159,19 @@ impl Kernel {
             Kernel::Velocity => StageName::Velocity,
             Kernel::Friction { .. } => StageName::Friction,
             Kernel::Damping => StageName::Damping,
+            Kernel::Broadphase => StageName::Broadphase,
+            Kernel::Collide => StageName::Project,
         }
     }
+}
+
+/// Particle–particle contact settings of a plan (from `collisions`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParticleContacts {
+    /// Coulomb coefficient μ between particles.
+    pub friction: f64,
+    /// Broadphase box margin.
+    pub margin: f64,
 }
 
 /// The compiled scene.
@@ -184,6 +203,9 @@ pub struct Plan {
     pub families: Vec<Family>,
     /// Damping rate (1/s) and the per-substep factor exp(−rate h), when used.
     pub damping: Option<(f64, f64)>,
+    /// Particle–particle contact, when the scene has `collisions` and a
+    /// dynamic particle.
+    pub contacts: Option<ParticleContacts>,
     /// Stages run in each substep, in order.
     pub stages: Vec<StageName>,
     /// Kernel calls of one substep, in order.
@@ -295,10 +317,25 @@ impl Plan {
             .as_ref()
             .filter(|d| d.rate > 0.0)
             .map(|d| (d.rate, libm::exp(-d.rate * h)));
+        let contacts =
+            scene
+                .collisions
+                .as_ref()
+                .filter(|_| any_dynamic)
+                .map(|c| ParticleContacts {
+                    friction: c.friction,
+                    margin: c.margin,
+                });
         let mut substep_kernels = Vec::new();
         if any_dynamic {
             substep_kernels.push(Kernel::Predict);
+            if contacts.is_some() {
+                substep_kernels.push(Kernel::Broadphase);
+            }
             for _ in 0..scene.iterations {
+                if contacts.is_some() {
+                    substep_kernels.push(Kernel::Collide);
+                }
                 for (family, fam) in families.iter().enumerate() {
                     for color in 0..fam.color_count() {
                         substep_kernels.push(Kernel::Project { family, color });
@@ -337,6 +374,7 @@ impl Plan {
             force,
             families,
             damping,
+            contacts,
             stages,
             substep_kernels,
         })
@@ -422,6 +460,13 @@ impl Plan {
         }
         if let Some((rate, factor)) = self.damping {
             let _ = writeln!(s, "damping: rate {rate} 1/s, factor {factor} per substep");
+        }
+        if let Some(c) = self.contacts {
+            let _ = writeln!(
+                s,
+                "particle contacts: friction {}, margin {}, sort-and-sweep + gather-Jacobi",
+                c.friction, c.margin
+            );
         }
         let counts: Vec<String> = self
             .kernel_counts()

@@ -36,6 +36,10 @@ pub struct Scene {
     /// Exponential velocity damping, applied after friction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub damping: Option<Damping>,
+    /// Particle–particle contact between the particles' balls; omitted
+    /// means particles pass through each other.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub collisions: Option<Collisions>,
 }
 
 fn one() -> u32 {
@@ -264,6 +268,20 @@ pub struct Damping {
     pub rate: f64,
 }
 
+/// Particle–particle contact: |x_i − x_j| ≥ r_i + r_j for every pair of
+/// particles (not both fixed), found by the broadphase each substep.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Collisions {
+    /// Coulomb coefficient μ ≥ 0 between particles (0: frictionless).
+    #[serde(default)]
+    pub friction: f64,
+    /// Box margin m ≥ 0 added to every radius in the broadphase, so that
+    /// contacts reached by the corrections within a substep are candidates.
+    #[serde(default)]
+    pub margin: f64,
+}
+
 impl Scene {
     /// An empty scene in R^dim with the given step settings and no gravity.
     pub fn new(dim: usize, dt: f64, substeps: u32, iterations: u32) -> Self {
@@ -277,6 +295,7 @@ impl Scene {
             constraints: Vec::new(),
             obstacles: Vec::new(),
             damping: None,
+            collisions: None,
         }
     }
 

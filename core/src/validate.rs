@@ -92,6 +92,16 @@ impl Scene {
         if let Some(d) = &self.damping {
             non_negative(|| "damping.rate".into(), d.rate)?;
         }
+        if let Some(c) = &self.collisions {
+            finite(|| "collisions.friction".into(), c.friction)?;
+            if c.friction < 0.0 {
+                return Err(SceneError::NegativeFriction {
+                    path: "collisions.friction".into(),
+                    value: c.friction,
+                });
+            }
+            non_negative(|| "collisions.margin".into(), c.margin)?;
+        }
         Ok(())
     }
 

@@ -7,10 +7,11 @@
 //! ```
 
 use hyperpbd_core::{
-    Backend, BackendError, Kernel, Plan, StageName, State, StepError, StepReport, check_forces,
-    check_kernel, check_state,
+    Backend, BackendError, FamilyResidual, Kernel, Plan, StageName, State, StepError, StepReport,
+    check_forces, check_kernel, check_state,
 };
 
+use crate::collide::{self, Contacts};
 use crate::project::{Batch, Workspace, project};
 use crate::{friction, integrate, residual};
 
@@ -27,6 +28,8 @@ pub struct CpuBackend {
     saved_x: Vec<f64>,
     saved_v: Vec<f64>,
     workspace: Workspace,
+    /// Candidate particle pairs of the current substep (with `collisions`).
+    contacts: Contacts,
     /// Substep being run (for error messages).
     substep: u32,
 }
@@ -46,6 +49,7 @@ impl CpuBackend {
             lambda,
             plan,
             workspace: Workspace::default(),
+            contacts: Contacts::default(),
             substep: 0,
         })
     }
@@ -54,6 +58,11 @@ impl CpuBackend {
     /// (color-ordered), for inspection and kernel-level tests.
     pub fn multipliers(&self, family: usize) -> Option<&[f64]> {
         self.lambda.get(family).map(Vec::as_slice)
+    }
+
+    /// Candidate pairs and contact lists of the last broadphase.
+    pub fn contacts(&self) -> &Contacts {
+        &self.contacts
     }
 
     fn particle_error(&self, stage: StageName, particle: usize) -> BackendError {
@@ -117,26 +126,41 @@ impl CpuBackend {
                 integrate::damping(plan, &mut self.v);
                 Ok(())
             }
+            Kernel::Broadphase => {
+                let margin = plan.contacts.map_or(0.0, |c| c.margin);
+                collide::broadphase(plan, margin, &self.p, &self.x, &mut self.contacts);
+                Ok(())
+            }
+            Kernel::Collide => {
+                let friction = plan.contacts.map_or(0.0, |c| c.friction);
+                collide::collide(plan, friction, &self.p, &mut self.x, &mut self.contacts)
+                    .map_err(|i| self.particle_error(StageName::Project, i))
+            }
         }
     }
 
     fn report(&mut self) -> StepReport {
         let plan = &self.plan;
         let ws = &mut self.workspace;
+        let mut residuals: Vec<FamilyResidual> = plan
+            .families
+            .iter()
+            .map(|f| residual::residual(plan.dim, f, &self.x, ws))
+            .collect();
+        if plan.contacts.is_some() {
+            residuals.push(collide::residual(plan, &self.x, &self.contacts));
+        }
         StepReport {
             kernel_calls: plan.kernel_counts(),
-            residuals: plan
-                .families
-                .iter()
-                .map(|f| residual::residual(plan.dim, f, &self.x, ws))
-                .collect(),
+            residuals,
             active_contacts: plan
                 .families
                 .iter()
                 .zip(&self.lambda)
                 .filter(|(f, _)| f.kind.is_inequality())
                 .map(|(_, l)| l.iter().filter(|&&l| l > 0.0).count())
-                .sum(),
+                .sum::<usize>()
+                + self.contacts.active_count(),
         }
     }
 }

@@ -7,6 +7,7 @@
 //! bit-identical across runs and machines.
 
 mod backend;
+pub mod collide;
 mod dim;
 mod friction;
 mod integrate;

@@ -20,8 +20,11 @@ use hyperpbd_core::{
 
 use crate::origin::SceneOrigin;
 use crate::params::{Params, params_size, push_reals, read_reals, real_size};
+
+mod contact_step;
 use crate::pipelines::{Entry, Pipelines};
 use crate::{AdapterSummary, Precision};
+use contact_step::ContactStage;
 
 const WORKGROUP: u32 = 64;
 const MAX_GROUPS_X: u32 = 65_535;
@@ -40,6 +43,8 @@ struct Dispatch {
 struct Buffers {
     x: wgpu::Buffer,
     v: wgpu::Buffer,
+    /// Positions at the substep start (read by the contact broadphase).
+    p: wgpu::Buffer,
     force: wgpu::Buffer,
     status: wgpu::Buffer,
     report: wgpu::Buffer,
@@ -74,6 +79,8 @@ pub struct GpuBackend {
     lost: Arc<Mutex<Option<String>>>,
     /// Device positions are world positions − origin (f32 only).
     origin: SceneOrigin,
+    /// Broadphase and contact kernels, when the plan has collisions.
+    contacts: Option<ContactStage>,
 }
 
 fn groups_for(invocations: u32) -> (u32, u32) {
@@ -177,7 +184,18 @@ impl GpuBackend {
         }
         let (buffers, pipelines, state_group, params_group, step_dispatches, residual_dispatches) =
             built?;
+        let contacts = match plan.contacts {
+            Some(c) => Some(ContactStage::new(
+                &device,
+                &queue,
+                errors.clone(),
+                (plan.dim, plan.particle_count(), precision),
+                c,
+            )?),
+            None => None,
+        };
         Ok(GpuBackend {
+            contacts,
             kernels_per_substep: plan.substep_kernels.len(),
             plan,
             precision,
@@ -302,6 +320,8 @@ impl GpuBackend {
                         params.count = n as u32;
                         (Entry::Velocity, n as u32)
                     }
+                    // Run by `contact_step` between these dispatches.
+                    Kernel::Broadphase | Kernel::Collide => continue,
                     Kernel::Damping => {
                         params.count = n as u32;
                         params.factor = plan.damping.map_or(1.0, |(_, f)| f);
@@ -433,6 +453,7 @@ impl GpuBackend {
         let buffers = Buffers {
             x,
             v,
+            p,
             force,
             status,
             report,
@@ -671,6 +692,9 @@ impl Backend for GpuBackend {
     }
 
     fn step(&mut self) -> Result<StepReport, BackendError> {
+        if self.contacts.is_some() {
+            return self.step_with_contacts();
+        }
         self.reset_status();
         let bytes = self.buffers.state_bytes;
         let mut encoder = self.device.create_command_encoder(&Default::default());
@@ -791,6 +815,13 @@ impl Backend for GpuBackend {
 
     fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
         check_kernel(&self.plan, kernel)?;
+        if self.contacts.is_some() {
+            return Err(BackendError::InvalidCall(
+                "single kernel calls on a plan with collisions are not offered on the GPU; \
+                 the contact kernels are checked alone through GpuSweep and GpuCollide"
+                    .into(),
+            ));
+        }
         let Some(index) = self.plan.substep_kernels.iter().position(|&k| k == kernel) else {
             return Err(BackendError::InvalidCall(format!(
                 "{kernel:?} is not in this plan's schedule"

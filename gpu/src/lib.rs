@@ -14,6 +14,8 @@
 pub mod adapter;
 mod backend;
 pub mod origin;
+pub mod broadphase;
+pub mod collide;
 mod params;
 mod pipelines;
 pub mod shader;
@@ -21,3 +23,5 @@ pub mod shader;
 pub use adapter::*;
 pub use backend::GpuBackend;
 pub use origin::SceneOrigin;
+pub use broadphase::{GpuSweep, SweepStats};
+pub use collide::{CollideInput, GpuCollide};

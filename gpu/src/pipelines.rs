@@ -115,7 +115,7 @@ impl Pipelines {
             bind_group_layouts: &[Some(&state_layout), Some(&params_layout)],
             immediate_size: 0,
         });
-        let modules: Vec<(ShaderFile, wgpu::ShaderModule)> = ShaderFile::ALL
+        let modules: Vec<(ShaderFile, wgpu::ShaderModule)> = ShaderFile::STEP
             .iter()
             .map(|&file| {
                 let source = compose(file, dim, precision);

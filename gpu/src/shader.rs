@@ -18,6 +18,10 @@ const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
 const PROJECT: &str = include_str!("../../shaders/project.wgsl");
 const FRICTION: &str = include_str!("../../shaders/friction.wgsl");
 const RESIDUAL: &str = include_str!("../../shaders/residual.wgsl");
+const BROADPHASE: &str = include_str!("../../shaders/broadphase.wgsl");
+const RADIX_SORT: &str = include_str!("../../shaders/radix_sort.wgsl");
+const SWEEP: &str = include_str!("../../shaders/sweep.wgsl");
+const COLLIDE: &str = include_str!("../../shaders/collide.wgsl");
 
 /// A kernel family: one WGSL file and its entry points.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -30,16 +34,37 @@ pub enum ShaderFile {
     Friction,
     /// `residual.wgsl`: constraint violation and its reduction.
     Residual,
+    /// `radix_sort.wgsl`: stable radix sort of u32-pair records and the
+    /// exclusive prefix scan (broadphase).
+    RadixSort,
+    /// `sweep.wgsl`: box keys and the sort-and-sweep count / emit.
+    Sweep,
+    /// `collide.wgsl`: one gather-Jacobi iteration of particle contact.
+    Collide,
 }
 
 impl ShaderFile {
     /// Every kernel family.
-    pub const ALL: [ShaderFile; 4] = [
+    pub const ALL: [ShaderFile; 7] = [
+        ShaderFile::Integrate,
+        ShaderFile::Project,
+        ShaderFile::Friction,
+        ShaderFile::Residual,
+        ShaderFile::RadixSort,
+        ShaderFile::Sweep,
+        ShaderFile::Collide,
+    ];
+
+    /// The files of the step kernels (group-0 state layout).
+    pub const STEP: [ShaderFile; 4] = [
         ShaderFile::Integrate,
         ShaderFile::Project,
         ShaderFile::Friction,
         ShaderFile::Residual,
     ];
+
+    /// The files of the broadphase kernels (their own layout).
+    pub const BROADPHASE: [ShaderFile; 2] = [ShaderFile::RadixSort, ShaderFile::Sweep];
 
     /// File name under `shaders/`.
     pub fn file_name(self) -> &'static str {
@@ -48,6 +73,9 @@ impl ShaderFile {
             ShaderFile::Project => "project.wgsl",
             ShaderFile::Friction => "friction.wgsl",
             ShaderFile::Residual => "residual.wgsl",
+            ShaderFile::RadixSort => "radix_sort.wgsl",
+            ShaderFile::Sweep => "sweep.wgsl",
+            ShaderFile::Collide => "collide.wgsl",
         }
     }
 
@@ -63,6 +91,18 @@ impl ShaderFile {
             ],
             ShaderFile::Friction => &["friction"],
             ShaderFile::Residual => &["residual", "reduce"],
+            ShaderFile::RadixSort => &["histogram", "scatter", "scan_blocks", "scan_add"],
+            ShaderFile::Sweep => &["box_keys", "sweep_count", "sweep_emit"],
+            ShaderFile::Collide => &["collide_pairs", "collide_gather"],
+        }
+    }
+
+    /// Workgroup size of every entry point of the file: 64 for the step
+    /// kernels, 256 (one radix block) for the broadphase.
+    pub fn workgroup_size(self) -> u32 {
+        match self {
+            ShaderFile::RadixSort | ShaderFile::Sweep => 256,
+            _ => 64,
         }
     }
 
@@ -72,6 +112,9 @@ impl ShaderFile {
             ShaderFile::Project => &[PRELUDE, MEASURE, PROJECT],
             ShaderFile::Friction => &[PRELUDE, FRICTION],
             ShaderFile::Residual => &[PRELUDE, MEASURE, RESIDUAL],
+            ShaderFile::RadixSort => &[BROADPHASE, RADIX_SORT],
+            ShaderFile::Sweep => &[BROADPHASE, SWEEP],
+            ShaderFile::Collide => &[COLLIDE],
         }
     }
 }

@@ -3,6 +3,7 @@
 
 #![allow(dead_code)]
 
+pub mod boxes;
 pub mod gpu;
 
 /// A deterministic pseudo-random number generator (64-bit LCG), so test
