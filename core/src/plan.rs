@@ -17,6 +17,7 @@
 //! Both backends execute [`Plan::substep_kernels`], so they run the same
 //! algorithm in the same order.
 
+use crate::barrier::IncrementalPotentialPlan;
 use crate::coloring::greedy_colors;
 use crate::geometry::{Scratch, constraint_value};
 use crate::{ConstraintKind, Obstacle, Scene, SceneError, StageName};
@@ -135,6 +136,9 @@ pub enum Kernel {
     },
     /// v *= exp(−rate h).
     Damping,
+    /// One incremental-potential minimisation (barrier path): the whole
+    /// substep, x~ = x + h v, Newton under the filter, v = (x − x_prev)/h.
+    Minimise,
 }
 
 impl Kernel {
@@ -146,6 +150,7 @@ impl Kernel {
             Kernel::Velocity => StageName::Velocity,
             Kernel::Friction { .. } => StageName::Friction,
             Kernel::Damping => StageName::Damping,
+            Kernel::Minimise => StageName::Minimise,
         }
     }
 }
@@ -183,6 +188,8 @@ pub struct Plan {
     pub stages: Vec<StageName>,
     /// Kernel calls of one substep, in order.
     pub substep_kernels: Vec<Kernel>,
+    /// The barrier path's settings and obstacles (None on the XPBD path).
+    pub incremental_potential: Option<IncrementalPotentialPlan>,
 }
 
 impl Plan {
@@ -256,13 +263,20 @@ impl Plan {
                 &inverse_mass,
             ));
         }
+        let incremental_potential = IncrementalPotentialPlan::compile(scene);
         for (o, obstacle) in scene.obstacles.iter().enumerate() {
             let Obstacle::Hyperplane {
                 normal,
                 offset,
                 friction,
                 compliance,
-            } = obstacle;
+            } = obstacle
+            else {
+                continue;
+            };
+            if incremental_potential.is_some() {
+                break;
+            }
             let unit = unit_vector(normal);
             let particles: Vec<usize> = (0..n).filter(|&i| dynamic(i)).collect();
             if particles.is_empty() {
@@ -290,7 +304,9 @@ impl Plan {
             .filter(|d| d.rate > 0.0)
             .map(|d| (d.rate, libm::exp(-d.rate * h)));
         let mut substep_kernels = Vec::new();
-        if any_dynamic {
+        if any_dynamic && incremental_potential.is_some() {
+            substep_kernels.push(Kernel::Minimise);
+        } else if any_dynamic {
             substep_kernels.push(Kernel::Predict);
             for _ in 0..scene.iterations {
                 for (family, fam) in families.iter().enumerate() {
@@ -333,6 +349,7 @@ impl Plan {
             damping,
             stages,
             substep_kernels,
+            incremental_potential,
         })
     }
 
@@ -414,6 +431,19 @@ impl Plan {
             }
             s.push('\n');
         }
+        if let Some(ip) = &self.incremental_potential {
+            let _ = writeln!(
+                s,
+                "incremental potential: κ {:e}, d^ {:e}, {} ≤ {:e}, max {} iterations, {} planes, {} simplices",
+                ip.law.stiffness,
+                ip.law.activation_distance,
+                ip.convergence.as_str(),
+                ip.convergence.tolerance(),
+                ip.max_iterations,
+                ip.obstacles.plane_count(),
+                ip.obstacles.simplex_count()
+            );
+        }
         if let Some((rate, factor)) = self.damping {
             let _ = writeln!(s, "damping: rate {rate} 1/s, factor {factor} per substep");
         }
@@ -434,7 +464,7 @@ impl Plan {
 
 /// n / |n|, scaling by the largest component first so that neither tiny
 /// (1e-200) nor huge (1e200) normals underflow or overflow on the way.
-fn unit_vector(n: &[f64]) -> Vec<f64> {
+pub(crate) fn unit_vector(n: &[f64]) -> Vec<f64> {
     let largest = n.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let scaled: Vec<f64> = n.iter().map(|x| x / largest).collect();
     let length = scaled.iter().map(|x| x * x).sum::<f64>().sqrt();

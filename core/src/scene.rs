@@ -7,6 +7,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::Solver;
+
 /// A whole scene in R^`dim`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -36,6 +38,9 @@ pub struct Scene {
     /// Exponential velocity damping, applied after friction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub damping: Option<Damping>,
+    /// Solver path; XPBD when omitted.
+    #[serde(default, skip_serializing_if = "Solver::is_xpbd")]
+    pub solver: Solver,
 }
 
 fn one() -> u32 {
@@ -211,6 +216,16 @@ pub enum Obstacle {
         #[serde(default)]
         compliance: f64,
     },
+    /// A static mesh of k-simplices (segments, triangles, tetrahedra:
+    /// k = 1, 2, 3) in R^N. Used by the incremental-potential path only:
+    /// a particle keeps d = dist(x, simplex) − radius > 0 from every one.
+    SimplexMesh {
+        /// Vertex positions (each of length `dim`).
+        vertices: Vec<Vec<f64>>,
+        /// Vertex indices per simplex; all simplices of a mesh have the
+        /// same arity 2, 3 or 4.
+        simplices: Vec<Vec<usize>>,
+    },
 }
 
 /// Obstacle kinds as written in JSON.
@@ -219,6 +234,8 @@ pub enum Obstacle {
 pub enum ObstacleKind {
     /// `"type": "hyperplane"`.
     Hyperplane,
+    /// `"type": "simplex_mesh"`.
+    SimplexMesh,
 }
 
 /// The JSON form of an obstacle: every key any kind may use, checked
@@ -235,6 +252,8 @@ pub struct ObstacleDocument {
     friction: f64,
     #[serde(default)]
     compliance: f64,
+    vertices: Option<Vec<Vec<f64>>>,
+    simplices: Option<Vec<Vec<usize>>>,
 }
 
 impl TryFrom<ObstacleDocument> for Obstacle {
@@ -242,12 +261,32 @@ impl TryFrom<ObstacleDocument> for Obstacle {
 
     fn try_from(doc: ObstacleDocument) -> Result<Self, String> {
         match doc.kind {
-            ObstacleKind::Hyperplane => Ok(Obstacle::Hyperplane {
-                normal: doc.normal.ok_or("missing field `normal`")?,
-                offset: doc.offset,
-                friction: doc.friction,
-                compliance: doc.compliance,
-            }),
+            ObstacleKind::Hyperplane => {
+                if doc.vertices.is_some() || doc.simplices.is_some() {
+                    return Err("a hyperplane takes no `vertices` or `simplices`".into());
+                }
+                Ok(Obstacle::Hyperplane {
+                    normal: doc.normal.ok_or("missing field `normal`")?,
+                    offset: doc.offset,
+                    friction: doc.friction,
+                    compliance: doc.compliance,
+                })
+            }
+            ObstacleKind::SimplexMesh => {
+                if doc.normal.is_some() {
+                    return Err("unknown field `normal` for a simplex_mesh".into());
+                }
+                if doc.offset != 0.0 || doc.friction != 0.0 || doc.compliance != 0.0 {
+                    return Err(
+                        "a simplex_mesh takes only `vertices` and `simplices` (no offset, friction or compliance)"
+                            .into(),
+                    );
+                }
+                Ok(Obstacle::SimplexMesh {
+                    vertices: doc.vertices.ok_or("missing field `vertices`")?,
+                    simplices: doc.simplices.ok_or("missing field `simplices`")?,
+                })
+            }
         }
     }
 }
@@ -273,6 +312,7 @@ impl Scene {
             constraints: Vec::new(),
             obstacles: Vec::new(),
             damping: None,
+            solver: Solver::Xpbd,
         }
     }
 

@@ -7,12 +7,12 @@
 //! ```
 
 use hyperpbd_core::{
-    Backend, BackendError, Kernel, Plan, StageName, State, StepError, StepReport, check_forces,
-    check_kernel, check_state,
+    Backend, BackendError, Kernel, MinimisationReport, MinimisationStatus, Plan, StageName, State,
+    StepError, StepReport, check_forces, check_kernel, check_state,
 };
 
 use crate::project::{Batch, Workspace, project};
-use crate::{friction, integrate, residual};
+use crate::{friction, incremental_potential, integrate, residual};
 
 /// The golden backend.
 pub struct CpuBackend {
@@ -29,6 +29,10 @@ pub struct CpuBackend {
     workspace: Workspace,
     /// Substep being run (for error messages).
     substep: u32,
+    /// Scratch of the barrier path.
+    minimiser: incremental_potential::Workspace,
+    /// Minimisation reports of the current step, one per substep.
+    minimisation: Vec<MinimisationReport>,
 }
 
 impl CpuBackend {
@@ -47,6 +51,8 @@ impl CpuBackend {
             plan,
             workspace: Workspace::default(),
             substep: 0,
+            minimiser: incremental_potential::Workspace::default(),
+            minimisation: Vec::new(),
         })
     }
 
@@ -117,6 +123,32 @@ impl CpuBackend {
                 integrate::damping(plan, &mut self.v);
                 Ok(())
             }
+            Kernel::Minimise => {
+                let Some(ip) = &plan.incremental_potential else {
+                    return Err(BackendError::InvalidCall(
+                        "the plan has no incremental-potential settings".into(),
+                    ));
+                };
+                let report = incremental_potential::minimise(
+                    plan,
+                    ip,
+                    &mut self.x,
+                    &mut self.v,
+                    &self.force,
+                    &mut self.minimiser,
+                );
+                let result = match &report.status {
+                    MinimisationStatus::Refused(reason) => Err(StepError::MinimisationRefused {
+                        substep: self.substep,
+                        reason: reason.clone(),
+                        report: Box::new(report.clone()),
+                    }
+                    .into()),
+                    _ => Ok(()),
+                };
+                self.minimisation.push(report);
+                result
+            }
         }
     }
 
@@ -137,6 +169,7 @@ impl CpuBackend {
                 .filter(|(f, _)| f.kind.is_inequality())
                 .map(|(_, l)| l.iter().filter(|&&l| l > 0.0).count())
                 .sum(),
+            minimisation: std::mem::take(&mut self.minimisation),
         }
     }
 }
@@ -153,6 +186,7 @@ impl Backend for CpuBackend {
     fn step(&mut self) -> Result<StepReport, BackendError> {
         self.saved_x.clone_from(&self.x);
         self.saved_v.clone_from(&self.v);
+        self.minimisation.clear();
         for substep in 0..self.plan.substeps {
             self.substep = substep;
             for k in 0..self.plan.substep_kernels.len() {

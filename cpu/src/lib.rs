@@ -9,6 +9,7 @@
 mod backend;
 mod dim;
 mod friction;
+pub mod incremental_potential;
 mod integrate;
 mod project;
 mod residual;

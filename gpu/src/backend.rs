@@ -117,6 +117,9 @@ impl GpuBackend {
             }
             .into());
         }
+        if plan.incremental_potential.is_some() {
+            return Err(incremental_potential_unsupported().into());
+        }
         let summary = AdapterSummary::of(adapter);
         let (device, queue) = crate::request_device(adapter, precision)?;
         let errors: Arc<Mutex<Vec<String>>> = Arc::default();
@@ -297,6 +300,7 @@ impl GpuBackend {
                         };
                         (entry, params.count)
                     }
+                    Kernel::Minimise => return Err(incremental_potential_unsupported().into()),
                     Kernel::Friction { family } => {
                         let f = &plan.families[family];
                         params.count = f.len() as u32;
@@ -571,6 +575,14 @@ impl GpuBackend {
 
 /// Creates a buffer with `bytes` (at least 16 bytes), refusing sizes over
 /// the device limits with a typed error.
+/// The whole incremental-potential step is not a GPU schedule (yet): its
+/// per-particle kernels are reachable through `crate::barrier`.
+fn incremental_potential_unsupported() -> GpuError {
+    GpuError::Unsupported {
+        what: "the incremental_potential solver's whole step (run it on the CPU backend)".into(),
+    }
+}
+
 fn create_buffer(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
@@ -675,6 +687,7 @@ impl Backend for GpuBackend {
             kernel_calls,
             residuals,
             active_contacts,
+            ..StepReport::default()
         })
     }
 
