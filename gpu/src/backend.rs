@@ -73,7 +73,7 @@ pub struct GpuBackend {
     lost: Arc<Mutex<Option<String>>>,
 }
 
-fn groups_for(invocations: u32) -> (u32, u32) {
+pub(crate) fn groups_for(invocations: u32) -> (u32, u32) {
     let groups = invocations.div_ceil(WORKGROUP).max(1);
     if groups <= MAX_GROUPS_X {
         (groups, 1)
@@ -573,8 +573,6 @@ impl GpuBackend {
     }
 }
 
-/// Creates a buffer with `bytes` (at least 16 bytes), refusing sizes over
-/// the device limits with a typed error.
 /// The whole incremental-potential step is not a GPU schedule (yet): its
 /// per-particle kernels are reachable through `crate::barrier`.
 fn incremental_potential_unsupported() -> GpuError {
@@ -583,7 +581,9 @@ fn incremental_potential_unsupported() -> GpuError {
     }
 }
 
-fn create_buffer(
+/// Creates a buffer with `bytes` (at least 16 bytes), refusing sizes over
+/// the device limits with a typed error.
+pub(crate) fn create_buffer(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     limits: &wgpu::Limits,

@@ -13,6 +13,7 @@
 
 pub mod adapter;
 mod backend;
+pub mod barrier;
 mod params;
 mod pipelines;
 pub mod shader;

@@ -117,6 +117,7 @@ impl Pipelines {
         });
         let modules: Vec<(ShaderFile, wgpu::ShaderModule)> = ShaderFile::ALL
             .iter()
+            .filter(|&&file| file != ShaderFile::Barrier)
             .map(|&file| {
                 let source = compose(file, dim, precision);
                 let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {

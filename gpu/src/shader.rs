@@ -18,6 +18,9 @@ const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
 const PROJECT: &str = include_str!("../../shaders/project.wgsl");
 const FRICTION: &str = include_str!("../../shaders/friction.wgsl");
 const RESIDUAL: &str = include_str!("../../shaders/residual.wgsl");
+const BARRIER: &str = include_str!("../../shaders/barrier.wgsl");
+const LN_F32: &str = include_str!("../../shaders/ln_f32.wgsl");
+const LN_F64: &str = include_str!("../../shaders/ln_f64.wgsl");
 
 /// A kernel family: one WGSL file and its entry points.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -30,15 +33,19 @@ pub enum ShaderFile {
     Friction,
     /// `residual.wgsl`: constraint violation and its reduction.
     Residual,
+    /// `barrier.wgsl` (+ `ln_f32.wgsl` / `ln_f64.wgsl`): per-particle
+    /// barrier evaluation and step filter (incremental-potential path).
+    Barrier,
 }
 
 impl ShaderFile {
     /// Every kernel family.
-    pub const ALL: [ShaderFile; 4] = [
+    pub const ALL: [ShaderFile; 5] = [
         ShaderFile::Integrate,
         ShaderFile::Project,
         ShaderFile::Friction,
         ShaderFile::Residual,
+        ShaderFile::Barrier,
     ];
 
     /// File name under `shaders/`.
@@ -48,6 +55,7 @@ impl ShaderFile {
             ShaderFile::Project => "project.wgsl",
             ShaderFile::Friction => "friction.wgsl",
             ShaderFile::Residual => "residual.wgsl",
+            ShaderFile::Barrier => "barrier.wgsl",
         }
     }
 
@@ -63,6 +71,7 @@ impl ShaderFile {
             ],
             ShaderFile::Friction => &["friction"],
             ShaderFile::Residual => &["residual", "reduce"],
+            ShaderFile::Barrier => &["evaluate", "filter_fraction", "ln_check"],
         }
     }
 
@@ -72,6 +81,7 @@ impl ShaderFile {
             ShaderFile::Project => &[PRELUDE, MEASURE, PROJECT],
             ShaderFile::Friction => &[PRELUDE, FRICTION],
             ShaderFile::Residual => &[PRELUDE, MEASURE, RESIDUAL],
+            ShaderFile::Barrier => &[BARRIER],
         }
     }
 }
@@ -95,6 +105,13 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
         mat = dim * dim,
         minor = (dim.saturating_sub(1) * dim.saturating_sub(1)).max(1),
     );
+    if file == ShaderFile::Barrier {
+        source.push_str(match precision {
+            Precision::F32 => LN_F32,
+            Precision::F64 => LN_F64,
+        });
+        source.push('\n');
+    }
     for part in file.body() {
         source.push_str(part);
         source.push('\n');
