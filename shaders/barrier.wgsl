@@ -24,7 +24,7 @@ struct BarrierParams {
     stiffness: real,  // κ
     activation: real, // d^
     safety: real,     // η
-    pad_real: real,
+    scale: real,      // largest |obstacle coordinate| (rounding floor of d)
 }
 
 @group(0) @binding(0) var<storage, read_write> x: array<real>;

@@ -55,3 +55,6 @@ fn ln_real(x0: f64) -> f64 {
     poly = poly * s2 + 1.0;
     return e * LN2_HI + (e * LN2_LO + 2.0 * s * poly);
 }
+
+// Machine epsilon of the precision (rounding-floor tests).
+const REAL_EPS: f64 = 2.220446049250313e-16;

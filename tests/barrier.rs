@@ -806,3 +806,51 @@ fn barrier_scene_json_round_trips() {
         assert!(matches!(e, SceneError::Json { .. }), "{e}");
     }
 }
+
+/// 200 particles of mixed mass hitting a plane at up to 100 m/s with an
+/// acceleration tolerance of 1e-4 m/s²: deep in the barrier (d ~ 1e-5,
+/// b'' ~ 1e9 N/m) the f64 residual's rounding floor b'' u X / m can exceed
+/// the tolerance. Those minimisations end `RoundingFloor` (typed, accepted)
+/// — never refused, never at d ≤ 0.
+#[test]
+fn many_fast_particles_end_converged_or_at_the_rounding_floor() {
+    let mut scene = Scene::new(3, 1.0 / 60.0, 1, 1);
+    scene.gravity = Some(vec![0.0, -9.81, 0.0]);
+    let mut rng = Lcg(203);
+    for _ in 0..200 {
+        scene.particles.push(
+            Particle::new(
+                vec![0.3 * rng.next(), 1.0 + 0.5 * rng.next(), 0.3 * rng.next()],
+                1.0 + 0.5 * rng.next(),
+            )
+            .with_velocity(vec![0.0, -100.0 * (0.5 + 0.5 * rng.next()), 0.0])
+            .with_radius(0.05),
+        );
+    }
+    scene.obstacles.push(plane(vec![0.0, 1.0, 0.0], 0.0));
+    scene.solver = ip(
+        1e3,
+        0.01,
+        Convergence::MaxAccelerationResidual { tolerance: 1e-4 },
+        200,
+    );
+    let mut b = cpu(&scene);
+    let (mut converged, mut floor) = (0, 0);
+    let mut smallest = f64::INFINITY;
+    for _ in 0..120 {
+        let report = b.step().expect("accepted");
+        for m in &report.minimisation {
+            match m.status {
+                MinimisationStatus::Converged => converged += 1,
+                MinimisationStatus::RoundingFloor => floor += 1,
+                ref other => panic!("unexpected {other:?}"),
+            }
+        }
+        let d = min_distance(&scene, &b.read_state().unwrap());
+        assert!(d > 0.0);
+        smallest = smallest.min(d);
+    }
+    println!(
+        "200 particles at up to 100 m/s: {converged} converged, {floor} at the rounding floor, smallest d {smallest:e}"
+    );
+}

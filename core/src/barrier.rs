@@ -84,6 +84,9 @@ pub struct BarrierObstacles {
     pub simplex_arity: Vec<u32>,
     /// (authored obstacle index, simplex index within it) per simplex.
     pub simplex_source: Vec<(u32, u32)>,
+    /// Largest |plane offset| or |simplex vertex coordinate| (0 with none):
+    /// the scale of the rounding error of a computed distance.
+    pub scale: f64,
 }
 
 /// Vertex slots stored per simplex.
@@ -161,6 +164,9 @@ pub struct ParticleBarrier {
     pub hessian: Vec<f64>,
     /// Smallest d over all obstacles (+∞ with none).
     pub min_distance: f64,
+    /// Σ |b'| over the active obstacles: how fast the energy moves with
+    /// distance (the rounding floor of an energy difference scales with it).
+    pub force_sum: f64,
 }
 
 impl ParticleBarrier {
@@ -171,6 +177,7 @@ impl ParticleBarrier {
             gradient: vec![0.0; dim],
             hessian: vec![0.0; dim * dim],
             min_distance: f64::INFINITY,
+            force_sum: 0.0,
         }
     }
 }
@@ -189,6 +196,7 @@ pub fn evaluate_particle_barrier(
     out.gradient.fill(0.0);
     out.hessian.fill(0.0);
     out.min_distance = f64::INFINITY;
+    out.force_sum = 0.0;
     let mut n = [0.0f64; crate::MAX_DIM];
     let n = &mut n[..dim];
     for o in 0..obstacles.len() {
@@ -199,6 +207,7 @@ pub fn evaluate_particle_barrier(
         }
         let (b, b1, b2) = law.evaluate(d);
         out.energy += b;
+        out.force_sum += b1.abs();
         for a in 0..dim {
             out.gradient[a] += b1 * n[a];
             for c in 0..dim {
@@ -241,11 +250,13 @@ impl BarrierObstacles {
     pub fn compile(scene: &Scene) -> BarrierObstacles {
         let dim = scene.dim;
         let mut out = BarrierObstacles::default();
+        let mut scale: f64 = 0.0;
         for (o, obstacle) in scene.obstacles.iter().enumerate() {
             match obstacle {
                 Obstacle::Hyperplane { normal, offset, .. } => {
                     out.plane_normals.extend(unit_vector(normal));
                     out.plane_offsets.push(*offset);
+                    scale = scale.max(offset.abs());
                     out.plane_source.push(o as u32);
                 }
                 Obstacle::SimplexMesh {
@@ -259,12 +270,16 @@ impl BarrierObstacles {
                                 None => out.simplex_vertices.extend(std::iter::repeat_n(0.0, dim)),
                             }
                         }
+                        for &v in simplex {
+                            scale = vertices[v].iter().fold(scale, |m, c| m.max(c.abs()));
+                        }
                         out.simplex_arity.push(simplex.len() as u32);
                         out.simplex_source.push((o as u32, s as u32));
                     }
                 }
             }
         }
+        out.scale = scale;
         out
     }
 }

@@ -13,6 +13,13 @@ pub enum MinimisationStatus {
     /// criterion. The iterate is kept: it is feasible (the filter certified
     /// every accepted step) and F never increased; the report says so.
     BudgetExhausted,
+    /// The criterion did not hold, but every free particle is at its
+    /// minimiser to the working precision: its gradient is zero or even its
+    /// full Newton step x + Δ rounds back to x. The residual left is the
+    /// rounding floor of the criterion (for the acceleration residual near
+    /// contact ≈ b''(d) ε |x| / m). The iterate is kept and the report says
+    /// so; lower precision or a stiffer contact raises that floor.
+    RoundingFloor,
     /// The minimisation could not run or could not go on; the step fails
     /// and the state is rolled back.
     Refused(Refusal),
@@ -33,10 +40,10 @@ pub enum Refusal {
     /// The objective or its gradient was not finite for a particle.
     #[error("particle {particle}: the objective or its gradient is not finite")]
     NonFinite { particle: usize },
-    /// No free particle's line search could decrease F while the criterion
-    /// still failed: the tolerance is below the rounding floor of F.
+    /// No free particle moved while the criterion still failed, and some
+    /// particle's representable Newton step found no decrease of F.
     #[error(
-        "no particle can decrease the objective (residual {residual:e}): the tolerance is below the rounding floor"
+        "no particle can decrease the objective (residual {residual:e}): a representable Newton step found no decrease"
     )]
     NoDescent { residual: f64 },
 }

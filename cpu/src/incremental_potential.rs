@@ -12,8 +12,12 @@
 //! repeat while residual > tolerance, at most max_iterations times:
 //!   for every free particle:  Δ = −H_i⁻¹ g_i            (Cholesky)
 //!     t = filter fraction (certified, before any evaluation)
-//!     while F_i(x_i + tΔ) > F_i(x_i) + c t g_i·Δ:  t /= 2   (Armijo, c = 1e-4)
+//!     while F_i(x_i + tΔ) − F_i(x_i) > c t g_i·Δ:  t /= 2   (Armijo, c = 1e-4;
+//!       the change is evaluated in difference form, see ParticleTerms::change)
 //!     accept x_i += tΔ (or keep x_i if 60 halvings found no decrease)
+//!   no particle moved:  every one at its floor (g = 0, x + Δ == x, or Armijo failed
+//!                       with −½ g·Δ below the rounding of F's change) → RoundingFloor
+//!                       (accepted); otherwise → refused, NoDescent
 //! v = (x − x_prev) / h
 //! ```
 //! Because F is separable, per-particle Newton is Newton on F. m_i = 1/w_i.
@@ -70,18 +74,28 @@ pub struct ParticleTerms<'a> {
 }
 
 impl ParticleTerms<'_> {
-    /// F_i(x) (+∞ where a barrier is infeasible).
-    pub fn objective(&self, x: &[f64], barrier: &mut ParticleBarrier) -> f64 {
-        evaluate_particle_barrier(self.law, self.obstacles, x, self.radius, barrier);
+    /// F_i(y) − F_i(x) for y = x + s, written so that the large terms
+    /// cancel analytically instead of in rounding:
+    /// m Σ s (x − x~ + s/2) − h² load·s + h² (B(y) − B(x)), with B(x) =
+    /// `barrier_at_x` (+∞ where y is infeasible). `barrier` receives the
+    /// barrier terms at y.
+    pub fn change(
+        &self,
+        x: &[f64],
+        y: &[f64],
+        barrier_at_x: f64,
+        barrier: &mut ParticleBarrier,
+    ) -> f64 {
+        evaluate_particle_barrier(self.law, self.obstacles, y, self.radius, barrier);
         let h2 = self.h * self.h;
         let mut inertia = 0.0;
         let mut work = 0.0;
         for a in 0..x.len() {
-            let e = x[a] - self.prediction[a];
-            inertia += e * e;
-            work += self.load[a] * x[a];
+            let s = y[a] - x[a];
+            inertia += s * ((x[a] - self.prediction[a]) + 0.5 * s);
+            work += self.load[a] * s;
         }
-        0.5 * self.mass * inertia - h2 * work + h2 * barrier.energy
+        self.mass * inertia - h2 * work + h2 * (barrier.energy - barrier_at_x)
     }
 
     /// g_i at `x` into `gradient`, and the barrier terms into `barrier`.
@@ -267,6 +281,7 @@ pub fn minimise(
         }
         iteration += 1;
         let mut moved = false;
+        let mut stalled = false;
         for &i in &free {
             let gi = &gradient[i * n..(i + 1) * n];
             let xi = &mut x[i * n..(i + 1) * n];
@@ -280,12 +295,18 @@ pub fn minimise(
                 &mut trial,
             ) {
                 LineSearch::Moved => moved = true,
-                LineSearch::Stalled => {}
+                LineSearch::AtFloor => {}
+                LineSearch::Stalled => stalled = true,
                 LineSearch::NonFinite => {
                     report.status = MinimisationStatus::Refused(Refusal::NonFinite { particle: i });
                     return report;
                 }
             }
+        }
+        if !moved && !stalled {
+            report.iterations = iteration;
+            report.status = MinimisationStatus::RoundingFloor;
+            break;
         }
         if !moved {
             report.iterations = iteration;
@@ -307,7 +328,12 @@ pub fn minimise(
 pub enum LineSearch {
     /// A trial was accepted; `x` moved.
     Moved,
-    /// g = 0, or no trial decreased F_i: `x` is unchanged.
+    /// g = 0, the full Newton step x + Δ rounds back to x, or no trial
+    /// decreased F_i and the full step's expected decrease is below the
+    /// rounding of F's change ([`change_resolution`]): the particle is at
+    /// its minimiser to the working precision.
+    AtFloor,
+    /// No trial decreased F_i although x + Δ ≠ x: `x` is unchanged.
     Stalled,
     /// The Newton direction or slope was not finite.
     NonFinite,
@@ -325,33 +351,91 @@ pub fn line_search(
     trial: &mut [f64],
 ) -> LineSearch {
     let n = x.len();
-    let f0 = particle.objective(x, barrier);
+    evaluate_particle_barrier(
+        particle.law,
+        particle.obstacles,
+        x,
+        particle.radius,
+        barrier,
+    );
+    let barrier_at_x = barrier.energy;
     if gradient.iter().all(|&g| g == 0.0) {
-        return LineSearch::Stalled;
+        return LineSearch::AtFloor;
     }
     if !particle.newton_direction(barrier, gradient, matrix, direction) {
         return LineSearch::NonFinite;
+    }
+    if (0..n).all(|a| x[a] + direction[a] == x[a]) {
+        return LineSearch::AtFloor;
     }
     let slope: f64 = (0..n).map(|a| gradient[a] * direction[a]).sum();
     if !slope.is_finite() {
         return LineSearch::NonFinite;
     }
+    let resolution = change_resolution(particle, x, direction, barrier, f64::EPSILON);
     let mut t = filter_fraction(particle.obstacles, x, particle.radius, direction);
     for _ in 0..=MAX_HALVINGS {
         for a in 0..n {
             trial[a] = x[a] + t * direction[a];
         }
-        let f = particle.objective(trial, barrier);
-        if f <= f0 + ARMIJO * t * slope && trial != x {
+        let change = particle.change(x, trial, barrier_at_x, barrier);
+        if change <= ARMIJO * t * slope && trial != x {
             x.copy_from_slice(trial);
             return LineSearch::Moved;
         }
         t *= 0.5;
     }
-    LineSearch::Stalled
+    // No trial decreased F_i: at the rounding floor when even the full
+    // step's expected decrease is below the resolution of the change.
+    if -0.5 * slope <= resolution {
+        LineSearch::AtFloor
+    } else {
+        LineSearch::Stalled
+    }
 }
 
-/// The authored residual over the free particles.
+/// Rounding bound of [`ParticleTerms::change`] over the full step Δ at
+/// machine epsilon ε, from the barrier terms at x:
+///
+/// ```text
+/// (N + 4) ε/2 (m Σ |Δ|(|x − x~| + |Δ|) + h² Σ |load Δ| + 2 h² |B(x)|)
+///   + 2 h² Σ_o |b'_o| δd,     δd = (N + 4) ε (‖x‖∞ + G + r)
+/// ```
+/// (G: the obstacles' coordinate scale; δd the rounding of a computed
+/// distance, which an energy difference inherits at rate |b'|.) When the
+/// full step's expected decrease −½ g·Δ is below it, no line search can
+/// certify a decrease: the particle is at its rounding floor.
+pub fn change_resolution(
+    particle: &ParticleTerms<'_>,
+    x: &[f64],
+    direction: &[f64],
+    barrier_at_x: &ParticleBarrier,
+    epsilon: f64,
+) -> f64 {
+    let n = x.len();
+    let h2 = particle.h * particle.h;
+    let mut inertia = 0.0;
+    let mut work = 0.0;
+    let mut largest: f64 = 0.0;
+    for a in 0..n {
+        let s = direction[a].abs();
+        inertia += s * ((x[a] - particle.prediction[a]).abs() + s);
+        work += (particle.load[a] * direction[a]).abs();
+        largest = largest.max(x[a].abs());
+    }
+    let terms = n as f64 + 4.0;
+    let distance_error = terms * epsilon * (largest + particle.obstacles.scale + particle.radius);
+    terms
+        * 0.5
+        * epsilon
+        * (particle.mass * inertia + h2 * work + 2.0 * h2 * barrier_at_x.energy.abs())
+        + 2.0 * h2 * barrier_at_x.force_sum * distance_error
+}
+
+/// The authored residual over the free particles. The terms run over all
+/// particles in index order, 0 for fixed ones (they hold no coordinate and
+/// their gradient is identically zero), so the packed sum's tree has the
+/// same shape on every backend.
 pub fn residual(
     plan: &Plan,
     free: &[usize],
@@ -360,20 +444,39 @@ pub fn residual(
     terms: &mut Vec<f64>,
 ) -> f64 {
     let n = plan.dim;
+    let h2 = plan.h * plan.h;
     terms.clear();
+    terms.resize(plan.particle_count(), 0.0);
     for &i in free {
         let g = &gradient[i * n..(i + 1) * n];
-        let squared: f64 = g.iter().map(|c| c * c).sum();
-        terms.push(squared);
+        let mut squared = 0.0;
+        for c in g {
+            squared += c * c;
+        }
+        terms[i] = match criterion {
+            Convergence::PackedGradient { .. } => squared,
+            Convergence::MaxAccelerationResidual { .. } => {
+                squared.sqrt() * plan.inverse_mass[i] / h2
+            }
+        };
     }
     match criterion {
         Convergence::PackedGradient { .. } => tree_sum(terms).sqrt(),
-        Convergence::MaxAccelerationResidual { .. } => {
-            let h2 = plan.h * plan.h;
-            free.iter()
-                .zip(terms.iter())
-                .map(|(&i, &sq)| sq.sqrt() * plan.inverse_mass[i] / h2)
-                .fold(0.0, f64::max)
-        }
+        Convergence::MaxAccelerationResidual { .. } => tree_max(terms),
     }
+}
+
+/// Maximum by the same fixed pairwise tree as [`tree_sum`].
+pub fn tree_max(values: &mut [f64]) -> f64 {
+    let n = values.len();
+    let mut stride = 1;
+    while stride < n {
+        let mut i = 0;
+        while i + stride < n {
+            values[i] = values[i].max(values[i + stride]);
+            i += 2 * stride;
+        }
+        stride *= 2;
+    }
+    values.first().copied().unwrap_or(0.0)
 }

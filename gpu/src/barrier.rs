@@ -74,6 +74,7 @@ pub struct BarrierKernels {
     planes: u32,
     simplices: u32,
     law: BarrierLaw,
+    scale: f64,
     errors: Arc<Mutex<Vec<String>>>,
 }
 
@@ -186,6 +187,7 @@ impl BarrierKernels {
             planes: obstacles.plane_count() as u32,
             simplices: obstacles.simplex_count() as u32,
             law,
+            scale: obstacles.scale,
             errors,
         };
         kernels.check()?;
@@ -307,7 +309,7 @@ impl BarrierKernels {
                 self.law.stiffness,
                 self.law.activation_distance,
                 FILTER_SAFETY,
-                0.0,
+                self.scale,
             ],
             self.precision,
         );

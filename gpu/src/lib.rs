@@ -14,9 +14,11 @@
 pub mod adapter;
 mod backend;
 pub mod barrier;
+mod incremental_potential;
 mod params;
 mod pipelines;
 pub mod shader;
 
 pub use adapter::*;
 pub use backend::GpuBackend;
+pub use incremental_potential::GpuBarrierBackend;

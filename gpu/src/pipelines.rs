@@ -117,7 +117,9 @@ impl Pipelines {
         });
         let modules: Vec<(ShaderFile, wgpu::ShaderModule)> = ShaderFile::ALL
             .iter()
-            .filter(|&&file| file != ShaderFile::Barrier)
+            .filter(|&&file| {
+                !matches!(file, ShaderFile::Barrier | ShaderFile::IncrementalPotential)
+            })
             .map(|&file| {
                 let source = compose(file, dim, precision);
                 let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {

@@ -19,6 +19,7 @@ const PROJECT: &str = include_str!("../../shaders/project.wgsl");
 const FRICTION: &str = include_str!("../../shaders/friction.wgsl");
 const RESIDUAL: &str = include_str!("../../shaders/residual.wgsl");
 const BARRIER: &str = include_str!("../../shaders/barrier.wgsl");
+const INCREMENTAL_POTENTIAL: &str = include_str!("../../shaders/incremental_potential.wgsl");
 const LN_F32: &str = include_str!("../../shaders/ln_f32.wgsl");
 const LN_F64: &str = include_str!("../../shaders/ln_f64.wgsl");
 
@@ -36,16 +37,21 @@ pub enum ShaderFile {
     /// `barrier.wgsl` (+ `ln_f32.wgsl` / `ln_f64.wgsl`): per-particle
     /// barrier evaluation and step filter (incremental-potential path).
     Barrier,
+    /// `incremental_potential.wgsl` after `barrier.wgsl`: the whole
+    /// incremental-potential substep (predict, gradient and residual,
+    /// tree reduction, filtered Newton, velocity).
+    IncrementalPotential,
 }
 
 impl ShaderFile {
     /// Every kernel family.
-    pub const ALL: [ShaderFile; 5] = [
+    pub const ALL: [ShaderFile; 6] = [
         ShaderFile::Integrate,
         ShaderFile::Project,
         ShaderFile::Friction,
         ShaderFile::Residual,
         ShaderFile::Barrier,
+        ShaderFile::IncrementalPotential,
     ];
 
     /// File name under `shaders/`.
@@ -56,6 +62,7 @@ impl ShaderFile {
             ShaderFile::Friction => "friction.wgsl",
             ShaderFile::Residual => "residual.wgsl",
             ShaderFile::Barrier => "barrier.wgsl",
+            ShaderFile::IncrementalPotential => "incremental_potential.wgsl",
         }
     }
 
@@ -72,6 +79,17 @@ impl ShaderFile {
             ShaderFile::Friction => &["friction"],
             ShaderFile::Residual => &["residual", "reduce"],
             ShaderFile::Barrier => &["evaluate", "filter_fraction", "ln_check"],
+            ShaderFile::IncrementalPotential => &[
+                "evaluate",
+                "filter_fraction",
+                "ln_check",
+                "ip_predict",
+                "ip_gradient",
+                "ip_reduce_sum",
+                "ip_reduce_max",
+                "ip_newton",
+                "ip_velocity",
+            ],
         }
     }
 
@@ -82,6 +100,7 @@ impl ShaderFile {
             ShaderFile::Friction => &[PRELUDE, FRICTION],
             ShaderFile::Residual => &[PRELUDE, MEASURE, RESIDUAL],
             ShaderFile::Barrier => &[BARRIER],
+            ShaderFile::IncrementalPotential => &[BARRIER, INCREMENTAL_POTENTIAL],
         }
     }
 }
@@ -105,7 +124,7 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
         mat = dim * dim,
         minor = (dim.saturating_sub(1) * dim.saturating_sub(1)).max(1),
     );
-    if file == ShaderFile::Barrier {
+    if matches!(file, ShaderFile::Barrier | ShaderFile::IncrementalPotential) {
         source.push_str(match precision {
             Precision::F32 => LN_F32,
             Precision::F64 => LN_F64,

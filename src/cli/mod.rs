@@ -2,6 +2,7 @@
 
 mod accuracy;
 mod compare;
+mod compare_barrier;
 mod output;
 mod render;
 mod run;
@@ -160,6 +161,12 @@ pub fn load_backend(
     state: &State,
 ) -> Result<Box<dyn Backend>, CliError> {
     let gpu = |plan: Plan, precision: Precision| -> Result<Box<dyn Backend>, CliError> {
+        if plan.incremental_potential.is_some() {
+            return Ok(Box::new(
+                hyperpbd::gpu::GpuBarrierBackend::new(plan, state, precision)
+                    .map_err(|e| CliError::Input(format!("--backend gpu: {e}")))?,
+            ));
+        }
         Ok(Box::new(GpuBackend::new(plan, state, precision).map_err(
             |e| CliError::Input(format!("--backend gpu: {e}")),
         )?))
@@ -183,6 +190,22 @@ pub fn load_backend(
                     plan.dim,
                     hyperpbd::gpu::shader::MAX_GPU_DIM
                 ),
+                Ok((adapter, summary)) if plan.incremental_potential.is_some() => {
+                    match hyperpbd::gpu::GpuBarrierBackend::with_adapter(
+                        &adapter,
+                        plan.clone(),
+                        state,
+                        Precision::F32,
+                    ) {
+                        Ok(b) => {
+                            eprintln!("notice: backend auto -> gpu-f32 on {}", summary.name);
+                            return Ok(Box::new(b));
+                        }
+                        Err(e) => {
+                            format!("the GPU backend failed to load on {}: {e}", summary.name)
+                        }
+                    }
+                }
                 Ok((adapter, summary)) => {
                     match GpuBackend::with_adapter(&adapter, plan.clone(), state, Precision::F32) {
                         Ok(b) => {
