@@ -51,7 +51,7 @@ enum Command {
     /// Draw a run: PNG frames and an animated GIF (orthographic or
     /// perspective projection of R^N; see docs/rendering.md).
     Render(render::RenderArgs),
-    /// Write a built-in scene as JSON (cloth, tesseract, chain2d, incline5d).
+    /// Write a built-in scene as JSON (cloth, tesseract, chain2d, incline5d, barrier4d).
     Scene {
         /// Name of the built-in scene.
         name: String,
