@@ -854,3 +854,28 @@ fn many_fast_particles_end_converged_or_at_the_rounding_floor() {
         "200 particles at up to 100 m/s: {converged} converged, {floor} at the rounding floor, smallest d {smallest:e}"
     );
 }
+
+/// Golden: the CPU barrier path is bit-identical across runs and machines
+/// (libm for ln, no contraction, fixed reduction tree). If this hash
+/// changes, the barrier path's arithmetic changed: say why in the commit
+/// and update the constant.
+#[test]
+fn barrier4d_golden_hash() {
+    let scene = hyperpbd::scenes::barrier4d();
+    let run = || {
+        let mut b = cpu(&scene);
+        for _ in 0..60 {
+            b.step().expect("step");
+        }
+        b.read_state().expect("state").hash()
+    };
+    let first = run();
+    assert_eq!(first, run(), "two runs differ");
+    println!("barrier4d after 60 steps: {first:016x}");
+    assert_eq!(
+        first, BARRIER4D_HASH,
+        "barrier4d golden hash changed: {first:016x}"
+    );
+}
+
+const BARRIER4D_HASH: u64 = 0x1e50_ebc2_b2ec_adce;

@@ -840,3 +840,36 @@ fn gpu_refusal_rolls_back_byte_for_byte() {
         assert_eq!(gpu.read_state().unwrap().hash(), written.hash());
     }
 }
+
+/// The GPU barrier path is bit-identical across runs on one adapter (no
+/// float atomics, fixed reduction tree), in both precisions.
+#[test]
+fn gpu_barrier_path_is_deterministic() {
+    for precision in PRECISIONS {
+        let Some((adapter, _)) = adapter_or_skip("gpu_barrier_path_is_deterministic", precision)
+        else {
+            continue;
+        };
+        let scene = hyperpbd::scenes::barrier4d();
+        let plan = Plan::compile(&scene).unwrap();
+        let run = || {
+            let mut gpu = GpuBarrierBackend::with_adapter(
+                &adapter,
+                plan.clone(),
+                &State::from_scene(&scene),
+                precision,
+            )
+            .unwrap();
+            let mut reports = Vec::new();
+            for _ in 0..30 {
+                reports.push(gpu.step().unwrap().minimisation);
+            }
+            (gpu.read_state().unwrap().hash(), reports)
+        };
+        let (a, ra) = run();
+        let (b, rb) = run();
+        assert_eq!(a, b, "{precision}: two runs differ");
+        assert_eq!(ra, rb, "{precision}: reports differ");
+        println!("DETERMINISM | barrier4d {precision} 30 steps | {a:016x}");
+    }
+}
