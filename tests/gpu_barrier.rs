@@ -873,3 +873,43 @@ fn gpu_barrier_path_is_deterministic() {
         println!("DETERMINISM | barrier4d {precision} 30 steps | {a:016x}");
     }
 }
+
+/// One particle thrown at a plane at 1e4 m/s (167 m per step at dt = 1/60,
+/// from 2 m away) on the GPU, both precisions: no accepted state reaches
+/// d ≤ 0 (checked in f64), and every step is accepted.
+#[test]
+fn gpu_drop_at_1e4_m_per_s_never_tunnels() {
+    for precision in PRECISIONS {
+        let Some((adapter, _)) =
+            adapter_or_skip("gpu_drop_at_1e4_m_per_s_never_tunnels", precision)
+        else {
+            continue;
+        };
+        let tolerance = match precision {
+            Precision::F32 => 1.0,
+            Precision::F64 => 1e-4,
+        };
+        let mut scene = drop_scene(1, 1.0, Convergence::MaxAccelerationResidual { tolerance });
+        scene.particles[0].velocity = Some(vec![0.0, -1e4, 0.0]);
+        let plan = Plan::compile(&scene).unwrap();
+        let mut gpu =
+            GpuBarrierBackend::with_adapter(&adapter, plan, &State::from_scene(&scene), precision)
+                .unwrap();
+        let mut smallest = f64::INFINITY;
+        let mut statuses = Vec::new();
+        for _ in 0..120 {
+            let report = gpu.step().expect("accepted");
+            statuses.extend(report.minimisation.into_iter().map(|m| m.status));
+            let d = smallest_distance(&scene, &gpu.read_state().unwrap());
+            assert!(d > 0.0, "{precision}: d = {d:e}");
+            smallest = smallest.min(d);
+        }
+        let floors = statuses
+            .iter()
+            .filter(|s| **s == MinimisationStatus::RoundingFloor)
+            .count();
+        println!(
+            "{precision}: 1e4 m/s drop, 120 steps, smallest d {smallest:e}, {floors} at the rounding floor"
+        );
+    }
+}
