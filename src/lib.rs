@@ -15,6 +15,7 @@ pub use hyperpbd_gpu as gpu;
 
 pub mod accuracy;
 pub mod compare;
+pub mod compare_barrier;
 pub mod scenes;
 
 #[doc = include_str!("../README.md")]

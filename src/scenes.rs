@@ -19,6 +19,7 @@ pub const NAMES: &[&str] = &[
     "column3d",
     "ballpit4d",
     "sandpile2d",
+    "barrier4d",
 ];
 
 /// Built-in scenes too large to ship as files; generate them with
@@ -36,6 +37,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "column3d_100k" => Some(column3d(40, 64)),
         "ballpit4d" => Some(ballpit4d()),
         "sandpile2d" => Some(sandpile2d()),
+        "barrier4d" => Some(barrier4d()),
         _ => None,
     }
 }
@@ -159,4 +161,63 @@ pub fn incline5d() -> Scene {
     }
     b.build()
         .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+}
+
+/// The incremental-potential (barrier) path in R^4: a 4 × 4 block of
+/// particles thrown down at 2 to 20 m/s onto a flat triangulated square
+/// (18 triangles in the x0-x1 plane) with a backstop hyperplane below it;
+/// κ = 1000, d^ = 0.02, maximum acceleration residual 1e-3 m/s².
+pub fn barrier4d() -> Scene {
+    use hyperpbd_core::{Convergence, IncrementalPotentialSettings, Obstacle, Particle, Solver};
+    let mut scene = Scene::new(4, 1.0 / 60.0, 1, 1);
+    scene.gravity = Some(vec![0.0, 0.0, 0.0, -9.81]);
+    let mut vertices = Vec::new();
+    for i in 0..4 {
+        for j in 0..4 {
+            vertices.push(vec![f64::from(i) * 0.5, f64::from(j) * 0.5, 0.0, 0.0]);
+        }
+    }
+    let mut simplices = Vec::new();
+    for i in 0..3 {
+        for j in 0..3 {
+            let v = |a: usize, b: usize| a * 4 + b;
+            simplices.push(vec![v(i, j), v(i + 1, j), v(i, j + 1)]);
+            simplices.push(vec![v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
+        }
+    }
+    scene.obstacles.push(Obstacle::SimplexMesh {
+        vertices,
+        simplices,
+    });
+    scene.obstacles.push(Obstacle::Hyperplane {
+        normal: vec![0.0, 0.0, 0.0, 1.0],
+        offset: -0.5,
+        friction: 0.0,
+        compliance: 0.0,
+    });
+    for i in 0..4 {
+        for j in 0..4 {
+            let k = f64::from(i * 4 + j);
+            scene.particles.push(
+                Particle::new(
+                    vec![
+                        0.2 + 0.35 * f64::from(i),
+                        0.2 + 0.35 * f64::from(j),
+                        0.0,
+                        0.3,
+                    ],
+                    1.0,
+                )
+                .with_velocity(vec![0.3, 0.0, 0.0, -(2.0 + 1.2 * k)])
+                .with_radius(0.02),
+            );
+        }
+    }
+    scene.solver = Solver::IncrementalPotential(IncrementalPotentialSettings {
+        barrier_stiffness: 1000.0,
+        activation_distance: 0.02,
+        convergence: Convergence::MaxAccelerationResidual { tolerance: 1e-3 },
+        max_iterations: 100,
+    });
+    scene
 }

@@ -962,9 +962,11 @@ fn run_scene(name: &str, scene: &hyperpbd::Scene, frames: usize, up: usize) -> S
     let mut worst: Vec<(String, f64)> = Vec::new();
     let mut e_max = e0;
     let mut min_gap = f64::INFINITY;
-    let plane = scene.obstacles.first().map(|o| {
-        let hyperpbd::Obstacle::Hyperplane { normal, offset, .. } = o;
-        (unit(normal), *offset)
+    let plane = scene.obstacles.first().and_then(|o| {
+        let hyperpbd::Obstacle::Hyperplane { normal, offset, .. } = o else {
+            return None;
+        };
+        Some((unit(normal), *offset))
     });
     for f in 0..frames {
         let report = step(&mut sim);

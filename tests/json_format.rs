@@ -500,7 +500,10 @@ fn bits(s: &Scene) -> Vec<u64> {
             offset,
             friction,
             compliance,
-        } = o;
+        } = o
+        else {
+            continue;
+        };
         v(normal);
         v(&[*offset, *friction, *compliance]);
     }

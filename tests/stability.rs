@@ -811,7 +811,9 @@ fn offset_bridge(d: f64) -> Scene {
         }
     }
     for o in &mut scene.obstacles {
-        let hyperpbd::Obstacle::Hyperplane { normal, offset, .. } = o;
+        let hyperpbd::Obstacle::Hyperplane { normal, offset, .. } = o else {
+            unreachable!("chain2d has only hyperplane obstacles");
+        };
         // n = (0, 1): the ground moves up by d with the scene.
         *offset += normal[1] * d;
     }

@@ -59,7 +59,10 @@ fn hyperplane(s: &mut Scene) -> (&mut Vec<f64>, &mut f64, &mut f64, &mut f64) {
         offset,
         friction,
         compliance,
-    } = &mut s.obstacles[0];
+    } = &mut s.obstacles[0]
+    else {
+        panic!("the base scene's obstacle is a hyperplane");
+    };
     (normal, offset, friction, compliance)
 }
 
@@ -913,6 +916,7 @@ fn catalogue() -> Vec<String> {
         j(r#"{"dim": 1,"#),
         j(""),
     ]);
+    out.extend(barrier_catalogue());
     let missing = std::path::Path::new("no-such-scene.json");
     out.push(
         Scene::from_json_file(missing)
@@ -942,6 +946,71 @@ fn catalogue() -> Vec<String> {
             .expect_err("no force term")
             .to_string(),
     );
+    out
+}
+
+/// The messages of the incremental-potential (barrier) path.
+fn barrier_catalogue() -> Vec<String> {
+    let j = |text: String| {
+        Scene::from_json_str(&text)
+            .expect_err("rejected")
+            .to_string()
+    };
+    let solver = |kappa: &str, dhat: &str, tolerance: &str, iterations: &str| {
+        format!(
+            r#", "solver": {{"type": "incremental_potential", "barrier_stiffness": {kappa}, "activation_distance": {dhat}, "convergence": {{"kind": "packed_gradient", "tolerance": {tolerance}}}, "max_iterations": {iterations}}}"#
+        )
+    };
+    let scene = |extra: &str| {
+        format!(
+            r#"{{"dim": 2, "dt": 0.01, "particles": [{{"position": [0, 1], "mass": 1}}], "obstacles": [{{"type": "hyperplane", "normal": [0, 1]}}]{extra}}}"#
+        )
+    };
+    let ok = solver("100", "0.1", "1e-8", "20");
+    let mesh = |vertices: &str, simplices: &str, extra: &str| {
+        format!(
+            r#"{{"dim": 2, "dt": 0.01, "particles": [{{"position": [0, 1], "mass": 1}}], "obstacles": [{{"type": "simplex_mesh", "vertices": {vertices}, "simplices": {simplices}}}]{extra}}}"#
+        )
+    };
+    let mut out = vec![
+        j(scene(&solver("0", "0.1", "1e-8", "20"))),
+        j(scene(&solver("100", "-0.1", "1e-8", "20"))),
+        j(scene(&solver("100", "0.1", "0", "20"))),
+        j(scene(&solver("100", "0.1", "1e-8", "0"))),
+        j(scene(&format!(r#", "damping": {{"rate": 1}}{ok}"#))),
+        j(format!(
+            r#"{{"dim": 2, "dt": 0.01, "particles": [{{"position": [0, 1], "mass": 1}}], "obstacles": [{{"type": "hyperplane", "normal": [0, 1], "friction": 0.5}}]{ok}}}"#
+        )),
+        j(format!(
+            r#"{{"dim": 2, "dt": 0.01, "particles": [{{"position": [0, 1], "mass": 1}}], "obstacles": [{{"type": "hyperplane", "normal": [0, 1], "compliance": 1e-6}}]{ok}}}"#
+        )),
+        j(format!(
+            r#"{{"dim": 2, "dt": 0.01, "particles": [{{"position": [0, 1], "mass": 1}}, {{"position": [0, 2], "mass": 1}}], "constraints": [{{"type": "distance", "elements": [[0, 1]]}}]{ok}}}"#
+        )),
+        j(format!(
+            r#"{{"dim": 2, "dt": 0.01, "particles": [{{"position": [0, -1], "mass": 1}}], "obstacles": [{{"type": "hyperplane", "normal": [0, 1]}}]{ok}}}"#
+        )),
+        j(mesh("[[0, 0], [1, 0]]", "[[0, 1]]", "")),
+        j(mesh("[[0, 0], [1, 0]]", "[[0, 2]]", &ok)),
+        j(mesh("[[0, 0], [1, 0]]", "[[1, 1]]", &ok)),
+        j(mesh("[[0, 0], [1, 0], [2, 0]]", "[[0, 1, 2]]", &ok)),
+        j(mesh("[[0, 0], [1, 0], [2, 0]]", "[[0, 1], [0, 1, 2]]", &ok)),
+        j(mesh("[[0, 0], [1, 0]]", "[[0, 1]]", "")),
+        j(scene(r#", "solver": {"type": "newton"}"#)),
+        j(scene(
+            r#", "solver": {"type": "incremental_potential", "barrier_stiffness": 1, "activation_distance": 1, "convergence": {"kind": "energy", "tolerance": 1}, "max_iterations": 3}"#,
+        )),
+        j(r#"{"dim": 2, "dt": 0.1, "obstacles": [{"type": "simplex_mesh", "simplices": []}]}"#.into()),
+        j(r#"{"dim": 2, "dt": 0.1, "obstacles": [{"type": "hyperplane", "normal": [0, 1], "vertices": []}]}"#.into()),
+    ];
+    // A step refused because the state written is infeasible.
+    use hyperpbd::Backend;
+    let scene = Scene::from_json_str(&scene(&ok)).expect("valid");
+    let mut b = hyperpbd::cpu_backend(&scene).expect("backend");
+    let mut state = b.read_state().expect("state");
+    state.positions[1] = -0.5;
+    b.write_state(&state).expect("fits");
+    out.push(b.step().expect_err("infeasible").to_string());
     out
 }
 

@@ -7,7 +7,7 @@
 //! ([`Backend::run_kernel`]) so each can be checked against the golden path
 //! in isolation.
 
-use crate::{BackendError, Kernel, Plan, StageName, State};
+use crate::{BackendError, Kernel, MinimisationReport, Plan, StageName, State};
 
 /// Largest constraint violation of one family after a step.
 #[derive(Debug, Clone, PartialEq)]
@@ -30,6 +30,9 @@ pub struct StepReport {
     pub residuals: Vec<FamilyResidual>,
     /// Contacts with a positive multiplier in the last substep.
     pub active_contacts: usize,
+    /// Incremental-potential path: one minimisation report per substep
+    /// (empty on the XPBD path).
+    pub minimisation: Vec<MinimisationReport>,
 }
 
 impl StepReport {

@@ -97,6 +97,46 @@ pub enum SceneError {
     /// (an oriented simplex of zero volume, a negative rest length).
     #[error("{path}: degenerate rest geometry: {why}")]
     DegenerateRest { path: String, why: String },
+    /// A value that must be strictly positive (barrier stiffness,
+    /// activation distance, convergence tolerance, iteration budget).
+    #[error("{path}: must be > 0, got {value}")]
+    NonPositive { path: String, value: f64 },
+    /// Something the chosen solver path cannot represent (a simplex mesh
+    /// under XPBD; constraints, friction, compliance or damping under the
+    /// incremental-potential path).
+    #[error("{path}: not supported by the {solver} solver: {why}")]
+    UnsupportedBySolver {
+        path: String,
+        solver: &'static str,
+        why: String,
+    },
+    /// A mesh simplex with the wrong number of vertices.
+    #[error("{path}: a simplex_mesh simplex needs {expected} vertices, found {found}")]
+    WrongSimplexArity {
+        path: String,
+        expected: String,
+        found: usize,
+    },
+    /// A simplex-mesh vertex index that names no vertex.
+    #[error("{path}: vertex index {index} is out of range ({count} vertices)")]
+    VertexOutOfRange {
+        path: String,
+        index: usize,
+        count: usize,
+    },
+    /// A mesh simplex that spans less than its order (repeated or
+    /// affinely dependent vertices).
+    #[error("{path}: degenerate simplex: {why}")]
+    DegenerateSimplex { path: String, why: String },
+    /// A free particle that starts at d <= 0 from a barrier obstacle.
+    #[error(
+        "{path}: starts at distance {distance:e} <= 0 from obstacles[{obstacle}]; the barrier path needs every free particle strictly outside every obstacle"
+    )]
+    BarrierInfeasible {
+        path: String,
+        obstacle: usize,
+        distance: f64,
+    },
 }
 
 /// Where in a step something failed.
@@ -115,6 +155,8 @@ pub enum StageName {
     Damping,
     /// Candidate particle pairs from swept boxes (particle–particle contact).
     Broadphase,
+    /// Incremental-potential minimisation (barrier path).
+    Minimise,
 }
 
 impl StageName {
@@ -127,6 +169,7 @@ impl StageName {
             StageName::Friction => "friction",
             StageName::Damping => "damping",
             StageName::Broadphase => "broadphase",
+            StageName::Minimise => "minimise",
         }
     }
 }
@@ -164,6 +207,14 @@ pub enum StepError {
         family_label: String,
         /// Element index in the authored order.
         element: usize,
+    },
+    /// The incremental-potential minimisation was refused.
+    #[error("step aborted in substep {substep}: minimisation refused: {reason}; state rolled back")]
+    MinimisationRefused {
+        substep: u32,
+        reason: crate::Refusal,
+        /// The full report (criterion, residuals, iterations).
+        report: Box<crate::MinimisationReport>,
     },
 }
 

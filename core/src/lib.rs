@@ -9,25 +9,31 @@
 
 mod backend;
 pub mod broadphase;
+pub mod barrier;
 pub mod builders;
 mod coloring;
 mod error;
 pub mod geometry;
 mod json;
+mod minimisation;
 mod plan;
 mod scene;
+mod solver;
 mod state;
 mod validate;
+mod validate_solver;
 
 pub use backend::{Backend, FamilyResidual, StepReport, check_forces, check_kernel, check_state};
 pub use builders::SceneBuilder;
 pub use coloring::greedy_colors;
 pub use error::{BackendError, GpuError, SceneError, StageName, StepError};
+pub use minimisation::{MinimisationReport, MinimisationStatus, Refusal};
 pub use plan::{Family, FamilyKind, Kernel, ParticleContacts, Plan, PredictTerms};
 pub use scene::{
     Collisions, ConstraintFamily, ConstraintKind, Damping, Obstacle, ObstacleDocument,
     ObstacleKind, Particle, Scene,
 };
+pub use solver::{Convergence, IncrementalPotentialSettings, Solver};
 pub use state::State;
 pub use validate::{DEGENERATE_VOLUME_RATIO, MAX_DIM};
 

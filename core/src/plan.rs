@@ -20,6 +20,7 @@
 //! Both backends execute [`Plan::substep_kernels`], so they run the same
 //! algorithm in the same order.
 
+use crate::barrier::IncrementalPotentialPlan;
 use crate::coloring::greedy_colors;
 use crate::geometry::{Scratch, constraint_value};
 use crate::{ConstraintKind, Obstacle, Scene, SceneError, StageName};
@@ -148,6 +149,9 @@ pub enum Kernel {
     Broadphase,
     /// One gather-Jacobi iteration of particle–particle contact.
     Collide,
+    /// One incremental-potential minimisation (barrier path): the whole
+    /// substep, x~ = x + h v, Newton under the filter, v = (x − x_prev)/h.
+    Minimise,
 }
 
 impl Kernel {
@@ -161,6 +165,7 @@ impl Kernel {
             Kernel::Damping => StageName::Damping,
             Kernel::Broadphase => StageName::Broadphase,
             Kernel::Collide => StageName::Project,
+            Kernel::Minimise => StageName::Minimise,
         }
     }
 }
@@ -210,6 +215,8 @@ pub struct Plan {
     pub stages: Vec<StageName>,
     /// Kernel calls of one substep, in order.
     pub substep_kernels: Vec<Kernel>,
+    /// The barrier path's settings and obstacles (None on the XPBD path).
+    pub incremental_potential: Option<IncrementalPotentialPlan>,
 }
 
 impl Plan {
@@ -284,13 +291,20 @@ impl Plan {
                 &inverse_mass,
             ));
         }
+        let incremental_potential = IncrementalPotentialPlan::compile(scene);
         for (o, obstacle) in scene.obstacles.iter().enumerate() {
             let Obstacle::Hyperplane {
                 normal,
                 offset,
                 friction,
                 compliance,
-            } = obstacle;
+            } = obstacle
+            else {
+                continue;
+            };
+            if incremental_potential.is_some() {
+                break;
+            }
             let unit = unit_vector(normal);
             let particles: Vec<usize> = (0..n).filter(|&i| dynamic(i)).collect();
             if particles.is_empty() {
@@ -327,7 +341,9 @@ impl Plan {
                     margin: c.margin,
                 });
         let mut substep_kernels = Vec::new();
-        if any_dynamic {
+        if any_dynamic && incremental_potential.is_some() {
+            substep_kernels.push(Kernel::Minimise);
+        } else if any_dynamic {
             substep_kernels.push(Kernel::Predict);
             if contacts.is_some() {
                 substep_kernels.push(Kernel::Broadphase);
@@ -377,6 +393,7 @@ impl Plan {
             contacts,
             stages,
             substep_kernels,
+            incremental_potential,
         })
     }
 
@@ -458,6 +475,19 @@ impl Plan {
             }
             s.push('\n');
         }
+        if let Some(ip) = &self.incremental_potential {
+            let _ = writeln!(
+                s,
+                "incremental potential: κ {:e}, d^ {:e}, {} ≤ {:e}, max {} iterations, {} planes, {} simplices",
+                ip.law.stiffness,
+                ip.law.activation_distance,
+                ip.convergence.as_str(),
+                ip.convergence.tolerance(),
+                ip.max_iterations,
+                ip.obstacles.plane_count(),
+                ip.obstacles.simplex_count()
+            );
+        }
         if let Some((rate, factor)) = self.damping {
             let _ = writeln!(s, "damping: rate {rate} 1/s, factor {factor} per substep");
         }
@@ -485,7 +515,7 @@ impl Plan {
 
 /// n / |n|, scaling by the largest component first so that neither tiny
 /// (1e-200) nor huge (1e200) normals underflow or overflow on the way.
-fn unit_vector(n: &[f64]) -> Vec<f64> {
+pub(crate) fn unit_vector(n: &[f64]) -> Vec<f64> {
     let largest = n.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let scaled: Vec<f64> = n.iter().map(|x| x / largest).collect();
     let length = scaled.iter().map(|x| x * x).sum::<f64>().sqrt();

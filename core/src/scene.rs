@@ -7,6 +7,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::Solver;
+
 /// A whole scene in R^`dim`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -40,6 +42,9 @@ pub struct Scene {
     /// means particles pass through each other.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub collisions: Option<Collisions>,
+    /// Solver path; XPBD when omitted.
+    #[serde(default, skip_serializing_if = "Solver::is_xpbd")]
+    pub solver: Solver,
 }
 
 fn one() -> u32 {
@@ -219,6 +224,16 @@ pub enum Obstacle {
         #[serde(default)]
         compliance: f64,
     },
+    /// A static mesh of k-simplices (segments, triangles, tetrahedra:
+    /// k = 1, 2, 3) in R^N. Used by the incremental-potential path only:
+    /// a particle keeps d = dist(x, simplex) − radius > 0 from every one.
+    SimplexMesh {
+        /// Vertex positions (each of length `dim`).
+        vertices: Vec<Vec<f64>>,
+        /// Vertex indices per simplex; all simplices of a mesh have the
+        /// same arity 2, 3 or 4.
+        simplices: Vec<Vec<usize>>,
+    },
 }
 
 /// Obstacle kinds as written in JSON.
@@ -227,6 +242,8 @@ pub enum Obstacle {
 pub enum ObstacleKind {
     /// `"type": "hyperplane"`.
     Hyperplane,
+    /// `"type": "simplex_mesh"`.
+    SimplexMesh,
 }
 
 /// The JSON form of an obstacle: every key any kind may use, checked
@@ -243,6 +260,8 @@ pub struct ObstacleDocument {
     friction: f64,
     #[serde(default)]
     compliance: f64,
+    vertices: Option<Vec<Vec<f64>>>,
+    simplices: Option<Vec<Vec<usize>>>,
 }
 
 impl TryFrom<ObstacleDocument> for Obstacle {
@@ -250,12 +269,32 @@ impl TryFrom<ObstacleDocument> for Obstacle {
 
     fn try_from(doc: ObstacleDocument) -> Result<Self, String> {
         match doc.kind {
-            ObstacleKind::Hyperplane => Ok(Obstacle::Hyperplane {
-                normal: doc.normal.ok_or("missing field `normal`")?,
-                offset: doc.offset,
-                friction: doc.friction,
-                compliance: doc.compliance,
-            }),
+            ObstacleKind::Hyperplane => {
+                if doc.vertices.is_some() || doc.simplices.is_some() {
+                    return Err("a hyperplane takes no `vertices` or `simplices`".into());
+                }
+                Ok(Obstacle::Hyperplane {
+                    normal: doc.normal.ok_or("missing field `normal`")?,
+                    offset: doc.offset,
+                    friction: doc.friction,
+                    compliance: doc.compliance,
+                })
+            }
+            ObstacleKind::SimplexMesh => {
+                if doc.normal.is_some() {
+                    return Err("unknown field `normal` for a simplex_mesh".into());
+                }
+                if doc.offset != 0.0 || doc.friction != 0.0 || doc.compliance != 0.0 {
+                    return Err(
+                        "a simplex_mesh takes only `vertices` and `simplices` (no offset, friction or compliance)"
+                            .into(),
+                    );
+                }
+                Ok(Obstacle::SimplexMesh {
+                    vertices: doc.vertices.ok_or("missing field `vertices`")?,
+                    simplices: doc.simplices.ok_or("missing field `simplices`")?,
+                })
+            }
         }
     }
 }
@@ -296,6 +335,7 @@ impl Scene {
             obstacles: Vec::new(),
             damping: None,
             collisions: None,
+            solver: Solver::Xpbd,
         }
     }
 

@@ -89,6 +89,7 @@ impl Scene {
         self.validate_particles()?;
         self.validate_constraints()?;
         self.validate_obstacles()?;
+        self.validate_solver()?;
         if let Some(d) = &self.damping {
             non_negative(|| "damping.rate".into(), d.rate)?;
         }
@@ -293,6 +294,15 @@ impl Scene {
                         });
                     }
                     compliance(at("compliance"), *alpha)?;
+                }
+                Obstacle::SimplexMesh {
+                    vertices,
+                    simplices,
+                } => {
+                    for (v, vertex) in vertices.iter().enumerate() {
+                        vector(&at(&format!("vertices[{v}]")), vertex, self.dim)?;
+                    }
+                    crate::validate_solver::validate_simplex_mesh(o, vertices, simplices)?;
                 }
             }
         }

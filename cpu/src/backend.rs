@@ -7,13 +7,14 @@
 //! ```
 
 use hyperpbd_core::{
-    Backend, BackendError, FamilyResidual, Kernel, Plan, StageName, State, StepError, StepReport,
-    check_forces, check_kernel, check_state,
+    FamilyResidual,
+    Backend, BackendError, Kernel, MinimisationReport, MinimisationStatus, Plan, StageName, State,
+    StepError, StepReport, check_forces, check_kernel, check_state,
 };
 
 use crate::collide::{self, Contacts};
 use crate::project::{Batch, Workspace, project};
-use crate::{friction, integrate, residual};
+use crate::{friction, incremental_potential, integrate, residual};
 
 /// The golden backend.
 pub struct CpuBackend {
@@ -32,6 +33,10 @@ pub struct CpuBackend {
     contacts: Contacts,
     /// Substep being run (for error messages).
     substep: u32,
+    /// Scratch of the barrier path.
+    minimiser: incremental_potential::Workspace,
+    /// Minimisation reports of the current step, one per substep.
+    minimisation: Vec<MinimisationReport>,
 }
 
 impl CpuBackend {
@@ -51,6 +56,8 @@ impl CpuBackend {
             workspace: Workspace::default(),
             contacts: Contacts::default(),
             substep: 0,
+            minimiser: incremental_potential::Workspace::default(),
+            minimisation: Vec::new(),
         })
     }
 
@@ -136,6 +143,32 @@ impl CpuBackend {
                 collide::collide(plan, friction, &self.p, &mut self.x, &mut self.contacts)
                     .map_err(|i| self.particle_error(StageName::Project, i))
             }
+            Kernel::Minimise => {
+                let Some(ip) = &plan.incremental_potential else {
+                    return Err(BackendError::InvalidCall(
+                        "the plan has no incremental-potential settings".into(),
+                    ));
+                };
+                let report = incremental_potential::minimise(
+                    plan,
+                    ip,
+                    &mut self.x,
+                    &mut self.v,
+                    &self.force,
+                    &mut self.minimiser,
+                );
+                let result = match &report.status {
+                    MinimisationStatus::Refused(reason) => Err(StepError::MinimisationRefused {
+                        substep: self.substep,
+                        reason: reason.clone(),
+                        report: Box::new(report.clone()),
+                    }
+                    .into()),
+                    _ => Ok(()),
+                };
+                self.minimisation.push(report);
+                result
+            }
         }
     }
 
@@ -161,6 +194,7 @@ impl CpuBackend {
                 .map(|(_, l)| l.iter().filter(|&&l| l > 0.0).count())
                 .sum::<usize>()
                 + self.contacts.active_count(),
+            minimisation: std::mem::take(&mut self.minimisation),
         }
     }
 }
@@ -177,6 +211,7 @@ impl Backend for CpuBackend {
     fn step(&mut self) -> Result<StepReport, BackendError> {
         self.saved_x.clone_from(&self.x);
         self.saved_v.clone_from(&self.v);
+        self.minimisation.clear();
         for substep in 0..self.plan.substeps {
             self.substep = substep;
             for k in 0..self.plan.substep_kernels.len() {

@@ -10,6 +10,7 @@ mod backend;
 pub mod collide;
 mod dim;
 mod friction;
+pub mod incremental_potential;
 mod integrate;
 mod project;
 mod residual;

@@ -83,7 +83,7 @@ pub struct GpuBackend {
     contacts: Option<ContactStage>,
 }
 
-fn groups_for(invocations: u32) -> (u32, u32) {
+pub(crate) fn groups_for(invocations: u32) -> (u32, u32) {
     let groups = invocations.div_ceil(WORKGROUP).max(1);
     if groups <= MAX_GROUPS_X {
         (groups, 1)
@@ -147,6 +147,9 @@ impl GpuBackend {
                 ),
             }
             .into());
+        }
+        if plan.incremental_potential.is_some() {
+            return Err(incremental_potential_unsupported().into());
         }
         let summary = AdapterSummary::of(adapter);
         let (device, queue) = crate::request_device(adapter, precision)?;
@@ -354,6 +357,7 @@ impl GpuBackend {
                         };
                         (entry, params.count)
                     }
+                    Kernel::Minimise => return Err(incremental_potential_unsupported().into()),
                     Kernel::Friction { family } => {
                         let f = &plan.families[family];
                         params.count = f.len() as u32;
@@ -643,9 +647,17 @@ impl GpuBackend {
     }
 }
 
+/// The whole incremental-potential step is not a GPU schedule (yet): its
+/// per-particle kernels are reachable through `crate::barrier`.
+fn incremental_potential_unsupported() -> GpuError {
+    GpuError::Unsupported {
+        what: "the incremental_potential solver's whole step (run it on the CPU backend)".into(),
+    }
+}
+
 /// Creates a buffer with `bytes` (at least 16 bytes), refusing sizes over
 /// the device limits with a typed error.
-fn create_buffer(
+pub(crate) fn create_buffer(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     limits: &wgpu::Limits,
@@ -752,6 +764,7 @@ impl Backend for GpuBackend {
             kernel_calls,
             residuals,
             active_contacts,
+            ..StepReport::default()
         })
     }
 

@@ -22,6 +22,10 @@ const BROADPHASE: &str = include_str!("../../shaders/broadphase.wgsl");
 const RADIX_SORT: &str = include_str!("../../shaders/radix_sort.wgsl");
 const SWEEP: &str = include_str!("../../shaders/sweep.wgsl");
 const COLLIDE: &str = include_str!("../../shaders/collide.wgsl");
+const BARRIER: &str = include_str!("../../shaders/barrier.wgsl");
+const INCREMENTAL_POTENTIAL: &str = include_str!("../../shaders/incremental_potential.wgsl");
+const LN_F32: &str = include_str!("../../shaders/ln_f32.wgsl");
+const LN_F64: &str = include_str!("../../shaders/ln_f64.wgsl");
 
 /// A kernel family: one WGSL file and its entry points.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -41,11 +45,18 @@ pub enum ShaderFile {
     Sweep,
     /// `collide.wgsl`: one gather-Jacobi iteration of particle contact.
     Collide,
+    /// `barrier.wgsl` (+ `ln_f32.wgsl` / `ln_f64.wgsl`): per-particle
+    /// barrier evaluation and step filter (incremental-potential path).
+    Barrier,
+    /// `incremental_potential.wgsl` after `barrier.wgsl`: the whole
+    /// incremental-potential substep (predict, gradient and residual,
+    /// tree reduction, filtered Newton, velocity).
+    IncrementalPotential,
 }
 
 impl ShaderFile {
     /// Every kernel family.
-    pub const ALL: [ShaderFile; 7] = [
+    pub const ALL: [ShaderFile; 9] = [
         ShaderFile::Integrate,
         ShaderFile::Project,
         ShaderFile::Friction,
@@ -53,6 +64,8 @@ impl ShaderFile {
         ShaderFile::RadixSort,
         ShaderFile::Sweep,
         ShaderFile::Collide,
+        ShaderFile::Barrier,
+        ShaderFile::IncrementalPotential,
     ];
 
     /// The files of the step kernels (group-0 state layout).
@@ -76,6 +89,8 @@ impl ShaderFile {
             ShaderFile::RadixSort => "radix_sort.wgsl",
             ShaderFile::Sweep => "sweep.wgsl",
             ShaderFile::Collide => "collide.wgsl",
+            ShaderFile::Barrier => "barrier.wgsl",
+            ShaderFile::IncrementalPotential => "incremental_potential.wgsl",
         }
     }
 
@@ -94,6 +109,18 @@ impl ShaderFile {
             ShaderFile::RadixSort => &["histogram", "scatter", "scan_blocks", "scan_add"],
             ShaderFile::Sweep => &["box_keys", "sweep_count", "sweep_emit"],
             ShaderFile::Collide => &["collide_pairs", "collide_gather"],
+            ShaderFile::Barrier => &["evaluate", "filter_fraction", "ln_check"],
+            ShaderFile::IncrementalPotential => &[
+                "evaluate",
+                "filter_fraction",
+                "ln_check",
+                "ip_predict",
+                "ip_gradient",
+                "ip_reduce_sum",
+                "ip_reduce_max",
+                "ip_newton",
+                "ip_velocity",
+            ],
         }
     }
 
@@ -115,6 +142,8 @@ impl ShaderFile {
             ShaderFile::RadixSort => &[BROADPHASE, RADIX_SORT],
             ShaderFile::Sweep => &[BROADPHASE, SWEEP],
             ShaderFile::Collide => &[COLLIDE],
+            ShaderFile::Barrier => &[BARRIER],
+            ShaderFile::IncrementalPotential => &[BARRIER, INCREMENTAL_POTENTIAL],
         }
     }
 }
@@ -138,6 +167,13 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
         mat = dim * dim,
         minor = (dim.saturating_sub(1) * dim.saturating_sub(1)).max(1),
     );
+    if matches!(file, ShaderFile::Barrier | ShaderFile::IncrementalPotential) {
+        source.push_str(match precision {
+            Precision::F32 => LN_F32,
+            Precision::F64 => LN_F64,
+        });
+        source.push('\n');
+    }
     for part in file.body() {
         source.push_str(part);
         source.push('\n');

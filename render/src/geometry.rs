@@ -148,13 +148,15 @@ impl SceneGeometry {
         let planes = scene
             .obstacles
             .iter()
-            .map(|o| {
-                let Obstacle::Hyperplane { normal, offset, .. } = o;
+            .filter_map(|o| {
+                let Obstacle::Hyperplane { normal, offset, .. } = o else {
+                    return None;
+                };
                 let length = normal.iter().map(|x| x * x).sum::<f64>().sqrt();
-                Plane {
+                Some(Plane {
                     normal: normal.iter().map(|x| x / length).collect(),
                     offset: *offset,
-                }
+                })
             })
             .collect();
         let lengths: Vec<f64> = edges

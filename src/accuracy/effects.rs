@@ -57,8 +57,9 @@ fn without_damping(mut s: Scene) -> Scene {
 
 fn with_friction(mut s: Scene, mu: f64) -> Scene {
     for o in &mut s.obstacles {
-        let Obstacle::Hyperplane { friction, .. } = o;
-        *friction = mu;
+        if let Obstacle::Hyperplane { friction, .. } = o {
+            *friction = mu;
+        }
     }
     s
 }
@@ -87,8 +88,9 @@ pub fn ladder(n: usize) -> Vec<(String, Scene, Option<usize>)> {
     }
     let mut far_plane = contact.clone();
     for o in &mut far_plane.obstacles {
-        let Obstacle::Hyperplane { offset, .. } = o;
-        *offset = -100.0;
+        if let Obstacle::Hyperplane { offset, .. } = o {
+            *offset = -100.0;
+        }
     }
     vec![
         ("no forces, no constraints".into(), nothing, None),

@@ -39,6 +39,16 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
         PrecisionArg::F32 => Precision::F32,
         PrecisionArg::F64 => Precision::F64,
     };
+    if plan.incremental_potential.is_some() {
+        return super::compare_barrier::compare_barrier(
+            &args.scene,
+            args.frames,
+            args.every,
+            plan,
+            &state,
+            precision,
+        );
+    }
     let model = ErrorModel::new(&plan, precision.into());
     let mut cpu =
         CpuBackend::new(plan.clone(), &state).map_err(|e| CliError::Input(e.to_string()))?;

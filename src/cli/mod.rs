@@ -3,6 +3,7 @@
 mod accuracy;
 mod broken_pipe;
 mod compare;
+mod compare_barrier;
 mod output;
 mod render;
 mod run;
@@ -53,7 +54,7 @@ enum Command {
     /// Draw a run: PNG frames and an animated GIF (orthographic or
     /// perspective projection of R^N; see docs/rendering.md).
     Render(render::RenderArgs),
-    /// Write a built-in scene as JSON (cloth, tesseract, chain2d, incline5d).
+    /// Write a built-in scene as JSON (cloth, tesseract, chain2d, incline5d, barrier4d).
     Scene {
         /// Name of the built-in scene.
         name: String,
@@ -163,6 +164,12 @@ pub fn load_backend(
     state: &State,
 ) -> Result<Box<dyn Backend>, CliError> {
     let gpu = |plan: Plan, precision: Precision| -> Result<Box<dyn Backend>, CliError> {
+        if plan.incremental_potential.is_some() {
+            return Ok(Box::new(
+                hyperpbd::gpu::GpuBarrierBackend::new(plan, state, precision)
+                    .map_err(|e| CliError::Input(format!("--backend gpu: {e}")))?,
+            ));
+        }
         Ok(Box::new(GpuBackend::new(plan, state, precision).map_err(
             |e| CliError::Input(format!("--backend gpu: {e}")),
         )?))
@@ -186,6 +193,22 @@ pub fn load_backend(
                     plan.dim,
                     hyperpbd::gpu::shader::MAX_GPU_DIM
                 ),
+                Ok((adapter, summary)) if plan.incremental_potential.is_some() => {
+                    match hyperpbd::gpu::GpuBarrierBackend::with_adapter(
+                        &adapter,
+                        plan.clone(),
+                        state,
+                        Precision::F32,
+                    ) {
+                        Ok(b) => {
+                            eprintln!("notice: backend auto -> gpu-f32 on {}", summary.name);
+                            return Ok(Box::new(b));
+                        }
+                        Err(e) => {
+                            format!("the GPU backend failed to load on {}: {e}", summary.name)
+                        }
+                    }
+                }
                 Ok((adapter, summary)) => {
                     match GpuBackend::with_adapter(&adapter, plan.clone(), state, Precision::F32) {
                         Ok(b) => {

@@ -8,11 +8,13 @@
 //! zero and the projection reports no response rather than inventing a
 //! direction.
 
+mod closest_point;
 mod distance;
 mod linalg;
 mod oriented_measure;
 mod simplex_measure;
 
+pub use closest_point::{ClosestPoint, MAX_SIMPLEX_ORDER, closest_point_on_simplex};
 pub use distance::distance;
 pub use linalg::{adjugate, determinant};
 pub use oriented_measure::oriented_measure;

@@ -256,6 +256,7 @@ impl GpuBackend {
             kernel_calls,
             residuals,
             active_contacts: active_contacts + active,
+            minimisation: Vec::new(),
         })
     }
 

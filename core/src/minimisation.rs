@@ -1,0 +1,65 @@
+//! What one incremental-potential minimisation reports.
+
+use thiserror::Error;
+
+use crate::Convergence;
+
+/// How a minimisation ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MinimisationStatus {
+    /// The authored criterion held (possibly at the warm start).
+    Converged,
+    /// `max_iterations` Newton iterations ran without meeting the
+    /// criterion. The iterate is kept: it is feasible (the filter certified
+    /// every accepted step) and F never increased; the report says so.
+    BudgetExhausted,
+    /// The criterion did not hold, but every free particle is at its
+    /// minimiser to the working precision: its gradient is zero or even its
+    /// full Newton step x + Δ rounds back to x. The residual left is the
+    /// rounding floor of the criterion (for the acceleration residual near
+    /// contact ≈ b''(d) ε |x| / m). The iterate is kept and the report says
+    /// so; lower precision or a stiffer contact raises that floor.
+    RoundingFloor,
+    /// The minimisation could not run or could not go on; the step fails
+    /// and the state is rolled back.
+    Refused(Refusal),
+}
+
+/// Why a minimisation was refused.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum Refusal {
+    /// A free particle starts at d ≤ 0 from an obstacle: the barrier is
+    /// undefined there and no step can be certified.
+    #[error("particle {particle} starts at distance {distance:e} <= 0 from obstacles[{obstacle}]")]
+    InfeasibleStart {
+        particle: usize,
+        obstacle: usize,
+        distance: f64,
+    },
+    /// The objective or its gradient was not finite for a particle.
+    #[error("particle {particle}: the objective or its gradient is not finite")]
+    NonFinite { particle: usize },
+    /// No free particle moved while the criterion still failed, and some
+    /// particle's representable Newton step found no decrease of F.
+    #[error(
+        "no particle can decrease the objective (residual {residual:e}): a representable Newton step found no decrease"
+    )]
+    NoDescent { residual: f64 },
+}
+
+/// The result of one minimisation (one substep of the barrier path).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MinimisationReport {
+    /// The authored criterion and its tolerance.
+    pub criterion: Convergence,
+    /// Residual at the warm start (None when refused before evaluation).
+    pub initial_residual: Option<f64>,
+    /// Residual at the returned iterate (None when refused before
+    /// evaluation).
+    pub final_residual: Option<f64>,
+    /// Newton iterations run.
+    pub iterations: u32,
+    /// How it ended.
+    pub status: MinimisationStatus,
+}

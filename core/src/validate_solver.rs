@@ -1,0 +1,195 @@
+//! Validation of the solver choice and of barrier obstacles.
+//!
+//! ```text
+//! xpbd:                   no simplex_mesh obstacle (XPBD has no simplex contact)
+//! incremental_potential:  κ > 0, d^ > 0, tolerance > 0, max_iterations ≥ 1;
+//!                         no constraint families, no damping, hyperplanes
+//!                         without friction or compliance (none of them is a
+//!                         term of U in this version);
+//!                         every free particle starts at d > 0 from every obstacle
+//! simplex_mesh:           arity 2…4 (≤ dim + 1), one arity per mesh, indices in
+//!                         range and distinct, k-measure above
+//!                         DEGENERATE_VOLUME_RATIO · (longest edge)^k / k!
+//! ```
+
+use crate::barrier::BarrierObstacles;
+use crate::geometry::{determinant, factorial};
+use crate::{DEGENERATE_VOLUME_RATIO, Obstacle, Scene, SceneError, Solver};
+
+const IP: &str = "incremental_potential";
+
+fn positive(path: &str, value: f64) -> Result<(), SceneError> {
+    if !value.is_finite() {
+        return Err(SceneError::NonFinite {
+            path: path.into(),
+            value,
+        });
+    }
+    if value <= 0.0 {
+        return Err(SceneError::NonPositive {
+            path: path.into(),
+            value,
+        });
+    }
+    Ok(())
+}
+
+impl Scene {
+    pub(crate) fn validate_solver(&self) -> Result<(), SceneError> {
+        let Solver::IncrementalPotential(settings) = &self.solver else {
+            for (o, obstacle) in self.obstacles.iter().enumerate() {
+                if matches!(obstacle, Obstacle::SimplexMesh { .. }) {
+                    return Err(SceneError::UnsupportedBySolver {
+                        path: format!("obstacles[{o}]"),
+                        solver: "xpbd",
+                        why: "a simplex_mesh is a barrier obstacle of the incremental_potential solver".into(),
+                    });
+                }
+            }
+            return Ok(());
+        };
+        positive("solver.barrier_stiffness", settings.barrier_stiffness)?;
+        positive("solver.activation_distance", settings.activation_distance)?;
+        positive(
+            "solver.convergence.tolerance",
+            settings.convergence.tolerance(),
+        )?;
+        if settings.max_iterations == 0 {
+            return Err(SceneError::NonPositive {
+                path: "solver.max_iterations".into(),
+                value: 0.0,
+            });
+        }
+        let unsupported = |path: String, why: &str| SceneError::UnsupportedBySolver {
+            path,
+            solver: IP,
+            why: why.into(),
+        };
+        if !self.constraints.is_empty() {
+            return Err(unsupported(
+                "constraints".into(),
+                "constraint families are not terms of the incremental potential in this version",
+            ));
+        }
+        if self.collisions.is_some() {
+            return Err(unsupported(
+                "collisions".into(),
+                "particle–particle contact is not a term of the incremental potential in this version",
+            ));
+        }
+        if self.damping.is_some() {
+            return Err(unsupported(
+                "damping".into(),
+                "velocity damping is not a term of the incremental potential",
+            ));
+        }
+        for (o, obstacle) in self.obstacles.iter().enumerate() {
+            if let Obstacle::Hyperplane {
+                friction,
+                compliance,
+                ..
+            } = obstacle
+            {
+                if *friction != 0.0 {
+                    return Err(unsupported(
+                        format!("obstacles[{o}].friction"),
+                        "friction is not a term of the incremental potential in this version",
+                    ));
+                }
+                if *compliance != 0.0 {
+                    return Err(unsupported(
+                        format!("obstacles[{o}].compliance"),
+                        "a barrier obstacle has no compliance (κ and d^ set its stiffness)",
+                    ));
+                }
+            }
+        }
+        let obstacles = BarrierObstacles::compile(self);
+        let mut normal = vec![0.0; self.dim];
+        for (i, p) in self.particles.iter().enumerate() {
+            if p.fixed {
+                continue;
+            }
+            for o in 0..obstacles.len() {
+                let distance = obstacles.distance(o, &p.position, p.radius, &mut normal);
+                if distance.is_nan() || distance <= 0.0 {
+                    return Err(SceneError::BarrierInfeasible {
+                        path: format!("particles[{i}].position"),
+                        obstacle: obstacles.source(o) as usize,
+                        distance,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Checks one simplex mesh's connectivity and geometry (vertex vectors are
+/// already checked).
+pub(crate) fn validate_simplex_mesh(
+    o: usize,
+    vertices: &[Vec<f64>],
+    simplices: &[Vec<usize>],
+) -> Result<(), SceneError> {
+    let dim = vertices.first().map_or(0, Vec::len);
+    let first_arity = simplices.first().map_or(0, Vec::len);
+    for (s, simplex) in simplices.iter().enumerate() {
+        let path = format!("obstacles[{o}].simplices[{s}]");
+        let largest = 4.min(dim + 1);
+        if !(2..=largest).contains(&simplex.len()) || simplex.len() != first_arity {
+            return Err(SceneError::WrongSimplexArity {
+                path,
+                expected: format!(
+                    "2..={largest} (segments, triangles, tetrahedra; at most dim + 1), \
+                     the same for every simplex ({first_arity} in simplices[0])"
+                ),
+                found: simplex.len(),
+            });
+        }
+        for (j, &index) in simplex.iter().enumerate() {
+            if index >= vertices.len() {
+                return Err(SceneError::VertexOutOfRange {
+                    path: format!("{path}[{j}]"),
+                    index,
+                    count: vertices.len(),
+                });
+            }
+            if simplex[..j].contains(&index) {
+                return Err(SceneError::DegenerateSimplex {
+                    path: format!("{path}[{j}]"),
+                    why: format!("vertex {index} appears twice"),
+                });
+            }
+        }
+        let k = simplex.len() - 1;
+        let origin = &vertices[simplex[0]];
+        let edge = |j: usize, a: usize| vertices[simplex[j]][a] - origin[a];
+        let mut gram = vec![0.0; k * k];
+        for s1 in 0..k {
+            for s2 in 0..k {
+                gram[s1 * k + s2] = (0..dim).map(|a| edge(s1 + 1, a) * edge(s2 + 1, a)).sum();
+            }
+        }
+        let mut longest: f64 = 0.0;
+        for &i in simplex {
+            for &j in simplex {
+                let d2: f64 = (0..dim)
+                    .map(|a| (vertices[i][a] - vertices[j][a]).powi(2))
+                    .sum();
+                longest = longest.max(d2.sqrt());
+            }
+        }
+        let measure = determinant(&mut gram, k).max(0.0).sqrt() / factorial(k);
+        let floor = DEGENERATE_VOLUME_RATIO * longest.powi(k as i32) / factorial(k);
+        if !measure.is_finite() || measure <= floor {
+            return Err(SceneError::DegenerateSimplex {
+                path,
+                why: format!(
+                    "its {k}-measure {measure:e} is not above the degeneracy floor {floor:e}"
+                ),
+            });
+        }
+    }
+    Ok(())
+}

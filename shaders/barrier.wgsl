@@ -1,0 +1,291 @@
+// Per-particle barrier evaluation and the certified step filter (the
+// incremental-potential path), one invocation per particle looping over
+// every obstacle: planes first, then simplices, in the order of
+// BarrierObstacles (core/src/barrier.rs). Same arithmetic, in the same
+// order, as the f64 golden path; ln_real is the built-in log in f32 and an
+// arithmetic-only ln in f64 (ln_f64.wgsl), because lavapipe's f64 log is
+// garbage.
+//
+//   plane:    d = n·x − c − r,                n = unit normal
+//   simplex:  d = |x − q| − r,  n = (x − q)/|x − q|,  q = closest point
+//             (every face's affine projection with all barycentrics ≥ 0,
+//             smallest |x − q|², first on a tie; Gram solve without pivots)
+//   b = −κ (d − d^)² ln(d/d^),  b', b'' as in core/src/barrier.rs
+//   evaluate: energy Σ b, gradient Σ b' n, hessian Σ b'' n nᵀ, min d
+//   filter_fraction: t = min(1, η min_o t*_o),  t*_plane = d0/(−n·Δ) if n·Δ < 0,
+//             t*_simplex = d0/|Δ|;  0 if some d0 ≤ 0
+// The host prepends `alias real`, DIM and REAL_MAX (shader.rs).
+
+struct BarrierParams {
+    count: u32,     // particles
+    planes: u32,    // plane obstacles
+    simplices: u32, // simplex obstacles
+    pad: u32,
+    stiffness: real,  // κ
+    activation: real, // d^
+    safety: real,     // η
+    scale: real,      // largest |obstacle coordinate| (rounding floor of d)
+}
+
+@group(0) @binding(0) var<storage, read_write> x: array<real>;
+@group(0) @binding(1) var<storage, read> radius: array<real>;
+// [plane normals, planes·DIM | plane offsets, planes | simplex vertices, simplices·4·DIM]
+@group(0) @binding(2) var<storage, read> geometry: array<real>;
+@group(0) @binding(3) var<storage, read> arity: array<u32>;
+@group(0) @binding(4) var<storage, read> delta: array<real>;
+@group(0) @binding(5) var<storage, read_write> energy: array<real>;
+@group(0) @binding(6) var<storage, read_write> gradient: array<real>;
+@group(0) @binding(7) var<storage, read_write> hessian: array<real>;
+@group(0) @binding(8) var<storage, read_write> scalar: array<real>;
+@group(0) @binding(9) var<storage, read> bp: BarrierParams;
+
+const WORKGROUP: u32 = 64u;
+const SLOTS: u32 = 4u;
+
+fn linear_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return gid.x + gid.y * groups.x * WORKGROUP;
+}
+
+// Vertex j, coordinate a of simplex s.
+fn vertex(s: u32, j: u32, a: u32) -> real {
+    let base = bp.planes * DIM + bp.planes;
+    return geometry[base + (s * SLOTS + j) * DIM + a];
+}
+
+// Distance to obstacle o from p (radius r); the unit direction into n.
+fn obstacle_distance(o: u32, p: ptr<function, array<real, DIM>>, r: real, n: ptr<function, array<real, DIM>>) -> real {
+    if (o < bp.planes) {
+        var dot: real = 0.0;
+        for (var a = 0u; a < DIM; a++) {
+            (*n)[a] = geometry[o * DIM + a];
+            dot += (*n)[a] * (*p)[a];
+        }
+        return dot - geometry[bp.planes * DIM + o] - r;
+    }
+    let s = o - bp.planes;
+    let count = arity[s];
+    var best_squared: real = REAL_MAX;
+    var found = false;
+    var rr: array<real, DIM>;
+    for (var face = 1u; face < (1u << count); face++) {
+        // Members of the face.
+        var members: array<u32, 4>;
+        var size = 0u;
+        for (var j = 0u; j < 4u; j++) {
+            if ((face & (1u << j)) != 0u) {
+                members[size] = j;
+                size++;
+            }
+        }
+        let anchor = members[0];
+        let m = size - 1u;
+        var lambda: array<real, 4>;
+        for (var j = 0u; j < 4u; j++) {
+            lambda[j] = 0.0;
+        }
+        var ok = true;
+        if (m == 0u) {
+            lambda[anchor] = 1.0;
+        } else {
+            var g: array<array<real, 3>, 3>;
+            var rhs: array<real, 3>;
+            for (var s1 = 0u; s1 < m; s1++) {
+                let js = members[s1 + 1u];
+                for (var t1 = 0u; t1 < m; t1++) {
+                    let jt = members[t1 + 1u];
+                    var acc: real = 0.0;
+                    for (var a = 0u; a < DIM; a++) {
+                        acc += (vertex(s, js, a) - vertex(s, anchor, a)) * (vertex(s, jt, a) - vertex(s, anchor, a));
+                    }
+                    g[s1][t1] = acc;
+                }
+                var acc: real = 0.0;
+                for (var a = 0u; a < DIM; a++) {
+                    acc += (vertex(s, js, a) - vertex(s, anchor, a)) * ((*p)[a] - vertex(s, anchor, a));
+                }
+                rhs[s1] = acc;
+            }
+            // Gaussian elimination without pivoting (SPD).
+            for (var c = 0u; c < m; c++) {
+                if (!(g[c][c] > 0.0) || g[c][c] > REAL_MAX) {
+                    ok = false;
+                    break;
+                }
+                for (var r2 = c + 1u; r2 < m; r2++) {
+                    let factor = g[r2][c] / g[c][c];
+                    for (var s2 = c; s2 < m; s2++) {
+                        g[r2][s2] -= factor * g[c][s2];
+                    }
+                    rhs[r2] -= factor * rhs[c];
+                }
+            }
+            if (ok) {
+                var mu: array<real, 3>;
+                for (var k = 0u; k < m; k++) {
+                    let c = m - 1u - k;
+                    var value = rhs[c];
+                    for (var s2 = c + 1u; s2 < m; s2++) {
+                        value -= g[c][s2] * mu[s2];
+                    }
+                    mu[c] = value / g[c][c];
+                }
+                var sum: real = 0.0;
+                for (var k = 0u; k < m; k++) {
+                    lambda[members[k + 1u]] = mu[k];
+                    sum += mu[k];
+                }
+                lambda[anchor] = 1.0 - sum;
+            }
+        }
+        if (!ok) {
+            continue;
+        }
+        var inside = true;
+        for (var j = 0u; j < 4u; j++) {
+            if (lambda[j] < 0.0) {
+                inside = false;
+            }
+        }
+        if (!inside) {
+            continue;
+        }
+        for (var a = 0u; a < DIM; a++) {
+            rr[a] = (*p)[a];
+        }
+        for (var j = 0u; j < count; j++) {
+            if ((face & (1u << j)) != 0u) {
+                for (var a = 0u; a < DIM; a++) {
+                    rr[a] -= lambda[j] * vertex(s, j, a);
+                }
+            }
+        }
+        var squared: real = 0.0;
+        for (var a = 0u; a < DIM; a++) {
+            squared += rr[a] * rr[a];
+        }
+        if (!found || squared < best_squared) {
+            found = true;
+            best_squared = squared;
+            for (var a = 0u; a < DIM; a++) {
+                (*n)[a] = rr[a];
+            }
+        }
+    }
+    let distance = sqrt(best_squared);
+    if (distance > 0.0) {
+        for (var a = 0u; a < DIM; a++) {
+            (*n)[a] /= distance;
+        }
+    }
+    return distance - r;
+}
+
+// (b, b', b'') of the clamped-log law at d (0 < d < d^).
+fn barrier_law(d: real) -> vec3<real> {
+    let dh = bp.activation;
+    let k = bp.stiffness;
+    let ln = ln_real(d / dh);
+    let e = d - dh;
+    let b = -k * e * e * ln;
+    let b1 = -k * (2.0 * e * ln + e * e / d);
+    let b2 = -k * (2.0 * ln + 4.0 * e / d - e * e / (d * d));
+    return vec3<real>(b, b1, b2);
+}
+
+@compute @workgroup_size(64)
+fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(gid, groups);
+    if (i >= bp.count) {
+        return;
+    }
+    var p: array<real, DIM>;
+    for (var a = 0u; a < DIM; a++) {
+        p[a] = x[i * DIM + a];
+    }
+    var g: array<real, DIM>;
+    for (var a = 0u; a < DIM; a++) {
+        g[a] = 0.0;
+    }
+    for (var a = 0u; a < DIM * DIM; a++) {
+        hessian[i * DIM * DIM + a] = 0.0;
+    }
+    var e_sum: real = 0.0;
+    var smallest: real = REAL_MAX;
+    var infeasible = false;
+    var n: array<real, DIM>;
+    for (var o = 0u; o < bp.planes + bp.simplices; o++) {
+        let d = obstacle_distance(o, &p, radius[i], &n);
+        smallest = min(smallest, d);
+        if (d >= bp.activation) {
+            continue;
+        }
+        if (!(d > 0.0)) {
+            infeasible = true;
+            continue;
+        }
+        let law = barrier_law(d);
+        e_sum += law.x;
+        for (var a = 0u; a < DIM; a++) {
+            g[a] += law.y * n[a];
+            for (var c = 0u; c < DIM; c++) {
+                hessian[(i * DIM + a) * DIM + c] += law.z * n[a] * n[c];
+            }
+        }
+    }
+    if (infeasible) {
+        e_sum = REAL_MAX; // stands for +∞ (WGSL has no infinity literal)
+    }
+    energy[i] = e_sum;
+    for (var a = 0u; a < DIM; a++) {
+        gradient[i * DIM + a] = g[a];
+    }
+    scalar[i] = smallest;
+}
+
+@compute @workgroup_size(64)
+fn filter_fraction(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(gid, groups);
+    if (i >= bp.count) {
+        return;
+    }
+    var p: array<real, DIM>;
+    var step: array<real, DIM>;
+    var length2: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        p[a] = x[i * DIM + a];
+        step[a] = delta[i * DIM + a];
+        length2 += step[a] * step[a];
+    }
+    let length = sqrt(length2);
+    var t: real = REAL_MAX;
+    var n: array<real, DIM>;
+    for (var o = 0u; o < bp.planes + bp.simplices; o++) {
+        let d0 = obstacle_distance(o, &p, radius[i], &n);
+        if (!(d0 > 0.0)) {
+            scalar[i] = 0.0;
+            return;
+        }
+        var approach = length;
+        if (o < bp.planes) {
+            var dot: real = 0.0;
+            for (var a = 0u; a < DIM; a++) {
+                dot += n[a] * step[a];
+            }
+            approach = -dot;
+        }
+        if (approach > 0.0) {
+            t = min(t, d0 / approach);
+        }
+    }
+    scalar[i] = min(bp.safety * t, 1.0);
+}
+
+// ln of every delta[i] into scalar[i] (the ln helper's own test).
+@compute @workgroup_size(64)
+fn ln_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(gid, groups);
+    if (i >= bp.count) {
+        return;
+    }
+    scalar[i] = ln_real(delta[i]);
+}

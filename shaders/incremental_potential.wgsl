@@ -1,0 +1,357 @@
+// The whole incremental-potential substep on the GPU, composed after
+// barrier.wgsl (which holds the obstacle distance, the barrier law and the
+// bindings 0..=9). One invocation per particle; the residual is reduced by
+// the fixed pairwise tree of cpu/src/incremental_potential.rs (one dispatch
+// per stride). Same arithmetic, in the same order, as the f64 golden path.
+//
+//   ip_predict    x_prev = x;  x~ = x + h v                  (free particles)
+//   ip_gradient   g = m (x − x~) − h² load + h² Σ b' n;  residual term
+//                 (packed: |g|², acceleration: |g| w / h²; 0 for fixed);
+//                 status: infeasible start, non-finite gradient
+//   ip_reduce_sum / ip_reduce_max   terms[i] ⊕= terms[i + s] for i ≡ 0 mod 2s
+//   ip_newton     Δ = −(m I + h² Σ b'' n nᵀ)⁻¹ g (Cholesky), t = filter,
+//                 Armijo halving on F(x + tΔ) − F(x) in difference form
+//                 (c = 1e-4, ≤ 60), x += tΔ; status: moved
+//   ip_velocity   v = (x − x_prev) / h                       (free particles)
+
+struct IpParams {
+    count: u32,     // particles
+    stride: u32,    // reduction stride s
+    criterion: u32, // 0: packed gradient, 1: max acceleration residual
+    pad: u32,
+    h: real,
+    armijo: real,
+    pad_a: real,
+    pad_b: real,
+}
+
+@group(0) @binding(10) var<storage, read_write> v: array<real>;
+@group(0) @binding(11) var<storage, read_write> x_prev: array<real>;
+@group(0) @binding(12) var<storage, read_write> prediction: array<real>;
+@group(0) @binding(13) var<storage, read> inv_mass: array<real>;
+@group(0) @binding(14) var<storage, read> gravity_scale: array<real>;
+@group(0) @binding(15) var<storage, read> force: array<real>;
+@group(0) @binding(16) var<storage, read_write> terms: array<real>;
+// status[0]: some particle moved (newton); status[1]: smallest particle with
+// a non-finite gradient or direction; status[2]: smallest infeasible particle;
+// status[3]: some particle's Armijo search failed although x + Δ ≠ x and
+// its expected decrease was above the rounding of F's change.
+@group(0) @binding(17) var<storage, read_write> status: array<atomic<u32>, 4>;
+@group(0) @binding(18) var<storage, read> gravity: array<real>;
+@group(1) @binding(0) var<storage, read> ip: IpParams;
+
+const MAX_HALVINGS: u32 = 60u;
+
+fn is_finite(a: real) -> bool {
+    return abs(a) <= REAL_MAX;
+}
+
+fn mass_of(i: u32) -> real {
+    return 1.0 / inv_mass[i];
+}
+
+// m s g_a + f_a.
+fn load(i: u32, a: u32) -> real {
+    return mass_of(i) * gravity_scale[i] * gravity[a] + force[i * DIM + a];
+}
+
+// Σ_o b, Σ_o b' n and Σ_o b'' n nᵀ at p (CPU: evaluate_particle_barrier).
+// Returns false where some d ≤ 0 (the energy is then +∞).
+fn barrier_sum(p: ptr<function, array<real, DIM>>, r: real, e_out: ptr<function, real>,
+               g: ptr<function, array<real, DIM>>, hm: ptr<function, array<real, MAT>>,
+               fs: ptr<function, real>) -> bool {
+    *e_out = 0.0;
+    *fs = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        (*g)[a] = 0.0;
+    }
+    for (var a = 0u; a < MAT; a++) {
+        (*hm)[a] = 0.0;
+    }
+    var feasible = true;
+    var n: array<real, DIM>;
+    for (var o = 0u; o < bp.planes + bp.simplices; o++) {
+        let d = obstacle_distance(o, p, r, &n);
+        if (d >= bp.activation) {
+            continue;
+        }
+        if (!(d > 0.0)) {
+            feasible = false;
+            continue;
+        }
+        let law = barrier_law(d);
+        *e_out += law.x;
+        *fs += abs(law.y);
+        for (var a = 0u; a < DIM; a++) {
+            (*g)[a] += law.y * n[a];
+            for (var c = 0u; c < DIM; c++) {
+                (*hm)[a * DIM + c] += law.z * n[a] * n[c];
+            }
+        }
+    }
+    return feasible;
+}
+
+// F_i(y) − F_i(x) in difference form (CPU: ParticleTerms::change);
+// REAL_MAX where y is infeasible.
+fn change(i: u32, p: ptr<function, array<real, DIM>>, y: ptr<function, array<real, DIM>>, barrier_at_x: real,
+          hm: ptr<function, array<real, MAT>>) -> real {
+    var e: real;
+    var g: array<real, DIM>;
+    var fs: real;
+    let feasible = barrier_sum(y, radius[i], &e, &g, hm, &fs);
+    if (!feasible) {
+        return REAL_MAX;
+    }
+    let h2 = ip.h * ip.h;
+    var inertia: real = 0.0;
+    var work: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        let s = (*y)[a] - (*p)[a];
+        inertia += s * (((*p)[a] - prediction[i * DIM + a]) + 0.5 * s);
+        work += load(i, a) * s;
+    }
+    return mass_of(i) * inertia - h2 * work + h2 * (e - barrier_at_x);
+}
+
+@compute @workgroup_size(64)
+fn ip_predict(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(gid, groups);
+    if (i >= ip.count) {
+        return;
+    }
+    for (var a = 0u; a < DIM; a++) {
+        let k = i * DIM + a;
+        x_prev[k] = x[k];
+        prediction[k] = x[k] + ip.h * v[k];
+    }
+}
+
+@compute @workgroup_size(64)
+fn ip_gradient(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(gid, groups);
+    if (i >= ip.count) {
+        return;
+    }
+    if (inv_mass[i] == 0.0) {
+        terms[i] = 0.0;
+        return;
+    }
+    var p: array<real, DIM>;
+    for (var a = 0u; a < DIM; a++) {
+        p[a] = x[i * DIM + a];
+    }
+    var e: real;
+    var bg: array<real, DIM>;
+    var hm: array<real, MAT>;
+    var fs: real;
+    if (!barrier_sum(&p, radius[i], &e, &bg, &hm, &fs)) {
+        atomicMin(&status[2], i);
+    }
+    let h2 = ip.h * ip.h;
+    let m = mass_of(i);
+    var squared: real = 0.0;
+    var ok = true;
+    for (var a = 0u; a < DIM; a++) {
+        let ga = m * (p[a] - prediction[i * DIM + a]) - h2 * load(i, a) + h2 * bg[a];
+        gradient[i * DIM + a] = ga;
+        ok = ok && is_finite(ga);
+        squared += ga * ga;
+    }
+    for (var a = 0u; a < MAT; a++) {
+        hessian[i * MAT + a] = hm[a];
+    }
+    if (!ok) {
+        atomicMin(&status[1], i);
+    }
+    if (ip.criterion == 0u) {
+        terms[i] = squared;
+    } else {
+        terms[i] = sqrt(squared) * inv_mass[i] / h2;
+    }
+}
+
+@compute @workgroup_size(64)
+fn ip_reduce_sum(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = linear_index(gid, groups);
+    let i = 2u * ip.stride * k;
+    if (i + ip.stride < ip.count) {
+        terms[i] = terms[i] + terms[i + ip.stride];
+    }
+}
+
+@compute @workgroup_size(64)
+fn ip_reduce_max(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = linear_index(gid, groups);
+    let i = 2u * ip.stride * k;
+    if (i + ip.stride < ip.count) {
+        terms[i] = max(terms[i], terms[i + ip.stride]);
+    }
+}
+
+@compute @workgroup_size(64)
+fn ip_newton(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(gid, groups);
+    if (i >= ip.count || inv_mass[i] == 0.0) {
+        return;
+    }
+    var p: array<real, DIM>;
+    var g: array<real, DIM>;
+    var all_zero = true;
+    for (var a = 0u; a < DIM; a++) {
+        p[a] = x[i * DIM + a];
+        g[a] = gradient[i * DIM + a];
+        all_zero = all_zero && g[a] == 0.0;
+    }
+    var hm: array<real, MAT>;
+    var barrier_at_x: real;
+    var bg: array<real, DIM>;
+    var force_sum: real;
+    barrier_sum(&p, radius[i], &barrier_at_x, &bg, &hm, &force_sum);
+    if (all_zero) {
+        return;
+    }
+    // Newton matrix m I + h² B and its Cholesky solve (CPU: cholesky_solve).
+    let h2 = ip.h * ip.h;
+    let m = mass_of(i);
+    var am: array<real, MAT>;
+    var dir: array<real, DIM>;
+    for (var r = 0u; r < DIM; r++) {
+        for (var c = 0u; c < DIM; c++) {
+            var diagonal: real = 0.0;
+            if (r == c) {
+                diagonal = m;
+            }
+            am[r * DIM + c] = diagonal + h2 * hm[r * DIM + c];
+        }
+        dir[r] = -g[r];
+    }
+    for (var c = 0u; c < DIM; c++) {
+        var pivot = am[c * DIM + c];
+        for (var k = 0u; k < c; k++) {
+            pivot -= am[c * DIM + k] * am[c * DIM + k];
+        }
+        if (!(pivot > 0.0 && is_finite(pivot))) {
+            atomicMin(&status[1], i);
+            return;
+        }
+        let root = sqrt(pivot);
+        am[c * DIM + c] = root;
+        for (var r = c + 1u; r < DIM; r++) {
+            var value = am[r * DIM + c];
+            for (var k = 0u; k < c; k++) {
+                value -= am[r * DIM + k] * am[c * DIM + k];
+            }
+            am[r * DIM + c] = value / root;
+        }
+    }
+    for (var r = 0u; r < DIM; r++) {
+        var value = dir[r];
+        for (var k = 0u; k < r; k++) {
+            value -= am[r * DIM + k] * dir[k];
+        }
+        dir[r] = value / am[r * DIM + r];
+    }
+    for (var q = 0u; q < DIM; q++) {
+        let r = DIM - 1u - q;
+        var value = dir[r];
+        for (var k = r + 1u; k < DIM; k++) {
+            value -= am[k * DIM + r] * dir[k];
+        }
+        dir[r] = value / am[r * DIM + r];
+    }
+    var at_floor = true;
+    for (var a = 0u; a < DIM; a++) {
+        at_floor = at_floor && p[a] + dir[a] == p[a];
+    }
+    if (at_floor) {
+        return;
+    }
+    var slope: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        slope += g[a] * dir[a];
+    }
+    if (!is_finite(slope)) {
+        atomicMin(&status[1], i);
+        return;
+    }
+    // Rounding floor (CPU: change_resolution).
+    var inertia_r: real = 0.0;
+    var work_r: real = 0.0;
+    var largest: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        let s = abs(dir[a]);
+        inertia_r += s * (abs(p[a] - prediction[i * DIM + a]) + s);
+        work_r += abs(load(i, a) * dir[a]);
+        largest = max(largest, abs(p[a]));
+    }
+    let terms_r = real(DIM) + 4.0;
+    let distance_error = terms_r * REAL_EPS * (largest + bp.scale + radius[i]);
+    let resolution = terms_r * 0.5 * REAL_EPS * (m * inertia_r + h2 * work_r + 2.0 * h2 * abs(barrier_at_x))
+        + 2.0 * h2 * force_sum * distance_error;
+    // Certified filter fraction (CPU: filter_fraction), before any trial.
+    var length2: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        length2 += dir[a] * dir[a];
+    }
+    let length = sqrt(length2);
+    var t_star: real = REAL_MAX;
+    var n: array<real, DIM>;
+    var blocked = false;
+    for (var o = 0u; o < bp.planes + bp.simplices; o++) {
+        let d0 = obstacle_distance(o, &p, radius[i], &n);
+        if (!(d0 > 0.0)) {
+            blocked = true;
+            break;
+        }
+        var approach = length;
+        if (o < bp.planes) {
+            var dot: real = 0.0;
+            for (var a = 0u; a < DIM; a++) {
+                dot += n[a] * dir[a];
+            }
+            approach = -dot;
+        }
+        if (approach > 0.0) {
+            t_star = min(t_star, d0 / approach);
+        }
+    }
+    var t: real = 0.0;
+    if (!blocked) {
+        t = min(bp.safety * t_star, 1.0);
+    }
+    var trial: array<real, DIM>;
+    for (var k = 0u; k <= MAX_HALVINGS; k++) {
+        var moved = false;
+        for (var a = 0u; a < DIM; a++) {
+            trial[a] = p[a] + t * dir[a];
+            moved = moved || trial[a] != p[a];
+        }
+        var scratch: array<real, MAT>;
+        let f = change(i, &p, &trial, barrier_at_x, &scratch);
+        if (f <= ip.armijo * t * slope && moved) {
+            for (var a = 0u; a < DIM; a++) {
+                x[i * DIM + a] = trial[a];
+            }
+            atomicOr(&status[0], 1u);
+            return;
+        }
+        t = t * 0.5;
+    }
+    // No trial decreased F_i: at the rounding floor, or a genuine stall.
+    if (!(-0.5 * slope <= resolution)) {
+        atomicOr(&status[3], 1u);
+    }
+}
+
+@compute @workgroup_size(64)
+fn ip_velocity(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(gid, groups);
+    if (i >= ip.count || inv_mass[i] == 0.0) {
+        return;
+    }
+    for (var a = 0u; a < DIM; a++) {
+        let k = i * DIM + a;
+        v[k] = (x[k] - x_prev[k]) / ip.h;
+    }
+}
