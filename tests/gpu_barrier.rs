@@ -913,3 +913,59 @@ fn gpu_drop_at_1e4_m_per_s_never_tunnels() {
         );
     }
 }
+
+/// f32 far from the world origin: the same drop 1e5 m away (scene and
+/// plane moved together) stays within the bound of the scene at the origin,
+/// because `GpuBarrierBackend` stores f32 positions relative to a scene
+/// origin and shifts the obstacles with them (`gpu/src/origin.rs`). In f32
+/// world coordinates every position there would be rounded to
+/// ulp(1e5)/2 = 3.9e-3 m, above that bound.
+#[test]
+fn f32_far_from_the_origin_keeps_the_accuracy_of_the_origin() {
+    let precision = Precision::F32;
+    let Some((adapter, _)) = adapter_or_skip(
+        "f32_far_from_the_origin_keeps_the_accuracy_of_the_origin",
+        precision,
+    ) else {
+        return;
+    };
+    let offset = 1e5;
+    let tolerance = Convergence::MaxAccelerationResidual { tolerance: 1.0 };
+    let near = drop_scene(65, 10.0, tolerance);
+    let mut far = near.clone();
+    for p in &mut far.particles {
+        p.position[0] += offset;
+        p.position[1] += offset;
+    }
+    let Obstacle::Hyperplane { offset: plane, .. } = &mut far.obstacles[0] else {
+        unreachable!("drop_scene has one plane");
+    };
+    *plane += offset;
+
+    let plan = Plan::compile(&far).expect("valid");
+    let state = State::from_scene(&far);
+    let mut cpu = CpuBackend::new(plan.clone(), &state).expect("cpu");
+    let mut gpu =
+        GpuBarrierBackend::with_adapter(&adapter, plan.clone(), &state, precision).expect("gpu");
+    // The model of the scene at the origin: coordinates of size |x_near|.
+    let mut model = BarrierErrorModel::new(&plan, precision.into());
+    let near_scale = hyperpbd::compare::coordinate_scale(&State::from_scene(&near));
+    let mut worst: f64 = 0.0;
+    for step in 1..=30 {
+        let a = cpu.step().expect("cpu step");
+        let b = gpu.step().expect("gpu step");
+        model.advance(&a.minimisation, &b.minimisation, near_scale);
+        let golden = cpu.read_state().expect("cpu state");
+        let other = gpu.read_state().expect("gpu state");
+        let dx = hyperpbd::compare::max_abs_diff(&golden.positions, &other.positions);
+        let bound = model.position_bound();
+        assert!(dx <= bound, "step {step}: |dx| {dx:e} > {bound:e}");
+        let d = smallest_distance(&far, &other);
+        assert!(d > 0.0, "step {step}: GPU state at d = {d:e}");
+        worst = worst.max(dx / bound);
+    }
+    println!(
+        "BOUND | barrier f32 drop at 1e5 m | {worst:.3e} of the bound at the origin | 1 | \
+         origin shift; without it ulp(1e5)/2 = 3.9e-3 m per coordinate"
+    );
+}

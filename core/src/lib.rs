@@ -8,8 +8,8 @@
 //! Nothing here knows about wgpu.
 
 mod backend;
-pub mod broadphase;
 pub mod barrier;
+pub mod broadphase;
 pub mod builders;
 mod coloring;
 mod error;

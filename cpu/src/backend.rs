@@ -7,9 +7,8 @@
 //! ```
 
 use hyperpbd_core::{
-    FamilyResidual,
-    Backend, BackendError, Kernel, MinimisationReport, MinimisationStatus, Plan, StageName, State,
-    StepError, StepReport, check_forces, check_kernel, check_state,
+    Backend, BackendError, FamilyResidual, Kernel, MinimisationReport, MinimisationStatus, Plan,
+    StageName, State, StepError, StepReport, check_forces, check_kernel, check_state,
 };
 
 use crate::collide::{self, Contacts};

@@ -10,19 +10,19 @@
 //! filter_fractions(positions, radii, Δ) -> fraction per particle  (one dispatch)
 //! ```
 //! Obstacle geometry is laid out for the device in one place,
-//! [`obstacle_geometry`]: a scene-origin shift (positions uploaded relative
-//! to an origin) must shift plane offsets by n·origin and simplex vertices
-//! by −origin there.
+//! [`obstacle_geometry`], after [`local_obstacles`] has moved it into the
+//! device coordinates x − o of a [`SceneOrigin`] (f32 far from the world
+//! origin: plane offsets shift by n·o, simplex vertices by −o).
 
 use std::sync::{Arc, Mutex};
 
 use hyperpbd_core::GpuError;
 use hyperpbd_core::barrier::{BarrierLaw, BarrierObstacles, FILTER_SAFETY};
 
-use crate::Precision;
 use crate::backend::{create_buffer, groups_for};
 use crate::params::{push_reals, read_reals, real_size};
 use crate::shader::{MAX_GPU_DIM, ShaderFile, compose};
+use crate::{Precision, SceneOrigin};
 
 /// Per-particle barrier terms read back from the device.
 #[derive(Debug, Clone, PartialEq)]
@@ -35,6 +35,35 @@ pub struct BarrierEvaluation {
     pub hessian: Vec<f64>,
     /// Smallest d per particle.
     pub min_distance: Vec<f64>,
+}
+
+/// `obstacles` in device coordinates x − o (see [`SceneOrigin`]): plane
+/// offsets r − n·o, simplex vertices v − o, and the rounding scale
+/// recomputed from the shifted geometry. The identity when o = 0.
+pub fn local_obstacles(obstacles: &BarrierObstacles, origin: &SceneOrigin) -> BarrierObstacles {
+    if origin.is_zero() {
+        return obstacles.clone();
+    }
+    let dim = origin.as_slice().len();
+    let mut local = obstacles.clone();
+    let mut scale: f64 = 0.0;
+    for (offset, normal) in local
+        .plane_offsets
+        .iter_mut()
+        .zip(obstacles.plane_normals.chunks_exact(dim))
+    {
+        *offset = origin.local_offset(normal, *offset);
+        scale = scale.max(offset.abs());
+    }
+    let slots = hyperpbd_core::barrier::SIMPLEX_SLOTS;
+    for (s, &arity) in obstacles.simplex_arity.iter().enumerate() {
+        let used = s * slots * dim..(s * slots + arity as usize) * dim;
+        let shifted = origin.to_local(&obstacles.simplex_vertices[used.clone()]);
+        scale = shifted.iter().fold(scale, |m, c| m.max(c.abs()));
+        local.simplex_vertices[used].copy_from_slice(&shifted);
+    }
+    local.scale = scale;
+    local
 }
 
 /// The obstacle geometry as the kernels read it: reals

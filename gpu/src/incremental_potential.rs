@@ -22,11 +22,11 @@ use hyperpbd_core::{
     Plan, Refusal, State, StepError, StepReport, check_forces, check_kernel, check_state,
 };
 
-use crate::Precision;
 use crate::backend::{create_buffer, groups_for};
-use crate::barrier::obstacle_geometry;
+use crate::barrier::{local_obstacles, obstacle_geometry};
 use crate::params::{push_reals, read_reals, real_size};
 use crate::shader::{MAX_GPU_DIM, ShaderFile, compose};
+use crate::{Precision, SceneOrigin};
 
 const NONE: u32 = u32::MAX;
 /// Armijo constant (same as the CPU's).
@@ -55,6 +55,9 @@ pub struct GpuBarrierBackend {
     substep: u32,
     reports: Vec<MinimisationReport>,
     summary: crate::AdapterSummary,
+    /// Device positions are world positions − origin (f32 far from the
+    /// world origin; see `gpu/src/origin.rs`).
+    origin: SceneOrigin,
 }
 
 struct IpPipelines {
@@ -190,9 +193,12 @@ impl GpuBarrierBackend {
             create_buffer(&device, &queue, &limits, label, bytes, storage)
         };
         let zeros = |len: usize| vec![0u8; len * real_size(precision)];
-        let x = make("x", &reals(&state.positions))?;
+        let origin = SceneOrigin::for_state(dim, &state.positions, precision);
+        let local_positions = origin.to_local(&state.positions);
+        let obstacles = local_obstacles(&ip.obstacles, &origin);
+        let x = make("x", &reals(&local_positions))?;
         let radius = make("radius", &reals(&plan.radius))?;
-        let (geometry_reals, arity) = obstacle_geometry(&ip.obstacles);
+        let (geometry_reals, arity) = obstacle_geometry(&obstacles);
         let geometry = make("geometry", &reals(&geometry_reals))?;
         let arity = make("arity", bytemuck::cast_slice(&arity))?;
         let delta = make("delta", &zeros(1))?;
@@ -203,8 +209,8 @@ impl GpuBarrierBackend {
         let mut barrier_params = Vec::new();
         for word in [
             n as u32,
-            ip.obstacles.plane_count() as u32,
-            ip.obstacles.simplex_count() as u32,
+            obstacles.plane_count() as u32,
+            obstacles.simplex_count() as u32,
             0,
         ] {
             barrier_params.extend_from_slice(&word.to_le_bytes());
@@ -215,7 +221,7 @@ impl GpuBarrierBackend {
                 ip.law.stiffness,
                 ip.law.activation_distance,
                 FILTER_SAFETY,
-                ip.obstacles.scale,
+                obstacles.scale,
             ],
             precision,
         );
@@ -229,7 +235,7 @@ impl GpuBarrierBackend {
         let terms = make("terms", &zeros(n))?;
         let status = make("status", bytemuck::cast_slice(&[0u32, NONE, NONE, 0]))?;
         let gravity = make("gravity", &reals(&plan.gravity))?;
-        let saved_x = make("saved_x", &reals(&state.positions))?;
+        let saved_x = make("saved_x", &reals(&local_positions))?;
         let saved_v = make("saved_v", &reals(&state.velocities))?;
         let r = real_size(precision) as u64;
         let state_bytes = (n * dim) as u64 * r;
@@ -366,6 +372,7 @@ impl GpuBarrierBackend {
             substep: 0,
             reports: Vec::new(),
             summary,
+            origin,
         };
         backend.check()?;
         Ok(backend)
@@ -684,9 +691,11 @@ impl Backend for GpuBarrierBackend {
         }
         let data = self.read(&self.buffers.state_staging, 2 * bytes)?;
         let (xs, vs) = data.split_at(bytes as usize);
+        let mut positions = read_reals(xs, self.precision);
+        self.origin.to_world(&mut positions);
         Ok(State {
             dim: self.plan.dim,
-            positions: read_reals(xs, self.precision),
+            positions,
             velocities: read_reals(vs, self.precision),
         })
     }
@@ -694,7 +703,11 @@ impl Backend for GpuBarrierBackend {
     fn write_state(&mut self, state: &State) -> Result<(), BackendError> {
         check_state(&self.plan, state)?;
         let mut x = Vec::new();
-        push_reals(&mut x, &state.positions, self.precision);
+        push_reals(
+            &mut x,
+            &self.origin.to_local(&state.positions),
+            self.precision,
+        );
         let mut v = Vec::new();
         push_reals(&mut v, &state.velocities, self.precision);
         if !x.is_empty() {

@@ -13,18 +13,18 @@
 
 pub mod adapter;
 mod backend;
-pub mod origin;
+pub mod barrier;
 pub mod broadphase;
 pub mod collide;
-pub mod barrier;
 mod incremental_potential;
+pub mod origin;
 mod params;
 mod pipelines;
 pub mod shader;
 
 pub use adapter::*;
 pub use backend::GpuBackend;
-pub use origin::SceneOrigin;
 pub use broadphase::{GpuSweep, SweepStats};
 pub use collide::{CollideInput, GpuCollide};
 pub use incremental_potential::GpuBarrierBackend;
+pub use origin::SceneOrigin;
