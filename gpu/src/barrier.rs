@@ -445,36 +445,7 @@ impl BarrierKernels {
         }
         self.queue.submit(Some(encoder.finish()));
         let total = offset;
-        let slice = batch.staging.slice(0..total);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::DeviceLost {
-                message: e.to_string(),
-            })?;
-        match rx.recv() {
-            Ok(Ok(())) => {}
-            Ok(Err(e)) => {
-                return Err(GpuError::Other {
-                    message: format!("buffer mapping failed: {e}"),
-                });
-            }
-            Err(_) => {
-                return Err(GpuError::DeviceLost {
-                    message: "buffer mapping was never answered".into(),
-                });
-            }
-        }
-        let bytes = {
-            let view = slice.get_mapped_range().map_err(|e| GpuError::Other {
-                message: format!("mapped range: {e:?}"),
-            })?;
-            view.to_vec()
-        };
-        batch.staging.unmap();
+        let bytes = crate::readback::read_mapped(&self.device, &batch.staging, total)?;
         self.check()?;
         let mut out: [Vec<f64>; 4] = Default::default();
         let mut start = 0usize;

@@ -697,37 +697,7 @@ impl GpuSweep {
     }
 
     fn read(&self, buffer: &wgpu::Buffer, len: u64) -> Result<Vec<u8>, GpuError> {
-        let slice = buffer.slice(0..len);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::DeviceLost {
-                message: e.to_string(),
-            })?;
-        match rx.recv() {
-            Ok(Ok(())) => {}
-            Ok(Err(e)) => {
-                return Err(GpuError::Other {
-                    message: format!("buffer mapping failed: {e}"),
-                });
-            }
-            Err(_) => {
-                return Err(GpuError::DeviceLost {
-                    message: "buffer mapping was never answered".into(),
-                });
-            }
-        }
-        let bytes = {
-            let view = slice.get_mapped_range().map_err(|e| GpuError::Other {
-                message: format!("mapped range: {e:?}"),
-            })?;
-            view.to_vec()
-        };
-        buffer.unmap();
-        Ok(bytes)
+        crate::readback::read_mapped(&self.device, buffer, len)
     }
 }
 

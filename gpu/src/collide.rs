@@ -376,31 +376,10 @@ impl GpuCollide {
         if bytes == 0 {
             return Ok(Vec::new());
         }
-        let slice = staging.slice(0..bytes);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::DeviceLost {
-                message: e.to_string(),
-            })?;
-        match rx.recv() {
-            Ok(Ok(())) => {}
-            _ => {
-                return Err(GpuError::Other {
-                    message: "collide readback mapping failed".into(),
-                });
-            }
-        }
-        let data = {
-            let view = slice.get_mapped_range().map_err(|e| GpuError::Other {
-                message: format!("mapped range: {e:?}"),
-            })?;
-            read_reals(&view, self.precision)
-        };
-        staging.unmap();
+        let data = read_reals(
+            &crate::readback::read_mapped(&self.device, &staging, bytes)?,
+            self.precision,
+        );
         if let Some(bad) = data.iter().position(|v| !v.is_finite()) {
             return Err(GpuError::Other {
                 message: format!(

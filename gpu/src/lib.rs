@@ -20,6 +20,7 @@ mod incremental_potential;
 pub mod origin;
 mod params;
 mod pipelines;
+mod readback;
 pub mod shader;
 
 pub use adapter::*;
