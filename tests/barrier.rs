@@ -611,7 +611,7 @@ fn barrier_scene_compiles_to_the_minimise_stage_only() {
 }
 
 #[test]
-fn refused_step_rolls_back_byte_for_byte() {
+fn an_infeasible_start_is_refused_before_anything_moves() {
     let scene = drop_scene(1.0, 0.01);
     let mut b = cpu(&scene);
     b.step().unwrap();
@@ -627,6 +627,43 @@ fn refused_step_rolls_back_byte_for_byte() {
     }
     let after = b.read_state().unwrap();
     assert_eq!(after.hash(), bad.hash());
+    println!("{err}");
+}
+
+/// A refusal after accepted substeps: gravity of 1e157 m/s² pointing away
+/// from the plane moves the particle by h²g = 1e153 m in substep 0; every
+/// substep adds as much speed, until the Newton slope −g·Δ ≈ m|Δ|² overflows
+/// (|Δ| ≈ 1.3e154) and the minimisation is refused as non-finite. The state
+/// has moved by then (asserted through the refusal's substep > 0), and the
+/// step must restore it byte for byte.
+#[test]
+fn a_refusal_after_accepted_substeps_rolls_back_byte_for_byte() {
+    let mut scene = drop_scene(0.0, 0.01);
+    scene.dt = 0.2;
+    scene.substeps = 20; // h = 0.01
+    scene.gravity = Some(vec![0.0, 1e157, 0.0]);
+    scene.solver = ip(
+        1e3,
+        0.01,
+        Convergence::MaxAccelerationResidual { tolerance: 1.0 },
+        4,
+    );
+    let mut b = cpu(&scene);
+    let before = b.read_state().unwrap();
+    let err = b.step().unwrap_err();
+    match &err {
+        BackendError::Step(StepError::MinimisationRefused {
+            substep, reason, ..
+        }) => {
+            assert!(*substep > 0, "refused in substep {substep}: nothing moved");
+            assert!(
+                matches!(reason, hyperpbd::Refusal::NonFinite { particle: 0 }),
+                "{reason:?}"
+            );
+        }
+        other => panic!("unexpected {other:?}"),
+    }
+    assert_eq!(b.read_state().unwrap().hash(), before.hash());
     println!("{err}");
 }
 

@@ -811,13 +811,20 @@ fn f32_floor_near_contact_never_tunnels() {
     println!(
         "f32 floor: 200 particles at up to 100 m/s, tolerance 1e-3 m/s²: {accepted} steps accepted ({at_floor} at the rounding floor), {refused} refused; smallest d {smallest:e}"
     );
+    // A tolerance below the f32 floor must end in RoundingFloor (accepted,
+    // reported), never in a refusal or a false convergence.
+    assert_eq!(refused, 0, "a step below the f32 floor was refused");
+    assert_eq!(accepted, 30);
+    assert!(at_floor > 0, "no substep reported the rounding floor");
 }
 
 #[test]
-fn gpu_refusal_rolls_back_byte_for_byte() {
+fn gpu_infeasible_start_is_refused_before_anything_moves() {
     for precision in PRECISIONS {
-        let Some((adapter, _)) = adapter_or_skip("gpu_refusal_rolls_back_byte_for_byte", precision)
-        else {
+        let Some((adapter, _)) = adapter_or_skip(
+            "gpu_infeasible_start_is_refused_before_anything_moves",
+            precision,
+        ) else {
             continue;
         };
         let scene = drop_scene(
@@ -838,6 +845,58 @@ fn gpu_refusal_rolls_back_byte_for_byte() {
         let text = err.to_string();
         assert!(text.contains("particle 1 starts at distance"), "{text}");
         assert_eq!(gpu.read_state().unwrap().hash(), written.hash());
+    }
+}
+
+/// A refusal after accepted substeps (the CPU twin is in tests/barrier.rs):
+/// gravity pointing away from the plane moves the particle by h²g per
+/// substep and adds as much speed, until the Newton slope ≈ m|Δ|² overflows
+/// the precision (h²g = 1e153 m in f64, 1e18 m in f32). The refusal's
+/// substep > 0 proves the state had moved; the GPU must restore it byte
+/// for byte from its device copies.
+#[test]
+fn gpu_refusal_after_accepted_substeps_rolls_back_byte_for_byte() {
+    for precision in PRECISIONS {
+        let Some((adapter, _)) = adapter_or_skip(
+            "gpu_refusal_after_accepted_substeps_rolls_back_byte_for_byte",
+            precision,
+        ) else {
+            continue;
+        };
+        let mut scene = drop_scene(
+            1,
+            0.0,
+            Convergence::MaxAccelerationResidual { tolerance: 1.0 },
+        );
+        let g = match precision {
+            Precision::F32 => 1e22,
+            Precision::F64 => 1e157,
+        };
+        scene.dt = 0.4;
+        scene.substeps = 40; // h = 0.01
+        scene.gravity = Some(vec![0.0, g, 0.0]);
+        let plan = Plan::compile(&scene).unwrap();
+        let mut gpu =
+            GpuBarrierBackend::with_adapter(&adapter, plan, &State::from_scene(&scene), precision)
+                .unwrap();
+        let before = gpu.read_state().unwrap();
+        let err = gpu.step().expect_err("the slope overflows");
+        match &err {
+            hyperpbd::BackendError::Step(hyperpbd::StepError::MinimisationRefused {
+                substep,
+                ..
+            }) => assert!(
+                *substep > 0,
+                "{precision}: refused in substep 0: nothing moved"
+            ),
+            other => panic!("{precision}: unexpected {other:?}"),
+        }
+        assert_eq!(
+            gpu.read_state().unwrap().hash(),
+            before.hash(),
+            "{precision}"
+        );
+        println!("{precision}: {err}");
     }
 }
 

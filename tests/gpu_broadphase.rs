@@ -136,6 +136,59 @@ fn gpu_f64_sweep_equals_exhaustive_on_off_grid_and_extreme_boxes() {
     }
 }
 
+/// Off-grid and extreme f64 boxes through the f32 kernels: the device
+/// holds each box rounded outward, so its pairs equal the exhaustive pairs
+/// of the rounded boxes and contain every pair of the f64 boxes (a pair
+/// touching within half an f32 ulp is never lost).
+#[test]
+fn gpu_f32_sweep_never_loses_a_pair_of_off_grid_boxes() {
+    let Some((adapter, _)) = adapter_or_skip("gpu_f32_off_grid", Precision::F32) else {
+        return;
+    };
+    let mut rng = Lcg(77);
+    for dim in [1usize, 2, 3, 5, 8] {
+        let mut gpu =
+            GpuSweep::with_adapter(&adapter, dim, Precision::F32, 16).expect("broadphase");
+        // Boxes 0.1 + k·1e-9 wide near 1: far below one f32 ulp (1.2e-7),
+        // so nearest rounding would collapse or separate touching boxes.
+        let n = 400;
+        let (mut min, mut max) = (Vec::new(), Vec::new());
+        for _ in 0..n * dim {
+            let a = 1.0 + (rng.next() + 1.0) * 0.5;
+            let w = (rng.next() + 1.0) * 1e-9;
+            min.push(a);
+            max.push(a + w);
+        }
+        // Exactly touching neighbours, off the f32 grid.
+        for k in 1..n.min(40) {
+            for a in 0..dim {
+                let width = max[k * dim + a] - min[k * dim + a];
+                min[k * dim + a] = max[(k - 1) * dim + a];
+                max[k * dim + a] = min[k * dim + a] + width;
+            }
+        }
+        let boxes = Aabbs::new(dim, min, max);
+        let exact = exhaustive_pairs(&boxes);
+        let rounded = exhaustive_pairs(&boxes.rounded_outward_to_f32());
+        assert!(
+            exact.len() >= 39,
+            "dim {dim}: the touching chain is in the reference"
+        );
+        for axis in [0, dim - 1] {
+            let pairs = gpu.sweep(&boxes, axis).expect("sweep");
+            assert_eq!(
+                pairs, rounded,
+                "dim {dim} axis {axis}: f32 sweep vs rounded boxes"
+            );
+            let missing = exact
+                .iter()
+                .filter(|p| pairs.binary_search(p).is_err())
+                .count();
+            assert_eq!(missing, 0, "dim {dim} axis {axis}: f64 pairs lost in f32");
+        }
+    }
+}
+
 /// A starting capacity of one pair: the sweep must grow its buffers, rerun
 /// and return every pair; a later, larger scene grows again.
 #[test]

@@ -311,12 +311,14 @@ fn collisions_settings_are_validated_with_their_paths() {
 }
 
 /// A contact whose distance overflows (coordinates ±1e308) fails the step
-/// in the project stage and leaves the state byte-identical.
+/// in the project stage, after Predict has moved a third particle, and
+/// leaves the state byte-identical.
 #[test]
 fn a_failing_contact_rolls_the_step_back() {
     let mut b = SceneBuilder::new(2).dt(0.01);
     b.particle(Particle::new(vec![-1e308, 0.0], 1.0).with_radius(1e308));
     b.particle(Particle::new(vec![1e308, 0.0], 1.0).with_radius(1e308));
+    b.particle(Particle::new(vec![0.0, 5.0], 1.0).with_velocity(vec![1.0, 0.0]));
     b.scene_mut().collisions = Some(Collisions {
         friction: 0.0,
         margin: 0.0,
@@ -324,6 +326,10 @@ fn a_failing_contact_rolls_the_step_back() {
     let scene = b.build().expect("valid");
     let mut backend = backend(&scene);
     let before = backend.read_state().expect("read");
+    // Predict alone changes the state, so the step has something to undo.
+    let mut predicted = self::backend(&scene);
+    predicted.run_kernel(Kernel::Predict).expect("predict");
+    assert_ne!(predicted.read_state().expect("read").hash(), before.hash());
     let error = backend.step().expect_err("the contact distance overflows");
     assert!(
         error.to_string().contains("stage project"),

@@ -13,7 +13,9 @@
 //! The rule is the CPU's ([`hyperpbd_core::broadphase::sweep_pairs`]): the
 //! same keys, the same stable order, the same scan from each box, the same
 //! closed-interval test; the final sort makes the list canonical, so it
-//! equals the exhaustive reference exactly. Everything is integer except
+//! equals the exhaustive reference exactly — in f64 on the boxes given, in
+//! f32 on those boxes rounded outward ([`Aabbs::rounded_outward_to_f32`]),
+//! a superset of the f64 pairs (no pair is lost). Everything is integer except
 //! the overlap comparisons: no float atomics, nothing depends on
 //! scheduling or subgroup size (the radix rank is a loop over shared
 //! memory).
@@ -498,8 +500,19 @@ impl GpuSweep {
         })
     }
 
+    /// Uploads `boxes`; in f32 rounded outward, so the device's boxes
+    /// contain the f64 ones and the pairs are a superset of theirs (equal
+    /// to the exhaustive pairs of [`Aabbs::rounded_outward_to_f32`]).
     fn upload(&self, boxes: &Aabbs) -> Result<(), GpuError> {
         let b = self.buffers()?;
+        let rounded;
+        let boxes = match self.precision {
+            Precision::F32 => {
+                rounded = boxes.rounded_outward_to_f32();
+                &rounded
+            }
+            Precision::F64 => boxes,
+        };
         for (buffer, values) in [(&b.box_min, &boxes.min), (&b.box_max, &boxes.max)] {
             let mut bytes = Vec::with_capacity(values.len() * real_size(self.precision));
             push_reals(&mut bytes, values, self.precision);

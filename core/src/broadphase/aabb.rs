@@ -36,6 +36,27 @@ impl Aabbs {
         self.len() == 0
     }
 
+    /// The boxes as an f32 kernel must hold them: every lower corner
+    /// rounded down and every upper corner rounded up to f32
+    /// ([`key_down`](super::key_down), [`key_up`](super::key_up)), so each box
+    /// contains its f64 original and no overlapping pair is lost to rounding
+    /// (values exact in f32 are unchanged, up to the sign of zero).
+    pub fn rounded_outward_to_f32(&self) -> Self {
+        Aabbs {
+            dim: self.dim,
+            min: self
+                .min
+                .iter()
+                .map(|&v| f64::from(super::key_down(v)))
+                .collect(),
+            max: self
+                .max
+                .iter()
+                .map(|&v| f64::from(super::key_up(v)))
+                .collect(),
+        }
+    }
+
     /// Static particle boxes: x_i ± (r_i + margin).
     pub fn particles(dim: usize, x: &[f64], radius: &[f64], margin: f64) -> Self {
         Self::swept_particles(dim, x, x, radius, margin)
