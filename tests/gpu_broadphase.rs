@@ -191,6 +191,24 @@ fn gpu_f32_sweep_never_loses_a_pair_of_off_grid_boxes() {
 
 /// A starting capacity of one pair: the sweep must grow its buffers, rerun
 /// and return every pair; a later, larger scene grows again.
+/// From 92 683 boxes the u32 pair count could wrap, and the sweep checks
+/// its whole prefix scan for a wrap on the host: 100 000 sparse boxes take
+/// that path and still equal the CPU sweep (itself equal to the exhaustive
+/// reference above).
+#[test]
+fn gpu_sweep_of_100k_boxes_checks_the_pair_count_for_wrap() {
+    let Some((adapter, _)) = adapter_or_skip("gpu_sweep_100k", Precision::F64) else {
+        return;
+    };
+    let dim = 3;
+    let boxes = random_boxes(dim, 100_000, 60.0, 5);
+    let mut gpu = GpuSweep::with_adapter(&adapter, dim, Precision::F64, 1024).expect("broadphase");
+    let pairs = gpu.sweep(&boxes, 0).expect("gpu sweep");
+    let reference = sweep_pairs(&boxes, 0);
+    assert!(!reference.is_empty());
+    assert_eq!(pairs, reference);
+}
+
 #[test]
 fn gpu_sweep_grows_an_overflowing_pair_buffer_and_drops_nothing() {
     for precision in [Precision::F32, Precision::F64] {

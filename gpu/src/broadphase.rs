@@ -662,10 +662,31 @@ impl GpuSweep {
                 label: Some("broadphase sweep"),
             });
         self.encode(&mut encoder, &calls)?;
-        encoder.copy_buffer_to_buffer(&b.scan, u64::from(count) * 4, &b.staging, 0, 4);
+        if !may_wrap(n) {
+            encoder.copy_buffer_to_buffer(&b.scan, u64::from(count) * 4, &b.staging, 0, 4);
+            self.submit(encoder)?;
+            let bytes = self.read(&b.staging, 4)?;
+            return Ok(u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]) as usize);
+        }
+        // n(n − 1)/2 ≥ 2^32: the u32 running sum may wrap. It rises
+        // monotonically by each box's count, so it crossed 2^32 exactly
+        // where a prefix is below its predecessor.
+        let words = (u64::from(count) + 1) * 4;
+        encoder.copy_buffer_to_buffer(&b.scan, 0, &b.staging, 0, words);
         self.submit(encoder)?;
-        let bytes = self.read(&b.staging, 4)?;
-        Ok(u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]) as usize)
+        let bytes = self.read(&b.staging, words)?;
+        let prefix: &[u32] = bytemuck::cast_slice(&bytes);
+        if prefix.windows(2).any(|w| w[1] < w[0]) {
+            return Err(GpuError::BufferTooLarge {
+                buffer: "pairs_a".into(),
+                requested: (1u64 << 32) * 8,
+                maximum: self
+                    .limits
+                    .max_storage_buffer_binding_size
+                    .min(self.limits.max_buffer_size),
+            });
+        }
+        Ok(prefix[count as usize] as usize)
     }
 
     /// Radix-sorts the `total` pair records in rec_a by j, then by i, and
@@ -714,9 +735,22 @@ impl GpuSweep {
     }
 }
 
+/// True when `n` boxes could have 2^32 or more candidate pairs, more than
+/// the u32 pair count of the scan can hold.
+fn may_wrap(n: usize) -> bool {
+    let n = n as u64;
+    n * n.saturating_sub(1) / 2 > u64::from(u32::MAX)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_pair_count_can_wrap_from_92_683_boxes() {
+        assert!(!may_wrap(92_682));
+        assert!(may_wrap(92_683));
+    }
 
     #[test]
     fn scan_levels_nest_until_one_block() {
