@@ -39,7 +39,7 @@ pub struct IncrementalPotentialSettings {
     pub activation_distance: f64,
     /// The explicit stop test.
     pub convergence: Convergence,
-    /// Newton iterations allowed per step (≥ 1).
+    /// Newton iterations allowed per substep (≥ 1).
     pub max_iterations: u32,
 }
 

@@ -614,11 +614,11 @@ impl GpuBackend {
     }
 }
 
-/// The whole incremental-potential step is not a GPU schedule (yet): its
-/// per-particle kernels are reachable through `crate::barrier`.
+/// The incremental-potential step has its own GPU backend
+/// ([`crate::GpuBarrierBackend`]); this one runs XPBD plans only.
 fn incremental_potential_unsupported() -> GpuError {
     GpuError::Unsupported {
-        what: "the incremental_potential solver's whole step (run it on the CPU backend)".into(),
+        what: "the incremental_potential solver on GpuBackend (use GpuBarrierBackend)".into(),
     }
 }
 

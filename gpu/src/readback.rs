@@ -40,12 +40,11 @@ pub(crate) fn read_mapped(
             });
         }
     }
-    let bytes = {
-        let view = slice.get_mapped_range().map_err(|e| GpuError::Other {
-            message: format!("mapped range: {e:?}"),
-        })?;
-        view.to_vec()
-    };
+    // Copy out, then unmap whatever happened, so a failed read never
+    // leaves the buffer mapped for the next one.
+    let bytes = slice.get_mapped_range().map(|view| view.to_vec());
     buffer.unmap();
-    Ok(bytes)
+    bytes.map_err(|e| GpuError::Other {
+        message: format!("mapped range: {e:?}"),
+    })
 }
