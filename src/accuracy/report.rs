@@ -435,8 +435,9 @@ fn markdown(report: &Report, config: &Config) -> String {
             "## What each effect costs\n\n\
              The effect-cost tables — the cloth built up one effect at a time, particle–particle \
              collisions and the barrier solver on balls, and the controls proving that an authored-but-inert \
-             effect compiles to the same plan — are in [{EFFECTS_MARKDOWN}]({EFFECTS_MARKDOWN}) (same run, \
-             same machine; `hyperpbd accuracy --only-effects` regenerates just that file).\n"
+             effect compiles to the same plan — are in [{EFFECTS_MARKDOWN}]({EFFECTS_MARKDOWN}) (written by the \
+             same full run; `hyperpbd accuracy --only-effects` regenerates just that file, so it may be newer \
+             than this report — it names its own machine, load and reps).\n"
         );
     }
 
