@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
 # Regenerates the accuracy report from measurements on this machine:
-#   docs/accuracy.md, docs/figures/{accuracy_pareto,accuracy_cloth,scaling}.png,
-#   docs/figures/accuracy.json, and the README section "What accuracy costs".
+#   docs/accuracy.md, docs/effects.md, docs/figures/{accuracy_pareto,
+#   accuracy_cloth,scaling}.png, docs/figures/{accuracy,effects}.json, and the
+#   README section "What accuracy costs".
 #
-#   scripts/accuracy.sh            # the full report (tens of minutes on 2 cores)
-#   scripts/accuracy.sh --reps 5   # extra options go to `hyperpbd accuracy`
+#   scripts/accuracy.sh                 # the full report (tens of minutes on 2 cores)
+#   scripts/accuracy.sh --only-effects  # only docs/effects.md, figures/effects.json
+#                                       # and the README's effect lines (minutes)
+#   scripts/accuracy.sh --reps 5        # extra options go to `hyperpbd accuracy`
 #
 # For a smoke test that leaves docs/ alone (under two minutes):
 #   cargo run --release -- accuracy --quick        # writes target/accuracy/

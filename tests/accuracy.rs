@@ -3,7 +3,7 @@
 //!
 //! One run (a few seconds) of the quick path narrowed to the pendulum, free
 //! fall, a 4 × 4 cloth and the rope bridge, cloth side 8–16 for scaling and
-//! effects; cpu-f64 and, where an adapter exists, gpu-f32 (skipped with a
+//! effects, 12 balls for the collision and barrier rows; cpu-f64 and, where an adapter exists, gpu-f32 (skipped with a
 //! notice otherwise, failing under `HYPERPBD_REQUIRE_GPU=1`). The helper
 //! math (zero crossings, power-law fit, Pareto frontier) is checked on
 //! inputs with known answers.
@@ -11,11 +11,14 @@
 mod common;
 
 use hyperpbd::accuracy::cases::{CaseId, zero_crossings};
+use hyperpbd::accuracy::effects::{self, EffectRow};
+use hyperpbd::accuracy::granular_effects;
 use hyperpbd::accuracy::pareto::frontier;
-use hyperpbd::accuracy::report::{README_BEGIN, README_END};
+use hyperpbd::accuracy::report::{EFFECTS_BEGIN, EFFECTS_END, README_BEGIN, README_END};
 use hyperpbd::accuracy::scaling::fit_power_law;
 use hyperpbd::accuracy::sweep::Point;
 use hyperpbd::accuracy::{BackendKind, Config, Report, run};
+use hyperpbd::{Collisions, Kernel, Plan, Scene};
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
@@ -49,6 +52,8 @@ fn report() -> &'static (Report, Config) {
         config.scaling_sizes = vec![8, 16];
         config.cpu_scaling_max = 16;
         config.effects_n = 8;
+        config.effects_balls = (2, 3);
+        config.effects_ball_steps = 3;
         config.time_target = 0.002;
         let report = run(&config).unwrap_or_else(|e| panic!("accuracy run failed: {e}"));
         (report, config)
@@ -120,9 +125,19 @@ fn markdown_names_machine_adapter_and_headlines() {
     assert!(md.contains("figures/accuracy_pareto.png"));
     assert!(md.contains("## Scaling") && md.contains("## What each effect costs"));
     assert!(
-        md.contains("not yet available"),
-        "future effects must be listed"
+        md.contains("[effects.md](effects.md)"),
+        "accuracy.md must link the effect tables"
     );
+    let effects = std::fs::read_to_string(config.out.join("effects.md")).expect("effects.md");
+    assert!(effects.contains("## Cloth: one effect at a time"));
+    assert!(effects.contains("## Balls: particle–particle collisions and the barrier solver"));
+    assert!(effects.contains("+ collisions (μ = 0)") && effects.contains("| minimise |"));
+    assert!(
+        !effects.contains("not yet available") && report.not_yet_available.is_empty(),
+        "collisions and the barrier path exist: no effect is left as not yet available"
+    );
+    assert!(report.files.iter().any(|f| f == "effects.md"));
+    assert!(report.files.iter().any(|f| f == "figures/effects.json"));
     if !gpu_ran(report) {
         assert!(
             report.notices.iter().any(|n| n.contains("SKIPPED gpu-f32")),
@@ -325,7 +340,12 @@ fn gpu_points_agree_with_cpu_where_discretisation_dominates() {
 #[test]
 fn effect_controls_compile_away_and_effects_add_kernels() {
     let (report, _) = report();
-    let rows = &report.effects;
+    let rows: Vec<_> = report
+        .effects
+        .iter()
+        .filter(|r| r.group == effects::CLOTH)
+        .cloned()
+        .collect();
     assert_eq!(rows.len(), 9);
     // The ladder adds kernels row by row (from gravity only to + damping).
     for pair in rows[1..6].windows(2) {
@@ -338,6 +358,7 @@ fn effect_controls_compile_away_and_effects_add_kernels() {
     }
     for control in rows.iter().filter(|r| r.control_of.is_some()) {
         assert_eq!(control.same_schedule, Some(true), "{}", control.label);
+        assert_eq!(control.group, effects::CLOTH);
         let twin = rows
             .iter()
             .find(|r| Some(&r.label) == control.control_of.as_ref())
@@ -350,7 +371,7 @@ fn effect_controls_compile_away_and_effects_add_kernels() {
         Some(true),
         "damping with rate 0 must compile to the very same plan"
     );
-    for row in rows {
+    for row in &rows {
         assert!(
             row.ms
                 .iter()
@@ -359,6 +380,144 @@ fn effect_controls_compile_away_and_effects_add_kernels() {
             row.label
         );
     }
+}
+
+fn ball_row<'a>(report: &'a Report, starts: &str) -> &'a EffectRow {
+    report
+        .effects
+        .iter()
+        .find(|r| r.group == effects::BALLS && r.label.starts_with(starts))
+        .unwrap_or_else(|| panic!("no ball row {starts:?}"))
+}
+
+/// Collisions add exactly Broadphase + Collide; the scene without the
+/// `collisions` key compiles to the collision plan minus those parts (=
+/// the balls row); the barrier row runs the Minimise stage and is compared
+/// as a different solver; explicit "xpbd" is the same plan as omitting it.
+#[test]
+fn collision_and_barrier_rows_are_measured_with_controls() {
+    let (report, _) = report();
+    let balls: Vec<&EffectRow> = report
+        .effects
+        .iter()
+        .filter(|r| r.group == effects::BALLS)
+        .collect();
+    assert_eq!(balls.len(), 6);
+    let base = ball_row(report, "12 balls on a frictionless floor");
+    let contact = ball_row(report, "+ collisions (μ = 0)");
+    let friction = ball_row(report, "+ ball–ball friction");
+    let removed = ball_row(report, "control: \"+ collisions\"");
+    let barrier = ball_row(report, "barrier solver");
+    let explicit = ball_row(report, "control: balls row with \"solver\"");
+    assert!(!base.stages.contains("broadphase"), "{}", base.stages);
+    assert_eq!(contact.stages, "predict → broadphase → project → velocity");
+    // 10 substeps × (one Broadphase + one Collide per iteration, 4 iterations).
+    assert_eq!(contact.kernel_calls, base.kernel_calls + 10 * (1 + 4));
+    assert_eq!(friction.kernel_calls, contact.kernel_calls);
+    assert_eq!(removed.control_of.as_ref(), Some(&contact.label));
+    assert_eq!(removed.same_plan, Some(true), "{}", removed.label);
+    assert_eq!(removed.same_schedule, Some(true), "{}", removed.label);
+    assert_eq!(
+        (removed.stages.as_str(), removed.kernel_calls),
+        (base.stages.as_str(), base.kernel_calls)
+    );
+    assert_eq!(explicit.control_of.as_ref(), Some(&base.label));
+    assert_eq!(explicit.same_plan, Some(true), "{}", explicit.label);
+    assert_eq!(barrier.stages, "minimise");
+    assert_eq!(barrier.kernel_calls, 1);
+    assert_eq!(barrier.versus.as_ref(), Some(&base.label));
+    assert!(barrier.control_of.is_none() && barrier.same_plan.is_none());
+    for row in &balls {
+        for (backend, t) in &row.ms {
+            let ran = *backend == BackendKind::CpuF64 || gpu_ran(report);
+            assert!(
+                !ran || t.is_some_and(|t| t > 0.0),
+                "{} on {}: {t:?}",
+                row.label,
+                backend.name()
+            );
+        }
+    }
+}
+
+/// The comparisons the controls rest on can fail: a plan differing in one
+/// radius is not "the collision plan minus Broadphase and Collide", and
+/// the barrier plan is not the XPBD plan.
+#[test]
+fn control_comparisons_discriminate() {
+    let base = granular_effects::balls(2, 3);
+    let plan = |s: &Scene| Plan::compile(s).expect("compiles");
+    let mut contact = base.clone();
+    contact.collisions = Some(Collisions {
+        friction: 0.0,
+        margin: granular_effects::MARGIN,
+    });
+    let stripped = granular_effects::without_collisions(&plan(&contact));
+    assert_eq!(stripped, plan(&base));
+    assert!(
+        plan(&contact)
+            .substep_kernels
+            .iter()
+            .any(|k| matches!(k, Kernel::Broadphase))
+    );
+    let mut other = base.clone();
+    other.particles[0].radius *= 0.5;
+    assert_ne!(stripped, plan(&other));
+    // Omitted vs explicit "xpbd", through the JSON a user writes.
+    let json = base.to_json_string();
+    assert!(!json.contains("\"solver\""), "xpbd is the omitted default");
+    let mut value: serde_json::Value = serde_json::from_str(&json).expect("json");
+    value["solver"] = serde_json::json!({ "type": "xpbd" });
+    let explicit = Scene::from_json_str(&value.to_string()).expect("explicit xpbd parses");
+    assert_eq!(plan(&explicit), plan(&base));
+    let barrier = plan(&granular_effects::barrier(&base));
+    assert_ne!(barrier, plan(&base));
+    assert_eq!(barrier.substep_kernels, vec![Kernel::Minimise]);
+}
+
+/// `--only-effects` writes effects.md, effects.json and the README's
+/// effect lines, and leaves accuracy.md and the rest of the README alone.
+#[test]
+fn effects_only_run_leaves_the_rest_of_the_report_alone() {
+    let dir = out_dir().with_extension("effects-only");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let accuracy = dir.join("accuracy.md");
+    std::fs::write(&accuracy, "full report, untouched\n").expect("sentinel");
+    let readme = dir.join("README.md");
+    let before = format!(
+        "# P\n\n{README_BEGIN}\nheadline kept\n{EFFECTS_BEGIN}\nold effect lines\n{EFFECTS_END}\nfooter kept\n{README_END}\n\n## After\n"
+    );
+    std::fs::write(&readme, &before).expect("readme");
+    let mut config = Config::quick(&dir);
+    config.readme = Some(readme.clone());
+    config.progress = false;
+    config.effects_only = true;
+    config.backends = vec![BackendKind::CpuF64];
+    config.effects_n = 4;
+    config.effects_balls = (2, 2);
+    config.effects_ball_steps = 2;
+    config.time_target = 0.001;
+    let report = run(&config).unwrap_or_else(|e| panic!("effects-only run failed: {e}"));
+    assert!(report.cases.is_empty() && report.scaling.is_empty());
+    assert_eq!(report.effects.len(), 15);
+    assert_eq!(
+        std::fs::read_to_string(&accuracy).expect("accuracy.md"),
+        "full report, untouched\n"
+    );
+    assert!(!dir.join("figures/accuracy.json").exists());
+    assert!(dir.join("effects.md").is_file() && dir.join("figures/effects.json").is_file());
+    let after = std::fs::read_to_string(&readme).expect("readme");
+    assert!(!after.contains("old effect lines"), "{after}");
+    assert!(after.contains("- Particle–particle collisions"), "{after}");
+    assert!(after.contains("(a different solver, not an added effect)"));
+    let outside = |t: &str| {
+        let a = t.find(EFFECTS_BEGIN).expect("begin");
+        let b = t.find(EFFECTS_END).expect("end");
+        format!("{}{}", &t[..a], &t[b..])
+    };
+    assert_eq!(outside(&after), outside(&before));
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

@@ -12,11 +12,14 @@
 //!           a plane 100 m below that no particle reaches  vs  "+ contact"
 //!           (same schedule: contact cost is per authored obstacle, not per
 //!           active contact)
+//! balls     collisions and the barrier solver on balls: granular_effects.rs
 //! time      median ms per step over max(reps, 5) reps taken round-robin
 //!           over every (row, backend), each rep k steps (k calibrated so a
-//!           rep lasts about the time target)
+//!           rep lasts about the time target; ball rows: one k per backend,
+//!           the smallest calibrated, at least `effects_ball_steps`)
 //! ```
 
+use super::granular_effects::{self, Relation, without_collisions};
 use super::timing::{BackendKind, calibrate, median, timed_steps};
 use super::{Config, Progress};
 use hyperpbd_core::{Obstacle, Plan, Scene, State};
@@ -25,6 +28,8 @@ use serde::Serialize;
 /// One row of the table.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct EffectRow {
+    /// The table the row belongs to ([`CLOTH`] or [`BALLS`]).
+    pub group: String,
     /// What the scene contains.
     pub label: String,
     /// The row this one is a control of (its plan/schedule is compared).
@@ -32,8 +37,16 @@ pub struct EffectRow {
     /// For a control: does it compile to the same kernel schedule as its
     /// twin (and the very same plan)?
     pub same_schedule: Option<bool>,
-    /// Same plan, field for field.
+    /// Same plan, field for field (for a control of kind
+    /// [`Relation::TwinWithoutCollisions`]: the twin's plan without its
+    /// contacts, Broadphase and Collide kernels).
     pub same_plan: Option<bool>,
+    /// For a control: what its plan was compared with ("vs *twin*", or
+    /// "vs *twin* minus its contacts, Broadphase and Collide").
+    pub compared: Option<String>,
+    /// A row on a different solver: the row it is compared with (ratio of
+    /// times only; no plan claim).
+    pub versus: Option<String>,
     /// Stages per substep, joined with →.
     pub stages: String,
     /// Kernel calls per step.
@@ -44,11 +57,37 @@ pub struct EffectRow {
     pub ms: Vec<(BackendKind, Option<f64>)>,
 }
 
-/// Effects listed as not yet available (future issues).
-pub const NOT_YET: [&str; 2] = [
-    "particle–particle collisions (broadphase + contact family)",
-    "barrier (incremental-potential path)",
-];
+/// Effects listed as not yet available (future issues): none left.
+pub const NOT_YET: [&str; 0] = [];
+
+/// Group of the cloth ladder.
+pub const CLOTH: &str = "cloth";
+/// Group of the balls (collisions, barrier solver).
+pub const BALLS: &str = "balls";
+
+/// Every row to measure: (group, label, scene, relation with indices into
+/// this list).
+pub fn all_rows(config: &Config) -> Result<Vec<(&'static str, String, Scene, Relation)>, String> {
+    let mut all: Vec<(&'static str, String, Scene, Relation)> = ladder(config.effects_n)
+        .into_iter()
+        .map(|(label, scene, twin)| {
+            let relation = twin.map_or(Relation::Ladder, Relation::Control);
+            (CLOTH, label, scene, relation)
+        })
+        .collect();
+    let offset = all.len();
+    let (side, height) = config.effects_balls;
+    for (label, scene, relation) in granular_effects::rows(side, height)? {
+        let relation = match relation {
+            Relation::Ladder => Relation::Ladder,
+            Relation::Control(t) => Relation::Control(t + offset),
+            Relation::TwinWithoutCollisions(t) => Relation::TwinWithoutCollisions(t + offset),
+            Relation::DifferentSolver(t) => Relation::DifferentSolver(t + offset),
+        };
+        all.push((BALLS, label, scene, relation));
+    }
+    Ok(all)
+}
 
 fn without_damping(mut s: Scene) -> Scene {
     s.damping = None;
@@ -128,15 +167,18 @@ pub fn reps(config: &Config) -> usize {
 /// of them, so slow drifts in machine load spread over every row instead
 /// of biasing the rows measured last.
 pub fn run(config: &Config, progress: &mut Progress) -> Result<Vec<EffectRow>, String> {
-    let rungs = ladder(config.effects_n);
+    let rungs = all_rows(config)?;
     let plans: Vec<Plan> = rungs
         .iter()
-        .map(|(_, s, _)| Plan::compile(s).map_err(|e| e.to_string()))
+        .map(|(_, label, s, _)| Plan::compile(s).map_err(|e| format!("{label}: {e}")))
         .collect::<Result<_, _>>()?;
-    let initials: Vec<State> = rungs.iter().map(|(_, s, _)| State::from_scene(s)).collect();
+    let initials: Vec<State> = rungs
+        .iter()
+        .map(|(_, _, s, _)| State::from_scene(s))
+        .collect();
     type Slot = (usize, BackendKind, Box<dyn hyperpbd_core::Backend>, u64);
     let mut slots: Vec<Slot> = Vec::new();
-    for (k, (label, _, _)) in rungs.iter().enumerate() {
+    for (k, (_, label, _, _)) in rungs.iter().enumerate() {
         for &backend in &config.backends {
             if !progress.available(backend) {
                 continue;
@@ -154,6 +196,19 @@ pub fn run(config: &Config, progress: &mut Progress) -> Result<Vec<EffectRow>, S
             }
         }
     }
+    // Ball rows change cost as the column collapses (contacts, Newton
+    // iterations), so on one backend they all run the same steps from the
+    // same start: the fewest any of them calibrated to, at least
+    // `effects_ball_steps`.
+    for &backend in &config.backends {
+        let in_group = |(k, b, _, _): &Slot| rungs[*k].0 == BALLS && *b == backend;
+        let fewest = slots.iter().filter(|s| in_group(s)).map(|s| s.3).min();
+        if let Some(fewest) = fewest {
+            for slot in slots.iter_mut().filter(|s| in_group(s)) {
+                slot.3 = fewest.max(config.effects_ball_steps);
+            }
+        }
+    }
     let mut samples: Vec<Vec<f64>> = vec![Vec::new(); slots.len()];
     for _ in 0..reps(config) {
         for (slot, (k, _, b, steps)) in slots.iter_mut().enumerate() {
@@ -161,7 +216,7 @@ pub fn run(config: &Config, progress: &mut Progress) -> Result<Vec<EffectRow>, S
         }
     }
     let mut rows = Vec::new();
-    for (k, (label, _, twin)) in rungs.iter().enumerate() {
+    for (k, (group, label, _, relation)) in rungs.iter().enumerate() {
         let plan = &plans[k];
         let mut ms = Vec::new();
         for &backend in &config.backends {
@@ -181,11 +236,38 @@ pub fn run(config: &Config, progress: &mut Progress) -> Result<Vec<EffectRow>, S
             ms.push((backend, m));
         }
         let names: Vec<&str> = plan.stages.iter().map(|s| s.as_str()).collect();
+        let (control_of, same_schedule, same_plan, compared, versus) = match *relation {
+            Relation::Ladder => (None, None, None, None, None),
+            Relation::Control(t) => (
+                Some(rungs[t].1.clone()),
+                Some(plans[t].substep_kernels == plan.substep_kernels),
+                Some(plans[t] == *plan),
+                Some(format!("vs *{}*", rungs[t].1)),
+                None,
+            ),
+            Relation::TwinWithoutCollisions(t) => {
+                let expected = without_collisions(&plans[t]);
+                (
+                    Some(rungs[t].1.clone()),
+                    Some(expected.substep_kernels == plan.substep_kernels),
+                    Some(expected == *plan),
+                    Some(format!(
+                        "vs *{}* minus its contacts, Broadphase and Collide",
+                        rungs[t].1
+                    )),
+                    None,
+                )
+            }
+            Relation::DifferentSolver(t) => (None, None, None, None, Some(rungs[t].1.clone())),
+        };
         rows.push(EffectRow {
+            group: (*group).to_string(),
             label: label.clone(),
-            control_of: twin.map(|t| rungs[t].0.clone()),
-            same_schedule: twin.map(|t| plans[t].substep_kernels == plan.substep_kernels),
-            same_plan: twin.map(|t| plans[t] == *plan),
+            control_of,
+            same_schedule,
+            same_plan,
+            compared,
+            versus,
             stages: if names.is_empty() {
                 "(none)".into()
             } else {

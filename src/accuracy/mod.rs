@@ -14,9 +14,12 @@
 //!           exponent of t ≈ a·P^b by least squares on (ln P, ln t) scaling.rs
 //! effects   ms per step as effects are added one at a time, with controls
 //!           showing that an authored-but-inert effect compiles away effects.rs
-//! output    OUT/accuracy.md, OUT/figures/{accuracy_pareto,accuracy_cloth,
-//!           scaling}.png, OUT/figures/accuracy.json; optionally the README
-//!           section between the accuracy markers                    report.rs
+//!           (collisions and the barrier solver on balls: granular_effects.rs)
+//! output    OUT/accuracy.md, OUT/effects.md, OUT/figures/{accuracy_pareto,
+//!           accuracy_cloth,scaling}.png, OUT/figures/{accuracy,effects}.json;
+//!           optionally the README section between the accuracy markers
+//!           (effects-only runs: effects.md, effects.json and the README's
+//!           effect lines only)                                      report.rs
 //! ```
 //! Timing (timing.rs): only `Backend::step` is timed; every point is run
 //! `reps` times from the same initial state and the median is reported.
@@ -24,6 +27,7 @@
 
 pub mod cases;
 pub mod effects;
+pub mod granular_effects;
 pub mod machine;
 pub mod pareto;
 pub mod plot;
@@ -80,6 +84,16 @@ pub struct Config {
     pub cpu_scaling_max: usize,
     /// Cloth side of the effect-cost table.
     pub effects_n: usize,
+    /// Balls of the collision / barrier rows: `scenes::column3d(side,
+    /// height)`.
+    pub effects_balls: (usize, usize),
+    /// Fewest steps per timing rep of the ball rows (all ball rows on one
+    /// backend run the same steps from the same start).
+    pub effects_ball_steps: u64,
+    /// Measure only the effect tables and write only OUT/effects.md,
+    /// OUT/figures/effects.json and the README's effect lines (accuracy.md
+    /// and the other figures are left as they are).
+    pub effects_only: bool,
     /// Seconds one timing rep should last (scaling and effects).
     pub time_target: f64,
     /// Run the sweep.
@@ -121,6 +135,9 @@ impl Config {
             scaling_sizes: vec![32, 64, 128, 256, 512, 1024],
             cpu_scaling_max: 1024,
             effects_n: 64,
+            effects_balls: (6, 12),
+            effects_ball_steps: 60,
+            effects_only: false,
             time_target: 0.25,
             sweep: true,
             scaling: true,
@@ -148,6 +165,8 @@ impl Config {
             scaling_sizes: vec![32, 64, 128],
             cpu_scaling_max: 128,
             effects_n: 32,
+            effects_balls: (4, 6),
+            effects_ball_steps: 20,
             time_target: 0.05,
             ..Config::full(out)
         }
@@ -277,6 +296,10 @@ pub struct Report {
     pub fits: Vec<scaling::Fit>,
     /// Cloth side of the effect table.
     pub effects_n: usize,
+    /// Balls of the collision / barrier rows (column3d side, height).
+    pub effects_balls: (usize, usize),
+    /// Fewest steps per timing rep of the ball rows.
+    pub effects_ball_steps: u64,
     /// Reps of the effect table.
     pub effect_reps: usize,
     /// The effect-cost table.
@@ -343,7 +366,7 @@ pub fn run(config: &Config) -> Result<Report, AccuracyError> {
     }
 
     let mut results = Vec::new();
-    if config.sweep {
+    if config.sweep && !config.effects_only {
         for &case in &config.cases {
             results.push(sweep::run_case(case, config, &mut progress).map_err(AccuracyError::Run)?);
         }
@@ -371,12 +394,12 @@ pub fn run(config: &Config) -> Result<Report, AccuracyError> {
             });
         }
     }
-    let (scaling_points, fits) = if config.scaling {
+    let (scaling_points, fits) = if config.scaling && !config.effects_only {
         scaling::run(config, &mut progress)
     } else {
         (Vec::new(), Vec::new())
     };
-    let effect_rows = if config.effects {
+    let effect_rows = if config.effects || config.effects_only {
         effects::run(config, &mut progress).map_err(AccuracyError::Run)?
     } else {
         Vec::new()
@@ -392,6 +415,8 @@ pub fn run(config: &Config) -> Result<Report, AccuracyError> {
         scaling: scaling_points,
         fits,
         effects_n: config.effects_n,
+        effects_balls: config.effects_balls,
+        effects_ball_steps: config.effects_ball_steps,
         effect_reps: effects::reps(config),
         effects: effect_rows,
         not_yet_available: effects::NOT_YET.iter().map(|s| s.to_string()).collect(),

@@ -16,7 +16,7 @@
 
 use hyperpbd_core::{Backend, Plan, State};
 use hyperpbd_cpu::CpuBackend;
-use hyperpbd_gpu::{GpuBackend, Precision};
+use hyperpbd_gpu::{GpuBackend, GpuBarrierBackend, Precision};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -65,11 +65,15 @@ impl BackendKind {
         }
     }
 
-    /// Loads `plan` with `state`.
+    /// Loads `plan` with `state` (on the GPU, a barrier-path plan goes to
+    /// [`GpuBarrierBackend`]; [`GpuBackend`] refuses it).
     pub fn load(self, plan: Plan, state: &State) -> Result<Box<dyn Backend>, String> {
         match self.precision() {
             None => Ok(Box::new(
                 CpuBackend::new(plan, state).map_err(|e| e.to_string())?,
+            )),
+            Some(p) if plan.incremental_potential.is_some() => Ok(Box::new(
+                GpuBarrierBackend::new(plan, state, p).map_err(|e| e.to_string())?,
             )),
             Some(p) => Ok(Box::new(
                 GpuBackend::new(plan, state, p).map_err(|e| e.to_string())?,

@@ -40,6 +40,11 @@ pub struct AccuracyArgs {
     /// Skip the effect-cost section.
     #[arg(long)]
     no_effects: bool,
+    /// Measure only the effect-cost tables: writes DIR/effects.md,
+    /// DIR/figures/effects.json and (with --readme) the README's effect
+    /// lines; DIR/accuracy.md and the other figures are left as they are.
+    #[arg(long, conflicts_with_all = ["no_effects", "no_scaling", "cases", "substeps", "iterations"])]
+    only_effects: bool,
 }
 
 pub fn accuracy(args: &AccuracyArgs) -> Result<(), CliError> {
@@ -90,6 +95,7 @@ pub fn accuracy(args: &AccuracyArgs) -> Result<(), CliError> {
     }
     config.scaling = !args.no_scaling;
     config.effects = !args.no_effects;
+    config.effects_only = args.only_effects;
     if let Some(readme) = &config.readme
         && !readme.is_file()
     {
