@@ -13,6 +13,9 @@
 //!          + iterations × degree × 8 (each projection of an element that
 //!            touches the particle: difference, length, C, Δλ, correction)
 //!          degree = most elements (all families) sharing one particle
+//!          + iterations × (8N + 40) with particle contact (one averaged
+//!            gather-Jacobi pass per iteration: the pair terms in R^N and
+//!            the gather, as in tests/gpu_collide.rs)
 //! S        substeps run so far
 //! position bound = ε · X · ops · S            (errors add, never cancel)
 //! velocity bound = 2 · position bound / h     (v = (x − p) / h)
@@ -20,7 +23,11 @@
 //! The model assumes errors grow at most linearly, which holds for stable
 //! (dissipative, resting, converging) scenes over the horizons tested. A
 //! chaotic scene amplifies rounding exponentially; such scenes are compared
-//! on short horizons or on invariants, and the tests say which.
+//! on short horizons or on invariants, and the tests say which. Particle
+//! contact is also discontinuous: a pair within rounding of touching can be
+//! active in one precision and not in the other, a jump of the size of the
+//! overlap, not of ε — granular scenes are compared on invariants
+//! (tests/gpu_granular.rs), and `compare` says so.
 
 use hyperpbd_core::{Plan, State};
 
@@ -79,9 +86,15 @@ pub fn max_degree(plan: &Plan) -> usize {
 impl ErrorModel {
     /// The model of `plan` run at `precision`.
     pub fn new(plan: &Plan, precision: Precision) -> Self {
+        let iterations = f64::from(plan.iterations);
+        let contact = if plan.contacts.is_some() {
+            iterations * (8.0 * plan.dim as f64 + 40.0)
+        } else {
+            0.0
+        };
         ErrorModel {
             epsilon: precision.epsilon(),
-            ops_per_substep: 8.0 + 8.0 * f64::from(plan.iterations) * max_degree(plan) as f64,
+            ops_per_substep: 8.0 + 8.0 * iterations * max_degree(plan) as f64 + contact,
             substeps: plan.substeps,
             h: plan.h,
         }

@@ -27,6 +27,10 @@ const CLOTH16_60_FRAMES: u64 = 0x166b_9c6b_e98b_8363;
 /// friction, damping.
 const TESSERACT_30_FRAMES: u64 = 0x0a6f_6981_90f9_ab01;
 
+/// `scenes::sandpile2d()` after 60 steps (1 s): balls poured onto a floor,
+/// broadphase every substep, averaged gather-Jacobi contact with friction.
+const SANDPILE2D_60_FRAMES: u64 = 0x6a17_493f_e109_e18a;
+
 /// Runs `frames` steps of `scene` on a fresh CPU backend.
 fn run(scene: &Scene, frames: usize) -> State {
     let mut sim = backend(scene);
@@ -80,6 +84,23 @@ fn tesseract_state_hash_is_pinned() {
             "TESSERACT_30_FRAMES",
             got,
             TESSERACT_30_FRAMES
+        )
+    );
+}
+
+#[test]
+fn sandpile2d_state_hash_is_pinned() {
+    let got = run(&hyperpbd::scenes::sandpile2d(), 60).hash();
+    eprintln!("sandpile2d(), 60 frames: hash {got:#018x} / pinned {SANDPILE2D_60_FRAMES:#018x}");
+    assert_eq!(
+        got,
+        SANDPILE2D_60_FRAMES,
+        "{}",
+        golden_message(
+            "sandpile2d() after 60 frames",
+            "SANDPILE2D_60_FRAMES",
+            got,
+            SANDPILE2D_60_FRAMES
         )
     );
 }

@@ -50,6 +50,13 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
         );
     }
     let model = ErrorModel::new(&plan, precision.into());
+    if plan.contacts.is_some() {
+        println!(
+            "note: particle contact switches on and off at C = 0, so a granular scene's \
+             trajectories part once a contact differs by rounding; the bound holds for short \
+             horizons only (tests/gpu_granular.rs compares invariants instead)"
+        );
+    }
     let mut cpu =
         CpuBackend::new(plan.clone(), &state).map_err(|e| CliError::Input(e.to_string()))?;
     let mut gpu = GpuBackend::new(plan, &state, precision)
