@@ -331,6 +331,15 @@ proptest! {
 
 const DOCUMENT: &str = include_str!("../scenes/example.json");
 
+/// Every document the mutations start from: the example (constraints,
+/// friction, damping), balls with particle contact, and the barrier path
+/// with a hyperplane and segment / triangle / tetrahedron meshes.
+const DOCUMENTS: [&str; 3] = [
+    DOCUMENT,
+    include_str!("../fuzz/seeds/scene_json/balls.json"),
+    include_str!("../fuzz/seeds/scene_json/barrier_mesh.json"),
+];
+
 /// Replacement tokens: numbers at and beyond the edges of every type, and
 /// values of the wrong type.
 const TOKENS: &[&str] = &[
@@ -366,6 +375,15 @@ const TOKENS: &[&str] = &[
     "[[0,1]]",
     "{}",
     "{\"rate\": 1}",
+    "\"tether\"",
+    "\"simplex_mesh\"",
+    "\"xpbd\"",
+    "\"incremental_potential\"",
+    "\"packed_gradient\"",
+    "\"max_acceleration_residual\"",
+    "{\"friction\": 0.5, \"margin\": 0.1}",
+    "[[0,1,2]]",
+    "[[0,0,0],[1,0,0]]",
 ];
 
 const KEYS: &[&str] = &[
@@ -393,6 +411,17 @@ const KEYS: &[&str] = &[
     "offset",
     "friction",
     "rate",
+    "collisions",
+    "margin",
+    "solver",
+    "barrier_stiffness",
+    "activation_distance",
+    "convergence",
+    "kind",
+    "tolerance",
+    "max_iterations",
+    "vertices",
+    "simplices",
     "bogus",
     "",
 ];
@@ -548,7 +577,13 @@ fn check_document(text: &str) -> Result<(), TestCaseError> {
             prop_assert!(scene.validate().is_ok());
             // Stepping is bounded work only for modest settings (a swapped
             // number may ask for 4294967295 substeps).
-            let work = u64::from(scene.substeps) * u64::from(scene.iterations);
+            let newton = match &scene.solver {
+                hyperpbd::Solver::IncrementalPotential(ip) => u64::from(ip.max_iterations),
+                _ => 1,
+            };
+            let work = u64::from(scene.substeps)
+                .saturating_mul(u64::from(scene.iterations))
+                .saturating_mul(newton);
             if scene.dim <= 16 && scene.particles.len() <= 64 && work <= 10_000 {
                 run_checked(&scene, 2)?;
             }
@@ -581,8 +616,11 @@ proptest! {
     })]
 
     #[test]
-    fn mutated_documents_never_panic(mutations in proptest::collection::vec(mutation(), 1..=4)) {
-        let mut text = DOCUMENT.as_bytes().to_vec();
+    fn mutated_documents_never_panic(
+        document in 0..DOCUMENTS.len(),
+        mutations in proptest::collection::vec(mutation(), 1..=4),
+    ) {
+        let mut text = DOCUMENTS[document].as_bytes().to_vec();
         for m in &mutations {
             apply(&mut text, m);
         }
@@ -592,12 +630,13 @@ proptest! {
 
     #[test]
     fn structured_edits_never_panic(
+        document in 0..DOCUMENTS.len(),
         swaps in proptest::collection::vec((any::<usize>(), 0..TOKENS.len(), any::<bool>()), 1..=3),
         key in proptest::option::of((any::<usize>(), 0..KEYS.len(), 0..TOKENS.len())),
     ) {
         // Only edits that keep the document well-formed JSON, so nearly
         // every case reaches the schema and validation checks.
-        let mut text = DOCUMENT.as_bytes().to_vec();
+        let mut text = DOCUMENTS[document].as_bytes().to_vec();
         for (k, token, number) in swaps {
             let m = if number {
                 Mutation::SwapNumber(k, token)
@@ -611,6 +650,14 @@ proptest! {
         }
         let text = String::from_utf8(text).expect("ASCII edits keep UTF-8");
         check_document(&text)?;
+    }
+}
+
+#[test]
+fn every_unmutated_document_loads_and_steps() {
+    for text in DOCUMENTS {
+        let scene = Scene::from_json_str(text).expect("valid");
+        run_checked(&scene, 2).expect("steps");
     }
 }
 

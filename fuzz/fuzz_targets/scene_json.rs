@@ -15,9 +15,10 @@ use hyperpbd_core::{Backend, Plan, Scene, State};
 use hyperpbd_cpu::CpuBackend;
 use libfuzzer_sys::fuzz_target;
 
-/// Largest scene (particles × dim, constraint indices, substeps ×
-/// iterations × elements) that is stepped; bigger ones are only validated
-/// and compiled, so one input never takes seconds.
+/// Largest scene (particles × dim, plus substeps × the work of one
+/// substep: constraint indices and contact pairs per iteration, Newton
+/// passes over particles × obstacles) that is stepped; bigger ones are only
+/// validated and compiled, so one input never takes seconds.
 const STEP_BUDGET: u64 = 20_000;
 
 fuzz_target!(|data: &[u8]| {
@@ -46,11 +47,25 @@ fuzz_target!(|data: &[u8]| {
         .iter()
         .map(|f| (f.len() * f.arity) as u64)
         .sum();
-    let work = ((plan.particle_count() * plan.dim) as u64).saturating_add(
-        u64::from(plan.substeps)
-            .saturating_mul(u64::from(plan.iterations))
-            .saturating_mul(elements.max(1)),
-    );
+    let particles = plan.particle_count() as u64;
+    // Per substep: the constraint projections; with particle contact up to
+    // n² candidate pairs per iteration; on the barrier path up to
+    // max_iterations Newton passes over every particle and obstacle.
+    let contacts = if plan.contacts.is_some() {
+        particles.saturating_mul(particles)
+    } else {
+        0
+    };
+    let barrier = plan.incremental_potential.as_ref().map_or(0, |ip| {
+        u64::from(ip.max_iterations)
+            .saturating_mul(particles)
+            .saturating_mul((ip.obstacles.len() as u64).max(1))
+    });
+    let per_substep = u64::from(plan.iterations)
+        .saturating_mul(elements.max(1).saturating_add(contacts))
+        .saturating_add(barrier);
+    let work = (particles * plan.dim as u64)
+        .saturating_add(u64::from(plan.substeps).saturating_mul(per_substep));
     if work > STEP_BUDGET || plan.dim > 16 {
         return;
     }
