@@ -564,11 +564,21 @@ impl GpuBarrierBackend {
                 });
             }
         }
-        // Feasible in f64 but not as the kernel computes it (f32 floor).
+        // Feasible in f64 but not as the kernel computes it (the f32
+        // floor): name the nearest obstacle and its f64 distance, both
+        // measured, rather than an invented 0.
+        let mut nearest = (0, f64::INFINITY);
+        for o in 0..obstacles.len() {
+            let distance =
+                obstacles.distance(o, state.position(i), self.plan.radius[i], &mut normal);
+            if distance < nearest.1 {
+                nearest = (o, distance);
+            }
+        }
         Ok(Refusal::InfeasibleStart {
             particle: i,
-            obstacle: obstacles.source(0) as usize,
-            distance: 0.0,
+            obstacle: obstacles.source(nearest.0) as usize,
+            distance: nearest.1,
         })
     }
 

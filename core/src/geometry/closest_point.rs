@@ -15,7 +15,11 @@
 //! enumeration alone: there is no tolerance and no "close enough" band.
 //! Each candidate is evaluated in f64 (Gram solve by Gaussian elimination
 //! on an SPD matrix, which needs no pivoting); a non-degenerate simplex
-//! (checked at validation) keeps every Gram matrix nonsingular.
+//! (checked at validation) keeps every Gram matrix nonsingular. The face
+//! test reads the computed λ, so within rounding of a face boundary the
+//! neighbouring face may be chosen; both candidates are then within
+//! rounding of the true point, and the distance differs by rounding only
+//! (no error bound is published beyond that).
 
 // Index loops mirror the math (and the WGSL port) line by line.
 #![allow(clippy::needless_range_loop)]
