@@ -57,9 +57,6 @@ pub struct EffectRow {
     pub ms: Vec<(BackendKind, Option<f64>)>,
 }
 
-/// Effects listed as not yet available (future issues): none left.
-pub const NOT_YET: [&str; 0] = [];
-
 /// Group of the cloth ladder.
 pub const CLOTH: &str = "cloth";
 /// Group of the balls (collisions, barrier solver).

@@ -304,8 +304,6 @@ pub struct Report {
     pub effect_reps: usize,
     /// The effect-cost table.
     pub effects: Vec<effects::EffectRow>,
-    /// Effects that do not exist yet.
-    pub not_yet_available: Vec<String>,
     /// Skips and other notices.
     pub notices: Vec<String>,
     /// Files written, relative to the output directory.
@@ -419,7 +417,6 @@ pub fn run(config: &Config) -> Result<Report, AccuracyError> {
         effects_ball_steps: config.effects_ball_steps,
         effect_reps: effects::reps(config),
         effects: effect_rows,
-        not_yet_available: effects::NOT_YET.iter().map(|s| s.to_string()).collect(),
         notices: progress.notes,
         files: Vec::new(),
         wall_seconds: 0.0,

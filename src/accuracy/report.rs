@@ -552,13 +552,6 @@ fn effect_table(s: &mut String, report: &Report, group: &str) {
             previous = Some(k);
         }
     }
-    for what in &report.not_yet_available {
-        let _ = write!(s, "| + {what} | not yet available | – | – |");
-        for _ in &backends {
-            let _ = write!(s, " – |");
-        }
-        s.push('\n');
-    }
     s.push('\n');
 }
 
