@@ -524,17 +524,7 @@ impl GpuBackend {
         {
             return Err(GpuError::DeviceLost { message });
         }
-        if let Ok(mut e) = self.errors.lock()
-            && !e.is_empty()
-        {
-            let message = e.join("; ");
-            e.clear();
-            if message.to_lowercase().contains("out of memory") {
-                return Err(GpuError::OutOfMemory { message });
-            }
-            return Err(GpuError::Other { message });
-        }
-        Ok(())
+        crate::device_errors::take_device_errors(&self.errors)
     }
 
     /// Submits `encoder` and waits for it.

@@ -390,17 +390,7 @@ impl GpuSweep {
     }
 
     fn check_device(&self) -> Result<(), GpuError> {
-        if let Ok(mut e) = self.errors.lock()
-            && !e.is_empty()
-        {
-            let message = e.join("; ");
-            e.clear();
-            if message.to_lowercase().contains("out of memory") {
-                return Err(GpuError::OutOfMemory { message });
-            }
-            return Err(GpuError::Other { message });
-        }
-        Ok(())
+        crate::device_errors::take_device_errors(&self.errors)
     }
 
     fn buffer(

@@ -250,14 +250,7 @@ impl GpuCollide {
     }
 
     fn check_device(&self) -> Result<(), GpuError> {
-        if let Ok(mut e) = self.errors.lock()
-            && !e.is_empty()
-        {
-            let message = e.join("; ");
-            e.clear();
-            return Err(GpuError::Other { message });
-        }
-        Ok(())
+        crate::device_errors::take_device_errors(&self.errors)
     }
 
     fn storage(&self, label: &str, bytes: &[u8]) -> wgpu::Buffer {
