@@ -23,6 +23,7 @@ use crate::params::{Params, params_size, push_reals, read_reals, real_size};
 
 mod contact_step;
 use crate::pipelines::{Entry, Pipelines};
+use crate::state_transfer::ResidentState;
 use crate::{AdapterSummary, Precision};
 use contact_step::ContactStage;
 
@@ -103,6 +104,18 @@ fn kind_code(kind: &FamilyKind) -> u32 {
 }
 
 impl GpuBackend {
+    /// x and v as resident on the device, with their read-back staging.
+    fn resident_state(&self) -> ResidentState<'_> {
+        ResidentState {
+            x: &self.buffers.x,
+            v: &self.buffers.v,
+            staging: &self.buffers.state_staging,
+            bytes: self.buffers.state_bytes,
+            precision: self.precision,
+            origin: &self.origin,
+        }
+    }
+
     /// Finds an adapter for `precision`, creates a device and loads `plan`
     /// with `state`.
     pub fn new(plan: Plan, state: &State, precision: Precision) -> Result<Self, BackendError> {
@@ -153,13 +166,7 @@ impl GpuBackend {
         }
         let summary = AdapterSummary::of(adapter);
         let (device, queue) = crate::request_device(adapter, precision)?;
-        let errors: Arc<Mutex<Vec<String>>> = Arc::default();
-        let sink = errors.clone();
-        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
-            if let Ok(mut v) = sink.lock() {
-                v.push(e.to_string());
-            }
-        }));
+        let errors = crate::device_errors::collect_device_errors(&device);
         let lost: Arc<Mutex<Option<String>>> = Arc::default();
         let lost_sink = lost.clone();
         device.set_device_lost_callback(move |reason, message| {
@@ -726,50 +733,14 @@ impl Backend for GpuBackend {
     }
 
     fn read_state(&mut self) -> Result<State, BackendError> {
-        let bytes = self.buffers.state_bytes;
-        if bytes > 0 {
-            let mut encoder = self.device.create_command_encoder(&Default::default());
-            encoder.copy_buffer_to_buffer(
-                &self.buffers.x,
-                0,
-                &self.buffers.state_staging,
-                0,
-                bytes,
-            );
-            encoder.copy_buffer_to_buffer(
-                &self.buffers.v,
-                0,
-                &self.buffers.state_staging,
-                bytes,
-                bytes,
-            );
-            self.submit_and_wait(encoder)?;
-        }
-        let data = self.read_mapped(&self.buffers.state_staging, 2 * bytes)?;
-        let (xs, vs) = data.split_at(bytes as usize);
-        let mut positions = read_reals(xs, self.precision);
-        self.origin.to_world(&mut positions);
-        Ok(State {
-            dim: self.plan.dim,
-            positions,
-            velocities: read_reals(vs, self.precision),
-        })
+        Ok(self
+            .resident_state()
+            .read(&self.device, self.plan.dim, |e| self.submit_and_wait(e))?)
     }
 
     fn write_state(&mut self, state: &State) -> Result<(), BackendError> {
         check_state(&self.plan, state)?;
-        let mut x = Vec::new();
-        push_reals(
-            &mut x,
-            &self.origin.to_local(&state.positions),
-            self.precision,
-        );
-        let mut v = Vec::new();
-        push_reals(&mut v, &state.velocities, self.precision);
-        if !x.is_empty() {
-            self.queue.write_buffer(&self.buffers.x, 0, &x);
-            self.queue.write_buffer(&self.buffers.v, 0, &v);
-        }
+        self.resident_state().write(&self.queue, state);
         Ok(())
     }
 

@@ -107,19 +107,6 @@ pub struct BarrierKernels {
     errors: Arc<Mutex<Vec<String>>>,
 }
 
-fn entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
 /// Read-only flags of the bindings 0..=9 of barrier.wgsl.
 const READ_ONLY: [bool; 10] = [
     false, true, true, true, true, false, false, false, false, true,
@@ -141,13 +128,7 @@ impl BarrierKernels {
             });
         }
         let (device, queue) = crate::request_device(adapter, precision)?;
-        let errors: Arc<Mutex<Vec<String>>> = Arc::default();
-        let sink = errors.clone();
-        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
-            if let Ok(mut v) = sink.lock() {
-                v.push(e.to_string());
-            }
-        }));
+        let errors = crate::device_errors::collect_device_errors(&device);
         let limits = device.limits();
         if limits.max_storage_buffers_per_shader_stage < READ_ONLY.len() as u32 {
             return Err(GpuError::Unsupported {
@@ -161,7 +142,7 @@ impl BarrierKernels {
         let entries: Vec<_> = READ_ONLY
             .iter()
             .enumerate()
-            .map(|(i, &ro)| entry(i as u32, ro))
+            .map(|(i, &ro)| crate::pipelines::storage(i as u32, ro, false))
             .collect();
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("hyperpbd barrier"),

@@ -145,19 +145,6 @@ pub struct GpuSweep {
     errors: Arc<Mutex<Vec<String>>>,
 }
 
-fn storage_entry(binding: u32, read_only: bool, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: dynamic,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
 /// Levels of an exclusive scan of `len` entries at `base`: (base, len,
 /// next) per level, next = where the level's block sums go. Returns the
 /// levels and the end of the space they use.
@@ -222,13 +209,7 @@ impl GpuSweep {
             });
         }
         let (device, queue) = crate::request_device(adapter, precision)?;
-        let errors: Arc<Mutex<Vec<String>>> = Arc::default();
-        let sink = errors.clone();
-        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
-            if let Ok(mut v) = sink.lock() {
-                v.push(e.to_string());
-            }
-        }));
+        let errors = crate::device_errors::collect_device_errors(&device);
         Self::with_device(device, queue, errors, dim, precision, pair_capacity)
     }
 
@@ -249,7 +230,7 @@ impl GpuSweep {
             });
         }
         let entries: Vec<_> = (0..7u32)
-            .map(|b| storage_entry(b, b <= 2, b == 0))
+            .map(|b| crate::pipelines::storage(b, b <= 2, b == 0))
             .collect();
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("hyperpbd broadphase"),

@@ -77,19 +77,6 @@ pub struct GpuCollide {
     errors: Arc<Mutex<Vec<String>>>,
 }
 
-fn entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
 fn groups(invocations: usize) -> (u32, u32) {
     let g = (invocations as u32).div_ceil(WORKGROUP).max(1);
     let x = g.min(MAX_GROUPS_X);
@@ -112,13 +99,7 @@ impl GpuCollide {
             });
         }
         let (device, queue) = crate::request_device(adapter, precision)?;
-        let errors: Arc<Mutex<Vec<String>>> = Arc::default();
-        let sink = errors.clone();
-        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
-            if let Ok(mut v) = sink.lock() {
-                v.push(e.to_string());
-            }
-        }));
+        let errors = crate::device_errors::collect_device_errors(&device);
         Self::with_device(device, queue, errors, dim, precision)
     }
 
@@ -134,7 +115,7 @@ impl GpuCollide {
         let entries: Vec<_> = read_only
             .iter()
             .enumerate()
-            .map(|(b, &ro)| entry(b as u32, ro))
+            .map(|(b, &ro)| crate::pipelines::storage(b as u32, ro, false))
             .collect();
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("hyperpbd collide"),

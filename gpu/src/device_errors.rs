@@ -6,7 +6,7 @@
 //! mentioning "out of memory" is [`GpuError::OutOfMemory`], anything else
 //! [`GpuError::Other`], all messages joined with "; ".
 
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use hyperpbd_core::GpuError;
 
@@ -23,4 +23,17 @@ pub(crate) fn take_device_errors(errors: &Mutex<Vec<String>>) -> Result<(), GpuE
         return Err(GpuError::Other { message });
     }
     Ok(())
+}
+
+/// Installs the handler that appends every uncaptured error of `device` to
+/// the returned list (drained by [`take_device_errors`]).
+pub(crate) fn collect_device_errors(device: &wgpu::Device) -> Arc<Mutex<Vec<String>>> {
+    let errors: Arc<Mutex<Vec<String>>> = Arc::default();
+    let sink = errors.clone();
+    device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+        if let Ok(mut v) = sink.lock() {
+            v.push(e.to_string());
+        }
+    }));
+    errors
 }

@@ -26,6 +26,7 @@ use crate::backend::{create_buffer, groups_for};
 use crate::barrier::{local_obstacles, obstacle_geometry};
 use crate::params::{push_reals, read_reals, real_size};
 use crate::shader::{MAX_GPU_DIM, ShaderFile, compose};
+use crate::state_transfer::ResidentState;
 use crate::{Precision, SceneOrigin};
 
 const NONE: u32 = u32::MAX;
@@ -84,20 +85,19 @@ struct IpBuffers {
     _rest: Vec<wgpu::Buffer>,
 }
 
-fn layout_entry(binding: u32, read_only: bool, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: dynamic,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
 impl GpuBarrierBackend {
+    /// x and v as resident on the device, with their read-back staging.
+    fn resident_state(&self) -> ResidentState<'_> {
+        ResidentState {
+            x: &self.buffers.x,
+            v: &self.buffers.v,
+            staging: &self.buffers.state_staging,
+            bytes: self.buffers.state_bytes,
+            precision: self.precision,
+            origin: &self.origin,
+        }
+    }
+
     /// Loads an incremental-potential `plan` with `state` on a device of
     /// `adapter`.
     pub fn with_adapter(
@@ -121,13 +121,7 @@ impl GpuBarrierBackend {
         }
         let summary = crate::AdapterSummary::of(adapter);
         let (device, queue) = crate::request_device(adapter, precision)?;
-        let errors: Arc<Mutex<Vec<String>>> = Arc::default();
-        let sink = errors.clone();
-        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
-            if let Ok(mut v) = sink.lock() {
-                v.push(e.to_string());
-            }
-        }));
+        let errors = crate::device_errors::collect_device_errors(&device);
         let limits = device.limits();
         if limits.max_storage_buffers_per_shader_stage < READ_ONLY.len() as u32 + 1 {
             return Err(GpuError::Unsupported {
@@ -142,7 +136,7 @@ impl GpuBarrierBackend {
         let entries: Vec<_> = READ_ONLY
             .iter()
             .enumerate()
-            .map(|(i, &ro)| layout_entry(i as u32, ro, false))
+            .map(|(i, &ro)| crate::pipelines::storage(i as u32, ro, false))
             .collect();
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("hyperpbd ip state"),
@@ -150,7 +144,7 @@ impl GpuBarrierBackend {
         });
         let params_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("hyperpbd ip params"),
-            entries: &[layout_entry(0, true, true)],
+            entries: &[crate::pipelines::storage(0, true, true)],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("hyperpbd ip"),
@@ -637,50 +631,14 @@ impl Backend for GpuBarrierBackend {
     }
 
     fn read_state(&mut self) -> Result<State, BackendError> {
-        let bytes = self.buffers.state_bytes;
-        if bytes > 0 {
-            let mut encoder = self.device.create_command_encoder(&Default::default());
-            encoder.copy_buffer_to_buffer(
-                &self.buffers.x,
-                0,
-                &self.buffers.state_staging,
-                0,
-                bytes,
-            );
-            encoder.copy_buffer_to_buffer(
-                &self.buffers.v,
-                0,
-                &self.buffers.state_staging,
-                bytes,
-                bytes,
-            );
-            self.submit(encoder)?;
-        }
-        let data = self.read(&self.buffers.state_staging, 2 * bytes)?;
-        let (xs, vs) = data.split_at(bytes as usize);
-        let mut positions = read_reals(xs, self.precision);
-        self.origin.to_world(&mut positions);
-        Ok(State {
-            dim: self.plan.dim,
-            positions,
-            velocities: read_reals(vs, self.precision),
-        })
+        Ok(self
+            .resident_state()
+            .read(&self.device, self.plan.dim, |e| self.submit(e))?)
     }
 
     fn write_state(&mut self, state: &State) -> Result<(), BackendError> {
         check_state(&self.plan, state)?;
-        let mut x = Vec::new();
-        push_reals(
-            &mut x,
-            &self.origin.to_local(&state.positions),
-            self.precision,
-        );
-        let mut v = Vec::new();
-        push_reals(&mut v, &state.velocities, self.precision);
-        if !x.is_empty() {
-            self.queue.write_buffer(&self.buffers.x, 0, &x);
-            self.queue.write_buffer(&self.buffers.v, 0, &v);
-        }
+        self.resident_state().write(&self.queue, state);
         Ok(())
     }
 

@@ -23,6 +23,7 @@ mod params;
 mod pipelines;
 mod readback;
 pub mod shader;
+mod state_transfer;
 
 pub use adapter::*;
 pub use backend::GpuBackend;

@@ -67,7 +67,9 @@ pub struct Pipelines {
     pipelines: Vec<wgpu::ComputePipeline>,
 }
 
-fn storage(binding: u32, read_only: bool, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
+/// A storage-buffer binding visible to compute shaders (every kernel set
+/// of this crate lays its bindings out with it).
+pub(crate) fn storage(binding: u32, read_only: bool, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
