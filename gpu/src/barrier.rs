@@ -392,16 +392,7 @@ impl BarrierKernels {
                 pass.dispatch_workgroups(gx, gy, 1);
             }
         }
-        let index = self.queue.submit(Some(encoder.finish()));
-        self.device
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(index),
-                timeout: None,
-            })
-            .map_err(|e| GpuError::DeviceLost {
-                message: e.to_string(),
-            })?;
-        self.check()
+        crate::device_errors::submit_and_wait(&self.device, &self.queue, encoder, &self.errors)
     }
 
     /// Reads back [energy, gradient, hessian, scalar] of a batch.

@@ -337,16 +337,7 @@ impl GpuCollide {
         if bytes > 0 {
             encoder.copy_buffer_to_buffer(&x, 0, &staging, 0, bytes);
         }
-        let index = self.queue.submit(Some(encoder.finish()));
-        self.device
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(index),
-                timeout: None,
-            })
-            .map_err(|e| GpuError::DeviceLost {
-                message: e.to_string(),
-            })?;
-        self.check_device()?;
+        crate::device_errors::submit_and_wait(&self.device, &self.queue, encoder, &self.errors)?;
         if bytes == 0 {
             return Ok(Vec::new());
         }

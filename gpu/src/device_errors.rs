@@ -4,7 +4,8 @@
 //! messages to a shared list; after each submission the list is drained
 //! here, so one rule turns them into a typed error everywhere: a message
 //! mentioning "out of memory" is [`GpuError::OutOfMemory`], anything else
-//! [`GpuError::Other`], all messages joined with "; ".
+//! [`GpuError::Other`], all messages joined with "; ". A wait that fails is
+//! [`GpuError::DeviceLost`].
 
 use std::sync::{Arc, Mutex};
 
@@ -36,4 +37,23 @@ pub(crate) fn collect_device_errors(device: &wgpu::Device) -> Arc<Mutex<Vec<Stri
         }
     }));
     errors
+}
+
+/// Submits `encoder`, waits for it, and drains the errors it caused.
+pub(crate) fn submit_and_wait(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    encoder: wgpu::CommandEncoder,
+    errors: &Mutex<Vec<String>>,
+) -> Result<(), GpuError> {
+    let index = queue.submit(Some(encoder.finish()));
+    device
+        .poll(wgpu::PollType::Wait {
+            submission_index: Some(index),
+            timeout: None,
+        })
+        .map_err(|e| GpuError::DeviceLost {
+            message: e.to_string(),
+        })?;
+    take_device_errors(errors)
 }

@@ -403,16 +403,7 @@ impl GpuBarrierBackend {
     }
 
     fn submit(&self, encoder: wgpu::CommandEncoder) -> Result<(), GpuError> {
-        let index = self.queue.submit(Some(encoder.finish()));
-        self.device
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(index),
-                timeout: None,
-            })
-            .map_err(|e| GpuError::DeviceLost {
-                message: e.to_string(),
-            })?;
-        self.check()
+        crate::device_errors::submit_and_wait(&self.device, &self.queue, encoder, &self.errors)
     }
 
     fn read(&self, buffer: &wgpu::Buffer, len: u64) -> Result<Vec<u8>, GpuError> {
