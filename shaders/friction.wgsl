@@ -6,7 +6,7 @@
 //
 // Same arithmetic, in the same order, as cpu/src/friction.rs.
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn friction(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let e = linear_index(gid, groups);
     if (e >= params.count || failed_before()) {

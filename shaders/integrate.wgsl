@@ -7,7 +7,7 @@
 //
 // Same arithmetic, in the same order, as cpu/src/integrate.rs.
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn predict(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
     if (failed_before()) {
@@ -49,7 +49,7 @@ fn predict(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     }
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn velocity(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
     if (i >= params.count || failed_before() || inv_mass[i] == 0.0) {
@@ -67,7 +67,7 @@ fn velocity(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     }
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn damping(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
     if (i >= params.count || failed_before() || inv_mass[i] == 0.0) {

@@ -44,7 +44,6 @@ struct Params {
 @group(1) @binding(0) var<storage, read> params: Params;
 
 const NONE: u32 = 0xffffffffu;
-const WORKGROUP: u32 = 64u;
 
 // Linear invocation index over a 2D grid of workgroups (more than 65535
 // workgroups are spread over y).

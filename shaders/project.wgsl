@@ -13,7 +13,7 @@
 // Same arithmetic, in the same order, as cpu/src/project.rs. Fixed
 // particles (w = 0) are never written.
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
     if (t >= params.count || failed_before()) {
@@ -109,7 +109,7 @@ fn project_generic(t: u32, kind: u32) {
     }
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn project_simplex_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
     if (t >= params.count || failed_before()) {
@@ -118,7 +118,7 @@ fn project_simplex_measure(@builtin(global_invocation_id) gid: vec3<u32>, @built
     project_generic(t, 1u);
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
     if (t >= params.count || failed_before()) {
@@ -127,7 +127,7 @@ fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @buil
     project_generic(t, 2u);
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn project_contact(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
     if (t >= params.count || failed_before()) {

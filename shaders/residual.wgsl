@@ -6,7 +6,7 @@
 //   equality:  |C(x)|          contact:  max(0, −C(x)),  active if λ > 0
 //   tether:    max(0, |x1 − x0| − rest)
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn residual(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let e = linear_index(gid, groups);
     if (e >= params.count) {
@@ -38,15 +38,15 @@ fn residual(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     resid[s] = violation;
 }
 
-var<workgroup> partial_max: array<real, 64>;
-var<workgroup> partial_count: array<u32, 64>;
+var<workgroup> partial_max: array<real, WORKGROUP>;
+var<workgroup> partial_count: array<u32, WORKGROUP>;
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn reduce(@builtin(local_invocation_id) lid: vec3<u32>) {
     let t = lid.x;
     var worst: real = 0.0;
     var contacts = 0u;
-    for (var e = t; e < params.count; e += 64u) {
+    for (var e = t; e < params.count; e += WORKGROUP) {
         worst = max(worst, resid[params.slot_base + e]);
         if (params.flags == 3u && lambda[params.slot_base + e] > 0.0) {
             contacts += 1u;
@@ -55,7 +55,7 @@ fn reduce(@builtin(local_invocation_id) lid: vec3<u32>) {
     partial_max[t] = worst;
     partial_count[t] = contacts;
     workgroupBarrier();
-    for (var stride = 32u; stride > 0u; stride = stride / 2u) {
+    for (var stride = WORKGROUP / 2u; stride > 0u; stride = stride / 2u) {
         if (t < stride) {
             partial_max[t] = max(partial_max[t], partial_max[t + stride]);
             partial_count[t] += partial_count[t + stride];

@@ -11,24 +11,23 @@
 //! The schedule is the plan's: the GPU runs the algorithm of the CPU golden
 //! path, kernel for kernel, in the same order.
 
-use std::sync::{Arc, Mutex};
-
 use hyperpbd_core::{
     Backend, BackendError, FamilyKind, FamilyResidual, GpuError, Kernel, Plan, StageName, State,
     StepError, StepReport, check_forces, check_kernel, check_state,
 };
 
+use crate::context::GpuContext;
+use crate::kernel_set::{KernelSet, KernelSetSpec, ParamBlocks};
+use crate::layout::VectorLayout;
 use crate::origin::SceneOrigin;
 use crate::params::{Params, params_size, push_reals, read_reals, real_size};
+use crate::resident::ResidentState;
 
 mod contact_step;
-use crate::pipelines::{Entry, Pipelines};
-use crate::state_transfer::ResidentState;
+use crate::pipelines::{Entry, STATE_BINDINGS};
 use crate::{AdapterSummary, Precision};
 use contact_step::ContactStage;
 
-const WORKGROUP: u32 = 64;
-const MAX_GROUPS_X: u32 = 65_535;
 const NONE: u32 = u32::MAX;
 
 /// One dispatch of a step.
@@ -36,26 +35,20 @@ const NONE: u32 = u32::MAX;
 struct Dispatch {
     entry: Entry,
     params_offset: u32,
-    groups: (u32, u32),
+    invocations: u32,
     stage: Option<StageName>,
 }
 
-/// The device buffers.
+/// The device buffers besides the resident state.
 struct Buffers {
-    x: wgpu::Buffer,
-    v: wgpu::Buffer,
     /// Positions at the substep start (read by the contact broadphase).
     p: wgpu::Buffer,
-    force: wgpu::Buffer,
     status: wgpu::Buffer,
     report: wgpu::Buffer,
-    saved_x: wgpu::Buffer,
-    saved_v: wgpu::Buffer,
     /// Readback of status (16 bytes) followed by the report.
     report_staging: wgpu::Buffer,
-    /// Readback of x then v.
-    state_staging: wgpu::Buffer,
-    state_bytes: u64,
+    /// Readback of x then p (the contact broadphase).
+    probe_staging: wgpu::Buffer,
     report_bytes: u64,
 }
 
@@ -63,11 +56,10 @@ struct Buffers {
 pub struct GpuBackend {
     plan: Plan,
     precision: Precision,
-    summary: AdapterSummary,
-    device: wgpu::Device,
-    queue: wgpu::Queue,
+    ctx: GpuContext,
+    state: ResidentState,
     buffers: Buffers,
-    pipelines: Pipelines,
+    kernels: KernelSet<Entry>,
     state_group: wgpu::BindGroup,
     params_group: wgpu::BindGroup,
     /// Dispatches of a whole step, substeps included.
@@ -76,21 +68,8 @@ pub struct GpuBackend {
     residual_dispatches: Vec<Dispatch>,
     /// Kernel calls per substep.
     kernels_per_substep: usize,
-    errors: Arc<Mutex<Vec<String>>>,
-    lost: Arc<Mutex<Option<String>>>,
-    /// Device positions are world positions − origin (f32 only).
-    origin: SceneOrigin,
     /// Broadphase and contact kernels, when the plan has collisions.
     contacts: Option<ContactStage>,
-}
-
-pub(crate) fn groups_for(invocations: u32) -> (u32, u32) {
-    let groups = invocations.div_ceil(WORKGROUP).max(1);
-    if groups <= MAX_GROUPS_X {
-        (groups, 1)
-    } else {
-        (MAX_GROUPS_X, groups.div_ceil(MAX_GROUPS_X))
-    }
 }
 
 fn kind_code(kind: &FamilyKind) -> u32 {
@@ -104,18 +83,6 @@ fn kind_code(kind: &FamilyKind) -> u32 {
 }
 
 impl GpuBackend {
-    /// x and v as resident on the device, with their read-back staging.
-    fn resident_state(&self) -> ResidentState<'_> {
-        ResidentState {
-            x: &self.buffers.x,
-            v: &self.buffers.v,
-            staging: &self.buffers.state_staging,
-            bytes: self.buffers.state_bytes,
-            precision: self.precision,
-            origin: &self.origin,
-        }
-    }
-
     /// Finds an adapter for `precision`, creates a device and loads `plan`
     /// with `state`.
     pub fn new(plan: Plan, state: &State, precision: Precision) -> Result<Self, BackendError> {
@@ -164,41 +131,21 @@ impl GpuBackend {
         if plan.incremental_potential.is_some() {
             return Err(incremental_potential_unsupported().into());
         }
-        let summary = AdapterSummary::of(adapter);
-        let (device, queue) = crate::request_device(adapter, precision)?;
-        let errors = crate::device_errors::collect_device_errors(&device);
-        let lost: Arc<Mutex<Option<String>>> = Arc::default();
-        let lost_sink = lost.clone();
-        device.set_device_lost_callback(move |reason, message| {
-            if let Ok(mut l) = lost_sink.lock() {
-                *l = Some(format!("{reason:?}: {message}"));
-            }
-        });
-
-        let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let built = Self::build(&device, &queue, &plan, state, precision, &origin);
-        let validation_error = pollster::block_on(validation.pop());
-        let oom = pollster::block_on(scope.pop());
-        if let Some(e) = oom {
-            return Err(GpuError::OutOfMemory {
-                message: e.to_string(),
-            }
-            .into());
-        }
-        if let Some(e) = validation_error {
-            return Err(GpuError::Other {
-                message: e.to_string(),
-            }
-            .into());
-        }
-        let (buffers, pipelines, state_group, params_group, step_dispatches, residual_dispatches) =
-            built?;
+        let ctx = GpuContext::new(adapter, precision)?;
+        let (
+            state,
+            buffers,
+            kernels,
+            state_group,
+            params_group,
+            step_dispatches,
+            residual_dispatches,
+        ) = ctx.building(|| Self::build(&ctx, &plan, state, precision, origin))?;
         let contacts = match plan.contacts {
             Some(c) => Some(ContactStage::new(
-                &device,
-                &queue,
-                errors.clone(),
+                &ctx.device,
+                &ctx.queue,
+                ctx.errors(),
                 (plan.dim, plan.particle_count(), precision),
                 c,
             )?),
@@ -209,33 +156,29 @@ impl GpuBackend {
             kernels_per_substep: plan.substep_kernels.len(),
             plan,
             precision,
-            summary,
-            device,
-            queue,
+            ctx,
+            state,
             buffers,
-            pipelines,
+            kernels,
             state_group,
             params_group,
             step_dispatches,
             residual_dispatches,
-            errors,
-            lost,
-            origin,
         })
     }
 
     #[allow(clippy::type_complexity)]
     fn build(
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
+        ctx: &GpuContext,
         plan: &Plan,
         state: &State,
         precision: Precision,
-        origin: &SceneOrigin,
+        origin: SceneOrigin,
     ) -> Result<
         (
+            ResidentState,
             Buffers,
-            Pipelines,
+            KernelSet<Entry>,
             wgpu::BindGroup,
             wgpu::BindGroup,
             Vec<Dispatch>,
@@ -243,9 +186,8 @@ impl GpuBackend {
         ),
         BackendError,
     > {
-        let limits = device.limits();
+        let device = &ctx.device;
         let dim = plan.dim;
-        let n = plan.particle_count();
         let reals = |values: &[f64]| {
             let mut out = Vec::with_capacity(values.len() * real_size(precision));
             push_reals(&mut out, values, precision);
@@ -265,48 +207,35 @@ impl GpuBackend {
                 _ => rest.extend_from_slice(&f.rest),
             }
         }
-        let positions = origin.to_local(&state.positions);
+        let resident = ResidentState::new(
+            ctx,
+            VectorLayout::Dense,
+            precision,
+            origin,
+            state,
+            &plan.inverse_mass,
+            &plan.force,
+        )?;
         let slots = rest.len();
-        let make = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
-            create_buffer(device, queue, &limits, label, bytes, usage)
-        };
-        let storage = wgpu::BufferUsages::STORAGE
-            | wgpu::BufferUsages::COPY_DST
-            | wgpu::BufferUsages::COPY_SRC;
-        let x = make("x", &reals(&positions), storage)?;
-        let v = make("v", &reals(&state.velocities), storage)?;
-        let p = make("p", &reals(&positions), storage)?;
-        let inv_mass = make("inverse_mass", &reals(&plan.inverse_mass), storage)?;
-        let gravity_scale = make("gravity_scale", &reals(&plan.gravity_scale), storage)?;
-        let force = make("force", &reals(&plan.force), storage)?;
-        let element_buffer = make("elements", bytemuck::cast_slice(&elements), storage)?;
-        let rest_buffer = make("rest", &reals(&rest), storage)?;
-        let lambda = make("lambda", &reals(&vec![0.0; slots]), storage)?;
-        let status = make("status", bytemuck::cast_slice(&[NONE, NONE, 0, 0]), storage)?;
-        let resid = make("residuals", &reals(&vec![0.0; slots]), storage)?;
+        let make = |label: &str, bytes: &[u8]| ctx.storage(label, bytes);
+        let p = make("p", &resident.packing.positions(&state.positions))?;
+        let inv_mass = make("inverse_mass", &reals(&plan.inverse_mass))?;
+        let gravity_scale = make("gravity_scale", &reals(&plan.gravity_scale))?;
+        let element_buffer = make("elements", bytemuck::cast_slice(&elements))?;
+        let rest_buffer = make("rest", &reals(&rest))?;
+        let lambda = make("lambda", &reals(&vec![0.0; slots]))?;
+        let status = make("status", bytemuck::cast_slice(&[NONE, NONE, 0, 0]))?;
+        let resid = make("residuals", &reals(&vec![0.0; slots]))?;
         let report_len = 2 * plan.families.len();
-        let report = make("report", &reals(&vec![0.0; report_len]), storage)?;
-        let state_bytes = (n * dim * real_size(precision)) as u64;
-        let saved_x = make("saved_x", &reals(&positions), storage)?;
-        let saved_v = make("saved_v", &reals(&state.velocities), storage)?;
+        let report = make("report", &reals(&vec![0.0; report_len]))?;
         let report_bytes = (report_len * real_size(precision)) as u64;
-        let report_staging = make(
-            "report_staging",
-            &vec![0u8; 16 + report_bytes as usize],
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        )?;
-        let state_staging = make(
-            "state_staging",
-            &vec![0u8; 2 * state_bytes as usize],
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        )?;
+        let report_staging = ctx.staging("report_staging", 16 + report_bytes)?;
+        let probe_staging = ctx.staging("probe_staging", 2 * resident.bytes())?;
 
         // Parameter blocks: one per kernel call of a step, then one per
         // family for the residual.
-        let align = limits.min_storage_buffer_offset_alignment as usize;
         let size = params_size(dim, precision);
-        let stride = size.div_ceil(align) * align;
-        let mut blocks = Vec::new();
+        let mut blocks = ParamBlocks::new(device);
         let mut step_dispatches = Vec::new();
         let k = plan.substep_kernels.len();
         let lambda_total = slots as u32;
@@ -321,21 +250,21 @@ impl GpuBackend {
                 };
                 let (entry, invocations) = match *kernel {
                     Kernel::Predict => {
-                        params.count = n as u32;
+                        params.count = plan.particle_count() as u32;
                         params.flags =
                             u32::from(plan.predict.gravity) | (u32::from(plan.predict.force) << 1);
-                        (Entry::Predict, (n as u32).max(lambda_total))
+                        (Entry::Predict, params.count.max(lambda_total))
                     }
                     Kernel::Velocity => {
-                        params.count = n as u32;
-                        (Entry::Velocity, n as u32)
+                        params.count = plan.particle_count() as u32;
+                        (Entry::Velocity, params.count)
                     }
                     // Run by `contact_step` between these dispatches.
                     Kernel::Broadphase | Kernel::Collide => continue,
                     Kernel::Damping => {
-                        params.count = n as u32;
+                        params.count = plan.particle_count() as u32;
                         params.factor = plan.damping.map_or(1.0, |(_, f)| f);
-                        (Entry::Damping, n as u32)
+                        (Entry::Damping, params.count)
                     }
                     Kernel::Project { family, color } => {
                         let f = &plan.families[family];
@@ -380,11 +309,10 @@ impl GpuBackend {
                 };
                 step_dispatches.push(Dispatch {
                     entry,
-                    params_offset: blocks.len() as u32,
-                    groups: groups_for(invocations),
+                    params_offset: blocks.push(&params.encode(dim, precision)),
+                    invocations,
                     stage: Some(kernel.stage()),
                 });
-                params.encode(dim, precision, stride, &mut blocks);
             }
         }
         let mut residual_dispatches = Vec::new();
@@ -401,83 +329,66 @@ impl GpuBackend {
             if let FamilyKind::HyperplaneContact { normal, .. } = &f.kind {
                 params.normal = normal.clone();
             }
-            let offset = blocks.len() as u32;
-            params.encode(dim, precision, stride, &mut blocks);
+            let offset = blocks.push(&params.encode(dim, precision));
             residual_dispatches.push(Dispatch {
                 entry: Entry::Residual,
                 params_offset: offset,
-                groups: groups_for(params.count),
+                invocations: params.count,
                 stage: None,
             });
             residual_dispatches.push(Dispatch {
                 entry: Entry::Reduce,
                 params_offset: offset,
-                groups: (1, 1),
+                invocations: 1,
                 stage: None,
             });
         }
-        if blocks.is_empty() {
-            Params::default().encode(dim, precision, stride, &mut blocks);
-        }
-        let params_buffer = make("params", &blocks, wgpu::BufferUsages::STORAGE)?;
+        blocks.push(&Params::default().encode(dim, precision));
+        let block = (size as u64).max(blocks.block_size());
+        let params_buffer = blocks.finish(ctx, "params")?;
 
-        let pipelines = Pipelines::new(device, dim, precision, &limits)?;
-        let state_buffers = [
-            &x,
-            &v,
-            &p,
-            &inv_mass,
-            &gravity_scale,
-            &force,
-            &element_buffer,
-            &rest_buffer,
-            &lambda,
-            &status,
-            &resid,
-            &report,
-        ];
-        let entries: Vec<wgpu::BindGroupEntry> = state_buffers
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
-        let state_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("hyperpbd state"),
-            layout: &pipelines.state_layout,
-            entries: &entries,
-        });
-        let params_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("hyperpbd params"),
-            layout: &pipelines.params_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &params_buffer,
-                    offset: 0,
-                    size: wgpu::BufferSize::new(size as u64),
-                }),
-            }],
-        });
+        let kernels = KernelSet::new(
+            device,
+            &KernelSetSpec {
+                label: "hyperpbd xpbd",
+                dim,
+                precision,
+                groups: &[&STATE_BINDINGS, &[crate::kernel_set::Binding::BLOCK]],
+                entries: &Entry::ALL,
+            },
+        )?;
+        let state_group = kernels.bind(
+            device,
+            0,
+            &[
+                &resident.x,
+                &resident.v,
+                &p,
+                &inv_mass,
+                &gravity_scale,
+                &resident.force,
+                &element_buffer,
+                &rest_buffer,
+                &lambda,
+                &status,
+                &resid,
+                &report,
+            ],
+            0,
+        )?;
+        let params_group = kernels.bind(device, 1, &[&params_buffer], block)?;
         let buffers = Buffers {
-            x,
-            v,
             p,
-            force,
             status,
             report,
-            saved_x,
-            saved_v,
             report_staging,
-            state_staging,
-            state_bytes,
+            probe_staging,
             report_bytes,
         };
         Ok((
+            resident,
             buffers,
-            pipelines,
+            kernels,
             state_group,
             params_group,
             step_dispatches,
@@ -487,7 +398,7 @@ impl GpuBackend {
 
     /// The adapter this backend runs on.
     pub fn adapter(&self) -> &AdapterSummary {
-        &self.summary
+        &self.ctx.summary
     }
 
     /// The precision of the kernels.
@@ -497,14 +408,14 @@ impl GpuBackend {
 
     /// The origin device positions are relative to.
     pub fn origin(&self) -> &SceneOrigin {
-        &self.origin
+        self.state.origin()
     }
 
     /// Destroys the device, as a driver reset or a removed GPU would:
     /// every later call answers [`GpuError::DeviceLost`]. For
     /// fault-injection tests of that path.
     pub fn destroy_device(&self) {
-        self.device.destroy();
+        self.ctx.device.destroy();
     }
 
     /// Device bytes per particle and per constraint slot (buffers that
@@ -520,46 +431,22 @@ impl GpuBackend {
     }
 
     fn encode(&self, pass: &mut wgpu::ComputePass<'_>, d: &Dispatch) {
-        pass.set_pipeline(self.pipelines.get(d.entry));
         pass.set_bind_group(1, &self.params_group, &[d.params_offset]);
-        pass.dispatch_workgroups(d.groups.0, d.groups.1, 1);
-    }
-
-    fn check_device(&self) -> Result<(), GpuError> {
-        if let Ok(l) = self.lost.lock()
-            && let Some(message) = l.clone()
-        {
-            return Err(GpuError::DeviceLost { message });
-        }
-        crate::device_errors::take_device_errors(&self.errors)
+        self.kernels.dispatch(pass, d.entry, d.invocations);
     }
 
     /// Submits `encoder` and waits for it.
     fn submit_and_wait(&self, encoder: wgpu::CommandEncoder) -> Result<(), GpuError> {
-        let index = self.queue.submit(Some(encoder.finish()));
-        self.check_device()?;
-        self.device
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(index),
-                timeout: None,
-            })
-            .map_err(|e| {
-                // The device-lost callback's reason, when it has fired, says
-                // more than the failed wait.
-                self.check_device().err().unwrap_or(GpuError::DeviceLost {
-                    message: e.to_string(),
-                })
-            })?;
-        self.check_device()
+        self.ctx.submit_and_wait(encoder)
     }
 
     /// Maps `buffer` (already filled and waited for) and copies `len` bytes.
     fn read_mapped(&self, buffer: &wgpu::Buffer, len: u64) -> Result<Vec<u8>, GpuError> {
-        crate::readback::read_mapped(&self.device, buffer, len)
+        self.ctx.read(buffer, len)
     }
 
     fn reset_status(&self) {
-        self.queue.write_buffer(
+        self.ctx.queue.write_buffer(
             &self.buffers.status,
             0,
             bytemuck::cast_slice(&[NONE, NONE, 0u32, 0u32]),
@@ -600,14 +487,8 @@ impl GpuBackend {
         }
     }
 
-    fn rollback(&self) -> Result<(), GpuError> {
-        let mut encoder = self.device.create_command_encoder(&Default::default());
-        let bytes = self.buffers.state_bytes;
-        if bytes > 0 {
-            encoder.copy_buffer_to_buffer(&self.buffers.saved_x, 0, &self.buffers.x, 0, bytes);
-            encoder.copy_buffer_to_buffer(&self.buffers.saved_v, 0, &self.buffers.v, 0, bytes);
-        }
-        self.submit_and_wait(encoder)
+    fn rollback(&mut self) -> Result<(), GpuError> {
+        self.state.rollback(&self.ctx)
     }
 }
 
@@ -619,43 +500,29 @@ fn incremental_potential_unsupported() -> GpuError {
     }
 }
 
-/// Creates a buffer with `bytes` (at least 16 bytes), refusing sizes over
-/// the device limits with a typed error.
-pub(crate) fn create_buffer(
-    device: &wgpu::Device,
-    queue: &wgpu::Queue,
-    limits: &wgpu::Limits,
-    label: &str,
-    bytes: &[u8],
-    usage: wgpu::BufferUsages,
-) -> Result<wgpu::Buffer, GpuError> {
-    let size = (bytes.len() as u64).max(16).next_multiple_of(4);
-    let maximum = if usage.contains(wgpu::BufferUsages::STORAGE) {
-        limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size)
-    } else {
-        limits.max_buffer_size
-    };
-    if size > maximum {
-        return Err(GpuError::BufferTooLarge {
-            buffer: label.into(),
-            requested: size,
-            maximum,
-        });
+impl GpuBackend {
+    /// Runs `kernel` `repeats` times in one compute pass and one submit
+    /// (benchmarks: the per-element cost of a kernel without a round trip
+    /// per call). The state changes as `repeats` calls would change it.
+    pub fn repeat_kernel(&mut self, kernel: Kernel, repeats: u32) -> Result<(), BackendError> {
+        check_kernel(&self.plan, kernel)?;
+        let Some(index) = self.plan.substep_kernels.iter().position(|&k| k == kernel) else {
+            return Err(BackendError::InvalidCall(format!(
+                "{kernel:?} is not in this plan's schedule"
+            )));
+        };
+        self.reset_status();
+        self.state.forget_snapshot();
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_bind_group(0, &self.state_group, &[]);
+            for _ in 0..repeats {
+                self.encode(&mut pass, &self.step_dispatches[index]);
+            }
+        }
+        Ok(self.submit_and_wait(encoder)?)
     }
-    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        size,
-        usage: usage | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    if !bytes.is_empty() && !usage.contains(wgpu::BufferUsages::MAP_READ) {
-        let mut padded = bytes.to_vec();
-        padded.resize(padded.len().next_multiple_of(4), 0);
-        queue.write_buffer(&buffer, 0, &padded);
-    }
-    Ok(buffer)
 }
 
 impl Backend for GpuBackend {
@@ -672,12 +539,8 @@ impl Backend for GpuBackend {
             return self.step_with_contacts();
         }
         self.reset_status();
-        let bytes = self.buffers.state_bytes;
-        let mut encoder = self.device.create_command_encoder(&Default::default());
-        if bytes > 0 {
-            encoder.copy_buffer_to_buffer(&self.buffers.x, 0, &self.buffers.saved_x, 0, bytes);
-            encoder.copy_buffer_to_buffer(&self.buffers.v, 0, &self.buffers.saved_v, 0, bytes);
-        }
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        self.state.save(&mut encoder);
         let mut kernel_calls: Vec<(StageName, u64)> =
             self.plan.stages.iter().map(|&s| (s, 0)).collect();
         {
@@ -705,7 +568,12 @@ impl Backend for GpuBackend {
                 self.buffers.report_bytes,
             );
         }
-        self.submit_and_wait(encoder)?;
+        let snapshot = self.state.record_snapshot(&mut encoder);
+        let index = self.ctx.submit(encoder)?;
+        if let Some(slot) = snapshot {
+            self.state.map_snapshot(slot);
+        }
+        self.ctx.wait(index)?;
         let block =
             self.read_mapped(&self.buffers.report_staging, 16 + self.buffers.report_bytes)?;
         if let Some((call, index)) = self.failure(&block) {
@@ -733,24 +601,22 @@ impl Backend for GpuBackend {
     }
 
     fn read_state(&mut self) -> Result<State, BackendError> {
-        Ok(self
-            .resident_state()
-            .read(&self.device, self.plan.dim, |e| self.submit_and_wait(e))?)
+        Ok(self.state.read(&self.ctx)?)
+    }
+
+    fn prefetch_state(&mut self) {
+        self.state.prefetch();
     }
 
     fn write_state(&mut self, state: &State) -> Result<(), BackendError> {
         check_state(&self.plan, state)?;
-        self.resident_state().write(&self.queue, state);
+        self.state.write(&self.ctx, state);
         Ok(())
     }
 
     fn set_forces(&mut self, forces: &[f64]) -> Result<(), BackendError> {
         check_forces(&self.plan, forces)?;
-        let mut f = Vec::new();
-        push_reals(&mut f, forces, self.precision);
-        if !f.is_empty() {
-            self.queue.write_buffer(&self.buffers.force, 0, &f);
-        }
+        self.state.set_forces(&self.ctx, forces);
         Ok(())
     }
 
@@ -769,7 +635,8 @@ impl Backend for GpuBackend {
             )));
         };
         self.reset_status();
-        let mut encoder = self.device.create_command_encoder(&Default::default());
+        self.state.forget_snapshot();
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             pass.set_bind_group(0, &self.state_group, &[]);

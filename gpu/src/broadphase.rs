@@ -230,7 +230,7 @@ impl GpuSweep {
             });
         }
         let entries: Vec<_> = (0..7u32)
-            .map(|b| crate::pipelines::storage(b, b <= 2, b == 0))
+            .map(|b| crate::kernel_set::storage(b, b <= 2, b == 0))
             .collect();
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("hyperpbd broadphase"),

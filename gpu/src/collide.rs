@@ -115,7 +115,7 @@ impl GpuCollide {
         let entries: Vec<_> = read_only
             .iter()
             .enumerate()
-            .map(|(b, &ro)| crate::pipelines::storage(b as u32, ro, false))
+            .map(|(b, &ro)| crate::kernel_set::storage(b as u32, ro, false))
             .collect();
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("hyperpbd collide"),

@@ -16,14 +16,17 @@ mod backend;
 pub mod barrier;
 pub mod broadphase;
 pub mod collide;
+mod context;
 mod device_errors;
 mod incremental_potential;
+mod kernel_set;
+pub mod layout;
 pub mod origin;
 mod params;
 mod pipelines;
 mod readback;
+mod resident;
 pub mod shader;
-mod state_transfer;
 
 pub use adapter::*;
 pub use backend::GpuBackend;

@@ -76,9 +76,9 @@ pub fn read_reals(bytes: &[u8], precision: Precision) -> Vec<f64> {
 }
 
 impl Params {
-    /// Encodes into `out` at a multiple of `stride`.
-    pub fn encode(&self, dim: usize, precision: Precision, stride: usize, out: &mut Vec<u8>) {
-        let start = out.len();
+    /// The encoded block.
+    pub fn encode(&self, dim: usize, precision: Precision) -> Vec<u8> {
+        let mut out = Vec::new();
         for v in [
             self.count,
             self.first,
@@ -92,7 +92,7 @@ impl Params {
             out.extend_from_slice(&v.to_le_bytes());
         }
         push_reals(
-            out,
+            &mut out,
             &[self.alpha_tilde, self.h, self.friction, self.factor],
             precision,
         );
@@ -100,8 +100,8 @@ impl Params {
         normal.resize(dim, 0.0);
         let mut gravity = self.gravity.clone();
         gravity.resize(dim, 0.0);
-        push_reals(out, &normal, precision);
-        push_reals(out, &gravity, precision);
-        out.resize(start + stride, 0);
+        push_reals(&mut out, &normal, precision);
+        push_reals(&mut out, &gravity, precision);
+        out
     }
 }

@@ -2,8 +2,11 @@
 //! precision) by prepending a small header.
 //!
 //! ```text
-//! module = header(DIM, real) + prelude.wgsl [+ measure.wgsl] + family.wgsl
+//! module = header(DIM, real, WORKGROUP) + prelude.wgsl [+ measure.wgsl] + family.wgsl
 //! ```
+//! The header's `WORKGROUP` is [`ShaderFile::workgroup_size`]: entry points
+//! declare `@workgroup_size(WORKGROUP)` and the host sizes its dispatches
+//! with the same number (`kernel_set.rs`).
 
 use crate::Precision;
 
@@ -161,11 +164,13 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
          const POINTS: u32 = {points}u;\n\
          const MAT: u32 = {mat}u;\n\
          const MINOR: u32 = {minor}u;\n\
-         const REAL_MAX: real = {real_max};\n\n",
+         const REAL_MAX: real = {real_max};\n\
+         const WORKGROUP: u32 = {workgroup}u;\n\n",
         file = file.file_name(),
         points = (dim + 1) * dim,
         mat = dim * dim,
         minor = (dim.saturating_sub(1) * dim.saturating_sub(1)).max(1),
+        workgroup = file.workgroup_size(),
     );
     if matches!(file, ShaderFile::Barrier | ShaderFile::IncrementalPotential) {
         source.push_str(match precision {

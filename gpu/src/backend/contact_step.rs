@@ -74,31 +74,26 @@ impl ContactStage {
 impl GpuBackend {
     /// Reads x then p (as f64) after everything submitted so far.
     fn read_x_and_p(&self) -> Result<(Vec<f64>, Vec<f64>), GpuError> {
-        let bytes = self.buffers.state_bytes;
+        let bytes = self.state.bytes();
         if bytes == 0 {
             return Ok((Vec::new(), Vec::new()));
         }
-        let mut encoder = self.device.create_command_encoder(&Default::default());
-        encoder.copy_buffer_to_buffer(&self.buffers.x, 0, &self.buffers.state_staging, 0, bytes);
-        encoder.copy_buffer_to_buffer(
-            &self.buffers.p,
-            0,
-            &self.buffers.state_staging,
-            bytes,
-            bytes,
-        );
+        let staging = &self.buffers.probe_staging;
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(&self.state.x, 0, staging, 0, bytes);
+        encoder.copy_buffer_to_buffer(&self.buffers.p, 0, staging, bytes, bytes);
         self.submit_and_wait(encoder)?;
-        let data = self.read_mapped(&self.buffers.state_staging, 2 * bytes)?;
+        let data = self.read_mapped(staging, 2 * bytes)?;
         let split = bytes as usize;
         Ok((
-            read_reals(&data[..split], self.precision),
-            read_reals(&data[split..], self.precision),
+            self.state.packing.unpack(&data[..split]),
+            self.state.packing.unpack(&data[split..]),
         ))
     }
 
     /// Reads the status word: the failing call, if any.
     fn read_status(&self) -> Result<Option<(u32, u32)>, GpuError> {
-        let mut encoder = self.device.create_command_encoder(&Default::default());
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(&self.buffers.status, 0, &self.buffers.report_staging, 0, 16);
         self.submit_and_wait(encoder)?;
         let block = self.read_mapped(&self.buffers.report_staging, 16)?;
@@ -118,7 +113,7 @@ impl GpuBackend {
         pairs.retain(|&[i, j]| w[i as usize] + w[j as usize] > 0.0);
         let (offsets, entries) = contact_lists(&pairs, plan.particle_count());
         stage.resident = Some(stage.collide.bind_resident(
-            &self.buffers.x,
+            &self.state.x,
             &self.buffers.p,
             &ContactLists {
                 inverse_mass: &plan.inverse_mass,
@@ -133,7 +128,7 @@ impl GpuBackend {
         Ok(())
     }
 
-    fn fail_and_roll_back(&self, call: u32, index: u32) -> BackendError {
+    fn fail_and_roll_back(&mut self, call: u32, index: u32) -> BackendError {
         match self.rollback() {
             Ok(()) => self.step_error(call, index),
             Err(e) => e.into(),
@@ -143,12 +138,8 @@ impl GpuBackend {
     /// One step of a plan with collisions (see the module doc).
     pub(super) fn step_with_contacts(&mut self) -> Result<StepReport, BackendError> {
         self.reset_status();
-        let bytes = self.buffers.state_bytes;
-        let mut encoder = self.device.create_command_encoder(&Default::default());
-        if bytes > 0 {
-            encoder.copy_buffer_to_buffer(&self.buffers.x, 0, &self.buffers.saved_x, 0, bytes);
-            encoder.copy_buffer_to_buffer(&self.buffers.v, 0, &self.buffers.saved_v, 0, bytes);
-        }
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        self.state.save(&mut encoder);
         let mut kernel_calls: Vec<(StageName, u64)> =
             self.plan.stages.iter().map(|&s| (s, 0)).collect();
         let mut count = |stage: StageName| {
@@ -197,7 +188,7 @@ impl GpuBackend {
                         return Err(self.fail_and_roll_back(call, index));
                     }
                     self.contact_broadphase()?;
-                    encoder = self.device.create_command_encoder(&Default::default());
+                    encoder = self.ctx.device.create_command_encoder(&Default::default());
                 }
                 start = end + 1;
             }
@@ -281,13 +272,13 @@ impl GpuBackend {
         if let Some(resident) = &stage.resident
             && resident.corr_bytes > 0
         {
-            let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("corrections staging"),
                 size: resident.corr_bytes,
                 usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
-            let mut encoder = self.device.create_command_encoder(&Default::default());
+            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
             encoder.copy_buffer_to_buffer(&resident.corr, 0, &staging, 0, resident.corr_bytes);
             self.submit_and_wait(encoder)?;
             let corr = read_reals(
