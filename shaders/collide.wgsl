@@ -11,7 +11,8 @@
 // `lists` holds the pairs (2 per pair), then the list offsets (n + 1),
 // then the entries (2 e + side). `corr` holds DIM + 1 reals per pair: c_e
 // and an active flag (1 or 0). No atomics: each invocation writes only its
-// own pair or particle.
+// own pair or particle. Positions x and p are the particle records of
+// prelude.wgsl (bindings 0..=3), read and written through its accessors.
 
 struct CollideParams {
     pairs: u32,       // candidate pairs
@@ -21,32 +22,30 @@ struct CollideParams {
     friction: real,   // Coulomb μ between particles
 }
 
-@group(0) @binding(0) var<storage, read> cparams: CollideParams;
-@group(0) @binding(1) var<storage, read_write> x: array<real>;
-@group(0) @binding(2) var<storage, read> p: array<real>;
+@group(0) @binding(4) var<storage, read> cparams: CollideParams;
 // inverse mass and radius, 2 per particle
-@group(0) @binding(3) var<storage, read> props: array<real>;
-@group(0) @binding(4) var<storage, read> lists: array<u32>;
-@group(0) @binding(5) var<storage, read_write> corr: array<real>;
+@group(0) @binding(5) var<storage, read> props: array<real>;
+@group(0) @binding(6) var<storage, read> lists: array<u32>;
+@group(0) @binding(7) var<storage, read_write> corr: array<real>;
 
 const STRIDE: u32 = DIM + 1u;
 
-fn index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return gid.x + gid.y * groups.x * 64u;
-}
-
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn collide_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let e = index(gid, groups);
+    let e = linear_index(gid, groups);
     if (e >= cparams.pairs) {
         return;
     }
     let i = lists[2u * e];
     let j = lists[2u * e + 1u];
+    var xi = load_x(i);
+    var xj = load_x(j);
+    var pi = load_p(i);
+    var pj = load_p(j);
     var d: array<real, DIM>;
     var len2: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        d[a] = x[j * DIM + a] - x[i * DIM + a];
+        d[a] = lane(&xj, a) - lane(&xi, a);
         len2 += d[a] * d[a];
     }
     let len = sqrt(len2);
@@ -70,12 +69,12 @@ fn collide_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     if (mu > 0.0) {
         var dn: real = 0.0;
         for (var a = 0u; a < DIM; a++) {
-            let dr = (x[j * DIM + a] - p[j * DIM + a]) - (x[i * DIM + a] - p[i * DIM + a]);
+            let dr = (lane(&xj, a) - lane(&pj, a)) - (lane(&xi, a) - lane(&pi, a));
             dn += dr * d[a];
         }
         var t2: real = 0.0;
         for (var a = 0u; a < DIM; a++) {
-            let dr = (x[j * DIM + a] - p[j * DIM + a]) - (x[i * DIM + a] - p[i * DIM + a]);
+            let dr = (lane(&xj, a) - lane(&pj, a)) - (lane(&xi, a) - lane(&pi, a));
             let t = dr - dn * d[a];
             t2 += t * t;
         }
@@ -86,7 +85,7 @@ fn collide_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
             scale = bound / t_norm;
         }
         for (var a = 0u; a < DIM; a++) {
-            let dr = (x[j * DIM + a] - p[j * DIM + a]) - (x[i * DIM + a] - p[i * DIM + a]);
+            let dr = (lane(&xj, a) - lane(&pj, a)) - (lane(&xi, a) - lane(&pi, a));
             let t = dr - dn * d[a];
             out[a] -= t * scale;
         }
@@ -96,9 +95,9 @@ fn collide_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     }
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn collide_gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let k = index(gid, groups);
+    let k = linear_index(gid, groups);
     if (k >= cparams.particles) {
         return;
     }
@@ -135,7 +134,9 @@ fn collide_gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
         return;
     }
     let count = real(touching);
+    var xk = load_x(k);
     for (var a = 0u; a < DIM; a++) {
-        x[k * DIM + a] = x[k * DIM + a] + sum[a] / count;
+        set_lane(&xk, a, lane(&xk, a) + sum[a] / count);
     }
+    store_x(k, xk);
 }

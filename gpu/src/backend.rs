@@ -1,48 +1,44 @@
 //! `GpuBackend`: the plan's kernels as wgpu compute dispatches.
 //!
 //! ```text
-//! load   buffers (structure of arrays), pipelines, both bind groups and
-//!        every parameter block, once
-//! step   one command buffer: save (x, v); substeps × plan.substep_kernels
-//!        as dispatches; residual + reduction per family; copy the small
-//!        status/report block out. One wait, one 16-byte + report readback.
-//!        A failed call (status) → copy (x, v) back: state byte-identical.
+//! load   particle records, families, call blocks, the schedules and every
+//!        dispatch block, pipelines and both bind groups, once
+//! step   one command buffer: save (x, v); ONE compute pass with every
+//!        dispatch of the step (the chosen schedule, residual included);
+//!        copy the status/report block (and a prefetched state) out; ONE
+//!        submit, one wait, one small readback.
+//!        A failed call → (x, v) restored byte for byte; a fused schedule
+//!        replays the step one call per dispatch first, so the error names
+//!        the kernel and element the CPU names.
 //! ```
-//! The schedule is the plan's: the GPU runs the algorithm of the CPU golden
-//! path, kernel for kernel, in the same order.
+//! The schedule is the plan's (xpbd/schedule.rs): the GPU runs the
+//! algorithm of the CPU golden path, kernel for kernel, in the same order
+//! per particle and per colour.
 
 use hyperpbd_core::{
-    Backend, BackendError, FamilyKind, FamilyResidual, GpuError, Kernel, Plan, StageName, State,
-    StepError, StepReport, check_forces, check_kernel, check_state,
+    Backend, BackendError, GpuError, Kernel, Plan, StageName, State, StepError, StepReport,
+    check_forces, check_kernel, check_state,
 };
 
 use crate::context::GpuContext;
 use crate::kernel_set::{KernelSet, KernelSetSpec, ParamBlocks};
 use crate::layout::VectorLayout;
 use crate::origin::SceneOrigin;
-use crate::params::{Params, params_size, push_reals, read_reals, real_size};
+use crate::params::{push_reals, read_reals, real_size};
 use crate::resident::ResidentState;
+use crate::shader::ShaderFile;
+use crate::xpbd::schedule::{Dispatch, Schedule, StepMode};
+use crate::xpbd::{BINDINGS, Families, NONE, Placed, XpbdEntry};
+use crate::{AdapterSummary, Precision};
 
 mod contact_step;
-use crate::pipelines::{Entry, STATE_BINDINGS};
-use crate::{AdapterSummary, Precision};
 use contact_step::ContactStage;
-
-const NONE: u32 = u32::MAX;
-
-/// One dispatch of a step.
-#[derive(Debug, Clone, Copy)]
-struct Dispatch {
-    entry: Entry,
-    params_offset: u32,
-    invocations: u32,
-    stage: Option<StageName>,
-}
 
 /// The device buffers besides the resident state.
 struct Buffers {
     /// Positions at the substep start (read by the contact broadphase).
     p: wgpu::Buffer,
+    lambda: wgpu::Buffer,
     status: wgpu::Buffer,
     report: wgpu::Buffer,
     /// Readback of status (16 bytes) followed by the report.
@@ -50,6 +46,8 @@ struct Buffers {
     /// Readback of x then p (the contact broadphase).
     probe_staging: wgpu::Buffer,
     report_bytes: u64,
+    /// Buffers only the kernels use.
+    _rest: Vec<wgpu::Buffer>,
 }
 
 /// The wgpu backend.
@@ -59,27 +57,20 @@ pub struct GpuBackend {
     ctx: GpuContext,
     state: ResidentState,
     buffers: Buffers,
-    kernels: KernelSet<Entry>,
-    state_group: wgpu::BindGroup,
-    params_group: wgpu::BindGroup,
-    /// Dispatches of a whole step, substeps included.
-    step_dispatches: Vec<Dispatch>,
-    /// Residual dispatches run after the step.
-    residual_dispatches: Vec<Dispatch>,
-    /// Kernel calls per substep.
-    kernels_per_substep: usize,
+    kernels: KernelSet<XpbdEntry>,
+    /// Group 0: the particle records and every kernel buffer.
+    group: wgpu::BindGroup,
+    /// Group 1: the dispatch blocks.
+    blocks: wgpu::BindGroup,
+    schedule: Schedule,
+    /// One dispatch per call (failure diagnosis, contact plans).
+    exact: Vec<Placed>,
+    /// The dispatches of a step in the chosen mode.
+    fast: Vec<Placed>,
+    /// The dispatch of each kernel of a substep run alone (run_kernel).
+    alone: Vec<Placed>,
     /// Broadphase and contact kernels, when the plan has collisions.
     contacts: Option<ContactStage>,
-}
-
-fn kind_code(kind: &FamilyKind) -> u32 {
-    match kind {
-        FamilyKind::Distance => 0,
-        FamilyKind::SimplexMeasure { .. } => 1,
-        FamilyKind::OrientedMeasure => 2,
-        FamilyKind::HyperplaneContact { .. } => 3,
-        FamilyKind::Tether => 4,
-    }
 }
 
 impl GpuBackend {
@@ -98,7 +89,7 @@ impl GpuBackend {
         precision: Precision,
     ) -> Result<Self, BackendError> {
         let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
-        Self::with_origin(adapter, plan, state, precision, origin)
+        Self::load(adapter, plan, state, precision, origin, None)
     }
 
     /// Loads `plan` with `state`, storing positions relative to `origin`
@@ -109,6 +100,38 @@ impl GpuBackend {
         state: &State,
         precision: Precision,
         origin: SceneOrigin,
+    ) -> Result<Self, BackendError> {
+        Self::load(adapter, plan, state, precision, origin, None)
+    }
+
+    /// Loads `plan` with `state`, forming the step's dispatches as `mode`
+    /// says rather than as the plan's size suggests (every mode gives the
+    /// same results; [`StepMode::Small`] is refused for plans with particle
+    /// contact).
+    pub fn with_step_mode(
+        adapter: &wgpu::Adapter,
+        plan: Plan,
+        state: &State,
+        precision: Precision,
+        mode: StepMode,
+    ) -> Result<Self, BackendError> {
+        if mode != StepMode::Exact && plan.contacts.is_some() {
+            return Err(BackendError::InvalidCall(format!(
+                "step mode {}: plans with particle contact run the exact schedule",
+                mode.as_str()
+            )));
+        }
+        let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
+        Self::load(adapter, plan, state, precision, origin, Some(mode))
+    }
+
+    fn load(
+        adapter: &wgpu::Adapter,
+        plan: Plan,
+        state: &State,
+        precision: Precision,
+        origin: SceneOrigin,
+        mode: Option<StepMode>,
     ) -> Result<Self, BackendError> {
         check_state(&plan, state)?;
         if origin.as_slice().len() != plan.dim {
@@ -129,18 +152,137 @@ impl GpuBackend {
             .into());
         }
         if plan.incremental_potential.is_some() {
-            return Err(incremental_potential_unsupported().into());
+            return Err(GpuError::Unsupported {
+                what: "the incremental_potential solver on GpuBackend (use GpuBarrierBackend)"
+                    .into(),
+            }
+            .into());
         }
         let ctx = GpuContext::new(adapter, precision)?;
-        let (
+        ctx.building(|| Self::build(ctx.clone(), plan, state, precision, origin, mode))
+    }
+
+    /// Creates every buffer, pipeline, bind group and dispatch block.
+    fn build(
+        ctx: GpuContext,
+        plan: Plan,
+        state: &State,
+        precision: Precision,
+        origin: SceneOrigin,
+        mode: Option<StepMode>,
+    ) -> Result<Self, BackendError> {
+        let device = &ctx.device;
+        let dim = plan.dim;
+        let workgroup = ShaderFile::Step.workgroup_size();
+        let families = Families::new(&plan, &origin)?;
+        let software = ctx.summary.device_type == "Cpu";
+        let schedule = Schedule::new(&plan, &families, workgroup, mode, software);
+        if schedule.mode == StepMode::Small
+            && !crate::xpbd::schedule::small_supported(&schedule.calls[..schedule.step_calls])
+        {
+            return Err(BackendError::InvalidCall(
+                "step mode small: the plan has measure families (they run one dispatch per colour)"
+                    .into(),
+            ));
+        }
+        // Pipelines for the entry points this plan's schedules use only
+        // (lavapipe compiles each one: seconds for the measure kernels).
+        let entries = schedule.entries();
+        let kernels = KernelSet::new(
+            device,
+            &KernelSetSpec {
+                label: "hyperpbd xpbd",
+                dim,
+                precision,
+                groups: &[&BINDINGS, &[crate::kernel_set::Binding::BLOCK]],
+                entries: &entries,
+            },
+        )?;
+        // The call blocks first: the largest buffer of a long step, named
+        // `params` in a BufferTooLarge refusal.
+        let mut call_bytes = Vec::new();
+        for call in &schedule.calls {
+            call_bytes.extend(call.encode(dim, precision));
+        }
+        if call_bytes.is_empty() {
+            // The binding holds at least one block.
+            call_bytes = crate::xpbd::call::Call::default().encode(dim, precision);
+        }
+        let calls = ctx.storage("params", &call_bytes)?;
+        let reals = |values: &[f64]| {
+            let mut out = Vec::with_capacity(values.len() * real_size(precision));
+            push_reals(&mut out, values, precision);
+            out
+        };
+        let resident = ResidentState::new(
+            &ctx,
+            VectorLayout::Record,
+            precision,
+            origin,
             state,
-            buffers,
-            kernels,
-            state_group,
-            params_group,
-            step_dispatches,
-            residual_dispatches,
-        ) = ctx.building(|| Self::build(&ctx, &plan, state, precision, origin))?;
+            &plan.inverse_mass,
+            &plan.force,
+        )?;
+        let make = |label: &str, bytes: &[u8]| ctx.storage(label, bytes);
+        let slots = families.rest.len();
+        let p = make("p", &resident.packing.positions(&state.positions))?;
+        let gravity_scale = make("gravity_scale", &reals(&plan.gravity_scale))?;
+        let elements = make("elements", bytemuck::cast_slice(&families.elements))?;
+        let rest = make("rest", &reals(&families.rest))?;
+        let lambda = make("lambda", &reals(&vec![0.0; slots]))?;
+        let status = make("status", bytemuck::cast_slice(&[NONE, NONE, 0, 0]))?;
+        let report_len = 2 * plan.families.len();
+        let report = make("report", &reals(&vec![0.0; report_len]))?;
+        let contact_slot = make("contact_slot", bytemuck::cast_slice(&families.slot_maps))?;
+        let partials = make("partials", &reals(&vec![0.0; 2 * schedule.chunks.len()]))?;
+        let chunk_words: Vec<u32> = schedule.chunks.iter().flatten().copied().collect();
+        let chunks = make("chunks", bytemuck::cast_slice(&chunk_words))?;
+        let report_bytes = (report_len * real_size(precision)) as u64;
+        let report_staging = ctx.staging("report_staging", 16 + report_bytes)?;
+        let probe_staging = ctx.staging("probe_staging", 2 * resident.bytes())?;
+
+        let mut blocks = ParamBlocks::new(device);
+        let mut place = |dispatches: &[Dispatch]| -> Vec<Placed> {
+            dispatches
+                .iter()
+                .map(|&dispatch| Placed {
+                    dispatch,
+                    offset: blocks.push(bytemuck::cast_slice(&dispatch.block())),
+                })
+                .collect()
+        };
+        let exact = place(&schedule.exact);
+        let fast = place(&schedule.fast);
+        let alone_dispatches: Vec<Dispatch> = plan
+            .substep_kernels
+            .iter()
+            .filter_map(|&k| schedule.run_kernel(k))
+            .collect();
+        let alone = place(&alone_dispatches);
+        let block = blocks.block_size();
+        let dispatch_buffer = blocks.finish(&ctx, "dispatches")?;
+        let group = kernels.bind(
+            device,
+            0,
+            &[
+                &resident.x,
+                &resident.v,
+                &p,
+                &resident.force,
+                &gravity_scale,
+                &elements,
+                &rest,
+                &lambda,
+                &status,
+                &report,
+                &calls,
+                &contact_slot,
+                &partials,
+                &chunks,
+            ],
+            0,
+        )?;
+        let blocks_group = kernels.bind(device, 1, &[&dispatch_buffer], block)?;
         let contacts = match plan.contacts {
             Some(c) => Some(ContactStage::new(
                 &ctx.device,
@@ -152,248 +294,38 @@ impl GpuBackend {
             None => None,
         };
         Ok(GpuBackend {
-            contacts,
-            kernels_per_substep: plan.substep_kernels.len(),
             plan,
             precision,
             ctx,
-            state,
-            buffers,
-            kernels,
-            state_group,
-            params_group,
-            step_dispatches,
-            residual_dispatches,
-        })
-    }
-
-    #[allow(clippy::type_complexity)]
-    fn build(
-        ctx: &GpuContext,
-        plan: &Plan,
-        state: &State,
-        precision: Precision,
-        origin: SceneOrigin,
-    ) -> Result<
-        (
-            ResidentState,
-            Buffers,
-            KernelSet<Entry>,
-            wgpu::BindGroup,
-            wgpu::BindGroup,
-            Vec<Dispatch>,
-            Vec<Dispatch>,
-        ),
-        BackendError,
-    > {
-        let device = &ctx.device;
-        let dim = plan.dim;
-        let reals = |values: &[f64]| {
-            let mut out = Vec::with_capacity(values.len() * real_size(precision));
-            push_reals(&mut out, values, precision);
-            out
-        };
-        // Family layout in the shared element / slot arrays.
-        let mut elements: Vec<u32> = Vec::new();
-        let mut rest: Vec<f64> = Vec::new();
-        let mut bases = Vec::new();
-        for f in &plan.families {
-            bases.push((elements.len() as u32, rest.len() as u32));
-            elements.extend_from_slice(&f.elements);
-            match &f.kind {
-                FamilyKind::HyperplaneContact { normal, .. } => {
-                    rest.extend(f.rest.iter().map(|&r| origin.local_offset(normal, r)))
-                }
-                _ => rest.extend_from_slice(&f.rest),
-            }
-        }
-        let resident = ResidentState::new(
-            ctx,
-            VectorLayout::Dense,
-            precision,
-            origin,
-            state,
-            &plan.inverse_mass,
-            &plan.force,
-        )?;
-        let slots = rest.len();
-        let make = |label: &str, bytes: &[u8]| ctx.storage(label, bytes);
-        let p = make("p", &resident.packing.positions(&state.positions))?;
-        let inv_mass = make("inverse_mass", &reals(&plan.inverse_mass))?;
-        let gravity_scale = make("gravity_scale", &reals(&plan.gravity_scale))?;
-        let element_buffer = make("elements", bytemuck::cast_slice(&elements))?;
-        let rest_buffer = make("rest", &reals(&rest))?;
-        let lambda = make("lambda", &reals(&vec![0.0; slots]))?;
-        let status = make("status", bytemuck::cast_slice(&[NONE, NONE, 0, 0]))?;
-        let resid = make("residuals", &reals(&vec![0.0; slots]))?;
-        let report_len = 2 * plan.families.len();
-        let report = make("report", &reals(&vec![0.0; report_len]))?;
-        let report_bytes = (report_len * real_size(precision)) as u64;
-        let report_staging = ctx.staging("report_staging", 16 + report_bytes)?;
-        let probe_staging = ctx.staging("probe_staging", 2 * resident.bytes())?;
-
-        // Parameter blocks: one per kernel call of a step, then one per
-        // family for the residual.
-        let size = params_size(dim, precision);
-        let mut blocks = ParamBlocks::new(device);
-        let mut step_dispatches = Vec::new();
-        let k = plan.substep_kernels.len();
-        let lambda_total = slots as u32;
-        for substep in 0..plan.substeps as usize {
-            for (index, kernel) in plan.substep_kernels.iter().enumerate() {
-                let call = (substep * k + index) as u32;
-                let mut params = Params {
-                    call,
-                    h: plan.h,
-                    gravity: plan.gravity.clone(),
-                    ..Params::default()
-                };
-                let (entry, invocations) = match *kernel {
-                    Kernel::Predict => {
-                        params.count = plan.particle_count() as u32;
-                        params.flags =
-                            u32::from(plan.predict.gravity) | (u32::from(plan.predict.force) << 1);
-                        (Entry::Predict, params.count.max(lambda_total))
-                    }
-                    Kernel::Velocity => {
-                        params.count = plan.particle_count() as u32;
-                        (Entry::Velocity, params.count)
-                    }
-                    // Run by `contact_step` between these dispatches.
-                    Kernel::Broadphase | Kernel::Collide => continue,
-                    Kernel::Damping => {
-                        params.count = plan.particle_count() as u32;
-                        params.factor = plan.damping.map_or(1.0, |(_, f)| f);
-                        (Entry::Damping, params.count)
-                    }
-                    Kernel::Project { family, color } => {
-                        let f = &plan.families[family];
-                        let range = f.color(color);
-                        params.count = range.len() as u32;
-                        params.first = range.start as u32;
-                        params.elem_base = bases[family].0;
-                        params.slot_base = bases[family].1;
-                        params.arity = f.arity as u32;
-                        params.family = family as u32;
-                        params.alpha_tilde = f.compliance / (plan.h * plan.h);
-                        let entry = match &f.kind {
-                            FamilyKind::Distance => Entry::ProjectDistance,
-                            FamilyKind::Tether => {
-                                // project_distance with the one-sided clamp.
-                                params.flags = 1;
-                                Entry::ProjectDistance
-                            }
-                            FamilyKind::SimplexMeasure { .. } => Entry::ProjectSimplexMeasure,
-                            FamilyKind::OrientedMeasure => Entry::ProjectOrientedMeasure,
-                            FamilyKind::HyperplaneContact { normal, friction } => {
-                                params.normal = normal.clone();
-                                params.friction = *friction;
-                                Entry::ProjectContact
-                            }
-                        };
-                        (entry, params.count)
-                    }
-                    Kernel::Minimise => return Err(incremental_potential_unsupported().into()),
-                    Kernel::Friction { family } => {
-                        let f = &plan.families[family];
-                        params.count = f.len() as u32;
-                        params.elem_base = bases[family].0;
-                        params.slot_base = bases[family].1;
-                        params.family = family as u32;
-                        if let FamilyKind::HyperplaneContact { normal, friction } = &f.kind {
-                            params.normal = normal.clone();
-                            params.friction = *friction;
-                        }
-                        (Entry::Friction, params.count)
-                    }
-                };
-                step_dispatches.push(Dispatch {
-                    entry,
-                    params_offset: blocks.push(&params.encode(dim, precision)),
-                    invocations,
-                    stage: Some(kernel.stage()),
-                });
-            }
-        }
-        let mut residual_dispatches = Vec::new();
-        for (family, f) in plan.families.iter().enumerate() {
-            let mut params = Params {
-                count: f.len() as u32,
-                elem_base: bases[family].0,
-                slot_base: bases[family].1,
-                arity: f.arity as u32,
-                flags: kind_code(&f.kind),
-                family: family as u32,
-                ..Params::default()
-            };
-            if let FamilyKind::HyperplaneContact { normal, .. } = &f.kind {
-                params.normal = normal.clone();
-            }
-            let offset = blocks.push(&params.encode(dim, precision));
-            residual_dispatches.push(Dispatch {
-                entry: Entry::Residual,
-                params_offset: offset,
-                invocations: params.count,
-                stage: None,
-            });
-            residual_dispatches.push(Dispatch {
-                entry: Entry::Reduce,
-                params_offset: offset,
-                invocations: 1,
-                stage: None,
-            });
-        }
-        blocks.push(&Params::default().encode(dim, precision));
-        let block = (size as u64).max(blocks.block_size());
-        let params_buffer = blocks.finish(ctx, "params")?;
-
-        let kernels = KernelSet::new(
-            device,
-            &KernelSetSpec {
-                label: "hyperpbd xpbd",
-                dim,
-                precision,
-                groups: &[&STATE_BINDINGS, &[crate::kernel_set::Binding::BLOCK]],
-                entries: &Entry::ALL,
+            state: resident,
+            buffers: Buffers {
+                p,
+                lambda,
+                status,
+                report,
+                report_staging,
+                probe_staging,
+                report_bytes,
+                _rest: vec![
+                    gravity_scale,
+                    elements,
+                    rest,
+                    calls,
+                    contact_slot,
+                    partials,
+                    chunks,
+                    dispatch_buffer,
+                ],
             },
-        )?;
-        let state_group = kernels.bind(
-            device,
-            0,
-            &[
-                &resident.x,
-                &resident.v,
-                &p,
-                &inv_mass,
-                &gravity_scale,
-                &resident.force,
-                &element_buffer,
-                &rest_buffer,
-                &lambda,
-                &status,
-                &resid,
-                &report,
-            ],
-            0,
-        )?;
-        let params_group = kernels.bind(device, 1, &[&params_buffer], block)?;
-        let buffers = Buffers {
-            p,
-            status,
-            report,
-            report_staging,
-            probe_staging,
-            report_bytes,
-        };
-        Ok((
-            resident,
-            buffers,
             kernels,
-            state_group,
-            params_group,
-            step_dispatches,
-            residual_dispatches,
-        ))
+            group,
+            blocks: blocks_group,
+            schedule,
+            exact,
+            fast,
+            alone,
+            contacts,
+        })
     }
 
     /// The adapter this backend runs on.
@@ -411,6 +343,17 @@ impl GpuBackend {
         self.state.origin()
     }
 
+    /// How the dispatches of a step are formed.
+    pub fn step_mode(&self) -> StepMode {
+        self.schedule.mode
+    }
+
+    /// Compute dispatches per step (residual included; the contact stage's
+    /// own dispatches not counted).
+    pub fn dispatches_per_step(&self) -> usize {
+        self.schedule.dispatches_per_step()
+    }
+
     /// Destroys the device, as a driver reset or a removed GPU would:
     /// every later call answers [`GpuError::DeviceLost`]. For
     /// fault-injection tests of that path.
@@ -422,17 +365,17 @@ impl GpuBackend {
     /// scale with them), for reports.
     pub fn bytes_per_particle_and_slot(&self) -> (usize, usize) {
         let r = real_size(self.precision);
-        // x, v, p, saved_x, saved_v, force: DIM reals each; inverse mass,
-        // gravity scale: one real each.
-        let per_particle = 6 * self.plan.dim * r + 2 * r;
-        // rest, lambda, residual: one real each, plus the particle indices.
-        let per_slot = 3 * r;
+        let record = VectorLayout::Record.reals_per_particle(self.plan.dim) * r;
+        // x, v, p, saved_x, saved_v, force: one record each; gravity scale:
+        // one real; a slot per hyperplane family: one u32.
+        let per_particle = 6 * record + r;
+        // rest, lambda: one real each, plus the particle indices.
+        let per_slot = 2 * r;
         (per_particle, per_slot)
     }
 
-    fn encode(&self, pass: &mut wgpu::ComputePass<'_>, d: &Dispatch) {
-        pass.set_bind_group(1, &self.params_group, &[d.params_offset]);
-        self.kernels.dispatch(pass, d.entry, d.invocations);
+    fn encode(&self, pass: &mut wgpu::ComputePass<'_>, d: &Placed) {
+        crate::xpbd::encode(&self.kernels, &self.blocks, pass, d);
     }
 
     /// Submits `encoder` and waits for it.
@@ -460,11 +403,10 @@ impl GpuBackend {
     }
 
     fn step_error(&self, call: u32, index: u32) -> BackendError {
-        let k = self.kernels_per_substep.max(1);
-        let substep = call / k as u32;
-        let kernel = self.plan.substep_kernels[call as usize % k];
-        match kernel {
-            Kernel::Project { family, .. } => {
+        let k = self.schedule.kernels_per_substep.max(1) as u32;
+        let substep = call / k;
+        match self.schedule.kernel_of(call) {
+            Some(Kernel::Project { family, .. }) => {
                 let f = &self.plan.families[family];
                 StepError::NonFiniteConstraint {
                     stage: StageName::Project,
@@ -479,7 +421,7 @@ impl GpuBackend {
                 .into()
             }
             other => StepError::NonFiniteParticle {
-                stage: other.stage(),
+                stage: other.map_or(StageName::Project, |k| k.stage()),
                 substep,
                 particle: index as usize,
             }
@@ -490,38 +432,101 @@ impl GpuBackend {
     fn rollback(&mut self) -> Result<(), GpuError> {
         self.state.rollback(&self.ctx)
     }
-}
 
-/// The incremental-potential step has its own GPU backend
-/// ([`crate::GpuBarrierBackend`]); this one runs XPBD plans only.
-fn incremental_potential_unsupported() -> GpuError {
-    GpuError::Unsupported {
-        what: "the incremental_potential solver on GpuBackend (use GpuBarrierBackend)".into(),
+    /// One command buffer: `before` (copies, clears), `dispatches` in one
+    /// compute pass (`repeats` times), then the status word (and the report
+    /// when `report`) copied to the staging buffer.
+    fn record(
+        &self,
+        before: impl FnOnce(&mut wgpu::CommandEncoder),
+        dispatches: &[Placed],
+        repeats: u32,
+        report: bool,
+    ) -> wgpu::CommandEncoder {
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        before(&mut encoder);
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_bind_group(0, &self.group, &[]);
+            for _ in 0..repeats {
+                for d in dispatches {
+                    self.encode(&mut pass, d);
+                }
+            }
+        }
+        let staging = &self.buffers.report_staging;
+        encoder.copy_buffer_to_buffer(&self.buffers.status, 0, staging, 0, 16);
+        if report && self.buffers.report_bytes > 0 {
+            let bytes = self.buffers.report_bytes;
+            encoder.copy_buffer_to_buffer(&self.buffers.report, 0, staging, 16, bytes);
+        }
+        encoder
     }
-}
 
-impl GpuBackend {
-    /// Runs `kernel` `repeats` times in one compute pass and one submit
-    /// (benchmarks: the per-element cost of a kernel without a round trip
-    /// per call). The state changes as `repeats` calls would change it.
-    pub fn repeat_kernel(&mut self, kernel: Kernel, repeats: u32) -> Result<(), BackendError> {
+    /// The failure of the step that just failed in a shared dispatch,
+    /// named as the CPU names it: from the saved state, the step again
+    /// one call per dispatch. Leaves the state rolled back.
+    fn diagnose(&mut self, fallback: (u32, u32)) -> Result<(u32, u32), GpuError> {
+        self.rollback()?;
+        self.reset_status();
+        let encoder = self.record(|_| {}, &self.exact, 1, false);
+        self.submit_and_wait(encoder)?;
+        let block = self.read_mapped(&self.buffers.report_staging, 16)?;
+        let found = self.failure(&block).unwrap_or(fallback);
+        self.rollback()?;
+        Ok(found)
+    }
+
+    /// Runs `kernel` alone `repeats` times in one compute pass and one
+    /// submit, the CPU's way (`Predict` resets the multipliers).
+    fn run_alone(&mut self, kernel: Kernel, repeats: u32) -> Result<(), BackendError> {
         check_kernel(&self.plan, kernel)?;
+        if self.contacts.is_some() {
+            return Err(BackendError::InvalidCall(
+                "single kernel calls on a plan with collisions are not offered on the GPU; \
+                 the contact kernels are checked alone through GpuSweep and GpuCollide"
+                    .into(),
+            ));
+        }
         let Some(index) = self.plan.substep_kernels.iter().position(|&k| k == kernel) else {
             return Err(BackendError::InvalidCall(format!(
                 "{kernel:?} is not in this plan's schedule"
             )));
         };
+        let Some(d) = self.alone.iter().find(|d| {
+            self.schedule.kernel_of(d.dispatch.first_call) == Some(kernel)
+                && d.dispatch.first_call as usize >= self.schedule.run_base
+        }) else {
+            return Err(BackendError::InvalidCall(format!(
+                "{kernel:?} (call {index}) has no dispatch"
+            )));
+        };
         self.reset_status();
         self.state.forget_snapshot();
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_bind_group(0, &self.state_group, &[]);
-            for _ in 0..repeats {
-                self.encode(&mut pass, &self.step_dispatches[index]);
-            }
+        let lambda = &self.buffers.lambda;
+        let encoder = self.record(
+            |encoder| {
+                if kernel == Kernel::Predict {
+                    encoder.clear_buffer(lambda, 0, None);
+                }
+            },
+            std::slice::from_ref(d),
+            repeats,
+            false,
+        );
+        self.submit_and_wait(encoder)?;
+        let block = self.read_mapped(&self.buffers.report_staging, 16)?;
+        match self.failure(&block) {
+            Some((call, index)) => Err(self.step_error(call, index)),
+            None => Ok(()),
         }
-        Ok(self.submit_and_wait(encoder)?)
+    }
+
+    /// Runs `kernel` `repeats` times in one compute pass and one submit
+    /// (benchmarks: the per-element cost of a kernel without a round trip
+    /// per call). The state changes as `repeats` calls would change it.
+    pub fn repeat_kernel(&mut self, kernel: Kernel, repeats: u32) -> Result<(), BackendError> {
+        self.run_alone(kernel, repeats)
     }
 }
 
@@ -539,35 +544,7 @@ impl Backend for GpuBackend {
             return self.step_with_contacts();
         }
         self.reset_status();
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        self.state.save(&mut encoder);
-        let mut kernel_calls: Vec<(StageName, u64)> =
-            self.plan.stages.iter().map(|&s| (s, 0)).collect();
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_bind_group(0, &self.state_group, &[]);
-            for d in &self.step_dispatches {
-                self.encode(&mut pass, d);
-                if let Some(stage) = d.stage
-                    && let Some(entry) = kernel_calls.iter_mut().find(|(s, _)| *s == stage)
-                {
-                    entry.1 += 1;
-                }
-            }
-            for d in &self.residual_dispatches {
-                self.encode(&mut pass, d);
-            }
-        }
-        encoder.copy_buffer_to_buffer(&self.buffers.status, 0, &self.buffers.report_staging, 0, 16);
-        if self.buffers.report_bytes > 0 {
-            encoder.copy_buffer_to_buffer(
-                &self.buffers.report,
-                0,
-                &self.buffers.report_staging,
-                16,
-                self.buffers.report_bytes,
-            );
-        }
+        let mut encoder = self.record(|e| self.state.save(e), &self.fast, 1, true);
         let snapshot = self.state.record_snapshot(&mut encoder);
         let index = self.ctx.submit(encoder)?;
         if let Some(slot) = snapshot {
@@ -576,24 +553,19 @@ impl Backend for GpuBackend {
         self.ctx.wait(index)?;
         let block =
             self.read_mapped(&self.buffers.report_staging, 16 + self.buffers.report_bytes)?;
-        if let Some((call, index)) = self.failure(&block) {
-            self.rollback()?;
+        if let Some(failed) = self.failure(&block) {
+            let (call, index) = if self.schedule.mode == StepMode::Fused {
+                self.diagnose(failed)?
+            } else {
+                self.rollback()?;
+                failed
+            };
             return Err(self.step_error(call, index));
         }
         let report = read_reals(&block[16..], self.precision);
-        let mut residuals = Vec::with_capacity(self.plan.families.len());
-        let mut active_contacts = 0;
-        for (family, f) in self.plan.families.iter().enumerate() {
-            residuals.push(FamilyResidual {
-                label: f.label.clone(),
-                max_violation: report[2 * family],
-            });
-            if f.kind.is_inequality() {
-                active_contacts += report[2 * family + 1] as usize;
-            }
-        }
+        let (residuals, active_contacts) = crate::xpbd::read_report(&self.plan, &report);
         Ok(StepReport {
-            kernel_calls,
+            kernel_calls: self.plan.kernel_counts(),
             residuals,
             active_contacts,
             ..StepReport::default()
@@ -621,33 +593,6 @@ impl Backend for GpuBackend {
     }
 
     fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
-        check_kernel(&self.plan, kernel)?;
-        if self.contacts.is_some() {
-            return Err(BackendError::InvalidCall(
-                "single kernel calls on a plan with collisions are not offered on the GPU; \
-                 the contact kernels are checked alone through GpuSweep and GpuCollide"
-                    .into(),
-            ));
-        }
-        let Some(index) = self.plan.substep_kernels.iter().position(|&k| k == kernel) else {
-            return Err(BackendError::InvalidCall(format!(
-                "{kernel:?} is not in this plan's schedule"
-            )));
-        };
-        self.reset_status();
-        self.state.forget_snapshot();
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_bind_group(0, &self.state_group, &[]);
-            self.encode(&mut pass, &self.step_dispatches[index]);
-        }
-        encoder.copy_buffer_to_buffer(&self.buffers.status, 0, &self.buffers.report_staging, 0, 16);
-        self.submit_and_wait(encoder)?;
-        let block = self.read_mapped(&self.buffers.report_staging, 16)?;
-        match self.failure(&block) {
-            Some((call, index)) => Err(self.step_error(call, index)),
-            None => Ok(()),
-        }
+        self.run_alone(kernel, 1)
     }
 }

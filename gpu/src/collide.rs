@@ -17,6 +17,7 @@ use hyperpbd_core::GpuError;
 use hyperpbd_core::broadphase::Pair;
 
 use crate::Precision;
+use crate::layout::VectorLayout;
 use crate::params::{push_reals, read_reals, real_size};
 use crate::shader::{ShaderFile, compose};
 
@@ -111,7 +112,9 @@ impl GpuCollide {
         dim: usize,
         precision: Precision,
     ) -> Result<Self, GpuError> {
-        let read_only = [true, false, true, true, true, false];
+        // x v p force (particle records, prelude.wgsl), then cparams props
+        // lists corr.
+        let read_only = [false, false, false, true, true, true, true, false];
         let entries: Vec<_> = read_only
             .iter()
             .enumerate()
@@ -157,12 +160,12 @@ impl GpuCollide {
         Ok(collide)
     }
 
-    /// Binds the kernels to resident position buffers `x` and `p` (of this
-    /// device) with the lists of one broadphase, for [`GpuCollide::encode`].
+    /// Binds the kernels to a backend's resident particle records
+    /// `[x, v, p, force]` (of this device) with the lists of one
+    /// broadphase, for [`GpuCollide::encode`].
     pub(crate) fn bind_resident(
         &self,
-        x: &wgpu::Buffer,
-        p: &wgpu::Buffer,
+        records: [&wgpu::Buffer; 4],
         lists: &ContactLists,
     ) -> Resident {
         let ContactLists {
@@ -200,14 +203,16 @@ impl GpuCollide {
         let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("collide resident"),
             layout: &self.layout,
-            entries: &[&params, x, p, &props, &lists, &corr]
-                .iter()
-                .enumerate()
-                .map(|(b, buffer)| wgpu::BindGroupEntry {
-                    binding: b as u32,
-                    resource: buffer.as_entire_binding(),
-                })
-                .collect::<Vec<_>>(),
+            entries: &[
+                records[0], records[1], records[2], records[3], &params, &props, &lists, &corr,
+            ]
+            .iter()
+            .enumerate()
+            .map(|(b, buffer)| wgpu::BindGroupEntry {
+                binding: b as u32,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect::<Vec<_>>(),
         });
         Resident {
             group,
@@ -290,24 +295,37 @@ impl GpuCollide {
         lists.extend_from_slice(input.offsets);
         lists.extend_from_slice(input.entries);
         let params = self.storage("collide params", &params);
-        let x = self.storage("x", &reals(input.x));
-        let p = self.storage("p", &reals(input.p));
+        let layout = VectorLayout::Record;
+        let pack = |values: &[f64]| reals(&layout.pack(self.dim, values, Some(input.inverse_mass)));
+        let x = self.storage("x", &pack(input.x));
+        let p = self.storage("p", &pack(input.p));
+        let unused_v = self.storage("v (unused)", &[]);
+        let unused_force = self.storage("force (unused)", &[]);
         let props = self.storage("props", &reals(&props));
         let lists = self.storage("lists", bytemuck::cast_slice(&lists));
         let corr = self.storage("corrections", &reals(&vec![0.0; pairs * (self.dim + 1)]));
         let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("collide"),
             layout: &self.layout,
-            entries: &[params, x.clone(), p, props, lists, corr]
-                .iter()
-                .enumerate()
-                .map(|(b, buffer)| wgpu::BindGroupEntry {
-                    binding: b as u32,
-                    resource: buffer.as_entire_binding(),
-                })
-                .collect::<Vec<_>>(),
+            entries: &[
+                x.clone(),
+                unused_v,
+                p,
+                unused_force,
+                params,
+                props,
+                lists,
+                corr,
+            ]
+            .iter()
+            .enumerate()
+            .map(|(b, buffer)| wgpu::BindGroupEntry {
+                binding: b as u32,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect::<Vec<_>>(),
         });
-        let bytes = (n * self.dim * real_size(self.precision)) as u64;
+        let bytes = (n * layout.reals_per_particle(self.dim) * real_size(self.precision)) as u64;
         let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("collide staging"),
             size: bytes.max(16),
@@ -341,9 +359,12 @@ impl GpuCollide {
         if bytes == 0 {
             return Ok(Vec::new());
         }
-        let data = read_reals(
-            &crate::readback::read_mapped(&self.device, &staging, bytes)?,
-            self.precision,
+        let data = layout.unpack(
+            self.dim,
+            &read_reals(
+                &crate::readback::read_mapped(&self.device, &staging, bytes)?,
+                self.precision,
+            ),
         );
         if let Some(bad) = data.iter().position(|v| !v.is_finite()) {
             return Err(GpuError::Other {

@@ -20,7 +20,8 @@ use hyperpbd_core::{BackendError, GpuError};
 
 use crate::{AdapterSummary, Precision};
 
-/// A device, its queue, and where its errors go.
+/// A device, its queue, and where its errors go (clones share them).
+#[derive(Clone)]
 pub(crate) struct GpuContext {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,

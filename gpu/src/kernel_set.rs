@@ -237,20 +237,6 @@ impl<E: EntryPoint> KernelSet<E> {
         self.pipelines.iter().find(|(e, _, _)| *e == entry)
     }
 
-    #[allow(dead_code)] // for kernel sets that size by workgroup (next commits)
-    /// Workgroup size of `entry` (the number its module was composed with).
-    pub fn workgroup(&self, entry: E) -> u32 {
-        self.find(entry).map_or(1, |(_, _, w)| *w)
-    }
-
-    #[allow(dead_code)] // for kernel sets that size by workgroup (next commits)
-    /// Workgroups (x, y) for `invocations` one-dimensional invocations of
-    /// `entry`: at least one, more than 65,535 spread over y (the kernels
-    /// rebuild the linear index as x + y · groups_x · WORKGROUP).
-    pub fn grid(&self, entry: E, invocations: u32) -> (u32, u32) {
-        grid(invocations, self.workgroup(entry))
-    }
-
     /// Sets `entry`'s pipeline and dispatches `invocations` invocations.
     /// The caller has set the bind groups.
     pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, entry: E, invocations: u32) {
@@ -261,13 +247,14 @@ impl<E: EntryPoint> KernelSet<E> {
         }
     }
 
-    #[allow(dead_code)] // for kernel sets that size by workgroup (next commits)
-    /// Sets `entry`'s pipeline and dispatches exactly `workgroups`
-    /// workgroups (kernels that index by workgroup).
+    /// Sets `entry`'s pipeline and dispatches `workgroups` workgroups
+    /// (kernels that index by workgroup: more than 65,535 spread over y,
+    /// the kernel rebuilds x + y · groups_x).
     pub fn dispatch_workgroups(&self, pass: &mut wgpu::ComputePass<'_>, entry: E, workgroups: u32) {
         if let Some((_, pipeline, _)) = self.find(entry) {
+            let (x, y) = grid(workgroups, 1);
             pass.set_pipeline(pipeline);
-            pass.dispatch_workgroups(workgroups.max(1), 1, 1);
+            pass.dispatch_workgroups(x, y, 1);
         }
     }
 }
@@ -284,8 +271,7 @@ pub(crate) fn grid(invocations: u32, workgroup: u32) -> (u32, u32) {
 
 /// Encodes one parameter block: u32 words and reals of one precision, in
 /// the order of the WGSL struct's members. Reals are aligned to their own
-/// size (WGSL's rule for f32/f64 members); [`BlockWriter::align`] pads to a
-/// member's alignment (e.g. 16 for vec4<f32>, 32 for vec4<f64>).
+/// size (WGSL's rule for f32/f64 members and arrays of them).
 pub(crate) struct BlockWriter {
     bytes: Vec<u8>,
     precision: Precision,
@@ -314,14 +300,6 @@ impl BlockWriter {
         self.bytes
             .resize(self.bytes.len().next_multiple_of(size), 0);
         push_reals(&mut self.bytes, values, self.precision);
-        self
-    }
-
-    #[allow(dead_code)] // for kernel sets that size by workgroup (next commits)
-    /// Pads with zeros to a multiple of `alignment` bytes.
-    pub fn align(mut self, alignment: usize) -> Self {
-        self.bytes
-            .resize(self.bytes.len().next_multiple_of(alignment.max(1)), 0);
         self
     }
 

@@ -23,10 +23,10 @@ mod kernel_set;
 pub mod layout;
 pub mod origin;
 mod params;
-mod pipelines;
 mod readback;
 mod resident;
 pub mod shader;
+mod xpbd;
 
 pub use adapter::*;
 pub use backend::GpuBackend;
@@ -34,3 +34,4 @@ pub use broadphase::{GpuSweep, SweepStats};
 pub use collide::{CollideInput, GpuCollide};
 pub use incremental_potential::GpuBarrierBackend;
 pub use origin::SceneOrigin;
+pub use xpbd::schedule::StepMode;

@@ -17,6 +17,7 @@ pub const MAX_GPU_DIM: usize = 8;
 
 const PRELUDE: &str = include_str!("../../shaders/prelude.wgsl");
 const MEASURE: &str = include_str!("../../shaders/measure.wgsl");
+const STEP: &str = include_str!("../../shaders/step.wgsl");
 const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
 const PROJECT: &str = include_str!("../../shaders/project.wgsl");
 const FRICTION: &str = include_str!("../../shaders/friction.wgsl");
@@ -33,14 +34,12 @@ const LN_F64: &str = include_str!("../../shaders/ln_f64.wgsl");
 /// A kernel family: one WGSL file and its entry points.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ShaderFile {
-    /// `integrate.wgsl`: predict, velocity, damping.
-    Integrate,
-    /// `project.wgsl`: XPBD projection of every constraint kind.
-    Project,
-    /// `friction.wgsl`: dynamic Coulomb friction.
-    Friction,
-    /// `residual.wgsl`: constraint violation and its reduction.
-    Residual,
+    /// The XPBD step: `step.wgsl` (bindings, call blocks, the schedule
+    /// runners) composed with the kernels' own files — `integrate.wgsl`
+    /// (predict, velocity, damping), `project.wgsl` (every constraint kind),
+    /// `friction.wgsl` (dynamic Coulomb friction), `residual.wgsl`
+    /// (constraint violation and its reduction) — after `measure.wgsl`.
+    Step,
     /// `radix_sort.wgsl`: stable radix sort of u32-pair records and the
     /// exclusive prefix scan (broadphase).
     RadixSort,
@@ -59,24 +58,13 @@ pub enum ShaderFile {
 
 impl ShaderFile {
     /// Every kernel family.
-    pub const ALL: [ShaderFile; 9] = [
-        ShaderFile::Integrate,
-        ShaderFile::Project,
-        ShaderFile::Friction,
-        ShaderFile::Residual,
+    pub const ALL: [ShaderFile; 6] = [
+        ShaderFile::Step,
         ShaderFile::RadixSort,
         ShaderFile::Sweep,
         ShaderFile::Collide,
         ShaderFile::Barrier,
         ShaderFile::IncrementalPotential,
-    ];
-
-    /// The files of the step kernels (group-0 state layout).
-    pub const STEP: [ShaderFile; 4] = [
-        ShaderFile::Integrate,
-        ShaderFile::Project,
-        ShaderFile::Friction,
-        ShaderFile::Residual,
     ];
 
     /// The files of the broadphase kernels (their own layout).
@@ -85,10 +73,7 @@ impl ShaderFile {
     /// File name under `shaders/`.
     pub fn file_name(self) -> &'static str {
         match self {
-            ShaderFile::Integrate => "integrate.wgsl",
-            ShaderFile::Project => "project.wgsl",
-            ShaderFile::Friction => "friction.wgsl",
-            ShaderFile::Residual => "residual.wgsl",
+            ShaderFile::Step => "step.wgsl",
             ShaderFile::RadixSort => "radix_sort.wgsl",
             ShaderFile::Sweep => "sweep.wgsl",
             ShaderFile::Collide => "collide.wgsl",
@@ -100,15 +85,15 @@ impl ShaderFile {
     /// Entry points defined by the file.
     pub fn entry_points(self) -> &'static [&'static str] {
         match self {
-            ShaderFile::Integrate => &["predict", "velocity", "damping"],
-            ShaderFile::Project => &[
+            ShaderFile::Step => &[
+                "particles",
+                "step_small",
                 "project_distance",
                 "project_simplex_measure",
                 "project_oriented_measure",
-                "project_contact",
+                "residual",
+                "reduce",
             ],
-            ShaderFile::Friction => &["friction"],
-            ShaderFile::Residual => &["residual", "reduce"],
             ShaderFile::RadixSort => &["histogram", "scatter", "scan_blocks", "scan_add"],
             ShaderFile::Sweep => &["box_keys", "sweep_count", "sweep_emit"],
             ShaderFile::Collide => &["collide_pairs", "collide_gather"],
@@ -128,7 +113,8 @@ impl ShaderFile {
     }
 
     /// Workgroup size of every entry point of the file: 64 for the step
-    /// kernels, 256 (one radix block) for the broadphase.
+    /// kernels (measured: docs/performance.md), 256 (one radix block) for
+    /// the broadphase. [`compose`] writes it into the header.
     pub fn workgroup_size(self) -> u32 {
         match self {
             ShaderFile::RadixSort | ShaderFile::Sweep => 256,
@@ -138,13 +124,12 @@ impl ShaderFile {
 
     fn body(self) -> &'static [&'static str] {
         match self {
-            ShaderFile::Integrate => &[PRELUDE, INTEGRATE],
-            ShaderFile::Project => &[PRELUDE, MEASURE, PROJECT],
-            ShaderFile::Friction => &[PRELUDE, FRICTION],
-            ShaderFile::Residual => &[PRELUDE, MEASURE, RESIDUAL],
+            ShaderFile::Step => &[
+                PRELUDE, MEASURE, STEP, INTEGRATE, PROJECT, FRICTION, RESIDUAL,
+            ],
             ShaderFile::RadixSort => &[BROADPHASE, RADIX_SORT],
             ShaderFile::Sweep => &[BROADPHASE, SWEEP],
-            ShaderFile::Collide => &[COLLIDE],
+            ShaderFile::Collide => &[PRELUDE, COLLIDE],
             ShaderFile::Barrier => &[BARRIER],
             ShaderFile::IncrementalPotential => &[BARRIER, INCREMENTAL_POTENTIAL],
         }
@@ -165,12 +150,14 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
          const MAT: u32 = {mat}u;\n\
          const MINOR: u32 = {minor}u;\n\
          const REAL_MAX: real = {real_max};\n\
-         const WORKGROUP: u32 = {workgroup}u;\n\n",
+         const WORKGROUP: u32 = {workgroup}u;\n\
+         const VEC: u32 = {vec}u;\n\n",
         file = file.file_name(),
         points = (dim + 1) * dim,
         mat = dim * dim,
         minor = (dim.saturating_sub(1) * dim.saturating_sub(1)).max(1),
         workgroup = file.workgroup_size(),
+        vec = crate::layout::record_words(dim),
     );
     if matches!(file, ShaderFile::Barrier | ShaderFile::IncrementalPotential) {
         source.push_str(match precision {

@@ -24,6 +24,7 @@ use hyperpbd_core::{
 use super::GpuBackend;
 use crate::collide::{ContactLists, GpuCollide, Resident};
 use crate::params::read_reals;
+use crate::xpbd::schedule::Run;
 use crate::{GpuSweep, Precision};
 
 /// The broadphase and contact kernels of a backend with collisions.
@@ -113,8 +114,12 @@ impl GpuBackend {
         pairs.retain(|&[i, j]| w[i as usize] + w[j as usize] > 0.0);
         let (offsets, entries) = contact_lists(&pairs, plan.particle_count());
         stage.resident = Some(stage.collide.bind_resident(
-            &self.state.x,
-            &self.buffers.p,
+            [
+                &self.state.x,
+                &self.state.v,
+                &self.buffers.p,
+                &self.state.force,
+            ],
             &ContactLists {
                 inverse_mass: &plan.inverse_mass,
                 radius: &plan.radius,
@@ -147,58 +152,54 @@ impl GpuBackend {
                 entry.1 += 1;
             }
         };
-        let mut dispatch = 0usize;
-        let kernels = self.plan.substep_kernels.clone();
-        for _ in 0..self.plan.substeps {
-            // Segments between broadphases are recorded in one pass each.
-            let mut start = 0;
-            while start < kernels.len() {
-                let end = kernels[start..]
-                    .iter()
-                    .position(|k| *k == Kernel::Broadphase)
-                    .map_or(kernels.len(), |at| start + at);
-                {
-                    let mut pass = encoder.begin_compute_pass(&Default::default());
-                    pass.set_bind_group(0, &self.state_group, &[]);
-                    for &kernel in &kernels[start..end] {
+        // The exact schedule, in passes split at each broadphase (which
+        // runs on the host); particle contact is encoded in place.
+        let dispatches = self.exact.clone();
+        let mut start = 0;
+        while start < dispatches.len() {
+            let end = dispatches[start..]
+                .iter()
+                .position(|d| d.dispatch.run == Run::Host(Kernel::Broadphase))
+                .map_or(dispatches.len(), |at| start + at);
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                pass.set_bind_group(0, &self.group, &[]);
+                for d in &dispatches[start..end] {
+                    if let Some(kernel) = self.schedule.kernel_of(d.dispatch.first_call)
+                        && d.dispatch.first_call < d.dispatch.end_call
+                        && matches!(
+                            d.dispatch.run,
+                            Run::Particles
+                                | Run::Distance
+                                | Run::Simplex
+                                | Run::Oriented
+                                | Run::Host(_)
+                        )
+                    {
                         count(kernel.stage());
-                        if kernel == Kernel::Collide {
-                            if let Some(stage) = &self.contacts
-                                && let Some(resident) = &stage.resident
-                            {
-                                stage.collide.encode(&mut pass, resident);
-                                pass.set_bind_group(0, &self.state_group, &[]);
-                            }
-                            continue;
+                    }
+                    if d.dispatch.run == Run::Host(Kernel::Collide) {
+                        if let Some(stage) = &self.contacts
+                            && let Some(resident) = &stage.resident
+                        {
+                            stage.collide.encode(&mut pass, resident);
+                            pass.set_bind_group(0, &self.group, &[]);
                         }
-                        let Some(d) = self.step_dispatches.get(dispatch) else {
-                            return Err(GpuError::Other {
-                                message: "contact step: dispatch list shorter than the plan".into(),
-                            }
-                            .into());
-                        };
-                        self.encode(&mut pass, d);
-                        dispatch += 1;
+                        continue;
                     }
+                    self.encode(&mut pass, d);
                 }
-                if end < kernels.len() {
-                    count(StageName::Broadphase);
-                    self.submit_and_wait(encoder)?;
-                    if let Some((call, index)) = self.read_status()? {
-                        return Err(self.fail_and_roll_back(call, index));
-                    }
-                    self.contact_broadphase()?;
-                    encoder = self.ctx.device.create_command_encoder(&Default::default());
+            }
+            if end < dispatches.len() {
+                count(StageName::Broadphase);
+                self.submit_and_wait(encoder)?;
+                if let Some((call, index)) = self.read_status()? {
+                    return Err(self.fail_and_roll_back(call, index));
                 }
-                start = end + 1;
+                self.contact_broadphase()?;
+                encoder = self.ctx.device.create_command_encoder(&Default::default());
             }
-        }
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_bind_group(0, &self.state_group, &[]);
-            for d in &self.residual_dispatches {
-                self.encode(&mut pass, d);
-            }
+            start = end + 1;
         }
         encoder.copy_buffer_to_buffer(&self.buffers.status, 0, &self.buffers.report_staging, 0, 16);
         if self.buffers.report_bytes > 0 {
