@@ -7,12 +7,13 @@
 // `calls`. A DISPATCH runs the calls `here.first_call .. here.end_call`:
 //
 //   particles       one invocation per particle runs every call of the range
-//                   on that particle, its records held in registers: loaded
-//                   once (here.io), stored once. The range holds only
-//                   per-particle calls (predict, contact projection,
-//                   velocity, friction, damping), which read and write that
-//                   particle alone, so running them particle by particle is
-//                   the golden order for each particle.
+//                   (up to 8, fixed per pipeline: OP0..OP7 below) on that
+//                   particle, its records held in registers: loaded once,
+//                   stored once (IO). The range holds only per-particle calls
+//                   (predict, contact projection, velocity, friction,
+//                   damping), which read and write that particle alone, so
+//                   running them particle by particle is the golden order
+//                   for each particle.
 //   project_*       one invocation per element of one colour (project.wgsl)
 //   residual/reduce one workgroup per chunk / per family (residual.wgsl)
 //   step_small      ONE workgroup runs every call of the range in order, its
@@ -61,7 +62,7 @@ struct Dispatch {
     first_call: u32,
     end_call: u32,
     count: u32,       // invocations (particles, elements) or workgroups
-    io: u32,          // particles: records loaded and stored (IO_*)
+    pad: u32,
 }
 
 const OP_PREDICT: u32 = 0u;
@@ -117,57 +118,82 @@ fn fail(c: u32, index: u32) {
     atomicMin(&status[1], index);
 }
 
-// Runs the per-particle calls first..end on particle i. `io` loads every
-// record a call reads before the range writes it, and x whenever x or v is
-// stored (the inverse mass decides).
-fn run_particle(first: u32, end: u32, io: u32, i: u32) {
-    // The particle's records, held in registers across the calls.
-    var rx: Record;
-    var rv: Record;
-    var rp: Record;
+// Per-particle call c on particle i (its records in registers).
+fn run_op(op: u32, c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
+          rp: ptr<function, Record>) {
+    switch (op) {
+        case OP_PREDICT: {
+            predict_particle(c, i, rx, rv, rp);
+        }
+        case OP_PROJECT_CONTACT: {
+            contact_particle(c, i, rx, rv, rp);
+        }
+        case OP_VELOCITY: {
+            velocity_particle(c, i, rx, rv, rp);
+        }
+        case OP_FRICTION: {
+            friction_particle(c, i, rx, rv, rp);
+        }
+        case OP_DAMPING: {
+            damping_particle(c, i, rx, rv, rp);
+        }
+        default: {}
+    }
+}
+
+// The records a run of per-particle calls loads (`io`: IO_LOAD_*).
+fn load_records(io: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
+                rp: ptr<function, Record>) {
     if ((io & IO_LOAD_X) != 0u) {
-        rx = load_x(i);
+        *rx = load_x(i);
     }
     if ((io & IO_LOAD_V) != 0u) {
-        rv = load_v(i);
+        *rv = load_v(i);
     }
     if ((io & IO_LOAD_P) != 0u) {
-        rp = load_p(i);
+        *rp = load_p(i);
     }
-    for (var c = first; c < end; c++) {
-        if (failed_before(c)) {
-            return;
-        }
-        switch (calls[c].op) {
-            case OP_PREDICT: {
-                predict_particle(c, i, &rx, &rv, &rp);
-            }
-            case OP_PROJECT_CONTACT: {
-                contact_particle(c, i, &rx, &rv, &rp);
-            }
-            case OP_VELOCITY: {
-                velocity_particle(c, i, &rx, &rv, &rp);
-            }
-            case OP_FRICTION: {
-                friction_particle(c, i, &rx, &rv, &rp);
-            }
-            case OP_DAMPING: {
-                damping_particle(c, i, &rx, &rv, &rp);
-            }
-            default: {}
-        }
-    }
-    // Only dynamic particles move: a fixed particle's x and v are never
-    // written (its v may not even have been loaded).
-    let dynamic = inverse_mass_of(&rx) != 0.0;
+}
+
+// The records a run stores (`io`: IO_STORE_*). Only dynamic particles
+// move: a fixed particle's x and v are never written (its v may not even
+// have been loaded); `io` loads x whenever x or v is stored.
+fn store_records(io: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
+                 rp: ptr<function, Record>) {
+    let dynamic = inverse_mass_of(rx) != 0.0;
     if ((io & IO_STORE_X) != 0u && dynamic) {
-        store_x(i, rx);
+        store_x(i, *rx);
     }
     if ((io & IO_STORE_V) != 0u && dynamic) {
-        store_v(i, rv);
+        store_v(i, *rv);
     }
     if ((io & IO_STORE_P) != 0u) {
-        store_p(i, rp);
+        store_p(i, *rp);
+    }
+}
+
+// THE OPS OF A `particles` PIPELINE are fixed when it is created
+// (pipeline-overridable constants: OP0..OP7 the ops of calls first_call +
+// 0..7, NO_OP for none; IO the records loaded and stored), so a pipeline
+// runs exactly its calls: no run-time branch on the op, which a SIMD
+// implementation such as lavapipe would execute for every op under masks.
+const NO_OP: u32 = 255u;
+override OP0: u32 = NO_OP;
+override OP1: u32 = NO_OP;
+override OP2: u32 = NO_OP;
+override OP3: u32 = NO_OP;
+override OP4: u32 = NO_OP;
+override OP5: u32 = NO_OP;
+override OP6: u32 = NO_OP;
+override OP7: u32 = NO_OP;
+override IO: u32 = 0u;
+
+// Call c with op `op` of a fixed run (skipped after a failed call; the
+// records then stored are garbage, and the step is rolled back).
+fn run_slot(op: u32, c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
+            rp: ptr<function, Record>) {
+    if (op != NO_OP && !failed_before(c)) {
+        run_op(op, c, i, rx, rv, rp);
     }
 }
 
@@ -177,7 +203,20 @@ fn particles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     if (i >= here.count) {
         return;
     }
-    run_particle(here.first_call, here.end_call, here.io, i);
+    var rx: Record;
+    var rv: Record;
+    var rp: Record;
+    load_records(IO, i, &rx, &rv, &rp);
+    let c = here.first_call;
+    run_slot(OP0, c, i, &rx, &rv, &rp);
+    run_slot(OP1, c + 1u, i, &rx, &rv, &rp);
+    run_slot(OP2, c + 2u, i, &rx, &rv, &rp);
+    run_slot(OP3, c + 3u, i, &rx, &rv, &rp);
+    run_slot(OP4, c + 4u, i, &rx, &rv, &rp);
+    run_slot(OP5, c + 5u, i, &rx, &rv, &rp);
+    run_slot(OP6, c + 6u, i, &rx, &rv, &rp);
+    run_slot(OP7, c + 7u, i, &rx, &rv, &rp);
+    store_records(IO, i, &rx, &rv, &rp);
 }
 
 @compute @workgroup_size(WORKGROUP)
@@ -189,8 +228,17 @@ fn step_small(@builtin(local_invocation_index) lid: u32) {
                 project_distance_element(c, t);
             }
         } else {
+            let op = calls[c].op;
+            let io = calls[c].io;
             for (var i = lid; i < count; i += WORKGROUP) {
-                run_particle(c, c + 1u, calls[c].io, i);
+                var rx: Record;
+                var rv: Record;
+                var rp: Record;
+                load_records(io, i, &rx, &rv, &rp);
+                if (!failed_before(c)) {
+                    run_op(op, c, i, &rx, &rv, &rp);
+                }
+                store_records(io, i, &rx, &rv, &rp);
             }
         }
         storageBarrier();

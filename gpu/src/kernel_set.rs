@@ -86,10 +86,17 @@ pub(crate) fn storage(binding: u32, read_only: bool, dynamic: bool) -> wgpu::Bin
     }
 }
 
-/// An entry point of a kernel set: its WGSL file and function name.
+/// An entry point of a kernel set: its WGSL file and function name, and
+/// the values of the module's pipeline-overridable constants it is
+/// specialised with (one pipeline per distinct entry).
 pub(crate) trait EntryPoint: Copy + Eq + std::fmt::Debug + 'static {
     /// The file that defines it and its name there.
     fn source(self) -> (ShaderFile, &'static str);
+
+    /// `override` constants of the pipeline (none by default).
+    fn constants(self) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
 }
 
 /// What a kernel set is made of.
@@ -165,12 +172,16 @@ impl<E: EntryPoint> KernelSet<E> {
                     message: format!("{}: no module for {file:?}", spec.label),
                 });
             };
+            let constants = entry.constants();
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(name),
                 layout: Some(&pipeline_layout),
                 module,
                 entry_point: Some(name),
-                compilation_options: Default::default(),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    ..Default::default()
+                },
                 cache: None,
             });
             pipelines.push((entry, pipeline, file.workgroup_size()));

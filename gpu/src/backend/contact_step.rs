@@ -165,17 +165,8 @@ impl GpuBackend {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
                 pass.set_bind_group(0, &self.group, &[]);
                 for d in &dispatches[start..end] {
-                    if let Some(kernel) = self.schedule.kernel_of(d.dispatch.first_call)
-                        && d.dispatch.first_call < d.dispatch.end_call
-                        && matches!(
-                            d.dispatch.run,
-                            Run::Particles
-                                | Run::Distance
-                                | Run::Simplex
-                                | Run::Oriented
-                                | Run::Host(_)
-                        )
-                    {
+                    // One call per dispatch here; residual calls have no kernel.
+                    if let Some(kernel) = self.schedule.kernel_of(d.dispatch.first_call) {
                         count(kernel.stage());
                     }
                     if d.dispatch.run == Run::Host(Kernel::Collide) {

@@ -97,10 +97,10 @@ impl Families {
     }
 }
 
-/// Entry points of the step module.
+/// Entry points of the step module (`particles` once per run shape).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum XpbdEntry {
-    Particles,
+    Particles(schedule::Segment),
     Distance,
     Simplex,
     Oriented,
@@ -110,21 +110,24 @@ pub(crate) enum XpbdEntry {
 }
 
 impl XpbdEntry {
-    pub const ALL: [XpbdEntry; 7] = [
-        XpbdEntry::Particles,
-        XpbdEntry::Distance,
-        XpbdEntry::Simplex,
-        XpbdEntry::Oriented,
-        XpbdEntry::Residual,
-        XpbdEntry::Reduce,
-        XpbdEntry::Small,
-    ];
+    /// Order of the entry kinds (pipelines are built in this order).
+    pub fn rank(self) -> usize {
+        match self {
+            XpbdEntry::Particles(_) => 0,
+            XpbdEntry::Distance => 1,
+            XpbdEntry::Simplex => 2,
+            XpbdEntry::Oriented => 3,
+            XpbdEntry::Residual => 4,
+            XpbdEntry::Reduce => 5,
+            XpbdEntry::Small => 6,
+        }
+    }
 }
 
 impl EntryPoint for XpbdEntry {
     fn source(self) -> (ShaderFile, &'static str) {
         let name = match self {
-            XpbdEntry::Particles => "particles",
+            XpbdEntry::Particles(_) => "particles",
             XpbdEntry::Distance => "project_distance",
             XpbdEntry::Simplex => "project_simplex_measure",
             XpbdEntry::Oriented => "project_oriented_measure",
@@ -133,6 +136,21 @@ impl EntryPoint for XpbdEntry {
             XpbdEntry::Small => "step_small",
         };
         (ShaderFile::Step, name)
+    }
+
+    fn constants(self) -> Vec<(&'static str, f64)> {
+        let XpbdEntry::Particles(segment) = self else {
+            return Vec::new();
+        };
+        const SLOTS: [&str; schedule::SEGMENT] =
+            ["OP0", "OP1", "OP2", "OP3", "OP4", "OP5", "OP6", "OP7"];
+        let mut out: Vec<(&'static str, f64)> = SLOTS
+            .iter()
+            .zip(segment.ops)
+            .map(|(&name, op)| (name, f64::from(op)))
+            .collect();
+        out.push(("IO", f64::from(segment.io)));
+        out
     }
 }
 
