@@ -13,12 +13,18 @@
 //!                                    friction, damping; 10 substeps × 1 iteration),
 //!                                    chain20 = scenes::chain2d() at 10 substeps ×
 //!                                    2 iterations (20 links, plane, friction, damping)
+//! threads/gpu-f32/cloth{N}            the ground cloth at N = 16 … 181 (256 … 32,761
+//!                                    particles): run once as is and once with
+//!                                    LP_NUM_THREADS=0 in the shell to find
+//!                                    lavapipe's thread crossover
+//!                                    (gpu/src/software_threads.rs)
 //! dispatch/gpu-{f32,f64}/K           one kernel of the 256² ground cloth, 20 calls
 //!                                    in one pass and one submit: the per-element
 //!                                    cost without a round trip per call
 //! throughput                         distance projections per step (elem/s)
 //! ```
-//! The CPU golden step runs on one thread.
+//! The CPU golden step runs on one thread. lavapipe runs with the
+//! environment's LP_NUM_THREADS, else its default (printed first).
 //! GPU cases are skipped with a printed notice when no adapter exists.
 
 use std::hint::black_box;
@@ -178,6 +184,35 @@ fn frames(c: &mut Criterion) {
     group.finish();
 }
 
+/// lavapipe's threads for this whole run: the environment's LP_NUM_THREADS
+/// (set it in the shell: the bench never writes its own environment), else
+/// lavapipe's default.
+fn software_threads(_: &mut Criterion) {
+    let variable = hyperpbd::gpu::software_threads::VARIABLE;
+    match std::env::var(variable) {
+        Ok(value) => eprintln!("backends bench: {variable}={value}"),
+        Err(_) => eprintln!("backends bench: lavapipe's default threads ({variable} unset)"),
+    }
+}
+
+fn threads(c: &mut Criterion) {
+    let mut group = c.benchmark_group("threads");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(2));
+    for n in [16, 32, 64, 90, 128, 181] {
+        let scene = scenes::cloth(n);
+        let Some(mut b) = load(&scene, "gpu-f32") else {
+            continue;
+        };
+        group.bench_function(BenchmarkId::new("gpu-f32", format!("cloth{n}")), |bench| {
+            bench.iter(|| black_box(b.step().expect("step")));
+        });
+    }
+    group.finish();
+}
+
 fn dispatches(c: &mut Criterion) {
     const REPEATS: u32 = 20;
     let mut group = c.benchmark_group("dispatch");
@@ -228,6 +263,6 @@ criterion_group!(
     name = benches;
     // No plots: plotters needs system fonts, which CI images may lack.
     config = Criterion::default().without_plots();
-    targets = step, kernels, overhead, frames, dispatches
+    targets = software_threads, step, kernels, overhead, frames, threads, dispatches
 );
 criterion_main!(benches);

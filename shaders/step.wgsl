@@ -79,6 +79,7 @@ const FLAG_GRAVITY: u32 = 1u;  // predict: s g term
 const FLAG_FORCE: u32 = 2u;    // predict: w f term
 const FLAG_FIRST: u32 = 4u;    // projection: first of its family this substep (λ = 0 before)
 const FLAG_TETHER: u32 = 8u;   // distance: one-sided (|x1 − x0| ≤ rest)
+const FLAG_UNREAD: u32 = 16u;  // projection: nothing reads this λ later (not stored)
 
 const IO_LOAD_X: u32 = 1u;
 const IO_LOAD_V: u32 = 2u;
@@ -105,7 +106,10 @@ const NONE: u32 = 0xffffffffu;
 @group(0) @binding(12) var<storage, read_write> partials: array<real>;
 // Per residual chunk (residual call, first element).
 @group(0) @binding(13) var<storage, read> chunks: array<vec2<u32>>;
-@group(1) @binding(0) var<storage, read> here: Dispatch;
+// `elements` again, read two indices at a time (distance families start at
+// an even offset).
+@group(0) @binding(14) var<storage, read> pairs: array<vec2<u32>>;
+@group(1) @binding(0) var<uniform> here: Dispatch;
 
 // True when an earlier call of this step failed: later calls do nothing.
 fn failed_before(c: u32) -> bool {

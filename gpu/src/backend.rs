@@ -194,7 +194,7 @@ impl GpuBackend {
                 label: "hyperpbd xpbd",
                 dim,
                 precision,
-                groups: &[&BINDINGS, &[crate::kernel_set::Binding::BLOCK]],
+                groups: &[&BINDINGS, &[crate::kernel_set::Binding::UNIFORM_BLOCK]],
                 entries: &entries,
             },
         )?;
@@ -241,7 +241,7 @@ impl GpuBackend {
         let report_staging = ctx.staging("report_staging", 16 + report_bytes)?;
         let probe_staging = ctx.staging("probe_staging", 2 * resident.bytes())?;
 
-        let mut blocks = ParamBlocks::new(device);
+        let mut blocks = ParamBlocks::uniform(device);
         let mut place = |dispatches: &[Dispatch]| -> Vec<Placed> {
             dispatches
                 .iter()
@@ -279,6 +279,7 @@ impl GpuBackend {
                 &contact_slot,
                 &partials,
                 &chunks,
+                &elements,
             ],
             0,
         )?;

@@ -11,7 +11,8 @@
 //! call.rs       the call block, op codes, flags, record io
 //! ```
 //! Group 0: x v p force (particle records, prelude.wgsl) gravity_scale
-//! elements rest lambda status report calls contact_slot partials chunks;
+//! elements rest lambda status report calls contact_slot partials chunks
+//! pairs (= elements, read as vec2);
 //! group 1: the `Dispatch` block of each dispatch (dynamic offset).
 
 pub(crate) mod call;
@@ -62,6 +63,10 @@ impl Families {
             slot_maps: Vec::new(),
         };
         for f in &plan.families {
+            if f.arity == 2 && out.elements.len() % 2 == 1 {
+                // Pairs are read as vec2<u32>: an even offset.
+                out.elements.push(0);
+            }
             out.elem_base.push(out.elements.len() as u32);
             out.slot_base.push(out.rest.len() as u32);
             out.elements.extend_from_slice(&f.elements);
@@ -155,7 +160,7 @@ impl EntryPoint for XpbdEntry {
 }
 
 /// Group 0 of the step module, in binding order (see the module doc).
-pub(crate) const BINDINGS: [Binding; 14] = [
+pub(crate) const BINDINGS: [Binding; 15] = [
     Binding::WRITE,
     Binding::WRITE,
     Binding::WRITE,
@@ -169,6 +174,7 @@ pub(crate) const BINDINGS: [Binding; 14] = [
     Binding::READ,
     Binding::READ,
     Binding::WRITE,
+    Binding::READ,
     Binding::READ,
 ];
 

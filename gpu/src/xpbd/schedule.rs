@@ -168,11 +168,25 @@ impl Schedule {
     ) -> Schedule {
         let k = plan.substep_kernels.len();
         let mut calls = Vec::new();
+        // A projection in the last iteration: the last time its colour is
+        // projected in the substep.
+        let last_iteration = |index: usize, kernel: Kernel| {
+            matches!(kernel, Kernel::Project { .. })
+                && !plan.substep_kernels[index + 1..].contains(&kernel)
+        };
         for substep in 0..plan.substeps as usize {
             let mut projected = vec![false; plan.families.len()];
             for (index, &kernel) in plan.substep_kernels.iter().enumerate() {
                 let call = (substep * k + index) as u32;
-                calls.push(kernel_call(plan, families, kernel, call, &mut projected));
+                let last = last_iteration(index, kernel);
+                calls.push(kernel_call(
+                    plan,
+                    families,
+                    kernel,
+                    call,
+                    &mut projected,
+                    last,
+                ));
             }
         }
         let step_end = calls.len();
@@ -188,6 +202,7 @@ impl Schedule {
                 kernel,
                 index as u32,
                 &mut projected,
+                false,
             ));
         }
         let residual_range = (step_end as u32, run_base as u32);
@@ -267,13 +282,14 @@ impl Schedule {
 }
 
 /// The call of `kernel` (`projected[f]`: family f was projected already
-/// this substep).
+/// this substep; `last`: a projection of the family's last iteration).
 fn kernel_call(
     plan: &Plan,
     families: &Families,
     kernel: Kernel,
     call: u32,
     projected: &mut [bool],
+    last: bool,
 ) -> Call {
     match kernel {
         Kernel::Predict => integrate::predict(plan, call),
@@ -286,7 +302,7 @@ fn kernel_call(
             if color + 1 == plan.families[family].color_count() {
                 projected[family] = true;
             }
-            project::project(plan, families, (family, color), call, first)
+            project::project(plan, families, (family, color), call, (first, last))
         }
         Kernel::Friction { family } => friction::friction(plan, families, family, call),
         Kernel::Broadphase | Kernel::Collide | Kernel::Minimise => Call {
@@ -386,4 +402,24 @@ fn choose(plan: &Plan, step: &[Call], workgroup: u32, software: bool) -> StepMod
     } else {
         StepMode::Fused
     }
+}
+
+/// The schedule mode the backend would choose for `plan` on a software
+/// (`software`) or hardware adapter, and the compute dispatches per step
+/// that mode and the exact schedule record (for `hyperpbd plan`). `None`
+/// for plans the XPBD backend does not run (the incremental potential).
+pub fn dispatches_per_step(plan: &Plan, software: bool) -> Option<(StepMode, usize, usize)> {
+    if plan.incremental_potential.is_some() {
+        return None;
+    }
+    let origin = crate::SceneOrigin::zero(plan.dim);
+    let families = Families::new(plan, &origin).ok()?;
+    let workgroup = crate::shader::ShaderFile::Step.workgroup_size();
+    let chosen = Schedule::new(plan, &families, workgroup, None, software);
+    let exact = Schedule::new(plan, &families, workgroup, Some(StepMode::Exact), software);
+    Some((
+        chosen.mode,
+        chosen.dispatches_per_step(),
+        exact.dispatches_per_step(),
+    ))
 }
