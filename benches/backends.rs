@@ -8,7 +8,10 @@
 //! kernel/{cpu-f64,gpu-f32}/..        one kernel call on the 256² cloth (the GPU
 //!                                    figure includes one submit + wait round trip)
 //! overhead/{cpu-f64,gpu-f32}         a one-particle scene: fixed cost of a step
-//! frame/{cpu-f64,gpu-f32,gpu-f64}/S  the issue-12 targets, one step each:
+//! frame/{cpu-f64,gpu-P-M}/S          the issue-12 targets, one step each, on the
+//!                                    GPU in f32 and f64 under each schedule
+//!                                    M = exact, fused, small (dispatches per
+//!                                    step printed; small only where it fits):
 //!                                    cloth256 = scenes::cloth(256) (ground plane,
 //!                                    friction, damping; 10 substeps × 1 iteration),
 //!                                    chain20 = scenes::chain2d() at 10 substeps ×
@@ -31,7 +34,7 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use hyperpbd::gpu::{GpuBackend, Precision};
+use hyperpbd::gpu::{GpuBackend, Precision, StepMode};
 use hyperpbd::{Backend, CpuBackend, Kernel, Particle, Plan, Scene, SceneBuilder, State, scenes};
 
 fn load(scene: &Scene, backend: &str) -> Option<Box<dyn Backend>> {
@@ -172,16 +175,54 @@ fn frames(c: &mut Criterion) {
         .warm_up_time(Duration::from_millis(300))
         .measurement_time(Duration::from_secs(3));
     for (name, scene) in [("chain20", chain20()), ("cloth256", scenes::cloth(256))] {
-        for backend in ["cpu-f64", "gpu-f32", "gpu-f64"] {
-            let Some(mut b) = load(&scene, backend) else {
-                continue;
-            };
-            group.bench_function(BenchmarkId::new(backend, name), |bench| {
+        if let Some(mut b) = load(&scene, "cpu-f64") {
+            group.bench_function(BenchmarkId::new("cpu-f64", name), |bench| {
                 bench.iter(|| black_box(b.step().expect("step")));
             });
         }
+        for precision in [Precision::F32, Precision::F64] {
+            for mode in [StepMode::Exact, StepMode::Fused, StepMode::Small] {
+                let Some(mut b) = load_mode(&scene, precision, mode) else {
+                    continue;
+                };
+                let id = format!("gpu-{precision}-{}", mode.as_str());
+                eprintln!(
+                    "frame/{id}/{name}: {} dispatches per step",
+                    b.dispatches_per_step()
+                );
+                group.bench_function(BenchmarkId::new(id, name), |bench| {
+                    bench.iter(|| black_box(b.step().expect("step")));
+                });
+            }
+        }
     }
     group.finish();
+}
+
+/// The GPU backend on `scene` with its step formed as `mode` says, three
+/// steps in; `None` (with the reason printed) when there is no adapter or
+/// the mode does not fit the scene.
+fn load_mode(scene: &Scene, precision: Precision, mode: StepMode) -> Option<GpuBackend> {
+    let plan = Plan::compile(scene).expect("scene compiles");
+    let state = State::from_scene(scene);
+    let loaded = hyperpbd::gpu::request_adapter(precision)
+        .map_err(|e| e.to_string())
+        .and_then(|(adapter, _)| {
+            GpuBackend::with_step_mode(&adapter, plan, &state, precision, mode)
+                .map_err(|e| e.to_string())
+        });
+    match loaded {
+        Ok(mut b) => {
+            for _ in 0..3 {
+                b.step().expect("warm-up step");
+            }
+            Some(b)
+        }
+        Err(e) => {
+            eprintln!("SKIPPED gpu-{precision}-{}: {e}", mode.as_str());
+            None
+        }
+    }
 }
 
 /// lavapipe's threads for this whole run: the environment's LP_NUM_THREADS
