@@ -115,8 +115,10 @@ impl ShaderFile {
     }
 
     /// Workgroup size of every entry point of the file: 64 for the step
-    /// kernels (measured: docs/performance.md), 256 (one radix block) for
-    /// the broadphase. [`compose`] writes it into the header.
+    /// kernels (64 and 256 measure within noise of each other on lavapipe,
+    /// docs/performance.md; 64 spreads a small dispatch over more of a
+    /// GPU's multiprocessors), 256 (one radix block) for the broadphase.
+    /// [`compose`] writes it into the header.
     pub fn workgroup_size(self) -> u32 {
         match self {
             ShaderFile::RadixSort | ShaderFile::Sweep => 256,
