@@ -10,8 +10,8 @@
 //!          velocity, friction, damping — across substep boundaries too) in
 //!          ONE `particles` dispatch each; one dispatch per colour of the
 //!          other families; residual + reduce
-//! small    ONE `step_small` dispatch: the whole step, residual included,
-//!          in one workgroup with a storage barrier between calls
+//! small    ONE `step_small` dispatch: the whole step in one workgroup
+//!          with a storage barrier between calls; residual + reduce
 //! ```
 //! Fusing per-particle calls keeps each particle's order of operations:
 //! they read and write that particle's records and its own multipliers
