@@ -602,11 +602,11 @@ fn barrier_scene_compiles_to_the_minimise_stage_only() {
     assert_eq!(plan.stages, vec![StageName::Minimise]);
     assert_eq!(plan.substep_kernels, vec![Kernel::Minimise]);
     assert!(plan.families.is_empty());
-    assert!(plan.incremental_potential.is_some());
+    assert!(plan.incremental_potential().is_some());
     let mut xpbd = scene.clone();
     xpbd.solver = Solver::Xpbd;
     let plan = Plan::compile(&xpbd).unwrap();
-    assert!(plan.incremental_potential.is_none());
+    assert!(plan.incremental_potential().is_none());
     assert!(!plan.stages.contains(&StageName::Minimise));
 }
 

@@ -533,7 +533,7 @@ fn whole_steps(
     let mut cpu = CpuBackend::new(plan.clone(), &state).expect("cpu");
     let mut gpu =
         GpuBarrierBackend::with_adapter(adapter, plan.clone(), &state, precision).expect("gpu");
-    let mut model = BarrierErrorModel::new(&plan, precision.into());
+    let mut model = BarrierErrorModel::new(&plan, precision);
     let mut scale = hyperpbd::compare::coordinate_scale(&state);
     let mut worst: f64 = 0.0;
     let mut identical = 0;
@@ -1007,7 +1007,7 @@ fn f32_far_from_the_origin_keeps_the_accuracy_of_the_origin() {
     let mut gpu =
         GpuBarrierBackend::with_adapter(&adapter, plan.clone(), &state, precision).expect("gpu");
     // The model of the scene at the origin: coordinates of size |x_near|.
-    let mut model = BarrierErrorModel::new(&plan, precision.into());
+    let mut model = BarrierErrorModel::new(&plan, precision);
     let near_scale = hyperpbd::compare::coordinate_scale(&State::from_scene(&near));
     let mut worst: f64 = 0.0;
     for step in 1..=30 {

@@ -326,7 +326,7 @@ fn differential(
     let mut cpu = CpuBackend::new(plan.clone(), &state).expect("CPU backend");
     let mut gpu = GpuBackend::with_adapter(adapter, plan.clone(), &state, precision)
         .unwrap_or_else(|e| panic!("{name} {precision}: GPU backend: {e}"));
-    let model = ErrorModel::new(&plan, precision.into());
+    let model = ErrorModel::new(&plan, precision);
     let eps = model.epsilon;
     let mut scale = coordinate_scale(&state);
     let counts = plan.kernel_counts();

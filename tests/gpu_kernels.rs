@@ -86,7 +86,7 @@ use hyperpbd_gpu::{GpuBackend, Precision};
 const R64: f64 = 4.0;
 
 fn eps(precision: Precision) -> f64 {
-    hyperpbd::compare::Precision::from(precision).epsilon()
+    precision.epsilon()
 }
 
 fn max_abs(values: &[f64]) -> f64 {

@@ -853,15 +853,15 @@ fn far_offset(case: &str, kind: Kind, d: f64) {
     let model = hyperpbd::compare::ErrorModel::new(
         &plan,
         match kind {
-            Kind::GpuF32 => hyperpbd::compare::Precision::F32,
-            _ => hyperpbd::compare::Precision::F64,
+            Kind::GpuF32 => hyperpbd::Precision::F32,
+            _ => hyperpbd::Precision::F64,
         },
     );
     // Coordinates of the bridge relative to its own origin are ≤ 2 m; the
     // offset itself is carried exactly in f64 (ε64 · d per rounding).
     let local_scale = 2.0;
     let bound = model.position_bound(local_scale, frames as u64)
-        + hyperpbd::compare::ErrorModel::new(&plan, hyperpbd::compare::Precision::F64)
+        + hyperpbd::compare::ErrorModel::new(&plan, hyperpbd::Precision::F64)
             .position_bound(d + local_scale, frames as u64);
     check_residual(
         case,
@@ -1056,11 +1056,11 @@ fn dt_one_microsecond(kind: Kind) {
         initial.positions[tip] - golden_fall
     };
     let plan = Plan::compile(&scene).expect("valid");
-    let f64_model = hyperpbd::compare::ErrorModel::new(&plan, hyperpbd::compare::Precision::F64);
+    let f64_model = hyperpbd::compare::ErrorModel::new(&plan, hyperpbd::Precision::F64);
     let (bound, why) = match kind {
         Kind::GpuF32 => (
             golden_fall
-                + hyperpbd::compare::ErrorModel::new(&plan, hyperpbd::compare::Precision::F32)
+                + hyperpbd::compare::ErrorModel::new(&plan, hyperpbd::Precision::F32)
                     .position_bound(1.0, steps as u64),
             "f32: the true fall + its rounding model (the fall itself is below ulp)",
         ),

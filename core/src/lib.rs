@@ -17,6 +17,7 @@ pub mod geometry;
 mod json;
 mod minimisation;
 mod plan;
+mod precision;
 mod scene;
 mod solver;
 mod state;
@@ -28,7 +29,8 @@ pub use builders::SceneBuilder;
 pub use coloring::greedy_colors;
 pub use error::{BackendError, GpuError, SceneError, StageName, StepError};
 pub use minimisation::{MinimisationReport, MinimisationStatus, Refusal};
-pub use plan::{Family, FamilyKind, Kernel, ParticleContacts, Plan, PredictTerms};
+pub use plan::{Family, FamilyKind, Kernel, ParticleContacts, Plan, PredictTerms, SolverPlan};
+pub use precision::Precision;
 pub use scene::{
     Collisions, ConstraintFamily, ConstraintKind, Damping, Obstacle, ObstacleDocument,
     ObstacleKind, Particle, Scene,

@@ -7,8 +7,8 @@
 //! ```
 
 use hyperpbd_core::{
-    Backend, BackendError, FamilyResidual, Kernel, MinimisationReport, MinimisationStatus, Plan,
-    StageName, State, StepError, StepReport, check_forces, check_kernel, check_state,
+    Backend, BackendError, FamilyResidual, Kernel, MinimisationReport, Plan, StageName, State,
+    StepError, StepReport, check_forces, check_kernel, check_state,
 };
 
 use crate::collide::{self, Contacts};
@@ -143,7 +143,7 @@ impl CpuBackend {
                     .map_err(|i| self.particle_error(StageName::Project, i))
             }
             Kernel::Minimise => {
-                let Some(ip) = &plan.incremental_potential else {
+                let Some(ip) = plan.incremental_potential() else {
                     return Err(BackendError::InvalidCall(
                         "the plan has no incremental-potential settings".into(),
                     ));
@@ -156,17 +156,9 @@ impl CpuBackend {
                     &self.force,
                     &mut self.minimiser,
                 );
-                let result = match &report.status {
-                    MinimisationStatus::Refused(reason) => Err(StepError::MinimisationRefused {
-                        substep: self.substep,
-                        reason: reason.clone(),
-                        report: Box::new(report.clone()),
-                    }
-                    .into()),
-                    _ => Ok(()),
-                };
+                let refused = StepError::refused(self.substep, &report);
                 self.minimisation.push(report);
-                result
+                refused.map_or(Ok(()), |e| Err(e.into()))
             }
         }
     }

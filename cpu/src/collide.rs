@@ -35,6 +35,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use hyperpbd_core::broadphase::{Aabbs, Pair, contact_lists, sweep_axis, sweep_pairs};
+use hyperpbd_core::geometry::deepest_overlap;
 use hyperpbd_core::{FamilyResidual, Plan};
 
 /// Candidate pairs and each particle's contact list.
@@ -178,19 +179,8 @@ pub fn collide(
 /// Deepest overlap max(0, r_i + r_j − |x_j − x_i|) over the candidate
 /// pairs, labelled `collisions`.
 pub fn residual(plan: &Plan, x: &[f64], contacts: &Contacts) -> FamilyResidual {
-    let dim = plan.dim;
-    let mut deepest: f64 = 0.0;
-    for &[i, j] in &contacts.pairs {
-        let (i, j) = (i as usize, j as usize);
-        let mut len2 = 0.0;
-        for a in 0..dim {
-            let d = x[j * dim + a] - x[i * dim + a];
-            len2 += d * d;
-        }
-        deepest = deepest.max(plan.radius[i] + plan.radius[j] - len2.sqrt());
-    }
     FamilyResidual {
         label: "collisions".into(),
-        max_violation: deepest,
+        max_violation: deepest_overlap(plan.dim, &plan.radius, &contacts.pairs, x),
     }
 }

@@ -161,7 +161,7 @@ impl GpuBackend {
             }
             .into());
         }
-        if plan.incremental_potential.is_some() {
+        if plan.incremental_potential().is_some() {
             return Err(incremental_potential_unsupported().into());
         }
         let summary = AdapterSummary::of(adapter);
@@ -709,8 +709,7 @@ impl Backend for GpuBackend {
         let block =
             self.read_mapped(&self.buffers.report_staging, 16 + self.buffers.report_bytes)?;
         if let Some((call, index)) = self.failure(&block) {
-            self.rollback()?;
-            return Err(self.step_error(call, index));
+            return Err(self.step_error(call, index).after_rollback(self.rollback()));
         }
         let report = read_reals(&block[16..], self.precision);
         let mut residuals = Vec::with_capacity(self.plan.families.len());

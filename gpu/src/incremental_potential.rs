@@ -107,7 +107,7 @@ impl GpuBarrierBackend {
         precision: Precision,
     ) -> Result<Self, BackendError> {
         check_state(&plan, state)?;
-        let Some(ip) = plan.incremental_potential.clone() else {
+        let Some(ip) = plan.incremental_potential().cloned() else {
             return Err(BackendError::InvalidCall(
                 "GpuBarrierBackend runs incremental_potential scenes only".into(),
             ));
@@ -559,17 +559,9 @@ impl GpuBarrierBackend {
 
     fn run_minimise(&mut self) -> Result<(), BackendError> {
         let report = self.minimise()?;
-        let result = match &report.status {
-            MinimisationStatus::Refused(reason) => Err(StepError::MinimisationRefused {
-                substep: self.substep,
-                reason: reason.clone(),
-                report: Box::new(report.clone()),
-            }
-            .into()),
-            _ => Ok(()),
-        };
+        let refused = StepError::refused(self.substep, &report);
         self.reports.push(report);
-        result
+        refused.map_or(Ok(()), |e| Err(e.into()))
     }
 
     fn rollback(&self) -> Result<(), GpuError> {
@@ -609,8 +601,7 @@ impl Backend for GpuBarrierBackend {
                     continue;
                 }
                 if let Err(e) = self.run_minimise() {
-                    self.rollback()?;
-                    return Err(e);
+                    return Err(e.after_rollback(self.rollback()));
                 }
             }
         }

@@ -19,7 +19,7 @@
 //!              keep n·p ≤ k; an edge crossing it gets the crossing point
 //! ```
 
-use hyperpbd_core::geometry::{Scratch, distance, oriented_measure, simplex_squared_measure};
+use hyperpbd_core::geometry::{Scratch, constraint_value};
 use hyperpbd_core::{ConstraintKind, Obstacle, Scene, State};
 
 /// A hyperplane n·x = offset with unit n; n·x < offset + r is excluded.
@@ -65,21 +65,6 @@ fn pairs(element: &[usize]) -> impl Iterator<Item = (usize, usize)> + '_ {
         .flat_map(move |(a, &i)| element[a + 1..].iter().map(move |&j| (i.min(j), i.max(j))))
 }
 
-/// C(x) of one element; `points` gathered flat, `grad` scratch of the same size.
-fn evaluate(
-    kind: ConstraintKind,
-    points: &[f64],
-    dim: usize,
-    grad: &mut [f64],
-    scratch: &mut Scratch,
-) -> f64 {
-    match kind {
-        ConstraintKind::Distance | ConstraintKind::Tether => distance(points, dim, grad),
-        ConstraintKind::SimplexMeasure => simplex_squared_measure(points, dim, grad, scratch),
-        ConstraintKind::OrientedMeasure => oriented_measure(points, dim, grad, scratch),
-    }
-}
-
 impl SceneGeometry {
     /// Reads a validated scene.
     pub fn new(scene: &Scene) -> SceneGeometry {
@@ -113,7 +98,7 @@ impl SceneGeometry {
                             points[j * dim..(j + 1) * dim]
                                 .copy_from_slice(&scene.particles[i].position);
                         }
-                        evaluate(family.kind, &points, dim, &mut grad, &mut scratch)
+                        constraint_value(family.kind, &points, dim, &mut grad, &mut scratch)
                     })
                     .collect(),
             };
@@ -216,7 +201,7 @@ impl SceneGeometry {
                 for (j, &i) in element.iter().enumerate() {
                     points[j * dim..(j + 1) * dim].copy_from_slice(state.position(i));
                 }
-                let c = evaluate(f.kind, &points, dim, &mut grad, &mut scratch);
+                let c = constraint_value(f.kind, &points, dim, &mut grad, &mut scratch);
                 let r = ((c - f.rest[e]) / f.scale[e]).abs();
                 let r = if r.is_nan() { f64::INFINITY } else { r };
                 for &i in element {

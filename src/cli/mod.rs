@@ -1,18 +1,16 @@
 //! Subcommands and their shared plumbing.
 
-mod accuracy;
 mod broken_pipe;
 mod compare;
-mod compare_barrier;
+mod describe;
 mod output;
 mod render;
 mod run;
 
-pub use broken_pipe::exit_quietly_on_broken_pipe;
+pub use broken_pipe::exit_141_on_broken_pipe;
 
-use clap::{Parser, Subcommand, ValueEnum};
-use hyperpbd::gpu::{GpuBackend, Precision};
-use hyperpbd::{Backend, CpuBackend, Plan, Scene, State};
+use clap::{Parser, Subcommand};
+use hyperpbd::{Backend, BackendKind, Plan, Scene, State};
 use std::path::PathBuf;
 
 /// hyperpbd: N-dimensional XPBD particle physics (f64 CPU golden path,
@@ -40,17 +38,14 @@ enum Command {
         /// Frames (steps of 1/60 s) to simulate.
         #[arg(long, default_value_t = 120)]
         frames: u64,
-        /// Backend to use.
-        #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
-        backend: BackendChoice,
+        /// Backend: cpu, gpu (f32), gpu-f64, or auto (a hardware GPU when
+        /// there is one, else the CPU, saying why).
+        #[arg(long, default_value = "auto", value_parser = parse_backend)]
+        backend: BackendKind,
     },
     /// Run the CPU golden path and a GPU backend side by side and print the
     /// per-frame divergence against its derived bound (exit 3 when over).
     Compare(compare::CompareArgs),
-    /// Measure what accuracy costs in time: error against wall time per
-    /// backend, substeps and iterations; scaling; effect costs. Writes a
-    /// markdown report with PNG figures.
-    Accuracy(accuracy::AccuracyArgs),
     /// Draw a run: PNG frames and an animated GIF (orthographic or
     /// perspective projection of R^N; see docs/rendering.md).
     Render(render::RenderArgs),
@@ -64,18 +59,9 @@ enum Command {
     },
 }
 
-/// Which backend runs the scene.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum BackendChoice {
-    /// The f64 CPU golden path.
-    Cpu,
-    /// The wgpu backend in f32 (an error if it cannot run).
-    Gpu,
-    /// The wgpu backend in f64 (needs SHADER_F64; an error if missing).
-    GpuF64,
-    /// A hardware GPU in f32 when one can run the scene, else the CPU,
-    /// saying which and why.
-    Auto,
+/// `--backend NAME` (see [`BackendKind`]'s names).
+pub fn parse_backend(name: &str) -> Result<BackendKind, String> {
+    name.parse()
 }
 
 /// A CLI failure with its exit code.
@@ -109,7 +95,7 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
         Command::Plan { scene } => {
             let scene = load_scene(&scene)?;
             let plan = Plan::compile(&scene).map_err(|e| CliError::Input(e.to_string()))?;
-            print!("{}", plan.describe());
+            print!("{}", describe::describe(&plan));
             Ok(())
         }
         Command::Info => {
@@ -119,7 +105,6 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
         Command::Demo { frames, backend } => run::demo(frames, backend),
         Command::Compare(args) => compare::compare(&args),
         Command::Render(args) => render::render(&args),
-        Command::Accuracy(args) => accuracy::accuracy(&args),
         Command::Scene { name, out } => {
             let scene = hyperpbd::scenes::by_name(&name).ok_or_else(|| {
                 CliError::Input(format!(
@@ -129,7 +114,7 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
             })?;
             let text = scene.to_json_string() + "\n";
             match out {
-                Some(path) => output::write_atomically(&path, text.as_bytes()),
+                Some(path) => output::write_file(&path, text.as_bytes()),
                 None => {
                     print!("{text}");
                     Ok(())
@@ -157,74 +142,28 @@ fn info() {
     println!("CPU golden backend: cpu-f64 (always available)");
 }
 
-/// Chooses and loads a backend, printing what was picked and why.
+/// Loads `plan` on the backend `kind` names ([`hyperpbd::load`]; `auto`
+/// says on stderr what it picked and why). A GPU that cannot run the plan
+/// is bad input for `--backend gpu`, never a silent CPU fallback.
 pub fn load_backend(
-    choice: BackendChoice,
+    kind: BackendKind,
     plan: Plan,
     state: &State,
 ) -> Result<Box<dyn Backend>, CliError> {
-    let gpu = |plan: Plan, precision: Precision| -> Result<Box<dyn Backend>, CliError> {
-        if plan.incremental_potential.is_some() {
-            return Ok(Box::new(
-                hyperpbd::gpu::GpuBarrierBackend::new(plan, state, precision)
-                    .map_err(|e| CliError::Input(format!("--backend gpu: {e}")))?,
-            ));
-        }
-        Ok(Box::new(GpuBackend::new(plan, state, precision).map_err(
-            |e| CliError::Input(format!("--backend gpu: {e}")),
-        )?))
-    };
-    match choice {
-        BackendChoice::Cpu => Ok(Box::new(
-            CpuBackend::new(plan, state).map_err(|e| CliError::Input(e.to_string()))?,
-        )),
-        BackendChoice::Gpu => gpu(plan, Precision::F32),
-        BackendChoice::GpuF64 => gpu(plan, Precision::F64),
-        BackendChoice::Auto => {
-            let why = match hyperpbd::gpu::request_adapter(Precision::F32) {
-                Err(e) => format!("no GPU adapter ({e})"),
-                Ok((_, summary)) if summary.device_type == "Cpu" => format!(
-                    "the only adapter, {}, is a software rasteriser running on this CPU \
-                     (pass --backend gpu to use it anyway)",
-                    summary.name
-                ),
-                Ok(_) if plan.dim > hyperpbd::gpu::shader::MAX_GPU_DIM => format!(
-                    "dimension {} is above the GPU kernels' limit of {}",
-                    plan.dim,
-                    hyperpbd::gpu::shader::MAX_GPU_DIM
-                ),
-                Ok((adapter, summary)) if plan.incremental_potential.is_some() => {
-                    match hyperpbd::gpu::GpuBarrierBackend::with_adapter(
-                        &adapter,
-                        plan.clone(),
-                        state,
-                        Precision::F32,
-                    ) {
-                        Ok(b) => {
-                            eprintln!("notice: backend auto -> gpu-f32 on {}", summary.name);
-                            return Ok(Box::new(b));
-                        }
-                        Err(e) => {
-                            format!("the GPU backend failed to load on {}: {e}", summary.name)
-                        }
-                    }
-                }
-                Ok((adapter, summary)) => {
-                    match GpuBackend::with_adapter(&adapter, plan.clone(), state, Precision::F32) {
-                        Ok(b) => {
-                            eprintln!("notice: backend auto -> gpu-f32 on {}", summary.name);
-                            return Ok(Box::new(b));
-                        }
-                        Err(e) => {
-                            format!("the GPU backend failed to load on {}: {e}", summary.name)
-                        }
-                    }
-                }
-            };
-            eprintln!("notice: backend auto -> cpu-f64 (the f64 CPU golden path): {why}");
-            Ok(Box::new(
-                CpuBackend::new(plan, state).map_err(|e| CliError::Input(e.to_string()))?,
-            ))
-        }
+    hyperpbd::load(plan, state, kind).map_err(|e| match kind {
+        BackendKind::Gpu(_) => CliError::Input(format!("--backend gpu: {e}")),
+        _ => CliError::Input(e.to_string()),
+    })
+}
+
+/// An error and every source under it, `: `-separated (a failed rollback
+/// names the step failure it could not undo).
+pub fn with_sources(error: &dyn std::error::Error) -> String {
+    let mut text = error.to_string();
+    let mut source = error.source();
+    while let Some(e) = source {
+        text.push_str(&format!(": {e}"));
+        source = e.source();
     }
+    text
 }

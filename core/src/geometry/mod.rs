@@ -12,12 +12,14 @@ mod closest_point;
 mod distance;
 mod linalg;
 mod oriented_measure;
+mod overlap;
 mod simplex_measure;
 
 pub use closest_point::{ClosestPoint, MAX_SIMPLEX_ORDER, closest_point_on_simplex};
 pub use distance::distance;
-pub use linalg::{adjugate, determinant};
+pub use linalg::{adjugate, determinant, unit_vector};
 pub use oriented_measure::oriented_measure;
+pub use overlap::deepest_overlap;
 pub use simplex_measure::simplex_squared_measure;
 
 /// Reusable scratch space so evaluation allocates nothing per element.

@@ -19,10 +19,11 @@
 //!           the smallest calibrated, at least `effects_ball_steps`)
 //! ```
 
-use super::granular_effects::{self, Relation, without_collisions};
-use super::timing::{BackendKind, calibrate, median, timed_steps};
-use super::{Config, Progress};
-use hyperpbd_core::{Obstacle, Plan, Scene, State};
+use crate::config::Config;
+use crate::granular_effects::{self, Relation, without_collisions};
+use crate::progress::Progress;
+use crate::timing::{calibrate, load, median, timed_steps};
+use hyperpbd::{Backend, BackendKind, Obstacle, Plan, Scene, State};
 use serde::Serialize;
 
 /// One row of the table.
@@ -102,7 +103,7 @@ fn with_friction(mut s: Scene, mu: f64) -> Scene {
 
 /// The rows: (label, scene, index of the twin for controls).
 pub fn ladder(n: usize) -> Vec<(String, Scene, Option<usize>)> {
-    let full = crate::scenes::cloth(n);
+    let full = hyperpbd::scenes::cloth(n);
     let mut nothing = without_damping(full.clone());
     nothing.constraints.clear();
     nothing.obstacles.clear();
@@ -117,7 +118,7 @@ pub fn ladder(n: usize) -> Vec<(String, Scene, Option<usize>)> {
     let damping = full.clone();
 
     let mut damping_zero = friction.clone();
-    damping_zero.damping = Some(hyperpbd_core::Damping { rate: 0.0 });
+    damping_zero.damping = Some(hyperpbd::Damping { rate: 0.0 });
     let mut gravity_unscaled = gravity.clone();
     for p in &mut gravity_unscaled.particles {
         p.gravity_scale = 0.0;
@@ -173,18 +174,16 @@ pub fn run(config: &Config, progress: &mut Progress) -> Result<Vec<EffectRow>, S
         .iter()
         .map(|(_, _, s, _)| State::from_scene(s))
         .collect();
-    type Slot = (usize, BackendKind, Box<dyn hyperpbd_core::Backend>, u64);
+    type Slot = (usize, BackendKind, Box<dyn Backend>, u64);
     let mut slots: Vec<Slot> = Vec::new();
     for (k, (_, label, _, _)) in rungs.iter().enumerate() {
         for &backend in &config.backends {
             if !progress.available(backend) {
                 continue;
             }
-            let loaded = backend
-                .load(plans[k].clone(), &initials[k])
-                .and_then(|mut b| {
-                    calibrate(b.as_mut(), config.time_target).map(|steps| (b, steps))
-                });
+            let loaded = load(backend, plans[k].clone(), &initials[k]).and_then(|mut b| {
+                calibrate(b.as_mut(), config.time_target).map(|steps| (b, steps))
+            });
             match loaded {
                 Ok((b, steps)) => slots.push((k, backend, b, steps)),
                 Err(e) => {

@@ -1,11 +1,22 @@
-//! `hyperpbd accuracy`: the accuracy/cost report (see `hyperpbd::accuracy`).
+//! `hyperpbd-report`: the accuracy/effects report (see the library docs).
+//!
+//! ```text
+//! cargo run --release -p hyperpbd-report -- --quick        smoke test → target/accuracy/
+//! scripts/accuracy.sh [--only-effects]                     docs/ and README.md
+//! ```
+//! Exit codes as the `hyperpbd` command: 2 bad options, 3 a failed run,
+//! 4 an output that could not be written.
 
-use super::CliError;
-use hyperpbd::accuracy::{self, BackendKind, CaseId, Config};
+use clap::Parser;
+use hyperpbd_report::{AccuracyError, BackendKind, CaseId, Config, cases, headlines};
 use std::path::PathBuf;
+use std::process::ExitCode;
 
-/// Options of `hyperpbd accuracy`.
-#[derive(Debug, clap::Args)]
+/// What accuracy costs in time: error against wall time per backend,
+/// substeps and iterations; scaling; effect costs. Writes a markdown
+/// report with PNG figures.
+#[derive(Debug, Parser)]
+#[command(name = "hyperpbd-report", version, about)]
 pub struct AccuracyArgs {
     /// Smoke-test mode: fewer points, smaller scenes, one rep (under two
     /// minutes on a 2-core machine).
@@ -47,7 +58,7 @@ pub struct AccuracyArgs {
     only_effects: bool,
 }
 
-pub fn accuracy(args: &AccuracyArgs) -> Result<(), CliError> {
+fn accuracy(args: &AccuracyArgs) -> Result<(), AccuracyError> {
     let mut config = if args.quick {
         Config::quick(&args.out)
     } else {
@@ -56,7 +67,7 @@ pub fn accuracy(args: &AccuracyArgs) -> Result<(), CliError> {
     config.readme = args.readme.clone();
     if let Some(reps) = args.reps {
         if reps == 0 {
-            return Err(CliError::Input("--reps: must be at least 1".into()));
+            return Err(AccuracyError::Config("--reps: must be at least 1".into()));
         }
         config.reps = reps;
     }
@@ -65,8 +76,8 @@ pub fn accuracy(args: &AccuracyArgs) -> Result<(), CliError> {
             .iter()
             .map(|n| {
                 CaseId::parse(n).ok_or_else(|| {
-                    let all: Vec<&str> = accuracy::cases::ALL.iter().map(|c| c.name()).collect();
-                    CliError::Input(format!(
+                    let all: Vec<&str> = cases::ALL.iter().map(|c| c.name()).collect();
+                    AccuracyError::Config(format!(
                         "--cases: unknown case {n:?}; cases: {}",
                         all.join(", ")
                     ))
@@ -78,11 +89,14 @@ pub fn accuracy(args: &AccuracyArgs) -> Result<(), CliError> {
         config.backends = names
             .iter()
             .map(|n| {
-                BackendKind::parse(n).ok_or_else(|| {
-                    CliError::Input(format!(
-                        "--backends: unknown backend {n:?}; backends: cpu-f64, gpu-f32, gpu-f64"
-                    ))
-                })
+                BackendKind::ALL
+                    .into_iter()
+                    .find(|b| b.name() == n)
+                    .ok_or_else(|| {
+                        AccuracyError::Config(format!(
+                            "--backends: unknown backend {n:?}; backends: cpu-f64, gpu-f32, gpu-f64"
+                        ))
+                    })
             })
             .collect::<Result<_, _>>()?;
     }
@@ -99,19 +113,29 @@ pub fn accuracy(args: &AccuracyArgs) -> Result<(), CliError> {
     if let Some(readme) = &config.readme
         && !readme.is_file()
     {
-        return Err(CliError::Input(format!(
+        return Err(AccuracyError::Config(format!(
             "--readme: {} is not a file",
             readme.display()
         )));
     }
-    let report = accuracy::run(&config).map_err(|e| match e {
-        accuracy::AccuracyError::Config(m) => CliError::Input(m),
-        accuracy::AccuracyError::Output(m) => CliError::Output(m),
-        other => CliError::Simulation(other.to_string()),
-    })?;
-    println!("{}", accuracy::report::summary(&report));
+    let report = hyperpbd_report::run(&config)?;
+    println!("{}", headlines::summary(&report));
     for f in &report.files {
         println!("wrote {}", config.out.join(f).display());
     }
     Ok(())
+}
+
+fn main() -> ExitCode {
+    match accuracy(&AccuracyArgs::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(match e {
+                AccuracyError::Config(_) => 2,
+                AccuracyError::Output(_) => 4,
+                _ => 3,
+            })
+        }
+    }
 }

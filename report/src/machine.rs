@@ -6,7 +6,7 @@
 //! prints), the load average before and after (other work on the machine
 //! makes timings noisy), and the GPU adapter of each precision.
 
-use hyperpbd_gpu::{Precision, request_adapter};
+use hyperpbd::gpu::{Precision, request_adapter};
 use serde::Serialize;
 
 /// The machine a report was measured on.

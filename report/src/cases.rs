@@ -38,7 +38,7 @@
 //! energy m g L (1 − cos θ0) for the pendulum, and max(KE_0, Σ m |g| ·
 //! extent) otherwise.
 
-use hyperpbd_core::{ConstraintFamily, ConstraintKind, Particle, Scene, SceneBuilder, State};
+use hyperpbd::{ConstraintFamily, ConstraintKind, Particle, Scene, SceneBuilder, State};
 use serde::Serialize;
 
 const G: f64 = 9.81;
@@ -229,14 +229,14 @@ impl CaseId {
                 b.build()
             }
             CaseId::Cloth => {
-                let mut scene = crate::scenes::hanging_cloth(cloth_n);
+                let mut scene = hyperpbd::scenes::hanging_cloth(cloth_n);
                 for family in &mut scene.constraints {
                     family.compliance = CLOTH_COMPLIANCE;
                 }
                 Ok(scene)
             }
-            CaseId::Tesseract => Ok(crate::scenes::tesseract()),
-            CaseId::Chain2d => Ok(crate::scenes::chain2d()),
+            CaseId::Tesseract => Ok(hyperpbd::scenes::tesseract()),
+            CaseId::Chain2d => Ok(hyperpbd::scenes::chain2d()),
         }
         .unwrap_or_else(|e| unreachable!("reference scenes are valid: {e}"));
         scene.dt = 1.0 / 60.0;
@@ -249,7 +249,7 @@ impl CaseId {
     /// (the cloth only: `scenes::hanging_cloth` as shipped).
     pub fn rigid_variant(self, substeps: u32, iterations: u32, cloth_n: usize) -> Option<Scene> {
         (self == CaseId::Cloth).then(|| {
-            let mut scene = crate::scenes::hanging_cloth(cloth_n);
+            let mut scene = hyperpbd::scenes::hanging_cloth(cloth_n);
             scene.substeps = substeps;
             scene.iterations = iterations;
             scene

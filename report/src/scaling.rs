@@ -12,9 +12,10 @@
 //!           (submission, dispatch, read-back) still dominate
 //! ```
 
-use super::timing::{BackendKind, median, time_per_step};
-use super::{Config, Progress};
-use hyperpbd_core::{Plan, State};
+use crate::config::Config;
+use crate::progress::Progress;
+use crate::timing::{load, median, time_per_step};
+use hyperpbd::{BackendKind, Plan, State};
 use serde::Serialize;
 
 /// One size on one backend.
@@ -77,7 +78,7 @@ pub fn fit_power_law(xy: &[(f64, f64)]) -> Option<(f64, f64)> {
 pub fn run(config: &Config, progress: &mut Progress) -> (Vec<ScalingPoint>, Vec<Fit>) {
     let mut points = Vec::new();
     for &n in &config.scaling_sizes {
-        let scene = crate::scenes::hanging_cloth(n);
+        let scene = hyperpbd::scenes::hanging_cloth(n);
         let plan = match Plan::compile(&scene) {
             Ok(p) => p,
             Err(e) => {
@@ -99,7 +100,7 @@ pub fn run(config: &Config, progress: &mut Progress) -> (Vec<ScalingPoint>, Vec<
                 samples: Vec::new(),
                 note: None,
             };
-            if backend == BackendKind::CpuF64 && n > config.cpu_scaling_max {
+            if backend == BackendKind::Cpu && n > config.cpu_scaling_max {
                 point.note = Some(format!(
                     "CPU stops at n = {} in this mode",
                     config.cpu_scaling_max
@@ -107,7 +108,7 @@ pub fn run(config: &Config, progress: &mut Progress) -> (Vec<ScalingPoint>, Vec<
                 points.push(point);
                 continue;
             }
-            match backend.load(plan.clone(), &initial).and_then(|mut b| {
+            match load(backend, plan.clone(), &initial).and_then(|mut b| {
                 time_per_step(b.as_mut(), &initial, config.reps, config.time_target)
             }) {
                 Ok(samples) => {

@@ -22,7 +22,7 @@
 //!           explicitly must compile to the very same plan as omitting it
 //! ```
 
-use hyperpbd_core::{
+use hyperpbd::{
     Collisions, Convergence, IncrementalPotentialSettings, Kernel, Obstacle, Plan, Scene, Solver,
 };
 
@@ -53,7 +53,7 @@ pub const MARGIN: f64 = 0.01;
 
 /// The balls with no collisions on a frictionless floor.
 pub fn balls(side: usize, height: usize) -> Scene {
-    let mut s = crate::scenes::column3d(side, height);
+    let mut s = hyperpbd::scenes::column3d(side, height);
     s.collisions = None;
     for o in &mut s.obstacles {
         if let Obstacle::Hyperplane { friction, .. } = o {

@@ -1,4 +1,4 @@
-//! Criterion timings behind `hyperpbd accuracy` (src/accuracy/).
+//! Criterion timings behind the accuracy report (`hyperpbd-report`, report/src/).
 //!
 //! ```text
 //! accuracy/{backend}/{case}/s{S}i{I}   one step (1/60 s) of the accuracy
@@ -6,7 +6,7 @@
 //!                                      hanging), pendulum, tesseract, at
 //!                                      S substeps × I iterations
 //! effects/{backend}/{k}                one step of rung k of the effect
-//!                                      ladder (accuracy::effects::ladder(32):
+//!                                      ladder (effects::ladder(32):
 //!                                      0 no forces … 5 full cloth; 6–8 controls)
 //! ```
 //! The report command takes medians of its own repetitions; this bench
@@ -17,12 +17,12 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use hyperpbd::accuracy::{BackendKind, CaseId, effects, timing::BACKENDS};
-use hyperpbd::{Backend, Plan, Scene, State};
+use hyperpbd::{Backend, BackendKind, Plan, Scene, State};
+use hyperpbd_report::{CaseId, effects};
 
 fn load(scene: &Scene, backend: BackendKind) -> Option<Box<dyn Backend>> {
     let plan = Plan::compile(scene).expect("reference scenes compile");
-    match backend.load(plan, &State::from_scene(scene)) {
+    match hyperpbd::load(plan, &State::from_scene(scene), backend) {
         Ok(mut b) => {
             b.step().expect("warm-up step");
             Some(b)
@@ -42,7 +42,7 @@ fn sweep(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(2));
     let configs = [(1, 1), (4, 1), (16, 1), (4, 4), (16, 4)];
     for case in [CaseId::Cloth, CaseId::Pendulum, CaseId::Tesseract] {
-        for backend in BACKENDS {
+        for backend in BackendKind::ALL {
             for (s, i) in configs {
                 if !case.uses_iterations() && i > 1 {
                     continue;
@@ -72,7 +72,7 @@ fn effect_ladder(c: &mut Criterion) {
         .warm_up_time(Duration::from_millis(200))
         .measurement_time(Duration::from_secs(2));
     let ladder = effects::ladder(32);
-    for backend in BACKENDS {
+    for backend in BackendKind::ALL {
         for (k, (_, scene, _)) in ladder.iter().enumerate() {
             let Some(mut b) = load(scene, backend) else {
                 break;

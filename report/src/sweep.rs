@@ -11,48 +11,14 @@
 //! drift     (E_end − E_0) / E_scale for the conservative cases
 //! ```
 
-use super::cases::{Answer, CaseId, Observed, energy, relative_position_error};
-use super::timing::{BackendKind, median, simulate};
-use super::{Config, Progress};
-use hyperpbd_core::{Plan, State};
+use crate::cases::{Answer, CaseId, Observed, energy, relative_position_error};
+use crate::config::Config;
+use crate::pareto::mark_frontiers;
+use crate::point::Point;
+use crate::progress::Progress;
+use crate::timing::{load, median, simulate};
+use hyperpbd::{BackendKind, Plan, Scene, State};
 use serde::Serialize;
-
-/// One measured configuration.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Point {
-    /// The case.
-    pub case: CaseId,
-    /// The backend.
-    pub backend: BackendKind,
-    /// Substeps per step.
-    pub substeps: u32,
-    /// Iterations per substep.
-    pub iterations: u32,
-    /// Median wall ms per simulated second.
-    pub ms_per_sim_second: f64,
-    /// Fastest rep.
-    pub ms_min: f64,
-    /// Slowest rep.
-    pub ms_max: f64,
-    /// Reps run (fewer than configured for long runs).
-    pub reps: usize,
-    /// The case's error measure (None when it could not be measured).
-    pub error: Option<f64>,
-    /// Largest constraint violation over the run.
-    pub residual: f64,
-    /// Relative energy drift (conservative cases only).
-    pub energy_drift: Option<f64>,
-    /// On its backend's Pareto frontier.
-    pub frontier: bool,
-    /// Nothing moved at the end: every dynamic velocity exactly 0 in a
-    /// scene with gravity (f32 at many substeps: h·|v| is below half an ulp
-    /// of x, so x never changes). A frozen run can sit close to a
-    /// near-static reference by accident; it is kept off frontiers and
-    /// headlines.
-    pub frozen: bool,
-    /// Why the error is missing, or anything odd (not reproducible).
-    pub note: Option<String>,
-}
 
 /// The converged reference of a case without a closed form.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -90,15 +56,15 @@ pub struct CaseResult {
     pub reference: Option<Reference>,
 }
 
-fn compile(scene: &hyperpbd_core::Scene) -> Result<Plan, String> {
+fn compile(scene: &Scene) -> Result<Plan, String> {
     Plan::compile(scene).map_err(|e| e.to_string())
 }
 
 /// Final state of `scene` on the CPU after `frames`, and wall ms per
 /// simulated second.
-fn cpu_run(scene: &hyperpbd_core::Scene, frames: u64) -> Result<(State, f64), String> {
+fn cpu_run(scene: &Scene, frames: u64) -> Result<(State, f64), String> {
     let initial = State::from_scene(scene);
-    let mut b = BackendKind::CpuF64.load(compile(scene)?, &initial)?;
+    let mut b = load(BackendKind::Cpu, compile(scene)?, &initial)?;
     let sim = simulate(b.as_mut(), &initial, frames, 1, f64::INFINITY, false)?;
     Ok((
         sim.final_state,
@@ -211,7 +177,7 @@ pub fn run_case(
             }
         }
     }
-    super::pareto::mark_frontiers(&mut result.points);
+    mark_frontiers(&mut result.points);
     Ok(result)
 }
 
@@ -236,7 +202,7 @@ fn measure(
     let case = cx.case;
     let scene = case.scene(substeps, iterations, config.cloth_n);
     let initial = State::from_scene(&scene);
-    let mut b = backend.load(compile(&scene)?, &initial)?;
+    let mut b = load(backend, compile(&scene)?, &initial)?;
     let mut point = Point {
         case,
         backend,

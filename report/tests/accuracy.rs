@@ -1,4 +1,4 @@
-//! `hyperpbd accuracy` on a tiny subset: the files it writes and the
+//! The accuracy report (`hyperpbd-report`) on a tiny subset: the files it writes and the
 //! sanity of its numbers.
 //!
 //! One run (a few seconds) of the quick path narrowed to the pendulum, free
@@ -8,17 +8,19 @@
 //! math (zero crossings, power-law fit, Pareto frontier) is checked on
 //! inputs with known answers.
 
+#[path = "../../tests/common/mod.rs"]
 mod common;
 
-use hyperpbd::accuracy::cases::{CaseId, zero_crossings};
-use hyperpbd::accuracy::effects::{self, EffectRow};
-use hyperpbd::accuracy::granular_effects;
-use hyperpbd::accuracy::pareto::frontier;
-use hyperpbd::accuracy::report::{EFFECTS_BEGIN, EFFECTS_END, README_BEGIN, README_END};
-use hyperpbd::accuracy::scaling::fit_power_law;
-use hyperpbd::accuracy::sweep::Point;
-use hyperpbd::accuracy::{BackendKind, Config, Report, run};
+use hyperpbd::Precision;
 use hyperpbd::{Collisions, Kernel, Plan, Scene};
+use hyperpbd_report::cases::{CaseId, zero_crossings};
+use hyperpbd_report::effects::{self, EffectRow};
+use hyperpbd_report::granular_effects;
+use hyperpbd_report::pareto::frontier;
+use hyperpbd_report::point::Point;
+use hyperpbd_report::readme::{EFFECTS_BEGIN, EFFECTS_END, README_BEGIN, README_END};
+use hyperpbd_report::scaling::fit_power_law;
+use hyperpbd_report::{BackendKind, Config, Report, run};
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
@@ -45,7 +47,7 @@ fn report() -> &'static (Report, Config) {
         config.readme = Some(readme);
         config.progress = false;
         config.cases = vec![CaseId::Pendulum, CaseId::FreeFall, CaseId::Cloth, CaseId::Chain2d];
-        config.backends = vec![BackendKind::CpuF64, BackendKind::GpuF32];
+        config.backends = vec![BackendKind::Cpu, BackendKind::Gpu(Precision::F32)];
         config.substeps = vec![1, 4, 16];
         config.iterations = vec![1, 2];
         config.cloth_n = 4;
@@ -70,10 +72,11 @@ fn points(report: &Report, case: CaseId, backend: BackendKind) -> Vec<&Point> {
 }
 
 fn gpu_ran(report: &Report) -> bool {
-    report
-        .cases
-        .iter()
-        .any(|c| c.points.iter().any(|p| p.backend == BackendKind::GpuF32))
+    report.cases.iter().any(|c| {
+        c.points
+            .iter()
+            .any(|p| p.backend == BackendKind::Gpu(Precision::F32))
+    })
 }
 
 #[test]
@@ -172,7 +175,7 @@ fn readme_section_is_replaced_in_place_and_idempotently() {
     );
     // Writing again leaves exactly one section.
     let mut again = report.clone();
-    hyperpbd::accuracy::report::write(&mut again, config).expect("rewrite");
+    hyperpbd_report::write::write(&mut again, config).expect("rewrite");
     let text = std::fs::read_to_string(readme).expect("readme");
     assert_eq!(text.matches(README_BEGIN).count(), 1);
     assert_eq!(text.matches(README_END).count(), 1);
@@ -184,7 +187,7 @@ fn readme_section_is_replaced_in_place_and_idempotently() {
 #[test]
 fn pendulum_error_decreases_with_substeps() {
     let (report, _) = report();
-    let cpu = points(report, CaseId::Pendulum, BackendKind::CpuF64);
+    let cpu = points(report, CaseId::Pendulum, BackendKind::Cpu);
     assert_eq!(cpu.len(), 3);
     for pair in cpu.windows(2) {
         let (a, b) = (pair[0].error.expect("error"), pair[1].error.expect("error"));
@@ -226,7 +229,7 @@ fn free_fall_error_is_the_closed_form_discretisation_error() {
     let t: f64 = 1.0;
     let exact = [1.0 * t, 5.0 * t - 0.5 * G * t * t, 0.5 * t];
     let travel = exact.iter().map(|x| x * x).sum::<f64>().sqrt();
-    for p in points(report, CaseId::FreeFall, BackendKind::CpuF64) {
+    for p in points(report, CaseId::FreeFall, BackendKind::Cpu) {
         let h = 1.0 / 60.0 / f64::from(p.substeps);
         let expected = 0.5 * G * h * t / travel;
         let rel = (p.error.expect("error") - expected).abs() / expected;
@@ -257,7 +260,7 @@ fn converged_cases_approach_their_reference() {
             .as_ref()
             .expect("converged case has a reference");
         assert_eq!(reference.substeps, 16 * 16);
-        let cpu = points(report, case, BackendKind::CpuF64);
+        let cpu = points(report, case, BackendKind::Cpu);
         for i in [1, 2] {
             let errors: Vec<f64> = cpu
                 .iter()
@@ -303,7 +306,7 @@ fn every_point_is_timed_and_frontiers_exist() {
         assert!(
             c.points
                 .iter()
-                .any(|p| p.frontier && p.backend == BackendKind::CpuF64),
+                .any(|p| p.frontier && p.backend == BackendKind::Cpu),
             "{}: no frontier",
             c.case.name()
         );
@@ -326,8 +329,8 @@ fn gpu_points_agree_with_cpu_where_discretisation_dominates() {
         eprintln!("SKIPPED: no adapter (gpu points): {:?}", report.notices);
         return;
     }
-    let cpu = points(report, CaseId::Pendulum, BackendKind::CpuF64);
-    let gpu = points(report, CaseId::Pendulum, BackendKind::GpuF32);
+    let cpu = points(report, CaseId::Pendulum, BackendKind::Cpu);
+    let gpu = points(report, CaseId::Pendulum, BackendKind::Gpu(Precision::F32));
     let (a, b) = (cpu[0].error.expect("cpu"), gpu[0].error.expect("gpu"));
     eprintln!(
         "pendulum s1: cpu {a:e}, gpu-f32 {b:e}: difference {:e} / bound {:e}",
@@ -375,7 +378,7 @@ fn effect_controls_compile_away_and_effects_add_kernels() {
         assert!(
             row.ms
                 .iter()
-                .any(|(b, t)| *b == BackendKind::CpuF64 && t.is_some_and(|t| t > 0.0)),
+                .any(|(b, t)| *b == BackendKind::Cpu && t.is_some_and(|t| t > 0.0)),
             "{}",
             row.label
         );
@@ -429,7 +432,7 @@ fn collision_and_barrier_rows_are_measured_with_controls() {
     assert!(barrier.control_of.is_none() && barrier.same_plan.is_none());
     for row in &balls {
         for (backend, t) in &row.ms {
-            let ran = *backend == BackendKind::CpuF64 || gpu_ran(report);
+            let ran = *backend == BackendKind::Cpu || gpu_ran(report);
             assert!(
                 !ran || t.is_some_and(|t| t > 0.0),
                 "{} on {}: {t:?}",
@@ -493,7 +496,7 @@ fn effects_only_run_leaves_the_rest_of_the_report_alone() {
     config.readme = Some(readme.clone());
     config.progress = false;
     config.effects_only = true;
-    config.backends = vec![BackendKind::CpuF64];
+    config.backends = vec![BackendKind::Cpu];
     config.effects_n = 4;
     config.effects_balls = (2, 2);
     config.effects_ball_steps = 2;
@@ -526,14 +529,14 @@ fn scaling_is_measured_and_fitted() {
     let cpu: Vec<_> = report
         .scaling
         .iter()
-        .filter(|p| p.backend == BackendKind::CpuF64)
+        .filter(|p| p.backend == BackendKind::Cpu)
         .collect();
     assert_eq!(cpu.len(), 2);
     assert!(cpu.iter().all(|p| p.ms_per_step.is_some_and(|t| t > 0.0)));
     let fit = report
         .fits
         .iter()
-        .find(|f| f.backend == BackendKind::CpuF64)
+        .find(|f| f.backend == BackendKind::Cpu)
         .expect("cpu fit");
     // 4× the particles: the exponent of a real measurement is positive and
     // not absurd (≈ 1 expected; generous for a noisy shared machine).
@@ -580,7 +583,7 @@ fn frontier_keeps_only_undominated_points() {
     let mk = |t: f64, e: f64| Point {
         ms_per_sim_second: t,
         error: Some(e),
-        backend: BackendKind::CpuF64,
+        backend: BackendKind::Cpu,
         ..template.clone()
     };
     let pts = vec![
@@ -591,13 +594,13 @@ fn frontier_keeps_only_undominated_points() {
         mk(10.0, 1e-2),
         mk(20.0, 1e-4),
     ];
-    assert_eq!(frontier(&pts, BackendKind::CpuF64), vec![0, 3, 5]);
+    assert_eq!(frontier(&pts, BackendKind::Cpu), vec![0, 3, 5]);
     // A frozen point is never on a frontier, however small its error.
     let mut frozen = pts.clone();
     frozen.push(Point {
         frozen: true,
         ..mk(2.5, 1e-9)
     });
-    assert_eq!(frontier(&frozen, BackendKind::CpuF64), vec![0, 3, 5]);
-    assert!(frontier(&pts, BackendKind::GpuF64).is_empty());
+    assert_eq!(frontier(&frozen, BackendKind::Cpu), vec![0, 3, 5]);
+    assert!(frontier(&pts, BackendKind::Gpu(Precision::F64)).is_empty());
 }

@@ -1,4 +1,4 @@
-//! Backends by name, and the timed runs every section shares.
+//! Loading a backend, and the timed runs every section shares.
 //!
 //! ```text
 //! warm-up   one untimed step (first dispatches, page faults), then the
@@ -14,72 +14,13 @@
 //! so all reps compute the same numbers; the final-state hashes are compared
 //! to prove it.
 
-use hyperpbd_core::{Backend, Plan, State};
-use hyperpbd_cpu::CpuBackend;
-use hyperpbd_gpu::{GpuBackend, GpuBarrierBackend, Precision};
-use serde::Serialize;
+use hyperpbd::{Backend, BackendKind, Plan, State};
 use std::time::Instant;
 
-/// Which backend runs a point.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
-pub enum BackendKind {
-    /// The f64 CPU golden path.
-    #[serde(rename = "cpu-f64")]
-    CpuF64,
-    /// wgpu kernels in f32.
-    #[serde(rename = "gpu-f32")]
-    GpuF32,
-    /// wgpu kernels in f64.
-    #[serde(rename = "gpu-f64")]
-    GpuF64,
-}
-
-/// Every backend, in report order.
-pub const BACKENDS: [BackendKind; 3] = [
-    BackendKind::CpuF64,
-    BackendKind::GpuF32,
-    BackendKind::GpuF64,
-];
-
-impl BackendKind {
-    /// `cpu-f64`, `gpu-f32`, `gpu-f64`.
-    pub fn name(self) -> &'static str {
-        match self {
-            BackendKind::CpuF64 => "cpu-f64",
-            BackendKind::GpuF32 => "gpu-f32",
-            BackendKind::GpuF64 => "gpu-f64",
-        }
-    }
-
-    /// Parses [`BackendKind::name`].
-    pub fn parse(name: &str) -> Option<BackendKind> {
-        BACKENDS.into_iter().find(|b| b.name() == name)
-    }
-
-    /// The GPU precision, `None` for the CPU.
-    pub fn precision(self) -> Option<Precision> {
-        match self {
-            BackendKind::CpuF64 => None,
-            BackendKind::GpuF32 => Some(Precision::F32),
-            BackendKind::GpuF64 => Some(Precision::F64),
-        }
-    }
-
-    /// Loads `plan` with `state` (on the GPU, a barrier-path plan goes to
-    /// [`GpuBarrierBackend`]; [`GpuBackend`] refuses it).
-    pub fn load(self, plan: Plan, state: &State) -> Result<Box<dyn Backend>, String> {
-        match self.precision() {
-            None => Ok(Box::new(
-                CpuBackend::new(plan, state).map_err(|e| e.to_string())?,
-            )),
-            Some(p) if plan.incremental_potential.is_some() => Ok(Box::new(
-                GpuBarrierBackend::new(plan, state, p).map_err(|e| e.to_string())?,
-            )),
-            Some(p) => Ok(Box::new(
-                GpuBackend::new(plan, state, p).map_err(|e| e.to_string())?,
-            )),
-        }
-    }
+/// Loads `plan` with `state` on `backend` ([`hyperpbd::load`]), the error
+/// as text.
+pub fn load(backend: BackendKind, plan: Plan, state: &State) -> Result<Box<dyn Backend>, String> {
+    hyperpbd::load(plan, state, backend).map_err(|e| e.to_string())
 }
 
 /// Median (mean of the middle two for an even count); NaN when empty.

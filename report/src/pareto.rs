@@ -11,8 +11,8 @@
 //!   configuration, never an interpolation between two)
 //! ```
 
-use super::sweep::Point;
-use super::timing::BackendKind;
+use crate::point::Point;
+use hyperpbd::BackendKind;
 
 /// Indices of the frontier points among `points` of `backend`, fastest
 /// first. Points without a finite error are never on it.
@@ -48,7 +48,7 @@ pub fn mark_frontiers(points: &mut [Point]) {
     for p in points.iter_mut() {
         p.frontier = false;
     }
-    for backend in super::timing::BACKENDS {
+    for backend in BackendKind::ALL {
         for i in frontier(points, backend) {
             points[i].frontier = true;
         }

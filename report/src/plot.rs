@@ -6,10 +6,10 @@
 //! system fonts. Every figure carries a footer naming the machine and the
 //! adapter that produced it.
 
-use super::pareto::frontier;
-use super::scaling::{Fit, ScalingPoint};
-use super::sweep::CaseResult;
-use super::timing::{BACKENDS, BackendKind};
+use crate::pareto::frontier;
+use crate::scaling::{Fit, ScalingPoint};
+use crate::sweep::CaseResult;
+use hyperpbd::{BackendKind, Precision};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::sync::OnceLock;
@@ -36,9 +36,9 @@ fn font() -> Result<(), String> {
 /// A backend's colour.
 pub fn color(backend: BackendKind) -> RGBColor {
     match backend {
-        BackendKind::CpuF64 => RGBColor(31, 119, 180),
-        BackendKind::GpuF32 => RGBColor(230, 110, 0),
-        BackendKind::GpuF64 => RGBColor(44, 160, 44),
+        BackendKind::Cpu | BackendKind::Auto => RGBColor(31, 119, 180),
+        BackendKind::Gpu(Precision::F32) => RGBColor(230, 110, 0),
+        BackendKind::Gpu(Precision::F64) => RGBColor(44, 160, 44),
     }
 }
 
@@ -183,7 +183,7 @@ fn pareto_panel(
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RGBColor(170, 0, 170)));
     }
     let radius = if big { 5 } else { 3 };
-    for backend in BACKENDS {
+    for backend in BackendKind::ALL {
         let c = color(backend);
         let pts: Vec<(f64, f64)> = case
             .points
@@ -322,7 +322,7 @@ pub fn scaling(
             .light_line_style(RGBColor(235, 235, 235))
             .draw()
             .map_err(err)?;
-        for backend in BACKENDS {
+        for backend in BackendKind::ALL {
             let c = color(backend);
             let pts: Vec<(f64, f64)> = points
                 .iter()
