@@ -57,6 +57,7 @@
 mod common;
 
 use common::Lcg;
+use common::bound::print_bound;
 
 use common::gpu::adapter_or_skip;
 use hyperpbd::compare::{Divergence, ErrorModel, coordinate_scale, max_abs_diff};
@@ -309,7 +310,12 @@ fn print_row(
     bound: String,
     p: Precision,
 ) {
-    println!("BOUND | {scene} | {metric} | {frames} | {measured} | {bound} | {p}");
+    print_bound(
+        format_args!("{scene} | {metric} | {frames}"),
+        format_args!("{measured}"),
+        format_args!("{bound}"),
+        format_args!("{p}"),
+    );
 }
 
 /// Steps `scene` `frames` times on the CPU and on the GPU at `precision`,

@@ -30,7 +30,12 @@ pub struct CompareArgs {
     every: u64,
     /// Multiplies every bound (for tests: a factor below 1 makes the
     /// over-bound path reachable on a healthy GPU).
-    #[arg(long, default_value_t = 1.0, hide = true)]
+    #[arg(
+        long,
+        default_value_t = 1.0,
+        hide = true,
+        allow_negative_numbers = true
+    )]
     bound_factor: f64,
 }
 
