@@ -1,4 +1,7 @@
-//! `hyperpbd accuracy`: what accuracy costs in time.
+//! hyperpbd-report: what accuracy costs in time — the accuracy/effects
+//! report, an application kept out of the `hyperpbd` facade (its figures
+//! need plotters, png and an embedded font). The `hyperpbd-report` binary
+//! runs it (`scripts/accuracy.sh`).
 //!
 //! ```text
 //! sweep     case × backend (cpu-f64, gpu-f32, gpu-f64) × substeps × iterations
@@ -19,7 +22,10 @@
 //!           accuracy_cloth,scaling}.png, OUT/figures/{accuracy,effects}.json;
 //!           optionally the README section between the accuracy markers
 //!           (effects-only runs: effects.md, effects.json and the README's
-//!           effect lines only)                                      report.rs
+//!           effect lines only)             write.rs (outputs.rs: the files)
+//!           accuracy.md markdown.rs, effects.md effects_markdown.rs,
+//!           the README splice readme.rs, shared wording format.rs and
+//!           headlines.rs
 //! ```
 //! Timing (timing.rs): only `Backend::step` is timed; every point is run
 //! `reps` times from the same initial state and the median is reported.
@@ -76,7 +82,7 @@ pub fn run(config: &Config) -> Result<Report, AccuracyError> {
         notes: Vec::new(),
     };
     progress.line(&format!(
-        "hyperpbd accuracy ({}): {}",
+        "hyperpbd-report ({}): {}",
         if config.quick { "quick" } else { "full" },
         machine.footer()
     ));

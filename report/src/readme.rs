@@ -186,7 +186,7 @@ pub fn readme_section(report: &Report, out: &str) -> String {
         s,
         "\n{}\n\nMeasured on: {}. The full report — every point, the scaling table and what each effect \
          costs — is [{out}/{MARKDOWN}]({out}/{MARKDOWN}); `scripts/accuracy.sh` regenerates all of it \
-         (`cargo run --release -- accuracy --quick` is the under-two-minute smoke test; it writes `target/accuracy/`).",
+         (`cargo run --release -p hyperpbd-report -- --quick` is the under-two-minute smoke test; it writes `target/accuracy/`).",
         noise_note(report),
         report.machine.footer(),
     );
