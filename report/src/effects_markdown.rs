@@ -9,7 +9,7 @@
 //! ```
 
 use crate::effects::{self, EffectRow};
-use crate::format::{load_average, ms, ms_signed};
+use crate::format::{load_average, ms, ms_signed, table_head};
 use crate::granular_effects;
 use crate::measured::Report;
 use crate::outputs::EFFECTS_JSON_NAME;
@@ -27,18 +27,16 @@ fn effect_table(s: &mut String, report: &Report, group: &str) {
                 .any(|r| r.ms.iter().any(|(k, _)| *k == b))
         })
         .collect();
-    let _ = write!(
+    table_head(
         s,
-        "| scene | stages per substep | kernel calls / step | projections / step |"
+        (
+            "| scene | stages per substep | kernel calls / step | projections / step |",
+            "|---|---|---:|---:|",
+        ),
+        &backends,
+        |b| format!("{} ms / step", b.name()),
+        "---:|",
     );
-    for b in &backends {
-        let _ = write!(s, " {} ms / step |", b.name());
-    }
-    let _ = write!(s, "\n|---|---|---:|---:|");
-    for _ in &backends {
-        let _ = write!(s, "---:|");
-    }
-    s.push('\n');
     let time = |row: &EffectRow, b: BackendKind| {
         row.ms.iter().find(|(k, _)| *k == b).and_then(|(_, t)| *t)
     };

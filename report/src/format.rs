@@ -7,6 +7,8 @@
 //! ```
 
 use crate::measured::Report;
+use hyperpbd::BackendKind;
+use std::fmt::Write as _;
 
 /// ms with three significant digits.
 pub fn ms(x: f64) -> String {
@@ -98,4 +100,25 @@ pub fn footer(report: &Report) -> Vec<String> {
             load_average(report.machine.load_end),
         ),
     ]
+}
+
+/// A markdown table head: the fixed `columns` and their `rule`, then one
+/// column per backend titled `title(backend)` with `backend_rule`.
+pub fn table_head(
+    s: &mut String,
+    (columns, rule): (&str, &str),
+    backends: &[BackendKind],
+    title: impl Fn(BackendKind) -> String,
+    backend_rule: &str,
+) {
+    s.push_str(columns);
+    for &b in backends {
+        let _ = write!(s, " {} |", title(b));
+    }
+    s.push('\n');
+    s.push_str(rule);
+    for _ in backends {
+        s.push_str(backend_rule);
+    }
+    s.push('\n');
 }

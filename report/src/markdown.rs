@@ -4,7 +4,7 @@
 
 use crate::cases::CaseId;
 use crate::config::Config;
-use crate::format::{cell, load_average, ms, noise_note, sci, sci_short};
+use crate::format::{cell, load_average, ms, noise_note, sci, sci_short, table_head};
 use crate::headlines::{headline_cell, headline_for, headline_sentence};
 use crate::measured::Report;
 use crate::outputs::{CLOTH, EFFECTS_MARKDOWN, JSON, PARETO, SCALING};
@@ -56,17 +56,16 @@ pub fn markdown(report: &Report, config: &Config) -> String {
             .collect();
         let _ = write!(
             s,
-            "Cheapest measured configuration reaching error ≤ {} (wall ms per simulated second):\n\n| case | error measure |",
+            "Cheapest measured configuration reaching error ≤ {} (wall ms per simulated second):\n\n",
             sci_short(report.target)
         );
-        for b in &backends {
-            let _ = write!(s, " {} |", b.name());
-        }
-        let _ = write!(s, "\n|---|---|");
-        for _ in &backends {
-            let _ = write!(s, "---|");
-        }
-        s.push('\n');
+        table_head(
+            &mut s,
+            ("| case | error measure |", "|---|---|"),
+            &backends,
+            |b| b.name().to_string(),
+            "---|",
+        );
         for c in &report.cases {
             let _ = write!(s, "| {} | {} |", c.case.name(), cell(&c.metric));
             for &b in &backends {
@@ -193,15 +192,16 @@ pub fn markdown(report: &Report, config: &Config) -> String {
             .into_iter()
             .filter(|&b| report.scaling.iter().any(|p| p.backend == b))
             .collect();
-        let _ = write!(s, "\n| n | particles | projections / step |");
-        for b in &backends {
-            let _ = write!(s, " {} ms / step |", b.name());
-        }
-        let _ = write!(s, "\n|---:|---:|---:|");
-        for _ in &backends {
-            let _ = write!(s, "---:|");
-        }
-        s.push('\n');
+        table_head(
+            &mut s,
+            (
+                "\n| n | particles | projections / step |",
+                "|---:|---:|---:|",
+            ),
+            &backends,
+            |b| format!("{} ms / step", b.name()),
+            "---:|",
+        );
         for &n in &config.scaling_sizes {
             let Some(first) = report.scaling.iter().find(|p| p.n == n) else {
                 continue;
