@@ -8,7 +8,8 @@
 //!                        are always printed; any OVER frame exits 3
 //! ```
 
-use super::{CliError, load_scene, with_sources};
+use super::error::{CliError, with_sources};
+use super::load::load_scene;
 use hyperpbd::compare::{Divergence, DivergenceModel, ErrorModel, coordinate_scale};
 use hyperpbd::compare_barrier::BarrierErrorModel;
 use hyperpbd::{Backend, BackendKind, Plan, Precision, SolverPlan, State};

@@ -3,14 +3,18 @@
 mod broken_pipe;
 mod compare;
 mod describe;
+mod error;
+mod load;
 mod output;
 mod render;
 mod run;
 
 pub use broken_pipe::exit_141_on_broken_pipe;
+pub use error::CliError;
+use load::{load_scene, parse_backend};
 
 use clap::{Parser, Subcommand};
-use hyperpbd::{Backend, BackendKind, Plan, Scene, State};
+use hyperpbd::{BackendKind, Plan};
 use std::path::PathBuf;
 
 /// hyperpbd: N-dimensional XPBD particle physics (f64 CPU golden path,
@@ -58,37 +62,6 @@ enum Command {
         out: Option<PathBuf>,
     },
 }
-
-/// `--backend NAME` (see [`BackendKind`]'s names).
-pub fn parse_backend(name: &str) -> Result<BackendKind, String> {
-    name.parse()
-}
-
-/// A CLI failure with its exit code.
-#[derive(Debug, thiserror::Error)]
-pub enum CliError {
-    /// Bad input: scene file, options.
-    #[error("{0}")]
-    Input(String),
-    /// The simulation failed (a step error); nothing was written.
-    #[error("{0}")]
-    Simulation(String),
-    /// Writing output failed.
-    #[error("{0}")]
-    Output(String),
-}
-
-impl CliError {
-    /// 2 for bad input, 3 for a failed simulation, 4 for output errors.
-    pub fn exit_code(&self) -> u8 {
-        match self {
-            CliError::Input(_) => 2,
-            CliError::Simulation(_) => 3,
-            CliError::Output(_) => 4,
-        }
-    }
-}
-
 pub fn dispatch(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Run(args) => run::run(&args),
@@ -124,11 +97,6 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
     }
 }
 
-/// Reads and validates a scene file; errors name the field.
-pub fn load_scene(path: &std::path::Path) -> Result<Scene, CliError> {
-    Scene::from_json_file(path).map_err(|e| CliError::Input(format!("{}: {e}", path.display())))
-}
-
 fn info() {
     let adapters = hyperpbd::gpu::list_adapters();
     if adapters.is_empty() {
@@ -140,30 +108,4 @@ fn info() {
         println!("{a}");
     }
     println!("CPU golden backend: cpu-f64 (always available)");
-}
-
-/// Loads `plan` on the backend `kind` names ([`hyperpbd::load`]; `auto`
-/// says on stderr what it picked and why). A GPU that cannot run the plan
-/// is bad input for `--backend gpu`, never a silent CPU fallback.
-pub fn load_backend(
-    kind: BackendKind,
-    plan: Plan,
-    state: &State,
-) -> Result<Box<dyn Backend>, CliError> {
-    hyperpbd::load(plan, state, kind).map_err(|e| match kind {
-        BackendKind::Gpu(_) => CliError::Input(format!("--backend gpu: {e}")),
-        _ => CliError::Input(e.to_string()),
-    })
-}
-
-/// An error and every source under it, `: `-separated (a failed rollback
-/// names the step failure it could not undo).
-pub fn with_sources(error: &dyn std::error::Error) -> String {
-    let mut text = error.to_string();
-    let mut source = error.source();
-    while let Some(e) = source {
-        text.push_str(&format!(": {e}"));
-        source = e.source();
-    }
-    text
 }

@@ -2,7 +2,7 @@
 //! (`hyperpbd::atomic_file`: temporary file, fsync, rename) so a failed run
 //! never leaves a partial file behind.
 
-use super::CliError;
+use super::error::CliError;
 use hyperpbd::State;
 use hyperpbd::atomic_file::write_atomically;
 use std::path::Path;

@@ -5,8 +5,9 @@
 //! framed once over all recorded snapshots and drawn (see
 //! `hyperpbd-render` and docs/rendering.md).
 
+use super::error::CliError;
+use super::load::{load_backend, load_scene, parse_backend};
 use super::output::write_file;
-use super::{CliError, load_backend, load_scene, parse_backend};
 use hyperpbd::{BackendKind, Plan, Scene, State};
 use hyperpbd_render::{
     ColorBy, GifEncoder, Options, RenderError, Renderer, Snapshot, View, parse_axes,

@@ -1,7 +1,8 @@
 //! `hyperpbd run` and `hyperpbd demo`.
 
+use super::error::{CliError, with_sources};
+use super::load::{load_backend, load_scene, parse_backend};
 use super::output::{state_json, write_file};
-use super::{CliError, load_backend, load_scene, parse_backend, with_sources};
 use hyperpbd::atomic_file::AtomicFile;
 use hyperpbd::{Backend, BackendKind, Plan, Scene, State, StepReport};
 use indicatif::{ProgressBar, ProgressStyle};

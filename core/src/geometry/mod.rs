@@ -38,6 +38,11 @@ impl Scratch {
     }
 }
 
+/// Relative volume below which an oriented rest simplex counts as
+/// degenerate: |V| ≤ 1e-12 · (longest edge)^N / N!. Below that the
+/// constraint has no meaningful orientation to preserve.
+pub const DEGENERATE_VOLUME_RATIO: f64 = 1e-12;
+
 /// Factorial as f64 (exact up to 18!).
 pub fn factorial(k: usize) -> f64 {
     (1..=k).fold(1.0, |acc, i| acc * i as f64)
