@@ -308,3 +308,37 @@ impl BackendError {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::error::Error as _;
+
+    fn step_failure() -> BackendError {
+        StepError::NonFiniteParticle {
+            stage: StageName::Predict,
+            substep: 2,
+            particle: 7,
+        }
+        .into()
+    }
+
+    #[test]
+    fn a_failed_rollback_keeps_the_step_error_as_its_source() {
+        assert_eq!(step_failure().after_rollback(Ok(())), step_failure());
+        let lost = GpuError::DeviceLost {
+            message: "gone".into(),
+        };
+        let e = step_failure().after_rollback(Err(lost.clone()));
+        assert_eq!(
+            e,
+            BackendError::RollbackFailed {
+                rollback: lost,
+                original: Box::new(step_failure()),
+            }
+        );
+        let source = e.source().map(ToString::to_string);
+        assert_eq!(source, Some(step_failure().to_string()));
+        assert!(e.to_string().contains("GPU device lost: gone"), "{e}");
+    }
+}

@@ -129,3 +129,40 @@ fn demo_runs() {
     let out = hyperpbd_in(&dir.0, ["demo", "--frames", "10"]);
     assert_success(&out);
 }
+
+/// Outside a desktop session (no XDG_RUNTIME_DIR) Mesa's device-select
+/// Vulkan layer used to print `error: XDG_RUNTIME_DIR is invalid or not set
+/// in the environment.` twice per command; the GPU adapter code now keeps
+/// the layer quiet before the first instance (see gpu/src/adapter.rs), with
+/// no help from the caller's environment.
+#[test]
+fn gpu_commands_print_no_mesa_session_noise() {
+    let dir = TempDir::new("quiet");
+    let scene = dir.write("scene.json", EXAMPLE);
+    let commands: [&[&std::ffi::OsStr]; 3] = [
+        &["info".as_ref()],
+        &[
+            "run".as_ref(),
+            scene.as_os_str(),
+            "--frames".as_ref(),
+            "1".as_ref(),
+        ],
+        &[
+            "compare".as_ref(),
+            scene.as_os_str(),
+            "--frames".as_ref(),
+            "1".as_ref(),
+        ],
+    ];
+    for args in commands {
+        let out = Command::new(env!("CARGO_BIN_EXE_hyperpbd"))
+            .args(args)
+            .env_remove("NODEVICE_SELECT")
+            .env_remove("MESA_VK_DEVICE_SELECT")
+            .env_remove("XDG_RUNTIME_DIR")
+            .output()
+            .expect("run the hyperpbd binary");
+        let stderr = text(&out.stderr);
+        assert!(!stderr.contains("XDG_RUNTIME_DIR"), "{args:?}: {stderr}");
+    }
+}
