@@ -15,6 +15,7 @@ mod coloring;
 mod error;
 pub mod geometry;
 mod json;
+pub mod material;
 mod minimisation;
 mod plan;
 mod scene;
