@@ -31,7 +31,7 @@ pub fn cholesky(a: &[f64], n: usize, l: &mut [f64]) -> Result<(), NotPositiveDef
         for m in 0..j {
             d -= l[j * n + m] * l[j * n + m];
         }
-        if !(d > 0.0) {
+        if d.is_nan() || d <= 0.0 {
             return Err(NotPositiveDefinite {
                 column: j,
                 pivot: d,

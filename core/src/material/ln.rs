@@ -15,12 +15,14 @@
 //! operations in the same order. Defined for finite x > 0; other inputs
 //! give NaN (x ≤ 0, NaN) or +∞ (x = +∞), which the laws never pass.
 
-const LN2_HI: f64 = 6.931_471_803_691_238_164_90e-1;
-const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10;
+// The f64 values of the shader's literals 6.93147180369123816490e-01 and
+// 1.90821492927058770002e-10.
+const LN2_HI: f64 = 0.693_147_180_369_123_8;
+const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
 
 /// ln x by the arithmetic of `shaders/ln_f64.wgsl`.
 pub fn ln(x: f64) -> f64 {
-    if !(x > 0.0) {
+    if x.is_nan() || x <= 0.0 {
         return f64::NAN;
     }
     if x == f64::INFINITY {

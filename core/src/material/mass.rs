@@ -20,7 +20,7 @@ pub struct LumpedMass {
     pub masses: Vec<f64>,
     /// Σ_e ρ V_0(e).
     pub element_total: f64,
-    /// Σ_i masses[i].
+    /// Σ_i `masses[i]`.
     pub vertex_total: f64,
 }
 

@@ -36,7 +36,7 @@ pub(crate) fn neo_hookean(
             measure_ratio: ratio,
         });
     }
-    if !(ratio > 0.0) || !factored {
+    if ratio.is_nan() || ratio == 0.0 || !factored {
         return Err(LawRefusal::Collapsed {
             measure_ratio: ratio,
         });

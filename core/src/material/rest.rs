@@ -90,7 +90,7 @@ pub fn rest_element(
             norm2 += q[a * k + j] * q[a * k + j];
         }
         let u = norm2.sqrt();
-        if !(u > 0.0) {
+        if u.is_nan() || u <= 0.0 {
             return Err(DegenerateRest {
                 measure: 0.0,
                 floor,
@@ -139,7 +139,7 @@ impl RestShapes {
         elements: &[Vec<usize>],
         positions: &[f64],
     ) -> Result<RestShapes, MaterialError> {
-        if dim == 0 || positions.len() % dim != 0 {
+        if dim == 0 || !positions.len().is_multiple_of(dim) {
             return Err(MaterialError::PositionsLength {
                 len: positions.len(),
                 dim,

@@ -39,7 +39,7 @@ pub fn uniaxial_state(material: &Material, order: usize, stretch: f64) -> Option
         return None;
     }
     let (lateral_square, nominal_stress) = lateral_and_stress(material, order, stretch);
-    if !(lateral_square > 0.0) {
+    if lateral_square.is_nan() || lateral_square <= 0.0 {
         return None;
     }
     Some(UniaxialState {
