@@ -89,22 +89,35 @@ fn rest_simplex(dim: usize, k: usize, rng: &mut Lcg) -> Vec<f64> {
     points
 }
 
-/// The rest data of `points`.
-fn rest_of(points: &[f64], dim: usize) -> (Vec<f64>, f64) {
-    let k = points.len() / dim - 1;
-    let mut frame = vec![0.0; k * k];
-    let measure = rest_element(points, dim, &mut frame, &mut MaterialScratch::new()).expect("rest");
-    (frame, measure)
+/// The rest data of one element.
+struct Rest {
+    frame: Vec<f64>,
+    measure: f64,
+}
+
+impl Rest {
+    /// The rest data of `points`.
+    fn of(points: &[f64], dim: usize) -> Rest {
+        let k = points.len() / dim - 1;
+        let mut frame = vec![0.0; k * k];
+        let measure =
+            rest_element(points, dim, &mut frame, &mut MaterialScratch::new()).expect("rest");
+        Rest { frame, measure }
+    }
+
+    fn view(&self) -> RestView<'_> {
+        RestView {
+            frame: &self.frame,
+            measure: self.measure,
+        }
+    }
 }
 
 /// `rest` under x ↦ A x + b + per-vertex jitter, A = I + `amount`·noise,
 /// with J ∈ [0.3, 3] (redrawn otherwise).
 fn deform(rest: &[f64], dim: usize, amount: f64, rng: &mut Lcg) -> Vec<f64> {
-    let (frame, measure) = rest_of(rest, dim);
-    let view = RestView {
-        frame: &frame,
-        measure,
-    };
+    let element = Rest::of(rest, dim);
+    let view = element.view();
     loop {
         let mut a: Vec<f64> = (0..dim * dim).map(|_| amount * rng.next()).collect();
         for i in 0..dim {
@@ -172,11 +185,8 @@ fn energy_and_constraint_gradients_match_central_differences() {
                 let material = Material::new(law, k, 3.0, 0.35 / k as f64).expect("material");
                 for _ in 0..2 {
                     let rest = rest_simplex(dim, k, &mut rng);
-                    let (frame, measure) = rest_of(&rest, dim);
-                    let view = RestView {
-                        frame: &frame,
-                        measure,
-                    };
+                    let element = Rest::of(&rest, dim);
+                    let view = element.view();
                     let x = deform(&rest, dim, 0.3, &mut rng);
                     let mut scratch = MaterialScratch::new();
                     let mut g = vec![0.0; x.len()];
@@ -242,11 +252,8 @@ fn rigid_motions_carry_no_energy_and_no_force() {
             for k in 1..=dim {
                 let material = Material::new(law, k, 5.0, 0.2 / k as f64).expect("material");
                 let rest = rest_simplex(dim, k, &mut rng);
-                let (frame, measure) = rest_of(&rest, dim);
-                let view = RestView {
-                    frame: &frame,
-                    measure,
-                };
+                let element = Rest::of(&rest, dim);
+                let view = element.view();
                 let q = rotation(dim, &mut rng);
                 let b: Vec<f64> = (0..dim).map(|_| 2.0 * rng.next()).collect();
                 let mut x = Vec::with_capacity(rest.len());
@@ -261,9 +268,9 @@ fn rigid_motions_carry_no_energy_and_no_force() {
                 // N + k terms. NH cancels to first order in η
                 // (tr C − k − 2 ln J), StVK is second order (μ tr E² …).
                 let x_max = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                let r_max = frame.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                let r_max = element.frame.iter().fold(0.0f64, |m, v| m.max(v.abs()));
                 let eta = (dim + k) as f64 * EPS * (1.0 + x_max) * r_max;
-                let scale = measure * (material.lame.mu + material.lame.lambda.abs());
+                let scale = element.measure * (material.lame.mu + material.lame.lambda.abs());
                 let kk = (k * k) as f64;
                 let order = if law == Law::NeoHookean {
                     eta
@@ -299,11 +306,8 @@ fn gradients_sum_to_zero_and_constraint_vanishes_at_rest() {
             for k in 1..=dim {
                 let material = Material::new(law, k, 2.0, 0.1).expect("material");
                 let rest = rest_simplex(dim, k, &mut rng);
-                let (frame, measure) = rest_of(&rest, dim);
-                let view = RestView {
-                    frame: &frame,
-                    measure,
-                };
+                let element = Rest::of(&rest, dim);
+                let view = element.view();
                 let x = deform(&rest, dim, 0.4, &mut rng);
                 let mut g = vec![0.0; x.len()];
                 let mut s = MaterialScratch::new();
@@ -325,7 +329,7 @@ fn gradients_sum_to_zero_and_constraint_vanishes_at_rest() {
                 } else {
                     // Rounding left a tiny positive W: C∇C = ∇W still.
                     for (gc, g) in gc.iter().zip(&g) {
-                        approx::assert_abs_diff_eq!(c * gc, *g, epsilon = 1e-12 * measure);
+                        approx::assert_abs_diff_eq!(c * gc, *g, epsilon = 1e-12 * element.measure);
                     }
                     assert!(c < 1e-6, "{law} N = {dim} k = {k}: C = {c:e} at rest");
                 }
@@ -346,11 +350,8 @@ fn measure_ratio_flips_sign_on_inversion_and_neo_hookean_refuses() {
     for dim in 2..=8 {
         for k in 1..=dim {
             let rest = rest_simplex(dim, k, &mut rng);
-            let (frame, measure) = rest_of(&rest, dim);
-            let view = RestView {
-                frame: &frame,
-                measure,
-            };
+            let element = Rest::of(&rest, dim);
+            let view = element.view();
             let x = deform(&rest, dim, 0.3, &mut rng);
             let mut s = MaterialScratch::new();
             let j = measure_ratio(&x, dim, view, &mut s);
@@ -423,11 +424,8 @@ fn stretches_and_ratio_of_known_affine_maps() {
                 }
                 x.extend(apply(&q, dim, &apply(&p, dim, &z)));
             }
-            let (frame, measure) = rest_of(&rest, dim);
-            let view = RestView {
-                frame: &frame,
-                measure,
-            };
+            let element = Rest::of(&rest, dim);
+            let view = element.view();
             let m = deformation_measures(&x, dim, view, &mut MaterialScratch::new());
             assert!(m.eigen.converged, "{:?}", m.eigen);
             let mut sorted = sigma.clone();
@@ -483,11 +481,8 @@ fn uniaxial_closed_forms_match_the_elements_virtual_work() {
                     }
                     x.extend(apply(&p, dim, &z));
                 }
-                let (frame, measure) = rest_of(&rest, dim);
-                let view = RestView {
-                    frame: &frame,
-                    measure,
-                };
+                let element = Rest::of(&rest, dim);
+                let view = element.view();
                 let mut g = vec![0.0; x.len()];
                 element_energy(
                     &material,
@@ -505,9 +500,10 @@ fn uniaxial_closed_forms_match_the_elements_virtual_work() {
                         .sum()
                 };
                 let lame = material.lame;
-                let scale = measure * (lame.mu + lame.lambda) * (1.0 + s_ax * s_ax);
+                let scale = element.measure * (lame.mu + lame.lambda) * (1.0 + s_ax * s_ax);
                 let tolerance = 8.0 * (dim + k) as f64 * EPS * scale;
-                worst = worst.max((along(0) - measure * state.nominal_stress).abs() / tolerance);
+                worst = worst
+                    .max((along(0) - element.measure * state.nominal_stress).abs() / tolerance);
                 for a in 1..k {
                     worst = worst.max(along(a).abs() / tolerance);
                 }
@@ -524,21 +520,16 @@ fn uniaxial_closed_forms_match_the_elements_virtual_work() {
 
 #[test]
 fn arithmetic_ln_is_within_four_ulp_of_libm() {
-    let mut values = Vec::new();
-    for k in -600..=600 {
-        values.push(10f64.powf(k as f64 / 2.0));
-        values.push(1.7 * 10f64.powf(k as f64 / 2.0));
+    // Sixteen points per binade over the whole normal and subnormal range,
+    // and the neighbourhood of 1 where ln x → 0.
+    let mut values: Vec<f64> = (-1074 * 16..=1023 * 16)
+        .map(|i| libm::exp2(i as f64 / 16.0))
+        .collect();
+    for k in 1..=52 {
+        let t = libm::exp2(-(k as f64));
+        values.extend([1.0 + t, 1.0 - t / 2.0]);
     }
-    for k in 1..=15 {
-        let t = 10f64.powi(-k);
-        values.extend([
-            1.0 + t,
-            1.0 - t,
-            2f64.sqrt() * (1.0 + t),
-            0.5f64.sqrt() * (1.0 - t),
-        ]);
-    }
-    values.extend([1.0, 2.0, 0.5, f64::MIN_POSITIVE, 5e-324, f64::MAX]);
+    values.extend([f64::MIN_POSITIVE, f64::MAX]);
     let mut worst: f64 = 0.0;
     for &v in &values {
         let exact = libm::log(v);

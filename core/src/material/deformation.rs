@@ -20,6 +20,15 @@ use super::cholesky::cholesky;
 use super::{MaterialScratch, RestView};
 use crate::geometry::determinant;
 
+/// D = [x_1 − x_0 … x_k − x_0] of `points` into `edges` (N × k, row-major).
+pub(crate) fn edge_matrix(points: &[f64], dim: usize, k: usize, edges: &mut [f64]) {
+    for j in 0..k {
+        for a in 0..dim {
+            edges[a * k + j] = points[(j + 1) * dim + a] - points[a];
+        }
+    }
+}
+
 /// Fills `s.edges`, `s.image` (F̂) and `s.cauchy_green` (C) for the
 /// simplex `points` with rest frame `frame`; returns k.
 pub(crate) fn deform(points: &[f64], dim: usize, frame: &[f64], s: &mut MaterialScratch) -> usize {
@@ -31,11 +40,7 @@ pub(crate) fn deform(points: &[f64], dim: usize, frame: &[f64], s: &mut Material
         cauchy_green,
         ..
     } = s;
-    for j in 0..k {
-        for a in 0..dim {
-            edges[a * k + j] = points[(j + 1) * dim + a] - points[a];
-        }
-    }
+    edge_matrix(points, dim, k, edges);
     for a in 0..dim {
         for j in 0..k {
             let mut f = 0.0;

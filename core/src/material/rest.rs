@@ -19,6 +19,7 @@
 //! scene validation applies to oriented-measure elements.
 
 use super::cholesky::lower_triangular_inverse;
+use super::deformation::edge_matrix;
 use super::{MaterialError, MaterialScratch, RestView};
 use crate::DEGENERATE_VOLUME_RATIO;
 use crate::geometry::{determinant, factorial};
@@ -52,11 +53,7 @@ pub fn rest_element(
         square,
         ..
     } = scratch;
-    for j in 0..k {
-        for a in 0..dim {
-            edges[a * k + j] = points[(j + 1) * dim + a] - points[a];
-        }
-    }
+    edge_matrix(points, dim, k, edges);
     let mut longest: f64 = 0.0;
     for i in 0..=k {
         for j in i + 1..=k {
