@@ -10,7 +10,8 @@
 //!
 //! ```text
 //! rest edges     D_m = [X_1 − X_0 … X_k − X_0]        (N × k)
-//! rest metric    G_0 = D_mᵀ D_m = L Lᵀ                 (Cholesky, k × k)
+//! rest metric    G_0 = D_mᵀ D_m = L Lᵀ                 (k × k; L = Uᵀ from D_m = Q U,
+//!                                                      modified Gram–Schmidt, rest.rs)
 //! rest frame     R = L⁻ᵀ (upper triangular); for k = N its last column is
 //!                negated when det D_m < 0, so Q = D_m R has orthonormal
 //!                columns (Q ∈ SO(N) when k = N)
