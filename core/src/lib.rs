@@ -14,6 +14,7 @@ pub mod builders;
 mod coloring;
 mod error;
 pub mod geometry;
+pub mod implicit;
 mod json;
 pub mod material;
 mod minimisation;
