@@ -67,7 +67,7 @@ pub fn trial_rounding(x: &[f64], delta: &[f64], epsilon: f64) -> f64 {
 /// t* from a certified lower distance `low` = d0 − δd and approach bound
 /// `approach`.
 fn time(low: f64, approach: f64) -> f64 {
-    if !(low > 0.0) {
+    if low.is_nan() || low <= 0.0 {
         return 0.0;
     }
     if approach > 0.0 {
@@ -96,7 +96,7 @@ pub fn pair_time(
         squared += e * e;
     }
     let length = squared.sqrt();
-    if !(length > 0.0) {
+    if length.is_nan() || length <= 0.0 {
         return 0.0;
     }
     let d0 = length - radii.0 - radii.1;
@@ -168,7 +168,7 @@ pub fn simplex_time(
         step_squared += delta[a] * delta[a];
     }
     let w_length = w_squared.sqrt();
-    if !(w_length > 0.0) {
+    if w_length.is_nan() || w_length <= 0.0 {
         return 0.0;
     }
     let mut support = f64::INFINITY;

@@ -33,7 +33,7 @@ pub fn hanging_chain_stretch(masses: &[f64], compliance: f64, gravity: f64) -> V
 /// (−b'(d) = load > 0), by bisection to adjacent floats; `None` for a
 /// load that is not positive and finite.
 pub fn barrier_gap_under_load(law: &BarrierLaw, load: f64) -> Option<f64> {
-    if !(load > 0.0 && load.is_finite()) {
+    if load.is_nan() || load <= 0.0 || load.is_infinite() {
         return None;
     }
     let mut low = 0.0f64;
@@ -90,7 +90,7 @@ pub fn backward_euler_slide(acceleration: f64, h: f64, steps: u32) -> f64 {
 /// tan θ ≥ μ (it slides).
 pub fn sticking_creep_speed(slip_velocity: f64, angle: f64, friction: f64) -> Option<f64> {
     let s = libm::tan(angle) / friction;
-    if !(s < 1.0) {
+    if s.is_nan() || s >= 1.0 {
         return None;
     }
     Some(slip_velocity * (1.0 - (1.0 - s).sqrt()))

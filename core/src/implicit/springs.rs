@@ -74,6 +74,7 @@ pub struct Spring {
 /// `points`; ∇E = 0 for a slack tether). Where ∇C vanishes (coincident
 /// points, collapsed simplex) gradient and curvature are zero (no response),
 /// the energy is still C²/(2α).
+#[allow(clippy::too_many_arguments)]
 pub fn evaluate_spring(
     kind: ConstraintKind,
     compliance: f64,
