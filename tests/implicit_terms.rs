@@ -102,24 +102,12 @@ fn mat_vec(a: &[f64], x: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// A random orthogonal n × n matrix (Gram–Schmidt), row-major.
+/// A random orthogonal n × n matrix (the Q of a QR factorisation), row-major.
 fn rotation(n: usize, rng: &mut Lcg) -> Vec<f64> {
-    let mut q = vec![0.0; n * n];
-    for j in 0..n {
-        let mut v: Vec<f64> = (0..n).map(|_| rng.next()).collect();
-        v[j] += 2.0;
-        for i in 0..j {
-            let d: f64 = (0..n).map(|a| q[a * n + i] * v[a]).sum();
-            for a in 0..n {
-                v[a] -= d * q[a * n + i];
-            }
-        }
-        let len = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-        for a in 0..n {
-            q[a * n + j] = v[a] / len;
-        }
-    }
-    q
+    let m = nalgebra::DMatrix::from_fn(n, n, |_, _| rng.next())
+        + nalgebra::DMatrix::identity(n, n) * 2.0;
+    let q = m.qr().q();
+    (0..n * n).map(|i| q[(i / n, i % n)]).collect()
 }
 
 fn unit(dim: usize, rng: &mut Lcg) -> Vec<f64> {
@@ -132,20 +120,52 @@ fn unit(dim: usize, rng: &mut Lcg) -> Vec<f64> {
     }
 }
 
-/// A well-shaped k-simplex in R^dim around a random origin.
+/// A well-shaped k-simplex in R^dim around a random origin: vertex j is
+/// origin + Q (e_j + jitter) (e_0 = 0) for a random rotation Q.
 fn simplex(dim: usize, k: usize, rng: &mut Lcg) -> Vec<f64> {
-    let p = rotation(dim, rng);
+    let rotate = rotation(dim, rng);
     let origin: Vec<f64> = (0..dim).map(|_| 0.5 * rng.next()).collect();
-    let mut points = Vec::with_capacity((k + 1) * dim);
-    for j in 0..=k {
-        let mut y = vec![0.0; dim];
-        for (a, ya) in y.iter_mut().enumerate().take(k) {
-            *ya = 0.2 * rng.next() + if j == a + 1 { 1.0 } else { 0.0 };
-        }
-        let x = mat_vec(&p, &y);
-        points.extend(x.iter().zip(&origin).map(|(x, o)| x + o));
-    }
-    points
+    (0..=k)
+        .flat_map(|j| {
+            let local: Vec<f64> = (0..dim)
+                .map(|a| {
+                    if a < k {
+                        0.2 * rng.next() + f64::from(u8::from(j == a + 1))
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            let rotated = mat_vec(&rotate, &local);
+            rotated
+                .iter()
+                .zip(&origin)
+                .map(|(x, o)| x + o)
+                .collect::<Vec<f64>>()
+        })
+        .collect()
+}
+
+/// A spring element's terms and gradients (∇C, ∇E) at `x`.
+fn spring_at(
+    kind: ConstraintKind,
+    alpha: f64,
+    rest: f64,
+    x: &[f64],
+    dim: usize,
+) -> (hyperpbd::core::implicit::Spring, Vec<f64>, Vec<f64>) {
+    let (mut cg, mut eg) = (vec![0.0; x.len()], vec![0.0; x.len()]);
+    let s = evaluate_spring(
+        kind,
+        alpha,
+        rest,
+        x,
+        dim,
+        &mut cg,
+        &mut eg,
+        &mut Scratch::new(),
+    );
+    (s, cg, eg)
 }
 
 #[test]
@@ -164,20 +184,7 @@ fn distance_and_tether_springs_match_finite_differences_and_project_exactly() {
                     .sum::<f64>()
                     .sqrt();
                 let rest = rest_factor * length;
-                let eval = |x: &[f64]| {
-                    let (mut cg, mut eg) = (vec![0.0; 2 * dim], vec![0.0; 2 * dim]);
-                    let s = evaluate_spring(
-                        kind,
-                        alpha,
-                        rest,
-                        x,
-                        dim,
-                        &mut cg,
-                        &mut eg,
-                        &mut Scratch::new(),
-                    );
-                    (s, cg, eg)
-                };
+                let eval = |x: &[f64]| spring_at(kind, alpha, rest, x, dim);
                 let (spring, cg, eg) = eval(&points);
                 let n = &cg[dim..];
                 worst_g = worst_g.max(jacobian_worst(
@@ -288,20 +295,7 @@ fn measure_springs_are_gauss_newton_and_exact_at_rest() {
     for (kind, dim, k) in cases {
         let points = simplex(dim, k, &mut rng);
         let count = (k + 1) * dim;
-        let eval = |x: &[f64], rest: f64| {
-            let (mut cg, mut eg) = (vec![0.0; count], vec![0.0; count]);
-            let s = evaluate_spring(
-                kind,
-                alpha,
-                rest,
-                x,
-                dim,
-                &mut cg,
-                &mut eg,
-                &mut Scratch::new(),
-            );
-            (s, cg, eg)
-        };
+        let eval = |x: &[f64], rest: f64| spring_at(kind, alpha, rest, x, dim);
         let value = eval(&points, 0.0).0.value;
         // Stretched: FD gradient.
         let rest = 0.8 * value;

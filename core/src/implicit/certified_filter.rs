@@ -44,7 +44,7 @@
 //! and ℓ are local sizes, so far from the origin only ρ grows with |x|.
 
 use crate::barrier::{BarrierObstacles, FILTER_SAFETY};
-use crate::geometry::closest_point_on_simplex;
+use crate::geometry::{closest_point_on_simplex, distance};
 
 /// min(1, η · `time`): the admissible step fraction for the smallest time
 /// over every barrier term.
@@ -90,24 +90,18 @@ pub fn pair_time(
 ) -> f64 {
     let (xi, xj) = points.split_at(dim);
     let (di, dj) = steps.split_at(dim);
-    let mut squared = 0.0;
-    for a in 0..dim {
-        let e = xj[a] - xi[a];
-        squared += e * e;
-    }
-    let length = squared.sqrt();
+    let mut gradient = [0.0f64; 2 * crate::MAX_DIM];
+    let length = distance(points, dim, &mut gradient);
     if length.is_nan() || length <= 0.0 {
         return 0.0;
     }
     let d0 = length - radii.0 - radii.1;
-    let inverse = 1.0 / length;
     let gamma = (dim as f64 + 4.0) * epsilon;
     let mut closing = 0.0;
     let mut step_squared = 0.0;
     for a in 0..dim {
-        let n = (xj[a] - xi[a]) * inverse;
         let delta = dj[a] - di[a];
-        closing -= n * delta;
+        closing -= gradient[dim + a] * delta;
         step_squared += delta * delta;
     }
     let approach = closing + gamma * step_squared.sqrt();
@@ -191,7 +185,8 @@ pub fn simplex_time(
 }
 
 /// The smallest certified time over every obstacle (planes, then
-/// simplices) for one particle; ∞ with none.
+/// simplices) for one particle; ∞ with none. `fraction(obstacle_time(…))`
+/// is the certified replacement of `barrier::filter_fraction`.
 pub fn obstacle_time(
     obstacles: &BarrierObstacles,
     x: &[f64],
@@ -211,16 +206,4 @@ pub fn obstacle_time(
         ));
     }
     t
-}
-
-/// The certified replacement of `barrier::filter_fraction` for one
-/// particle: [`fraction`] of [`obstacle_time`].
-pub fn certified_filter_fraction(
-    obstacles: &BarrierObstacles,
-    x: &[f64],
-    radius: f64,
-    delta: &[f64],
-    epsilon: f64,
-) -> f64 {
-    fraction(obstacle_time(obstacles, x, radius, delta, epsilon))
 }

@@ -18,7 +18,7 @@ use crate::barrier::BarrierLaw;
 
 /// Stretch of every link of a chain hanging from a fixed top particle at
 /// static equilibrium: `masses[k]` is the particle below link k, links in
-/// order from the top; C_k = α g Σ_{i ≥ k} masses[i].
+/// order from the top; C_k = α g Σ_{i ≥ k} `masses[i]`.
 pub fn hanging_chain_stretch(masses: &[f64], compliance: f64, gravity: f64) -> Vec<f64> {
     let mut below = 0.0;
     let mut stretch = vec![0.0; masses.len()];
