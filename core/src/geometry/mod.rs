@@ -14,6 +14,7 @@ mod linalg;
 mod oriented_measure;
 mod overlap;
 mod simplex_measure;
+mod symmetric_eigen;
 
 pub use closest_point::{ClosestPoint, MAX_SIMPLEX_ORDER, closest_point_on_simplex};
 pub use distance::distance;
@@ -21,6 +22,7 @@ pub use linalg::{adjugate, determinant, unit_vector};
 pub use oriented_measure::oriented_measure;
 pub use overlap::deepest_overlap;
 pub use simplex_measure::simplex_squared_measure;
+pub use symmetric_eigen::{MAX_SWEEPS, SymmetricEigen, symmetric_eigen};
 
 /// Reusable scratch space so evaluation allocates nothing per element.
 #[derive(Debug, Default, Clone)]
