@@ -5,6 +5,9 @@
 //!        repeat substeps: for kernel in plan.substep_kernels: run kernel
 //!        on any non-finite value: restore (x, v) byte for byte, return error
 //! ```
+//! A step runs on the backend's threads (`threads.rs`, `parallel.rs`): the
+//! kernels run in the plan's order, each split over the cores where its
+//! items are independent, with the same bytes for any thread count.
 
 use hyperpbd_core::{
     Backend, BackendError, FamilyResidual, Kernel, MinimisationReport, MinimisationStatus, Plan,
@@ -12,8 +15,9 @@ use hyperpbd_core::{
 };
 
 use crate::collide::{self, Contacts};
+use crate::parallel::Workers;
 use crate::project::{Batch, Workspace, project};
-use crate::{friction, incremental_potential, integrate, residual};
+use crate::{colours, friction, incremental_potential, integrate, residual, threads};
 
 /// The golden backend.
 pub struct CpuBackend {
@@ -36,12 +40,23 @@ pub struct CpuBackend {
     minimiser: incremental_potential::Workspace,
     /// Minimisation reports of the current step, one per substep.
     minimisation: Vec<MinimisationReport>,
+    /// The threads the kernels run on.
+    workers: Workers,
 }
 
 impl CpuBackend {
-    /// Loads `plan` with `state`.
+    /// Loads `plan` with `state`, on the default number of threads
+    /// ([`default_threads`](crate::default_threads): the CLI's `--threads`,
+    /// else `HYPERPBD_THREADS`, else every core).
     pub fn new(plan: Plan, state: &State) -> Result<Self, BackendError> {
+        Self::with_threads(plan, state, threads::default_threads()?)
+    }
+
+    /// Loads `plan` with `state`, to run on `threads` threads (1: all on
+    /// the calling thread). Results are bit-identical for every count.
+    pub fn with_threads(plan: Plan, state: &State, threads: usize) -> Result<Self, BackendError> {
         check_state(&plan, state)?;
+        colours::check(&plan)?;
         let lambda = plan.families.iter().map(|f| vec![0.0; f.len()]).collect();
         Ok(CpuBackend {
             force: plan.force.clone(),
@@ -57,7 +72,22 @@ impl CpuBackend {
             substep: 0,
             minimiser: incremental_potential::Workspace::default(),
             minimisation: Vec::new(),
+            workers: Workers::new(threads)?,
         })
+    }
+
+    /// The number of threads this backend runs on.
+    pub fn threads(&self) -> usize {
+        self.workers.threads()
+    }
+
+    /// Caps every parallel chunk at `max_chunk` items (rounded down to a
+    /// power of two) instead of the kernels' own grain, so that even a
+    /// small scene splits over the threads. For determinism tests: the
+    /// results are the same bytes for any cap.
+    pub fn with_max_chunk(mut self, max_chunk: usize) -> Self {
+        self.workers = self.workers.with_max_chunk(max_chunk);
+        self
     }
 
     /// Multipliers of family `family` from the last projection
@@ -82,13 +112,21 @@ impl CpuBackend {
 
     fn kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
         let plan = &self.plan;
+        let workers = &self.workers;
         match kernel {
             Kernel::Predict => {
                 for l in &mut self.lambda {
                     l.fill(0.0);
                 }
-                integrate::predict(plan, &mut self.x, &mut self.v, &mut self.p, &self.force)
-                    .map_err(|i| self.particle_error(StageName::Predict, i))
+                integrate::predict(
+                    workers,
+                    plan,
+                    &mut self.x,
+                    &mut self.v,
+                    &mut self.p,
+                    &self.force,
+                )
+                .map_err(|i| self.particle_error(StageName::Predict, i))
             }
             Kernel::Project { family, color } => {
                 let fam = &plan.families[family];
@@ -100,6 +138,7 @@ impl CpuBackend {
                     start: &self.p,
                 };
                 project(
+                    workers,
                     &batch,
                     fam.color(color),
                     &mut self.x,
@@ -117,9 +156,10 @@ impl CpuBackend {
                     .into()
                 })
             }
-            Kernel::Velocity => integrate::velocity(plan, &self.x, &mut self.v, &self.p)
+            Kernel::Velocity => integrate::velocity(workers, plan, &self.x, &mut self.v, &self.p)
                 .map_err(|i| self.particle_error(StageName::Velocity, i)),
             Kernel::Friction { family } => friction::friction(
+                workers,
                 plan.dim,
                 plan.h,
                 &plan.inverse_mass,
@@ -129,18 +169,25 @@ impl CpuBackend {
             )
             .map_err(|i| self.particle_error(StageName::Friction, i)),
             Kernel::Damping => {
-                integrate::damping(plan, &mut self.v);
+                integrate::damping(workers, plan, &mut self.v);
                 Ok(())
             }
             Kernel::Broadphase => {
                 let margin = plan.contacts.map_or(0.0, |c| c.margin);
-                collide::broadphase(plan, margin, &self.p, &self.x, &mut self.contacts);
+                collide::broadphase_on(workers, plan, margin, &self.p, &self.x, &mut self.contacts);
                 Ok(())
             }
             Kernel::Collide => {
                 let friction = plan.contacts.map_or(0.0, |c| c.friction);
-                collide::collide(plan, friction, &self.p, &mut self.x, &mut self.contacts)
-                    .map_err(|i| self.particle_error(StageName::Project, i))
+                collide::collide_on(
+                    workers,
+                    plan,
+                    friction,
+                    &self.p,
+                    &mut self.x,
+                    &mut self.contacts,
+                )
+                .map_err(|i| self.particle_error(StageName::Project, i))
             }
             Kernel::Minimise => {
                 let Some(ip) = &plan.incremental_potential else {
@@ -149,6 +196,7 @@ impl CpuBackend {
                     ));
                 };
                 let report = incremental_potential::minimise(
+                    workers,
                     plan,
                     ip,
                     &mut self.x,
@@ -173,16 +221,17 @@ impl CpuBackend {
 
     fn report(&mut self) -> StepReport {
         let plan = &self.plan;
-        let ws = &mut self.workspace;
+        let workers = &self.workers;
         let mut residuals: Vec<FamilyResidual> = plan
             .families
             .iter()
-            .map(|f| residual::residual(plan.dim, f, &self.x, ws))
+            .map(|f| residual::residual(workers, plan.dim, f, &self.x))
             .collect();
         if plan.contacts.is_some() {
-            residuals.push(collide::residual(plan, &self.x, &self.contacts));
+            residuals.push(collide::residual(workers, plan, &self.x, &self.contacts));
         }
         StepReport {
+            threads: workers.threads(),
             kernel_calls: plan.kernel_counts(),
             residuals,
             active_contacts: plan
@@ -208,21 +257,8 @@ impl Backend for CpuBackend {
     }
 
     fn step(&mut self) -> Result<StepReport, BackendError> {
-        self.saved_x.clone_from(&self.x);
-        self.saved_v.clone_from(&self.v);
-        self.minimisation.clear();
-        for substep in 0..self.plan.substeps {
-            self.substep = substep;
-            for k in 0..self.plan.substep_kernels.len() {
-                let kernel = self.plan.substep_kernels[k];
-                if let Err(e) = self.kernel(kernel) {
-                    self.x.clone_from(&self.saved_x);
-                    self.v.clone_from(&self.saved_v);
-                    return Err(e);
-                }
-            }
-        }
-        Ok(self.report())
+        let workers = self.workers.clone();
+        workers.install(|| self.step_on_workers())
     }
 
     fn read_state(&mut self) -> Result<State, BackendError> {
@@ -246,8 +282,33 @@ impl Backend for CpuBackend {
         Ok(())
     }
 
+    /// Runs one kernel. A kernel that fails leaves the writes it made
+    /// before failing (the step rolls them back; a single kernel does
+    /// not) — the same writes for any thread count.
     fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
         check_kernel(&self.plan, kernel)?;
-        self.kernel(kernel)
+        let workers = self.workers.clone();
+        workers.install(|| self.kernel(kernel))
+    }
+}
+
+impl CpuBackend {
+    /// The step's schedule (on the pool's thread when there is a pool).
+    fn step_on_workers(&mut self) -> Result<StepReport, BackendError> {
+        self.saved_x.clone_from(&self.x);
+        self.saved_v.clone_from(&self.v);
+        self.minimisation.clear();
+        for substep in 0..self.plan.substeps {
+            self.substep = substep;
+            for k in 0..self.plan.substep_kernels.len() {
+                let kernel = self.plan.substep_kernels[k];
+                if let Err(e) = self.kernel(kernel) {
+                    self.x.clone_from(&self.saved_x);
+                    self.v.clone_from(&self.saved_v);
+                    return Err(e);
+                }
+            }
+        }
+        Ok(self.report())
     }
 }

@@ -6,12 +6,22 @@
 //!   Δv_max = μ · w λ / h                      (μ × normal velocity change)
 //!   v −= v_t · min(Δv_max, |v_t|) / |v_t|     (one clamp on the norm)
 //! ```
+//! A contact family holds each particle once, so its elements are
+//! independent and run in chunks (`parallel.rs`).
 
+// Coordinate loops index several arrays at once, as a kernel does.
+#![allow(clippy::needless_range_loop)]
+
+use crate::dim::{Dim, with_dim};
+use crate::parallel::{DisjointSlice, Workers};
+use crate::project::ELEMENT_GRAIN;
 use hyperpbd_core::{Family, FamilyKind};
+use std::ops::Range;
 
-/// Applies friction of one contact family; returns the first particle whose
-/// velocity became non-finite.
+/// Applies friction of one contact family; returns the first particle
+/// (in element order) whose velocity became non-finite.
 pub fn friction(
+    workers: &Workers,
     dim: usize,
     h: f64,
     inverse_mass: &[f64],
@@ -22,30 +32,70 @@ pub fn friction(
     let FamilyKind::HyperplaneContact { normal, friction } = &family.kind else {
         return Ok(());
     };
-    for (e, &l) in lambda.iter().enumerate() {
+    let contact = Contact {
+        h,
+        inverse_mass,
+        family,
+        normal,
+        friction: *friction,
+        lambda,
+    };
+    // SAFETY: a contact family holds each particle once (checked by
+    // `colours::check` when the backend loaded the plan), and element e
+    // writes only the velocity of its particle: chunks write disjoint data.
+    let v = unsafe { DisjointSlice::new(v) };
+    workers
+        .try_for_chunks(lambda.len(), ELEMENT_GRAIN, |r| {
+            with_dim!(dim, friction_in(&contact, r, &v))
+        })
+        .map_err(|e| family.elements[e] as usize)
+}
+
+/// What every element of the family shares.
+struct Contact<'a> {
+    h: f64,
+    inverse_mass: &'a [f64],
+    family: &'a Family,
+    normal: &'a [f64],
+    friction: f64,
+    lambda: &'a [f64],
+}
+
+/// Friction of elements `elements`; the first non-finite element.
+fn friction_in<D: Dim>(
+    dim: D,
+    contact: &Contact,
+    elements: Range<usize>,
+    v: &DisjointSlice<f64>,
+) -> Result<(), usize> {
+    let n = dim.n();
+    let normal = &contact.normal[..n];
+    for e in elements {
+        let l = contact.lambda[e];
         if l <= 0.0 {
             continue;
         }
-        let i = family.elements[e] as usize;
-        let vi = &mut v[i * dim..(i + 1) * dim];
-        let vn = crate::project::dot(normal, vi);
+        let i = contact.family.elements[e] as usize;
+        // n·v_i, summed as `project::dot` sums.
+        let vn = (0..n).map(|a| normal[a] * v.get(i * n + a)).sum::<f64>();
         let mut t2 = 0.0;
-        for a in 0..dim {
-            let t = vi[a] - vn * normal[a];
+        for a in 0..n {
+            let t = v.get(i * n + a) - vn * normal[a];
             t2 += t * t;
         }
         let vt = t2.sqrt();
         if vt == 0.0 {
             continue;
         }
-        let limit = friction * inverse_mass[i] * l / h;
+        let limit = contact.friction * contact.inverse_mass[i] * l / contact.h;
         let scale = limit.min(vt) / vt;
-        for a in 0..dim {
-            let t = vi[a] - vn * normal[a];
-            vi[a] -= t * scale;
+        for a in 0..n {
+            let va = v.get(i * n + a);
+            let t = va - vn * normal[a];
+            v.set(i * n + a, va - t * scale);
         }
-        if !vi.iter().all(|c| c.is_finite()) {
-            return Err(i);
+        if !(0..n).all(|a| v.get(i * n + a).is_finite()) {
+            return Err(e);
         }
     }
     Ok(())

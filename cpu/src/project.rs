@@ -25,10 +25,29 @@
 //! if |Δt| ≤ μ · w λ  (the normal correction):  x −= Δt
 //! ```
 //! The whole tangent vector is cancelled or none of it — never per axis.
+//!
+//! Elements of one colour share no dynamic particle (the plan's colouring,
+//! checked by `colours.rs` when the backend loads) and only dynamic
+//! particles are written, so a colour runs in chunks of [`ELEMENT_GRAIN`]
+//! on every core (`parallel.rs`): each element reads what it would read
+//! serially and makes the same updates. Distance elements go [`LANES`] at
+//! a time: their square roots and divisions are formed side by side, each
+//! from the same operands in the same order as one element alone.
+
+// Coordinate loops index several arrays at once, as a kernel does.
+#![allow(clippy::needless_range_loop)]
 
 use crate::dim::{Dim, with_dim};
+use crate::parallel::{DisjointSlice, Workers};
 use hyperpbd_core::geometry::{Scratch, oriented_measure, simplex_squared_measure};
 use hyperpbd_core::{Family, FamilyKind};
+use std::ops::Range;
+
+/// Elements per chunk of a colour (≈ 10 µs of distance projections).
+pub const ELEMENT_GRAIN: usize = 2048;
+
+/// Distance elements formed side by side.
+pub const LANES: usize = 4;
 
 /// Inputs shared by every element of a batch.
 pub struct Batch<'a> {
@@ -49,37 +68,57 @@ pub struct Workspace {
     pub scratch: Scratch,
 }
 
-/// Projects elements `range` (color-ordered slots) of `batch.family`.
-/// Returns the slot of the first element whose update was non-finite.
+/// Projects elements `range` (one colour's color-ordered slots) of
+/// `batch.family`. Returns the slot of the first element whose update was
+/// non-finite.
 pub fn project(
+    workers: &Workers,
     batch: &Batch,
-    range: std::ops::Range<usize>,
+    range: Range<usize>,
     x: &mut [f64],
+    lambda: &mut [f64],
+    ws: &mut Workspace,
+) -> Result<(), usize> {
+    let first = range.start;
+    // SAFETY: the elements of `range` form one colour: no two share a
+    // dynamic particle (checked by `colours::check` when the backend
+    // loaded the plan), and the kernels write only dynamic particles
+    // (w ≠ 0), so a written coordinate belongs to exactly one element and
+    // hence one chunk; fixed particles are only read.
+    let x = unsafe { DisjointSlice::new(x) };
+    // SAFETY: each chunk takes the slots of its own elements below.
+    let lambda = unsafe { DisjointSlice::new(&mut lambda[range.clone()]) };
+    workers.try_for_chunks_with(
+        range.len(),
+        ELEMENT_GRAIN,
+        ws,
+        Workspace::default,
+        |r, ws| {
+            // SAFETY: slots `r` belong to this chunk alone.
+            let lambda = unsafe { lambda.range_mut(r.clone()) };
+            let elements = first + r.start..first + r.end;
+            project_elements(batch, elements, &x, lambda, ws)
+        },
+    )
+}
+
+/// Projects `elements` in order; `lambda` holds their slots.
+fn project_elements(
+    batch: &Batch,
+    elements: Range<usize>,
+    x: &DisjointSlice<f64>,
     lambda: &mut [f64],
     ws: &mut Workspace,
 ) -> Result<(), usize> {
     match &batch.family.kind {
-        FamilyKind::Distance | FamilyKind::Tether => distance(batch, range, x, lambda, ws),
-        FamilyKind::HyperplaneContact { normal, friction } => {
-            contact(batch, normal, *friction, range, x, lambda)
+        FamilyKind::Distance | FamilyKind::Tether if batch.dim <= MAX_INLINE_DIM => {
+            with_dim!(batch.dim, distance_in(batch, elements, x, lambda))
         }
-        FamilyKind::SimplexMeasure { .. } | FamilyKind::OrientedMeasure => {
-            measure(batch, range, x, lambda, ws)
-        }
-    }
-}
-
-fn distance(
-    batch: &Batch,
-    range: std::ops::Range<usize>,
-    x: &mut [f64],
-    lambda: &mut [f64],
-    ws: &mut Workspace,
-) -> Result<(), usize> {
-    if batch.dim <= MAX_INLINE_DIM {
-        with_dim!(batch.dim, distance_in(batch, range, x, lambda))
-    } else {
-        measure(batch, range, x, lambda, ws)
+        FamilyKind::HyperplaneContact { normal, friction } => with_dim!(
+            batch.dim,
+            contact_in(batch, normal, *friction, elements, x, lambda)
+        ),
+        _ => measure(batch, elements, x, lambda, ws),
     }
 }
 
@@ -91,8 +130,8 @@ const MAX_INLINE_DIM: usize = 8;
 fn distance_in<D: Dim>(
     dim: D,
     batch: &Batch,
-    range: std::ops::Range<usize>,
-    x: &mut [f64],
+    elements: Range<usize>,
+    x: &DisjointSlice<f64>,
     lambda: &mut [f64],
 ) -> Result<(), usize> {
     let n = dim.n();
@@ -100,53 +139,71 @@ fn distance_in<D: Dim>(
     let w = batch.inverse_mass;
     let alpha_tilde = batch.alpha_tilde;
     let tether = f.kind == FamilyKind::Tether;
-    let elements = f.elements[2 * range.start..2 * range.end].chunks_exact(2);
-    let slots = f.rest[range.clone()].iter().zip(&mut lambda[range.clone()]);
-    for (e, (element, (&rest, lambda))) in range.zip(elements.zip(slots)) {
-        let (i, j) = (element[0] as usize, element[1] as usize);
-        let (wi, wj) = (w[i], w[j]);
-        let mut d = [0.0; MAX_INLINE_DIM];
-        let mut d2 = 0.0;
-        {
-            let (xi, xj) = (&x[i * n..i * n + n], &x[j * n..j * n + n]);
+    let first = elements.start;
+    let mut start = elements.start;
+    while start < elements.end {
+        let lanes = LANES.min(elements.end - start);
+        // Lane l is element start + l; unused lanes hold zeros and are
+        // never written back.
+        let mut ends = [[0usize; 2]; LANES];
+        let mut d = [[0.0; LANES]; MAX_INLINE_DIM];
+        let mut rest = [0.0; LANES];
+        let mut old = [0.0; LANES];
+        let mut wsum = [0.0; LANES];
+        for l in 0..lanes {
+            let e = start + l;
+            let (i, j) = (f.elements[2 * e] as usize, f.elements[2 * e + 1] as usize);
+            ends[l] = [i, j];
             for a in 0..n {
-                d[a] = xj[a] - xi[a];
-                d2 += d[a] * d[a];
+                d[a][l] = x.get(j * n + a) - x.get(i * n + a);
+            }
+            rest[l] = f.rest[e];
+            old[l] = lambda[e - first];
+            wsum[l] = w[i] + w[j];
+        }
+        let mut len = [0.0; LANES];
+        for a in 0..n {
+            for l in 0..LANES {
+                len[l] += d[a][l] * d[a][l];
             }
         }
-        let len = d2.sqrt();
-        let wsum = wi + wj;
-        if len.is_nan() || len <= 0.0 || wsum == 0.0 {
-            if !len.is_finite() {
+        let mut step = [0.0; LANES];
+        let mut inv = [0.0; LANES];
+        for l in 0..LANES {
+            len[l] = len[l].sqrt();
+            let c = len[l] - rest[l];
+            step[l] = (-c - alpha_tilde * old[l]) / (wsum[l] + alpha_tilde);
+            inv[l] = 1.0 / len[l];
+        }
+        for l in 0..lanes {
+            let e = start + l;
+            let [i, j] = ends[l];
+            if len[l].is_nan() || len[l] <= 0.0 || wsum[l] == 0.0 {
+                if !len[l].is_finite() {
+                    return Err(e);
+                }
+                continue;
+            }
+            let mut dl = step[l];
+            if !dl.is_finite() {
                 return Err(e);
             }
-            continue;
-        }
-        let c = len - rest;
-        let mut dl = (-c - alpha_tilde * *lambda) / (wsum + alpha_tilde);
-        if !dl.is_finite() {
-            return Err(e);
-        }
-        if tether {
-            dl = (*lambda + dl).min(0.0) - *lambda;
-        }
-        *lambda += dl;
-        let inv = 1.0 / len;
-        for c in &mut d[..n] {
-            *c *= inv;
-        }
-        if wi != 0.0 {
-            let xi = &mut x[i * n..i * n + n];
+            if tether {
+                dl = (old[l] + dl).min(0.0) - old[l];
+            }
+            lambda[e - first] = old[l] + dl;
+            let (wi, wj) = (w[i], w[j]);
             for a in 0..n {
-                xi[a] += wi * -d[a] * dl;
+                let unit = d[a][l] * inv[l];
+                if wi != 0.0 {
+                    x.set(i * n + a, x.get(i * n + a) + wi * -unit * dl);
+                }
+                if wj != 0.0 {
+                    x.set(j * n + a, x.get(j * n + a) + wj * unit * dl);
+                }
             }
         }
-        if wj != 0.0 {
-            let xj = &mut x[j * n..j * n + n];
-            for a in 0..n {
-                xj[a] += wj * d[a] * dl;
-            }
-        }
+        start += lanes;
     }
     Ok(())
 }
@@ -154,8 +211,8 @@ fn distance_in<D: Dim>(
 /// Generic path: gather, evaluate C and ∇C, update.
 fn measure(
     batch: &Batch,
-    range: std::ops::Range<usize>,
-    x: &mut [f64],
+    elements: Range<usize>,
+    x: &DisjointSlice<f64>,
     lambda: &mut [f64],
     ws: &mut Workspace,
 ) -> Result<(), usize> {
@@ -163,13 +220,16 @@ fn measure(
     let f = batch.family;
     let w = batch.inverse_mass;
     let arity = f.arity;
+    let first = elements.start;
     ws.points.resize(arity * dim, 0.0);
     ws.grad.resize(arity * dim, 0.0);
-    for e in range {
+    for e in elements {
         let element = &f.elements[e * arity..(e + 1) * arity];
         for (j, &i) in element.iter().enumerate() {
             let i = i as usize;
-            ws.points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
+            for a in 0..dim {
+                ws.points[j * dim + a] = x.get(i * dim + a);
+            }
         }
         let value = match f.kind {
             FamilyKind::Distance | FamilyKind::Tether => {
@@ -197,15 +257,16 @@ fn measure(
         if wsum == 0.0 {
             continue;
         }
+        let lambda = &mut lambda[e - first];
         let c = value - f.rest[e];
-        let mut dl = (-c - batch.alpha_tilde * lambda[e]) / (wsum + batch.alpha_tilde);
+        let mut dl = (-c - batch.alpha_tilde * *lambda) / (wsum + batch.alpha_tilde);
         if !dl.is_finite() {
             return Err(e);
         }
         if f.kind == FamilyKind::Tether {
-            dl = (lambda[e] + dl).min(0.0) - lambda[e];
+            dl = (*lambda + dl).min(0.0) - *lambda;
         }
-        lambda[e] += dl;
+        *lambda += dl;
         for (j, &i) in element.iter().enumerate() {
             let i = i as usize;
             let wi = w[i];
@@ -213,25 +274,12 @@ fn measure(
                 continue;
             }
             for a in 0..dim {
-                x[i * dim + a] += wi * ws.grad[j * dim + a] * dl;
+                let k = i * dim + a;
+                x.set(k, x.get(k) + wi * ws.grad[j * dim + a] * dl);
             }
         }
     }
     Ok(())
-}
-
-fn contact(
-    batch: &Batch,
-    normal: &[f64],
-    friction: f64,
-    range: std::ops::Range<usize>,
-    x: &mut [f64],
-    lambda: &mut [f64],
-) -> Result<(), usize> {
-    with_dim!(
-        batch.dim,
-        contact_in(batch, normal, friction, range, x, lambda)
-    )
 }
 
 fn contact_in<D: Dim>(
@@ -239,20 +287,22 @@ fn contact_in<D: Dim>(
     batch: &Batch,
     normal: &[f64],
     friction: f64,
-    range: std::ops::Range<usize>,
-    x: &mut [f64],
+    elements: Range<usize>,
+    x: &DisjointSlice<f64>,
     lambda: &mut [f64],
 ) -> Result<(), usize> {
     let n = dim.n();
     let normal = &normal[..n];
     let f = batch.family;
     let alpha_tilde = batch.alpha_tilde;
-    let slots = f.rest[range.clone()].iter().zip(&mut lambda[range.clone()]);
-    for (e, (&i, (&rest, lambda))) in range.clone().zip(f.elements[range].iter().zip(slots)) {
-        let i = i as usize;
+    let first = elements.start;
+    for e in elements {
+        let i = f.elements[e] as usize;
+        let rest = f.rest[e];
+        let lambda = &mut lambda[e - first];
         let w = batch.inverse_mass[i];
-        let xi = &mut x[i * n..i * n + n];
-        let c = dot(normal, xi) - rest;
+        // n·x_i, summed as `dot` sums.
+        let c = (0..n).map(|a| normal[a] * x.get(i * n + a)).sum::<f64>() - rest;
         let l = *lambda;
         let raw = (-c - alpha_tilde * l) / (w + alpha_tilde);
         if !raw.is_finite() {
@@ -261,24 +311,25 @@ fn contact_in<D: Dim>(
         let dl = (l + raw).max(0.0) - l;
         *lambda = l + dl;
         for a in 0..n {
-            xi[a] += w * normal[a] * dl;
+            x.set(i * n + a, x.get(i * n + a) + w * normal[a] * dl);
         }
         if friction > 0.0 && *lambda > 0.0 {
             let p = &batch.start[i * n..i * n + n];
             let mut dn = 0.0;
             for a in 0..n {
-                dn += (xi[a] - p[a]) * normal[a];
+                dn += (x.get(i * n + a) - p[a]) * normal[a];
             }
             let mut t2 = 0.0;
             for a in 0..n {
-                let t = (xi[a] - p[a]) - dn * normal[a];
+                let t = (x.get(i * n + a) - p[a]) - dn * normal[a];
                 t2 += t * t;
             }
             let bound = friction * w * *lambda;
             if t2.sqrt() <= bound {
                 for a in 0..n {
-                    let t = (xi[a] - p[a]) - dn * normal[a];
-                    xi[a] -= t;
+                    let xi = x.get(i * n + a);
+                    let t = (xi - p[a]) - dn * normal[a];
+                    x.set(i * n + a, xi - t);
                 }
             }
         }

@@ -1,0 +1,182 @@
+//! The CPU golden path on several threads: the same bytes for any thread
+//! count.
+//!
+//! Every shipped scene (`scenes/*.json`) runs for enough frames to reach
+//! its contacts on 1 thread with the kernels' own chunks (the reference),
+//! and on 1, 2 and 8 threads with every chunk capped at 4 items, so that
+//! even these small scenes split every kernel — a colour's projections,
+//! the per-particle stages, the contact pairs and gathers, the barrier
+//! path's Newton sweeps and its fixed-tree residual — over many chunks on
+//! several threads. States must be bit-identical (`State::hash` and every
+//! value), and so must the step reports (residual maxima, contact counts,
+//! minimisation reports) apart from the thread count they carry. Larger
+//! built-in scenes check the kernels' own grains on 2 threads.
+
+use hyperpbd::{Backend, CpuBackend, Plan, Scene, State, StepReport};
+use std::path::Path;
+
+/// Chunk cap of the finely split runs.
+const FINE_CHUNK: usize = 4;
+
+/// Frames per shipped scene: the cloth needs ~20 frames to reach the
+/// ground, the tesseract ~15; the granular scenes touch from the start.
+fn frames(name: &str) -> usize {
+    match name {
+        "cloth" | "chain2d" => 40,
+        "tesseract" => 30,
+        "column3d" => 8,
+        "ballpit4d" | "sandpile2d" => 30,
+        _ => 20,
+    }
+}
+
+/// `frames` steps on `threads` threads (`max_chunk`: the chunk cap, or
+/// `None` for the kernels' own); the final state and every report.
+fn run(
+    scene: &Scene,
+    frames: usize,
+    threads: usize,
+    max_chunk: Option<usize>,
+) -> (State, Vec<StepReport>) {
+    let plan = Plan::compile(scene).unwrap_or_else(|e| panic!("scene does not compile: {e}"));
+    let mut backend = CpuBackend::with_threads(plan, &State::from_scene(scene), threads)
+        .unwrap_or_else(|e| panic!("backend does not load: {e}"));
+    if let Some(max_chunk) = max_chunk {
+        backend = backend.with_max_chunk(max_chunk);
+    }
+    assert_eq!(backend.threads(), threads);
+    let reports = (0..frames)
+        .map(|frame| {
+            let report = backend
+                .step()
+                .unwrap_or_else(|e| panic!("frame {frame}: step failed: {e}"));
+            assert_eq!(report.threads, threads, "the report names the thread count");
+            report
+        })
+        .collect();
+    let state = backend
+        .read_state()
+        .unwrap_or_else(|e| panic!("read_state failed: {e}"));
+    (state, reports)
+}
+
+/// Panics naming the first value that differs.
+fn assert_same(what: &str, reference: &(State, Vec<StepReport>), other: &(State, Vec<StepReport>)) {
+    let (a, b) = (&reference.0, &other.0);
+    for (name, xs, ys) in [
+        ("positions", &a.positions, &b.positions),
+        ("velocities", &a.velocities, &b.velocities),
+    ] {
+        assert_eq!(xs.len(), ys.len(), "{what}: {name} length differs");
+        if let Some(k) = xs
+            .iter()
+            .zip(ys)
+            .position(|(x, y)| x.to_bits() != y.to_bits())
+        {
+            panic!(
+                "{what}: {name}[{k}] (particle {}, axis {}) is {:e}, the 1-thread reference {:e}: \
+                 the result depends on the thread count",
+                k / a.dim,
+                k % a.dim,
+                ys[k],
+                xs[k]
+            );
+        }
+    }
+    assert_eq!(a.hash(), b.hash(), "{what}: hash");
+    for (frame, (r, o)) in reference.1.iter().zip(&other.1).enumerate() {
+        let same_report = StepReport {
+            threads: r.threads,
+            ..o.clone()
+        };
+        assert!(
+            bitwise_equal(r, &same_report),
+            "{what}: the report of frame {frame} differs:\n{r:?}\nvs\n{o:?}"
+        );
+    }
+}
+
+/// Reports equal with every real compared by its bits.
+fn bitwise_equal(a: &StepReport, b: &StepReport) -> bool {
+    let bits = |r: &StepReport| {
+        r.residuals
+            .iter()
+            .map(|f| (f.label.clone(), f.max_violation.to_bits()))
+            .collect::<Vec<_>>()
+    };
+    let minimisation = |r: &StepReport| format!("{:?}", r.minimisation);
+    a.kernel_calls == b.kernel_calls
+        && a.active_contacts == b.active_contacts
+        && bits(a) == bits(b)
+        && minimisation(a) == minimisation(b)
+}
+
+fn check(name: &str, scene: &Scene, frames: usize) {
+    let reference = run(scene, frames, 1, None);
+    for threads in [1, 2, 8] {
+        let fine = run(scene, frames, threads, Some(FINE_CHUNK));
+        assert_same(
+            &format!("{name}, {frames} frames, {threads} threads, chunks of {FINE_CHUNK}"),
+            &reference,
+            &fine,
+        );
+    }
+    eprintln!(
+        "{name}: {frames} frames, hash {:#018x} on 1 thread and on 1, 2, 8 threads in chunks of {FINE_CHUNK}",
+        reference.0.hash()
+    );
+}
+
+#[test]
+fn every_shipped_scene_gives_the_same_bytes_on_1_2_and_8_threads() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut paths: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap_or_else(|e| panic!("{e}")).path())
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .collect();
+    paths.sort();
+    let names: Vec<String> = paths
+        .iter()
+        .filter_map(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
+        .collect();
+    for expected in [
+        "cloth",
+        "tesseract",
+        "chain2d",
+        "incline5d",
+        "example",
+        "column3d",
+        "ballpit4d",
+        "sandpile2d",
+        "barrier4d",
+    ] {
+        assert!(
+            names.iter().any(|n| n == expected),
+            "scenes/{expected}.json is missing"
+        );
+    }
+    for (path, name) in paths.iter().zip(&names) {
+        let scene = Scene::from_json_file(path).unwrap_or_else(|e| panic!("{e}"));
+        check(name, &scene, frames(name));
+    }
+}
+
+/// The kernels' own chunks (thousands of items) on 2 threads: scenes large
+/// enough to split at the production grain.
+#[test]
+fn large_scenes_give_the_same_bytes_at_the_kernels_own_grain() {
+    for (name, scene, frames) in [
+        ("peer_cloth(128)", hyperpbd::scenes::peer_cloth(128), 10),
+        ("cloth(96)", hyperpbd::scenes::cloth(96), 30),
+        ("column3d(16, 24)", hyperpbd::scenes::column3d(16, 24), 4),
+    ] {
+        let reference = run(&scene, frames, 1, None);
+        let parallel = run(&scene, frames, 2, None);
+        assert_same(&format!("{name}, 2 threads"), &reference, &parallel);
+        eprintln!(
+            "{name}: {frames} frames, hash {:#018x} on 1 and 2 threads",
+            reference.0.hash()
+        );
+    }
+}
