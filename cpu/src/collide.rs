@@ -4,7 +4,8 @@
 //! ```text
 //! Broadphase (after Predict):
 //!   boxes  [min(p, x) − (r + m), max(p, x) + (r + m)]      (swept over the substep)
-//!   pairs  sort-and-sweep along the axis of widest spread   (canonical (i < j) order)
+//!   pairs  a uniform grid queried box by box (core's grid.rs; the one-axis
+//!          sweep where the grid does not apply)             (canonical (i < j) order)
 //!          minus pairs of two fixed particles (W = w_i + w_j = 0)
 //!   lists  particle k: the pairs it is in, in pair order    (CSR: offsets, entries)
 //!
@@ -40,11 +41,14 @@ use crate::dim::{Dim, with_dim};
 use crate::integrate::PARTICLE_GRAIN;
 use crate::parallel::{DisjointSlice, Workers};
 use crate::residual::RESIDUAL_GRAIN;
-use hyperpbd_core::broadphase::{Aabbs, Pair, contact_lists, sweep_axis, sweep_pairs};
+use hyperpbd_core::broadphase::{Aabbs, BoxGrid, Pair, contact_lists, sweep_axis, sweep_pairs};
 use hyperpbd_core::{FamilyResidual, Plan};
 
 /// Pairs per chunk of the pair pass.
 pub const PAIR_GRAIN: usize = 2048;
+
+/// Boxes per chunk of the broadphase queries.
+pub const BOX_GRAIN: usize = 1024;
 
 /// Candidate pairs and each particle's contact list.
 #[derive(Debug, Default, Clone)]
@@ -74,9 +78,10 @@ pub fn broadphase(plan: &Plan, margin: f64, p: &[f64], x: &[f64], contacts: &mut
     broadphase_on(&Workers::serial(), plan, margin, p, x, contacts);
 }
 
-/// [`broadphase`] on `workers`.
+/// [`broadphase`] on `workers`: the grid's per-box queries in chunks,
+/// concatenated in box order (already canonical).
 pub(crate) fn broadphase_on(
-    _workers: &Workers,
+    workers: &Workers,
     plan: &Plan,
     margin: f64,
     p: &[f64],
@@ -87,8 +92,24 @@ pub(crate) fn broadphase_on(
     let n = plan.particle_count();
     let boxes = Aabbs::swept_particles(dim, p, x, &plan.radius, margin);
     let w = &plan.inverse_mass;
-    let mut pairs = sweep_pairs(&boxes, sweep_axis(&boxes));
-    pairs.retain(|&[i, j]| w[i as usize] + w[j as usize] > 0.0);
+    let moving = |&[i, j]: &Pair| w[i as usize] + w[j as usize] > 0.0;
+    let pairs = match BoxGrid::new(&boxes) {
+        Some(grid) => workers
+            .map_chunks(n, BOX_GRAIN, |r| {
+                let mut pairs = Vec::new();
+                for i in r {
+                    grid.pairs_of(i, &mut pairs);
+                }
+                pairs.retain(moving);
+                pairs
+            })
+            .concat(),
+        None => {
+            let mut pairs = sweep_pairs(&boxes, sweep_axis(&boxes));
+            pairs.retain(moving);
+            pairs
+        }
+    };
     let (offsets, entries) = contact_lists(&pairs, n);
     contacts.corrections.clear();
     contacts.corrections.resize(pairs.len() * dim, 0.0);

@@ -6,9 +6,9 @@
 //! damping    for dynamic i: v_i *= exp(−rate h)        (factor from the plan)
 //! ```
 //! Fixed particles (w = 0) never move; p = x holds for them too. `p` is
-//! scratch of the substep: after a failed prediction only some particles
-//! have it (the step is rolled back anyway).
-//! Each returns the first particle that became non-finite, if any.
+//! scratch of the substep. Each returns the first particle that became
+//! non-finite, if any, after updating all particles of its chunk (the
+//! step is rolled back anyway).
 //! Particles are independent: they run in chunks of [`PARTICLE_GRAIN`]
 //! (`parallel.rs`), every particle with the arithmetic above.
 
@@ -49,15 +49,17 @@ fn predict_in<D: Dim>(
     let n = dim.n();
     let h = plan.h;
     let gravity = &plan.gravity[..n];
-    p.copy_from_slice(x);
-    let first = range.start;
-    let particles = x.chunks_exact_mut(n).zip(v.chunks_exact_mut(n));
+    let particles = x
+        .chunks_exact_mut(n)
+        .zip(v.chunks_exact_mut(n))
+        .zip(p.chunks_exact_mut(n));
     let parameters = force[range.start * n..range.end * n].chunks_exact(n).zip(
         plan.inverse_mass[range.clone()]
             .iter()
-            .zip(&plan.gravity_scale[range]),
+            .zip(&plan.gravity_scale[range.clone()]),
     );
-    for (i, ((xi, vi), (fi, (&w, &s)))) in particles.zip(parameters).enumerate() {
+    for (((xi, vi), pi), (fi, (&w, &s))) in particles.zip(parameters) {
+        pi.copy_from_slice(xi);
         if w == 0.0 {
             continue;
         }
@@ -72,11 +74,35 @@ fn predict_in<D: Dim>(
             vi[a] += h * acc;
             xi[a] += h * vi[a];
         }
-        if !(vi.iter().all(|c| c.is_finite()) && xi.iter().all(|c| c.is_finite())) {
-            return Err(first + i);
+    }
+    first_non_finite(dim, &plan.inverse_mass[range.clone()], [x, v])
+        .map_or(Ok(()), |i| Err(range.start + i))
+}
+
+/// The first dynamic particle (index into `w`) with a non-finite value in
+/// any of `values` (`dim` per particle). One cheap pass over everything
+/// first, the particle search only when it finds something.
+fn first_non_finite<D: Dim, const K: usize>(
+    dim: D,
+    w: &[f64],
+    values: [&[f64]; K],
+) -> Option<usize> {
+    let mut finite = true;
+    for values in values {
+        for c in values {
+            finite &= c.is_finite();
         }
     }
-    Ok(())
+    if finite {
+        return None;
+    }
+    let n = dim.n();
+    (0..w.len()).find(|&i| {
+        w[i] != 0.0
+            && values
+                .iter()
+                .any(|values| values[i * n..(i + 1) * n].iter().any(|c| !c.is_finite()))
+    })
 }
 
 /// Velocity reconstruction.
@@ -95,7 +121,9 @@ pub fn velocity(
     })
 }
 
-/// Velocity of particles `range` (`x`, `v`, `p`: their coordinates).
+/// Velocity of particles `range` (`x`, `v`, `p`: their coordinates). The
+/// quotient is formed for fixed particles too and then discarded, so that
+/// the loop has no branch and runs several coordinates at a time.
 fn velocity_in<D: Dim>(
     dim: D,
     plan: &Plan,
@@ -106,22 +134,18 @@ fn velocity_in<D: Dim>(
 ) -> Result<(), usize> {
     let n = dim.n();
     let h = plan.h;
-    let first = range.start;
+    let w = &plan.inverse_mass[range.clone()];
     let particles = v
         .chunks_exact_mut(n)
         .zip(x.chunks_exact(n).zip(p.chunks_exact(n)));
-    for (i, ((vi, (xi, pi)), &w)) in particles.zip(&plan.inverse_mass[range]).enumerate() {
-        if w == 0.0 {
-            continue;
-        }
+    for ((vi, (xi, pi)), &w) in particles.zip(w) {
+        let dynamic = w != 0.0;
         for a in 0..n {
-            vi[a] = (xi[a] - pi[a]) / h;
-        }
-        if !vi.iter().all(|c| c.is_finite()) {
-            return Err(first + i);
+            let quotient = (xi[a] - pi[a]) / h;
+            vi[a] = if dynamic { quotient } else { vi[a] };
         }
     }
-    Ok(())
+    first_non_finite(dim, w, [v]).map_or(Ok(()), |i| Err(range.start + i))
 }
 
 /// Exponential damping with the plan's per-substep factor.

@@ -30,9 +30,7 @@
 //! checked by `colours.rs` when the backend loads) and only dynamic
 //! particles are written, so a colour runs in chunks of [`ELEMENT_GRAIN`]
 //! on every core (`parallel.rs`): each element reads what it would read
-//! serially and makes the same updates. Distance elements go [`LANES`] at
-//! a time: their square roots and divisions are formed side by side, each
-//! from the same operands in the same order as one element alone.
+//! serially and makes the same updates.
 
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
@@ -45,9 +43,6 @@ use std::ops::Range;
 
 /// Elements per chunk of a colour (≈ 10 µs of distance projections).
 pub const ELEMENT_GRAIN: usize = 2048;
-
-/// Distance elements formed side by side.
-pub const LANES: usize = 4;
 
 /// Inputs shared by every element of a batch.
 pub struct Batch<'a> {
@@ -139,71 +134,50 @@ fn distance_in<D: Dim>(
     let w = batch.inverse_mass;
     let alpha_tilde = batch.alpha_tilde;
     let tether = f.kind == FamilyKind::Tether;
-    let first = elements.start;
-    let mut start = elements.start;
-    while start < elements.end {
-        let lanes = LANES.min(elements.end - start);
-        // Lane l is element start + l; unused lanes hold zeros and are
-        // never written back.
-        let mut ends = [[0usize; 2]; LANES];
-        let mut d = [[0.0; LANES]; MAX_INLINE_DIM];
-        let mut rest = [0.0; LANES];
-        let mut old = [0.0; LANES];
-        let mut wsum = [0.0; LANES];
-        for l in 0..lanes {
-            let e = start + l;
-            let (i, j) = (f.elements[2 * e] as usize, f.elements[2 * e + 1] as usize);
-            ends[l] = [i, j];
-            for a in 0..n {
-                d[a][l] = x.get(j * n + a) - x.get(i * n + a);
-            }
-            rest[l] = f.rest[e];
-            old[l] = lambda[e - first];
-            wsum[l] = w[i] + w[j];
-        }
-        let mut len = [0.0; LANES];
+    let ends = f.elements[2 * elements.start..2 * elements.end].chunks_exact(2);
+    let slots = f.rest[elements.clone()].iter().zip(lambda.iter_mut());
+    for (e, (element, (&rest, lambda))) in elements.zip(ends.zip(slots)) {
+        let (i, j) = (element[0] as usize, element[1] as usize);
+        let (wi, wj) = (w[i], w[j]);
+        let mut d = [0.0; MAX_INLINE_DIM];
+        let mut d2 = 0.0;
         for a in 0..n {
-            for l in 0..LANES {
-                len[l] += d[a][l] * d[a][l];
-            }
+            d[a] = x.get(j * n + a) - x.get(i * n + a);
+            d2 += d[a] * d[a];
         }
-        let mut step = [0.0; LANES];
-        let mut inv = [0.0; LANES];
-        for l in 0..LANES {
-            len[l] = len[l].sqrt();
-            let c = len[l] - rest[l];
-            step[l] = (-c - alpha_tilde * old[l]) / (wsum[l] + alpha_tilde);
-            inv[l] = 1.0 / len[l];
-        }
-        for l in 0..lanes {
-            let e = start + l;
-            let [i, j] = ends[l];
-            if len[l].is_nan() || len[l] <= 0.0 || wsum[l] == 0.0 {
-                if !len[l].is_finite() {
-                    return Err(e);
-                }
-                continue;
-            }
-            let mut dl = step[l];
-            if !dl.is_finite() {
+        let len = d2.sqrt();
+        let wsum = wi + wj;
+        if len.is_nan() || len <= 0.0 || wsum == 0.0 {
+            if !len.is_finite() {
                 return Err(e);
             }
-            if tether {
-                dl = (old[l] + dl).min(0.0) - old[l];
-            }
-            lambda[e - first] = old[l] + dl;
-            let (wi, wj) = (w[i], w[j]);
+            continue;
+        }
+        let c = len - rest;
+        let mut dl = (-c - alpha_tilde * *lambda) / (wsum + alpha_tilde);
+        if !dl.is_finite() {
+            return Err(e);
+        }
+        if tether {
+            dl = (*lambda + dl).min(0.0) - *lambda;
+        }
+        *lambda += dl;
+        let inv = 1.0 / len;
+        for c in &mut d[..n] {
+            *c *= inv;
+        }
+        if wi != 0.0 {
             for a in 0..n {
-                let unit = d[a][l] * inv[l];
-                if wi != 0.0 {
-                    x.set(i * n + a, x.get(i * n + a) + wi * -unit * dl);
-                }
-                if wj != 0.0 {
-                    x.set(j * n + a, x.get(j * n + a) + wj * unit * dl);
-                }
+                let k = i * n + a;
+                x.set(k, x.get(k) + wi * -d[a] * dl);
             }
         }
-        start += lanes;
+        if wj != 0.0 {
+            for a in 0..n {
+                let k = j * n + a;
+                x.set(k, x.get(k) + wj * d[a] * dl);
+            }
+        }
     }
     Ok(())
 }
