@@ -7,6 +7,8 @@ use std::path::PathBuf;
 /// Options of `hyperpbd accuracy`.
 #[derive(Debug, clap::Args)]
 pub struct AccuracyArgs {
+    #[command(flatten)]
+    threads: super::threads::ThreadsArg,
     /// Smoke-test mode: fewer points, smaller scenes, one rep (under two
     /// minutes on a 2-core machine).
     #[arg(long)]
@@ -48,6 +50,7 @@ pub struct AccuracyArgs {
 }
 
 pub fn accuracy(args: &AccuracyArgs) -> Result<(), CliError> {
+    args.threads.apply();
     let mut config = if args.quick {
         Config::quick(&args.out)
     } else {

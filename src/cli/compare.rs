@@ -9,6 +9,8 @@ use std::path::PathBuf;
 /// Options of `hyperpbd compare`.
 #[derive(Debug, clap::Args)]
 pub struct CompareArgs {
+    #[command(flatten)]
+    threads: super::threads::ThreadsArg,
     /// Scene file (JSON).
     scene: PathBuf,
     /// Frames to compare.
@@ -29,6 +31,7 @@ enum PrecisionArg {
 }
 
 pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
+    args.threads.apply();
     if args.every == 0 {
         return Err(CliError::Input("--every: must be at least 1".into()));
     }

@@ -7,6 +7,7 @@ mod compare_barrier;
 mod output;
 mod render;
 mod run;
+mod threads;
 
 pub use broken_pipe::exit_quietly_on_broken_pipe;
 
@@ -43,6 +44,8 @@ enum Command {
         /// Backend to use.
         #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
         backend: BackendChoice,
+        #[command(flatten)]
+        threads: threads::ThreadsArg,
     },
     /// Run the CPU golden path and a GPU backend side by side and print the
     /// per-frame divergence against its derived bound (exit 3 when over).
@@ -116,7 +119,14 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
             info();
             Ok(())
         }
-        Command::Demo { frames, backend } => run::demo(frames, backend),
+        Command::Demo {
+            frames,
+            backend,
+            threads,
+        } => {
+            threads.apply();
+            run::demo(frames, backend)
+        }
         Command::Compare(args) => compare::compare(&args),
         Command::Render(args) => render::render(&args),
         Command::Accuracy(args) => accuracy::accuracy(&args),

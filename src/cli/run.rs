@@ -11,6 +11,8 @@ use std::time::Instant;
 /// Options of `hyperpbd run`.
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
+    #[command(flatten)]
+    threads: super::threads::ThreadsArg,
     /// Scene file (JSON).
     scene: PathBuf,
     /// Backend to use.
@@ -67,6 +69,7 @@ fn read(backend: &mut dyn Backend) -> Result<State, CliError> {
 }
 
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
+    args.threads.apply();
     if args.every == 0 {
         return Err(CliError::Input("--every: must be at least 1".into()));
     }
@@ -171,6 +174,9 @@ fn print_report(report: &StepReport) {
     }
     if report.active_contacts > 0 {
         println!("  active contacts {}", report.active_contacts);
+    }
+    if report.threads > 0 {
+        println!("  cpu threads {}", report.threads);
     }
 }
 
