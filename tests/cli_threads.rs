@@ -53,7 +53,11 @@ fn run_reports_the_thread_count_and_the_same_hash_for_any_count() {
     let one = run(&["--threads", "1"], None);
     assert!(stdout(&one).contains("cpu threads 1"), "{}", stdout(&one));
     let three = run(&["--threads", "3"], None);
-    assert!(stdout(&three).contains("cpu threads 3"), "{}", stdout(&three));
+    assert!(
+        stdout(&three).contains("cpu threads 3"),
+        "{}",
+        stdout(&three)
+    );
     let from_variable = run(&[], Some("2"));
     assert!(
         stdout(&from_variable).contains("cpu threads 2"),

@@ -17,7 +17,10 @@ use hyperpbd_core::{
 use crate::collide::{self, Contacts};
 use crate::parallel::Workers;
 use crate::project::{Batch, Workspace, project};
-use crate::{colours, friction, incremental_potential, integrate, residual, threads};
+use crate::{colours, friction, incremental_potential, integrate, project, residual, threads};
+
+/// Multipliers per chunk of their reset.
+const LAMBDA_GRAIN: usize = 16_384;
 
 /// The golden backend.
 pub struct CpuBackend {
@@ -28,7 +31,10 @@ pub struct CpuBackend {
     p: Vec<f64>,
     force: Vec<f64>,
     /// Multipliers per family, color-ordered like the family's elements.
-    lambda: Vec<Vec<f64>>,
+    /// (all families in one vector, reset in one pass; family f's are
+    /// `lambda[lambda_starts[f]..lambda_starts[f + 1]]`).
+    lambda: Vec<f64>,
+    lambda_starts: Vec<usize>,
     saved_x: Vec<f64>,
     saved_v: Vec<f64>,
     workspace: Workspace,
@@ -42,6 +48,10 @@ pub struct CpuBackend {
     minimisation: Vec<MinimisationReport>,
     /// The threads the kernels run on.
     workers: Workers,
+    /// Whether some kernel of the plan splits over the threads: only then
+    /// does a step move to the pool (a hand-over costs microseconds, more
+    /// than a small scene's whole step).
+    on_pool: bool,
 }
 
 impl CpuBackend {
@@ -57,7 +67,11 @@ impl CpuBackend {
     pub fn with_threads(plan: Plan, state: &State, threads: usize) -> Result<Self, BackendError> {
         check_state(&plan, state)?;
         colours::check(&plan)?;
-        let lambda = plan.families.iter().map(|f| vec![0.0; f.len()]).collect();
+        let mut lambda_starts = vec![0];
+        for f in &plan.families {
+            lambda_starts.push(lambda_starts[lambda_starts.len() - 1] + f.len());
+        }
+        let lambda = vec![0.0; lambda_starts[lambda_starts.len() - 1]];
         Ok(CpuBackend {
             force: plan.force.clone(),
             x: state.positions.clone(),
@@ -66,6 +80,7 @@ impl CpuBackend {
             saved_x: Vec::with_capacity(state.positions.len()),
             saved_v: Vec::with_capacity(state.velocities.len()),
             lambda,
+            lambda_starts,
             plan,
             workspace: Workspace::default(),
             contacts: Contacts::default(),
@@ -73,7 +88,15 @@ impl CpuBackend {
             minimiser: incremental_potential::Workspace::default(),
             minimisation: Vec::new(),
             workers: Workers::new(threads)?,
-        })
+            on_pool: false,
+        }
+        .with_pool_choice())
+    }
+
+    /// Sets `on_pool` from the plan's largest loops.
+    fn with_pool_choice(mut self) -> Self {
+        self.on_pool = splits_somewhere(&self.plan, &self.workers);
+        self
     }
 
     /// The number of threads this backend runs on.
@@ -87,13 +110,14 @@ impl CpuBackend {
     /// results are the same bytes for any cap.
     pub fn with_max_chunk(mut self, max_chunk: usize) -> Self {
         self.workers = self.workers.with_max_chunk(max_chunk);
-        self
+        self.with_pool_choice()
     }
 
     /// Multipliers of family `family` from the last projection
     /// (color-ordered), for inspection and kernel-level tests.
     pub fn multipliers(&self, family: usize) -> Option<&[f64]> {
-        self.lambda.get(family).map(Vec::as_slice)
+        let range = *self.lambda_starts.get(family)?..*self.lambda_starts.get(family + 1)?;
+        self.lambda.get(range)
     }
 
     /// Candidate pairs and contact lists of the last broadphase.
@@ -115,9 +139,12 @@ impl CpuBackend {
         let workers = &self.workers;
         match kernel {
             Kernel::Predict => {
-                for l in &mut self.lambda {
-                    l.fill(0.0);
-                }
+                let count = self.lambda.len();
+                let _ =
+                    workers.try_for_spans(count, LAMBDA_GRAIN, 1, [&mut self.lambda], |_, [l]| {
+                        l.fill(0.0);
+                        Ok(())
+                    });
                 integrate::predict(
                     workers,
                     plan,
@@ -142,7 +169,7 @@ impl CpuBackend {
                     &batch,
                     fam.color(color),
                     &mut self.x,
-                    &mut self.lambda[family],
+                    &mut self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]],
                     &mut self.workspace,
                 )
                 .map_err(|slot| {
@@ -164,7 +191,7 @@ impl CpuBackend {
                 plan.h,
                 &plan.inverse_mass,
                 &plan.families[family],
-                &self.lambda[family],
+                &self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]],
                 &mut self.v,
             )
             .map_err(|i| self.particle_error(StageName::Friction, i)),
@@ -237,9 +264,9 @@ impl CpuBackend {
             active_contacts: plan
                 .families
                 .iter()
-                .zip(&self.lambda)
+                .zip(self.lambda_starts.windows(2))
                 .filter(|(f, _)| f.kind.is_inequality())
-                .map(|(_, l)| l.iter().filter(|&&l| l > 0.0).count())
+                .map(|(_, r)| self.lambda[r[0]..r[1]].iter().filter(|&&l| l > 0.0).count())
                 .sum::<usize>()
                 + self.contacts.active_count(),
             minimisation: std::mem::take(&mut self.minimisation),
@@ -257,6 +284,9 @@ impl Backend for CpuBackend {
     }
 
     fn step(&mut self) -> Result<StepReport, BackendError> {
+        if !self.on_pool {
+            return self.step_on_workers();
+        }
         let workers = self.workers.clone();
         workers.install(|| self.step_on_workers())
     }
@@ -287,6 +317,9 @@ impl Backend for CpuBackend {
     /// not) — the same writes for any thread count.
     fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
         check_kernel(&self.plan, kernel)?;
+        if !self.on_pool {
+            return self.kernel(kernel);
+        }
         let workers = self.workers.clone();
         workers.install(|| self.kernel(kernel))
     }
@@ -311,4 +344,26 @@ impl CpuBackend {
         }
         Ok(self.report())
     }
+}
+
+/// Whether any loop of `plan` is longer than its kernel's chunk on
+/// `workers` (so that it runs on several threads).
+fn splits_somewhere(plan: &Plan, workers: &Workers) -> bool {
+    let count = plan.particle_count();
+    let colours = plan
+        .families
+        .iter()
+        .flat_map(|f| (0..f.color_count()).map(|c| f.color(c).len()));
+    let splits = |len: usize, grain: usize| workers.splits(len, grain);
+    splits(count, integrate::PARTICLE_GRAIN)
+        || colours
+            .into_iter()
+            .any(|len| splits(len, project::ELEMENT_GRAIN))
+        || plan
+            .families
+            .iter()
+            .any(|f| splits(f.len(), residual::RESIDUAL_GRAIN))
+        || (plan.contacts.is_some() && splits(count, collide::BOX_GRAIN))
+        || (plan.incremental_potential.is_some()
+            && splits(count, incremental_potential::PARTICLE_GRAIN))
 }

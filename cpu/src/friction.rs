@@ -13,7 +13,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::dim::{Dim, with_dim};
-use crate::parallel::{DisjointSlice, Workers};
+use crate::parallel::{Coordinates, DisjointSlice, Shared, Workers, first_error};
 use crate::project::ELEMENT_GRAIN;
 use hyperpbd_core::{Family, FamilyKind};
 use std::ops::Range;
@@ -40,15 +40,22 @@ pub fn friction(
         friction: *friction,
         lambda,
     };
-    // SAFETY: a contact family holds each particle once (checked by
-    // `colours::check` when the backend loaded the plan), and element e
-    // writes only the velocity of its particle: chunks write disjoint data.
-    let v = unsafe { DisjointSlice::new(v) };
-    workers
-        .try_for_chunks(lambda.len(), ELEMENT_GRAIN, |r| {
-            with_dim!(dim, friction_in(&contact, r, &v))
+    let count = lambda.len();
+    let result = if workers.splits(count, ELEMENT_GRAIN) {
+        // SAFETY: a contact family holds each particle once (checked by
+        // `colours::check` when the backend loaded the plan), and element e
+        // writes only the velocity of its particle: chunks write disjoint data.
+        let v = unsafe { DisjointSlice::new(v) };
+        workers.try_for_chunks(count, ELEMENT_GRAIN, |r| {
+            with_dim!(dim, friction_in(&contact, r, &mut Shared(&v)))
         })
-        .map_err(|e| family.elements[e] as usize)
+    } else {
+        workers
+            .chunks(count, ELEMENT_GRAIN)
+            .map(|r| with_dim!(dim, friction_in(&contact, r, v)))
+            .fold(Ok(()), first_error)
+    };
+    result.map_err(|e| family.elements[e] as usize)
 }
 
 /// What every element of the family shares.
@@ -62,11 +69,11 @@ struct Contact<'a> {
 }
 
 /// Friction of elements `elements`; the first non-finite element.
-fn friction_in<D: Dim>(
+fn friction_in<D: Dim, V: Coordinates + ?Sized>(
     dim: D,
     contact: &Contact,
     elements: Range<usize>,
-    v: &DisjointSlice<f64>,
+    v: &mut V,
 ) -> Result<(), usize> {
     let n = dim.n();
     let normal = &contact.normal[..n];
@@ -76,11 +83,11 @@ fn friction_in<D: Dim>(
             continue;
         }
         let i = contact.family.elements[e] as usize;
-        // n·v_i, summed as `project::dot` sums.
-        let vn = (0..n).map(|a| normal[a] * v.get(i * n + a)).sum::<f64>();
+        let vi = v.values_mut(i * n..(i + 1) * n);
+        let vn = crate::project::dot(normal, vi);
         let mut t2 = 0.0;
         for a in 0..n {
-            let t = v.get(i * n + a) - vn * normal[a];
+            let t = vi[a] - vn * normal[a];
             t2 += t * t;
         }
         let vt = t2.sqrt();
@@ -90,11 +97,10 @@ fn friction_in<D: Dim>(
         let limit = contact.friction * contact.inverse_mass[i] * l / contact.h;
         let scale = limit.min(vt) / vt;
         for a in 0..n {
-            let va = v.get(i * n + a);
-            let t = va - vn * normal[a];
-            v.set(i * n + a, va - t * scale);
+            let t = vi[a] - vn * normal[a];
+            vi[a] -= t * scale;
         }
-        if !(0..n).all(|a| v.get(i * n + a).is_finite()) {
+        if !vi.iter().all(|c| c.is_finite()) {
             return Err(e);
         }
     }

@@ -132,13 +132,28 @@ impl Workers {
         }
     }
 
+    /// A kernel's chunk size: its `grain`, capped by the test cap.
+    #[inline]
+    pub fn grain(&self, grain: usize) -> usize {
+        grain.min(self.max_chunk).max(1)
+    }
+
+    /// The chunks of `0..len` for `grain` (as the parallel loops cut them),
+    /// for a kernel that runs them in order on the calling thread.
+    pub fn chunks(&self, len: usize, grain: usize) -> impl Iterator<Item = Range<usize>> {
+        let grain = self.grain(grain);
+        (0..len.div_ceil(grain)).map(move |c| chunk(c, len, grain))
+    }
+
     /// Whether `len` items in chunks of `grain` run in parallel.
-    fn splits(&self, len: usize, grain: usize) -> bool {
-        self.pool.is_some() && len > grain
+    #[inline]
+    pub fn splits(&self, len: usize, grain: usize) -> bool {
+        self.pool.is_some() && len > self.grain(grain)
     }
 
     /// Runs `body` over the chunks of `0..len` (items independent of each
     /// other); the smallest error index of any chunk.
+    #[inline]
     pub fn try_for_chunks(
         &self,
         len: usize,
@@ -150,6 +165,7 @@ impl Workers {
 
     /// [`Workers::try_for_chunks`] with scratch: `scratch` when the chunks
     /// run on the calling thread, else one `fresh()` per task.
+    #[inline]
     pub fn try_for_chunks_with<S>(
         &self,
         len: usize,
@@ -158,8 +174,11 @@ impl Workers {
         fresh: impl Fn() -> S + Sync + Send,
         body: impl Fn(Range<usize>, &mut S) -> Result<(), usize> + Sync,
     ) -> Result<(), usize> {
-        let grain = grain.min(self.max_chunk).max(1);
+        let grain = self.grain(grain);
         if !self.splits(len, grain) {
+            if len <= grain {
+                return body(0..len, scratch);
+            }
             // Every chunk runs to its own first error, as on the pool, so
             // that even the partial writes of a failed kernel are the same
             // for any thread count.
@@ -167,6 +186,18 @@ impl Workers {
                 .map(|c| body(chunk(c, len, grain), scratch))
                 .fold(Ok(()), first_error);
         }
+        self.try_on_pool(len, grain, fresh, body)
+    }
+
+    /// The parallel half of [`Workers::try_for_chunks_with`].
+    #[inline(never)]
+    fn try_on_pool<S>(
+        &self,
+        len: usize,
+        grain: usize,
+        fresh: impl Fn() -> S + Sync + Send,
+        body: impl Fn(Range<usize>, &mut S) -> Result<(), usize> + Sync,
+    ) -> Result<(), usize> {
         self.install(|| {
             (0..len.div_ceil(grain))
                 .into_par_iter()
@@ -179,6 +210,7 @@ impl Workers {
     /// consecutive values of every slice in `slices` (particles and their
     /// coordinates): chunk `r` gets the values of items `r` as plain slices.
     /// The smallest error index of any chunk.
+    #[inline]
     pub fn try_for_spans<const K: usize>(
         &self,
         len: usize,
@@ -187,6 +219,9 @@ impl Workers {
         slices: [&mut [f64]; K],
         body: impl Fn(Range<usize>, [&mut [f64]; K]) -> Result<(), usize> + Sync,
     ) -> Result<(), usize> {
+        if len <= self.grain(grain) {
+            return body(0..len, slices);
+        }
         let spans = Spans::new(len, stride, slices);
         // SAFETY: the chunks are disjoint and each is taken once.
         self.try_for_chunks(len, grain, |r| body(r.clone(), unsafe { spans.take(r) }))
@@ -202,6 +237,9 @@ impl Workers {
         slices: [&mut [f64]; K],
         body: impl Fn(Range<usize>, [&mut [f64]; K]) -> T + Sync,
     ) -> Vec<T> {
+        if len <= self.grain(grain) {
+            return vec![body(0..len, slices)];
+        }
         let spans = Spans::new(len, stride, slices);
         // SAFETY: the chunks are disjoint and each is taken once.
         self.map_chunks(len, grain, |r| body(r.clone(), unsafe { spans.take(r) }))
@@ -214,7 +252,7 @@ impl Workers {
         grain: usize,
         body: impl Fn(Range<usize>) -> T + Sync,
     ) -> Vec<T> {
-        let grain = grain.min(self.max_chunk).max(1);
+        let grain = self.grain(grain);
         let chunks = len.div_ceil(grain);
         if !self.splits(len, grain) {
             return (0..chunks).map(|c| body(chunk(c, len, grain))).collect();
@@ -234,7 +272,7 @@ fn chunk(c: usize, len: usize, grain: usize) -> Range<usize> {
 }
 
 /// The smaller of two errors (a failure is reported by its smallest index).
-fn first_error(a: Result<(), usize>, b: Result<(), usize>) -> Result<(), usize> {
+pub fn first_error(a: Result<(), usize>, b: Result<(), usize>) -> Result<(), usize> {
     match (a, b) {
         (Err(a), Err(b)) => Err(a.min(b)),
         (Err(a), Ok(())) | (Ok(()), Err(a)) => Err(a),
@@ -249,6 +287,7 @@ struct Spans<'a, const K: usize> {
 }
 
 impl<'a, const K: usize> Spans<'a, K> {
+    #[inline]
     fn new(len: usize, stride: usize, slices: [&'a mut [f64]; K]) -> Self {
         assert!(
             slices.iter().all(|s| s.len() == len * stride),
@@ -267,6 +306,7 @@ impl<'a, const K: usize> Spans<'a, K> {
     /// `r` is disjoint from every other range taken while these slices
     /// live.
     #[allow(clippy::mut_from_ref)]
+    #[inline]
     unsafe fn take(&self, r: Range<usize>) -> [&mut [f64]; K] {
         let values = r.start * self.stride..r.end * self.stride;
         // SAFETY: disjoint from every other taken range (the contract).
@@ -310,23 +350,24 @@ impl<'a, T: Copy> DisjointSlice<'a, T> {
         }
     }
 
-    /// Value `k`. Panics when out of range.
+    /// Shared access to `range` (values this thread reads).
+    ///
+    /// # Safety
+    ///
+    /// Nothing writes `range` while the returned slice lives.
     #[inline(always)]
-    pub fn get(&self, k: usize) -> T {
-        assert!(k < self.len, "index {k} out of range {}", self.len);
-        // SAFETY: in bounds; no other thread writes `k` (contract of `new`).
-        unsafe { self.ptr.add(k).read() }
+    pub unsafe fn range(&self, range: Range<usize>) -> &[T] {
+        assert!(
+            range.start <= range.end && range.end <= self.len,
+            "range {range:?} out of range {}",
+            self.len
+        );
+        // SAFETY: in bounds; unwritten meanwhile by the caller's contract.
+        unsafe { std::slice::from_raw_parts(self.ptr.add(range.start), range.len()) }
     }
 
-    /// Writes value `k`. Panics when out of range.
-    #[inline(always)]
-    pub fn set(&self, k: usize, value: T) {
-        assert!(k < self.len, "index {k} out of range {}", self.len);
-        // SAFETY: in bounds; no other thread accesses `k` (contract of `new`).
-        unsafe { self.ptr.add(k).write(value) }
-    }
-
-    /// Exclusive access to `range` (a chunk's own contiguous part).
+    /// Exclusive access to `range` (values only this thread touches: a
+    /// chunk's own span, a particle of its own elements).
     ///
     /// # Safety
     ///
@@ -342,6 +383,49 @@ impl<'a, T: Copy> DisjointSlice<'a, T> {
         );
         // SAFETY: in bounds; exclusive by the caller's contract.
         unsafe { std::slice::from_raw_parts_mut(self.ptr.add(range.start), range.len()) }
+    }
+}
+
+/// Where a kernel finds the coordinates it updates element by element: the
+/// whole slice when one thread runs the kernel, or a chunk's [`Shared`]
+/// handle on a [`DisjointSlice`] when several do. A kernel is written once,
+/// generic over both.
+pub trait Coordinates {
+    /// Values `range`, to read.
+    fn values(&self, range: Range<usize>) -> &[f64];
+    /// Values `range`, to write.
+    fn values_mut(&mut self, range: Range<usize>) -> &mut [f64];
+}
+
+impl Coordinates for [f64] {
+    #[inline(always)]
+    fn values(&self, range: Range<usize>) -> &[f64] {
+        &self[range]
+    }
+
+    #[inline(always)]
+    fn values_mut(&mut self, range: Range<usize>) -> &mut [f64] {
+        &mut self[range]
+    }
+}
+
+/// A chunk's handle on a shared view: its accesses are those the view's
+/// contract (see [`DisjointSlice::new`]) makes exclusive to this chunk.
+pub struct Shared<'v, 'a>(pub &'v DisjointSlice<'a, f64>);
+
+impl Coordinates for Shared<'_, '_> {
+    #[inline(always)]
+    fn values(&self, range: Range<usize>) -> &[f64] {
+        // SAFETY: the values a chunk reads are written by no other chunk
+        // (contract of the view), and this handle's writes need `&mut self`.
+        unsafe { self.0.range(range) }
+    }
+
+    #[inline(always)]
+    fn values_mut(&mut self, range: Range<usize>) -> &mut [f64] {
+        // SAFETY: the values a chunk writes are touched by no other chunk
+        // (contract of the view); borrowed mutably from this handle.
+        unsafe { self.0.range_mut(range) }
     }
 }
 
@@ -381,7 +465,9 @@ mod tests {
         let view = unsafe { DisjointSlice::new(&mut values) };
         let _ = workers.try_for_chunks(10_000, 64, |r| {
             for k in r {
-                view.set(k, 3 * k as u32);
+                // SAFETY: index k belongs to this chunk alone.
+                let value = unsafe { view.range_mut(k..k + 1) };
+                value[0] = 3 * k as u32;
             }
             Ok(())
         });

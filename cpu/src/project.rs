@@ -36,7 +36,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::dim::{Dim, with_dim};
-use crate::parallel::{DisjointSlice, Workers};
+use crate::parallel::{Coordinates, DisjointSlice, Shared, Workers, first_error};
 use hyperpbd_core::geometry::{Scratch, oriented_measure, simplex_squared_measure};
 use hyperpbd_core::{Family, FamilyKind};
 use std::ops::Range;
@@ -74,7 +74,34 @@ pub fn project(
     lambda: &mut [f64],
     ws: &mut Workspace,
 ) -> Result<(), usize> {
+    if range.len() <= workers.grain(ELEMENT_GRAIN) {
+        return project_elements(batch, range.clone(), x, &mut lambda[range], ws);
+    }
+    project_chunks(workers, batch, range, x, lambda, ws)
+}
+
+/// [`project`] of a colour of more than one chunk.
+#[inline(never)]
+fn project_chunks(
+    workers: &Workers,
+    batch: &Batch,
+    range: Range<usize>,
+    x: &mut [f64],
+    lambda: &mut [f64],
+    ws: &mut Workspace,
+) -> Result<(), usize> {
     let first = range.start;
+    if !workers.splits(range.len(), ELEMENT_GRAIN) {
+        // One thread: the same chunks in order, each to its own first
+        // failure, on the plain slice.
+        return workers
+            .chunks(range.len(), ELEMENT_GRAIN)
+            .map(|r| {
+                let elements = first + r.start..first + r.end;
+                project_elements(batch, elements.clone(), x, &mut lambda[elements], ws)
+            })
+            .fold(Ok(()), first_error);
+    }
     // SAFETY: the elements of `range` form one colour: no two share a
     // dynamic particle (checked by `colours::check` when the backend
     // loaded the plan), and the kernels write only dynamic particles
@@ -92,16 +119,16 @@ pub fn project(
             // SAFETY: slots `r` belong to this chunk alone.
             let lambda = unsafe { lambda.range_mut(r.clone()) };
             let elements = first + r.start..first + r.end;
-            project_elements(batch, elements, &x, lambda, ws)
+            project_elements(batch, elements, &mut Shared(&x), lambda, ws)
         },
     )
 }
 
 /// Projects `elements` in order; `lambda` holds their slots.
-fn project_elements(
+fn project_elements<X: Coordinates + ?Sized>(
     batch: &Batch,
     elements: Range<usize>,
-    x: &DisjointSlice<f64>,
+    x: &mut X,
     lambda: &mut [f64],
     ws: &mut Workspace,
 ) -> Result<(), usize> {
@@ -122,11 +149,11 @@ const MAX_INLINE_DIM: usize = 8;
 
 /// Distance projection: the same arithmetic, in the same order, as the
 /// generic path with `geometry::distance` (which is its reference).
-fn distance_in<D: Dim>(
+fn distance_in<D: Dim, X: Coordinates + ?Sized>(
     dim: D,
     batch: &Batch,
     elements: Range<usize>,
-    x: &DisjointSlice<f64>,
+    x: &mut X,
     lambda: &mut [f64],
 ) -> Result<(), usize> {
     let n = dim.n();
@@ -141,9 +168,12 @@ fn distance_in<D: Dim>(
         let (wi, wj) = (w[i], w[j]);
         let mut d = [0.0; MAX_INLINE_DIM];
         let mut d2 = 0.0;
-        for a in 0..n {
-            d[a] = x.get(j * n + a) - x.get(i * n + a);
-            d2 += d[a] * d[a];
+        {
+            let (xi, xj) = (x.values(i * n..i * n + n), x.values(j * n..j * n + n));
+            for a in 0..n {
+                d[a] = xj[a] - xi[a];
+                d2 += d[a] * d[a];
+            }
         }
         let len = d2.sqrt();
         let wsum = wi + wj;
@@ -167,15 +197,15 @@ fn distance_in<D: Dim>(
             *c *= inv;
         }
         if wi != 0.0 {
+            let xi = x.values_mut(i * n..i * n + n);
             for a in 0..n {
-                let k = i * n + a;
-                x.set(k, x.get(k) + wi * -d[a] * dl);
+                xi[a] += wi * -d[a] * dl;
             }
         }
         if wj != 0.0 {
+            let xj = x.values_mut(j * n..j * n + n);
             for a in 0..n {
-                let k = j * n + a;
-                x.set(k, x.get(k) + wj * d[a] * dl);
+                xj[a] += wj * d[a] * dl;
             }
         }
     }
@@ -183,10 +213,10 @@ fn distance_in<D: Dim>(
 }
 
 /// Generic path: gather, evaluate C and ∇C, update.
-fn measure(
+fn measure<X: Coordinates + ?Sized>(
     batch: &Batch,
     elements: Range<usize>,
-    x: &DisjointSlice<f64>,
+    x: &mut X,
     lambda: &mut [f64],
     ws: &mut Workspace,
 ) -> Result<(), usize> {
@@ -201,9 +231,7 @@ fn measure(
         let element = &f.elements[e * arity..(e + 1) * arity];
         for (j, &i) in element.iter().enumerate() {
             let i = i as usize;
-            for a in 0..dim {
-                ws.points[j * dim + a] = x.get(i * dim + a);
-            }
+            ws.points[j * dim..(j + 1) * dim].copy_from_slice(x.values(i * dim..(i + 1) * dim));
         }
         let value = match f.kind {
             FamilyKind::Distance | FamilyKind::Tether => {
@@ -247,36 +275,34 @@ fn measure(
             if wi == 0.0 {
                 continue;
             }
+            let xi = x.values_mut(i * dim..(i + 1) * dim);
             for a in 0..dim {
-                let k = i * dim + a;
-                x.set(k, x.get(k) + wi * ws.grad[j * dim + a] * dl);
+                xi[a] += wi * ws.grad[j * dim + a] * dl;
             }
         }
     }
     Ok(())
 }
 
-fn contact_in<D: Dim>(
+fn contact_in<D: Dim, X: Coordinates + ?Sized>(
     dim: D,
     batch: &Batch,
     normal: &[f64],
     friction: f64,
     elements: Range<usize>,
-    x: &DisjointSlice<f64>,
+    x: &mut X,
     lambda: &mut [f64],
 ) -> Result<(), usize> {
     let n = dim.n();
     let normal = &normal[..n];
     let f = batch.family;
     let alpha_tilde = batch.alpha_tilde;
-    let first = elements.start;
-    for e in elements {
-        let i = f.elements[e] as usize;
-        let rest = f.rest[e];
-        let lambda = &mut lambda[e - first];
+    let slots = f.rest[elements.clone()].iter().zip(lambda.iter_mut());
+    for (e, (&i, (&rest, lambda))) in elements.clone().zip(f.elements[elements].iter().zip(slots)) {
+        let i = i as usize;
         let w = batch.inverse_mass[i];
-        // n·x_i, summed as `dot` sums.
-        let c = (0..n).map(|a| normal[a] * x.get(i * n + a)).sum::<f64>() - rest;
+        let xi = x.values_mut(i * n..i * n + n);
+        let c = dot(normal, xi) - rest;
         let l = *lambda;
         let raw = (-c - alpha_tilde * l) / (w + alpha_tilde);
         if !raw.is_finite() {
@@ -285,25 +311,24 @@ fn contact_in<D: Dim>(
         let dl = (l + raw).max(0.0) - l;
         *lambda = l + dl;
         for a in 0..n {
-            x.set(i * n + a, x.get(i * n + a) + w * normal[a] * dl);
+            xi[a] += w * normal[a] * dl;
         }
         if friction > 0.0 && *lambda > 0.0 {
             let p = &batch.start[i * n..i * n + n];
             let mut dn = 0.0;
             for a in 0..n {
-                dn += (x.get(i * n + a) - p[a]) * normal[a];
+                dn += (xi[a] - p[a]) * normal[a];
             }
             let mut t2 = 0.0;
             for a in 0..n {
-                let t = (x.get(i * n + a) - p[a]) - dn * normal[a];
+                let t = (xi[a] - p[a]) - dn * normal[a];
                 t2 += t * t;
             }
             let bound = friction * w * *lambda;
             if t2.sqrt() <= bound {
                 for a in 0..n {
-                    let xi = x.get(i * n + a);
-                    let t = (xi - p[a]) - dn * normal[a];
-                    x.set(i * n + a, xi - t);
+                    let t = (xi[a] - p[a]) - dn * normal[a];
+                    xi[a] -= t;
                 }
             }
         }
