@@ -140,7 +140,7 @@ fn project_elements<X: Coordinates + ?Sized>(
             batch.dim,
             contact_in(batch, normal, *friction, elements, x, lambda)
         ),
-        _ => measure(batch, elements, x, lambda, ws),
+        _ => with_dim!(batch.dim, measure(batch, elements, x, lambda, ws)),
     }
 }
 
@@ -213,14 +213,15 @@ fn distance_in<D: Dim, X: Coordinates + ?Sized>(
 }
 
 /// Generic path: gather, evaluate C and ∇C, update.
-fn measure<X: Coordinates + ?Sized>(
+fn measure<D: Dim, X: Coordinates + ?Sized>(
+    dim: D,
     batch: &Batch,
     elements: Range<usize>,
     x: &mut X,
     lambda: &mut [f64],
     ws: &mut Workspace,
 ) -> Result<(), usize> {
-    let dim = batch.dim;
+    let dim = dim.n();
     let f = batch.family;
     let w = batch.inverse_mass;
     let arity = f.arity;

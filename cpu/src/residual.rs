@@ -25,7 +25,10 @@ pub fn residual(workers: &Workers, dim: usize, family: &Family, x: &[f64]) -> Fa
             if family.kind == FamilyKind::Distance {
                 with_dim!(dim, distance_violation(family, elements, x))
             } else {
-                violation(dim, family, elements, x, &mut Workspace::default())
+                with_dim!(
+                    dim,
+                    violation(family, elements, x, &mut Workspace::default())
+                )
             }
         })
         .into_iter()
@@ -37,13 +40,14 @@ pub fn residual(workers: &Workers, dim: usize, family: &Family, x: &[f64]) -> Fa
 }
 
 /// The largest violation of `elements` (any kind, generic path).
-fn violation(
-    dim: usize,
+fn violation<D: Dim>(
+    dim: D,
     family: &Family,
     elements: Range<usize>,
     x: &[f64],
     ws: &mut Workspace,
 ) -> f64 {
+    let dim = dim.n();
     let arity = family.arity;
     let Workspace {
         points,
