@@ -12,7 +12,7 @@
 //!                 alternating; the median frame is reported
 //! speed-up        t(1 thread) / t(all threads); efficiency = speed-up / threads
 //! ```
-//! `cargo bench --bench cpu_threads [-- peer|column]`; prints the README's
+//! `cargo bench --bench cpu_threads [-- peer [SIZES…]|column]`; prints the README's
 //! `cpu-threads` table rows. Every run asserts that both backends end in
 //! the same state (hash), so a fast wrong answer cannot pass.
 
@@ -70,8 +70,8 @@ fn time(seconds: f64) -> String {
     }
 }
 
-fn peer_cloth(threads: usize) {
-    for n in [32, 64, 128, 256, 512] {
+fn peer_cloth(threads: usize, sizes: &[usize]) {
+    for &n in sizes {
         let scene = scenes::peer_cloth(n);
         let (mut one, mut all) = (backend(&scene, 1), backend(&scene, threads));
         step(&mut one, WARMUP_FRAMES);
@@ -188,7 +188,9 @@ fn main() {
     println!("| scene | particles | 1 thread | {threads} threads | speed-up | efficiency |");
     println!("|---|---:|---:|---:|---:|---:|");
     if wanted("peer") {
-        peer_cloth(threads);
+        let sizes: Vec<usize> = filter.iter().filter_map(|a| a.parse().ok()).collect();
+        let all = [32, 64, 128, 256, 512];
+        peer_cloth(threads, if sizes.is_empty() { &all } else { &sizes });
     }
     if wanted("column") {
         column(threads);
