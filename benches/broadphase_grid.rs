@@ -15,26 +15,21 @@ use std::time::Instant;
 
 use hyperpbd_core::broadphase::{Aabbs, grid_pairs, sweep_axis, sweep_pairs};
 
-/// A deterministic jitter in [−1, 1).
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        ((self.0 >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    }
+/// A deterministic jitter in [−1, 1) for value `k` (a multiplicative hash).
+fn jitter(k: usize) -> f64 {
+    let h = (k as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 11;
+    h as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
 }
 
 fn cube(side: usize) -> Aabbs {
-    let mut rng = Lcg(17);
     let n = side * side * side;
     let mut x = Vec::with_capacity(3 * n);
     for k in 0..n {
-        for coord in [k % side, (k / side) % side, k / (side * side)] {
-            x.push(1.05 * coord as f64 + 0.05 * rng.next());
+        for (a, coord) in [k % side, (k / side) % side, k / (side * side)]
+            .into_iter()
+            .enumerate()
+        {
+            x.push(1.05 * coord as f64 + 0.05 * jitter(3 * k + a));
         }
     }
     Aabbs::particles(3, &x, &vec![0.5; n], 0.02)

@@ -63,25 +63,29 @@ fn run(
 /// Panics naming the first value that differs.
 fn assert_same(what: &str, reference: &(State, Vec<StepReport>), other: &(State, Vec<StepReport>)) {
     let (a, b) = (&reference.0, &other.0);
-    for (name, xs, ys) in [
-        ("positions", &a.positions, &b.positions),
-        ("velocities", &a.velocities, &b.velocities),
-    ] {
-        assert_eq!(xs.len(), ys.len(), "{what}: {name} length differs");
-        if let Some(k) = xs
+    let bits = |s: &State| -> Vec<u64> {
+        s.positions
             .iter()
-            .zip(ys)
-            .position(|(x, y)| x.to_bits() != y.to_bits())
-        {
-            panic!(
-                "{what}: {name}[{k}] (particle {}, axis {}) is {:e}, the 1-thread reference {:e}: \
-                 the result depends on the thread count",
-                k / a.dim,
-                k % a.dim,
-                ys[k],
-                xs[k]
-            );
-        }
+            .chain(&s.velocities)
+            .map(|v| v.to_bits())
+            .collect()
+    };
+    let (ours, theirs) = (bits(a), bits(b));
+    if let Some(k) = (0..ours.len().max(theirs.len())).find(|&k| ours.get(k) != theirs.get(k)) {
+        let (half, dim) = (a.positions.len(), a.dim.max(1));
+        let (name, index) = if k < half {
+            ("positions", k)
+        } else {
+            ("velocities", k - half)
+        };
+        panic!(
+            "{what}: {name}[{index}] (particle {}, axis {}) is {:?}, the 1-thread reference {:?}: \
+             the result depends on the thread count",
+            index / dim,
+            index % dim,
+            theirs.get(k).map(|&v| f64::from_bits(v)),
+            ours.get(k).map(|&v| f64::from_bits(v)),
+        );
     }
     assert_eq!(a.hash(), b.hash(), "{what}: hash");
     for (frame, (r, o)) in reference.1.iter().zip(&other.1).enumerate() {

@@ -101,8 +101,8 @@ def main():
         if w[a, b] > 0.0:
             v[a, b] = (x[a, b] - p[a, b]) / h
 
-    @ti.kernel
-    def substep():
+    @ti.func
+    def stages():
         for a, b in ti.ndrange(n, n):
             predict(a, b)
         for k, b in ti.ndrange(n // 2, n):
@@ -117,21 +117,14 @@ def main():
             velocity(a, b)
 
     @ti.kernel
+    def substep():
+        stages()
+
+    @ti.kernel
     def serial_frame():
         ti.loop_config(serialize=True)
         for _ in range(substeps):
-            for a, b in ti.ndrange(n, n):
-                predict(a, b)
-            for k, b in ti.ndrange(n // 2, n):
-                project(2 * k, b, 2 * k + 1, b, rest_h[2 * k, b])
-            for k, b in ti.ndrange((n - 1) // 2, n):
-                project(2 * k + 1, b, 2 * k + 2, b, rest_h[2 * k + 1, b])
-            for a, k in ti.ndrange(n, n // 2):
-                project(a, 2 * k, a, 2 * k + 1, rest_v[a, 2 * k])
-            for a, k in ti.ndrange(n, (n - 1) // 2):
-                project(a, 2 * k + 1, a, 2 * k + 2, rest_v[a, 2 * k + 1])
-            for a, b in ti.ndrange(n, n):
-                velocity(a, b)
+            stages()
 
     def frame():
         if args.threads == 1:
