@@ -33,10 +33,13 @@
 //! write in place through a shared view. The golden path writes in place:
 //! a gather would add a pass and memory traffic to every projection, and
 //! the colouring already proves the writes disjoint. [`DisjointSlice`] is
-//! that view, the only `unsafe` of the parallel path: constructing it is
-//! `unsafe`, with the disjointness its caller guarantees as the contract;
-//! every access is bounds-checked. Each construction site states why its
-//! writes are disjoint.
+//! that view, and all the `unsafe` of the parallel path: constructing it
+//! (and taking a range from it) is `unsafe`, with the disjointness its
+//! caller guarantees as the contract; every access is bounds-checked. Each
+//! construction site states why its writes are disjoint. Kernels are
+//! written once against [`Coordinates`]: one thread hands them the plain
+//! `&mut [f64]` (exactly the serial code, aliasing guarantees included),
+//! several threads a chunk's [`Shared`] handle on the view.
 
 use std::marker::PhantomData;
 use std::ops::Range;
