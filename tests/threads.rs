@@ -184,3 +184,54 @@ fn large_scenes_give_the_same_bytes_at_the_kernels_own_grain() {
         );
     }
 }
+
+/// The end of one substep and the start of the next run as one pass over
+/// the particles (velocity, then the next prediction). A failure there is
+/// reported as the kernels one by one would report it: particles 17 and
+/// 30 start at 1.7e308 m/s with a force of 5e306 N on 1 kg and h = 1 s, so
+/// their velocity stays finite in substep 0 and overflows in the
+/// prediction of substep 1 — stage `predict`, substep 1, the lower
+/// particle — on any thread count, and the state rolls back.
+#[test]
+fn fused_substeps_fail_where_the_kernels_would() {
+    use hyperpbd::{BackendError, Particle, SceneBuilder, StageName, StepError};
+    let mut b = SceneBuilder::new(2).dt(10.0).substeps(10);
+    for i in 0..40 {
+        let mut particle = Particle::new(vec![i as f64, 0.0], 1.0);
+        if i == 17 || i == 30 {
+            particle = particle.with_velocity(vec![1.7e308, 0.0]);
+            particle.force = Some(vec![5e306, 0.0]);
+        }
+        b.particle(particle);
+    }
+    let scene = b.build().unwrap_or_else(|e| panic!("{e}"));
+    for (threads, max_chunk) in [(1, None), (2, Some(FINE_CHUNK)), (8, Some(FINE_CHUNK))] {
+        let plan = Plan::compile(&scene).unwrap_or_else(|e| panic!("{e}"));
+        let mut backend = CpuBackend::with_threads(plan, &State::from_scene(&scene), threads)
+            .unwrap_or_else(|e| panic!("{e}"));
+        if let Some(max_chunk) = max_chunk {
+            backend = backend.with_max_chunk(max_chunk);
+        }
+        let before = backend.read_state().unwrap_or_else(|e| panic!("{e}"));
+        match backend.step() {
+            Err(BackendError::Step(StepError::NonFiniteParticle {
+                stage,
+                substep,
+                particle,
+            })) => {
+                assert_eq!(
+                    (stage, substep, particle),
+                    (StageName::Predict, 1, 17),
+                    "{threads} threads"
+                );
+            }
+            other => panic!("{threads} threads: expected a failed prediction, got {other:?}"),
+        }
+        let after = backend.read_state().unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            after.hash(),
+            before.hash(),
+            "{threads} threads: rolled back"
+        );
+    }
+}

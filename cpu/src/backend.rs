@@ -15,6 +15,7 @@ use hyperpbd_core::{
 };
 
 use crate::collide::{self, Contacts};
+use crate::integrate::Failed;
 use crate::parallel::Workers;
 use crate::project::{Batch, Workspace, project};
 use crate::{colours, friction, incremental_potential, integrate, project, residual, threads};
@@ -48,6 +49,9 @@ pub struct CpuBackend {
     minimisation: Vec<MinimisationReport>,
     /// The threads the kernels run on.
     workers: Workers,
+    /// Kernels at the end of a substep (velocity, and damping) that run
+    /// fused with the next substep's prediction, when the plan allows.
+    fused_tail: Option<usize>,
     /// Whether some kernel of the plan splits over the threads: only then
     /// does a step move to the pool (a hand-over costs microseconds, more
     /// than a small scene's whole step).
@@ -89,6 +93,7 @@ impl CpuBackend {
             minimisation: Vec::new(),
             workers: Workers::new(threads)?,
             on_pool: false,
+            fused_tail: None,
         }
         .with_pool_choice())
     }
@@ -96,6 +101,7 @@ impl CpuBackend {
     /// Sets `on_pool` from the plan's largest loops.
     fn with_pool_choice(mut self) -> Self {
         self.on_pool = splits_somewhere(&self.plan, &self.workers);
+        self.fused_tail = fused_tail(&self.plan);
         self
     }
 
@@ -139,21 +145,12 @@ impl CpuBackend {
         let workers = &self.workers;
         match kernel {
             Kernel::Predict => {
-                let count = self.lambda.len();
-                let _ =
-                    workers.try_for_spans(count, LAMBDA_GRAIN, 1, [&mut self.lambda], |_, [l]| {
-                        l.fill(0.0);
-                        Ok(())
-                    });
-                integrate::predict(
-                    workers,
-                    plan,
-                    &mut self.x,
-                    &mut self.v,
-                    &mut self.p,
-                    &self.force,
-                )
-                .map_err(|i| self.particle_error(StageName::Predict, i))
+                let (x, v, p, force) = (&mut self.x, &mut self.v, &mut self.p, &self.force);
+                let ((), predicted) = workers.join(
+                    || reset(workers, &mut self.lambda),
+                    || integrate::predict(workers, plan, x, v, p, force),
+                );
+                predicted.map_err(|i| self.particle_error(StageName::Predict, i))
             }
             Kernel::Project { family, color } => {
                 let fam = &plan.families[family];
@@ -331,18 +328,51 @@ impl CpuBackend {
         self.saved_x.clone_from(&self.x);
         self.saved_v.clone_from(&self.v);
         self.minimisation.clear();
-        for substep in 0..self.plan.substeps {
-            self.substep = substep;
-            for k in 0..self.plan.substep_kernels.len() {
-                let kernel = self.plan.substep_kernels[k];
-                if let Err(e) = self.kernel(kernel) {
-                    self.x.clone_from(&self.saved_x);
-                    self.v.clone_from(&self.saved_v);
-                    return Err(e);
-                }
-            }
+        if let Err(e) = self.substeps() {
+            self.x.clone_from(&self.saved_x);
+            self.v.clone_from(&self.saved_v);
+            return Err(e);
         }
         Ok(self.report())
+    }
+
+    /// The plan's kernels, `substeps` times. Where a substep ends with
+    /// per-particle kernels only (velocity, damping) and the next begins
+    /// with the prediction, those run as one pass
+    /// ([`integrate::velocity_then_predict`]).
+    fn substeps(&mut self) -> Result<(), BackendError> {
+        let (substeps, kernels) = (self.plan.substeps, self.plan.substep_kernels.len());
+        for substep in 0..substeps {
+            self.substep = substep;
+            let fuse_next = self.fused_tail.filter(|_| substep + 1 < substeps);
+            let first = usize::from(substep > 0 && self.fused_tail.is_some());
+            let last = kernels - fuse_next.unwrap_or(0);
+            for k in first..last {
+                self.kernel(self.plan.substep_kernels[k])?;
+            }
+            if fuse_next.is_some() {
+                self.velocity_then_predict()?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The end of this substep and the prediction of the next, fused.
+    fn velocity_then_predict(&mut self) -> Result<(), BackendError> {
+        let (workers, plan) = (&self.workers, &self.plan);
+        let (x, v, p, force) = (&mut self.x, &mut self.v, &mut self.p, &self.force);
+        let ((), result) = workers.join(
+            || reset(workers, &mut self.lambda),
+            || integrate::velocity_then_predict(workers, plan, x, v, p, force),
+        );
+        match result {
+            Ok(()) => Ok(()),
+            Err(Failed::Velocity(i)) => Err(self.particle_error(StageName::Velocity, i)),
+            Err(Failed::Predict(i)) => {
+                self.substep += 1;
+                Err(self.particle_error(StageName::Predict, i))
+            }
+        }
     }
 }
 
@@ -366,4 +396,24 @@ fn splits_somewhere(plan: &Plan, workers: &Workers) -> bool {
         || (plan.contacts.is_some() && splits(count, collide::BOX_GRAIN))
         || (plan.incremental_potential.is_some()
             && splits(count, incremental_potential::PARTICLE_GRAIN))
+}
+
+/// How many kernels at the end of the plan's substep fuse with the next
+/// substep's prediction: velocity (1) or velocity and damping (2), when
+/// the substep begins with the prediction and nothing else follows the
+/// velocity (friction works per contact, not per particle).
+fn fused_tail(plan: &Plan) -> Option<usize> {
+    match plan.substep_kernels.as_slice() {
+        [Kernel::Predict, .., Kernel::Velocity] => Some(1),
+        [Kernel::Predict, .., Kernel::Velocity, Kernel::Damping] => Some(2),
+        _ => None,
+    }
+}
+
+/// λ = 0 for every family (the start of a substep).
+fn reset(workers: &Workers, lambda: &mut [f64]) {
+    let _ = workers.try_for_spans(lambda.len(), LAMBDA_GRAIN, 1, [lambda], |_, [l]| {
+        l.fill(0.0);
+        Ok(())
+    });
 }

@@ -13,7 +13,7 @@
 //! (`parallel.rs`), every particle with the arithmetic above.
 
 use crate::dim::{Dim, with_dim};
-use crate::parallel::Workers;
+use crate::parallel::{Workers, first_error};
 use hyperpbd_core::Plan;
 use std::ops::Range;
 
@@ -146,6 +146,45 @@ fn velocity_in<D: Dim>(
         }
     }
     first_non_finite(dim, w, [v]).map_or(Ok(()), |i| Err(range.start + i))
+}
+
+/// Which update of [`velocity_then_predict`] failed, at which particle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Failed {
+    /// Velocity reconstruction of the earlier substep.
+    Velocity(usize),
+    /// Prediction of the later substep.
+    Predict(usize),
+}
+
+/// Velocity reconstruction (and damping, when the plan damps) of one
+/// substep and the prediction of the next in one pass over the particles.
+/// Each particle runs the same updates in the same order as with the
+/// kernels one after another — they read and write only that particle's
+/// values — so the state is the same; the pass saves a trip over memory
+/// and a hand-over between threads. A failed velocity wins over any
+/// failed prediction, as when the kernels run in turn.
+pub fn velocity_then_predict(
+    workers: &Workers,
+    plan: &Plan,
+    x: &mut [f64],
+    v: &mut [f64],
+    p: &mut [f64],
+    force: &[f64],
+) -> Result<(), Failed> {
+    let (count, dim) = (plan.particle_count(), plan.dim);
+    let results = workers.map_spans(count, PARTICLE_GRAIN, dim, [x, v, p], |r, [x, v, p]| {
+        let velocity = with_dim!(dim, velocity_in(plan, r.clone(), x, v, p));
+        if let Some((_, factor)) = plan.damping {
+            with_dim!(dim, damping_in(&plan.inverse_mass[r.clone()], factor, v));
+        }
+        let predicted = with_dim!(dim, predict_in(plan, r, x, v, p, force));
+        (velocity, predicted)
+    });
+    let velocity = results.iter().map(|r| r.0).fold(Ok(()), first_error);
+    let predicted = results.iter().map(|r| r.1).fold(Ok(()), first_error);
+    velocity.map_err(Failed::Velocity)?;
+    predicted.map_err(Failed::Predict)
 }
 
 /// Exponential damping with the plan's per-substep factor.

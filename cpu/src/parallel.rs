@@ -135,6 +135,18 @@ impl Workers {
         }
     }
 
+    /// `a` and `b` at once (each may split further); one hand-over for both.
+    pub fn join<A: Send, B: Send>(
+        &self,
+        a: impl FnOnce() -> A + Send,
+        b: impl FnOnce() -> B + Send,
+    ) -> (A, B) {
+        match &self.pool {
+            Some(pool) => pool.install(|| rayon::join(a, b)),
+            None => (a(), b()),
+        }
+    }
+
     /// A kernel's chunk size: its `grain`, capped by the test cap.
     #[inline]
     pub fn grain(&self, grain: usize) -> usize {
