@@ -19,6 +19,7 @@ use crate::integrate::Failed;
 use crate::parallel::Workers;
 use crate::project::{Batch, Workspace, project};
 use crate::{colours, friction, incremental_potential, integrate, project, residual, threads};
+use hyperpbd_core::broadphase::Aabbs;
 
 /// Multipliers per chunk of their reset.
 const LAMBDA_GRAIN: usize = 16_384;
@@ -41,6 +42,8 @@ pub struct CpuBackend {
     workspace: Workspace,
     /// Candidate particle pairs of the current substep (with `collisions`).
     contacts: Contacts,
+    /// The broadphase's boxes (scratch kept between substeps).
+    boxes: Aabbs,
     /// Substep being run (for error messages).
     substep: u32,
     /// Scratch of the barrier path.
@@ -88,6 +91,7 @@ impl CpuBackend {
             plan,
             workspace: Workspace::default(),
             contacts: Contacts::default(),
+            boxes: Aabbs::default(),
             substep: 0,
             minimiser: incremental_potential::Workspace::default(),
             minimisation: Vec::new(),
@@ -198,7 +202,16 @@ impl CpuBackend {
             }
             Kernel::Broadphase => {
                 let margin = plan.contacts.map_or(0.0, |c| c.margin);
-                collide::broadphase_on(workers, plan, margin, &self.p, &self.x, &mut self.contacts);
+                let (p, x) = (&self.p, &self.x);
+                collide::broadphase_on(
+                    workers,
+                    plan,
+                    margin,
+                    p,
+                    x,
+                    &mut self.boxes,
+                    &mut self.contacts,
+                );
                 Ok(())
             }
             Kernel::Collide => {

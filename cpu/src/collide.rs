@@ -41,7 +41,9 @@ use crate::dim::{Dim, with_dim};
 use crate::integrate::PARTICLE_GRAIN;
 use crate::parallel::{DisjointSlice, Workers};
 use crate::residual::RESIDUAL_GRAIN;
-use hyperpbd_core::broadphase::{Aabbs, BoxGrid, Pair, contact_lists, sweep_axis, sweep_pairs};
+use hyperpbd_core::broadphase::{
+    Aabbs, BoxGrid, Pair, contact_lists_into, sweep_axis, sweep_pairs, swept_boxes,
+};
 use hyperpbd_core::{FamilyResidual, Plan};
 
 /// Pairs per chunk of the pair pass.
@@ -75,49 +77,73 @@ impl Contacts {
 /// Swept boxes from `p` to `x`, the sweep, and the contact lists (on the
 /// calling thread).
 pub fn broadphase(plan: &Plan, margin: f64, p: &[f64], x: &[f64], contacts: &mut Contacts) {
-    broadphase_on(&Workers::serial(), plan, margin, p, x, contacts);
+    let mut boxes = Aabbs::default();
+    broadphase_on(&Workers::serial(), plan, margin, p, x, &mut boxes, contacts);
 }
 
-/// [`broadphase`] on `workers`: the grid's per-box queries in chunks,
-/// concatenated in box order (already canonical).
+/// [`broadphase`] on `workers`: the boxes per particle and the grid's
+/// per-box queries in chunks, concatenated in box order (already
+/// canonical). `boxes` is scratch kept between substeps.
 pub(crate) fn broadphase_on(
     workers: &Workers,
     plan: &Plan,
     margin: f64,
     p: &[f64],
     x: &[f64],
+    boxes: &mut Aabbs,
     contacts: &mut Contacts,
 ) {
     let dim = plan.dim;
     let n = plan.particle_count();
-    let boxes = Aabbs::swept_particles(dim, p, x, &plan.radius, margin);
+    boxes.dim = dim;
+    boxes.min.resize(n * dim, 0.0);
+    boxes.max.resize(n * dim, 0.0);
+    let radius = &plan.radius;
+    let _ = workers.try_for_spans(
+        n,
+        PARTICLE_GRAIN,
+        dim,
+        [&mut boxes.min, &mut boxes.max],
+        |r, [min, max]| {
+            let coordinates = r.start * dim..r.end * dim;
+            let (start, end) = (&p[coordinates.clone()], &x[coordinates]);
+            swept_boxes(start, end, &radius[r], margin, min, max);
+            Ok(())
+        },
+    );
     let w = &plan.inverse_mass;
     let moving = |&[i, j]: &Pair| w[i as usize] + w[j as usize] > 0.0;
-    let pairs = match BoxGrid::new(&boxes) {
-        Some(grid) => workers
-            .map_chunks(n, BOX_GRAIN, |r| {
+    contacts.pairs.clear();
+    match BoxGrid::new(boxes) {
+        Some(grid) => {
+            let chunks = workers.map_chunks(n, BOX_GRAIN, |r| {
                 let mut pairs = Vec::new();
                 for i in r {
                     grid.pairs_of(i, &mut pairs);
                 }
                 pairs.retain(moving);
                 pairs
-            })
-            .concat(),
-        None => {
-            let mut pairs = sweep_pairs(&boxes, sweep_axis(&boxes));
-            pairs.retain(moving);
-            pairs
+            });
+            for chunk in chunks {
+                contacts.pairs.extend_from_slice(&chunk);
+            }
         }
-    };
-    let (offsets, entries) = contact_lists(&pairs, n);
+        None => {
+            contacts.pairs = sweep_pairs(boxes, sweep_axis(boxes));
+            contacts.pairs.retain(moving);
+        }
+    }
+    let count = contacts.pairs.len();
+    contact_lists_into(
+        &contacts.pairs,
+        n,
+        &mut contacts.offsets,
+        &mut contacts.entries,
+    );
     contacts.corrections.clear();
-    contacts.corrections.resize(pairs.len() * dim, 0.0);
+    contacts.corrections.resize(count * dim, 0.0);
     contacts.active.clear();
-    contacts.active.resize(pairs.len(), false);
-    contacts.pairs = pairs;
-    contacts.offsets = offsets;
-    contacts.entries = entries;
+    contacts.active.resize(count, false);
 }
 
 /// One gather-Jacobi iteration (on the calling thread). Returns the first

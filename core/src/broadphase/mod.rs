@@ -23,11 +23,11 @@ mod keys;
 mod lists;
 mod sweep;
 
-pub use aabb::Aabbs;
+pub use aabb::{Aabbs, swept_boxes};
 pub use exhaustive::exhaustive_pairs;
 pub use grid::{BoxGrid, grid_pairs};
 pub use keys::{F32_MIN_NORMAL, key_down, key_up, sortable_bits};
-pub use lists::contact_lists;
+pub use lists::{contact_lists, contact_lists_into};
 pub use sweep::{sweep_axis, sweep_pairs};
 
 /// A candidate pair (i, j), i < j.
