@@ -21,8 +21,8 @@ use crate::project::{Batch, Workspace, project};
 use crate::{colours, friction, incremental_potential, integrate, project, residual, threads};
 use hyperpbd_core::broadphase::Aabbs;
 
-/// Multipliers per chunk of their reset.
-const LAMBDA_GRAIN: usize = 16_384;
+/// Values per chunk of a reset or copy (multipliers, the saved state).
+const VALUE_GRAIN: usize = 16_384;
 
 /// The golden backend.
 pub struct CpuBackend {
@@ -338,8 +338,11 @@ impl Backend for CpuBackend {
 impl CpuBackend {
     /// The step's schedule (on the pool's thread when there is a pool).
     fn step_on_workers(&mut self) -> Result<StepReport, BackendError> {
-        self.saved_x.clone_from(&self.x);
-        self.saved_v.clone_from(&self.v);
+        let workers = &self.workers;
+        self.saved_x.resize(self.x.len(), 0.0);
+        self.saved_v.resize(self.v.len(), 0.0);
+        copy(workers, &self.x, &mut self.saved_x);
+        copy(workers, &self.v, &mut self.saved_v);
         self.minimisation.clear();
         if let Err(e) = self.substeps() {
             self.x.clone_from(&self.saved_x);
@@ -425,8 +428,16 @@ fn fused_tail(plan: &Plan) -> Option<usize> {
 
 /// λ = 0 for every family (the start of a substep).
 fn reset(workers: &Workers, lambda: &mut [f64]) {
-    let _ = workers.try_for_spans(lambda.len(), LAMBDA_GRAIN, 1, [lambda], |_, [l]| {
+    let _ = workers.try_for_spans(lambda.len(), VALUE_GRAIN, 1, [lambda], |_, [l]| {
         l.fill(0.0);
+        Ok(())
+    });
+}
+
+/// `to` = `from` (equal lengths), in chunks on `workers`.
+fn copy(workers: &Workers, from: &[f64], to: &mut [f64]) {
+    let _ = workers.try_for_spans(to.len(), VALUE_GRAIN, 1, [to], |r, [to]| {
+        to.copy_from_slice(&from[r]);
         Ok(())
     });
 }
