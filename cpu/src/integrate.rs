@@ -17,9 +17,9 @@ use crate::parallel::{Workers, first_error};
 use hyperpbd_core::Plan;
 use std::ops::Range;
 
-/// Particles per chunk of a per-particle stage (≈ 10 µs of work: below
-/// it a stage runs on the calling thread).
-pub const PARTICLE_GRAIN: usize = 4096;
+/// Particles per chunk of a per-particle stage (≈ 8 µs of work: up to
+/// this many a stage runs on the calling thread).
+pub const PARTICLE_GRAIN: usize = 2048;
 
 /// Prediction. `p` receives the substep's start positions.
 pub fn predict(

@@ -135,15 +135,17 @@ impl Workers {
         }
     }
 
-    /// `a` and `b` at once (each may split further); one hand-over for both.
+    /// `a` and `b` at once (each may split further) when the caller runs
+    /// on the pool; one after the other otherwise (a hand-over to the pool
+    /// costs more than a small scene's two loops).
     pub fn join<A: Send, B: Send>(
         &self,
         a: impl FnOnce() -> A + Send,
         b: impl FnOnce() -> B + Send,
     ) -> (A, B) {
         match &self.pool {
-            Some(pool) => pool.install(|| rayon::join(a, b)),
-            None => (a(), b()),
+            Some(pool) if pool.current_thread_index().is_some() => rayon::join(a, b),
+            _ => (a(), b()),
         }
     }
 

@@ -41,8 +41,10 @@ use hyperpbd_core::geometry::{Scratch, oriented_measure, simplex_squared_measure
 use hyperpbd_core::{Family, FamilyKind};
 use std::ops::Range;
 
-/// Elements per chunk of a colour (≈ 10 µs of distance projections).
-pub const ELEMENT_GRAIN: usize = 2048;
+/// Elements per chunk of a colour (≈ 5 µs of distance projections: a
+/// colour up to this size runs on the calling thread; a 64² cloth's
+/// colours of 2,048 split in two — `cargo bench --bench cpu_threads`).
+pub const ELEMENT_GRAIN: usize = 1024;
 
 /// Inputs shared by every element of a batch.
 pub struct Batch<'a> {
