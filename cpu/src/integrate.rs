@@ -13,7 +13,7 @@
 //! (`parallel.rs`), every particle with the arithmetic above.
 
 use crate::dim::{Dim, with_dim};
-use crate::parallel::{Workers, first_error};
+use crate::parallel::Workers;
 use hyperpbd_core::Plan;
 use std::ops::Range;
 
@@ -173,18 +173,21 @@ pub fn velocity_then_predict(
     force: &[f64],
 ) -> Result<(), Failed> {
     let (count, dim) = (plan.particle_count(), plan.dim);
-    let results = workers.map_spans(count, PARTICLE_GRAIN, dim, [x, v, p], |r, [x, v, p]| {
+    // A failure is one index, ordered so that the smallest is the first
+    // the kernels in turn would meet: velocities i, then predictions
+    // count + i.
+    let first = workers.try_for_spans(count, PARTICLE_GRAIN, dim, [x, v, p], |r, [x, v, p]| {
         let velocity = with_dim!(dim, velocity_in(plan, r.clone(), x, v, p));
         if let Some((_, factor)) = plan.damping {
             with_dim!(dim, damping_in(&plan.inverse_mass[r.clone()], factor, v));
         }
         let predicted = with_dim!(dim, predict_in(plan, r, x, v, p, force));
-        (velocity, predicted)
+        velocity.and(predicted.map_err(|i| count + i))
     });
-    let velocity = results.iter().map(|r| r.0).fold(Ok(()), first_error);
-    let predicted = results.iter().map(|r| r.1).fold(Ok(()), first_error);
-    velocity.map_err(Failed::Velocity)?;
-    predicted.map_err(Failed::Predict)
+    first.map_err(|i| match i.checked_sub(count) {
+        Some(i) => Failed::Predict(i),
+        None => Failed::Velocity(i),
+    })
 }
 
 /// Exponential damping with the plan's per-substep factor.
