@@ -235,3 +235,18 @@ fn fused_substeps_fail_where_the_kernels_would() {
         );
     }
 }
+
+/// The barrier path's packed-gradient criterion sums per-particle terms by
+/// a fixed pairwise tree; split into blocks of 4 on several threads the
+/// blocks are subtrees of the same tree, so the residuals (and with them
+/// the Newton iterations and the state) are the same bits.
+#[test]
+fn the_packed_gradient_sum_keeps_its_tree_on_any_thread_count() {
+    use hyperpbd::{Convergence, Solver};
+    let mut scene = hyperpbd::scenes::barrier4d();
+    let Solver::IncrementalPotential(settings) = &mut scene.solver else {
+        panic!("barrier4d is a barrier scene");
+    };
+    settings.convergence = Convergence::PackedGradient { tolerance: 1e-9 };
+    check("barrier4d (packed gradient)", &scene, 20);
+}
