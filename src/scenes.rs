@@ -5,10 +5,12 @@
 //! checks that they still match.
 
 mod granular;
+mod peer_cloth;
 
 pub use granular::{ballpit4d, column3d, sandpile2d};
 use hyperpbd_core::builders::{BlockSpec, GridSpec};
 use hyperpbd_core::{Scene, SceneBuilder};
+pub use peer_cloth::peer_cloth;
 
 /// Names accepted by [`by_name`].
 pub const NAMES: &[&str] = &[
@@ -24,7 +26,7 @@ pub const NAMES: &[&str] = &[
 
 /// Built-in scenes too large to ship as files; generate them with
 /// `hyperpbd scene NAME --out FILE`.
-pub const LARGE_NAMES: &[&str] = &["column3d_100k"];
+pub const LARGE_NAMES: &[&str] = &["column3d_100k", "peer_cloth"];
 
 /// A built-in scene by name.
 pub fn by_name(name: &str) -> Option<Scene> {
@@ -35,6 +37,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "incline5d" => Some(incline5d()),
         "column3d" => Some(column3d(12, 30)),
         "column3d_100k" => Some(column3d(40, 64)),
+        "peer_cloth" => Some(peer_cloth(128)),
         "ballpit4d" => Some(ballpit4d()),
         "sandpile2d" => Some(sandpile2d()),
         "barrier4d" => Some(barrier4d()),

@@ -18,6 +18,10 @@ use std::process::ExitCode;
 #[derive(Debug, Parser)]
 #[command(name = "hyperpbd-report", version, about)]
 pub struct AccuracyArgs {
+    /// CPU threads of the f64 golden path (default: HYPERPBD_THREADS, else
+    /// every core); results are bit-identical for any count.
+    #[arg(long, value_name = "N")]
+    threads: Option<std::num::NonZeroUsize>,
     /// Smoke-test mode: fewer points, smaller scenes, one rep (under two
     /// minutes on a 2-core machine).
     #[arg(long)]
@@ -59,6 +63,9 @@ pub struct AccuracyArgs {
 }
 
 fn accuracy(args: &AccuracyArgs) -> Result<(), AccuracyError> {
+    if args.threads.is_some() {
+        hyperpbd::set_default_threads(args.threads);
+    }
     let mut config = if args.quick {
         Config::quick(&args.out)
     } else {

@@ -18,6 +18,8 @@ use std::path::PathBuf;
 /// Options of `hyperpbd compare`.
 #[derive(Debug, clap::Args)]
 pub struct CompareArgs {
+    #[command(flatten)]
+    threads: super::threads::ThreadsArg,
     /// Scene file (JSON).
     scene: PathBuf,
     /// Frames to compare.
@@ -53,6 +55,7 @@ fn model(plan: &Plan, precision: Precision) -> Box<dyn DivergenceModel> {
 }
 
 pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
+    args.threads.apply();
     if args.every == 0 {
         return Err(CliError::Input("--every: must be at least 1".into()));
     }

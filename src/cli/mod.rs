@@ -8,6 +8,7 @@ mod load;
 mod output;
 mod render;
 mod run;
+mod threads;
 
 pub use broken_pipe::exit_141_on_broken_pipe;
 pub use error::CliError;
@@ -46,6 +47,8 @@ enum Command {
         /// there is one, else the CPU, saying why).
         #[arg(long, default_value = "auto", value_parser = parse_backend)]
         backend: BackendKind,
+        #[command(flatten)]
+        threads: threads::ThreadsArg,
     },
     /// Run the CPU golden path and a GPU backend side by side and print the
     /// per-frame divergence against its derived bound (exit 3 when over).
@@ -75,7 +78,14 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
             info();
             Ok(())
         }
-        Command::Demo { frames, backend } => run::demo(frames, backend),
+        Command::Demo {
+            frames,
+            backend,
+            threads,
+        } => {
+            threads.apply();
+            run::demo(frames, backend)
+        }
         Command::Compare(args) => compare::compare(&args),
         Command::Render(args) => render::render(&args),
         Command::Scene { name, out } => {

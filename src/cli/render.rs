@@ -17,6 +17,8 @@ use std::path::{Path, PathBuf};
 /// Options of `hyperpbd render`.
 #[derive(Debug, clap::Args)]
 pub struct RenderArgs {
+    #[command(flatten)]
+    threads: super::threads::ThreadsArg,
     /// Scene file (JSON), or the name of a built-in scene (cloth,
     /// tesseract, chain2d, incline5d) when no such file exists.
     scene: String,
@@ -119,6 +121,7 @@ pub fn gif_delay_cs(dt: f64, every: u64) -> u16 {
 }
 
 pub fn render(args: &RenderArgs) -> Result<(), CliError> {
+    args.threads.apply();
     if args.every == 0 {
         return Err(CliError::Input(
             "--every: must be at least 1 (draw every K-th frame)".into(),

@@ -13,6 +13,8 @@ use std::time::Instant;
 /// Options of `hyperpbd run`.
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
+    #[command(flatten)]
+    threads: super::threads::ThreadsArg,
     /// Scene file (JSON).
     scene: PathBuf,
     /// Backend: cpu, gpu (f32), gpu-f64, or auto (a hardware GPU when
@@ -70,6 +72,7 @@ fn read(backend: &mut dyn Backend) -> Result<State, CliError> {
 }
 
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
+    args.threads.apply();
     if args.every == 0 {
         return Err(CliError::Input("--every: must be at least 1".into()));
     }
@@ -136,6 +139,9 @@ fn print_report(report: &StepReport) {
     }
     if report.active_contacts > 0 {
         println!("  active contacts {}", report.active_contacts);
+    }
+    if report.threads > 0 {
+        println!("  cpu threads {}", report.threads);
     }
 }
 

@@ -255,6 +255,7 @@ impl GpuBackend {
             residuals,
             active_contacts: active_contacts + active,
             minimisation: Vec::new(),
+            threads: 0,
         })
     }
 
