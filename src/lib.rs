@@ -20,6 +20,7 @@ pub mod compare;
 pub mod compare_barrier;
 mod load;
 pub mod scenes;
+pub mod sweep;
 
 pub use load::{BackendKind, load, load_on_adapter};
 

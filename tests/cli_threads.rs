@@ -96,7 +96,7 @@ fn bad_thread_counts_are_refused_by_name() {
 fn every_simulating_command_takes_threads() {
     // The accuracy report is its own binary (`hyperpbd-report`); its
     // `--threads` is checked in report/tests/cli_threads.rs.
-    for command in ["run", "compare", "render", "demo"] {
+    for command in ["run", "compare", "render", "demo", "sweep"] {
         let help = hyperpbd(&[command, "--help"], None);
         assert!(
             stdout(&help).contains("--threads <N>"),

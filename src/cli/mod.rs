@@ -8,6 +8,7 @@ mod load;
 mod output;
 mod render;
 mod run;
+mod sweep;
 mod threads;
 
 pub use broken_pipe::exit_141_on_broken_pipe;
@@ -56,6 +57,9 @@ enum Command {
     /// Draw a run: PNG frames and an animated GIF (orthographic or
     /// perspective projection of R^N; see docs/rendering.md).
     Render(render::RenderArgs),
+    /// Sweep numbers of a scene over ranges (--set PATH=LO:HI:COUNT), one
+    /// JSON line per world; --shard K/N runs a slice (see docs/sweeps.md).
+    Sweep(sweep::SweepArgs),
     /// Write a built-in scene as JSON (cloth, tesseract, chain2d, incline5d, barrier4d).
     Scene {
         /// Name of the built-in scene.
@@ -88,6 +92,7 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
         }
         Command::Compare(args) => compare::compare(&args),
         Command::Render(args) => render::render(&args),
+        Command::Sweep(args) => sweep::sweep(&args),
         Command::Scene { name, out } => {
             let scene = hyperpbd::scenes::by_name(&name).ok_or_else(|| {
                 CliError::Input(format!(

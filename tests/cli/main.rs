@@ -11,6 +11,7 @@ mod commands;
 mod compare;
 mod output_errors;
 mod run;
+mod sweep;
 
 use common::gpu::adapter_or_skip;
 use hyperpbd::{Backend, Precision, Scene};
