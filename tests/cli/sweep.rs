@@ -108,6 +108,14 @@ fn shards_concatenate_to_the_whole_sweep() {
         joined += &std::fs::read_to_string(dir.path(&name)).expect("shard");
     }
     assert_eq!(joined, whole);
+    // Worlds run in parallel on the CPU: the same bytes on any thread count.
+    for threads in ["1", "3"] {
+        let name = format!("threads{threads}.jsonl");
+        let extra = ["--backend", "cpu", "--threads", threads];
+        assert_success(&sweep_cli(&dir, CHAIN, &name, &extra));
+        let file = std::fs::read_to_string(dir.path(&name)).expect("sweep");
+        assert_eq!(file, whole, "--threads {threads}");
+    }
     // Slices are contiguous, cover every world once, and differ by ≤ 1.
     for count in 1..=20 {
         let mut next = 0;
