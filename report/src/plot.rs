@@ -1,37 +1,16 @@
 //! PNG figures: error against time with Pareto frontiers, and scaling.
 //!
-//! Drawn with plotters' bitmap backend into an RGB buffer and encoded with
-//! the `png` crate. Text uses DejaVu Sans embedded in the binary (the
-//! `dejavu` crate), so figures look the same on every machine and need no
-//! system fonts. Every figure carries a footer naming the machine and the
+//! Drawn through `hyperpbd_render::chart` (plotters' bitmap backend, PNG,
+//! DejaVu Sans embedded in the binary, so figures look the same on every
+//! machine). Every figure carries a footer naming the machine and the
 //! adapter that produced it.
 
 use crate::pareto::frontier;
 use crate::scaling::{Fit, ScalingPoint};
 use crate::sweep::CaseResult;
 use hyperpbd::{BackendKind, Precision};
-use plotters::coord::Shift;
+use hyperpbd_render::chart::{Area, FONT, drawing_error as err, png};
 use plotters::prelude::*;
-use std::sync::OnceLock;
-
-type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
-
-const FONT: &str = "sans-serif";
-
-fn err<E: std::fmt::Display>(e: E) -> String {
-    format!("drawing: {e}")
-}
-
-/// Registers the embedded font once.
-fn font() -> Result<(), String> {
-    static REGISTERED: OnceLock<Result<(), String>> = OnceLock::new();
-    REGISTERED
-        .get_or_init(|| {
-            plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular())
-                .map_err(|_| "the embedded DejaVu Sans font did not load".to_string())
-        })
-        .clone()
-}
 
 /// A backend's colour.
 pub fn color(backend: BackendKind) -> RGBColor {
@@ -40,32 +19,6 @@ pub fn color(backend: BackendKind) -> RGBColor {
         BackendKind::Gpu(Precision::F32) => RGBColor(230, 110, 0),
         BackendKind::Gpu(Precision::F64) => RGBColor(44, 160, 44),
     }
-}
-
-/// Renders `draw` into a `width × height` PNG and returns its bytes.
-pub fn png(
-    width: u32,
-    height: u32,
-    draw: impl FnOnce(&Area<'_>) -> Result<(), String>,
-) -> Result<Vec<u8>, String> {
-    font()?;
-    let mut rgb = vec![255u8; width as usize * height as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(err)?;
-        draw(&root)?;
-        root.present().map_err(err)?;
-    }
-    let mut bytes = Vec::new();
-    {
-        let mut encoder = png::Encoder::new(&mut bytes, width, height);
-        encoder.set_color(png::ColorType::Rgb);
-        encoder.set_depth(png::BitDepth::Eight);
-        let mut writer = encoder.write_header().map_err(err)?;
-        writer.write_image_data(&rgb).map_err(err)?;
-        writer.finish().map_err(err)?;
-    }
-    Ok(bytes)
 }
 
 /// Title on top, footer lines at the bottom; returns the middle.

@@ -13,9 +13,11 @@
 
 use super::error::{CliError, with_sources};
 use super::load::{load_backend, parse_backend};
+use super::output::write_file;
 use hyperpbd::atomic_file::AtomicFile;
-use hyperpbd::sweep::{Shard, Sweep, SweepAxis};
+use hyperpbd::sweep::{Metric, Shard, Sweep, SweepAxis};
 use hyperpbd::{Backend, BackendKind, CpuBackend, Plan, State, StepReport};
+use hyperpbd_render::chart::{Series, line_chart};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use serde_json::{Map, Value, json};
@@ -48,6 +50,12 @@ pub struct SweepArgs {
     /// Run only the K-th of N contiguous slices of the worlds (1-based).
     #[arg(long, value_name = "K/N", default_value = "1/1")]
     shard: Shard,
+    /// Also draw METRIC (max_violation, kinetic_energy, height, max_speed,
+    /// active_contacts) against the swept values into OUT's name with
+    /// `.METRIC.png` (one or two --set axes; with two, one line per value
+    /// of the first).
+    #[arg(long, value_name = "METRIC")]
+    plot: Option<Metric>,
 }
 
 pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
@@ -58,6 +66,12 @@ pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
     let sweep = Sweep::new(&text, args.axes.clone())
         .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
     let worlds = args.shard.range(sweep.world_count());
+    if args.plot.is_some() && sweep.axes().len() > 2 {
+        return Err(CliError::Input(format!(
+            "--plot: draws one or two --set axes, got {}",
+            sweep.axes().len()
+        )));
+    }
     // Every world of the shard is validated before any runs: a bad value
     // fails in a second, not after hours of simulation.
     for world in worlds.clone() {
@@ -69,7 +83,8 @@ pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
         |e: std::io::Error| CliError::Output(format!("cannot write {}: {e}", args.out.display()));
     let mut file = AtomicFile::create(&args.out).map_err(cannot_write)?;
     let bar = progress(worlds.len() as u64 * args.frames);
-    let run = |world: usize, threads: Option<usize>| -> Result<(String, String), CliError> {
+    let metric = args.plot.unwrap_or(Metric::MaxViolation);
+    let run = |world: usize, threads: Option<usize>| -> Result<Finished, CliError> {
         let scene = sweep
             .scene(world)
             .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
@@ -97,10 +112,14 @@ pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
         let state = backend
             .read_state()
             .map_err(|e| CliError::Simulation(format!("worlds[{world}]: {e}")))?;
-        let line = world_line(&sweep, world, &state, last.as_ref()).to_string();
-        Ok((line, backend.name()))
+        Ok(Finished {
+            line: world_line(&sweep, world, &state, last.as_ref()).to_string(),
+            backend: backend.name(),
+            metric: metric.value(&scene, &state, last.as_ref()),
+        })
     };
     let mut backend_name = String::new();
+    let mut metrics = Vec::with_capacity(worlds.len());
     if args.backend == BackendKind::Cpu {
         // Worlds in parallel, one thread each (same bytes as one world on
         // any count of threads), in groups written in world order.
@@ -117,19 +136,25 @@ pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
             let results: Vec<_> =
                 pool.install(|| ids.par_iter().map(|&w| run(w, Some(1))).collect());
             for result in results {
-                let (line, name) = result?;
-                writeln!(file, "{line}").map_err(cannot_write)?;
-                backend_name = name;
+                let done = result?;
+                writeln!(file, "{}", done.line).map_err(cannot_write)?;
+                backend_name = done.backend;
+                metrics.push(done.metric);
             }
         }
     } else {
         for world in worlds.clone() {
-            let (line, name) = run(world, None)?;
-            writeln!(file, "{line}").map_err(cannot_write)?;
-            backend_name = name;
+            let done = run(world, None)?;
+            writeln!(file, "{}", done.line).map_err(cannot_write)?;
+            backend_name = done.backend;
+            metrics.push(done.metric);
         }
     }
     bar.finish_and_clear();
+    let chart = match args.plot {
+        Some(metric) => Some(chart(&sweep, worlds.clone(), &metrics, metric, &args.out)?),
+        None => None,
+    };
     file.commit().map_err(cannot_write)?;
     println!(
         "{}: worlds {}..{} of {} ({} frames each, {backend_name}) written to {}",
@@ -140,7 +165,62 @@ pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
         args.frames,
         args.out.display()
     );
+    if let Some((path, bytes)) = chart {
+        write_file(&path, &bytes)?;
+        println!(
+            "{metric} against the swept values drawn in {}",
+            path.display()
+        );
+    }
     Ok(())
+}
+
+/// What one world left: its JSON line, the backend's name, the metric.
+struct Finished {
+    line: String,
+    backend: String,
+    metric: f64,
+}
+
+/// The `--plot` chart of `metrics` (one per world of `worlds`) and where
+/// it goes: OUT with its extension replaced by `METRIC.png`.
+fn chart(
+    sweep: &Sweep,
+    worlds: std::ops::Range<usize>,
+    metrics: &[f64],
+    metric: Metric,
+    out: &std::path::Path,
+) -> Result<(PathBuf, Vec<u8>), CliError> {
+    let axes = sweep.axes();
+    let last = axes.len() - 1;
+    let mut series: Vec<Series> = Vec::new();
+    for (world, &value) in worlds.zip(metrics) {
+        let settings = sweep.settings(world);
+        let name = if last == 0 {
+            metric.to_string()
+        } else {
+            format!("{} = {}", settings[0].0, settings[0].1)
+        };
+        if series.last().is_none_or(|s| s.name != name) {
+            series.push(Series {
+                name,
+                points: Vec::new(),
+            });
+        }
+        if let Some(s) = series.last_mut() {
+            s.points.push((settings[last].1, value));
+        }
+    }
+    let title = format!("{metric} after the sweep");
+    let bytes = line_chart(
+        &title,
+        axes[last].path.as_str(),
+        metric.name(),
+        &series,
+        metric.logarithmic(),
+    )
+    .map_err(|e| CliError::Output(format!("--plot {metric}: {e}")))?;
+    Ok((out.with_extension(format!("{metric}.png")), bytes))
 }
 
 /// Progress over worlds × frames, on a terminal only.

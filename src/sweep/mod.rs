@@ -15,9 +15,11 @@
 
 mod axis;
 mod field_path;
+mod metric;
 
 pub use axis::SweepAxis;
 pub use field_path::{FieldPath, Segment};
+pub use metric::Metric;
 
 use crate::{Scene, SceneError};
 use serde_json::Value;

@@ -201,3 +201,57 @@ fn a_missing_optional_vector_is_created_as_zeros() {
     assert!("[0].x".parse::<FieldPath>().is_err());
     assert!("a..b".parse::<FieldPath>().is_err());
 }
+
+#[test]
+fn plot_draws_a_png_beside_the_output() {
+    let dir = TempDir::new("sweep-plot");
+    let out = sweep_cli(
+        &dir,
+        CHAIN,
+        "s.jsonl",
+        &["--backend", "cpu", "--plot", "height"],
+    );
+    assert_success(&out);
+    let png = std::fs::read(dir.path("s.height.png")).expect("the chart");
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    for (extra, expected) in [
+        (&["--plot", "speediness"][..], "unknown metric `speediness`"),
+        (
+            &["--plot", "height", "--set", "dt=0.01:0.02:2"][..],
+            "one or two --set axes",
+        ),
+    ] {
+        let mut args = vec!["--backend", "cpu"];
+        args.extend_from_slice(extra);
+        let out = sweep_cli(&dir, CHAIN, "bad.jsonl", &args);
+        assert_eq!(out.status.code(), Some(2), "{}", text(&out.stderr));
+        assert!(
+            text(&out.stderr).contains(expected),
+            "{}",
+            text(&out.stderr)
+        );
+        assert!(!dir.path("bad.jsonl").exists());
+    }
+}
+
+#[test]
+fn metrics_are_what_the_docs_say() {
+    use hyperpbd::State;
+    use hyperpbd::sweep::Metric;
+    // Two dynamic particles (mass 1 and 2) and a fixed one; gravity −y.
+    let scene = Scene::from_json_str(
+        r#"{"dim": 2, "dt": 0.01, "gravity": [0, -9.81],
+            "particles": [{"position": [0, 1], "mass": 1, "velocity": [3, 4]},
+                          {"position": [1, 3], "mass": 2, "velocity": [0, -1]},
+                          {"position": [0, 9], "fixed": true}]}"#,
+    )
+    .expect("scene");
+    let state = State::from_scene(&scene);
+    assert_eq!(Metric::Height.value(&scene, &state, None), 2.0);
+    assert_eq!(
+        Metric::KineticEnergy.value(&scene, &state, None),
+        0.5 * 25.0 + 0.5 * 2.0
+    );
+    assert_eq!(Metric::MaxSpeed.value(&scene, &state, None), 5.0);
+    assert_eq!(Metric::MaxViolation.value(&scene, &state, None), 0.0);
+}
