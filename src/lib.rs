@@ -16,6 +16,7 @@ pub use hyperpbd_cpu::{CpuBackend, THREADS_VARIABLE, default_threads, set_defaul
 pub use hyperpbd_gpu as gpu;
 
 pub mod atomic_file;
+pub mod batch;
 pub mod compare;
 pub mod compare_barrier;
 mod load;

@@ -39,6 +39,9 @@ pub struct CpuBackend {
     lambda_starts: Vec<usize>,
     saved_x: Vec<f64>,
     saved_v: Vec<f64>,
+    /// Whether `saved_x`/`saved_v` hold the state before the last step
+    /// and nothing has changed the state since that step succeeded.
+    revertible: bool,
     workspace: Workspace,
     /// Candidate particle pairs of the current substep (with `collisions`).
     contacts: Contacts,
@@ -86,6 +89,7 @@ impl CpuBackend {
             p: state.positions.clone(),
             saved_x: Vec::with_capacity(state.positions.len()),
             saved_v: Vec::with_capacity(state.velocities.len()),
+            revertible: false,
             lambda,
             lambda_starts,
             plan,
@@ -303,6 +307,7 @@ impl Backend for CpuBackend {
 
     fn write_state(&mut self, state: &State) -> Result<(), BackendError> {
         check_state(&self.plan, state)?;
+        self.revertible = false;
         self.x.clone_from(&state.positions);
         self.v.clone_from(&state.velocities);
         Ok(())
@@ -319,6 +324,7 @@ impl Backend for CpuBackend {
     /// not) — the same writes for any thread count.
     fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
         check_kernel(&self.plan, kernel)?;
+        self.revertible = false;
         if !self.on_pool {
             return self.kernel(kernel);
         }
@@ -336,12 +342,31 @@ impl CpuBackend {
         copy(workers, &self.x, &mut self.saved_x);
         copy(workers, &self.v, &mut self.saved_v);
         self.minimisation.clear();
+        self.revertible = false;
         if let Err(e) = self.substeps() {
             self.x.clone_from(&self.saved_x);
             self.v.clone_from(&self.saved_v);
             return Err(e);
         }
+        self.revertible = true;
         Ok(self.report())
+    }
+
+    /// Puts positions and velocities back to what they were before the
+    /// last step, from the copy every step keeps for its own rollback: for
+    /// a caller whose larger step failed after this one succeeded (a batch
+    /// of worlds, `hyperpbd::batch`). Refused unless the last thing done
+    /// to this backend was a successful step.
+    pub fn revert_step(&mut self) -> Result<(), BackendError> {
+        if !self.revertible {
+            return Err(BackendError::InvalidCall(
+                "revert_step: the last call was not a successful step".into(),
+            ));
+        }
+        self.revertible = false;
+        self.x.clone_from(&self.saved_x);
+        self.v.clone_from(&self.saved_v);
+        Ok(())
     }
 
     /// The plan's kernels, `substeps` times. Where a substep ends with
