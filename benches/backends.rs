@@ -34,27 +34,22 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use hyperpbd::gpu::{GpuBackend, Precision, StepMode};
-use hyperpbd::{Backend, CpuBackend, Kernel, Particle, Plan, Scene, SceneBuilder, State, scenes};
+use hyperpbd::gpu::{GpuBackend, StepMode};
+use hyperpbd::{
+    Backend, BackendKind, Kernel, Particle, Plan, Precision, Scene, SceneBuilder, State, scenes,
+};
 
-fn load(scene: &Scene, backend: &str) -> Option<Box<dyn Backend>> {
+const GPU_F32: BackendKind = BackendKind::Gpu(Precision::F32);
+
+fn load(scene: &Scene, backend: BackendKind) -> Option<Box<dyn Backend>> {
+    // The CPU golden step on one thread: the reference the GPU targets name.
+    hyperpbd::set_default_threads(std::num::NonZeroUsize::new(1));
     let plan = Plan::compile(scene).expect("scene compiles");
-    let state = State::from_scene(scene);
-    let mut b: Box<dyn Backend> = match backend {
-        "cpu-f64" => Box::new(CpuBackend::new(plan, &state).expect("cpu loads")),
-        other => {
-            let precision = if other == "gpu-f64" {
-                Precision::F64
-            } else {
-                Precision::F32
-            };
-            match GpuBackend::new(plan, &state, precision) {
-                Ok(g) => Box::new(g),
-                Err(e) => {
-                    eprintln!("SKIPPED {other}: {e}");
-                    return None;
-                }
-            }
+    let mut b = match hyperpbd::load(plan, &State::from_scene(scene), backend) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("SKIPPED {backend}: {e}");
+            return None;
         }
     };
     for _ in 0..3 {
@@ -75,12 +70,12 @@ fn step(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(3));
     for n in [64, 128, 256, 512] {
         let scene = scenes::hanging_cloth(n);
-        for backend in ["cpu-f64", "gpu-f32", "gpu-f64"] {
+        for backend in BackendKind::ALL {
             let Some(mut b) = load(&scene, backend) else {
                 continue;
             };
             group.throughput(Throughput::Elements(projections(b.plan())));
-            group.bench_function(BenchmarkId::new(backend, n), |bench| {
+            group.bench_function(BenchmarkId::new(backend.name(), n), |bench| {
                 bench.iter(|| black_box(b.step().expect("step")));
             });
         }
@@ -93,7 +88,7 @@ fn step(c: &mut Criterion) {
         .warm_up_time(Duration::from_millis(100))
         .measurement_time(Duration::from_secs(10));
     let scene = scenes::hanging_cloth(1024);
-    if let Some(mut b) = load(&scene, "gpu-f32") {
+    if let Some(mut b) = load(&scene, GPU_F32) {
         group.throughput(Throughput::Elements(projections(b.plan())));
         group.bench_function(BenchmarkId::new("gpu-f32", 1024), |bench| {
             bench.iter(|| black_box(b.step().expect("step")));
@@ -109,7 +104,7 @@ fn kernels(c: &mut Criterion) {
         .warm_up_time(Duration::from_millis(300))
         .measurement_time(Duration::from_secs(2));
     let scene = scenes::hanging_cloth(256);
-    for backend in ["cpu-f64", "gpu-f32"] {
+    for backend in [BackendKind::Cpu, GPU_F32] {
         let Some(mut b) = load(&scene, backend) else {
             continue;
         };
@@ -133,7 +128,7 @@ fn kernels(c: &mut Criterion) {
         ];
         for (name, kernel, elements) in cases {
             group.throughput(Throughput::Elements(elements));
-            group.bench_function(BenchmarkId::new(backend, name), |bench| {
+            group.bench_function(BenchmarkId::new(backend.name(), name), |bench| {
                 bench.iter(|| b.run_kernel(kernel).expect("kernel"));
             });
         }
@@ -150,13 +145,16 @@ fn overhead(c: &mut Criterion) {
     let mut b = SceneBuilder::new(3).substeps(10).gravity_along(1, 9.81);
     b.particle(Particle::new(vec![0.0, 1.0, 0.0], 1.0));
     let scene = b.build().expect("valid");
-    for backend in ["cpu-f64", "gpu-f32"] {
+    for backend in [BackendKind::Cpu, GPU_F32] {
         let Some(mut b) = load(&scene, backend) else {
             continue;
         };
-        group.bench_function(BenchmarkId::new(backend, "one_particle_step"), |bench| {
-            bench.iter(|| black_box(b.step().expect("step")));
-        });
+        group.bench_function(
+            BenchmarkId::new(backend.name(), "one_particle_step"),
+            |bench| {
+                bench.iter(|| black_box(b.step().expect("step")));
+            },
+        );
     }
     group.finish();
 }
@@ -175,7 +173,7 @@ fn frames(c: &mut Criterion) {
         .warm_up_time(Duration::from_millis(300))
         .measurement_time(Duration::from_secs(3));
     for (name, scene) in [("chain20", chain20()), ("cloth256", scenes::cloth(256))] {
-        if let Some(mut b) = load(&scene, "cpu-f64") {
+        if let Some(mut b) = load(&scene, BackendKind::Cpu) {
             group.bench_function(BenchmarkId::new("cpu-f64", name), |bench| {
                 bench.iter(|| black_box(b.step().expect("step")));
             });
@@ -244,7 +242,7 @@ fn threads(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(2));
     for n in [16, 32, 64, 90, 128, 181] {
         let scene = scenes::cloth(n);
-        let Some(mut b) = load(&scene, "gpu-f32") else {
+        let Some(mut b) = load(&scene, GPU_F32) else {
             continue;
         };
         group.bench_function(BenchmarkId::new("gpu-f32", format!("cloth{n}")), |bench| {

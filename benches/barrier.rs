@@ -23,7 +23,7 @@ use hyperpbd::gpu::Precision;
 use hyperpbd::gpu::barrier::BarrierKernels;
 use hyperpbd::{
     Backend, Convergence, CpuBackend, IncrementalPotentialSettings, Obstacle, Particle, Plan,
-    Scene, Solver, State,
+    Scene, SceneBuilder, Solver, State,
 };
 
 const LAW: BarrierLaw = BarrierLaw {
@@ -32,34 +32,12 @@ const LAW: BarrierLaw = BarrierLaw {
 };
 
 fn obstacle_scene() -> Scene {
-    let mut scene = Scene::new(3, 1.0 / 60.0, 1, 1);
-    for (normal, offset) in [(vec![0.0, 1.0, 0.0], -0.05), (vec![1.0, 0.0, 0.0], -0.2)] {
-        scene.obstacles.push(Obstacle::Hyperplane {
-            normal,
-            offset,
-            friction: 0.0,
-            compliance: 0.0,
-        });
-    }
-    let mut vertices = Vec::new();
-    for i in 0..3 {
-        for j in 0..3 {
-            vertices.push(vec![f64::from(i) * 0.5, 0.0, f64::from(j) * 0.5]);
-        }
-    }
-    let mut simplices = Vec::new();
-    for i in 0..2 {
-        for j in 0..2 {
-            let v = |a: usize, b: usize| a * 3 + b;
-            simplices.push(vec![v(i, j), v(i + 1, j), v(i, j + 1)]);
-            simplices.push(vec![v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
-        }
-    }
-    scene.obstacles.push(Obstacle::SimplexMesh {
-        vertices,
-        simplices,
-    });
-    scene
+    let mut b = SceneBuilder::new(3);
+    b.hyperplane(vec![0.0, 1.0, 0.0], -0.05, 0.0);
+    b.hyperplane(vec![1.0, 0.0, 0.0], -0.2, 0.0);
+    b.triangle_grid([0, 2], 3, 0.5);
+    // Not validated: XPBD would refuse the mesh; only its obstacles are used.
+    b.scene().clone()
 }
 
 /// `n` particles just above the mesh, most inside the activation band.

@@ -25,8 +25,8 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{BenchmarkId, Criterion, criterion_group};
-use hyperpbd::gpu::{GpuBackend, GpuSweep, Precision};
-use hyperpbd::{Backend, CpuBackend, Plan, State, scenes};
+use hyperpbd::gpu::{GpuSweep, Precision};
+use hyperpbd::{BackendKind, Plan, State, scenes};
 use hyperpbd_core::broadphase::{Aabbs, exhaustive_pairs, sweep_pairs};
 
 /// A deterministic jitter in [−1, 1).
@@ -116,12 +116,12 @@ fn granular(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(3));
     let scene = scenes::column3d(12, 30);
     let plan = Plan::compile(&scene).expect("compiles");
-    let mut b = CpuBackend::new(plan, &State::from_scene(&scene)).expect("loads");
+    let state = State::from_scene(&scene);
+    let mut b = hyperpbd::load(plan.clone(), &state, BackendKind::Cpu).expect("loads");
     group.bench_function("cpu_step/column3d_4320", |bench| {
         bench.iter(|| black_box(b.step().expect("step")))
     });
-    let plan = Plan::compile(&scene).expect("compiles");
-    match GpuBackend::new(plan, &State::from_scene(&scene), Precision::F32) {
+    match hyperpbd::load(plan, &state, BackendKind::Gpu(Precision::F32)) {
         Ok(mut g) => {
             group.bench_function("gpu_f32_step/column3d_4320", |bench| {
                 bench.iter(|| black_box(g.step().expect("step")))

@@ -12,8 +12,10 @@
 //!                      criterion prints projections/s ("elem/s"); the ground
 //!                      variant's contact projections are not counted
 //! ```
-//! The backend is created and warmed up once per case; each iteration is one
-//! `step()` on the resident state (the report included).
+//! The backend runs on one thread (the serial golden path; `cpu_threads`
+//! measures one thread against all) and is created and warmed up once per
+//! case; each iteration is one `step()` on the resident state (the report
+//! included).
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -39,7 +41,8 @@ fn distance_projections(plan: &Plan) -> u64 {
 
 fn warmed_backend(scene: &Scene) -> CpuBackend {
     let plan = Plan::compile(scene).expect("scene compiles");
-    let mut backend = CpuBackend::new(plan, &State::from_scene(scene)).expect("backend loads");
+    let mut backend =
+        CpuBackend::with_threads(plan, &State::from_scene(scene), 1).expect("backend loads");
     for _ in 0..WARMUP_STEPS {
         backend.step().expect("warm-up step");
     }

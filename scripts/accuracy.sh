@@ -7,10 +7,10 @@
 #   scripts/accuracy.sh                 # the full report (tens of minutes on 2 cores)
 #   scripts/accuracy.sh --only-effects  # only docs/effects.md, figures/effects.json
 #                                       # and the README's effect lines (minutes)
-#   scripts/accuracy.sh --reps 5        # extra options go to `hyperpbd accuracy`
+#   scripts/accuracy.sh --reps 5        # extra options go to `hyperpbd-report`
 #
 # For a smoke test that leaves docs/ alone (under two minutes):
-#   cargo run --release -- accuracy --quick        # writes target/accuracy/
+#   cargo run --release -p hyperpbd-report -- --quick   # writes target/accuracy/
 #
 # GPU points need a Vulkan adapter; without one they are skipped with a
 # printed notice and the report says so. Like scripts/test.sh, this installs
@@ -20,6 +20,4 @@ cd "$(dirname "$0")/.."
 
 source scripts/install-lavapipe.sh
 
-# Silence the Mesa device-select layer's XDG_RUNTIME_DIR warnings.
-export NODEVICE_SELECT=1
-exec cargo run --release -- accuracy --out docs --readme README.md "$@"
+exec cargo run --release -p hyperpbd-report -- --out docs --readme README.md "$@"

@@ -29,34 +29,27 @@
 //! overlap, not of ε — granular scenes are compared on invariants
 //! (tests/gpu_granular.rs), and `compare` says so.
 
-use hyperpbd_core::{Plan, State};
+use hyperpbd_core::{Plan, Precision, State, StepReport};
 
-/// Precision of the run being compared with the f64 golden path.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Precision {
-    /// 32-bit floats.
-    F32,
-    /// 64-bit floats.
-    F64,
-}
+/// A bound on how far a run may drift from the golden path, advanced one
+/// step at a time: [`ErrorModel`] (XPBD, a rounding count) and
+/// [`crate::compare_barrier::BarrierErrorModel`] (the incremental potential,
+/// driven by both runs' residuals) serve one comparison loop.
+pub trait DivergenceModel {
+    /// The (position, velocity) bounds after one more step. `golden` and
+    /// `other` are both runs' reports of that step, `scale` the largest
+    /// coordinate magnitude seen so far, `steps` the steps run, this one
+    /// included.
+    fn advance(
+        &mut self,
+        golden: &StepReport,
+        other: &StepReport,
+        scale: f64,
+        steps: u64,
+    ) -> (f64, f64);
 
-impl Precision {
-    /// Unit roundoff ε (machine epsilon).
-    pub fn epsilon(self) -> f64 {
-        match self {
-            Precision::F32 => f64::from(f32::EPSILON),
-            Precision::F64 => f64::EPSILON,
-        }
-    }
-}
-
-impl From<hyperpbd_gpu::Precision> for Precision {
-    fn from(p: hyperpbd_gpu::Precision) -> Self {
-        match p {
-            hyperpbd_gpu::Precision::F32 => Precision::F32,
-            hyperpbd_gpu::Precision::F64 => Precision::F64,
-        }
-    }
+    /// What the bound is, in one line (printed by `hyperpbd compare`).
+    fn describe(&self) -> String;
 }
 
 /// The rounding model of one plan at one precision.
@@ -114,6 +107,22 @@ impl ErrorModel {
     }
 }
 
+impl DivergenceModel for ErrorModel {
+    fn advance(&mut self, _: &StepReport, _: &StepReport, scale: f64, steps: u64) -> (f64, f64) {
+        (
+            self.position_bound(scale, steps),
+            self.velocity_bound(scale, steps),
+        )
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "bound = eps {:e} x scale x {} roundings/substep x substeps",
+            self.epsilon, self.ops_per_substep
+        )
+    }
+}
+
 /// Largest coordinate magnitude of a state.
 pub fn coordinate_scale(state: &State) -> f64 {
     state.positions.iter().fold(0.0, |m, x| m.max(x.abs()))
@@ -140,6 +149,18 @@ pub struct Divergence {
 }
 
 impl Divergence {
+    /// `other` against the golden `golden` after `steps` steps, with the
+    /// (position, velocity) `bounds` of a [`DivergenceModel`].
+    pub fn new(steps: u64, golden: &State, other: &State, bounds: (f64, f64)) -> Self {
+        Divergence {
+            steps,
+            position: max_abs_diff(&golden.positions, &other.positions),
+            position_bound: bounds.0,
+            velocity: max_abs_diff(&golden.velocities, &other.velocities),
+            velocity_bound: bounds.1,
+        }
+    }
+
     /// Compares `other` against the golden `golden` with `model`; `scale` is
     /// the largest coordinate magnitude seen so far.
     pub fn measure(
@@ -149,17 +170,20 @@ impl Divergence {
         scale: f64,
         steps: u64,
     ) -> Self {
-        Divergence {
-            steps,
-            position: max_abs_diff(&golden.positions, &other.positions),
-            position_bound: model.position_bound(scale, steps),
-            velocity: max_abs_diff(&golden.velocities, &other.velocities),
-            velocity_bound: model.velocity_bound(scale, steps),
-        }
+        let bounds = (
+            model.position_bound(scale, steps),
+            model.velocity_bound(scale, steps),
+        );
+        Divergence::new(steps, golden, other, bounds)
     }
 
     /// True when both metrics are within their bounds (NaN is never within).
     pub fn within(&self) -> bool {
         self.position <= self.position_bound && self.velocity <= self.velocity_bound
+    }
+
+    /// The larger of the two measured / bound ratios (NaN when a metric is).
+    pub fn ratio(&self) -> f64 {
+        (self.position / self.position_bound).max(self.velocity / self.velocity_bound)
     }
 }

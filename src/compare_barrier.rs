@@ -23,9 +23,9 @@
 //! ```
 //! (δ constant gives P_S = δ S (S + 1) / 2.)
 
-use hyperpbd_core::{Convergence, MinimisationReport, Plan};
+use hyperpbd_core::{Convergence, MinimisationReport, Plan, Precision, StepReport};
 
-use crate::compare::Precision;
+use crate::compare::DivergenceModel;
 
 /// Divergence model of one incremental-potential plan at one precision,
 /// advanced step by step with both backends' reports.
@@ -53,14 +53,13 @@ impl BarrierErrorModel {
             .filter(|&&w| w > 0.0)
             .map(|&w| 1.0 / w)
             .fold(f64::INFINITY, f64::min);
-        let position_per_residual =
-            match plan.incremental_potential.as_ref().map(|ip| ip.convergence) {
-                Some(Convergence::MaxAccelerationResidual { .. }) => plan.h * plan.h / modulus,
-                Some(Convergence::PackedGradient { .. }) if lightest.is_finite() => {
-                    1.0 / (lightest * modulus)
-                }
-                _ => 0.0,
-            };
+        let position_per_residual = match plan.incremental_potential().map(|ip| ip.convergence) {
+            Some(Convergence::MaxAccelerationResidual { .. }) => plan.h * plan.h / modulus,
+            Some(Convergence::PackedGradient { .. }) if lightest.is_finite() => {
+                1.0 / (lightest * modulus)
+            }
+            _ => 0.0,
+        };
         BarrierErrorModel {
             epsilon: precision.epsilon(),
             position_per_residual,
@@ -95,5 +94,25 @@ impl BarrierErrorModel {
     /// Velocity bound after the steps advanced so far.
     pub fn velocity_bound(&self) -> f64 {
         2.0 * self.position / self.h
+    }
+}
+
+impl DivergenceModel for BarrierErrorModel {
+    fn advance(
+        &mut self,
+        golden: &StepReport,
+        other: &StepReport,
+        scale: f64,
+        _: u64,
+    ) -> (f64, f64) {
+        BarrierErrorModel::advance(self, &golden.minimisation, &other.minimisation, scale);
+        (self.position_bound(), self.velocity_bound())
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "barrier-path bound = double sum over substeps of ({:e} x (r_cpu + r_gpu) + 16 eps {:e} x scale)",
+            self.position_per_residual, self.epsilon
+        )
     }
 }

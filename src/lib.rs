@@ -2,21 +2,28 @@
 //! a wgpu backend.
 //!
 //! ```text
-//! Scene ──validate──▶ Plan::compile ──▶ CpuBackend / GPU backend ──▶ State
+//! Scene ──validate──▶ Plan::compile ──▶ load(plan, state, BackendKind) ──▶ step … read_state
 //! ```
-//! This crate re-exports the pieces and ships the built-in scenes used by
-//! the CLI (`hyperpbd demo`, `hyperpbd scene NAME`), the tests and the
-//! benchmarks.
+//! This crate re-exports the pieces, holds the one backend factory
+//! ([`load`]: the CPU golden path or the GPU backend of the plan's solver),
+//! the CPU/GPU comparison models, atomic output files, and the built-in
+//! scenes used by the CLI (`hyperpbd demo`, `hyperpbd scene NAME`), the
+//! tests and the benchmarks.
 
 pub use hyperpbd_core as core;
 pub use hyperpbd_core::*;
-pub use hyperpbd_cpu::CpuBackend;
+pub use hyperpbd_cpu::{CpuBackend, THREADS_VARIABLE, default_threads, set_default_threads};
 pub use hyperpbd_gpu as gpu;
 
-pub mod accuracy;
+pub mod atomic_file;
+pub mod batch;
 pub mod compare;
 pub mod compare_barrier;
+mod load;
 pub mod scenes;
+pub mod sweep;
+
+pub use load::{BackendKind, load, load_on_adapter};
 
 #[doc = include_str!("../README.md")]
 #[cfg(doctest)]

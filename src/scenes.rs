@@ -5,10 +5,12 @@
 //! checks that they still match.
 
 mod granular;
+mod peer_cloth;
 
 pub use granular::{ballpit4d, column3d, sandpile2d};
 use hyperpbd_core::builders::{BlockSpec, GridSpec};
 use hyperpbd_core::{Scene, SceneBuilder};
+pub use peer_cloth::peer_cloth;
 
 /// Names accepted by [`by_name`].
 pub const NAMES: &[&str] = &[
@@ -24,7 +26,7 @@ pub const NAMES: &[&str] = &[
 
 /// Built-in scenes too large to ship as files; generate them with
 /// `hyperpbd scene NAME --out FILE`.
-pub const LARGE_NAMES: &[&str] = &["column3d_100k"];
+pub const LARGE_NAMES: &[&str] = &["column3d_100k", "peer_cloth"];
 
 /// A built-in scene by name.
 pub fn by_name(name: &str) -> Option<Scene> {
@@ -35,6 +37,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "incline5d" => Some(incline5d()),
         "column3d" => Some(column3d(12, 30)),
         "column3d_100k" => Some(column3d(40, 64)),
+        "peer_cloth" => Some(peer_cloth(128)),
         "ballpit4d" => Some(ballpit4d()),
         "sandpile2d" => Some(sandpile2d()),
         "barrier4d" => Some(barrier4d()),
@@ -168,37 +171,14 @@ pub fn incline5d() -> Scene {
 /// (18 triangles in the x0-x1 plane) with a backstop hyperplane below it;
 /// κ = 1000, d^ = 0.02, maximum acceleration residual 1e-3 m/s².
 pub fn barrier4d() -> Scene {
-    use hyperpbd_core::{Convergence, IncrementalPotentialSettings, Obstacle, Particle, Solver};
-    let mut scene = Scene::new(4, 1.0 / 60.0, 1, 1);
-    scene.gravity = Some(vec![0.0, 0.0, 0.0, -9.81]);
-    let mut vertices = Vec::new();
-    for i in 0..4 {
-        for j in 0..4 {
-            vertices.push(vec![f64::from(i) * 0.5, f64::from(j) * 0.5, 0.0, 0.0]);
-        }
-    }
-    let mut simplices = Vec::new();
-    for i in 0..3 {
-        for j in 0..3 {
-            let v = |a: usize, b: usize| a * 4 + b;
-            simplices.push(vec![v(i, j), v(i + 1, j), v(i, j + 1)]);
-            simplices.push(vec![v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
-        }
-    }
-    scene.obstacles.push(Obstacle::SimplexMesh {
-        vertices,
-        simplices,
-    });
-    scene.obstacles.push(Obstacle::Hyperplane {
-        normal: vec![0.0, 0.0, 0.0, 1.0],
-        offset: -0.5,
-        friction: 0.0,
-        compliance: 0.0,
-    });
+    use hyperpbd_core::{Convergence, IncrementalPotentialSettings, Particle, Solver};
+    let mut b = SceneBuilder::new(4).gravity(vec![0.0, 0.0, 0.0, -9.81]);
+    b.triangle_grid([0, 1], 4, 0.5);
+    b.hyperplane(vec![0.0, 0.0, 0.0, 1.0], -0.5, 0.0);
     for i in 0..4 {
         for j in 0..4 {
             let k = f64::from(i * 4 + j);
-            scene.particles.push(
+            b.particle(
                 Particle::new(
                     vec![
                         0.2 + 0.35 * f64::from(i),
@@ -213,11 +193,12 @@ pub fn barrier4d() -> Scene {
             );
         }
     }
-    scene.solver = Solver::IncrementalPotential(IncrementalPotentialSettings {
+    b.scene_mut().solver = Solver::IncrementalPotential(IncrementalPotentialSettings {
         barrier_stiffness: 1000.0,
         activation_distance: 0.02,
         convergence: Convergence::MaxAccelerationResidual { tolerance: 1e-3 },
         max_iterations: 100,
     });
-    scene
+    b.build()
+        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
 }

@@ -9,6 +9,7 @@
 mod common;
 
 use common::Lcg;
+use common::bound::print_bound;
 use common::boxes::random_boxes;
 use hyperpbd_core::broadphase::{Aabbs, exhaustive_pairs, sweep_axis, sweep_pairs};
 
@@ -33,7 +34,12 @@ fn sweep_equals_exhaustive_in_every_dimension_axis_and_size() {
             }
         }
     }
-    println!("BOUND | cpu sweep == exhaustive | {compared} pairs compared | exact | same f64 test");
+    print_bound(
+        "cpu sweep == exhaustive",
+        format_args!("{compared} pairs compared"),
+        "exact",
+        "same f64 test",
+    );
     assert!(compared > 10_000, "the cases must produce many pairs");
 }
 

@@ -13,6 +13,7 @@
 mod common;
 
 use common::Lcg;
+use common::bound::print_bound;
 use common::boxes::random_boxes;
 use common::gpu::adapter_or_skip;
 use hyperpbd_core::broadphase::{Aabbs, exhaustive_pairs, sweep_pairs};
@@ -56,8 +57,11 @@ fn every_dimension(precision: Precision) {
             }
         }
     }
-    println!(
-        "BOUND | gpu {precision} sweep == exhaustive (1..=8 dims) | {compared} pairs, {regrowths} regrowths | exact | same boxes, same closed-interval test"
+    print_bound(
+        format_args!("gpu {precision} sweep == exhaustive (1..=8 dims)"),
+        format_args!("{compared} pairs, {regrowths} regrowths"),
+        "exact",
+        "same boxes, same closed-interval test",
     );
     assert!(compared > 10_000);
 }
@@ -238,10 +242,11 @@ fn gpu_sweep_grows_an_overflowing_pair_buffer_and_drops_nothing() {
         let pairs = gpu.sweep(&all, 2).expect("sweep");
         assert_eq!(pairs.len(), n * (n - 1) / 2);
         assert_eq!(pairs, exhaustive_pairs(&all));
-        println!(
-            "BOUND | gpu {precision} regrowth from capacity 1 | {} pairs, capacity {} | exact | nothing dropped",
-            reference.len(),
-            stats.capacity
+        print_bound(
+            format_args!("gpu {precision} regrowth from capacity 1"),
+            format_args!("{} pairs, capacity {}", reference.len(), stats.capacity),
+            "exact",
+            "nothing dropped",
         );
     }
 }

@@ -22,6 +22,7 @@
 
 mod common;
 
+use common::bound::print_bound;
 use common::gpu::adapter_or_skip;
 use hyperpbd::{Backend, CpuBackend, Plan, Scene, State};
 use hyperpbd_cpu::collide::{self, Contacts};
@@ -148,17 +149,24 @@ fn differential(precision: Precision) {
                 f64::from(f32::EPSILON) * scale * (8.0 * n + 40.0) * f64::from(ITERATIONS)
             }
         };
-        println!(
-            "BOUND | collide {precision} {} ({} particles, {} pairs, {} active, max move {moved:.2e}) | {err:e} | {bound:e} | {}",
-            case.name,
-            plan.particle_count(),
-            contacts.pairs.len(),
-            contacts.active_count(),
-            if precision == Precision::F64 {
-                "same operations, correctly rounded"
-            } else {
-                "ε·X·(8N+40)·iterations"
-            }
+        print_bound(
+            format_args!(
+                "collide {precision} {} ({} particles, {} pairs, {} active, max move {moved:.2e})",
+                case.name,
+                plan.particle_count(),
+                contacts.pairs.len(),
+                contacts.active_count()
+            ),
+            format_args!("{err:e}"),
+            format_args!("{bound:e}"),
+            format_args!(
+                "{}",
+                if precision == Precision::F64 {
+                    "same operations, correctly rounded"
+                } else {
+                    "ε·X·(8N+40)·iterations"
+                }
+            ),
         );
         assert!(
             err <= bound,

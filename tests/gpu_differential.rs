@@ -57,6 +57,7 @@
 mod common;
 
 use common::Lcg;
+use common::bound::print_bound;
 
 use common::gpu::adapter_or_skip;
 use hyperpbd::compare::{Divergence, ErrorModel, coordinate_scale, max_abs_diff};
@@ -309,7 +310,12 @@ fn print_row(
     bound: String,
     p: Precision,
 ) {
-    println!("BOUND | {scene} | {metric} | {frames} | {measured} | {bound} | {p}");
+    print_bound(
+        format_args!("{scene} | {metric} | {frames}"),
+        format_args!("{measured}"),
+        format_args!("{bound}"),
+        format_args!("{p}"),
+    );
 }
 
 /// Steps `scene` `frames` times on the CPU and on the GPU at `precision`,
@@ -326,7 +332,7 @@ fn differential(
     let mut cpu = CpuBackend::new(plan.clone(), &state).expect("CPU backend");
     let mut gpu = GpuBackend::with_adapter(adapter, plan.clone(), &state, precision)
         .unwrap_or_else(|e| panic!("{name} {precision}: GPU backend: {e}"));
-    let model = ErrorModel::new(&plan, precision.into());
+    let model = ErrorModel::new(&plan, precision);
     let eps = model.epsilon;
     let mut scale = coordinate_scale(&state);
     let counts = plan.kernel_counts();
@@ -563,7 +569,9 @@ fn empty_scene() {
         let mut cpu = CpuBackend::new(plan.clone(), &state).unwrap();
         let mut gpu = GpuBackend::with_adapter(&adapter, plan.clone(), &state, precision).unwrap();
         for _ in 0..5 {
-            assert_eq!(cpu.step().unwrap(), gpu.step().unwrap());
+            // Equal but for the CPU thread count (who computed, not what).
+            let (c, g) = (cpu.step().unwrap(), gpu.step().unwrap());
+            assert_eq!(StepReport { threads: 0, ..c }, g);
         }
         let (a, b) = (cpu.read_state().unwrap(), gpu.read_state().unwrap());
         assert!(a.is_empty() && b.is_empty());

@@ -15,6 +15,7 @@
 
 mod common;
 
+use common::bound::print_bound;
 use common::gpu::adapter_or_skip;
 use hyperpbd::{Backend, CpuBackend, Plan, Scene, State};
 use hyperpbd_gpu::{GpuBackend, Precision};
@@ -64,8 +65,11 @@ fn gpu_f64_contact_steps_are_bit_identical_to_the_cpu() {
                 "{name} frame {frame}: active contacts"
             );
         }
-        println!(
-            "BOUND | whole step f64 {name} ({frames} frames) position / velocity | {worst_x:e} / {worst_v:e} | 0 / 0 | same pairs, bit-identical kernels"
+        print_bound(
+            format_args!("whole step f64 {name} ({frames} frames) position / velocity"),
+            format_args!("{worst_x:e} / {worst_v:e}"),
+            "0 / 0",
+            "same pairs, bit-identical kernels",
         );
         assert_eq!(worst_x, 0.0, "{name}: positions differ");
         assert_eq!(worst_v, 0.0, "{name}: velocities differ");
@@ -104,8 +108,11 @@ fn gpu_f32_contact_steps_stay_within_bounds() {
             * (8.0 * n + 40.0)
             * f64::from(plan.iterations)
             * f64::from(plan.substeps);
-        println!(
-            "BOUND | whole step f32 {name} (1 frame) position | {err:e} | {bound:e} | ε·X·(8N+40)·iterations·substeps"
+        print_bound(
+            format_args!("whole step f32 {name} (1 frame) position"),
+            format_args!("{err:e}"),
+            format_args!("{bound:e}"),
+            "ε·X·(8N+40)·iterations·substeps",
         );
         assert!(err <= bound, "{name}: {err:e} > {bound:e}");
         // Longer horizon: invariants only.
@@ -151,9 +158,11 @@ fn gpu_f32_contact_steps_stay_within_bounds() {
                 worst = worst.max((radius[i] + radius[j] - d) / r_min);
             }
         }
-        println!(
-            "BOUND | gpu f32 {name} ({} frames) deepest overlap / r | {worst:.4} | 0.15 | invariant",
-            frames * 4
+        print_bound(
+            format_args!("gpu f32 {name} ({} frames) deepest overlap / r", frames * 4),
+            format_args!("{worst:.4}"),
+            "0.15",
+            "invariant",
         );
         assert!(worst <= 0.15, "{name}: overlap {worst}");
     }

@@ -9,6 +9,9 @@
 //! input (no forces do work on these scenes but gravity, which is in the
 //! energy).
 
+mod common;
+
+use common::bound::print_bound;
 use hyperpbd::{Backend, CpuBackend, Kernel, Plan, Scene, StageName, State};
 use hyperpbd_core::broadphase::{Aabbs, exhaustive_pairs};
 use hyperpbd_core::{Collisions, Particle, SceneBuilder};
@@ -243,14 +246,20 @@ fn granular_scenes_keep_overlap_small_and_energy_falling() {
                 worst = worst.max(deepest_overlap(&scene, &s) / r_min);
             }
         }
-        println!(
-            "BOUND | {name} {frames} frames deepest overlap / r_min | {worst:.4} | {overlap_bound} | averaged Jacobi, {} iterations x {} substeps",
-            scene.iterations, scene.substeps
+        print_bound(
+            format_args!("{name} {frames} frames deepest overlap / r_min"),
+            format_args!("{worst:.4}"),
+            format_args!("{overlap_bound}"),
+            format_args!(
+                "averaged Jacobi, {} iterations x {} substeps",
+                scene.iterations, scene.substeps
+            ),
         );
-        println!(
-            "BOUND | {name} energy rise E_max − E_0 | {:+.3e} J | 0 (+1e-9 rounding) | no input but gravity; E_end − E_0 = {:+.3e} J",
-            e_max - e0,
-            e_last - e0
+        print_bound(
+            format_args!("{name} energy rise E_max − E_0"),
+            format_args!("{:+.3e} J", e_max - e0),
+            "0 (+1e-9 rounding)",
+            format_args!("no input but gravity; E_end − E_0 = {:+.3e} J", e_last - e0),
         );
         assert!(worst <= overlap_bound, "{name}: overlap {worst} r");
         assert!(

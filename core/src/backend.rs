@@ -33,6 +33,9 @@ pub struct StepReport {
     /// Incremental-potential path: one minimisation report per substep
     /// (empty on the XPBD path).
     pub minimisation: Vec<MinimisationReport>,
+    /// CPU threads the step ran on (the CPU backend's thread count; 0 for
+    /// a GPU backend, whose kernels run on the device).
+    pub threads: usize,
 }
 
 impl StepReport {

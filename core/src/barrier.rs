@@ -32,9 +32,8 @@
 // Index loops mirror the math (and the WGSL port) line by line.
 #![allow(clippy::needless_range_loop)]
 
-use crate::geometry::closest_point_on_simplex;
-use crate::plan::unit_vector;
-use crate::{Convergence, Obstacle, Scene, Solver};
+use crate::geometry::{closest_point_on_simplex, unit_vector};
+use crate::{Convergence, IncrementalPotentialSettings, Obstacle, Scene};
 
 /// η: the filter admits this fraction of the certified distance, so a
 /// trial point keeps at least (1 − η) of each obstacle's distance.
@@ -298,13 +297,10 @@ pub struct IncrementalPotentialPlan {
 }
 
 impl IncrementalPotentialPlan {
-    /// The barrier-path part of the plan of a validated scene, if it uses
-    /// that path.
-    pub fn compile(scene: &Scene) -> Option<IncrementalPotentialPlan> {
-        let Solver::IncrementalPotential(settings) = &scene.solver else {
-            return None;
-        };
-        Some(IncrementalPotentialPlan {
+    /// The barrier-path part of the plan of a validated scene whose solver
+    /// is `settings`.
+    pub fn compile(scene: &Scene, settings: &IncrementalPotentialSettings) -> Self {
+        IncrementalPotentialPlan {
             law: BarrierLaw {
                 stiffness: settings.barrier_stiffness,
                 activation_distance: settings.activation_distance,
@@ -312,6 +308,6 @@ impl IncrementalPotentialPlan {
             convergence: settings.convergence,
             max_iterations: settings.max_iterations,
             obstacles: BarrierObstacles::compile(scene),
-        })
+        }
     }
 }

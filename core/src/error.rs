@@ -218,6 +218,22 @@ pub enum StepError {
     },
 }
 
+impl StepError {
+    /// The error of a minimisation in `substep` that `report` says was
+    /// refused; `None` when the minimiser accepted its result. Both
+    /// backends turn a refusal into this one error.
+    pub fn refused(substep: u32, report: &crate::MinimisationReport) -> Option<StepError> {
+        match &report.status {
+            crate::MinimisationStatus::Refused(reason) => Some(StepError::MinimisationRefused {
+                substep,
+                reason: reason.clone(),
+                report: Box::new(report.clone()),
+            }),
+            _ => None,
+        }
+    }
+}
+
 /// Errors of the GPU device layer. There is never a silent fallback to the
 /// CPU: asking for the GPU and not getting it is an error.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -265,4 +281,64 @@ pub enum BackendError {
     /// index out of range, …).
     #[error("invalid call: {0}")]
     InvalidCall(String),
+    /// A step failed and restoring the state of its start failed too: the
+    /// resident state is no longer the state before the step. The step's
+    /// own failure is the [`source`](std::error::Error::source).
+    #[error("rolling the state back after a failed step failed: {rollback}")]
+    RollbackFailed {
+        /// Why the rollback failed.
+        rollback: GpuError,
+        /// Why the step failed.
+        #[source]
+        original: Box<BackendError>,
+    },
+}
+
+impl BackendError {
+    /// This step failure after an attempt to roll the state back: itself
+    /// when `rollback` succeeded, else [`BackendError::RollbackFailed`]
+    /// with itself as the source (the original failure is never dropped).
+    pub fn after_rollback(self, rollback: Result<(), GpuError>) -> BackendError {
+        match rollback {
+            Ok(()) => self,
+            Err(e) => BackendError::RollbackFailed {
+                rollback: e,
+                original: Box::new(self),
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::error::Error as _;
+
+    fn step_failure() -> BackendError {
+        StepError::NonFiniteParticle {
+            stage: StageName::Predict,
+            substep: 2,
+            particle: 7,
+        }
+        .into()
+    }
+
+    #[test]
+    fn a_failed_rollback_keeps_the_step_error_as_its_source() {
+        assert_eq!(step_failure().after_rollback(Ok(())), step_failure());
+        let lost = GpuError::DeviceLost {
+            message: "gone".into(),
+        };
+        let e = step_failure().after_rollback(Err(lost.clone()));
+        assert_eq!(
+            e,
+            BackendError::RollbackFailed {
+                rollback: lost,
+                original: Box::new(step_failure()),
+            }
+        );
+        let source = e.source().map(ToString::to_string);
+        assert_eq!(source, Some(step_failure().to_string()));
+        assert!(e.to_string().contains("GPU device lost: gone"), "{e}");
+    }
 }

@@ -14,9 +14,12 @@ pub mod builders;
 mod coloring;
 mod error;
 pub mod geometry;
+pub mod implicit;
 mod json;
+pub mod material;
 mod minimisation;
 mod plan;
+mod precision;
 mod scene;
 mod solver;
 mod state;
@@ -27,15 +30,16 @@ pub use backend::{Backend, FamilyResidual, StepReport, check_forces, check_kerne
 pub use builders::SceneBuilder;
 pub use coloring::greedy_colors;
 pub use error::{BackendError, GpuError, SceneError, StageName, StepError};
+pub use geometry::DEGENERATE_VOLUME_RATIO;
 pub use minimisation::{MinimisationReport, MinimisationStatus, Refusal};
-pub use plan::{Family, FamilyKind, Kernel, ParticleContacts, Plan, PredictTerms};
+pub use plan::{Family, FamilyKind, Kernel, ParticleContacts, Plan, PredictTerms, SolverPlan};
+pub use precision::Precision;
 pub use scene::{
-    Collisions, ConstraintFamily, ConstraintKind, Damping, Obstacle, ObstacleDocument,
+    Collisions, ConstraintFamily, ConstraintKind, Damping, MAX_DIM, Obstacle, ObstacleDocument,
     ObstacleKind, Particle, Scene,
 };
 pub use solver::{Convergence, IncrementalPotentialSettings, Solver};
 pub use state::State;
-pub use validate::{DEGENERATE_VOLUME_RATIO, MAX_DIM};
 
 /// The scalar of the golden path.
 pub type Real = f64;

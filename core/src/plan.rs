@@ -22,8 +22,8 @@
 
 use crate::barrier::IncrementalPotentialPlan;
 use crate::coloring::greedy_colors;
-use crate::geometry::{Scratch, constraint_value};
-use crate::{ConstraintKind, Obstacle, Scene, SceneError, StageName};
+use crate::geometry::{Scratch, constraint_value, unit_vector};
+use crate::{ConstraintKind, Obstacle, Scene, SceneError, Solver, StageName};
 
 /// What one family projects.
 #[derive(Debug, Clone, PartialEq)]
@@ -215,8 +215,22 @@ pub struct Plan {
     pub stages: Vec<StageName>,
     /// Kernel calls of one substep, in order.
     pub substep_kernels: Vec<Kernel>,
-    /// The barrier path's settings and obstacles (None on the XPBD path).
-    pub incremental_potential: Option<IncrementalPotentialPlan>,
+    /// Which solver the substeps run, with that solver's own data.
+    pub solver: SolverPlan,
+}
+
+/// The solver a plan's substeps run: one variant per solver path.
+///
+/// XPBD's stages live in [`Plan::families`], [`Plan::damping`] and
+/// [`Plan::contacts`] (all empty on the barrier path, whose validation
+/// refuses constraints, friction, damping and collisions); the barrier path
+/// carries its settings and obstacles here.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SolverPlan {
+    /// Substepped XPBD: predict, project by colour, velocity, responses.
+    Xpbd,
+    /// One incremental-potential minimisation per substep.
+    IncrementalPotential(IncrementalPotentialPlan),
 }
 
 impl Plan {
@@ -291,8 +305,19 @@ impl Plan {
                 &inverse_mass,
             ));
         }
-        let incremental_potential = IncrementalPotentialPlan::compile(scene);
-        for (o, obstacle) in scene.obstacles.iter().enumerate() {
+        let solver = match &scene.solver {
+            Solver::Xpbd => SolverPlan::Xpbd,
+            Solver::IncrementalPotential(settings) => {
+                SolverPlan::IncrementalPotential(IncrementalPotentialPlan::compile(scene, settings))
+            }
+        };
+        // XPBD projects each hyperplane as a contact family; the barrier
+        // path keeps its obstacles in its own plan.
+        let xpbd_planes = match solver {
+            SolverPlan::Xpbd => scene.obstacles.as_slice(),
+            SolverPlan::IncrementalPotential(_) => &[],
+        };
+        for (o, obstacle) in xpbd_planes.iter().enumerate() {
             let Obstacle::Hyperplane {
                 normal,
                 offset,
@@ -302,9 +327,6 @@ impl Plan {
             else {
                 continue;
             };
-            if incremental_potential.is_some() {
-                break;
-            }
             let unit = unit_vector(normal);
             let particles: Vec<usize> = (0..n).filter(|&i| dynamic(i)).collect();
             if particles.is_empty() {
@@ -341,9 +363,11 @@ impl Plan {
                     margin: c.margin,
                 });
         let mut substep_kernels = Vec::new();
-        if any_dynamic && incremental_potential.is_some() {
+        if !any_dynamic {
+            // Nothing moves: no kernel runs.
+        } else if let SolverPlan::IncrementalPotential(_) = solver {
             substep_kernels.push(Kernel::Minimise);
-        } else if any_dynamic {
+        } else {
             substep_kernels.push(Kernel::Predict);
             if contacts.is_some() {
                 substep_kernels.push(Kernel::Broadphase);
@@ -393,7 +417,7 @@ impl Plan {
             contacts,
             stages,
             substep_kernels,
-            incremental_potential,
+            solver,
         })
     }
 
@@ -423,107 +447,13 @@ impl Plan {
         per_iteration * u64::from(self.iterations) * u64::from(self.substeps)
     }
 
-    /// A human-readable description: stages, families, colors, counts.
-    pub fn describe(&self) -> String {
-        use std::fmt::Write;
-        let mut s = String::new();
-        let dynamic = self.inverse_mass.iter().filter(|&&w| w > 0.0).count();
-        let _ = writeln!(
-            s,
-            "dim {}  particles {} ({} dynamic, {} fixed)  dt {}  substeps {}  iterations {}  h {:e}",
-            self.dim,
-            self.particle_count(),
-            dynamic,
-            self.particle_count() - dynamic,
-            self.dt,
-            self.substeps,
-            self.iterations,
-            self.h
-        );
-        let names: Vec<&str> = self.stages.iter().map(|s| s.as_str()).collect();
-        let _ = writeln!(
-            s,
-            "stages per substep: {}",
-            if names.is_empty() {
-                "(none: nothing moves)".to_string()
-            } else {
-                names.join(" -> ")
-            }
-        );
-        let _ = writeln!(
-            s,
-            "predict terms: gravity {}, external force {}",
-            on_off(self.predict.gravity),
-            on_off(self.predict.force)
-        );
-        for (i, f) in self.families.iter().enumerate() {
-            let sizes: Vec<String> = (0..f.color_count())
-                .map(|c| f.color(c).len().to_string())
-                .collect();
-            let _ = write!(
-                s,
-                "family {i} {} {}: {} elements, compliance {:e}, {} colors [{}]",
-                f.label,
-                f.kind.name(),
-                f.len(),
-                f.compliance,
-                f.color_count(),
-                sizes.join(", ")
-            );
-            if let FamilyKind::HyperplaneContact { friction, .. } = f.kind {
-                let _ = write!(s, ", friction {friction}");
-            }
-            s.push('\n');
+    /// The barrier path's settings and obstacles (`None` on the XPBD path).
+    pub fn incremental_potential(&self) -> Option<&IncrementalPotentialPlan> {
+        match &self.solver {
+            SolverPlan::IncrementalPotential(ip) => Some(ip),
+            SolverPlan::Xpbd => None,
         }
-        if let Some(ip) = &self.incremental_potential {
-            let _ = writeln!(
-                s,
-                "incremental potential: κ {:e}, d^ {:e}, {} ≤ {:e}, max {} iterations, {} planes, {} simplices",
-                ip.law.stiffness,
-                ip.law.activation_distance,
-                ip.convergence.as_str(),
-                ip.convergence.tolerance(),
-                ip.max_iterations,
-                ip.obstacles.plane_count(),
-                ip.obstacles.simplex_count()
-            );
-        }
-        if let Some((rate, factor)) = self.damping {
-            let _ = writeln!(s, "damping: rate {rate} 1/s, factor {factor} per substep");
-        }
-        if let Some(c) = self.contacts {
-            let _ = writeln!(
-                s,
-                "particle contacts: friction {}, margin {}, sort-and-sweep + gather-Jacobi",
-                c.friction, c.margin
-            );
-        }
-        let counts: Vec<String> = self
-            .kernel_counts()
-            .iter()
-            .map(|(stage, n)| format!("{stage} {n}"))
-            .collect();
-        let _ = writeln!(s, "kernel calls per step: {}", counts.join(", "));
-        let _ = writeln!(
-            s,
-            "constraint projections per step: {}",
-            self.projections_per_step()
-        );
-        s
     }
-}
-
-/// n / |n|, scaling by the largest component first so that neither tiny
-/// (1e-200) nor huge (1e200) normals underflow or overflow on the way.
-pub(crate) fn unit_vector(n: &[f64]) -> Vec<f64> {
-    let largest = n.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    let scaled: Vec<f64> = n.iter().map(|x| x / largest).collect();
-    let length = scaled.iter().map(|x| x * x).sum::<f64>().sqrt();
-    scaled.iter().map(|x| x / length).collect()
-}
-
-fn on_off(b: bool) -> &'static str {
-    if b { "on" } else { "off" }
 }
 
 fn colored_family(

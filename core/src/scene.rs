@@ -9,6 +9,12 @@ use serde::{Deserialize, Serialize};
 
 use crate::Solver;
 
+/// Largest dimension a scene may have (`Scene::validate` refuses more).
+/// Far beyond any practical scene; it keeps the per-dimension allocations
+/// of a plan bounded, so a typo such as `"dim": 4611686018427387904` is an
+/// error rather than an abort.
+pub const MAX_DIM: usize = 256;
+
 /// A whole scene in R^`dim`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -3,18 +3,8 @@
 //! The first violated rule is reported, in document order, with the path of
 //! the offending field. Nothing downstream re-checks what is checked here.
 
-use crate::geometry::{Scratch, constraint_value, factorial};
-use crate::{ConstraintKind, Obstacle, Scene, SceneError};
-
-/// Largest dimension a scene may have. Far beyond any practical scene; it
-/// keeps the per-dimension allocations of a plan bounded, so a typo such as
-/// `"dim": 4611686018427387904` is an error rather than an abort.
-pub const MAX_DIM: usize = 256;
-
-/// Relative volume below which an oriented rest simplex counts as
-/// degenerate: |V| ≤ 1e-12 · (longest edge)^N / N!. Below that the
-/// constraint has no meaningful orientation to preserve.
-pub const DEGENERATE_VOLUME_RATIO: f64 = 1e-12;
+use crate::geometry::{DEGENERATE_VOLUME_RATIO, Scratch, constraint_value, factorial};
+use crate::{ConstraintKind, MAX_DIM, Obstacle, Scene, SceneError};
 
 fn finite(path: impl FnOnce() -> String, value: f64) -> Result<(), SceneError> {
     if value.is_finite() {

@@ -13,8 +13,8 @@
 //! ```
 
 use crate::barrier::BarrierObstacles;
-use crate::geometry::{determinant, factorial};
-use crate::{DEGENERATE_VOLUME_RATIO, Obstacle, Scene, SceneError, Solver};
+use crate::geometry::{DEGENERATE_VOLUME_RATIO, determinant, factorial};
+use crate::{Obstacle, Scene, SceneError, Solver};
 
 const IP: &str = "incremental_potential";
 

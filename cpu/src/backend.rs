@@ -5,15 +5,24 @@
 //!        repeat substeps: for kernel in plan.substep_kernels: run kernel
 //!        on any non-finite value: restore (x, v) byte for byte, return error
 //! ```
+//! A step runs on the backend's threads (`threads.rs`, `parallel.rs`): the
+//! kernels run in the plan's order, each split over the cores where its
+//! items are independent, with the same bytes for any thread count.
 
 use hyperpbd_core::{
-    Backend, BackendError, FamilyResidual, Kernel, MinimisationReport, MinimisationStatus, Plan,
-    StageName, State, StepError, StepReport, check_forces, check_kernel, check_state,
+    Backend, BackendError, FamilyResidual, Kernel, MinimisationReport, Plan, StageName, State,
+    StepError, StepReport, check_forces, check_kernel, check_state,
 };
 
 use crate::collide::{self, Contacts};
+use crate::integrate::Failed;
+use crate::parallel::Workers;
 use crate::project::{Batch, Workspace, project};
-use crate::{friction, incremental_potential, integrate, residual};
+use crate::{colours, friction, incremental_potential, integrate, project, residual, threads};
+use hyperpbd_core::broadphase::Aabbs;
+
+/// Values per chunk of a reset or copy (multipliers, the saved state).
+const VALUE_GRAIN: usize = 16_384;
 
 /// The golden backend.
 pub struct CpuBackend {
@@ -24,25 +33,55 @@ pub struct CpuBackend {
     p: Vec<f64>,
     force: Vec<f64>,
     /// Multipliers per family, color-ordered like the family's elements.
-    lambda: Vec<Vec<f64>>,
+    /// (all families in one vector, reset in one pass; family f's are
+    /// `lambda[lambda_starts[f]..lambda_starts[f + 1]]`).
+    lambda: Vec<f64>,
+    lambda_starts: Vec<usize>,
     saved_x: Vec<f64>,
     saved_v: Vec<f64>,
+    /// Whether `saved_x`/`saved_v` hold the state before the last step
+    /// and nothing has changed the state since that step succeeded.
+    revertible: bool,
     workspace: Workspace,
     /// Candidate particle pairs of the current substep (with `collisions`).
     contacts: Contacts,
+    /// The broadphase's boxes (scratch kept between substeps).
+    boxes: Aabbs,
     /// Substep being run (for error messages).
     substep: u32,
     /// Scratch of the barrier path.
     minimiser: incremental_potential::Workspace,
     /// Minimisation reports of the current step, one per substep.
     minimisation: Vec<MinimisationReport>,
+    /// The threads the kernels run on.
+    workers: Workers,
+    /// Kernels at the end of a substep (velocity, and damping) that run
+    /// fused with the next substep's prediction, when the plan allows.
+    fused_tail: Option<usize>,
+    /// Whether some kernel of the plan splits over the threads: only then
+    /// does a step move to the pool (a hand-over costs microseconds, more
+    /// than a small scene's whole step).
+    on_pool: bool,
 }
 
 impl CpuBackend {
-    /// Loads `plan` with `state`.
+    /// Loads `plan` with `state`, on the default number of threads
+    /// ([`default_threads`](crate::default_threads): the CLI's `--threads`,
+    /// else `HYPERPBD_THREADS`, else every core).
     pub fn new(plan: Plan, state: &State) -> Result<Self, BackendError> {
+        Self::with_threads(plan, state, threads::default_threads()?)
+    }
+
+    /// Loads `plan` with `state`, to run on `threads` threads (1: all on
+    /// the calling thread). Results are bit-identical for every count.
+    pub fn with_threads(plan: Plan, state: &State, threads: usize) -> Result<Self, BackendError> {
         check_state(&plan, state)?;
-        let lambda = plan.families.iter().map(|f| vec![0.0; f.len()]).collect();
+        colours::check(&plan)?;
+        let mut lambda_starts = vec![0];
+        for f in &plan.families {
+            lambda_starts.push(lambda_starts[lambda_starts.len() - 1] + f.len());
+        }
+        let lambda = vec![0.0; lambda_starts[lambda_starts.len() - 1]];
         Ok(CpuBackend {
             force: plan.force.clone(),
             x: state.positions.clone(),
@@ -50,20 +89,49 @@ impl CpuBackend {
             p: state.positions.clone(),
             saved_x: Vec::with_capacity(state.positions.len()),
             saved_v: Vec::with_capacity(state.velocities.len()),
+            revertible: false,
             lambda,
+            lambda_starts,
             plan,
             workspace: Workspace::default(),
             contacts: Contacts::default(),
+            boxes: Aabbs::default(),
             substep: 0,
             minimiser: incremental_potential::Workspace::default(),
             minimisation: Vec::new(),
-        })
+            workers: Workers::new(threads)?,
+            on_pool: false,
+            fused_tail: None,
+        }
+        .with_pool_choice())
+    }
+
+    /// Sets `on_pool` from the plan's largest loops.
+    fn with_pool_choice(mut self) -> Self {
+        self.on_pool = splits_somewhere(&self.plan, &self.workers);
+        self.fused_tail = fused_tail(&self.plan);
+        self
+    }
+
+    /// The number of threads this backend runs on.
+    pub fn threads(&self) -> usize {
+        self.workers.threads()
+    }
+
+    /// Caps every parallel chunk at `max_chunk` items (rounded down to a
+    /// power of two) instead of the kernels' own grain, so that even a
+    /// small scene splits over the threads. For determinism tests: the
+    /// results are the same bytes for any cap.
+    pub fn with_max_chunk(mut self, max_chunk: usize) -> Self {
+        self.workers = self.workers.with_max_chunk(max_chunk);
+        self.with_pool_choice()
     }
 
     /// Multipliers of family `family` from the last projection
     /// (color-ordered), for inspection and kernel-level tests.
     pub fn multipliers(&self, family: usize) -> Option<&[f64]> {
-        self.lambda.get(family).map(Vec::as_slice)
+        let range = *self.lambda_starts.get(family)?..*self.lambda_starts.get(family + 1)?;
+        self.lambda.get(range)
     }
 
     /// Candidate pairs and contact lists of the last broadphase.
@@ -82,13 +150,15 @@ impl CpuBackend {
 
     fn kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
         let plan = &self.plan;
+        let workers = &self.workers;
         match kernel {
             Kernel::Predict => {
-                for l in &mut self.lambda {
-                    l.fill(0.0);
-                }
-                integrate::predict(plan, &mut self.x, &mut self.v, &mut self.p, &self.force)
-                    .map_err(|i| self.particle_error(StageName::Predict, i))
+                let (x, v, p, force) = (&mut self.x, &mut self.v, &mut self.p, &self.force);
+                let ((), predicted) = workers.join(
+                    || reset(workers, &mut self.lambda),
+                    || integrate::predict(workers, plan, x, v, p, force),
+                );
+                predicted.map_err(|i| self.particle_error(StageName::Predict, i))
             }
             Kernel::Project { family, color } => {
                 let fam = &plan.families[family];
@@ -100,10 +170,11 @@ impl CpuBackend {
                     start: &self.p,
                 };
                 project(
+                    workers,
                     &batch,
                     fam.color(color),
                     &mut self.x,
-                    &mut self.lambda[family],
+                    &mut self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]],
                     &mut self.workspace,
                 )
                 .map_err(|slot| {
@@ -117,38 +188,56 @@ impl CpuBackend {
                     .into()
                 })
             }
-            Kernel::Velocity => integrate::velocity(plan, &self.x, &mut self.v, &self.p)
+            Kernel::Velocity => integrate::velocity(workers, plan, &self.x, &mut self.v, &self.p)
                 .map_err(|i| self.particle_error(StageName::Velocity, i)),
             Kernel::Friction { family } => friction::friction(
+                workers,
                 plan.dim,
                 plan.h,
                 &plan.inverse_mass,
                 &plan.families[family],
-                &self.lambda[family],
+                &self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]],
                 &mut self.v,
             )
             .map_err(|i| self.particle_error(StageName::Friction, i)),
             Kernel::Damping => {
-                integrate::damping(plan, &mut self.v);
+                integrate::damping(workers, plan, &mut self.v);
                 Ok(())
             }
             Kernel::Broadphase => {
                 let margin = plan.contacts.map_or(0.0, |c| c.margin);
-                collide::broadphase(plan, margin, &self.p, &self.x, &mut self.contacts);
+                let (p, x) = (&self.p, &self.x);
+                collide::broadphase_on(
+                    workers,
+                    plan,
+                    margin,
+                    p,
+                    x,
+                    &mut self.boxes,
+                    &mut self.contacts,
+                );
                 Ok(())
             }
             Kernel::Collide => {
                 let friction = plan.contacts.map_or(0.0, |c| c.friction);
-                collide::collide(plan, friction, &self.p, &mut self.x, &mut self.contacts)
-                    .map_err(|i| self.particle_error(StageName::Project, i))
+                collide::collide_on(
+                    workers,
+                    plan,
+                    friction,
+                    &self.p,
+                    &mut self.x,
+                    &mut self.contacts,
+                )
+                .map_err(|i| self.particle_error(StageName::Project, i))
             }
             Kernel::Minimise => {
-                let Some(ip) = &plan.incremental_potential else {
+                let Some(ip) = plan.incremental_potential() else {
                     return Err(BackendError::InvalidCall(
                         "the plan has no incremental-potential settings".into(),
                     ));
                 };
                 let report = incremental_potential::minimise(
+                    workers,
                     plan,
                     ip,
                     &mut self.x,
@@ -156,41 +245,34 @@ impl CpuBackend {
                     &self.force,
                     &mut self.minimiser,
                 );
-                let result = match &report.status {
-                    MinimisationStatus::Refused(reason) => Err(StepError::MinimisationRefused {
-                        substep: self.substep,
-                        reason: reason.clone(),
-                        report: Box::new(report.clone()),
-                    }
-                    .into()),
-                    _ => Ok(()),
-                };
+                let refused = StepError::refused(self.substep, &report);
                 self.minimisation.push(report);
-                result
+                refused.map_or(Ok(()), |e| Err(e.into()))
             }
         }
     }
 
     fn report(&mut self) -> StepReport {
         let plan = &self.plan;
-        let ws = &mut self.workspace;
+        let workers = &self.workers;
         let mut residuals: Vec<FamilyResidual> = plan
             .families
             .iter()
-            .map(|f| residual::residual(plan.dim, f, &self.x, ws))
+            .map(|f| residual::residual(workers, plan.dim, f, &self.x))
             .collect();
         if plan.contacts.is_some() {
-            residuals.push(collide::residual(plan, &self.x, &self.contacts));
+            residuals.push(collide::residual(workers, plan, &self.x, &self.contacts));
         }
         StepReport {
+            threads: workers.threads(),
             kernel_calls: plan.kernel_counts(),
             residuals,
             active_contacts: plan
                 .families
                 .iter()
-                .zip(&self.lambda)
+                .zip(self.lambda_starts.windows(2))
                 .filter(|(f, _)| f.kind.is_inequality())
-                .map(|(_, l)| l.iter().filter(|&&l| l > 0.0).count())
+                .map(|(_, r)| self.lambda[r[0]..r[1]].iter().filter(|&&l| l > 0.0).count())
                 .sum::<usize>()
                 + self.contacts.active_count(),
             minimisation: std::mem::take(&mut self.minimisation),
@@ -208,21 +290,11 @@ impl Backend for CpuBackend {
     }
 
     fn step(&mut self) -> Result<StepReport, BackendError> {
-        self.saved_x.clone_from(&self.x);
-        self.saved_v.clone_from(&self.v);
-        self.minimisation.clear();
-        for substep in 0..self.plan.substeps {
-            self.substep = substep;
-            for k in 0..self.plan.substep_kernels.len() {
-                let kernel = self.plan.substep_kernels[k];
-                if let Err(e) = self.kernel(kernel) {
-                    self.x.clone_from(&self.saved_x);
-                    self.v.clone_from(&self.saved_v);
-                    return Err(e);
-                }
-            }
+        if !self.on_pool {
+            return self.step_on_workers();
         }
-        Ok(self.report())
+        let workers = self.workers.clone();
+        workers.install(|| self.step_on_workers())
     }
 
     fn read_state(&mut self) -> Result<State, BackendError> {
@@ -235,6 +307,7 @@ impl Backend for CpuBackend {
 
     fn write_state(&mut self, state: &State) -> Result<(), BackendError> {
         check_state(&self.plan, state)?;
+        self.revertible = false;
         self.x.clone_from(&state.positions);
         self.v.clone_from(&state.velocities);
         Ok(())
@@ -246,8 +319,142 @@ impl Backend for CpuBackend {
         Ok(())
     }
 
+    /// Runs one kernel. A kernel that fails leaves the writes it made
+    /// before failing (the step rolls them back; a single kernel does
+    /// not) — the same writes for any thread count.
     fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
         check_kernel(&self.plan, kernel)?;
-        self.kernel(kernel)
+        self.revertible = false;
+        if !self.on_pool {
+            return self.kernel(kernel);
+        }
+        let workers = self.workers.clone();
+        workers.install(|| self.kernel(kernel))
     }
+}
+
+impl CpuBackend {
+    /// The step's schedule (on the pool's thread when there is a pool).
+    fn step_on_workers(&mut self) -> Result<StepReport, BackendError> {
+        let workers = &self.workers;
+        self.saved_x.resize(self.x.len(), 0.0);
+        self.saved_v.resize(self.v.len(), 0.0);
+        copy(workers, &self.x, &mut self.saved_x);
+        copy(workers, &self.v, &mut self.saved_v);
+        self.minimisation.clear();
+        self.revertible = false;
+        if let Err(e) = self.substeps() {
+            self.x.clone_from(&self.saved_x);
+            self.v.clone_from(&self.saved_v);
+            return Err(e);
+        }
+        self.revertible = true;
+        Ok(self.report())
+    }
+
+    /// Puts positions and velocities back to what they were before the
+    /// last step, from the copy every step keeps for its own rollback: for
+    /// a caller whose larger step failed after this one succeeded (a batch
+    /// of worlds, `hyperpbd::batch`). Refused unless the last thing done
+    /// to this backend was a successful step.
+    pub fn revert_step(&mut self) -> Result<(), BackendError> {
+        if !self.revertible {
+            return Err(BackendError::InvalidCall(
+                "revert_step: the last call was not a successful step".into(),
+            ));
+        }
+        self.revertible = false;
+        self.x.clone_from(&self.saved_x);
+        self.v.clone_from(&self.saved_v);
+        Ok(())
+    }
+
+    /// The plan's kernels, `substeps` times. Where a substep ends with
+    /// per-particle kernels only (velocity, damping) and the next begins
+    /// with the prediction, those run as one pass
+    /// ([`integrate::velocity_then_predict`]).
+    fn substeps(&mut self) -> Result<(), BackendError> {
+        let (substeps, kernels) = (self.plan.substeps, self.plan.substep_kernels.len());
+        for substep in 0..substeps {
+            self.substep = substep;
+            let fuse_next = self.fused_tail.filter(|_| substep + 1 < substeps);
+            let first = usize::from(substep > 0 && self.fused_tail.is_some());
+            let last = kernels - fuse_next.unwrap_or(0);
+            for k in first..last {
+                self.kernel(self.plan.substep_kernels[k])?;
+            }
+            if fuse_next.is_some() {
+                self.velocity_then_predict()?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The end of this substep and the prediction of the next, fused.
+    fn velocity_then_predict(&mut self) -> Result<(), BackendError> {
+        let (workers, plan) = (&self.workers, &self.plan);
+        let (x, v, p, force) = (&mut self.x, &mut self.v, &mut self.p, &self.force);
+        let ((), result) = workers.join(
+            || reset(workers, &mut self.lambda),
+            || integrate::velocity_then_predict(workers, plan, x, v, p, force),
+        );
+        match result {
+            Ok(()) => Ok(()),
+            Err(Failed::Velocity(i)) => Err(self.particle_error(StageName::Velocity, i)),
+            Err(Failed::Predict(i)) => {
+                self.substep += 1;
+                Err(self.particle_error(StageName::Predict, i))
+            }
+        }
+    }
+}
+
+/// Whether any loop of `plan` is longer than its kernel's chunk on
+/// `workers` (so that it runs on several threads).
+fn splits_somewhere(plan: &Plan, workers: &Workers) -> bool {
+    let count = plan.particle_count();
+    let colours = plan
+        .families
+        .iter()
+        .flat_map(|f| (0..f.color_count()).map(|c| f.color(c).len()));
+    let splits = |len: usize, grain: usize| workers.splits(len, grain);
+    splits(count, integrate::PARTICLE_GRAIN)
+        || colours
+            .into_iter()
+            .any(|len| splits(len, project::ELEMENT_GRAIN))
+        || plan
+            .families
+            .iter()
+            .any(|f| splits(f.len(), residual::RESIDUAL_GRAIN))
+        || (plan.contacts.is_some() && splits(count, collide::BOX_GRAIN))
+        || (plan.incremental_potential().is_some()
+            && splits(count, incremental_potential::PARTICLE_GRAIN))
+}
+
+/// How many kernels at the end of the plan's substep fuse with the next
+/// substep's prediction: velocity (1) or velocity and damping (2), when
+/// the substep begins with the prediction and nothing else follows the
+/// velocity (friction works per contact, not per particle).
+fn fused_tail(plan: &Plan) -> Option<usize> {
+    match plan.substep_kernels.as_slice() {
+        [Kernel::Predict, .., Kernel::Velocity] => Some(1),
+        [Kernel::Predict, .., Kernel::Velocity, Kernel::Damping] => Some(2),
+        _ => None,
+    }
+}
+
+/// λ = 0 for every family (the start of a substep).
+fn reset(workers: &Workers, lambda: &mut [f64]) {
+    let _ = workers.try_for_spans(lambda.len(), VALUE_GRAIN, 1, [lambda], |_, [l]| {
+        l.fill(0.0);
+        Ok(())
+    });
+}
+
+/// `to` = `from` (equal lengths), in chunks on `workers`.
+fn copy(workers: &Workers, from: &[f64], to: &mut [f64]) {
+    let _ = workers.try_for_spans(to.len(), VALUE_GRAIN, 1, [to], |r, [to]| {
+        to.copy_from_slice(&from[r]);
+        Ok(())
+    });
 }

@@ -4,7 +4,8 @@
 //! ```text
 //! Broadphase (after Predict):
 //!   boxes  [min(p, x) − (r + m), max(p, x) + (r + m)]      (swept over the substep)
-//!   pairs  sort-and-sweep along the axis of widest spread   (canonical (i < j) order)
+//!   pairs  a uniform grid queried box by box (core's grid.rs; the one-axis
+//!          sweep where the grid does not apply)             (canonical (i < j) order)
 //!          minus pairs of two fixed particles (W = w_i + w_j = 0)
 //!   lists  particle k: the pairs it is in, in pair order    (CSR: offsets, entries)
 //!
@@ -29,13 +30,28 @@
 //! docs/collisions.md). Both backends read the same iterate and sum each
 //! particle's list in the same order, so the result does not depend on
 //! scheduling; there are no floating-point atomics. Fixed particles
-//! (w = 0) are never written.
+//! (w = 0) are never written. The same holds across threads: pairs write
+//! only their own correction, particles only their own position, so both
+//! passes run in chunks on every core (`parallel.rs`).
 
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
 
-use hyperpbd_core::broadphase::{Aabbs, Pair, contact_lists, sweep_axis, sweep_pairs};
+use crate::dim::{Dim, with_dim};
+use crate::integrate::PARTICLE_GRAIN;
+use crate::parallel::{DisjointSlice, Workers};
+use crate::residual::RESIDUAL_GRAIN;
+use hyperpbd_core::broadphase::{
+    Aabbs, BoxGrid, Pair, contact_lists_into, sweep_axis, sweep_pairs, swept_boxes,
+};
+use hyperpbd_core::geometry::deepest_overlap;
 use hyperpbd_core::{FamilyResidual, Plan};
+
+/// Pairs per chunk of the pair pass.
+pub const PAIR_GRAIN: usize = 2048;
+
+/// Boxes per chunk of the broadphase queries.
+pub const BOX_GRAIN: usize = 1024;
 
 /// Candidate pairs and each particle's contact list.
 #[derive(Debug, Default, Clone)]
@@ -59,26 +75,81 @@ impl Contacts {
     }
 }
 
-/// Swept boxes from `p` to `x`, the sweep, and the contact lists.
+/// Swept boxes from `p` to `x`, the sweep, and the contact lists (on the
+/// calling thread).
 pub fn broadphase(plan: &Plan, margin: f64, p: &[f64], x: &[f64], contacts: &mut Contacts) {
-    let dim = plan.dim;
-    let n = plan.particle_count();
-    let boxes = Aabbs::swept_particles(dim, p, x, &plan.radius, margin);
-    let w = &plan.inverse_mass;
-    let mut pairs = sweep_pairs(&boxes, sweep_axis(&boxes));
-    pairs.retain(|&[i, j]| w[i as usize] + w[j as usize] > 0.0);
-    let (offsets, entries) = contact_lists(&pairs, n);
-    contacts.corrections.clear();
-    contacts.corrections.resize(pairs.len() * dim, 0.0);
-    contacts.active.clear();
-    contacts.active.resize(pairs.len(), false);
-    contacts.pairs = pairs;
-    contacts.offsets = offsets;
-    contacts.entries = entries;
+    let mut boxes = Aabbs::default();
+    broadphase_on(&Workers::serial(), plan, margin, p, x, &mut boxes, contacts);
 }
 
-/// One gather-Jacobi iteration. Returns the first particle (or the first
-/// particle of the first pair) whose update was non-finite.
+/// [`broadphase`] on `workers`: the boxes per particle and the grid's
+/// per-box queries in chunks, concatenated in box order (already
+/// canonical). `boxes` is scratch kept between substeps.
+pub(crate) fn broadphase_on(
+    workers: &Workers,
+    plan: &Plan,
+    margin: f64,
+    p: &[f64],
+    x: &[f64],
+    boxes: &mut Aabbs,
+    contacts: &mut Contacts,
+) {
+    let dim = plan.dim;
+    let n = plan.particle_count();
+    boxes.dim = dim;
+    boxes.min.resize(n * dim, 0.0);
+    boxes.max.resize(n * dim, 0.0);
+    let radius = &plan.radius;
+    let _ = workers.try_for_spans(
+        n,
+        PARTICLE_GRAIN,
+        dim,
+        [&mut boxes.min, &mut boxes.max],
+        |r, [min, max]| {
+            let coordinates = r.start * dim..r.end * dim;
+            let (start, end) = (&p[coordinates.clone()], &x[coordinates]);
+            swept_boxes(start, end, &radius[r], margin, min, max);
+            Ok(())
+        },
+    );
+    let w = &plan.inverse_mass;
+    let moving = |&[i, j]: &Pair| w[i as usize] + w[j as usize] > 0.0;
+    contacts.pairs.clear();
+    match BoxGrid::new(boxes) {
+        Some(grid) => {
+            let chunks = workers.map_chunks(n, BOX_GRAIN, |r| {
+                let mut pairs = Vec::new();
+                for i in r {
+                    grid.pairs_of(i, &mut pairs);
+                }
+                pairs.retain(moving);
+                pairs
+            });
+            for chunk in chunks {
+                contacts.pairs.extend_from_slice(&chunk);
+            }
+        }
+        None => {
+            contacts.pairs = sweep_pairs(boxes, sweep_axis(boxes));
+            contacts.pairs.retain(moving);
+        }
+    }
+    let count = contacts.pairs.len();
+    contact_lists_into(
+        &contacts.pairs,
+        n,
+        &mut contacts.offsets,
+        &mut contacts.entries,
+    );
+    contacts.corrections.clear();
+    contacts.corrections.resize(count * dim, 0.0);
+    contacts.active.clear();
+    contacts.active.resize(count, false);
+}
+
+/// One gather-Jacobi iteration (on the calling thread). Returns the first
+/// particle (or the first particle of the first pair) whose update was
+/// non-finite.
 pub fn collide(
     plan: &Plan,
     friction: f64,
@@ -86,77 +157,177 @@ pub fn collide(
     x: &mut [f64],
     contacts: &mut Contacts,
 ) -> Result<(), usize> {
+    collide_on(&Workers::serial(), plan, friction, p, x, contacts)
+}
+
+/// [`collide`] on `workers`.
+pub(crate) fn collide_on(
+    workers: &Workers,
+    plan: &Plan,
+    friction: f64,
+    p: &[f64],
+    x: &mut [f64],
+    contacts: &mut Contacts,
+) -> Result<(), usize> {
     let dim = plan.dim;
-    let w = &plan.inverse_mass;
-    let r = &plan.radius;
-    let mut d = vec![0.0; dim];
-    for (e, &[i, j]) in contacts.pairs.iter().enumerate() {
+    let Contacts {
+        pairs,
+        offsets,
+        entries,
+        corrections,
+        active,
+    } = contacts;
+    let pass = PairPass {
+        plan,
+        friction,
+        p,
+        x,
+        pairs,
+    };
+    // SAFETY: chunk r writes the corrections and flags of its own pairs r.
+    let (corrections_view, active_view) =
+        unsafe { (DisjointSlice::new(corrections), DisjointSlice::new(active)) };
+    workers
+        .try_for_chunks(pairs.len(), PAIR_GRAIN, |r| {
+            // SAFETY: the spans of this chunk's pairs, used only here.
+            let (out, flags) = unsafe {
+                (
+                    corrections_view.range_mut(r.start * dim..r.end * dim),
+                    active_view.range_mut(r.clone()),
+                )
+            };
+            with_dim!(dim, pair_corrections(&pass, r, out, flags))
+        })
+        .map_err(|e| pairs[e][0] as usize)?;
+    let gather = Gather {
+        plan,
+        pairs,
+        offsets,
+        entries,
+        corrections,
+        active,
+    };
+    let count = plan.particle_count();
+    workers.try_for_spans(count, PARTICLE_GRAIN, dim, [x], |r, [x]| {
+        with_dim!(dim, gather_corrections(&gather, r, x))
+    })
+}
+
+/// What the pair pass reads.
+struct PairPass<'a> {
+    plan: &'a Plan,
+    friction: f64,
+    p: &'a [f64],
+    x: &'a [f64],
+    pairs: &'a [Pair],
+}
+
+/// c_e and the active flag of pairs `range` into `out` (`dim` reals per
+/// pair) and `flags`; the first pair whose length is not finite.
+fn pair_corrections<D: Dim>(
+    dim: D,
+    pass: &PairPass,
+    range: std::ops::Range<usize>,
+    out: &mut [f64],
+    flags: &mut [bool],
+) -> Result<(), usize> {
+    let n = dim.n();
+    let (x, p, r) = (pass.x, pass.p, &pass.plan.radius);
+    let friction = pass.friction;
+    let mut d = dim.zeros();
+    let d = d.as_mut();
+    let first = range.start;
+    for (e, &[i, j]) in pass.pairs[range].iter().enumerate() {
         let (i, j) = (i as usize, j as usize);
         let mut len2 = 0.0;
-        for a in 0..dim {
-            d[a] = x[j * dim + a] - x[i * dim + a];
+        for a in 0..n {
+            d[a] = x[j * n + a] - x[i * n + a];
             len2 += d[a] * d[a];
         }
         let len = len2.sqrt();
         if !len.is_finite() {
-            return Err(i);
+            return Err(first + e);
         }
         let c = len - (r[i] + r[j]);
-        let out = &mut contacts.corrections[e * dim..(e + 1) * dim];
-        contacts.active[e] = c < 0.0 && len > 0.0;
-        if !contacts.active[e] {
+        let out = &mut out[e * n..(e + 1) * n];
+        flags[e] = c < 0.0 && len > 0.0;
+        if !flags[e] {
             continue;
         }
         let s = -c;
         let inv = 1.0 / len;
-        for a in 0..dim {
+        for a in 0..n {
             d[a] *= inv;
         }
-        for a in 0..dim {
+        for a in 0..n {
             out[a] = d[a] * s;
         }
         if friction > 0.0 {
             let mut dn = 0.0;
-            for a in 0..dim {
-                let dr = (x[j * dim + a] - p[j * dim + a]) - (x[i * dim + a] - p[i * dim + a]);
+            for a in 0..n {
+                let dr = (x[j * n + a] - p[j * n + a]) - (x[i * n + a] - p[i * n + a]);
                 dn += dr * d[a];
             }
             let mut t2 = 0.0;
-            for a in 0..dim {
-                let dr = (x[j * dim + a] - p[j * dim + a]) - (x[i * dim + a] - p[i * dim + a]);
+            for a in 0..n {
+                let dr = (x[j * n + a] - p[j * n + a]) - (x[i * n + a] - p[i * n + a]);
                 let t = dr - dn * d[a];
                 t2 += t * t;
             }
             let t_norm = t2.sqrt();
             let bound = friction * s;
             let scale = if t_norm <= bound { 1.0 } else { bound / t_norm };
-            for a in 0..dim {
-                let dr = (x[j * dim + a] - p[j * dim + a]) - (x[i * dim + a] - p[i * dim + a]);
+            for a in 0..n {
+                let dr = (x[j * n + a] - p[j * n + a]) - (x[i * n + a] - p[i * n + a]);
                 let t = dr - dn * d[a];
                 out[a] -= t * scale;
             }
         }
     }
-    let mut sum = vec![0.0; dim];
-    for k in 0..plan.particle_count() {
+    Ok(())
+}
+
+/// What the particle pass reads.
+struct Gather<'a> {
+    plan: &'a Plan,
+    pairs: &'a [Pair],
+    offsets: &'a [u32],
+    entries: &'a [u32],
+    corrections: &'a [f64],
+    active: &'a [bool],
+}
+
+/// Particles `range` (positions `x`) sum their active contacts in list
+/// order and move by the average; the first non-finite particle.
+fn gather_corrections<D: Dim>(
+    dim: D,
+    gather: &Gather,
+    range: std::ops::Range<usize>,
+    x: &mut [f64],
+) -> Result<(), usize> {
+    let n = dim.n();
+    let w = &gather.plan.inverse_mass;
+    let mut sum = dim.zeros();
+    let sum = sum.as_mut();
+    let first = range.start;
+    for k in range {
         let wk = w[k];
         if wk == 0.0 {
             continue;
         }
-        let list =
-            &contacts.entries[contacts.offsets[k] as usize..contacts.offsets[k + 1] as usize];
+        let list = &gather.entries[gather.offsets[k] as usize..gather.offsets[k + 1] as usize];
         sum.fill(0.0);
         let mut active = 0u32;
         for &entry in list {
             let e = (entry / 2) as usize;
-            if !contacts.active[e] {
+            if !gather.active[e] {
                 continue;
             }
-            let [i, j] = contacts.pairs[e];
+            let [i, j] = gather.pairs[e];
             let share = wk / (w[i as usize] + w[j as usize]);
             let sign = if entry % 2 == 0 { -share } else { share };
-            for a in 0..dim {
-                sum[a] += sign * contacts.corrections[e * dim + a];
+            for a in 0..n {
+                sum[a] += sign * gather.corrections[e * n + a];
             }
             active += 1;
         }
@@ -164,31 +335,27 @@ pub fn collide(
             continue;
         }
         let count = f64::from(active);
-        for a in 0..dim {
-            let xk = x[k * dim + a] + sum[a] / count;
-            if !xk.is_finite() {
+        let xk = &mut x[(k - first) * n..(k - first + 1) * n];
+        for a in 0..n {
+            let value = xk[a] + sum[a] / count;
+            if !value.is_finite() {
                 return Err(k);
             }
-            x[k * dim + a] = xk;
+            xk[a] = value;
         }
     }
     Ok(())
 }
 
 /// Deepest overlap max(0, r_i + r_j − |x_j − x_i|) over the candidate
-/// pairs, labelled `collisions`.
-pub fn residual(plan: &Plan, x: &[f64], contacts: &Contacts) -> FamilyResidual {
-    let dim = plan.dim;
-    let mut deepest: f64 = 0.0;
-    for &[i, j] in &contacts.pairs {
-        let (i, j) = (i as usize, j as usize);
-        let mut len2 = 0.0;
-        for a in 0..dim {
-            let d = x[j * dim + a] - x[i * dim + a];
-            len2 += d * d;
-        }
-        deepest = deepest.max(plan.radius[i] + plan.radius[j] - len2.sqrt());
-    }
+/// pairs, labelled `collisions`; per chunk, then over chunks in order.
+pub fn residual(workers: &Workers, plan: &Plan, x: &[f64], contacts: &Contacts) -> FamilyResidual {
+    let deepest = workers
+        .map_chunks(contacts.pairs.len(), RESIDUAL_GRAIN, |r| {
+            deepest_overlap(plan.dim, &plan.radius, &contacts.pairs[r], x)
+        })
+        .into_iter()
+        .fold(0.0, f64::max);
     FamilyResidual {
         label: "collisions".into(),
         max_violation: deepest,

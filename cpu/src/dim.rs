@@ -3,13 +3,20 @@
 //!
 //! A kernel is generic over [`Dim`]; [`with_dim!`] calls it with
 //! `Fixed::<N>` for N = 1..=4 (loops over coordinates unroll, slice bounds
-//! are known) and with the plain `usize` for any other N. Both run the same
-//! source line by line, so they give bit-identical results.
+//! are known, a coordinate vector is a stack array) and with the plain
+//! `usize` for any other N (a heap vector). Both run the same source line
+//! by line, so they give bit-identical results.
 
 /// A spatial dimension.
-pub trait Dim: Copy {
+pub trait Dim: Copy + Send + Sync {
+    /// A vector of N reals: `[f64; N]` or a `Vec<f64>`.
+    type Vector: AsRef<[f64]> + AsMut<[f64]>;
+
     /// The number of coordinates.
     fn n(self) -> usize;
+
+    /// A zero vector of N reals (kernel scratch).
+    fn zeros(self) -> Self::Vector;
 }
 
 /// A dimension known at compile time.
@@ -17,16 +24,29 @@ pub trait Dim: Copy {
 pub struct Fixed<const D: usize>;
 
 impl<const D: usize> Dim for Fixed<D> {
+    type Vector = [f64; D];
+
     #[inline(always)]
     fn n(self) -> usize {
         D
     }
+
+    #[inline(always)]
+    fn zeros(self) -> [f64; D] {
+        [0.0; D]
+    }
 }
 
 impl Dim for usize {
+    type Vector = Vec<f64>;
+
     #[inline(always)]
     fn n(self) -> usize {
         self
+    }
+
+    fn zeros(self) -> Vec<f64> {
+        vec![0.0; self]
     }
 }
 

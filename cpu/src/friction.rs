@@ -6,12 +6,22 @@
 //!   Δv_max = μ · w λ / h                      (μ × normal velocity change)
 //!   v −= v_t · min(Δv_max, |v_t|) / |v_t|     (one clamp on the norm)
 //! ```
+//! A contact family holds each particle once, so its elements are
+//! independent and run in chunks (`parallel.rs`).
 
+// Coordinate loops index several arrays at once, as a kernel does.
+#![allow(clippy::needless_range_loop)]
+
+use crate::dim::{Dim, with_dim};
+use crate::parallel::{Coordinates, DisjointSlice, Shared, Workers, first_error};
+use crate::project::ELEMENT_GRAIN;
 use hyperpbd_core::{Family, FamilyKind};
+use std::ops::Range;
 
-/// Applies friction of one contact family; returns the first particle whose
-/// velocity became non-finite.
+/// Applies friction of one contact family; returns the first particle
+/// (in element order) whose velocity became non-finite.
 pub fn friction(
+    workers: &Workers,
     dim: usize,
     h: f64,
     inverse_mass: &[f64],
@@ -22,15 +32,61 @@ pub fn friction(
     let FamilyKind::HyperplaneContact { normal, friction } = &family.kind else {
         return Ok(());
     };
-    for (e, &l) in lambda.iter().enumerate() {
+    let contact = Contact {
+        h,
+        inverse_mass,
+        family,
+        normal,
+        friction: *friction,
+        lambda,
+    };
+    let count = lambda.len();
+    let result = if workers.splits(count, ELEMENT_GRAIN) {
+        // SAFETY: a contact family holds each particle once (checked by
+        // `colours::check` when the backend loaded the plan), and element e
+        // writes only the velocity of its particle: chunks write disjoint data.
+        let v = unsafe { DisjointSlice::new(v) };
+        workers.try_for_chunks(count, ELEMENT_GRAIN, |r| {
+            with_dim!(dim, friction_in(&contact, r, &mut Shared(&v)))
+        })
+    } else {
+        workers
+            .chunks(count, ELEMENT_GRAIN)
+            .map(|r| with_dim!(dim, friction_in(&contact, r, v)))
+            .fold(Ok(()), first_error)
+    };
+    result.map_err(|e| family.elements[e] as usize)
+}
+
+/// What every element of the family shares.
+struct Contact<'a> {
+    h: f64,
+    inverse_mass: &'a [f64],
+    family: &'a Family,
+    normal: &'a [f64],
+    friction: f64,
+    lambda: &'a [f64],
+}
+
+/// Friction of elements `elements`; the first non-finite element.
+fn friction_in<D: Dim, V: Coordinates + ?Sized>(
+    dim: D,
+    contact: &Contact,
+    elements: Range<usize>,
+    v: &mut V,
+) -> Result<(), usize> {
+    let n = dim.n();
+    let normal = &contact.normal[..n];
+    for e in elements {
+        let l = contact.lambda[e];
         if l <= 0.0 {
             continue;
         }
-        let i = family.elements[e] as usize;
-        let vi = &mut v[i * dim..(i + 1) * dim];
+        let i = contact.family.elements[e] as usize;
+        let vi = v.values_mut(i * n..(i + 1) * n);
         let vn = crate::project::dot(normal, vi);
         let mut t2 = 0.0;
-        for a in 0..dim {
+        for a in 0..n {
             let t = vi[a] - vn * normal[a];
             t2 += t * t;
         }
@@ -38,14 +94,14 @@ pub fn friction(
         if vt == 0.0 {
             continue;
         }
-        let limit = friction * inverse_mass[i] * l / h;
+        let limit = contact.friction * contact.inverse_mass[i] * l / contact.h;
         let scale = limit.min(vt) / vt;
-        for a in 0..dim {
+        for a in 0..n {
             let t = vi[a] - vn * normal[a];
             vi[a] -= t * scale;
         }
         if !vi.iter().all(|c| c.is_finite()) {
-            return Err(i);
+            return Err(e);
         }
     }
     Ok(())

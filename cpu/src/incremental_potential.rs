@@ -27,6 +27,7 @@
 // Index loops mirror the math (and the WGSL port) line by line.
 #![allow(clippy::needless_range_loop)]
 
+use crate::parallel::Workers;
 use hyperpbd_core::barrier::{
     BarrierLaw, BarrierObstacles, IncrementalPotentialPlan, ParticleBarrier,
     evaluate_particle_barrier, filter_fraction,
@@ -41,17 +42,43 @@ pub const MAX_HALVINGS: u32 = 60;
 /// Sum by a fixed pairwise tree: at stride s = 1, 2, 4, …, element i
 /// (i a multiple of 2s) adds element i + s. Overwrites `values`.
 pub fn tree_sum(values: &mut [f64]) -> f64 {
+    tree(values, |a, b| a + b)
+}
+
+/// Maximum by the same fixed pairwise tree as [`tree_sum`].
+pub fn tree_max(values: &mut [f64]) -> f64 {
+    tree(values, f64::max)
+}
+
+/// The fixed pairwise tree of [`tree_sum`] with the operation `op`.
+fn tree(values: &mut [f64], op: impl Fn(f64, f64) -> f64) -> f64 {
     let n = values.len();
     let mut stride = 1;
     while stride < n {
         let mut i = 0;
         while i + stride < n {
-            values[i] += values[i + stride];
+            values[i] = op(values[i], values[i + stride]);
             i += 2 * stride;
         }
         stride *= 2;
     }
     values.first().copied().unwrap_or(0.0)
+}
+
+/// Terms per block of [`tree_on`]: a power of two, so that every block's
+/// tree is a subtree of the whole one.
+const TREE_BLOCK: usize = 4096;
+
+/// [`tree`] over `values` with its blocks of [`TREE_BLOCK`] reduced on
+/// `workers`. Strides below the block size pair elements of one block
+/// (i and i + s with i a multiple of 2s never straddle a multiple of the
+/// block size), so each block reduces to its first element exactly as in
+/// the whole tree; the larger strides are then the tree of the blocks'
+/// results. Same shape, same rounding, any thread count.
+fn tree_on(workers: &Workers, values: &mut [f64], op: fn(f64, f64) -> f64) -> f64 {
+    let len = values.len();
+    let mut heads = workers.map_spans(len, TREE_BLOCK, 1, [values], |_, [block]| tree(block, op));
+    tree(&mut heads, op)
 }
 
 /// The per-particle data F_i needs.
@@ -179,9 +206,17 @@ pub struct Workspace {
     terms: Vec<f64>,
 }
 
+/// Particles per chunk of the barrier path (a Newton step and its line
+/// search each).
+pub const PARTICLE_GRAIN: usize = 64;
+
 /// One minimisation (one substep). On `Refused` the caller restores the
 /// state; otherwise `x` and `v` hold the accepted iterate and velocity.
-pub fn minimise(
+/// Particles are independent (F is separable); they run in chunks on
+/// `workers`, and whatever is reported is the first particle in index
+/// order, as in a serial sweep.
+pub(crate) fn minimise(
+    workers: &Workers,
     plan: &Plan,
     ip: &IncrementalPotentialPlan,
     x: &mut [f64],
@@ -192,7 +227,7 @@ pub fn minimise(
     let n = plan.dim;
     let h = plan.h;
     let count = plan.particle_count();
-    let free: Vec<usize> = (0..count).filter(|&i| plan.inverse_mass[i] > 0.0).collect();
+    let free = |i: usize| plan.inverse_mass[i] > 0.0;
     ws.x_prev.clear();
     ws.x_prev.extend_from_slice(x);
     ws.prediction.clear();
@@ -216,21 +251,27 @@ pub fn minimise(
         iterations: 0,
         status: MinimisationStatus::Converged,
     };
-    let mut normal = vec![0.0; n];
-    for &i in &free {
-        for o in 0..ip.obstacles.len() {
-            let distance =
-                ip.obstacles
-                    .distance(o, &x[i * n..(i + 1) * n], plan.radius[i], &mut normal);
-            if distance.is_nan() || distance <= 0.0 {
-                report.status = MinimisationStatus::Refused(Refusal::InfeasibleStart {
-                    particle: i,
-                    obstacle: ip.obstacles.source(o) as usize,
-                    distance,
-                });
-                return report;
-            }
+    let start = &*x;
+    let infeasible = workers.try_for_chunks(count, PARTICLE_GRAIN, |r| {
+        let mut normal = vec![0.0; n];
+        match r
+            .filter(|&i| free(i))
+            .find(|&i| infeasible_start(plan, ip, start, i, &mut normal).is_some())
+        {
+            Some(i) => Err(i),
+            None => Ok(()),
         }
+    });
+    if let Err(particle) = infeasible
+        && let Some((obstacle, distance)) =
+            infeasible_start(plan, ip, start, particle, &mut vec![0.0; n])
+    {
+        report.status = MinimisationStatus::Refused(Refusal::InfeasibleStart {
+            particle,
+            obstacle: ip.obstacles.source(obstacle) as usize,
+            distance,
+        });
+        return report;
     }
     let Workspace {
         x_prev,
@@ -248,24 +289,28 @@ pub fn minimise(
         law: &ip.law,
         obstacles: &ip.obstacles,
     };
-    let mut barrier = ParticleBarrier::new(n);
-    let mut matrix = vec![0.0; n * n];
-    let mut direction = vec![0.0; n];
-    let mut trial = vec![0.0; n];
     gradient.clear();
     gradient.resize(count * n, 0.0);
     let mut iteration = 0;
     loop {
         // Gradient of every free particle, then the residual.
-        for &i in &free {
-            let xi = &x[i * n..(i + 1) * n];
-            particle(i).gradient(xi, &mut barrier, &mut gradient[i * n..(i + 1) * n]);
-            if gradient[i * n..(i + 1) * n].iter().any(|g| !g.is_finite()) {
-                report.status = MinimisationStatus::Refused(Refusal::NonFinite { particle: i });
-                return report;
+        let current = &*x;
+        let gradients = workers.try_for_spans(count, PARTICLE_GRAIN, n, [gradient], |r, [g]| {
+            let mut barrier = ParticleBarrier::new(n);
+            for i in r.clone().filter(|&i| free(i)) {
+                let gi = &mut g[(i - r.start) * n..(i - r.start + 1) * n];
+                particle(i).gradient(&current[i * n..(i + 1) * n], &mut barrier, gi);
+                if gi.iter().any(|g| !g.is_finite()) {
+                    return Err(i);
+                }
             }
+            Ok(())
+        });
+        if let Err(i) = gradients {
+            report.status = MinimisationStatus::Refused(Refusal::NonFinite { particle: i });
+            return report;
         }
-        let residual = residual(plan, &free, gradient, ip.convergence, terms);
+        let residual = residual_on(workers, plan, gradient, ip.convergence, terms);
         if report.initial_residual.is_none() {
             report.initial_residual = Some(residual);
         }
@@ -280,47 +325,101 @@ pub fn minimise(
             break;
         }
         iteration += 1;
-        let mut moved = false;
-        let mut stalled = false;
-        for &i in &free {
-            let gi = &gradient[i * n..(i + 1) * n];
-            let xi = &mut x[i * n..(i + 1) * n];
-            match line_search(
-                &particle(i),
-                xi,
-                gi,
-                &mut barrier,
-                &mut matrix,
-                &mut direction,
-                &mut trial,
-            ) {
-                LineSearch::Moved => moved = true,
-                LineSearch::AtFloor => {}
-                LineSearch::Stalled => stalled = true,
-                LineSearch::NonFinite => {
-                    report.status = MinimisationStatus::Refused(Refusal::NonFinite { particle: i });
-                    return report;
+        let gradient = &*gradient;
+        let sweeps = workers.map_spans(count, PARTICLE_GRAIN, n, [&mut *x], |r, [xs]| {
+            let mut barrier = ParticleBarrier::new(n);
+            let (mut matrix, mut direction, mut trial) =
+                (vec![0.0; n * n], vec![0.0; n], vec![0.0; n]);
+            let mut sweep = Sweep::default();
+            for i in r.clone().filter(|&i| free(i)) {
+                let xi = &mut xs[(i - r.start) * n..(i - r.start + 1) * n];
+                let gi = &gradient[i * n..(i + 1) * n];
+                match line_search(
+                    &particle(i),
+                    xi,
+                    gi,
+                    &mut barrier,
+                    &mut matrix,
+                    &mut direction,
+                    &mut trial,
+                ) {
+                    LineSearch::Moved => sweep.moved = true,
+                    LineSearch::AtFloor => {}
+                    LineSearch::Stalled => sweep.stalled = true,
+                    LineSearch::NonFinite => {
+                        sweep.non_finite = Some(i);
+                        break;
+                    }
                 }
             }
+            sweep
+        });
+        let sweep = sweeps.into_iter().fold(Sweep::default(), Sweep::then);
+        if let Some(i) = sweep.non_finite {
+            report.status = MinimisationStatus::Refused(Refusal::NonFinite { particle: i });
+            return report;
         }
-        if !moved && !stalled {
+        if !sweep.moved && !sweep.stalled {
             report.iterations = iteration;
             report.status = MinimisationStatus::RoundingFloor;
             break;
         }
-        if !moved {
+        if !sweep.moved {
             report.iterations = iteration;
             report.status = MinimisationStatus::Refused(Refusal::NoDescent { residual });
             return report;
         }
     }
-    for &i in &free {
-        for a in 0..n {
-            let k = i * n + a;
-            v[k] = (x[k] - x_prev[k]) / h;
+    let (x, x_prev) = (&*x, &*x_prev);
+    let _ = workers.try_for_spans(count, PARTICLE_GRAIN, n, [v], |r, [v]| {
+        for i in r.clone().filter(|&i| free(i)) {
+            for a in 0..n {
+                let k = i * n + a;
+                v[k - r.start * n] = (x[k] - x_prev[k]) / h;
+            }
+        }
+        Ok(())
+    });
+    report
+}
+
+/// The first obstacle (index into the plan's obstacles) particle `i`
+/// touches or penetrates at `x` (distance ≤ 0 or NaN), with its distance.
+fn infeasible_start(
+    plan: &Plan,
+    ip: &IncrementalPotentialPlan,
+    x: &[f64],
+    i: usize,
+    normal: &mut [f64],
+) -> Option<(usize, f64)> {
+    let n = plan.dim;
+    (0..ip.obstacles.len()).find_map(|o| {
+        let distance = ip
+            .obstacles
+            .distance(o, &x[i * n..(i + 1) * n], plan.radius[i], normal);
+        (distance.is_nan() || distance <= 0.0).then_some((o, distance))
+    })
+}
+
+/// What the line searches of a run of particles did.
+#[derive(Debug, Default, Clone, Copy)]
+struct Sweep {
+    moved: bool,
+    stalled: bool,
+    /// The first particle whose direction or slope was not finite (the
+    /// run stopped there).
+    non_finite: Option<usize>,
+}
+
+impl Sweep {
+    /// This run followed by `next` (runs in index order).
+    fn then(self, next: Sweep) -> Sweep {
+        Sweep {
+            moved: self.moved || next.moved,
+            stalled: self.stalled || next.stalled,
+            non_finite: self.non_finite.or(next.non_finite),
         }
     }
-    report
 }
 
 /// What one particle's line search did.
@@ -438,45 +537,45 @@ pub fn change_resolution(
 /// same shape on every backend.
 pub fn residual(
     plan: &Plan,
-    free: &[usize],
+    gradient: &[f64],
+    criterion: Convergence,
+    terms: &mut Vec<f64>,
+) -> f64 {
+    residual_on(&Workers::serial(), plan, gradient, criterion, terms)
+}
+
+/// [`residual`] on `workers`: terms per particle in chunks, the tree in
+/// blocks ([`tree_on`]).
+fn residual_on(
+    workers: &Workers,
+    plan: &Plan,
     gradient: &[f64],
     criterion: Convergence,
     terms: &mut Vec<f64>,
 ) -> f64 {
     let n = plan.dim;
     let h2 = plan.h * plan.h;
+    let count = plan.particle_count();
     terms.clear();
-    terms.resize(plan.particle_count(), 0.0);
-    for &i in free {
-        let g = &gradient[i * n..(i + 1) * n];
-        let mut squared = 0.0;
-        for c in g {
-            squared += c * c;
-        }
-        terms[i] = match criterion {
-            Convergence::PackedGradient { .. } => squared,
-            Convergence::MaxAccelerationResidual { .. } => {
-                squared.sqrt() * plan.inverse_mass[i] / h2
+    terms.resize(count, 0.0);
+    let _ = workers.try_for_spans(count, PARTICLE_GRAIN, 1, [terms], |r, [t]| {
+        for i in r.clone().filter(|&i| plan.inverse_mass[i] > 0.0) {
+            let g = &gradient[i * n..(i + 1) * n];
+            let mut squared = 0.0;
+            for c in g {
+                squared += c * c;
             }
-        };
-    }
-    match criterion {
-        Convergence::PackedGradient { .. } => tree_sum(terms).sqrt(),
-        Convergence::MaxAccelerationResidual { .. } => tree_max(terms),
-    }
-}
-
-/// Maximum by the same fixed pairwise tree as [`tree_sum`].
-pub fn tree_max(values: &mut [f64]) -> f64 {
-    let n = values.len();
-    let mut stride = 1;
-    while stride < n {
-        let mut i = 0;
-        while i + stride < n {
-            values[i] = values[i].max(values[i + stride]);
-            i += 2 * stride;
+            t[i - r.start] = match criterion {
+                Convergence::PackedGradient { .. } => squared,
+                Convergence::MaxAccelerationResidual { .. } => {
+                    squared.sqrt() * plan.inverse_mass[i] / h2
+                }
+            };
         }
-        stride *= 2;
+        Ok(())
+    });
+    match criterion {
+        Convergence::PackedGradient { .. } => tree_on(workers, terms, |a, b| a + b).sqrt(),
+        Convergence::MaxAccelerationResidual { .. } => tree_on(workers, terms, f64::max),
     }
-    values.first().copied().unwrap_or(0.0)
 }

@@ -25,10 +25,26 @@
 //! if |Δt| ≤ μ · w λ  (the normal correction):  x −= Δt
 //! ```
 //! The whole tangent vector is cancelled or none of it — never per axis.
+//!
+//! Elements of one colour share no dynamic particle (the plan's colouring,
+//! checked by `colours.rs` when the backend loads) and only dynamic
+//! particles are written, so a colour runs in chunks of [`ELEMENT_GRAIN`]
+//! on every core (`parallel.rs`): each element reads what it would read
+//! serially and makes the same updates.
+
+// Coordinate loops index several arrays at once, as a kernel does.
+#![allow(clippy::needless_range_loop)]
 
 use crate::dim::{Dim, with_dim};
+use crate::parallel::{Coordinates, DisjointSlice, Shared, Workers, first_error};
 use hyperpbd_core::geometry::{Scratch, oriented_measure, simplex_squared_measure};
 use hyperpbd_core::{Family, FamilyKind};
+use std::ops::Range;
+
+/// Elements per chunk of a colour (≈ 5 µs of distance projections: a
+/// colour up to this size runs on the calling thread; a 64² cloth's
+/// colours of 2,048 split in two — `cargo bench --bench cpu_threads`).
+pub const ELEMENT_GRAIN: usize = 1024;
 
 /// Inputs shared by every element of a batch.
 pub struct Batch<'a> {
@@ -49,37 +65,84 @@ pub struct Workspace {
     pub scratch: Scratch,
 }
 
-/// Projects elements `range` (color-ordered slots) of `batch.family`.
-/// Returns the slot of the first element whose update was non-finite.
+/// Projects elements `range` (one colour's color-ordered slots) of
+/// `batch.family`. Returns the slot of the first element whose update was
+/// non-finite.
 pub fn project(
+    workers: &Workers,
     batch: &Batch,
-    range: std::ops::Range<usize>,
+    range: Range<usize>,
     x: &mut [f64],
+    lambda: &mut [f64],
+    ws: &mut Workspace,
+) -> Result<(), usize> {
+    if range.len() <= workers.grain(ELEMENT_GRAIN) {
+        return project_elements(batch, range.clone(), x, &mut lambda[range], ws);
+    }
+    project_chunks(workers, batch, range, x, lambda, ws)
+}
+
+/// [`project`] of a colour of more than one chunk.
+#[inline(never)]
+fn project_chunks(
+    workers: &Workers,
+    batch: &Batch,
+    range: Range<usize>,
+    x: &mut [f64],
+    lambda: &mut [f64],
+    ws: &mut Workspace,
+) -> Result<(), usize> {
+    let first = range.start;
+    if !workers.splits(range.len(), ELEMENT_GRAIN) {
+        // One thread: the same chunks in order, each to its own first
+        // failure, on the plain slice.
+        return workers
+            .chunks(range.len(), ELEMENT_GRAIN)
+            .map(|r| {
+                let elements = first + r.start..first + r.end;
+                project_elements(batch, elements.clone(), x, &mut lambda[elements], ws)
+            })
+            .fold(Ok(()), first_error);
+    }
+    // SAFETY: the elements of `range` form one colour: no two share a
+    // dynamic particle (checked by `colours::check` when the backend
+    // loaded the plan), and the kernels write only dynamic particles
+    // (w ≠ 0), so a written coordinate belongs to exactly one element and
+    // hence one chunk; fixed particles are only read.
+    let x = unsafe { DisjointSlice::new(x) };
+    // SAFETY: each chunk takes the slots of its own elements below.
+    let lambda = unsafe { DisjointSlice::new(&mut lambda[range.clone()]) };
+    workers.try_for_chunks_with(
+        range.len(),
+        ELEMENT_GRAIN,
+        ws,
+        Workspace::default,
+        |r, ws| {
+            // SAFETY: slots `r` belong to this chunk alone.
+            let lambda = unsafe { lambda.range_mut(r.clone()) };
+            let elements = first + r.start..first + r.end;
+            project_elements(batch, elements, &mut Shared(&x), lambda, ws)
+        },
+    )
+}
+
+/// Projects `elements` in order; `lambda` holds their slots.
+fn project_elements<X: Coordinates + ?Sized>(
+    batch: &Batch,
+    elements: Range<usize>,
+    x: &mut X,
     lambda: &mut [f64],
     ws: &mut Workspace,
 ) -> Result<(), usize> {
     match &batch.family.kind {
-        FamilyKind::Distance | FamilyKind::Tether => distance(batch, range, x, lambda, ws),
-        FamilyKind::HyperplaneContact { normal, friction } => {
-            contact(batch, normal, *friction, range, x, lambda)
+        FamilyKind::Distance | FamilyKind::Tether if batch.dim <= MAX_INLINE_DIM => {
+            with_dim!(batch.dim, distance_in(batch, elements, x, lambda))
         }
-        FamilyKind::SimplexMeasure { .. } | FamilyKind::OrientedMeasure => {
-            measure(batch, range, x, lambda, ws)
-        }
-    }
-}
-
-fn distance(
-    batch: &Batch,
-    range: std::ops::Range<usize>,
-    x: &mut [f64],
-    lambda: &mut [f64],
-    ws: &mut Workspace,
-) -> Result<(), usize> {
-    if batch.dim <= MAX_INLINE_DIM {
-        with_dim!(batch.dim, distance_in(batch, range, x, lambda))
-    } else {
-        measure(batch, range, x, lambda, ws)
+        FamilyKind::HyperplaneContact { normal, friction } => with_dim!(
+            batch.dim,
+            contact_in(batch, normal, *friction, elements, x, lambda)
+        ),
+        _ => with_dim!(batch.dim, measure(batch, elements, x, lambda, ws)),
     }
 }
 
@@ -88,11 +151,11 @@ const MAX_INLINE_DIM: usize = 8;
 
 /// Distance projection: the same arithmetic, in the same order, as the
 /// generic path with `geometry::distance` (which is its reference).
-fn distance_in<D: Dim>(
+fn distance_in<D: Dim, X: Coordinates + ?Sized>(
     dim: D,
     batch: &Batch,
-    range: std::ops::Range<usize>,
-    x: &mut [f64],
+    elements: Range<usize>,
+    x: &mut X,
     lambda: &mut [f64],
 ) -> Result<(), usize> {
     let n = dim.n();
@@ -100,15 +163,15 @@ fn distance_in<D: Dim>(
     let w = batch.inverse_mass;
     let alpha_tilde = batch.alpha_tilde;
     let tether = f.kind == FamilyKind::Tether;
-    let elements = f.elements[2 * range.start..2 * range.end].chunks_exact(2);
-    let slots = f.rest[range.clone()].iter().zip(&mut lambda[range.clone()]);
-    for (e, (element, (&rest, lambda))) in range.zip(elements.zip(slots)) {
+    let ends = f.elements[2 * elements.start..2 * elements.end].chunks_exact(2);
+    let slots = f.rest[elements.clone()].iter().zip(lambda.iter_mut());
+    for (e, (element, (&rest, lambda))) in elements.zip(ends.zip(slots)) {
         let (i, j) = (element[0] as usize, element[1] as usize);
         let (wi, wj) = (w[i], w[j]);
         let mut d = [0.0; MAX_INLINE_DIM];
         let mut d2 = 0.0;
         {
-            let (xi, xj) = (&x[i * n..i * n + n], &x[j * n..j * n + n]);
+            let (xi, xj) = (x.values(i * n..i * n + n), x.values(j * n..j * n + n));
             for a in 0..n {
                 d[a] = xj[a] - xi[a];
                 d2 += d[a] * d[a];
@@ -136,13 +199,13 @@ fn distance_in<D: Dim>(
             *c *= inv;
         }
         if wi != 0.0 {
-            let xi = &mut x[i * n..i * n + n];
+            let xi = x.values_mut(i * n..i * n + n);
             for a in 0..n {
                 xi[a] += wi * -d[a] * dl;
             }
         }
         if wj != 0.0 {
-            let xj = &mut x[j * n..j * n + n];
+            let xj = x.values_mut(j * n..j * n + n);
             for a in 0..n {
                 xj[a] += wj * d[a] * dl;
             }
@@ -152,24 +215,26 @@ fn distance_in<D: Dim>(
 }
 
 /// Generic path: gather, evaluate C and ∇C, update.
-fn measure(
+fn measure<D: Dim, X: Coordinates + ?Sized>(
+    dim: D,
     batch: &Batch,
-    range: std::ops::Range<usize>,
-    x: &mut [f64],
+    elements: Range<usize>,
+    x: &mut X,
     lambda: &mut [f64],
     ws: &mut Workspace,
 ) -> Result<(), usize> {
-    let dim = batch.dim;
+    let dim = dim.n();
     let f = batch.family;
     let w = batch.inverse_mass;
     let arity = f.arity;
+    let first = elements.start;
     ws.points.resize(arity * dim, 0.0);
     ws.grad.resize(arity * dim, 0.0);
-    for e in range {
+    for e in elements {
         let element = &f.elements[e * arity..(e + 1) * arity];
         for (j, &i) in element.iter().enumerate() {
             let i = i as usize;
-            ws.points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
+            ws.points[j * dim..(j + 1) * dim].copy_from_slice(x.values(i * dim..(i + 1) * dim));
         }
         let value = match f.kind {
             FamilyKind::Distance | FamilyKind::Tether => {
@@ -197,61 +262,49 @@ fn measure(
         if wsum == 0.0 {
             continue;
         }
+        let lambda = &mut lambda[e - first];
         let c = value - f.rest[e];
-        let mut dl = (-c - batch.alpha_tilde * lambda[e]) / (wsum + batch.alpha_tilde);
+        let mut dl = (-c - batch.alpha_tilde * *lambda) / (wsum + batch.alpha_tilde);
         if !dl.is_finite() {
             return Err(e);
         }
         if f.kind == FamilyKind::Tether {
-            dl = (lambda[e] + dl).min(0.0) - lambda[e];
+            dl = (*lambda + dl).min(0.0) - *lambda;
         }
-        lambda[e] += dl;
+        *lambda += dl;
         for (j, &i) in element.iter().enumerate() {
             let i = i as usize;
             let wi = w[i];
             if wi == 0.0 {
                 continue;
             }
+            let xi = x.values_mut(i * dim..(i + 1) * dim);
             for a in 0..dim {
-                x[i * dim + a] += wi * ws.grad[j * dim + a] * dl;
+                xi[a] += wi * ws.grad[j * dim + a] * dl;
             }
         }
     }
     Ok(())
 }
 
-fn contact(
-    batch: &Batch,
-    normal: &[f64],
-    friction: f64,
-    range: std::ops::Range<usize>,
-    x: &mut [f64],
-    lambda: &mut [f64],
-) -> Result<(), usize> {
-    with_dim!(
-        batch.dim,
-        contact_in(batch, normal, friction, range, x, lambda)
-    )
-}
-
-fn contact_in<D: Dim>(
+fn contact_in<D: Dim, X: Coordinates + ?Sized>(
     dim: D,
     batch: &Batch,
     normal: &[f64],
     friction: f64,
-    range: std::ops::Range<usize>,
-    x: &mut [f64],
+    elements: Range<usize>,
+    x: &mut X,
     lambda: &mut [f64],
 ) -> Result<(), usize> {
     let n = dim.n();
     let normal = &normal[..n];
     let f = batch.family;
     let alpha_tilde = batch.alpha_tilde;
-    let slots = f.rest[range.clone()].iter().zip(&mut lambda[range.clone()]);
-    for (e, (&i, (&rest, lambda))) in range.clone().zip(f.elements[range].iter().zip(slots)) {
+    let slots = f.rest[elements.clone()].iter().zip(lambda.iter_mut());
+    for (e, (&i, (&rest, lambda))) in elements.clone().zip(f.elements[elements].iter().zip(slots)) {
         let i = i as usize;
         let w = batch.inverse_mass[i];
-        let xi = &mut x[i * n..i * n + n];
+        let xi = x.values_mut(i * n..i * n + n);
         let c = dot(normal, xi) - rest;
         let l = *lambda;
         let raw = (-c - alpha_tilde * l) / (w + alpha_tilde);

@@ -5,20 +5,49 @@
 //! contact:    max_e max(0, −C_e(x))
 //! tether:     max_e max(0, |x1 − x0| − rest)
 //! ```
+//! The maximum is taken per chunk of [`RESIDUAL_GRAIN`] elements and then
+//! over the chunks in order: one fixed tree for any thread count.
 
 use crate::dim::{Dim, with_dim};
+use crate::parallel::Workers;
 use crate::project::Workspace;
 use hyperpbd_core::geometry::{distance, oriented_measure, simplex_squared_measure};
 use hyperpbd_core::{Family, FamilyKind, FamilyResidual};
+use std::ops::Range;
+
+/// Elements per chunk of the residual.
+pub const RESIDUAL_GRAIN: usize = 4096;
 
 /// Evaluates every element of `family` at `x`.
-pub fn residual(dim: usize, family: &Family, x: &[f64], ws: &mut Workspace) -> FamilyResidual {
-    if family.kind == FamilyKind::Distance {
-        return FamilyResidual {
-            label: family.label.clone(),
-            max_violation: with_dim!(dim, distance_violation(family, x)),
-        };
+pub fn residual(workers: &Workers, dim: usize, family: &Family, x: &[f64]) -> FamilyResidual {
+    let worst = workers
+        .map_chunks(family.len(), RESIDUAL_GRAIN, |elements| {
+            if family.kind == FamilyKind::Distance {
+                with_dim!(dim, distance_violation(family, elements, x))
+            } else {
+                with_dim!(
+                    dim,
+                    violation(family, elements, x, &mut Workspace::default())
+                )
+            }
+        })
+        .into_iter()
+        .fold(0.0, f64::max);
+    FamilyResidual {
+        label: family.label.clone(),
+        max_violation: worst,
     }
+}
+
+/// The largest violation of `elements` (any kind, generic path).
+fn violation<D: Dim>(
+    dim: D,
+    family: &Family,
+    elements: Range<usize>,
+    x: &[f64],
+    ws: &mut Workspace,
+) -> f64 {
+    let dim = dim.n();
     let arity = family.arity;
     let Workspace {
         points,
@@ -28,7 +57,7 @@ pub fn residual(dim: usize, family: &Family, x: &[f64], ws: &mut Workspace) -> F
     points.resize(arity * dim, 0.0);
     grad.resize(arity * dim, 0.0);
     let mut worst: f64 = 0.0;
-    for e in 0..family.len() {
+    for e in elements {
         let element = &family.elements[e * arity..(e + 1) * arity];
         for (j, &i) in element.iter().enumerate() {
             let i = i as usize;
@@ -49,18 +78,17 @@ pub fn residual(dim: usize, family: &Family, x: &[f64], ws: &mut Workspace) -> F
         };
         worst = worst.max(violation);
     }
-    FamilyResidual {
-        label: family.label.clone(),
-        max_violation: worst,
-    }
+    worst
 }
 
-/// max |(|x_j − x_i|) − rest| over a distance family: the length formed
-/// exactly as `geometry::distance` forms it, without the gradient.
-fn distance_violation<D: Dim>(dim: D, family: &Family, x: &[f64]) -> f64 {
+/// max |(|x_j − x_i|) − rest| over distance elements `elements`: the
+/// length formed exactly as `geometry::distance` forms it, without the
+/// gradient.
+fn distance_violation<D: Dim>(dim: D, family: &Family, elements: Range<usize>, x: &[f64]) -> f64 {
     let n = dim.n();
     let mut worst: f64 = 0.0;
-    for (element, &rest) in family.elements.chunks_exact(2).zip(&family.rest) {
+    let ends = family.elements[2 * elements.start..2 * elements.end].chunks_exact(2);
+    for (element, &rest) in ends.zip(&family.rest[elements]) {
         let (i, j) = (element[0] as usize, element[1] as usize);
         let (xi, xj) = (&x[i * n..i * n + n], &x[j * n..j * n + n]);
         let mut d2 = 0.0;

@@ -56,7 +56,7 @@ fuzz_target!(|data: &[u8]| {
     } else {
         0
     };
-    let barrier = plan.incremental_potential.as_ref().map_or(0, |ip| {
+    let barrier = plan.incremental_potential().map_or(0, |ip| {
         u64::from(ip.max_iterations)
             .saturating_mul(particles)
             .saturating_mul((ip.obstacles.len() as u64).max(1))

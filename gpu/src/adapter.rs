@@ -14,37 +14,13 @@ use hyperpbd_core::GpuError;
 const INSTALL_HINT: &str = " (install a Vulkan driver; for the software rasteriser lavapipe: \
      apt-get install mesa-vulkan-drivers libvulkan1)";
 
-/// The floating-point precision the kernels will run in; it decides which
-/// device features are required.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Precision {
-    /// `f32` storage and arithmetic: every adapter can do it.
-    F32,
-    /// `f64` storage and arithmetic: needs [`wgpu::Features::SHADER_F64`].
-    F64,
-}
+pub use hyperpbd_core::Precision;
 
-impl Precision {
-    /// The device features kernels of this precision need.
-    pub fn required_features(self) -> wgpu::Features {
-        match self {
-            Precision::F32 => wgpu::Features::empty(),
-            Precision::F64 => wgpu::Features::SHADER_F64,
-        }
-    }
-
-    /// `"f32"` or `"f64"`, as written in WGSL and in reports.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Precision::F32 => "f32",
-            Precision::F64 => "f64",
-        }
-    }
-}
-
-impl fmt::Display for Precision {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
+/// The device features kernels of `precision` need.
+pub fn required_features(precision: Precision) -> wgpu::Features {
+    match precision {
+        Precision::F32 => wgpu::Features::empty(),
+        Precision::F64 => wgpu::Features::SHADER_F64,
     }
 }
 
@@ -120,6 +96,7 @@ impl fmt::Display for AdapterSummary {
 /// is set, with the instance flags the environment sets (`WGPU_VALIDATION`,
 /// …). Returns the backends actually enabled.
 fn instance(backends: wgpu::Backends) -> (wgpu::Instance, wgpu::Backends) {
+    quiet_device_select_layer();
     let desc = wgpu::InstanceDescriptor {
         backends,
         ..wgpu::InstanceDescriptor::new_without_display_handle()
@@ -127,6 +104,34 @@ fn instance(backends: wgpu::Backends) -> (wgpu::Instance, wgpu::Backends) {
     .with_env();
     let backends = desc.backends;
     (wgpu::Instance::new(desc), backends)
+}
+
+/// Keeps Mesa's device-select Vulkan layer from printing
+/// `error: XDG_RUNTIME_DIR is invalid or not set in the environment.` on
+/// every instance of a process started outside a desktop session.
+///
+/// That implicit layer only reorders devices for a display server (it asks
+/// Wayland, whose client library prints the line when the session's runtime
+/// directory is missing); it is switched off by `NODEVICE_SELECT=1`, the
+/// variable its manifest names. This sets it once per process, before the
+/// first instance, and only when there is no session directory to find and
+/// the user set neither it nor `MESA_VK_DEVICE_SELECT` (whose device choice
+/// the layer would then honour). Nothing is filtered: a driver's real
+/// errors still reach stderr.
+fn quiet_device_select_layer() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let set = |name: &str| std::env::var_os(name).is_some_and(|v| !v.is_empty());
+        let session = std::env::var_os("XDG_RUNTIME_DIR")
+            .is_some_and(|dir| std::path::Path::new(&dir).is_dir());
+        if !session && !set("NODEVICE_SELECT") && !set("MESA_VK_DEVICE_SELECT") {
+            // SAFETY: runs once, before this process creates its first
+            // wgpu instance, so no Vulkan or GL loader thread reads the
+            // environment yet; Rust's own readers take std's environment
+            // lock.
+            unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+        }
+    });
 }
 
 /// Every adapter on every backend compiled in (or those `WGPU_BACKEND`
@@ -209,7 +214,7 @@ pub fn request_device(
     check_features(adapter, &name, precision)?;
     let desc = wgpu::DeviceDescriptor {
         label: Some("hyperpbd"),
-        required_features: precision.required_features(),
+        required_features: required_features(precision),
         required_limits: adapter.limits(),
         experimental_features: wgpu::ExperimentalFeatures::disabled(),
         memory_hints: wgpu::MemoryHints::Performance,
@@ -228,7 +233,7 @@ fn check_features(
     adapter_name: &str,
     precision: Precision,
 ) -> Result<(), GpuError> {
-    let missing = precision.required_features() - adapter.features();
+    let missing = required_features(precision) - adapter.features();
     match missing.iter().next() {
         None => Ok(()),
         Some(feature) => Err(GpuError::MissingFeature {
@@ -258,9 +263,9 @@ mod tests {
 
     #[test]
     fn f32_needs_nothing_f64_needs_shader_f64() {
-        assert!(Precision::F32.required_features().is_empty());
+        assert!(required_features(Precision::F32).is_empty());
         assert_eq!(
-            Precision::F64.required_features(),
+            required_features(Precision::F64),
             wgpu::Features::SHADER_F64
         );
     }

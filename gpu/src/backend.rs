@@ -151,12 +151,8 @@ impl GpuBackend {
             }
             .into());
         }
-        if plan.incremental_potential.is_some() {
-            return Err(GpuError::Unsupported {
-                what: "the incremental_potential solver on GpuBackend (use GpuBarrierBackend)"
-                    .into(),
-            }
-            .into());
+        if plan.incremental_potential().is_some() {
+            return Err(crate::incremental_potential::incremental_potential_unsupported().into());
         }
         let ctx = GpuContext::new(adapter, precision)?;
         ctx.building(|| Self::build(ctx.clone(), plan, state, precision, origin, mode))
@@ -555,13 +551,18 @@ impl Backend for GpuBackend {
         let block =
             self.read_mapped(&self.buffers.report_staging, 16 + self.buffers.report_bytes)?;
         if let Some(failed) = self.failure(&block) {
-            let (call, index) = if self.schedule.mode == StepMode::Fused {
-                self.diagnose(failed)?
+            // The fused schedule finds the failing call by rerunning the
+            // step exactly (and rolls back); a rollback or rerun that fails
+            // keeps the step's error as its source.
+            let diagnosed = if self.schedule.mode == StepMode::Fused {
+                self.diagnose(failed)
             } else {
-                self.rollback()?;
-                failed
+                self.rollback().map(|()| failed)
             };
-            return Err(self.step_error(call, index));
+            return Err(match diagnosed {
+                Ok((call, index)) => self.step_error(call, index),
+                Err(e) => self.step_error(failed.0, failed.1).after_rollback(Err(e)),
+            });
         }
         let report = read_reals(&block[16..], self.precision);
         let (residuals, active_contacts) = crate::xpbd::read_report(&self.plan, &report);

@@ -116,7 +116,7 @@ impl GpuBarrierBackend {
         precision: Precision,
     ) -> Result<Self, BackendError> {
         check_state(&plan, state)?;
-        let Some(ip) = plan.incremental_potential.clone() else {
+        let Some(ip) = plan.incremental_potential().cloned() else {
             return Err(BackendError::InvalidCall(
                 "GpuBarrierBackend runs incremental_potential scenes only".into(),
             ));
@@ -450,17 +450,9 @@ impl GpuBarrierBackend {
 
     fn run_minimise(&mut self) -> Result<(), BackendError> {
         let report = self.minimise()?;
-        let result = match &report.status {
-            MinimisationStatus::Refused(reason) => Err(StepError::MinimisationRefused {
-                substep: self.substep,
-                reason: reason.clone(),
-                report: Box::new(report.clone()),
-            }
-            .into()),
-            _ => Ok(()),
-        };
+        let refused = StepError::refused(self.substep, &report);
         self.reports.push(report);
-        result
+        refused.map_or(Ok(()), |e| Err(e.into()))
     }
 }
 
@@ -485,8 +477,7 @@ impl Backend for GpuBarrierBackend {
                     continue;
                 }
                 if let Err(e) = self.run_minimise() {
-                    self.state.rollback(&self.ctx)?;
-                    return Err(e);
+                    return Err(e.after_rollback(self.state.rollback(&self.ctx)));
                 }
             }
         }
@@ -516,5 +507,12 @@ impl Backend for GpuBarrierBackend {
     fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
         check_kernel(&self.plan, kernel)?;
         self.run_minimise()
+    }
+}
+
+/// The refusal of an incremental-potential plan by the XPBD backend.
+pub(crate) fn incremental_potential_unsupported() -> GpuError {
+    GpuError::Unsupported {
+        what: "the incremental_potential solver on GpuBackend (use GpuBarrierBackend)".into(),
     }
 }

@@ -19,6 +19,7 @@ use crate::color::{
 use crate::framing::{Camera, Projected};
 use crate::geometry::{SceneGeometry, clip_polygon, clip_segment};
 use crate::{Image, RenderError, Snapshot, View};
+use glam::DVec2;
 use hyperpbd_core::{Scene, State};
 use tiny_skia::{Color, FillRule, LineCap, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform};
 
@@ -365,27 +366,24 @@ impl Renderer {
                     None,
                 );
             }
-            let norm2 = ab[0] * ab[0] + ab[1] * ab[1];
+            let norm2 = ab.length_squared();
             if norm2 < 1e-18 {
                 continue;
             }
-            let foot = [ab[0] * k / norm2, ab[1] * k / norm2];
-            let norm = norm2.sqrt();
-            let dir = [-ab[1] / norm, ab[0] / norm];
-            let reach = {
-                let [lo, _, hi, _] = rect;
-                let d = (hi[0] - lo[0]).hypot(hi[1] - lo[1]);
-                let m = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
-                d + (foot[0] - m[0]).hypot(foot[1] - m[1])
-            };
-            let a = [foot[0] - reach * dir[0], foot[1] - reach * dir[1]];
-            let b = [foot[0] + reach * dir[0], foot[1] + reach * dir[1]];
+            let foot = ab * k / norm2;
+            let dir = ab.perp() / norm2.sqrt();
             let [lo, _, hi, _] = rect;
+            let reach = {
+                let (diagonal, from_middle) = (hi - lo, foot - (lo + hi) / 2.0);
+                diagonal.x.hypot(diagonal.y) + from_middle.x.hypot(from_middle.y)
+            };
+            let a = foot - dir * reach;
+            let b = foot + dir * reach;
             let halfspaces = [
-                ([1.0, 0.0], hi[0]),
-                ([-1.0, 0.0], -lo[0]),
-                ([0.0, 1.0], hi[1]),
-                ([0.0, -1.0], -lo[1]),
+                (DVec2::X, hi.x),
+                (DVec2::NEG_X, -lo.x),
+                (DVec2::Y, hi.y),
+                (DVec2::NEG_Y, -lo.y),
             ];
             if let Some((p, q)) = clip_segment(a, b, &halfspaces) {
                 let (p, q) = (camera.to_pixels(p), camera.to_pixels(q));

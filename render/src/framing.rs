@@ -15,8 +15,9 @@
 //! object starts at the top of the frame and lands at the bottom.
 
 use crate::Snapshot;
-use crate::geometry::{Plane, SceneGeometry, clip_polygon, clip_segment, dot};
+use crate::geometry::{Plane, SceneGeometry, clip_polygon, clip_segment};
 use crate::view::{Projection, View};
+use glam::{DVec2, DVec3};
 
 /// Share of the picture kept free on each side.
 const MARGIN: f64 = 0.06;
@@ -55,8 +56,8 @@ struct PlanePoint {
 /// the scene's box, with grid lines; 3D view coordinates.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Patch {
-    pub polygon: Vec<[f64; 3]>,
-    pub grid: Vec<([f64; 3], [f64; 3])>,
+    pub polygon: Vec<DVec3>,
+    pub grid: Vec<(DVec3, DVec3)>,
 }
 
 /// The view with its framing.
@@ -70,16 +71,19 @@ pub(crate) struct Camera {
     /// 3D view-coordinate box of the run, grown (perspective patches).
     box3: [[f64; 2]; 3],
     /// Camera basis: right, up, back (towards the camera).
-    basis: [[f64; 3]; 3],
+    basis: [DVec3; 3],
     /// Picture-plane point at the centre of the picture.
-    middle: [f64; 2],
+    middle: DVec2,
     /// Pixels per unit of the picture plane.
     zoom: f64,
 }
 
-fn camera_basis(projection: &Projection) -> [[f64; 3]; 3] {
+/// Right, up and back (towards the camera) of a camera at azimuth φ and
+/// elevation ε: back = (cos ε sin φ, sin ε, cos ε cos φ), right ⟂ back in
+/// the horizontal plane, up = back × right.
+fn camera_basis(projection: &Projection) -> [DVec3; 3] {
     match *projection {
-        Projection::Orthographic => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        Projection::Orthographic => [DVec3::X, DVec3::Y, DVec3::Z],
         Projection::Perspective {
             azimuth: phi,
             elevation: eps,
@@ -88,9 +92,9 @@ fn camera_basis(projection: &Projection) -> [[f64; 3]; 3] {
             let (sp, cp) = phi.sin_cos();
             let (se, ce) = eps.sin_cos();
             [
-                [cp, 0.0, -sp],
-                [-se * sp, ce, -se * cp],
-                [ce * sp, se, ce * cp],
+                DVec3::new(cp, 0.0, -sp),
+                DVec3::new(-se * sp, ce, -se * cp),
+                DVec3::new(ce * sp, se, ce * cp),
             ]
         }
     }
@@ -158,7 +162,7 @@ impl Camera {
             radius,
             floor,
             box3,
-            middle: [0.0, 0.0],
+            middle: DVec2::ZERO,
             zoom: 1.0,
         };
         // With a 4D→3D perspective the floor patch must cover the points
@@ -224,20 +228,20 @@ impl Camera {
         // a nearby ground is in the picture.
         if !camera.view.is_perspective() && lo2[0] <= hi2[0] && lo2[1] <= hi2[1] {
             let reach = (hi2[0] - lo2[0]).max(hi2[1] - lo2[1]);
-            let middle = [0.5 * (lo2[0] + hi2[0]), 0.5 * (lo2[1] + hi2[1])];
+            let middle = DVec2::new(0.5 * (lo2[0] + hi2[0]), 0.5 * (lo2[1] + hi2[1]));
             let mut feet = Vec::new();
             for plane in &geometry.planes {
                 for snap in snapshots {
                     let (ab, k) = camera.trace(plane, snap.time);
-                    let norm = (ab[0] * ab[0] + ab[1] * ab[1]).sqrt();
+                    let norm = ab.length();
                     if norm < 1e-9 {
                         continue;
                     }
-                    let u = [ab[0] / norm, ab[1] / norm];
-                    let distance = (u[0] * middle[0] + u[1] * middle[1]) - k / norm;
+                    let u = ab / norm;
+                    let distance = u.dot(middle) - k / norm;
                     if distance.abs() <= reach {
                         let beyond = distance + 0.08 * reach * distance.signum();
-                        feet.push([middle[0] - beyond * u[0], middle[1] - beyond * u[1]]);
+                        feet.push(middle - u * beyond);
                     }
                 }
             }
@@ -270,12 +274,12 @@ impl Camera {
     }
 
     /// Projects 3D view coordinates (no 4D perspective) to pixels.
-    pub fn project3(&self, p: [f64; 3]) -> Projected {
+    pub fn project3(&self, p: DVec3) -> Projected {
         self.pixels(self.plane_point3(p))
     }
 
     fn pixels(&self, q: PlanePoint) -> Projected {
-        let (x, y) = self.to_pixels([q.s, q.t]);
+        let (x, y) = self.to_pixels(DVec2::new(q.s, q.t));
         Projected {
             x,
             y,
@@ -299,13 +303,13 @@ impl Camera {
 
     /// The 4D→3D perspective (identity without a 4th axis): the 3D point,
     /// its scale factor and its depth in W (0 nearest, 1 farthest).
-    fn lift(&self, mut p: [f64; 3], w: f64) -> ([f64; 3], f64, Option<f64>) {
+    fn lift(&self, mut p: DVec3, w: f64) -> (DVec3, f64, Option<f64>) {
         if let Projection::Perspective { w: Some(_), .. } = self.view.projection {
             let u = (w / self.radius).clamp(-1.0, 1.0);
             let factor = EYE_4D / (EYE_4D - u);
-            p[0] *= factor;
-            p[1] = self.floor + (p[1] - self.floor) * factor;
-            p[2] *= factor;
+            p.x *= factor;
+            p.y = self.floor + (p.y - self.floor) * factor;
+            p.z *= factor;
             (p, factor, Some(0.5 * (1.0 - u)))
         } else {
             (p, 1.0, None)
@@ -313,11 +317,11 @@ impl Camera {
     }
 
     /// 3D view coordinates (no 4D perspective) on the picture plane.
-    fn plane_point3(&self, p: [f64; 3]) -> PlanePoint {
+    fn plane_point3(&self, p: DVec3) -> PlanePoint {
         match self.view.projection {
             Projection::Orthographic => PlanePoint {
-                s: p[0],
-                t: p[1],
+                s: p.x,
+                t: p.y,
                 distance: 0.0,
                 fog: 0.0,
                 scale: 1.0,
@@ -325,11 +329,11 @@ impl Camera {
             Projection::Perspective { .. } => {
                 let d3 = EYE_3D * self.radius;
                 let [right, up, back] = self.basis;
-                let distance = (d3 - dot(p, back)).max(0.05 * self.radius);
+                let distance = (d3 - p.dot(back)).max(0.05 * self.radius);
                 let persp = d3 / distance;
                 PlanePoint {
-                    s: dot(p, right) * persp,
-                    t: dot(p, up) * persp,
+                    s: p.dot(right) * persp,
+                    t: p.dot(up) * persp,
                     distance,
                     fog: ((distance - (d3 - 1.5 * self.radius)) / (3.0 * self.radius))
                         .clamp(0.0, 1.0),
@@ -340,23 +344,23 @@ impl Camera {
     }
 
     /// The picture rectangle in picture-plane coordinates (s, t), as a polygon.
-    pub fn visible_rect(&self) -> [[f64; 2]; 4] {
+    pub fn visible_rect(&self) -> [DVec2; 4] {
         let hw = 0.5 * f64::from(self.view.width) / self.zoom;
         let hh = 0.5 * f64::from(self.view.height) / self.zoom;
-        let [ms, mt] = self.middle;
+        let DVec2 { x: ms, y: mt } = self.middle;
         [
-            [ms - hw, mt - hh],
-            [ms + hw, mt - hh],
-            [ms + hw, mt + hh],
-            [ms - hw, mt + hh],
+            DVec2::new(ms - hw, mt - hh),
+            DVec2::new(ms + hw, mt - hh),
+            DVec2::new(ms + hw, mt + hh),
+            DVec2::new(ms - hw, mt + hh),
         ]
     }
 
     /// Picture-plane point to pixels.
-    pub fn to_pixels(&self, p: [f64; 2]) -> (f64, f64) {
+    pub fn to_pixels(&self, p: DVec2) -> (f64, f64) {
         (
-            0.5 * f64::from(self.view.width) + self.zoom * (p[0] - self.middle[0]),
-            0.5 * f64::from(self.view.height) - self.zoom * (p[1] - self.middle[1]),
+            0.5 * f64::from(self.view.width) + self.zoom * (p.x - self.middle.x),
+            0.5 * f64::from(self.view.height) - self.zoom * (p.y - self.middle.y),
         )
     }
 
@@ -371,13 +375,13 @@ impl Camera {
 
     /// Orthographic trace of a hyperplane: a s + b t = k, a s + b t < k
     /// excluded.
-    pub fn trace(&self, plane: &Plane, time: f64) -> ([f64; 2], f64) {
+    pub fn trace(&self, plane: &Plane, time: f64) -> (DVec2, f64) {
         let (n, k) = self.plane_now(plane, time);
         (
-            [
+            DVec2::new(
                 n[self.view.horizontal],
                 self.view.up_sign * n[self.view.vertical],
-            ],
+            ),
             k,
         )
     }
@@ -389,48 +393,35 @@ impl Camera {
             return None;
         };
         let (n, k) = self.plane_now(plane, time);
-        let m = [
+        let m = DVec3::new(
             n[self.view.horizontal],
             self.view.up_sign * n[self.view.vertical],
             n[depth],
-        ];
-        let length = dot(m, m).sqrt();
+        );
+        let length = m.length();
         if length < 1e-9 {
             return None;
         }
-        let m = m.map(|x| x / length);
+        let m = m / length;
         let k = k / length;
         // In-plane basis from the coordinate axis most orthogonal to m.
         let axis = (0..3)
             .min_by(|&a, &b| m[a].abs().total_cmp(&m[b].abs()))
             .unwrap_or(0);
-        let mut e1 = [0.0; 3];
-        e1[axis] = 1.0;
-        let along = m[axis];
-        e1 = std::array::from_fn(|i| e1[i] - along * m[i]);
-        let l1 = dot(e1, e1).sqrt();
-        e1 = e1.map(|x| x / l1);
-        let e2 = [
-            m[1] * e1[2] - m[2] * e1[1],
-            m[2] * e1[0] - m[0] * e1[2],
-            m[0] * e1[1] - m[1] * e1[0],
-        ];
+        let e1 = DVec3::AXES[axis] - m * m[axis];
+        let e1 = e1 / e1.length();
+        let e2 = m.cross(e1);
         // Anchor: the world origin dropped onto the plane, so grid lines
         // sit at fixed world positions.
         let mut origin = vec![0.0; self.view.dim];
         self.view
             .centred(&vec![0.0; self.view.dim], &self.centre, time, &mut origin);
         let (o3, _) = self.view.view_coords(&origin);
-        let off = dot(m, o3) - k;
-        let anchor: [f64; 3] = std::array::from_fn(|i| o3[i] - off * m[i]);
-        let halfspaces: Vec<([f64; 3], f64)> = (0..3)
+        let anchor = o3 - m * (m.dot(o3) - k);
+        let halfspaces: Vec<(DVec3, f64)> = (0..3)
             .flat_map(|a| {
-                let mut unit = [0.0; 3];
-                unit[a] = 1.0;
-                [
-                    (unit, self.box3[a][1]),
-                    (unit.map(|x| -x), -self.box3[a][0]),
-                ]
+                let unit = DVec3::AXES[a];
+                [(unit, self.box3[a][1]), (-unit, -self.box3[a][0])]
             })
             .collect();
         let reach = self
@@ -439,10 +430,8 @@ impl Camera {
             .map(|[l, h]| (h - l) * (h - l) + (l + h) * (l + h))
             .sum::<f64>()
             .sqrt()
-            + dot(anchor, anchor).sqrt();
-        let at = |u: f64, v: f64| -> [f64; 3] {
-            std::array::from_fn(|i| anchor[i] + u * e1[i] + v * e2[i])
-        };
+            + anchor.length();
+        let at = |u: f64, v: f64| anchor + e1 * u + e2 * v;
         let mut polygon = vec![
             at(-reach, -reach),
             at(reach, -reach),

@@ -19,7 +19,8 @@
 //!              keep n·p ≤ k; an edge crossing it gets the crossing point
 //! ```
 
-use hyperpbd_core::geometry::{Scratch, distance, oriented_measure, simplex_squared_measure};
+use glam::{DVec2, DVec3};
+use hyperpbd_core::geometry::{Scratch, constraint_value};
 use hyperpbd_core::{ConstraintKind, Obstacle, Scene, State};
 
 /// A hyperplane n·x = offset with unit n; n·x < offset + r is excluded.
@@ -65,21 +66,6 @@ fn pairs(element: &[usize]) -> impl Iterator<Item = (usize, usize)> + '_ {
         .flat_map(move |(a, &i)| element[a + 1..].iter().map(move |&j| (i.min(j), i.max(j))))
 }
 
-/// C(x) of one element; `points` gathered flat, `grad` scratch of the same size.
-fn evaluate(
-    kind: ConstraintKind,
-    points: &[f64],
-    dim: usize,
-    grad: &mut [f64],
-    scratch: &mut Scratch,
-) -> f64 {
-    match kind {
-        ConstraintKind::Distance | ConstraintKind::Tether => distance(points, dim, grad),
-        ConstraintKind::SimplexMeasure => simplex_squared_measure(points, dim, grad, scratch),
-        ConstraintKind::OrientedMeasure => oriented_measure(points, dim, grad, scratch),
-    }
-}
-
 impl SceneGeometry {
     /// Reads a validated scene.
     pub fn new(scene: &Scene) -> SceneGeometry {
@@ -113,7 +99,7 @@ impl SceneGeometry {
                             points[j * dim..(j + 1) * dim]
                                 .copy_from_slice(&scene.particles[i].position);
                         }
-                        evaluate(family.kind, &points, dim, &mut grad, &mut scratch)
+                        constraint_value(family.kind, &points, dim, &mut grad, &mut scratch)
                     })
                     .collect(),
             };
@@ -216,7 +202,7 @@ impl SceneGeometry {
                 for (j, &i) in element.iter().enumerate() {
                     points[j * dim..(j + 1) * dim].copy_from_slice(state.position(i));
                 }
-                let c = evaluate(f.kind, &points, dim, &mut grad, &mut scratch);
+                let c = constraint_value(f.kind, &points, dim, &mut grad, &mut scratch);
                 let r = ((c - f.rest[e]) / f.scale[e]).abs();
                 let r = if r.is_nan() { f64::INFINITY } else { r };
                 for &i in element {
@@ -249,46 +235,54 @@ impl SceneGeometry {
     }
 }
 
-/// Dot product.
-pub(crate) fn dot<const D: usize>(a: [f64; D], b: [f64; D]) -> f64 {
-    a.iter().zip(&b).map(|(x, y)| x * y).sum()
+/// A point of the picture plane or of the 3D view: what clipping needs.
+pub(crate) trait Point: Copy {
+    /// Dot product.
+    fn dot(self, other: Self) -> f64;
+    /// a + t (b − a) (not glam's `lerp`, which rounds as (1 − t) a + t b).
+    fn towards(self, b: Self, t: f64) -> Self;
 }
 
-/// a + t (b − a).
-pub(crate) fn lerp<const D: usize>(a: [f64; D], b: [f64; D], t: f64) -> [f64; D] {
-    std::array::from_fn(|i| a[i] + t * (b[i] - a[i]))
+impl Point for DVec2 {
+    fn dot(self, other: Self) -> f64 {
+        DVec2::dot(self, other)
+    }
+    fn towards(self, b: Self, t: f64) -> Self {
+        self + (b - self) * t
+    }
+}
+
+impl Point for DVec3 {
+    fn dot(self, other: Self) -> f64 {
+        DVec3::dot(self, other)
+    }
+    fn towards(self, b: Self, t: f64) -> Self {
+        self + (b - self) * t
+    }
 }
 
 /// The part of the convex polygon `poly` with n·p ≤ k.
-pub(crate) fn clip_polygon<const D: usize>(
-    poly: &[[f64; D]],
-    n: [f64; D],
-    k: f64,
-) -> Vec<[f64; D]> {
+pub(crate) fn clip_polygon<P: Point>(poly: &[P], n: P, k: f64) -> Vec<P> {
     let mut out = Vec::with_capacity(poly.len() + 1);
     for (i, &a) in poly.iter().enumerate() {
         let b = poly[(i + 1) % poly.len()];
-        let (fa, fb) = (dot(n, a) - k, dot(n, b) - k);
+        let (fa, fb) = (n.dot(a) - k, n.dot(b) - k);
         if fa <= 0.0 {
             out.push(a);
         }
         if (fa < 0.0 && fb > 0.0) || (fa > 0.0 && fb < 0.0) {
-            out.push(lerp(a, b, fa / (fa - fb)));
+            out.push(a.towards(b, fa / (fa - fb)));
         }
     }
     out
 }
 
 /// The part of segment a–b inside every half-space n·p ≤ k (Liang–Barsky).
-pub(crate) fn clip_segment<const D: usize>(
-    a: [f64; D],
-    b: [f64; D],
-    halfspaces: &[([f64; D], f64)],
-) -> Option<([f64; D], [f64; D])> {
+pub(crate) fn clip_segment<P: Point>(a: P, b: P, halfspaces: &[(P, f64)]) -> Option<(P, P)> {
     let (mut t0, mut t1) = (0.0f64, 1.0f64);
     for &(n, k) in halfspaces {
-        let fa = dot(n, a) - k;
-        let fb = dot(n, b) - k;
+        let fa = n.dot(a) - k;
+        let fb = n.dot(b) - k;
         if fa > 0.0 && fb > 0.0 {
             return None;
         }
@@ -298,7 +292,7 @@ pub(crate) fn clip_segment<const D: usize>(
             t1 = t1.min(fa / (fa - fb));
         }
     }
-    (t0 < t1).then(|| (lerp(a, b, t0), lerp(a, b, t1)))
+    (t0 < t1).then(|| (a.towards(b, t0), a.towards(b, t1)))
 }
 
 #[cfg(test)]
@@ -307,24 +301,29 @@ mod tests {
 
     #[test]
     fn clips_square_by_half_plane() {
-        let square = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
-        let lower = clip_polygon(&square, [0.0, 1.0], 0.25);
+        let square = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(1.0, 1.0),
+            DVec2::new(0.0, 1.0),
+        ];
+        let lower = clip_polygon(&square, DVec2::Y, 0.25);
         assert_eq!(lower.len(), 4);
-        assert!(lower.iter().all(|p| p[1] <= 0.25));
-        assert!(clip_polygon(&square, [0.0, 1.0], -1.0).is_empty());
-        assert_eq!(clip_polygon(&square, [0.0, 0.0], 1.0).len(), 4);
+        assert!(lower.iter().all(|p| p.y <= 0.25));
+        assert!(clip_polygon(&square, DVec2::Y, -1.0).is_empty());
+        assert_eq!(clip_polygon(&square, DVec2::ZERO, 1.0).len(), 4);
     }
 
     #[test]
     fn clips_segment_to_box() {
         let unit = [
-            ([1.0, 0.0], 1.0),
-            ([-1.0, 0.0], 0.0),
-            ([0.0, 1.0], 1.0),
-            ([0.0, -1.0], 0.0),
+            (DVec2::X, 1.0),
+            (-DVec2::X, 0.0),
+            (DVec2::Y, 1.0),
+            (-DVec2::Y, 0.0),
         ];
-        let (p, q) = clip_segment([-1.0, 0.5], [2.0, 0.5], &unit).unwrap();
-        assert!((p[0] - 0.0).abs() < 1e-12 && (q[0] - 1.0).abs() < 1e-12);
-        assert!(clip_segment([-1.0, 2.0], [2.0, 2.0], &unit).is_none());
+        let (p, q) = clip_segment(DVec2::new(-1.0, 0.5), DVec2::new(2.0, 0.5), &unit).unwrap();
+        assert!((p.x - 0.0).abs() < 1e-12 && (q.x - 1.0).abs() < 1e-12);
+        assert!(clip_segment(DVec2::new(-1.0, 2.0), DVec2::new(2.0, 2.0), &unit).is_none());
     }
 }

@@ -20,6 +20,7 @@
 //! Everything is a pure function of the scene, the options and the
 //! snapshots: the same run gives the same bytes.
 
+pub mod chart;
 mod color;
 mod draw;
 mod encode;

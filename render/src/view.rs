@@ -20,6 +20,7 @@
 //! dropped (orthographic in them).
 
 use crate::{ColorBy, RenderError};
+use glam::DVec3;
 use hyperpbd_core::Scene;
 
 /// Rendering options, as the `render` command takes them.
@@ -417,13 +418,13 @@ impl View {
     }
 
     /// The 3D view coordinates (X, Y, Z) and W of a centred, rotated point.
-    pub(crate) fn view_coords(&self, y: &[f64]) -> ([f64; 3], f64) {
+    pub(crate) fn view_coords(&self, y: &[f64]) -> (DVec3, f64) {
         let x = y[self.horizontal];
         let up = self.up_sign * y[self.vertical];
         match self.projection {
-            Projection::Orthographic => ([x, up, 0.0], 0.0),
+            Projection::Orthographic => (DVec3::new(x, up, 0.0), 0.0),
             Projection::Perspective { depth, w, .. } => {
-                ([x, up, y[depth]], w.map_or(0.0, |w| y[w]))
+                (DVec3::new(x, up, y[depth]), w.map_or(0.0, |w| y[w]))
             }
         }
     }

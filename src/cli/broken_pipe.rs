@@ -1,18 +1,22 @@
 //! A closed stdout (`hyperpbd scene cloth | head -1`) ends the program
-//! quietly.
+//! quietly, with the status a shell expects of a broken pipe.
 //!
 //! Rust ignores SIGPIPE, so writing to a pipe whose reader has gone makes
-//! `println!` panic with "failed printing to stdout: Broken pipe". The
-//! reader has everything it wanted; the conventional answer (what a C tool
-//! killed by SIGPIPE amounts to) is to stop without a message. This hook
-//! turns exactly that panic into a silent exit with status 0 and leaves
-//! every other panic to the default hook. Output files are unaffected:
-//! they are written to a temporary name and renamed only on success.
+//! `println!` panic with "failed printing to stdout: Broken pipe". A C tool
+//! would be killed by SIGPIPE, which a shell reports as 128 + 13 = 141.
+//! This hook turns exactly that panic into a silent exit with status 141
+//! (so `hyperpbd compare … | head` under `set -o pipefail` still fails:
+//! the verdict was never printed in full) and leaves every other panic to
+//! the default hook. Output files are unaffected: they are written to a
+//! temporary name and renamed only on success.
 
 use std::io::ErrorKind;
 
+/// Exit status of a process killed by SIGPIPE, as shells report it.
+pub const BROKEN_PIPE_STATUS: i32 = 128 + 13;
+
 /// Installs the hook; call once at the start of `main`.
-pub fn exit_quietly_on_broken_pipe() {
+pub fn exit_141_on_broken_pipe() {
     let default = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
         let message = info
@@ -22,7 +26,7 @@ pub fn exit_quietly_on_broken_pipe() {
             .or_else(|| info.payload().downcast_ref::<&str>().copied())
             .unwrap_or("");
         if is_broken_pipe(message) {
-            std::process::exit(0);
+            std::process::exit(BROKEN_PIPE_STATUS);
         }
         default(info);
     }));

@@ -1,55 +1,73 @@
-//! `hyperpbd compare`: CPU golden path and GPU side by side.
+//! `hyperpbd compare`: the CPU golden path and a GPU backend side by side,
+//! frame by frame, against the divergence bound of the plan's solver.
+//!
+//! ```text
+//! XPBD                   ErrorModel: ε · X · roundings per substep · substeps
+//! incremental potential  BarrierErrorModel: driven by both runs' residuals
+//! every frame            step both, |dx|, |dv| against the bounds; OVER lines
+//!                        are always printed; any OVER frame exits 3
+//! ```
 
-use super::{CliError, load_scene};
-use hyperpbd::compare::{Divergence, ErrorModel, coordinate_scale};
-use hyperpbd::gpu::{GpuBackend, Precision};
-use hyperpbd::{Backend, CpuBackend, Plan, State};
+use super::error::{CliError, with_sources};
+use super::load::load_scene;
+use hyperpbd::compare::{Divergence, DivergenceModel, ErrorModel, coordinate_scale};
+use hyperpbd::compare_barrier::BarrierErrorModel;
+use hyperpbd::{Backend, BackendKind, Plan, Precision, SolverPlan, State};
 use std::path::PathBuf;
 
 /// Options of `hyperpbd compare`.
 #[derive(Debug, clap::Args)]
 pub struct CompareArgs {
+    #[command(flatten)]
+    threads: super::threads::ThreadsArg,
     /// Scene file (JSON).
     scene: PathBuf,
     /// Frames to compare.
     #[arg(long, default_value_t = 60)]
     frames: u64,
-    /// Precision of the GPU run.
-    #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
-    precision: PrecisionArg,
+    /// Precision of the GPU run: f32 or f64.
+    #[arg(long, default_value = "f32", value_parser = parse_precision)]
+    precision: Precision,
     /// Print every K-th frame (all frames are checked).
     #[arg(long, default_value_t = 1)]
     every: u64,
+    /// Multiplies every bound (for tests: a factor below 1 makes the
+    /// over-bound path reachable on a healthy GPU).
+    #[arg(
+        long,
+        default_value_t = 1.0,
+        hide = true,
+        allow_negative_numbers = true
+    )]
+    bound_factor: f64,
 }
 
-#[derive(Debug, Clone, Copy, clap::ValueEnum)]
-enum PrecisionArg {
-    F32,
-    F64,
+fn parse_precision(name: &str) -> Result<Precision, String> {
+    name.parse()
+}
+
+/// The divergence model of `plan`'s solver at `precision`.
+fn model(plan: &Plan, precision: Precision) -> Box<dyn DivergenceModel> {
+    match plan.solver {
+        SolverPlan::Xpbd => Box::new(ErrorModel::new(plan, precision)),
+        SolverPlan::IncrementalPotential(_) => Box::new(BarrierErrorModel::new(plan, precision)),
+    }
 }
 
 pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
+    args.threads.apply();
     if args.every == 0 {
         return Err(CliError::Input("--every: must be at least 1".into()));
+    }
+    if !(args.bound_factor.is_finite() && args.bound_factor >= 0.0) {
+        return Err(CliError::Input(
+            "--bound-factor: must be finite and >= 0".into(),
+        ));
     }
     let scene = load_scene(&args.scene)?;
     let plan = Plan::compile(&scene).map_err(|e| CliError::Input(e.to_string()))?;
     let state = State::from_scene(&scene);
-    let precision = match args.precision {
-        PrecisionArg::F32 => Precision::F32,
-        PrecisionArg::F64 => Precision::F64,
-    };
-    if plan.incremental_potential.is_some() {
-        return super::compare_barrier::compare_barrier(
-            &args.scene,
-            args.frames,
-            args.every,
-            plan,
-            &state,
-            precision,
-        );
-    }
-    let model = ErrorModel::new(&plan, precision.into());
+    let mut model = model(&plan, args.precision);
     if plan.contacts.is_some() {
         println!(
             "note: particle contact switches on and off at C = 0, so a granular scene's \
@@ -57,17 +75,20 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
              horizons only (tests/gpu_granular.rs compares invariants instead)"
         );
     }
-    let mut cpu =
-        CpuBackend::new(plan.clone(), &state).map_err(|e| CliError::Input(e.to_string()))?;
-    let mut gpu = GpuBackend::new(plan, &state, precision)
-        .map_err(|e| CliError::Input(format!("GPU: {e}")))?;
+    let gpu_error = |e: &dyn std::fmt::Display| CliError::Input(format!("GPU: {e}"));
+    super::software_threads::choose(&plan);
+    let (adapter, summary) =
+        hyperpbd::gpu::request_adapter(args.precision).map_err(|e| gpu_error(&e))?;
+    let mut cpu = hyperpbd::load(plan.clone(), &state, BackendKind::Cpu)
+        .map_err(|e| CliError::Input(e.to_string()))?;
+    let mut gpu = hyperpbd::load_on_adapter(&adapter, plan, &state, args.precision)
+        .map_err(|e| gpu_error(&e))?;
     println!(
-        "{}: cpu-f64 vs {} on {}; bound = eps {:e} x scale x {} roundings/substep x substeps",
+        "{}: cpu-f64 vs {} on {}; {}",
         args.scene.display(),
         gpu.name(),
-        gpu.adapter().name,
-        model.epsilon,
-        model.ops_per_substep
+        summary.name,
+        model.describe()
     );
     println!(
         "{:>6} {:>13} {:>13} {:>13} {:>13}  status",
@@ -79,13 +100,21 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
     for frame in 1..=args.frames {
         let step = |b: &mut dyn Backend| {
             b.step()
-                .and_then(|_| b.read_state())
-                .map_err(|e| CliError::Simulation(format!("{} frame {frame}: {e}", b.name())))
+                .and_then(|report| b.read_state().map(|s| (report, s)))
+                .map_err(|e| {
+                    CliError::Simulation(format!(
+                        "{} frame {frame}: {}",
+                        b.name(),
+                        with_sources(&e)
+                    ))
+                })
         };
-        let golden = step(&mut cpu)?;
-        let other = step(&mut gpu)?;
+        let (golden_report, golden) = step(cpu.as_mut())?;
+        let (other_report, other) = step(gpu.as_mut())?;
         scale = scale.max(coordinate_scale(&golden));
-        let d = Divergence::measure(&model, &golden, &other, scale, frame);
+        let (position, velocity) = model.advance(&golden_report, &other_report, scale, frame);
+        let bounds = (args.bound_factor * position, args.bound_factor * velocity);
+        let d = Divergence::new(frame, &golden, &other, bounds);
         let ok = d.within();
         if !ok {
             over += 1;
@@ -100,11 +129,9 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
                 if ok { "ok" } else { "OVER" }
             );
         }
-        let ratio =
-            |d: &Divergence| (d.position / d.position_bound).max(d.velocity / d.velocity_bound);
         if worst
             .as_ref()
-            .is_none_or(|w| ratio(&d) > ratio(w) || d.position.is_nan())
+            .is_none_or(|w| d.ratio() > w.ratio() || d.position.is_nan())
         {
             worst = Some(d);
         }

@@ -1,11 +1,11 @@
 //! Output files: JSON states with round-trip f64, written atomically
-//! (temporary file, then rename) so a failed run never leaves a partial
-//! file behind.
+//! (`hyperpbd::atomic_file`: temporary file, fsync, rename) so a failed run
+//! never leaves a partial file behind.
 
-use super::CliError;
+use super::error::CliError;
 use hyperpbd::State;
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use hyperpbd::atomic_file::write_atomically;
+use std::path::Path;
 
 /// One state record: `{"time", "frames", "positions", "velocities"}`.
 pub fn state_json(time: f64, frames: u64, state: &State) -> String {
@@ -24,21 +24,9 @@ pub fn state_json(time: f64, frames: u64, state: &State) -> String {
     .to_string()
 }
 
-/// The temporary sibling of `path` used while writing.
-pub fn temporary_path(path: &Path) -> PathBuf {
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(".tmp");
-    path.with_file_name(name)
-}
-
-/// Writes `bytes` to `path` via a temporary file and a rename.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
-    let tmp = temporary_path(path);
-    let result = std::fs::File::create(&tmp)
-        .and_then(|mut f| f.write_all(bytes).and_then(|()| f.sync_all()))
-        .and_then(|()| std::fs::rename(&tmp, path));
-    result.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        CliError::Output(format!("cannot write {}: {e}", path.display()))
-    })
+/// Writes `bytes` to `path` atomically ([`write_atomically`]); a failure
+/// is an output error naming the path.
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
+    write_atomically(path, bytes)
+        .map_err(|e| CliError::Output(format!("cannot write {}: {e}", path.display())))
 }

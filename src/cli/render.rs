@@ -5,9 +5,10 @@
 //! framed once over all recorded snapshots and drawn (see
 //! `hyperpbd-render` and docs/rendering.md).
 
-use super::output::write_atomically;
-use super::{BackendChoice, CliError, load_backend, load_scene};
-use hyperpbd::{Plan, Scene, State};
+use super::error::CliError;
+use super::load::{load_backend, load_scene, parse_backend};
+use super::output::write_file;
+use hyperpbd::{BackendKind, Plan, Scene, State};
 use hyperpbd_render::{
     ColorBy, GifEncoder, Options, RenderError, Renderer, Snapshot, View, parse_axes,
 };
@@ -16,12 +17,14 @@ use std::path::{Path, PathBuf};
 /// Options of `hyperpbd render`.
 #[derive(Debug, clap::Args)]
 pub struct RenderArgs {
+    #[command(flatten)]
+    threads: super::threads::ThreadsArg,
     /// Scene file (JSON), or the name of a built-in scene (cloth,
     /// tesseract, chain2d, incline5d) when no such file exists.
     scene: String,
-    /// Backend to use.
-    #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
-    backend: BackendChoice,
+    /// Backend: cpu, gpu (f32), gpu-f64 or auto.
+    #[arg(long, default_value = "auto", value_parser = parse_backend)]
+    backend: BackendKind,
     /// Number of frames (steps of the scene's dt) to simulate.
     #[arg(long, default_value_t = 120)]
     frames: u64,
@@ -118,6 +121,7 @@ pub fn gif_delay_cs(dt: f64, every: u64) -> u16 {
 }
 
 pub fn render(args: &RenderArgs) -> Result<(), CliError> {
+    args.threads.apply();
     if args.every == 0 {
         return Err(CliError::Input(
             "--every: must be at least 1 (draw every K-th frame)".into(),
@@ -212,15 +216,15 @@ pub fn render(args: &RenderArgs) -> Result<(), CliError> {
         }
         .map_err(render_error)?;
         if !args.no_frames {
-            write_atomically(&dir.join(format!("frame_{:05}.png", snap.frame)), &png)?;
+            write_file(&dir.join(format!("frame_{:05}.png", snap.frame)), &png)?;
         }
         gif.push(&image).map_err(render_error)?;
         last_png = png;
     }
     let gif_path = dir.join(format!("{name}.gif"));
-    write_atomically(&gif_path, &gif.finish(100).map_err(render_error)?)?;
+    write_file(&gif_path, &gif.finish(100).map_err(render_error)?)?;
     let last_path = dir.join("last.png");
-    write_atomically(&last_path, &last_png)?;
+    write_file(&last_path, &last_png)?;
 
     println!(
         "{name}: {} frames on {}, {} pictures {}x{}",
@@ -268,5 +272,5 @@ pub fn demo_picture(scene: &Scene, last: &State, time: f64, path: &Path) -> Resu
         std::fs::create_dir_all(dir)
             .map_err(|e| CliError::Output(format!("cannot create {}: {e}", dir.display())))?;
     }
-    write_atomically(path, &png)
+    write_file(path, &png)
 }

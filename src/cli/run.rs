@@ -1,21 +1,26 @@
 //! `hyperpbd run` and `hyperpbd demo`.
 
-use super::output::{state_json, temporary_path, write_atomically};
-use super::{BackendChoice, CliError, load_backend, load_scene};
-use hyperpbd::{Backend, Plan, Scene, State, StepReport};
+use super::error::{CliError, with_sources};
+use super::load::{load_backend, load_scene, parse_backend};
+use super::output::{state_json, write_file};
+use hyperpbd::atomic_file::AtomicFile;
+use hyperpbd::{Backend, BackendKind, Plan, Scene, State, StepReport};
 use indicatif::{ProgressBar, ProgressStyle};
-use std::io::{BufWriter, IsTerminal, Write};
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::time::Instant;
 
 /// Options of `hyperpbd run`.
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
+    #[command(flatten)]
+    threads: super::threads::ThreadsArg,
     /// Scene file (JSON).
     scene: PathBuf,
-    /// Backend to use.
-    #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
-    backend: BackendChoice,
+    /// Backend: cpu, gpu (f32), gpu-f64, or auto (a hardware GPU when
+    /// there is one, else the CPU, saying why).
+    #[arg(long, default_value = "auto", value_parser = parse_backend)]
+    backend: BackendKind,
     /// Number of frames (steps of the scene's dt) to simulate.
     #[arg(long, default_value_t = 60)]
     frames: u64,
@@ -51,7 +56,7 @@ fn simulate(
     for frame in 1..=frames {
         let report = backend
             .step()
-            .map_err(|e| CliError::Simulation(format!("frame {frame}: {e}")))?;
+            .map_err(|e| CliError::Simulation(format!("frame {frame}: {}", with_sources(&e))))?;
         on_frame(frame, backend, &report)?;
         last = Some(report);
         bar.inc(1);
@@ -67,6 +72,7 @@ fn read(backend: &mut dyn Backend) -> Result<State, CliError> {
 }
 
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
+    args.threads.apply();
     if args.every == 0 {
         return Err(CliError::Input("--every: must be at least 1".into()));
     }
@@ -75,83 +81,45 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let dt = plan.dt;
     let mut backend = load_backend(args.backend, plan, &State::from_scene(&scene))?;
 
-    // The trajectory goes to a temporary file, renamed only on success.
+    // The trajectory is written under a temporary name and committed only
+    // when the whole run and `--out` succeeded: any failure drops it, and
+    // dropping an uncommitted file removes it (no partial output).
+    let cannot_write = |path: &std::path::Path, e: std::io::Error| {
+        CliError::Output(format!("cannot write {}: {e}", path.display()))
+    };
     let mut trajectory = match &args.trajectory {
-        Some(path) => {
-            let tmp = temporary_path(path);
-            let file = std::fs::File::create(&tmp)
-                .map_err(|e| CliError::Output(format!("cannot write {}: {e}", path.display())))?;
-            Some((path.clone(), tmp, BufWriter::new(file)))
-        }
+        Some(path) => Some(AtomicFile::create(path).map_err(|e| cannot_write(path, e))?),
         None => None,
     };
-    let write_line = |w: &mut BufWriter<std::fs::File>, line: String| {
-        writeln!(w, "{line}").map_err(|e| CliError::Output(e.to_string()))
-    };
-    if let Some((_, _, w)) = &mut trajectory {
+    if let Some(file) = &mut trajectory {
         let initial = read(backend.as_mut())?;
-        write_line(w, state_json(0.0, 0, &initial))?;
+        writeln!(file, "{}", state_json(0.0, 0, &initial))
+            .map_err(|e| cannot_write(file.path(), e))?;
     }
     let start = Instant::now();
-    let result = simulate(backend.as_mut(), args.frames, |frame, b, _| {
-        if let Some((_, _, w)) = &mut trajectory
+    let last = simulate(backend.as_mut(), args.frames, |frame, b, _| {
+        if let Some(file) = &mut trajectory
             && frame % args.every == 0
         {
             let state = read(b)?;
-            write_line(w, state_json(frame as f64 * dt, frame, &state))?;
+            writeln!(file, "{}", state_json(frame as f64 * dt, frame, &state))
+                .map_err(|e| cannot_write(file.path(), e))?;
         }
         Ok(())
-    });
+    })?;
     let wall = start.elapsed().as_secs_f64();
-    let finish_trajectory = |trajectory: Option<(PathBuf, PathBuf, BufWriter<std::fs::File>)>,
-                             keep: bool|
-     -> Result<(), CliError> {
-        if let Some((path, tmp, w)) = trajectory {
-            let flushed = w
-                .into_inner()
-                .map_err(|e| e.to_string())
-                .and_then(|f| f.sync_all().map_err(|e| e.to_string()));
-            if keep && flushed.is_ok() {
-                return std::fs::rename(&tmp, &path).map_err(|e| {
-                    CliError::Output(format!("cannot write {}: {e}", path.display()))
-                });
-            }
-            let _ = std::fs::remove_file(&tmp);
-            if let Err(e) = flushed {
-                return Err(CliError::Output(format!(
-                    "cannot write {}: {e}",
-                    path.display()
-                )));
-            }
-        }
-        Ok(())
-    };
-    let last = match result {
-        Ok(last) => last,
-        Err(e) => {
-            finish_trajectory(trajectory, false)?;
-            return Err(e);
-        }
-    };
     let time = args.frames as f64 * dt;
-    // Any failure from here on discards the trajectory too: no partial output.
-    let written = read(backend.as_mut()).and_then(|state| {
-        if let Some(path) = &args.out {
-            write_atomically(
-                path,
-                (state_json(time, args.frames, &state) + "\n").as_bytes(),
-            )?;
-        }
-        Ok(state)
-    });
-    let state = match written {
-        Ok(state) => state,
-        Err(e) => {
-            finish_trajectory(trajectory, false)?;
-            return Err(e);
-        }
-    };
-    finish_trajectory(trajectory, true)?;
+    let state = read(backend.as_mut())?;
+    if let Some(path) = &args.out {
+        write_file(
+            path,
+            (state_json(time, args.frames, &state) + "\n").as_bytes(),
+        )?;
+    }
+    if let Some(file) = trajectory {
+        let path = file.path().to_path_buf();
+        file.commit().map_err(|e| cannot_write(&path, e))?;
+    }
     println!(
         "{}: {} frames, {time} s simulated in {wall:.3} s wall ({})",
         args.scene.display(),
@@ -171,6 +139,9 @@ fn print_report(report: &StepReport) {
     }
     if report.active_contacts > 0 {
         println!("  active contacts {}", report.active_contacts);
+    }
+    if report.threads > 0 {
+        println!("  cpu threads {}", report.threads);
     }
 }
 
@@ -195,13 +166,13 @@ fn kinetic_energy(scene: &Scene, state: &State) -> f64 {
         .sum()
 }
 
-pub fn demo(frames: u64, choice: BackendChoice) -> Result<(), CliError> {
+pub fn demo(frames: u64, choice: BackendKind) -> Result<(), CliError> {
     let scene = hyperpbd::scenes::cloth(32);
     let plan = Plan::compile(&scene).map_err(|e| CliError::Input(e.to_string()))?;
     println!(
         "hyperpbd demo: a 32x32 cloth (1 m square, rigid edges and shear springs) dropped onto a ground plane with friction 0.4"
     );
-    print!("{}", plan.describe());
+    print!("{}", super::describe::describe(&plan));
     let dt = plan.dt;
     let mut backend = load_backend(choice, plan, &State::from_scene(&scene))?;
     println!("backend: {}", backend.name());

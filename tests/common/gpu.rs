@@ -1,10 +1,11 @@
-//! The one way GPU tests find an adapter.
+//! The one way GPU tests find an adapter (and load a backend on it).
 //!
 //! With an adapter: `Some`. Without one, the test prints a clear
 //! `SKIPPED: no adapter (<test>): <why>` line and returns early — unless
 //! `HYPERPBD_REQUIRE_GPU=1` (set by CI, which installs lavapipe), where a
 //! missing adapter fails the test.
 
+use hyperpbd::{Backend, BackendError, BackendKind, Plan, State};
 use hyperpbd_gpu::{AdapterSummary, Precision, request_adapter};
 
 /// Environment variable that turns a missing adapter from a skip into a
@@ -45,5 +46,26 @@ pub fn adapter_or_skip(
             eprintln!("SKIPPED: no adapter ({test}): {e}");
             None
         }
+    }
+}
+
+/// `plan` with `state` on `kind` through the backend factory: the CPU, or
+/// the GPU backend of the plan's solver on the adapter of
+/// [`adapter_or_skip`]. `Ok(None)` when the GPU test `test` is skipped,
+/// `Err` for a typed refusal of the backend.
+pub fn load_or_skip(
+    test: &str,
+    kind: BackendKind,
+    plan: Plan,
+    state: &State,
+) -> Result<Option<Box<dyn Backend>>, BackendError> {
+    match kind {
+        BackendKind::Gpu(precision) => {
+            let Some((adapter, _)) = adapter_or_skip(test, precision) else {
+                return Ok(None);
+            };
+            hyperpbd::load_on_adapter(&adapter, plan, state, precision).map(Some)
+        }
+        cpu_or_auto => hyperpbd::load(plan, state, cpu_or_auto).map(Some),
     }
 }

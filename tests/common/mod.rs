@@ -3,6 +3,7 @@
 
 #![allow(dead_code)]
 
+pub mod bound;
 pub mod boxes;
 pub mod gpu;
 

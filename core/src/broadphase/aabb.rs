@@ -8,6 +8,28 @@
 //! A swept box covers the straight path from the start x to the predicted
 //! end y of a step, so any contact along the step is a candidate.
 
+/// The swept boxes of the particles whose radii are `radius` (any run of
+/// particles: `start`, `end`, `min` and `max` hold their coordinates,
+/// `radius.len()` × N values each) into `min` and `max`.
+pub fn swept_boxes(
+    start: &[f64],
+    end: &[f64],
+    radius: &[f64],
+    margin: f64,
+    min: &mut [f64],
+    max: &mut [f64],
+) {
+    let dim = start.len().checked_div(radius.len()).unwrap_or(0);
+    for (i, &r) in radius.iter().enumerate() {
+        let pad = r + margin;
+        for a in i * dim..(i + 1) * dim {
+            let (s, e) = (start[a], end[a]);
+            min[a] = s.min(e) - pad;
+            max[a] = s.max(e) + pad;
+        }
+    }
+}
+
 /// Boxes of one kind of object, `dim` coordinates each.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Aabbs {
@@ -70,16 +92,9 @@ impl Aabbs {
         radius: &[f64],
         margin: f64,
     ) -> Self {
-        let mut min = Vec::with_capacity(start.len());
-        let mut max = Vec::with_capacity(start.len());
-        for (i, &r) in radius.iter().enumerate() {
-            let pad = r + margin;
-            for a in 0..dim {
-                let (s, e) = (start[i * dim + a], end[i * dim + a]);
-                min.push(s.min(e) - pad);
-                max.push(s.max(e) + pad);
-            }
-        }
+        let mut min = vec![0.0; start.len()];
+        let mut max = vec![0.0; start.len()];
+        swept_boxes(start, end, radius, margin, &mut min, &mut max);
         Aabbs { dim, min, max }
     }
 

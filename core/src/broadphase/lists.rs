@@ -11,7 +11,20 @@ use super::Pair;
 
 /// (offsets, entries) of `pairs` over `particles` particles.
 pub fn contact_lists(pairs: &[Pair], particles: usize) -> (Vec<u32>, Vec<u32>) {
-    let mut offsets = vec![0u32; particles + 1];
+    let (mut offsets, mut entries) = (Vec::new(), Vec::new());
+    contact_lists_into(pairs, particles, &mut offsets, &mut entries);
+    (offsets, entries)
+}
+
+/// [`contact_lists`] into `offsets` and `entries`, reusing their memory.
+pub fn contact_lists_into(
+    pairs: &[Pair],
+    particles: usize,
+    offsets: &mut Vec<u32>,
+    entries: &mut Vec<u32>,
+) {
+    offsets.clear();
+    offsets.resize(particles + 1, 0);
     for &[i, j] in pairs {
         offsets[i as usize + 1] += 1;
         offsets[j as usize + 1] += 1;
@@ -19,8 +32,10 @@ pub fn contact_lists(pairs: &[Pair], particles: usize) -> (Vec<u32>, Vec<u32>) {
     for k in 0..particles {
         offsets[k + 1] += offsets[k];
     }
-    let mut fill = offsets.clone();
-    let mut entries = vec![0u32; 2 * pairs.len()];
+    entries.clear();
+    entries.resize(2 * pairs.len(), 0);
+    // fill[k]: the next free entry of particle k (offsets[k] to start).
+    let mut fill = offsets[..particles].to_vec();
     for (e, &[i, j]) in pairs.iter().enumerate() {
         for (side, k) in [(0u32, i), (1, j)] {
             let at = &mut fill[k as usize];
@@ -28,5 +43,4 @@ pub fn contact_lists(pairs: &[Pair], particles: usize) -> (Vec<u32>, Vec<u32>) {
             *at += 1;
         }
     }
-    (offsets, entries)
 }

@@ -1,14 +1,17 @@
 //! Builders for real scenes: particle grids with edge springs (cloth is a
-//! 2-grid in R^3), Kuhn-simplexized soft N-cuboids, chains, tethers.
+//! 2-grid in R^3), Kuhn-simplexized soft N-cuboids, chains, tethers, and
+//! triangulated squares as simplex-mesh obstacles.
 
 mod chain;
 mod grid;
 mod kuhn;
 mod tether;
+mod triangle_grid;
 
 pub use chain::ChainSpec;
 pub use grid::{Grid, GridSpec};
 pub use kuhn::{BlockSpec, kuhn_simplices};
+pub use triangle_grid::triangle_grid;
 
 use crate::{ConstraintFamily, Damping, Obstacle, Particle, Scene};
 

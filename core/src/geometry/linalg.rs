@@ -9,6 +9,11 @@
 //! The adjugate is built from minors rather than det(A)·A⁻¹ so that it stays
 //! finite and exact in form at singular matrices, where the gradients of the
 //! measure constraints must not blow up.
+//!
+//! ```text
+//! unit(n)       = s / |s|,  s = n / max_a |n_a|   (scaled first, so neither
+//!               tiny (1e-200) nor huge (1e200) normals under- or overflow)
+//! ```
 
 /// Determinant of the `n`×`n` row-major matrix `a` (overwritten).
 pub fn determinant(a: &mut [f64], n: usize) -> f64 {
@@ -68,6 +73,15 @@ pub fn adjugate(a: &[f64], n: usize, out: &mut [f64], minor: &mut [f64]) {
             out[j * n + i] = sign * determinant(&mut minor[..m * m], m);
         }
     }
+}
+
+/// n / |n|, scaling by the largest component first so that neither tiny
+/// (1e-200) nor huge (1e200) normals underflow or overflow on the way.
+pub fn unit_vector(n: &[f64]) -> Vec<f64> {
+    let largest = n.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let scaled: Vec<f64> = n.iter().map(|x| x / largest).collect();
+    let length = scaled.iter().map(|x| x * x).sum::<f64>().sqrt();
+    scaled.iter().map(|x| x / length).collect()
 }
 
 #[cfg(test)]

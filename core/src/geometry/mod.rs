@@ -12,13 +12,17 @@ mod closest_point;
 mod distance;
 mod linalg;
 mod oriented_measure;
+mod overlap;
 mod simplex_measure;
+mod symmetric_eigen;
 
 pub use closest_point::{ClosestPoint, MAX_SIMPLEX_ORDER, closest_point_on_simplex};
 pub use distance::distance;
-pub use linalg::{adjugate, determinant};
+pub use linalg::{adjugate, determinant, unit_vector};
 pub use oriented_measure::oriented_measure;
+pub use overlap::deepest_overlap;
 pub use simplex_measure::simplex_squared_measure;
+pub use symmetric_eigen::{MAX_SWEEPS, SymmetricEigen, symmetric_eigen};
 
 /// Reusable scratch space so evaluation allocates nothing per element.
 #[derive(Debug, Default, Clone)]
@@ -35,6 +39,11 @@ impl Scratch {
         Scratch::default()
     }
 }
+
+/// Relative volume below which an oriented rest simplex counts as
+/// degenerate: |V| ≤ 1e-12 · (longest edge)^N / N!. Below that the
+/// constraint has no meaningful orientation to preserve.
+pub const DEGENERATE_VOLUME_RATIO: f64 = 1e-12;
 
 /// Factorial as f64 (exact up to 18!).
 pub fn factorial(k: usize) -> f64 {

@@ -17,6 +17,7 @@
 //! per substep; the rest is as resident as the plain step.
 
 use hyperpbd_core::broadphase::{Aabbs, contact_lists, sweep_axis};
+use hyperpbd_core::geometry::deepest_overlap;
 use hyperpbd_core::{
     BackendError, FamilyResidual, GpuError, Kernel, ParticleContacts, StageName, StepReport,
 };
@@ -134,10 +135,8 @@ impl GpuBackend {
     }
 
     fn fail_and_roll_back(&mut self, call: u32, index: u32) -> BackendError {
-        match self.rollback() {
-            Ok(()) => self.step_error(call, index),
-            Err(e) => e.into(),
-        }
+        let rollback = self.rollback();
+        self.step_error(call, index).after_rollback(rollback)
     }
 
     /// One step of a plan with collisions (see the module doc).
@@ -210,13 +209,13 @@ impl GpuBackend {
         }
         let (x, _) = self.read_x_and_p()?;
         if let Some(i) = x.iter().position(|c| !c.is_finite()) {
-            self.rollback()?;
-            return Err(hyperpbd_core::StepError::NonFiniteParticle {
+            let error: BackendError = hyperpbd_core::StepError::NonFiniteParticle {
                 stage: StageName::Project,
                 substep: self.plan.substeps.saturating_sub(1),
                 particle: i / self.plan.dim.max(1),
             }
-            .into());
+            .into();
+            return Err(error.after_rollback(self.rollback()));
         }
         let report = read_reals(&block[16..], self.precision);
         let mut residuals = Vec::with_capacity(self.plan.families.len() + 1);
@@ -240,6 +239,7 @@ impl GpuBackend {
             residuals,
             active_contacts: active_contacts + active,
             minimisation: Vec::new(),
+            threads: 0,
         })
     }
 
@@ -250,16 +250,7 @@ impl GpuBackend {
             return Ok((0.0, 0));
         };
         let dim = self.plan.dim;
-        let mut deepest: f64 = 0.0;
-        for &[i, j] in &stage.pairs {
-            let (i, j) = (i as usize, j as usize);
-            let mut len2 = 0.0;
-            for a in 0..dim {
-                let d = x[j * dim + a] - x[i * dim + a];
-                len2 += d * d;
-            }
-            deepest = deepest.max(self.plan.radius[i] + self.plan.radius[j] - len2.sqrt());
-        }
+        let deepest = deepest_overlap(dim, &self.plan.radius, &stage.pairs, x);
         let mut active = 0;
         if let Some(resident) = &stage.resident
             && resident.corr_bytes > 0

@@ -409,7 +409,7 @@ fn choose(plan: &Plan, step: &[Call], workgroup: u32, software: bool) -> StepMod
 /// that mode and the exact schedule record (for `hyperpbd plan`). `None`
 /// for plans the XPBD backend does not run (the incremental potential).
 pub fn dispatches_per_step(plan: &Plan, software: bool) -> Option<(StepMode, usize, usize)> {
-    if plan.incremental_potential.is_some() {
+    if plan.incremental_potential().is_some() {
         return None;
     }
     let origin = crate::SceneOrigin::zero(plan.dim);

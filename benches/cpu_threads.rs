@@ -1,0 +1,198 @@
+//! The CPU golden path on one thread and on every core, measured
+//! interleaved in one process (so machine noise hits both alike).
+//!
+//! ```text
+//! peer cloth N²   hyperpbd::scenes::peer_cloth(N), N = 32 … 512: two
+//!                 backends (1 thread, all threads) from the same warmed
+//!                 state; rounds alternate a batch of frames on each; the
+//!                 median batch per frame is reported
+//! column 100k     hyperpbd::scenes::column3d(40, 64) (102,400 balls): both
+//!                 backends step the same frames from the initial state
+//!                 (their states stay bit-identical), frame by frame,
+//!                 alternating; the median frame is reported
+//! speed-up        t(1 thread) / t(all threads); efficiency = speed-up / threads
+//! ```
+//! `cargo bench --bench cpu_threads [-- peer [SIZES…]|column]`; prints the README's
+//! `cpu-threads` table rows. Every run asserts that both backends end in
+//! the same state (hash), so a fast wrong answer cannot pass.
+
+use std::time::Instant;
+
+use hyperpbd::{Backend, CpuBackend, Plan, Scene, State, scenes};
+
+/// Frames before measuring (so the state is not the flat initial one).
+const WARMUP_FRAMES: usize = 10;
+
+/// Rounds of the interleaved peer-cloth measurement.
+const ROUNDS: usize = 9;
+
+/// Frames of the column measurement.
+const COLUMN_FRAMES: usize = 3;
+
+fn backend(scene: &Scene, threads: usize) -> CpuBackend {
+    let plan = Plan::compile(scene).expect("scene compiles");
+    CpuBackend::with_threads(plan, &State::from_scene(scene), threads).expect("backend loads")
+}
+
+fn step(backend: &mut CpuBackend, frames: usize) -> f64 {
+    let start = Instant::now();
+    for _ in 0..frames {
+        backend.step().expect("step");
+    }
+    start.elapsed().as_secs_f64() / frames as f64
+}
+
+fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
+}
+
+fn hash(backend: &mut CpuBackend) -> u64 {
+    backend.read_state().expect("read").hash()
+}
+
+/// One table row: size, particles, 1 thread, all threads, speed-up, efficiency.
+fn row(what: &str, particles: usize, serial: f64, parallel: f64, threads: usize) {
+    let speedup = serial / parallel;
+    println!(
+        "| {what} | {particles} | {} | {} | {speedup:.2}× | {:.0} % |",
+        time(serial),
+        time(parallel),
+        100.0 * speedup / threads as f64
+    );
+}
+
+fn time(seconds: f64) -> String {
+    if seconds >= 1.0 {
+        format!("{seconds:.2} s")
+    } else {
+        format!("{:.3} ms", seconds * 1e3)
+    }
+}
+
+fn peer_cloth(threads: usize, sizes: &[usize]) {
+    for &n in sizes {
+        let scene = scenes::peer_cloth(n);
+        let (mut one, mut all) = (backend(&scene, 1), backend(&scene, threads));
+        step(&mut one, WARMUP_FRAMES);
+        step(&mut all, WARMUP_FRAMES);
+        // A batch of ~20 ms of serial work.
+        let frames = (1 << 22) / (n * n).max(1);
+        let frames = frames.clamp(2, 2000);
+        let (mut serial, mut parallel) = (Vec::new(), Vec::new());
+        for _ in 0..ROUNDS {
+            serial.push(step(&mut one, frames));
+            parallel.push(step(&mut all, frames));
+        }
+        assert_eq!(
+            hash(&mut one),
+            hash(&mut all),
+            "peer cloth {n}²: states differ"
+        );
+        row(
+            &format!("peer cloth {n}² (ms/frame)"),
+            n * n,
+            median(serial),
+            median(parallel),
+            threads,
+        );
+    }
+}
+
+fn column(threads: usize) {
+    let scene = scenes::column3d(40, 64);
+    let particles = scene.particles.len();
+    let (mut one, mut all) = (backend(&scene, 1), backend(&scene, threads));
+    let (mut serial, mut parallel) = (Vec::new(), Vec::new());
+    for _ in 0..COLUMN_FRAMES {
+        serial.push(step(&mut one, 1));
+        parallel.push(step(&mut all, 1));
+    }
+    assert_eq!(hash(&mut one), hash(&mut all), "column: states differ");
+    row(
+        &format!("column 100k, frames 1–{COLUMN_FRAMES} (s/frame)"),
+        particles,
+        median(serial),
+        median(parallel),
+        threads,
+    );
+}
+
+/// `profile SCENE N THREADS FRAMES`: just step (for `perf`).
+fn profile(args: &[String]) {
+    let number =
+        |k: usize, default: usize| args.get(k).and_then(|a| a.parse().ok()).unwrap_or(default);
+    let (n, threads, frames) = (number(2, 128), number(3, 1), number(4, 100));
+    let scene = match args.get(1).map(String::as_str) {
+        Some("column") => scenes::column3d(40, 64),
+        _ => scenes::peer_cloth(n),
+    };
+    let mut b = backend(&scene, threads);
+    let seconds = step(&mut b, frames);
+    println!("{} ms/frame, hash {:#018x}", seconds * 1e3, hash(&mut b));
+}
+
+/// `kernels N THREADS [NAME]`: µs per call of each kernel of the peer
+/// cloth (or only NAME: predict, project, velocity), 3 rounds.
+fn kernels(args: &[String]) {
+    use hyperpbd::Kernel;
+    let number =
+        |k: usize, default: usize| args.get(k).and_then(|a| a.parse().ok()).unwrap_or(default);
+    let (n, threads) = (number(1, 128), number(2, 1));
+    let only = args.get(3).map(String::as_str);
+    let scene = scenes::peer_cloth(n);
+    let mut b = backend(&scene, threads);
+    step(&mut b, WARMUP_FRAMES);
+    let calls = (1 << 24) / (n * n);
+    let kernels = [
+        ("predict", Kernel::Predict),
+        (
+            "project",
+            Kernel::Project {
+                family: 0,
+                color: 0,
+            },
+        ),
+        ("velocity", Kernel::Velocity),
+    ];
+    for round in 0..3 {
+        let mut line = format!("round {round}:");
+        for (name, kernel) in kernels {
+            if only.is_some_and(|o| o != name) {
+                continue;
+            }
+            let start = Instant::now();
+            for _ in 0..calls {
+                b.run_kernel(kernel).expect("kernel");
+            }
+            let us = start.elapsed().as_secs_f64() / calls as f64 * 1e6;
+            line += &format!("  {name} {us:.1} µs");
+        }
+        println!("{line}");
+    }
+}
+
+fn main() {
+    let filter: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
+    if filter.first().is_some_and(|a| a == "profile") {
+        return profile(&filter);
+    }
+    if filter.first().is_some_and(|a| a == "kernels") {
+        return kernels(&filter);
+    }
+    let wanted = |name: &str| filter.is_empty() || filter.iter().any(|f| name.contains(f.as_str()));
+    let threads = hyperpbd_cpu::all_cores();
+    println!("| scene | particles | 1 thread | {threads} threads | speed-up | efficiency |");
+    println!("|---|---:|---:|---:|---:|---:|");
+    if wanted("peer") {
+        let sizes: Vec<usize> = filter.iter().filter_map(|a| a.parse().ok()).collect();
+        let all = [32, 64, 128, 256, 512];
+        peer_cloth(threads, if sizes.is_empty() { &all } else { &sizes });
+    }
+    if wanted("column") {
+        column(threads);
+    }
+}

@@ -1,0 +1,76 @@
+//! Pareto frontiers and "what does it take to reach ε" answers.
+//!
+//! ```text
+//! frontier of one backend: the points no other point of that backend
+//!   beats in both time and error —
+//!   sort by time (ties: smaller error first); keep a point iff its error
+//!   is below every error kept before it
+//! frozen points (nothing moves: f32 at tiny h) are never on a frontier
+//!   and never answer a headline
+//! cheapest(ε): the fastest measured point with error ≤ ε (a measured
+//!   configuration, never an interpolation between two)
+//! ```
+
+use crate::point::Point;
+use hyperpbd::BackendKind;
+
+/// Indices of the frontier points among `points` of `backend`, fastest
+/// first. Points without a finite error are never on it.
+pub fn frontier(points: &[Point], backend: BackendKind) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..points.len())
+        .filter(|&i| {
+            points[i].backend == backend
+                && !points[i].frozen
+                && points[i].error.is_some_and(f64::is_finite)
+                && points[i].ms_per_sim_second.is_finite()
+        })
+        .collect();
+    let error = |i: usize| points[i].error.unwrap_or(f64::INFINITY);
+    order.sort_by(|&a, &b| {
+        points[a]
+            .ms_per_sim_second
+            .total_cmp(&points[b].ms_per_sim_second)
+            .then(error(a).total_cmp(&error(b)))
+    });
+    let mut best = f64::INFINITY;
+    let mut kept = Vec::new();
+    for i in order {
+        if error(i) < best {
+            best = error(i);
+            kept.push(i);
+        }
+    }
+    kept
+}
+
+/// Marks `frontier` on every point, backend by backend.
+pub fn mark_frontiers(points: &mut [Point]) {
+    for p in points.iter_mut() {
+        p.frontier = false;
+    }
+    for backend in BackendKind::ALL {
+        for i in frontier(points, backend) {
+            points[i].frontier = true;
+        }
+    }
+}
+
+/// The fastest point of `backend` with error ≤ `target`.
+pub fn cheapest(points: &[Point], backend: BackendKind, target: f64) -> Option<&Point> {
+    points
+        .iter()
+        .filter(|p| p.backend == backend && !p.frozen && p.error.is_some_and(|e| e <= target))
+        .min_by(|a, b| a.ms_per_sim_second.total_cmp(&b.ms_per_sim_second))
+}
+
+/// The point of `backend` with the smallest error.
+pub fn most_accurate(points: &[Point], backend: BackendKind) -> Option<&Point> {
+    points
+        .iter()
+        .filter(|p| p.backend == backend && !p.frozen && p.error.is_some_and(f64::is_finite))
+        .min_by(|a, b| {
+            a.error
+                .unwrap_or(f64::INFINITY)
+                .total_cmp(&b.error.unwrap_or(f64::INFINITY))
+        })
+}

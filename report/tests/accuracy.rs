@@ -1,0 +1,606 @@
+//! The accuracy report (`hyperpbd-report`) on a tiny subset: the files it writes and the
+//! sanity of its numbers.
+//!
+//! One run (a few seconds) of the quick path narrowed to the pendulum, free
+//! fall, a 4 × 4 cloth and the rope bridge, cloth side 8–16 for scaling and
+//! effects, 12 balls for the collision and barrier rows; cpu-f64 and, where an adapter exists, gpu-f32 (skipped with a
+//! notice otherwise, failing under `HYPERPBD_REQUIRE_GPU=1`). The helper
+//! math (zero crossings, power-law fit, Pareto frontier) is checked on
+//! inputs with known answers.
+
+#[path = "../../tests/common/mod.rs"]
+mod common;
+
+use hyperpbd::Precision;
+use hyperpbd::{Collisions, Kernel, Plan, Scene};
+use hyperpbd_report::cases::{CaseId, zero_crossings};
+use hyperpbd_report::effects::{self, EffectRow};
+use hyperpbd_report::granular_effects;
+use hyperpbd_report::pareto::frontier;
+use hyperpbd_report::point::Point;
+use hyperpbd_report::readme::{EFFECTS_BEGIN, EFFECTS_END, README_BEGIN, README_END};
+use hyperpbd_report::scaling::fit_power_law;
+use hyperpbd_report::{BackendKind, Config, Report, run};
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+const G: f64 = 9.81;
+
+fn out_dir() -> PathBuf {
+    std::env::temp_dir().join(format!("hyperpbd-accuracy-test-{}", std::process::id()))
+}
+
+/// The one tiny run every test reads.
+fn report() -> &'static (Report, Config) {
+    static RUN: OnceLock<(Report, Config)> = OnceLock::new();
+    RUN.get_or_init(|| {
+        let dir = out_dir();
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let readme = dir.join("README.md");
+        std::fs::write(
+            &readme,
+            format!("# Project\n\nintro\n\n## What accuracy costs\n\n{README_BEGIN}\nold text\n{README_END}\n\n## After\n\nkept\n"),
+        )
+        .expect("readme");
+        let mut config = Config::quick(&dir);
+        config.readme = Some(readme);
+        config.progress = false;
+        config.cases = vec![CaseId::Pendulum, CaseId::FreeFall, CaseId::Cloth, CaseId::Chain2d];
+        config.backends = vec![BackendKind::Cpu, BackendKind::Gpu(Precision::F32)];
+        config.substeps = vec![1, 4, 16];
+        config.iterations = vec![1, 2];
+        config.cloth_n = 4;
+        config.scaling_sizes = vec![8, 16];
+        config.cpu_scaling_max = 16;
+        config.effects_n = 8;
+        config.effects_balls = (2, 3);
+        config.effects_ball_steps = 3;
+        config.time_target = 0.002;
+        let report = run(&config).unwrap_or_else(|e| panic!("accuracy run failed: {e}"));
+        (report, config)
+    })
+}
+
+fn points(report: &Report, case: CaseId, backend: BackendKind) -> Vec<&Point> {
+    report
+        .cases
+        .iter()
+        .find(|c| c.case == case)
+        .map(|c| c.points.iter().filter(|p| p.backend == backend).collect())
+        .unwrap_or_default()
+}
+
+fn gpu_ran(report: &Report) -> bool {
+    report.cases.iter().any(|c| {
+        c.points
+            .iter()
+            .any(|p| p.backend == BackendKind::Gpu(Precision::F32))
+    })
+}
+
+#[test]
+fn writes_every_file() {
+    let (report, config) = report();
+    let dir = &config.out;
+    for f in [
+        "accuracy.md",
+        "figures/accuracy_pareto.png",
+        "figures/accuracy_cloth.png",
+        "figures/scaling.png",
+        "figures/accuracy.json",
+    ] {
+        let path = dir.join(f);
+        let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(
+            bytes.len() > 1000,
+            "{} is only {} bytes",
+            path.display(),
+            bytes.len()
+        );
+        if f.ends_with(".png") {
+            assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{f} is not a PNG");
+        }
+        assert!(
+            report.files.iter().any(|g| g == f),
+            "{f} missing from report.files"
+        );
+    }
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("figures/accuracy.json")).expect("json"))
+            .expect("accuracy.json parses");
+    assert_eq!(json["mode"], "quick");
+    assert!(json["cases"].as_array().is_some_and(|c| c.len() == 4));
+}
+
+#[test]
+fn markdown_names_machine_adapter_and_headlines() {
+    let (report, config) = report();
+    let md = std::fs::read_to_string(config.out.join("accuracy.md")).expect("markdown");
+    assert!(md.contains(&report.machine.cpu_model), "CPU model missing");
+    assert!(md.contains(&format!("| nproc | {} |", report.machine.nproc)));
+    assert!(md.contains("GPU adapter (f32)"));
+    assert!(
+        md.contains("median of"),
+        "the report must say timings are medians"
+    );
+    assert!(md.contains("## Headline answers"));
+    assert!(md.contains("figures/accuracy_pareto.png"));
+    assert!(md.contains("## Scaling") && md.contains("## What each effect costs"));
+    assert!(
+        md.contains("[effects.md](effects.md)"),
+        "accuracy.md must link the effect tables"
+    );
+    let effects = std::fs::read_to_string(config.out.join("effects.md")).expect("effects.md");
+    assert!(effects.contains("## Cloth: one effect at a time"));
+    assert!(effects.contains("## Balls: particle–particle collisions and the barrier solver"));
+    assert!(effects.contains("+ collisions (μ = 0)") && effects.contains("| minimise |"));
+    assert!(
+        !effects.contains("not yet available"),
+        "collisions and the barrier path exist: no effect is left as not yet available"
+    );
+    assert!(report.files.iter().any(|f| f == "effects.md"));
+    assert!(report.files.iter().any(|f| f == "figures/effects.json"));
+    if !gpu_ran(report) {
+        assert!(
+            report.notices.iter().any(|n| n.contains("SKIPPED gpu-f32")),
+            "no GPU points and no skip notice: {:?}",
+            report.notices
+        );
+        assert!(
+            !common::gpu::gpu_required(),
+            "HYPERPBD_REQUIRE_GPU=1 but no GPU points ran"
+        );
+    }
+}
+
+#[test]
+fn readme_section_is_replaced_in_place_and_idempotently() {
+    let (report, config) = report();
+    let readme = config.readme.as_ref().expect("readme configured");
+    let text = std::fs::read_to_string(readme).expect("readme");
+    assert!(!text.contains("old text"), "the old section survived");
+    assert!(
+        text.starts_with("# Project\n\nintro\n"),
+        "text before the section changed"
+    );
+    assert!(
+        text.contains("## After\n\nkept\n"),
+        "text after the section changed"
+    );
+    assert!(text.contains("figures/accuracy_cloth.png"));
+    assert!(
+        text.contains("To reach 1e-3"),
+        "the README must give the headline answer"
+    );
+    // Writing again leaves exactly one section.
+    let mut again = report.clone();
+    hyperpbd_report::write::write(&mut again, config).expect("rewrite");
+    let text = std::fs::read_to_string(readme).expect("readme");
+    assert_eq!(text.matches(README_BEGIN).count(), 1);
+    assert_eq!(text.matches(README_END).count(), 1);
+    assert_eq!(text.matches("## What accuracy costs").count(), 1);
+}
+
+/// The pendulum's period error falls with substeps: at least 4× per 4×
+/// substeps (XPBD is at least first order; measured ≈ second order).
+#[test]
+fn pendulum_error_decreases_with_substeps() {
+    let (report, _) = report();
+    let cpu = points(report, CaseId::Pendulum, BackendKind::Cpu);
+    assert_eq!(cpu.len(), 3);
+    for pair in cpu.windows(2) {
+        let (a, b) = (pair[0].error.expect("error"), pair[1].error.expect("error"));
+        eprintln!(
+            "pendulum s{} {a:e} -> s{} {b:e}: ratio {:.1} / bound ≥ 4",
+            pair[0].substeps,
+            pair[1].substeps,
+            a / b
+        );
+        assert!(
+            b * 4.0 <= a,
+            "period error {a:e} -> {b:e} from s{} to s{}",
+            pair[0].substeps,
+            pair[1].substeps
+        );
+        // Rigid link: the residual is rounding only.
+        assert!(
+            pair[1].residual < 1e-12,
+            "pendulum residual {:e}",
+            pair[1].residual
+        );
+    }
+    // The coarsest point is a real error, not noise: above 1e-5 (measured ≈ 8e-4).
+    assert!(cpu[0].error.expect("error") > 1e-5);
+    let drift = cpu[0].energy_drift.expect("pendulum is conservative");
+    assert!(
+        drift < 0.0 && drift > -1.0,
+        "XPBD dissipates, never gains: drift {drift}"
+    );
+}
+
+/// Free fall: semi-implicit Euler's position error is exactly g·h·t/2
+/// (x_n = x0 + n h v0 + h² g n(n+1)/2 against x0 + v0 t + g t²/2), so the
+/// measured relative error must equal (g h t / 2) / |x*(t) − x0| to
+/// rounding.
+#[test]
+fn free_fall_error_is_the_closed_form_discretisation_error() {
+    let (report, _) = report();
+    let t: f64 = 1.0;
+    let exact = [1.0 * t, 5.0 * t - 0.5 * G * t * t, 0.5 * t];
+    let travel = exact.iter().map(|x| x * x).sum::<f64>().sqrt();
+    for p in points(report, CaseId::FreeFall, BackendKind::Cpu) {
+        let h = 1.0 / 60.0 / f64::from(p.substeps);
+        let expected = 0.5 * G * h * t / travel;
+        let rel = (p.error.expect("error") - expected).abs() / expected;
+        eprintln!(
+            "free fall s{}: {:e} vs g h t / 2 / |x*| = {expected:e}: relative difference {rel:e} / bound 1e-9",
+            p.substeps,
+            p.error.unwrap_or(f64::NAN)
+        );
+        assert!(rel < 1e-9, "free fall s{}: {rel:e}", p.substeps);
+    }
+}
+
+/// Converged cases: more substeps at fixed iterations move towards the
+/// reference (the rope bridge monotonically; the stiff 4 × 4 cloth, whose
+/// link vibration is unresolved at these substeps, overall), and the
+/// reference's own error estimate is below every point's error.
+#[test]
+fn converged_cases_approach_their_reference() {
+    let (report, _) = report();
+    for case in [CaseId::Chain2d, CaseId::Cloth] {
+        let result = report
+            .cases
+            .iter()
+            .find(|c| c.case == case)
+            .expect("case ran");
+        let reference = result
+            .reference
+            .as_ref()
+            .expect("converged case has a reference");
+        assert_eq!(reference.substeps, 16 * 16);
+        let cpu = points(report, case, BackendKind::Cpu);
+        for i in [1, 2] {
+            let errors: Vec<f64> = cpu
+                .iter()
+                .filter(|p| p.iterations == i)
+                .map(|p| p.error.expect("error"))
+                .collect();
+            eprintln!(
+                "{} i{i}: errors {errors:?}, reference uncertainty {:e}",
+                case.name(),
+                reference.uncertainty
+            );
+            assert_eq!(errors.len(), 3);
+            let decreasing = match case {
+                CaseId::Chain2d => errors.windows(2).all(|w| w[1] < w[0]),
+                _ => errors[2] < errors[0] / 4.0,
+            };
+            assert!(decreasing, "{} i{i}: {errors:?}", case.name());
+            assert!(
+                errors.iter().all(|&e| reference.uncertainty < e),
+                "{}: reference not finer than the points",
+                case.name()
+            );
+        }
+    }
+}
+
+#[test]
+fn every_point_is_timed_and_frontiers_exist() {
+    let (report, _) = report();
+    for c in &report.cases {
+        for p in &c.points {
+            assert!(
+                p.ms_per_sim_second.is_finite() && p.ms_per_sim_second > 0.0,
+                "{p:?}"
+            );
+            assert!(
+                p.ms_min <= p.ms_per_sim_second && p.ms_per_sim_second <= p.ms_max,
+                "{p:?}"
+            );
+            assert!(p.residual.is_finite(), "{p:?}");
+            assert!(p.error.is_some_and(|e| e.is_finite() && e >= 0.0), "{p:?}");
+        }
+        assert!(
+            c.points
+                .iter()
+                .any(|p| p.frontier && p.backend == BackendKind::Cpu),
+            "{}: no frontier",
+            c.case.name()
+        );
+    }
+    assert!(
+        report
+            .headlines
+            .iter()
+            .any(|h| h.case == CaseId::Pendulum && h.reached.is_some())
+    );
+}
+
+/// The same plan on the GPU: f32 rounding on top of the same algorithm, so
+/// the coarse pendulum (whose error is discretisation, ≈ 8e-4) agrees with
+/// the CPU to well within its own size.
+#[test]
+fn gpu_points_agree_with_cpu_where_discretisation_dominates() {
+    let (report, _) = report();
+    if !gpu_ran(report) {
+        eprintln!("SKIPPED: no adapter (gpu points): {:?}", report.notices);
+        return;
+    }
+    let cpu = points(report, CaseId::Pendulum, BackendKind::Cpu);
+    let gpu = points(report, CaseId::Pendulum, BackendKind::Gpu(Precision::F32));
+    let (a, b) = (cpu[0].error.expect("cpu"), gpu[0].error.expect("gpu"));
+    eprintln!(
+        "pendulum s1: cpu {a:e}, gpu-f32 {b:e}: difference {:e} / bound {:e}",
+        (a - b).abs(),
+        0.1 * a
+    );
+    assert!((a - b).abs() < 0.1 * a);
+}
+
+#[test]
+fn effect_controls_compile_away_and_effects_add_kernels() {
+    let (report, _) = report();
+    let rows: Vec<_> = report
+        .effects
+        .iter()
+        .filter(|r| r.group == effects::CLOTH)
+        .cloned()
+        .collect();
+    assert_eq!(rows.len(), 9);
+    // The ladder adds kernels row by row (from gravity only to + damping).
+    for pair in rows[1..6].windows(2) {
+        assert!(
+            pair[1].kernel_calls > pair[0].kernel_calls,
+            "{} -> {}",
+            pair[0].label,
+            pair[1].label
+        );
+    }
+    for control in rows.iter().filter(|r| r.control_of.is_some()) {
+        assert_eq!(control.same_schedule, Some(true), "{}", control.label);
+        assert_eq!(control.group, effects::CLOTH);
+        let twin = rows
+            .iter()
+            .find(|r| Some(&r.label) == control.control_of.as_ref())
+            .expect("twin row");
+        assert_eq!(twin.kernel_calls, control.kernel_calls);
+        assert_eq!(twin.stages, control.stages);
+    }
+    assert_eq!(
+        rows[6].same_plan,
+        Some(true),
+        "damping with rate 0 must compile to the very same plan"
+    );
+    for row in &rows {
+        assert!(
+            row.ms
+                .iter()
+                .any(|(b, t)| *b == BackendKind::Cpu && t.is_some_and(|t| t > 0.0)),
+            "{}",
+            row.label
+        );
+    }
+}
+
+fn ball_row<'a>(report: &'a Report, starts: &str) -> &'a EffectRow {
+    report
+        .effects
+        .iter()
+        .find(|r| r.group == effects::BALLS && r.label.starts_with(starts))
+        .unwrap_or_else(|| panic!("no ball row {starts:?}"))
+}
+
+/// Collisions add exactly Broadphase + Collide; the scene without the
+/// `collisions` key compiles to the collision plan minus those parts (=
+/// the balls row); the barrier row runs the Minimise stage and is compared
+/// as a different solver; explicit "xpbd" is the same plan as omitting it.
+#[test]
+fn collision_and_barrier_rows_are_measured_with_controls() {
+    let (report, _) = report();
+    let balls: Vec<&EffectRow> = report
+        .effects
+        .iter()
+        .filter(|r| r.group == effects::BALLS)
+        .collect();
+    assert_eq!(balls.len(), 6);
+    let base = ball_row(report, "12 balls on a frictionless floor");
+    let contact = ball_row(report, "+ collisions (μ = 0)");
+    let friction = ball_row(report, "+ ball–ball friction");
+    let removed = ball_row(report, "control: \"+ collisions\"");
+    let barrier = ball_row(report, "barrier solver");
+    let explicit = ball_row(report, "control: balls row with \"solver\"");
+    assert!(!base.stages.contains("broadphase"), "{}", base.stages);
+    assert_eq!(contact.stages, "predict → broadphase → project → velocity");
+    // 10 substeps × (one Broadphase + one Collide per iteration, 4 iterations).
+    assert_eq!(contact.kernel_calls, base.kernel_calls + 10 * (1 + 4));
+    assert_eq!(friction.kernel_calls, contact.kernel_calls);
+    assert_eq!(removed.control_of.as_ref(), Some(&contact.label));
+    assert_eq!(removed.same_plan, Some(true), "{}", removed.label);
+    assert_eq!(removed.same_schedule, Some(true), "{}", removed.label);
+    assert_eq!(
+        (removed.stages.as_str(), removed.kernel_calls),
+        (base.stages.as_str(), base.kernel_calls)
+    );
+    assert_eq!(explicit.control_of.as_ref(), Some(&base.label));
+    assert_eq!(explicit.same_plan, Some(true), "{}", explicit.label);
+    assert_eq!(barrier.stages, "minimise");
+    assert_eq!(barrier.kernel_calls, 1);
+    assert_eq!(barrier.versus.as_ref(), Some(&base.label));
+    assert!(barrier.control_of.is_none() && barrier.same_plan.is_none());
+    for row in &balls {
+        for (backend, t) in &row.ms {
+            let ran = *backend == BackendKind::Cpu || gpu_ran(report);
+            assert!(
+                !ran || t.is_some_and(|t| t > 0.0),
+                "{} on {}: {t:?}",
+                row.label,
+                backend.name()
+            );
+        }
+    }
+}
+
+/// The comparisons the controls rest on can fail: a plan differing in one
+/// radius is not "the collision plan minus Broadphase and Collide", and
+/// the barrier plan is not the XPBD plan.
+#[test]
+fn control_comparisons_discriminate() {
+    let base = granular_effects::balls(2, 3);
+    let plan = |s: &Scene| Plan::compile(s).expect("compiles");
+    let mut contact = base.clone();
+    contact.collisions = Some(Collisions {
+        friction: 0.0,
+        margin: granular_effects::MARGIN,
+    });
+    let stripped = granular_effects::without_collisions(&plan(&contact));
+    assert_eq!(stripped, plan(&base));
+    assert!(
+        plan(&contact)
+            .substep_kernels
+            .iter()
+            .any(|k| matches!(k, Kernel::Broadphase))
+    );
+    let mut other = base.clone();
+    other.particles[0].radius *= 0.5;
+    assert_ne!(stripped, plan(&other));
+    // Omitted vs explicit "xpbd", through the JSON a user writes.
+    let json = base.to_json_string();
+    assert!(!json.contains("\"solver\""), "xpbd is the omitted default");
+    let mut value: serde_json::Value = serde_json::from_str(&json).expect("json");
+    value["solver"] = serde_json::json!({ "type": "xpbd" });
+    let explicit = Scene::from_json_str(&value.to_string()).expect("explicit xpbd parses");
+    assert_eq!(plan(&explicit), plan(&base));
+    let barrier = plan(&granular_effects::barrier(&base));
+    assert_ne!(barrier, plan(&base));
+    assert_eq!(barrier.substep_kernels, vec![Kernel::Minimise]);
+}
+
+/// `--only-effects` writes effects.md, effects.json and the README's
+/// effect lines, and leaves accuracy.md and the rest of the README alone.
+#[test]
+fn effects_only_run_leaves_the_rest_of_the_report_alone() {
+    let dir = out_dir().with_extension("effects-only");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let accuracy = dir.join("accuracy.md");
+    std::fs::write(&accuracy, "full report, untouched\n").expect("sentinel");
+    let readme = dir.join("README.md");
+    let before = format!(
+        "# P\n\n{README_BEGIN}\nheadline kept\n{EFFECTS_BEGIN}\nold effect lines\n{EFFECTS_END}\nfooter kept\n{README_END}\n\n## After\n"
+    );
+    std::fs::write(&readme, &before).expect("readme");
+    let mut config = Config::quick(&dir);
+    config.readme = Some(readme.clone());
+    config.progress = false;
+    config.effects_only = true;
+    config.backends = vec![BackendKind::Cpu];
+    config.effects_n = 4;
+    config.effects_balls = (2, 2);
+    config.effects_ball_steps = 2;
+    config.time_target = 0.001;
+    let report = run(&config).unwrap_or_else(|e| panic!("effects-only run failed: {e}"));
+    assert!(report.cases.is_empty() && report.scaling.is_empty());
+    assert_eq!(report.effects.len(), 15);
+    assert_eq!(
+        std::fs::read_to_string(&accuracy).expect("accuracy.md"),
+        "full report, untouched\n"
+    );
+    assert!(!dir.join("figures/accuracy.json").exists());
+    assert!(dir.join("effects.md").is_file() && dir.join("figures/effects.json").is_file());
+    let after = std::fs::read_to_string(&readme).expect("readme");
+    assert!(!after.contains("old effect lines"), "{after}");
+    assert!(after.contains("- Particle–particle collisions"), "{after}");
+    assert!(after.contains("(a different solver, not an added effect)"));
+    let outside = |t: &str| {
+        let a = t.find(EFFECTS_BEGIN).expect("begin");
+        let b = t.find(EFFECTS_END).expect("end");
+        format!("{}{}", &t[..a], &t[b..])
+    };
+    assert_eq!(outside(&after), outside(&before));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn scaling_is_measured_and_fitted() {
+    let (report, _) = report();
+    let cpu: Vec<_> = report
+        .scaling
+        .iter()
+        .filter(|p| p.backend == BackendKind::Cpu)
+        .collect();
+    assert_eq!(cpu.len(), 2);
+    assert!(cpu.iter().all(|p| p.ms_per_step.is_some_and(|t| t > 0.0)));
+    let fit = report
+        .fits
+        .iter()
+        .find(|f| f.backend == BackendKind::Cpu)
+        .expect("cpu fit");
+    // 4× the particles: the exponent of a real measurement is positive and
+    // not absurd (≈ 1 expected; generous for a noisy shared machine).
+    assert!(
+        fit.exponent > 0.2 && fit.exponent < 2.5,
+        "exponent {}",
+        fit.exponent
+    );
+}
+
+#[test]
+fn power_law_fit_recovers_exact_exponent() {
+    let xy: Vec<(f64, f64)> = [1e3, 4e3, 1.6e4, 6.4e4]
+        .iter()
+        .map(|&x: &f64| (x, 0.02 * x.powf(0.85)))
+        .collect();
+    let (b, a) = fit_power_law(&xy).expect("fit");
+    assert!(
+        (b - 0.85).abs() < 1e-12 && (a - 0.02).abs() < 1e-12,
+        "b {b}, a {a}"
+    );
+    assert!(fit_power_law(&[(1.0, 1.0)]).is_none());
+}
+
+#[test]
+fn zero_crossings_of_a_sampled_sine_are_exact_to_interpolation_order() {
+    let (omega, dt) = (3.0, 1.0 / 60.0);
+    let y: Vec<f64> = (0..400)
+        .map(|k| (omega * k as f64 * dt + 0.3).sin())
+        .collect();
+    let crossings = zero_crossings(&y, dt);
+    assert!(crossings.len() >= 6);
+    for (j, c) in crossings.iter().enumerate() {
+        let exact = ((j + 1) as f64 * std::f64::consts::PI - 0.3) / omega;
+        // Cubic interpolation: error O((ω dt)^4 dt) ≈ 1e-8 s here.
+        assert!((c - exact).abs() < 1e-7, "crossing {j}: {c} vs {exact}");
+    }
+}
+
+#[test]
+fn frontier_keeps_only_undominated_points() {
+    let (report, _) = report();
+    let template = report.cases[0].points[0].clone();
+    let mk = |t: f64, e: f64| Point {
+        ms_per_sim_second: t,
+        error: Some(e),
+        backend: BackendKind::Cpu,
+        ..template.clone()
+    };
+    let pts = vec![
+        mk(1.0, 1e-1),
+        mk(2.0, 2e-1),
+        mk(3.0, 1e-2),
+        mk(3.0, 5e-3),
+        mk(10.0, 1e-2),
+        mk(20.0, 1e-4),
+    ];
+    assert_eq!(frontier(&pts, BackendKind::Cpu), vec![0, 3, 5]);
+    // A frozen point is never on a frontier, however small its error.
+    let mut frozen = pts.clone();
+    frozen.push(Point {
+        frozen: true,
+        ..mk(2.5, 1e-9)
+    });
+    assert_eq!(frontier(&frozen, BackendKind::Cpu), vec![0, 3, 5]);
+    assert!(frontier(&pts, BackendKind::Gpu(Precision::F64)).is_empty());
+}

@@ -1,0 +1,247 @@
+//! Batches of worlds: W scenes of one topology stepped together, each with
+//! its own initial state and parameters (gravity, forces, compliance per
+//! family, obstacle normal/offset/friction, collision friction, damping
+//! rate).
+//!
+//! ```text
+//! topology (shared by every world, checked against worlds[0]):
+//!   dim, dt, substeps, iterations, particles (count, masses, radii), per
+//!   family its kind, arity, elements and colours, particle contacts on
+//!   or off; the stages may differ (a world with μ = 0 or no damping
+//!   compiles those stages away, each world runs its own plan)
+//! CpuBatch::step:  every world one step, in parallel, one thread each
+//!   world k's state == world k's scene stepped alone, bit for bit
+//!   all or nothing: if any world fails, every world is put back to its
+//!   state before the step and the error names the first failing world
+//! ```
+//! One shared topology is what lets a GPU batch run all worlds in one
+//! dispatch per kernel (the world as part of the invocation index); that
+//! GPU batch is not built yet — the CPU batch is the reference it will be
+//! held to.
+
+use crate::{Backend, BackendError, CpuBackend, Plan, Scene, SceneError, State, StepReport};
+use rayon::prelude::*;
+
+/// Why a batch cannot be built or stepped.
+#[derive(Debug, thiserror::Error)]
+pub enum BatchError {
+    /// A batch needs at least one world.
+    #[error("worlds: a batch needs at least one world")]
+    Empty,
+    /// A world's scene is invalid.
+    #[error("worlds[{world}].{source}")]
+    Scene {
+        world: usize,
+        #[source]
+        source: SceneError,
+    },
+    /// A world whose topology differs from `worlds[0]`.
+    #[error("worlds[{world}].{field}: differs from worlds[0] (worlds of a batch share {what})")]
+    Topology {
+        world: usize,
+        field: String,
+        what: &'static str,
+    },
+    /// A world's backend refused it or failed.
+    #[error("worlds[{world}]: {source}")]
+    Backend {
+        world: usize,
+        #[source]
+        source: BackendError,
+    },
+    /// The thread pool could not start.
+    #[error("cannot start {threads} threads: {why}")]
+    Threads { threads: usize, why: String },
+}
+
+/// Validated worlds of one topology, each compiled to its plan.
+#[derive(Debug, Clone)]
+pub struct Batch {
+    plans: Vec<Plan>,
+    states: Vec<State>,
+}
+
+impl Batch {
+    /// Validates and compiles every world and checks that all share
+    /// `worlds[0]`'s topology (see the module docs).
+    pub fn new(worlds: &[Scene]) -> Result<Batch, BatchError> {
+        if worlds.is_empty() {
+            return Err(BatchError::Empty);
+        }
+        let mut plans = Vec::with_capacity(worlds.len());
+        for (world, scene) in worlds.iter().enumerate() {
+            scene
+                .validate()
+                .and_then(|()| Plan::compile(scene))
+                .map(|plan| plans.push(plan))
+                .map_err(|source| BatchError::Scene { world, source })?;
+        }
+        for (world, plan) in plans.iter().enumerate().skip(1) {
+            same_topology(&plans[0], plan).map_err(|(field, what)| BatchError::Topology {
+                world,
+                field,
+                what,
+            })?;
+        }
+        let states = worlds.iter().map(State::from_scene).collect();
+        Ok(Batch { plans, states })
+    }
+
+    /// Number of worlds.
+    pub fn len(&self) -> usize {
+        self.plans.len()
+    }
+
+    /// Whether the batch has no worlds (never: [`Batch::new`] refuses that).
+    pub fn is_empty(&self) -> bool {
+        self.plans.is_empty()
+    }
+
+    /// World `k`'s plan.
+    pub fn plan(&self, k: usize) -> &Plan {
+        &self.plans[k]
+    }
+}
+
+/// The first field where `other`'s topology differs from `first`'s, and
+/// what a batch shares there.
+fn same_topology(first: &Plan, other: &Plan) -> Result<(), (String, &'static str)> {
+    let check = |same: bool, field: &str, what: &'static str| {
+        if same {
+            Ok(())
+        } else {
+            Err((field.to_string(), what))
+        }
+    };
+    check(first.dim == other.dim, "dim", "the dimension")?;
+    check(
+        first.dt.to_bits() == other.dt.to_bits(),
+        "dt",
+        "the time step",
+    )?;
+    check(
+        first.substeps == other.substeps,
+        "substeps",
+        "the substep count",
+    )?;
+    check(
+        first.iterations == other.iterations,
+        "iterations",
+        "the iteration count",
+    )?;
+    check(
+        first.inverse_mass.len() == other.inverse_mass.len(),
+        "particles",
+        "the particle count",
+    )?;
+    for i in 0..first.inverse_mass.len() {
+        let field = format!("particles[{i}]");
+        check(
+            first.inverse_mass[i].to_bits() == other.inverse_mass[i].to_bits(),
+            &format!("{field}.mass"),
+            "masses and fixed particles",
+        )?;
+        check(
+            first.radius[i].to_bits() == other.radius[i].to_bits(),
+            &format!("{field}.radius"),
+            "radii",
+        )?;
+    }
+    check(
+        first.families.len() == other.families.len(),
+        "constraints",
+        "the constraint families and obstacles",
+    )?;
+    for (a, b) in first.families.iter().zip(&other.families) {
+        check(
+            a.label == b.label
+                && std::mem::discriminant(&a.kind) == std::mem::discriminant(&b.kind)
+                && a.arity == b.arity
+                && a.elements == b.elements
+                && a.color_starts == b.color_starts,
+            &b.label,
+            "each family's kind, elements and colours",
+        )?;
+    }
+    check(
+        first.contacts.is_some() == other.contacts.is_some(),
+        "collisions",
+        "particle contacts on or off",
+    )?;
+    check(
+        std::mem::discriminant(&first.solver) == std::mem::discriminant(&other.solver),
+        "solver",
+        "the solver",
+    )
+}
+
+/// A batch on the f64 CPU golden path: worlds stepped in parallel, one
+/// thread each (see the module docs).
+pub struct CpuBatch {
+    worlds: Vec<CpuBackend>,
+    pool: rayon::ThreadPool,
+}
+
+impl CpuBatch {
+    /// Loads every world of `batch`; steps run `threads` worlds at a time.
+    pub fn new(batch: &Batch, threads: usize) -> Result<CpuBatch, BatchError> {
+        let worlds = batch
+            .plans
+            .iter()
+            .zip(&batch.states)
+            .enumerate()
+            .map(|(world, (plan, state))| {
+                CpuBackend::with_threads(plan.clone(), state, 1)
+                    .map_err(|source| BatchError::Backend { world, source })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads.max(1))
+            .build()
+            .map_err(|e| BatchError::Threads {
+                threads,
+                why: e.to_string(),
+            })?;
+        Ok(CpuBatch { worlds, pool })
+    }
+
+    /// Number of worlds.
+    pub fn len(&self) -> usize {
+        self.worlds.len()
+    }
+
+    /// Whether the batch has no worlds (never).
+    pub fn is_empty(&self) -> bool {
+        self.worlds.is_empty()
+    }
+
+    /// World `k`'s backend (to read its state or set its forces).
+    pub fn world(&mut self, k: usize) -> &mut CpuBackend {
+        &mut self.worlds[k]
+    }
+
+    /// One step of every world; their reports in world order. All or
+    /// nothing (see the module docs).
+    pub fn step(&mut self) -> Result<Vec<StepReport>, BatchError> {
+        let results: Vec<Result<StepReport, BackendError>> = self
+            .pool
+            .install(|| self.worlds.par_iter_mut().map(|b| b.step()).collect());
+        if results.iter().all(Result::is_ok) {
+            return Ok(results.into_iter().flatten().collect());
+        }
+        // A failed world rolled itself back; the others undo their step.
+        for ((world, backend), result) in self.worlds.iter_mut().enumerate().zip(&results) {
+            if result.is_ok() {
+                backend
+                    .revert_step()
+                    .map_err(|source| BatchError::Backend { world, source })?;
+            }
+        }
+        let (world, source) = results
+            .into_iter()
+            .enumerate()
+            .find_map(|(k, r)| r.err().map(|e| (k, e)))
+            .ok_or(BatchError::Empty)?;
+        Err(BatchError::Backend { world, source })
+    }
+}

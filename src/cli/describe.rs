@@ -1,0 +1,106 @@
+//! `hyperpbd plan` (and the demo's header): a compiled plan in words.
+//!
+//! ```text
+//! dim, particles (dynamic / fixed), dt, substeps, iterations, h
+//! stages per substep         predict -> project -> velocity -> …
+//! predict terms              gravity on/off, external force on/off
+//! family i LABEL KIND        elements, compliance, colours [sizes], friction
+//! incremental potential      κ, d^, criterion ≤ tolerance, budget, obstacles
+//! damping, particle contacts when the plan has them
+//! kernel calls per step      per stage;  constraint projections per step
+//! ```
+
+use hyperpbd::{FamilyKind, Plan};
+use std::fmt::Write;
+
+/// The plan in words: stages, families, colors, counts.
+pub fn describe(plan: &Plan) -> String {
+    let mut s = String::new();
+    let dynamic = plan.inverse_mass.iter().filter(|&&w| w > 0.0).count();
+    let _ = writeln!(
+        s,
+        "dim {}  particles {} ({} dynamic, {} fixed)  dt {}  substeps {}  iterations {}  h {:e}",
+        plan.dim,
+        plan.particle_count(),
+        dynamic,
+        plan.particle_count() - dynamic,
+        plan.dt,
+        plan.substeps,
+        plan.iterations,
+        plan.h
+    );
+    let names: Vec<&str> = plan.stages.iter().map(|s| s.as_str()).collect();
+    let _ = writeln!(
+        s,
+        "stages per substep: {}",
+        if names.is_empty() {
+            "(none: nothing moves)".to_string()
+        } else {
+            names.join(" -> ")
+        }
+    );
+    let _ = writeln!(
+        s,
+        "predict terms: gravity {}, external force {}",
+        on_off(plan.predict.gravity),
+        on_off(plan.predict.force)
+    );
+    for (i, f) in plan.families.iter().enumerate() {
+        let sizes: Vec<String> = (0..f.color_count())
+            .map(|c| f.color(c).len().to_string())
+            .collect();
+        let _ = write!(
+            s,
+            "family {i} {} {}: {} elements, compliance {:e}, {} colors [{}]",
+            f.label,
+            f.kind.name(),
+            f.len(),
+            f.compliance,
+            f.color_count(),
+            sizes.join(", ")
+        );
+        if let FamilyKind::HyperplaneContact { friction, .. } = f.kind {
+            let _ = write!(s, ", friction {friction}");
+        }
+        s.push('\n');
+    }
+    if let Some(ip) = plan.incremental_potential() {
+        let _ = writeln!(
+            s,
+            "incremental potential: κ {:e}, d^ {:e}, {} ≤ {:e}, max {} iterations, {} planes, {} simplices",
+            ip.law.stiffness,
+            ip.law.activation_distance,
+            ip.convergence.as_str(),
+            ip.convergence.tolerance(),
+            ip.max_iterations,
+            ip.obstacles.plane_count(),
+            ip.obstacles.simplex_count()
+        );
+    }
+    if let Some((rate, factor)) = plan.damping {
+        let _ = writeln!(s, "damping: rate {rate} 1/s, factor {factor} per substep");
+    }
+    if let Some(c) = plan.contacts {
+        let _ = writeln!(
+            s,
+            "particle contacts: friction {}, margin {}, sort-and-sweep + gather-Jacobi",
+            c.friction, c.margin
+        );
+    }
+    let counts: Vec<String> = plan
+        .kernel_counts()
+        .iter()
+        .map(|(stage, n)| format!("{stage} {n}"))
+        .collect();
+    let _ = writeln!(s, "kernel calls per step: {}", counts.join(", "));
+    let _ = writeln!(
+        s,
+        "constraint projections per step: {}",
+        plan.projections_per_step()
+    );
+    s
+}
+
+fn on_off(b: bool) -> &'static str {
+    if b { "on" } else { "off" }
+}
