@@ -18,6 +18,7 @@ pub use hyperpbd_gpu as gpu;
 pub mod atomic_file;
 pub mod compare;
 pub mod compare_barrier;
+pub mod compare_frame;
 mod load;
 pub mod scenes;
 

@@ -5,6 +5,7 @@
 
 pub mod bound;
 pub mod boxes;
+pub mod exact;
 pub mod gpu;
 
 /// A deterministic pseudo-random number generator (64-bit LCG), so test
