@@ -5,6 +5,7 @@
 
 pub mod bound;
 pub mod boxes;
+pub mod differential;
 pub mod exact;
 pub mod gpu;
 
