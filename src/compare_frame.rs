@@ -18,10 +18,13 @@
 //!        iterations · (8N + 40) particle contact (pair terms and the averaged gather)
 //! c_v  roundings at velocity magnitude per substep: 1 (predict) + 3 (velocity:
 //!      x − p, h, division) + 4 per friction family + 2 (damping)
-//! J_k  static friction decides on |Δt| ≤ μ w λ: a contact within rounding of
-//!      that threshold may stick in one run and slide in the other, a jump of
-//!      at most the threshold μ w λ. J_k is the largest μ w λ of substep k's
-//!      active frictional contacts (the golden run's multipliers).
+//! J_k  static friction decides on |Δt| ≤ μ w λ: a contact whose margin
+//!      | |Δt| − μ w λ | is within what the other run's errors can move
+//!      (2 (1 + μ) e + (2N + 8) u X, e the position error of the substep so
+//!      far: Δt moves with x and p, w λ with the normal correction) may
+//!      stick in one run and slide in the other, a jump of max(|Δt|, μ w λ).
+//!      J_k is the largest such jump of substep k, from the golden path run
+//!      kernel by kernel (Δt before each contact projection, λ after it).
 //! per substep k = 1 … S, from e_x = e_v = 0 (both runs start from the same state):
 //!      r_k  = u X c + u h V + J_k                  fresh position error
 //!      q    = u V c_v + 4 u h A                    fresh velocity error (and h, g, s, w, f in f32)
@@ -155,49 +158,69 @@ impl FrameErrorModel {
             .fold(0.0, f64::max)
     }
 
-    /// J_k for every substep of one frame from `start`: the golden path
-    /// run kernel by kernel, the largest μ w λ after each substep.
-    fn static_friction_jumps(&mut self, start: &State) -> Result<Vec<f64>, BackendError> {
-        self.probe.write_state(start)?;
-        let plan = self.probe.plan().clone();
-        let mut jumps = Vec::with_capacity(plan.substeps as usize);
-        for _ in 0..plan.substeps {
-            for &kernel in &plan.substep_kernels {
-                self.probe.run_kernel(kernel)?;
-            }
-            let mut jump: f64 = 0.0;
-            for (index, f) in plan.families.iter().enumerate() {
-                let FamilyKind::HyperplaneContact { friction, .. } = f.kind else {
-                    continue;
-                };
-                let lambda = self.probe.multipliers(index).unwrap_or(&[]);
-                for (slot, &l) in lambda.iter().enumerate() {
-                    if l > 0.0 {
-                        let w = plan.inverse_mass[f.elements[slot] as usize];
-                        jump = jump.max(friction * w * l);
-                    }
-                }
-            }
-            jumps.push(jump);
-        }
-        Ok(jumps)
-    }
-
     /// (position, velocity) bounds on one frame run by both sides from
-    /// `start`, with X = `scale` and V = `speed`.
+    /// `start`, with X = `scale` and V = `speed`: the golden path run
+    /// kernel by kernel from `start` (for J_k), the error sums advanced
+    /// substep by substep.
     pub fn bounds(
         &mut self,
         start: &State,
         scale: f64,
         speed: f64,
     ) -> Result<(f64, f64), BackendError> {
-        let jumps = self.static_friction_jumps(start)?;
-        let h = self.probe.plan().h;
-        let u = self.unit_roundoff;
+        self.probe.write_state(start)?;
+        let plan = self.probe.plan().clone();
+        let (h, u) = (plan.h, self.unit_roundoff);
         let q = u * speed * self.velocity_roundings + 4.0 * u * h * self.acceleration;
+        let fresh = u * scale * self.position_roundings + u * h * speed;
+        let flip_rounding = (2.0 * plan.dim as f64 + 8.0) * u * scale;
         let (mut ex, mut ev) = (0.0f64, 0.0f64);
-        for jump in jumps {
-            let r = u * scale * self.position_roundings + u * h * speed + jump;
+        for _ in 0..plan.substeps {
+            // The error of any position within this substep, before J.
+            let error = ex + h * (ev + q) + fresh;
+            let substep_start = self.probe.read_state()?.positions;
+            let mut jump: f64 = 0.0;
+            for &kernel in &plan.substep_kernels {
+                let Kernel::Project { family, color } = kernel else {
+                    self.probe.run_kernel(kernel)?;
+                    continue;
+                };
+                let f = &plan.families[family];
+                let FamilyKind::HyperplaneContact { normal, friction } = &f.kind else {
+                    self.probe.run_kernel(kernel)?;
+                    continue;
+                };
+                let before = self.probe.read_state()?.positions;
+                self.probe.run_kernel(kernel)?;
+                if *friction == 0.0 {
+                    continue;
+                }
+                let lambda = self.probe.multipliers(family).unwrap_or(&[]);
+                let threshold = 2.0 * (1.0 + friction) * error + flip_rounding;
+                for slot in f.color(color) {
+                    let l = lambda.get(slot).copied().unwrap_or(0.0);
+                    if l <= 0.0 {
+                        continue;
+                    }
+                    let i = f.elements[slot] as usize;
+                    let n = plan.dim;
+                    let d: Vec<f64> = (0..n)
+                        .map(|a| before[i * n + a] - substep_start[i * n + a])
+                        .collect();
+                    let dn: f64 = d.iter().zip(normal).map(|(d, n)| d * n).sum();
+                    let tangential = d
+                        .iter()
+                        .zip(normal)
+                        .map(|(d, n)| (d - dn * n).powi(2))
+                        .sum::<f64>()
+                        .sqrt();
+                    let stick = friction * plan.inverse_mass[i] * l;
+                    if (tangential - stick).abs() <= threshold {
+                        jump = jump.max(tangential.max(stick));
+                    }
+                }
+            }
+            let r = fresh + jump;
             ex += h * (ev + q) + r;
             ev += q + r / h;
         }
