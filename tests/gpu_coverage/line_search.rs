@@ -9,8 +9,10 @@
 //! ΔF(t) = m s (x0 − x~ + s/2) + h² b(d(x0 + s)),  s = t Δ      (F_i(y) − F_i(x))
 //! Armijo: accept iff ΔF ≤ c t g·Δ,  c = 1e-4
 //! rises    κ = 1e6:           ΔF > 0             (rejected by any decrease test)
-//! shallow  κ tuned:           c t g·Δ < ΔF < 0   (rejected by Armijo only, by half
+//! shallow  κ tuned:           ΔF = ½ c t g·Δ     (rejected by Armijo only, by half
 //!                                                 its margin: far above rounding)
+//! enough   κ tuned:           ΔF = 50 c t g·Δ    (accepted at d = 0.005 inside d^,
+//!                                                 where a 100× stricter c rejects)
 //! ```
 //! Both facts are computed below with the golden law (`BarrierLaw`) before
 //! the scenes run, so the scenes are known to exercise the rejection and
@@ -49,11 +51,12 @@ fn first_trial(kappa: f64) -> (f64, f64) {
     (change, ARMIJO * t * g * delta)
 }
 
-/// κ for which the first trial decreases F by half the Armijo amount.
-fn shallow_kappa() -> f64 {
+/// κ for which the first trial decreases F by `fraction` × the Armijo
+/// amount (ΔF is affine in κ).
+fn kappa_for(fraction: f64) -> f64 {
     let (inertia, armijo) = first_trial(0.0);
     let (unit, _) = first_trial(1.0);
-    (0.5 * armijo - inertia) / (unit - inertia)
+    (fraction * armijo - inertia) / (unit - inertia)
 }
 
 fn drop(kappa: f64, tolerance: f64) -> Scene {
@@ -80,13 +83,19 @@ fn drop(kappa: f64, tolerance: f64) -> Scene {
 fn the_scenes_need_a_rejection() {
     let (rise, _) = first_trial(1e6);
     assert!(rise > 0.0, "κ = 1e6: ΔF = {rise:e} should be > 0");
-    let kappa = shallow_kappa();
+    let kappa = kappa_for(0.5);
     let (change, armijo) = first_trial(kappa);
     assert!(
         armijo < change && change < 0.0,
         "κ = {kappa:e}: ΔF = {change:e} should lie in ({armijo:e}, 0)"
     );
     assert!((change - 0.5 * armijo).abs() < 1e-3 * armijo.abs());
+    let kappa = kappa_for(50.0);
+    let (change, armijo) = first_trial(kappa);
+    assert!(
+        change < armijo && change > 100.0 * armijo,
+        "κ = {kappa:e}: ΔF = {change:e} should lie in (100 × {armijo:e}, {armijo:e})"
+    );
 }
 
 #[test]
@@ -101,7 +110,11 @@ fn rejected_trials_are_rejected_on_the_gpu_too() {
             Precision::F32 => 1.0,
             Precision::F64 => 1e-6,
         };
-        for (name, kappa) in [("rises", 1e6), ("shallow", shallow_kappa())] {
+        for (name, kappa) in [
+            ("rises", 1e6),
+            ("shallow", kappa_for(0.5)),
+            ("enough", kappa_for(50.0)),
+        ] {
             let worst = barrier_frames(&adapter, name, &drop(kappa, tolerance), 20, precision);
             print_bound(
                 format_args!("line search {name} (κ = {kappa:.6e}) {precision}: 20 frames"),
