@@ -94,6 +94,32 @@ fn largest_degree(plan: &Plan) -> (f64, f64) {
         })
 }
 
+/// A = max over dynamic particles and coordinates of |s g| + |w f| (the
+/// terms prediction adds to a velocity, per unit time).
+pub fn largest_acceleration(plan: &Plan) -> f64 {
+    let dim = plan.dim;
+    (0..plan.particle_count())
+        .filter(|&i| plan.inverse_mass[i] > 0.0)
+        .map(|i| {
+            (0..dim)
+                .map(|a| {
+                    let g = if plan.predict.gravity {
+                        (plan.gravity_scale[i] * plan.gravity[a]).abs()
+                    } else {
+                        0.0
+                    };
+                    let f = if plan.predict.force {
+                        (plan.inverse_mass[i] * plan.force[i * dim + a]).abs()
+                    } else {
+                        0.0
+                    };
+                    g + f
+                })
+                .fold(0.0, f64::max)
+        })
+        .fold(0.0, f64::max)
+}
+
 impl FrameErrorModel {
     /// The model of `plan` (an XPBD plan) run at `precision` with device
     /// coordinates relative to `origin` (`hyperpbd::gpu::SceneOrigin`).
@@ -111,26 +137,7 @@ impl FrameErrorModel {
             .filter(|k| matches!(k, Kernel::Friction { .. }))
             .count() as f64;
         let dim = plan.dim;
-        let acceleration = (0..plan.particle_count())
-            .filter(|&i| plan.inverse_mass[i] > 0.0)
-            .map(|i| {
-                (0..dim)
-                    .map(|a| {
-                        let g = if plan.predict.gravity {
-                            (plan.gravity_scale[i] * plan.gravity[a]).abs()
-                        } else {
-                            0.0
-                        };
-                        let f = if plan.predict.force {
-                            (plan.inverse_mass[i] * plan.force[i * dim + a]).abs()
-                        } else {
-                            0.0
-                        };
-                        g + f
-                    })
-                    .fold(0.0, f64::max)
-            })
-            .fold(0.0, f64::max);
+        let acceleration = largest_acceleration(plan);
         let empty = State {
             dim,
             positions: vec![0.0; plan.particle_count() * dim],

@@ -346,26 +346,7 @@ fn kernel_bounds(
     let h = plan.h;
     match kernel {
         Kernel::Predict => {
-            let dim = plan.dim;
-            let mut a: f64 = 0.0;
-            for i in 0..plan.particle_count() {
-                if plan.inverse_mass[i] == 0.0 {
-                    continue;
-                }
-                for c in 0..dim {
-                    let g = if plan.predict.gravity {
-                        (plan.gravity_scale[i] * plan.gravity[c]).abs()
-                    } else {
-                        0.0
-                    };
-                    let f = if plan.predict.force {
-                        (plan.inverse_mass[i] * plan.force[i * dim + c]).abs()
-                    } else {
-                        0.0
-                    };
-                    a = a.max(g + f);
-                }
-            }
+            let a = hyperpbd::compare_frame::largest_acceleration(plan);
             (
                 e * r(8.0) * (s.x + h * (s.v + h * a)),
                 e * r(8.0) * (s.v + h * a),
