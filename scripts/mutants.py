@@ -35,6 +35,7 @@ import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -303,6 +304,19 @@ def run_mutant(data: dict, m: dict, repo: Path, env: dict, threads: int, times: 
     return record
 
 
+def stop_on_signals() -> None:
+    """SIGTERM / SIGHUP end the run like Ctrl-C: as an exception, so the
+    `finally` of the mutant under test restores its file (and verifies it)
+    before the harness exits. (A SIGKILL cannot be caught: the next run's
+    sync rewrites every scratch file that differs from the tree.)"""
+
+    def handler(signum, _frame):
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, handler)
+
+
 def run(data: dict, scratch: Path, ids: list[str], threads: int, budget: float) -> None:
     results = load_results(scratch)
     if "_baseline" not in results:
@@ -312,7 +326,13 @@ def run(data: dict, scratch: Path, ids: list[str], threads: int, budget: float) 
     env = cargo_env(scratch)
     mutants = {m["id"]: m for m in data["mutant"]}
     started = time.time()
+    stop_on_signals()
+    stop_file = scratch / "STOP"
     for n, mid in enumerate(ids):
+        if stop_file.exists():
+            stop_file.unlink()
+            print(f"{stop_file} found: stopping between mutants; {len(ids) - n} left")
+            break
         if time.time() - started > budget:
             print(f"time budget of {budget / 60:.0f} min spent; {len(ids) - n} mutants left")
             break

@@ -65,6 +65,17 @@ fn fail(index: u32) {
     atomicMin(&status[1], index);
 }
 
+// Exactly `a`, as a value the driver's optimiser cannot see through.
+// WGSL cannot forbid reassociation or contraction (naga emits no
+// NoContraction), and lavapipe uses that freedom: in R^2 it turned the
+// contact's (n₀x₀ + n₁x₁) − r into n₀x₀ + (n₁x₁ − r), off the golden path
+// by ulps. A sum passed through here is rounded as written before it is
+// used. The condition is false on every call (no call has index NONE),
+// but only the run knows it.
+fn kept(a: real) -> real {
+    return select(a, -a, params.call == NONE);
+}
+
 // Not NaN and not ±Inf (WGSL has no isnan/isinf).
 fn finite(a: real) -> bool {
     return abs(a) <= REAL_MAX;

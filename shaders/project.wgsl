@@ -141,7 +141,7 @@ fn project_contact(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
     for (var a = 0u; a < DIM; a++) {
         nx += params.normal[a] * x[i * DIM + a];
     }
-    let c = nx - rest[s];
+    let c = kept(nx) - rest[s];
     let l = lambda[s];
     let raw = (-c - params.alpha_tilde * l) / (w + params.alpha_tilde);
     if (!finite(raw)) {

@@ -181,12 +181,11 @@ fn fields_scene_has_every_field_non_default() {
     }
 }
 
-/// KNOWN MISMATCH (reported, docs/bounds.md): in R^2 lavapipe fuses the
-/// contact kernel's n·x (`nx += normal[a] * x[a]`, shaders/project.wgsl)
-/// into an FMA — the f64 result is the fused one, 1 ulp off the golden
-/// path's — so a tilted plane in 2D is not bit-identical (R^3, R^4 are).
+/// R^2 caught lavapipe reassociating the contact kernel's
+/// (n₀x₀ + n₁x₁) − r into n₀x₀ + (n₁x₁ − r) (WGSL cannot forbid it);
+/// `kept()` in shaders/prelude.wgsl now rounds n·x as written, and this
+/// test holds R^2 to the golden path bit for bit like R^3 and R^4.
 #[test]
-#[ignore = "known f64 mismatch on lavapipe: 2D contact n·x contracted into an FMA (docs/bounds.md)"]
 fn every_field_on_every_xpbd_kernel_2d() {
     both(
         "every_field_on_every_xpbd_kernel_2d",
