@@ -659,7 +659,7 @@ fn empty_scene_steps_and_stays_empty() {
     }
 }
 
-/// KNOWN MISMATCH (reported, not fixed here: library code). `run_kernel`
+/// FORMER MISMATCH (fixed; this test keeps the two agreeing). `run_kernel`
 /// accepts different kernel sets on the two backends:
 ///
 /// - CPU: `check_kernel` (core/src/backend.rs) only checks that the kernel
@@ -670,7 +670,7 @@ fn empty_scene_steps_and_stays_empty() {
 ///   (it only has parameter blocks for scheduled calls) and returns
 ///   `InvalidCall("… is not in this plan's schedule")`.
 ///
-/// Measured (lavapipe): frictionless plane `Friction { family: 1 }`: CPU
+/// Measured before the fix (lavapipe): frictionless plane `Friction { family: 1 }`: CPU
 /// `Ok(())`, GPU `Err(InvalidCall)`; all-fixed scene `Predict` and
 /// `Velocity`: CPU `Ok(())`, GPU `Err(InvalidCall)`. Kernel-level
 /// comparisons need one rule for both (most simply: `check_kernel` also
