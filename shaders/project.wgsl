@@ -174,7 +174,7 @@ fn contact_particle(c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function,
     for (var a = 0u; a < DIM; a++) {
         nx += calls[c].normal[a] * lane(rx, a);
     }
-    let cval = nx - rest[s];
+    let cval = kept(nx, c) - rest[s];
     let l = lambda_before(c, s);
     let alpha_tilde = calls[c].alpha_tilde;
     let raw = (-cval - alpha_tilde * l) / (w + alpha_tilde);

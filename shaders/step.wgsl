@@ -122,6 +122,17 @@ fn fail(c: u32, index: u32) {
     atomicMin(&status[1], index);
 }
 
+// Exactly `a`, as a value the driver's optimiser cannot see through.
+// WGSL cannot forbid reassociation or contraction (naga emits no
+// NoContraction), and lavapipe uses that freedom: in R^2 it turned the
+// contact's (n₀x₀ + n₁x₁) − r into n₀x₀ + (n₁x₁ − r), off the golden path
+// by ulps. A sum passed through here is rounded as written before it is
+// used. The condition is false for every call c (no call block has the
+// number NONE), but only the run knows it.
+fn kept(a: real, c: u32) -> real {
+    return select(a, -a, calls[c].call == NONE);
+}
+
 // Per-particle call c on particle i (its records in registers).
 fn run_op(op: u32, c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
           rp: ptr<function, Record>) {

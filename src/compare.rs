@@ -2,7 +2,13 @@
 //!
 //! The GPU runs the plan's schedule with the CPU's arithmetic, so their
 //! difference is rounding, and the bound is a rounding model, not a tuned
-//! number:
+//! number. Comparisons restart the golden path every frame from the other
+//! run's previous state and bound that one frame ([`DivergenceModel`]:
+//! [`crate::compare_frame::FrameErrorModel`] for XPBD,
+//! [`crate::compare_barrier::BarrierErrorModel`] for the incremental
+//! potential). [`ErrorModel`] is the accumulated model, for comparisons
+//! of two runs that cannot be restarted from each other (a scene against
+//! its copy moved far from the origin):
 //!
 //! ```text
 //! ε        unit roundoff of the GPU precision (f32: 2^-23, f64: 2^-52)
@@ -29,24 +35,24 @@
 //! overlap, not of ε — granular scenes are compared on invariants
 //! (tests/gpu_granular.rs), and `compare` says so.
 
-use hyperpbd_core::{Plan, Precision, State, StepReport};
+use hyperpbd_core::{BackendError, Plan, Precision, State, StepReport};
 
-/// A bound on how far a run may drift from the golden path, advanced one
-/// step at a time: [`ErrorModel`] (XPBD, a rounding count) and
-/// [`crate::compare_barrier::BarrierErrorModel`] (the incremental potential,
-/// driven by both runs' residuals) serve one comparison loop.
+/// A bound on how far one frame of a run may be from one frame of the
+/// golden path when both start from the same state (the run's own state of
+/// the previous frame): [`crate::compare_frame::FrameErrorModel`] (XPBD, a
+/// rounding count) and [`crate::compare_barrier::BarrierErrorModel`] (the
+/// incremental potential, driven by both runs' residuals) serve one
+/// comparison loop.
 pub trait DivergenceModel {
-    /// The (position, velocity) bounds after one more step. `golden` and
-    /// `other` are both runs' reports of that step, `scale` the largest
-    /// coordinate magnitude seen so far, `steps` the steps run, this one
-    /// included.
-    fn advance(
+    /// The (position, velocity) bounds of one frame run from `start` by the
+    /// golden path and by the other run; `golden` and `other` are their
+    /// (report, state) after it.
+    fn frame_bounds(
         &mut self,
-        golden: &StepReport,
-        other: &StepReport,
-        scale: f64,
-        steps: u64,
-    ) -> (f64, f64);
+        start: &State,
+        golden: (&StepReport, &State),
+        other: (&StepReport, &State),
+    ) -> Result<(f64, f64), BackendError>;
 
     /// What the bound is, in one line (printed by `hyperpbd compare`).
     fn describe(&self) -> String;
@@ -107,22 +113,6 @@ impl ErrorModel {
     }
 }
 
-impl DivergenceModel for ErrorModel {
-    fn advance(&mut self, _: &StepReport, _: &StepReport, scale: f64, steps: u64) -> (f64, f64) {
-        (
-            self.position_bound(scale, steps),
-            self.velocity_bound(scale, steps),
-        )
-    }
-
-    fn describe(&self) -> String {
-        format!(
-            "bound = eps {:e} x scale x {} roundings/substep x substeps",
-            self.epsilon, self.ops_per_substep
-        )
-    }
-}
-
 /// Largest coordinate magnitude of a state.
 pub fn coordinate_scale(state: &State) -> f64 {
     state.positions.iter().fold(0.0, |m, x| m.max(x.abs()))
@@ -149,8 +139,8 @@ pub struct Divergence {
 }
 
 impl Divergence {
-    /// `other` against the golden `golden` after `steps` steps, with the
-    /// (position, velocity) `bounds` of a [`DivergenceModel`].
+    /// `other` against the golden `golden` after `steps` steps (or at frame
+    /// `steps`), with the (position, velocity) `bounds` of a model.
     pub fn new(steps: u64, golden: &State, other: &State, bounds: (f64, f64)) -> Self {
         Divergence {
             steps,
@@ -159,22 +149,6 @@ impl Divergence {
             velocity: max_abs_diff(&golden.velocities, &other.velocities),
             velocity_bound: bounds.1,
         }
-    }
-
-    /// Compares `other` against the golden `golden` with `model`; `scale` is
-    /// the largest coordinate magnitude seen so far.
-    pub fn measure(
-        model: &ErrorModel,
-        golden: &State,
-        other: &State,
-        scale: f64,
-        steps: u64,
-    ) -> Self {
-        let bounds = (
-            model.position_bound(scale, steps),
-            model.velocity_bound(scale, steps),
-        );
-        Divergence::new(steps, golden, other, bounds)
     }
 
     /// True when both metrics are within their bounds (NaN is never within).

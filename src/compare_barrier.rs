@@ -21,9 +21,14 @@
 //! ```text
 //! D_S = Σ_{k ≤ S} δ_k        position bound P_S = Σ_{k ≤ S} D_k        velocity bound 2 P_S / h
 //! ```
-//! (δ constant gives P_S = δ S (S + 1) / 2.)
+//! (δ constant gives P_S = δ S (S + 1) / 2.) [`BarrierErrorModel::advance`]
+//! sums from the start of a run; as a [`DivergenceModel`] (both runs
+//! restarted every frame from the other run's previous state) the sums
+//! start at 0 every frame and run over that frame's substeps.
 
-use hyperpbd_core::{Convergence, MinimisationReport, Plan, Precision, StepReport};
+use hyperpbd_core::{
+    BackendError, Convergence, MinimisationReport, Plan, Precision, State, StepReport,
+};
 
 use crate::compare::DivergenceModel;
 
@@ -86,6 +91,12 @@ impl BarrierErrorModel {
         }
     }
 
+    /// The sums restarted: a comparison from a common state.
+    pub fn restart(&mut self) {
+        self.accumulated = 0.0;
+        self.position = 0.0;
+    }
+
     /// Position bound after the steps advanced so far.
     pub fn position_bound(&self) -> f64 {
         self.position
@@ -98,20 +109,24 @@ impl BarrierErrorModel {
 }
 
 impl DivergenceModel for BarrierErrorModel {
-    fn advance(
+    fn frame_bounds(
         &mut self,
-        golden: &StepReport,
-        other: &StepReport,
-        scale: f64,
-        _: u64,
-    ) -> (f64, f64) {
-        BarrierErrorModel::advance(self, &golden.minimisation, &other.minimisation, scale);
-        (self.position_bound(), self.velocity_bound())
+        start: &State,
+        golden: (&StepReport, &State),
+        other: (&StepReport, &State),
+    ) -> Result<(f64, f64), BackendError> {
+        let scale = [start, golden.1, other.1]
+            .iter()
+            .map(|s| crate::compare::coordinate_scale(s))
+            .fold(0.0, f64::max);
+        self.restart();
+        self.advance(&golden.0.minimisation, &other.0.minimisation, scale);
+        Ok((self.position_bound(), self.velocity_bound()))
     }
 
     fn describe(&self) -> String {
         format!(
-            "barrier-path bound = double sum over substeps of ({:e} x (r_cpu + r_gpu) + 16 eps {:e} x scale)",
+            "per-frame barrier-path bound = double sum over the frame's substeps of ({:e} x (r_cpu + r_gpu) + 16 eps {:e} x scale)",
             self.position_per_residual, self.epsilon
         )
     }

@@ -19,6 +19,7 @@ pub mod atomic_file;
 pub mod batch;
 pub mod compare;
 pub mod compare_barrier;
+pub mod compare_frame;
 mod load;
 pub mod scenes;
 pub mod sweep;

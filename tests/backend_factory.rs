@@ -9,8 +9,9 @@
 mod common;
 
 use common::gpu::adapter_or_skip;
-use hyperpbd::compare::{Divergence, DivergenceModel, ErrorModel, coordinate_scale};
+use hyperpbd::compare::{Divergence, DivergenceModel};
 use hyperpbd::compare_barrier::BarrierErrorModel;
+use hyperpbd::compare_frame::FrameErrorModel;
 use hyperpbd::{Backend, BackendKind, Plan, Precision, Scene, SolverPlan, State, scenes};
 
 fn compiled(scene: &Scene) -> (Plan, State) {
@@ -28,18 +29,22 @@ fn run(backend: &mut dyn Backend) -> State {
     backend.read_state().expect("read_state")
 }
 
-/// Three steps of `golden` and `other` side by side; the divergence after
-/// each against the model of the plan's solver must be within its bound
-/// (XPBD in f64: exactly zero).
+/// Three frames of `other`, each also run by `golden` from `other`'s
+/// previous state; the divergence of each frame against the per-frame model
+/// of the plan's solver must be within its bound (XPBD in f64: exactly
+/// zero).
 fn within_the_model(plan: &Plan, golden: &mut dyn Backend, other: &mut dyn Backend, name: &str) {
     let mut model: Box<dyn DivergenceModel> = match plan.solver {
-        SolverPlan::Xpbd => Box::new(ErrorModel::new(plan, Precision::F64)),
+        SolverPlan::Xpbd => {
+            Box::new(FrameErrorModel::new(plan, Precision::F64, &vec![0.0; plan.dim]).unwrap())
+        }
         SolverPlan::IncrementalPotential(_) => {
             Box::new(BarrierErrorModel::new(plan, Precision::F64))
         }
     };
-    let mut scale = 0.0f64;
     for step in 1..=3 {
+        let start = other.read_state().expect("gpu");
+        golden.write_state(&start).expect("cpu write_state");
         let (a, b) = (
             golden.step().expect("cpu step"),
             other.step().expect("gpu step"),
@@ -48,8 +53,10 @@ fn within_the_model(plan: &Plan, golden: &mut dyn Backend, other: &mut dyn Backe
             golden.read_state().expect("cpu"),
             other.read_state().expect("gpu"),
         );
-        scale = scale.max(coordinate_scale(&x));
-        let d = Divergence::new(step, &x, &y, model.advance(&a, &b, scale, step));
+        let bounds = model
+            .frame_bounds(&start, (&a, &x), (&b, &y))
+            .expect("bounds");
+        let d = Divergence::new(step, &x, &y, bounds);
         assert!(d.within(), "{name}: {d:?}");
         if plan.incremental_potential().is_none() {
             assert_eq!(x, y, "{name}: XPBD in f64 is bit-identical");

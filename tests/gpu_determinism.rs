@@ -496,7 +496,7 @@ fn overflowing_distance_fails_in_project_naming_family_and_element() {
     }
 }
 
-/// KNOWN MISMATCH (reported, not fixed here: library code). A contact whose
+/// FORMER MISMATCH (fixed; this test keeps the two agreeing). A contact whose
 /// n·x overflows to +Inf (a particle astronomically far on the free side):
 /// Δλ_raw = (−C − α~λ)/(w + α~) = −Inf.
 ///
@@ -507,7 +507,7 @@ fn overflowing_distance_fails_in_project_naming_family_and_element() {
 ///   `finite(raw)` before the clamp: fails with NonFiniteConstraint
 ///   (obstacles[0], element 0).
 ///
-/// Measured (lavapipe, f64): CPU `Ok`, GPU
+/// Measured before the fix (lavapipe, f64): CPU `Ok`, GPU
 /// `Err(NonFiniteConstraint { stage: Project, substep: 0, family: 0,
 /// family_label: "obstacles[0]", element: 0 })`. One of the two checks must
 /// move so both backends agree; this test asserts only that they agree.

@@ -55,14 +55,16 @@
 //!
 //! f64 (ε = 2⁻⁵²): the same expressions in the same order, every operation
 //! correctly rounded on both sides (lavapipe compiles f64 add, mul, div and
-//! sqrt to the x86 instructions the CPU uses), so the kernels should be
-//! bit-identical. The one licensed difference is contraction: Vulkan lets a
-//! driver fuse a·b + c into an FMA unless the SPIR-V says NoContraction, and
-//! naga does not say it. A fused pair skips one rounding, so the f64 bound
-//! is a few (R64 = 4) ulps of the same scales, through the same κ and λ
-//! propagation as above (ε·X·(2 + 2κ·4) for Project, ε·4·V + μ·B_λ/h for
-//! Friction, ε·4·scale for the others) — and velocities of Project, x of
-//! Velocity/Friction/Damping stay exactly equal.
+//! sqrt to the x86 instructions the CPU uses), so on lavapipe every kernel
+//! is asserted bit-identical (`common::exact`: bound 0, printed `exact`).
+//! On other adapters the one licensed difference is contraction: Vulkan
+//! lets a driver fuse a·b + c into an FMA unless the SPIR-V says
+//! NoContraction, and naga does not say it. A fused pair skips one
+//! rounding, so there the f64 bound is a few (R64 = 4) ulps of the same
+//! scales, through the same κ and λ propagation as above (ε·X·(2 + 2κ·4)
+//! for Project, ε·4·V + μ·B_λ/h for Friction, ε·4·scale for the others) —
+//! and velocities of Project, x of Velocity/Friction/Damping stay exactly
+//! equal.
 //!
 //! Decisions (`λ > 0`, static friction `|Δt| ≤ μ w λ`, `len > 0`) are
 //! discontinuous; the cases are built so that no element sits within
@@ -74,6 +76,7 @@ mod common;
 
 use common::Lcg;
 
+use common::exact::f64_identical;
 use common::gpu::adapter_or_skip;
 use hyperpbd::compare::{coordinate_scale, max_abs_diff};
 use hyperpbd::{
@@ -343,26 +346,7 @@ fn kernel_bounds(
     let h = plan.h;
     match kernel {
         Kernel::Predict => {
-            let dim = plan.dim;
-            let mut a: f64 = 0.0;
-            for i in 0..plan.particle_count() {
-                if plan.inverse_mass[i] == 0.0 {
-                    continue;
-                }
-                for c in 0..dim {
-                    let g = if plan.predict.gravity {
-                        (plan.gravity_scale[i] * plan.gravity[c]).abs()
-                    } else {
-                        0.0
-                    };
-                    let f = if plan.predict.force {
-                        (plan.inverse_mass[i] * plan.force[i * dim + c]).abs()
-                    } else {
-                        0.0
-                    };
-                    a = a.max(g + f);
-                }
-            }
+            let a = hyperpbd::compare_frame::largest_acceleration(plan);
             (
                 e * r(8.0) * (s.x + h * (s.v + h * a)),
                 e * r(8.0) * (s.v + h * a),
@@ -401,6 +385,8 @@ struct Pair {
     cpu: CpuBackend,
     gpu: GpuBackend,
     precision: Precision,
+    /// f64 on an adapter where bit identity is asserted (bounds 0).
+    exact: bool,
     name: String,
     /// Position bound of this substep's Project per family (for Friction).
     lambda_bound: Vec<f64>,
@@ -410,6 +396,7 @@ struct Pair {
 
 impl Pair {
     fn new(adapter: &wgpu::Adapter, scene: &Scene, precision: Precision, name: &str) -> Self {
+        let summary = hyperpbd_gpu::AdapterSummary::of(adapter);
         let plan = Plan::compile(scene).expect("compiles");
         let state = State::from_scene(scene);
         let gpu = GpuBackend::with_adapter(adapter, plan.clone(), &state, precision)
@@ -420,6 +407,7 @@ impl Pair {
             cpu,
             gpu,
             precision,
+            exact: precision == Precision::F64 && f64_identical(&summary),
             name: name.into(),
             lambda_bound: vec![0.0; families],
             worst: Vec::new(),
@@ -444,14 +432,18 @@ impl Pair {
         let gpu = self.gpu.read_state().expect("GPU read_state");
         let plan = self.cpu.plan().clone();
         let s = scales(&[&before, &cpu, &gpu]);
-        let (xb, vb) = kernel_bounds(
-            kernel,
-            &plan,
-            self.precision,
-            &s,
-            &before,
-            &self.lambda_bound,
-        );
+        let (xb, vb) = if self.exact {
+            (0.0, 0.0)
+        } else {
+            kernel_bounds(
+                kernel,
+                &plan,
+                self.precision,
+                &s,
+                &before,
+                &self.lambda_bound,
+            )
+        };
         match kernel {
             Kernel::Predict => self.lambda_bound.fill(0.0),
             Kernel::Project { family, .. } => self.lambda_bound[family] = xb,
@@ -516,8 +508,13 @@ impl Pair {
 
     fn print(&self) {
         for (key, measured, bound) in &self.worst {
+            let bound = if self.exact {
+                "exact".to_string()
+            } else {
+                format!("{bound:.3e}")
+            };
             println!(
-                "KERNEL | {} | {key} | {measured:.3e} | {bound:.3e} | {}",
+                "KERNEL | {} | {key} | {measured:.3e} | {bound} | {}",
                 self.name, self.precision
             );
         }
@@ -667,7 +664,7 @@ fn empty_scene_steps_and_stays_empty() {
     }
 }
 
-/// KNOWN MISMATCH (reported, not fixed here: library code). `run_kernel`
+/// FORMER MISMATCH (fixed; this test keeps the two agreeing). `run_kernel`
 /// accepts different kernel sets on the two backends:
 ///
 /// - CPU: `check_kernel` (core/src/backend.rs) only checks that the kernel
@@ -678,7 +675,7 @@ fn empty_scene_steps_and_stays_empty() {
 ///   (it only has parameter blocks for scheduled calls) and returns
 ///   `InvalidCall("… is not in this plan's schedule")`.
 ///
-/// Measured (lavapipe): frictionless plane `Friction { family: 1 }`: CPU
+/// Measured before the fix (lavapipe): frictionless plane `Friction { family: 1 }`: CPU
 /// `Ok(())`, GPU `Err(InvalidCall)`; all-fixed scene `Predict` and
 /// `Velocity`: CPU `Ok(())`, GPU `Err(InvalidCall)`. Kernel-level
 /// comparisons need one rule for both (most simply: `check_kernel` also

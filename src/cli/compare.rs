@@ -1,18 +1,22 @@
-//! `hyperpbd compare`: the CPU golden path and a GPU backend side by side,
-//! frame by frame, against the divergence bound of the plan's solver.
+//! `hyperpbd compare`: a GPU backend against the CPU golden path frame by
+//! frame, each frame from the GPU's own previous state, against the
+//! per-frame divergence bound of the plan's solver.
 //!
 //! ```text
-//! XPBD                   ErrorModel: ε · X · roundings per substep · substeps
+//! every frame            s = GPU state; GPU steps; CPU loads s and steps;
+//!                        |dx|, |dv| against the bounds of that one frame;
+//!                        OVER lines are always printed; any OVER frame exits 3
+//! XPBD                   FrameErrorModel: the roundings of one frame's substeps
 //! incremental potential  BarrierErrorModel: driven by both runs' residuals
-//! every frame            step both, |dx|, |dv| against the bounds; OVER lines
-//!                        are always printed; any OVER frame exits 3
 //! ```
 
 use super::error::{CliError, with_sources};
 use super::load::load_scene;
-use hyperpbd::compare::{Divergence, DivergenceModel, ErrorModel, coordinate_scale};
+use hyperpbd::compare::{Divergence, DivergenceModel};
 use hyperpbd::compare_barrier::BarrierErrorModel;
-use hyperpbd::{Backend, BackendKind, Plan, Precision, SolverPlan, State};
+use hyperpbd::compare_frame::FrameErrorModel;
+use hyperpbd::gpu::SceneOrigin;
+use hyperpbd::{Backend, BackendError, BackendKind, Plan, Precision, SolverPlan, State};
 use std::path::PathBuf;
 
 /// Options of `hyperpbd compare`.
@@ -46,12 +50,20 @@ fn parse_precision(name: &str) -> Result<Precision, String> {
     name.parse()
 }
 
-/// The divergence model of `plan`'s solver at `precision`.
-fn model(plan: &Plan, precision: Precision) -> Box<dyn DivergenceModel> {
-    match plan.solver {
-        SolverPlan::Xpbd => Box::new(ErrorModel::new(plan, precision)),
+/// The per-frame divergence model of `plan`'s solver at `precision`; the
+/// GPU stores positions relative to the origin of `state`.
+fn model(
+    plan: &Plan,
+    precision: Precision,
+    state: &State,
+) -> Result<Box<dyn DivergenceModel>, BackendError> {
+    Ok(match plan.solver {
+        SolverPlan::Xpbd => {
+            let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
+            Box::new(FrameErrorModel::new(plan, precision, origin.as_slice())?)
+        }
         SolverPlan::IncrementalPotential(_) => Box::new(BarrierErrorModel::new(plan, precision)),
-    }
+    })
 }
 
 pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
@@ -67,7 +79,8 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
     let scene = load_scene(&args.scene)?;
     let plan = Plan::compile(&scene).map_err(|e| CliError::Input(e.to_string()))?;
     let state = State::from_scene(&scene);
-    let mut model = model(&plan, args.precision);
+    let mut model =
+        model(&plan, args.precision, &state).map_err(|e| CliError::Input(e.to_string()))?;
     if plan.contacts.is_some() {
         println!(
             "note: particle contact switches on and off at C = 0, so a granular scene's \
@@ -94,7 +107,6 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
         "{:>6} {:>13} {:>13} {:>13} {:>13}  status",
         "frame", "max |dx|", "bound", "max |dv|", "bound"
     );
-    let mut scale = coordinate_scale(&state);
     let mut worst: Option<Divergence> = None;
     let mut over = 0u64;
     for frame in 1..=args.frames {
@@ -109,10 +121,20 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
                     ))
                 })
         };
+        let start = gpu.read_state().map_err(|e| {
+            CliError::Simulation(format!(
+                "{} frame {frame}: {}",
+                gpu.name(),
+                with_sources(&e)
+            ))
+        })?;
+        cpu.write_state(&start)
+            .map_err(|e| CliError::Simulation(with_sources(&e)))?;
         let (golden_report, golden) = step(cpu.as_mut())?;
         let (other_report, other) = step(gpu.as_mut())?;
-        scale = scale.max(coordinate_scale(&golden));
-        let (position, velocity) = model.advance(&golden_report, &other_report, scale, frame);
+        let (position, velocity) = model
+            .frame_bounds(&start, (&golden_report, &golden), (&other_report, &other))
+            .map_err(|e| CliError::Simulation(format!("frame {frame}: {}", with_sources(&e))))?;
         let bounds = (args.bound_factor * position, args.bound_factor * velocity);
         let d = Divergence::new(frame, &golden, &other, bounds);
         let ok = d.within();

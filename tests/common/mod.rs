@@ -5,6 +5,8 @@
 
 pub mod bound;
 pub mod boxes;
+pub mod differential;
+pub mod exact;
 pub mod gpu;
 
 /// A deterministic pseudo-random number generator (64-bit LCG), so test

@@ -1,0 +1,167 @@
+#!/usr/bin/env python3
+"""Regenerates the CPU/GPU bounds tables from the tests' own BOUND lines.
+
+    scripts/bounds-table.py            runs tests/gpu_differential.rs and
+                                       tests/gpu_kernels.rs (lavapipe) and rewrites the
+                                       tables between the markers
+                                       <!-- bounds:begin … --> / <!-- bounds:end --> in
+                                       README.md, <!-- bounds-all:begin … --> and
+                                       <!-- kernels:begin … --> in docs/bounds.md
+    scripts/bounds-table.py FILE       the same from saved test output (both tests')
+
+A BOUND line of tests/common/differential.rs reads
+    BOUND | scene | metric | frames | measured | bound | precision
+with measured and bound of the frame with the largest measured / bound, one
+frame from the GPU's previous state; an f64 bound of `exact` means
+bit-identical (asserted on llvmpipe).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+COMMAND = [
+    "cargo", "test", "--release", "--test", "gpu_differential", "--test", "gpu_kernels",
+    "--", "--nocapture", "--test-threads", "2",
+]
+
+
+def bound_lines(text: str) -> list[list[str]]:
+    rows = []
+    for line in text.splitlines():
+        if line.startswith("BOUND | "):
+            parts = [p.strip() for p in line.split("|")[1:]]
+            if len(parts) == 6:
+                rows.append(parts)
+    return rows
+
+
+def kernel_table(text: str) -> str:
+    """`KERNEL | case | kernel metric | measured | bound | precision` lines
+    (tests/gpu_kernels.rs) as one row per (case, kernel metric)."""
+    rows: dict[tuple[str, str], dict[str, tuple[str, str]]] = {}
+    for line in text.splitlines():
+        if not line.startswith("KERNEL | "):
+            continue
+        parts = [p.strip() for p in line.split("|")[1:]]
+        if len(parts) != 5:
+            continue
+        case, metric, measured, bound, precision = parts
+        rows.setdefault((case, metric), {})[precision] = (measured, bound)
+    out = [
+        "| case | kernel, metric | f32 measured / bound (ratio) | f64 |",
+        "|---|---|---:|---|",
+    ]
+    for (case, metric), by in sorted(rows.items()):
+        f32, f64 = by.get("f32"), by.get("f64")
+        if f32 and f64 and f32[1] in ("0", "0.000e0") and f64[0] == "0.000e0":
+            continue  # both bounds zero: asserted equal, measured 0 (see the text)
+        out.append(
+            f"| {case} | {metric} | {cell(*f32) if f32 else '—'} | {cell(*f64) if f64 else '—'} |"
+        )
+    return "\n".join(out)
+
+
+def ratio(measured: str, bound: str) -> str:
+    try:
+        m, b = float(measured), float(bound)
+    except ValueError:
+        return ""
+    if b == 0.0:
+        return ""
+    return f"{m / b:.2g}"
+
+
+def cell(measured: str, bound: str) -> str:
+    if bound == "exact":
+        return f"{measured} (exact)" if float(measured) != 0.0 else "0 (exact)"
+    r = ratio(measured, bound)
+    return f"{measured} / {bound}" + (f" (**{r}**)" if r else "")
+
+
+def tables(rows: list[list[str]]) -> tuple[str, str]:
+    scenes: dict[str, dict] = {}
+    for scene, metric, frames, measured, bound, precision in rows:
+        s = scenes.setdefault(scene, {"frames": frames})
+        s[(metric, precision)] = (measured, bound)
+    head = [
+        "| scene | frames | position f32, one frame | velocity f32, one frame | f64 position, velocity |",
+        "|---|---:|---:|---:|---|",
+    ]
+    short = []
+    for scene in sorted(scenes):
+        s = scenes[scene]
+        pos = s.get(("position", "f32"))
+        vel = s.get(("velocity", "f32"))
+        f64p = s.get(("position", "f64"))
+        f64v = s.get(("velocity", "f64"))
+        f64 = "—"
+        if f64p and f64v:
+            f64 = f"{cell(*f64p)}, {cell(*f64v)}"
+        elif f64p:
+            f64 = cell(*f64p)
+        short.append(
+            f"| {scene} | {s['frames']} | {cell(*pos) if pos else '—'} | "
+            f"{cell(*vel) if vel else '—'} | {f64} |"
+        )
+    full = [
+        "| scene | metric | frames | f32 measured / bound (ratio) | f64 |",
+        "|---|---|---:|---:|---|",
+    ]
+    for scene in sorted(scenes):
+        s = scenes[scene]
+        order = {"position": 0, "velocity": 1}
+        metrics = sorted(
+            {k[0] for k in s if isinstance(k, tuple)},
+            key=lambda m: (order.get(m, 2), m),
+        )
+        for metric in metrics:
+            f32 = s.get((metric, "f32"))
+            f64 = s.get((metric, "f64"))
+            full.append(
+                f"| {scene} | {metric} | {s['frames']} | "
+                f"{cell(*f32) if f32 else '—'} | {cell(*f64) if f64 else '—'} |"
+            )
+    return "\n".join(head + short), "\n".join(full)
+
+
+def replace(path: Path, marker: str, body: str) -> None:
+    text = path.read_text()
+    begin = f"<!-- {marker}:begin"
+    end = f"<!-- {marker}:end -->"
+    if begin not in text or end not in text:
+        sys.exit(f"{path}: no {begin} … {end} markers")
+    head = text[: text.index(begin)]
+    tail = text[text.index(end) + len(end):]
+    block = (
+        f"{begin} (generated by scripts/bounds-table.py from the tests' BOUND / KERNEL "
+        f"lines; edits here are overwritten) -->\n{body}\n{end}"
+    )
+    path.write_text(head + block + tail)
+
+
+def main() -> None:
+    if len(sys.argv) > 1:
+        text = Path(sys.argv[1]).read_text()
+    else:
+        env = dict(os.environ, HYPERPBD_REQUIRE_GPU="1", NODEVICE_SELECT="1")
+        out = subprocess.run(COMMAND, cwd=ROOT, env=env, capture_output=True, text=True)
+        if out.returncode != 0:
+            sys.exit(out.stdout[-3000:] + out.stderr[-3000:])
+        text = out.stdout
+    rows = bound_lines(text)
+    if not rows:
+        sys.exit("no BOUND lines")
+    short, full = tables(rows)
+    replace(ROOT / "README.md", "bounds", short)
+    replace(ROOT / "docs" / "bounds.md", "bounds-all", full)
+    replace(ROOT / "docs" / "bounds.md", "kernels", kernel_table(text))
+    print(f"{len(rows)} BOUND lines → README.md, docs/bounds.md")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,144 @@
+//! Projection kernels with λ ≠ 0: each (family, color) projected several
+//! times in a row without a prediction in between, so from the second call
+//! on the multiplier of every element is nonzero and enters
+//!
+//! ```text
+//! Δλ = (−C − α~ λ) / (Σ w |∇C|² + α~)           every kind (α > 0 here)
+//! contact  λ' = max(λ + Δλ, 0),  tether  λ' = min(λ + Δλ, 0)
+//! static friction  |Δt| ≤ μ w λ'
+//! ```
+//! (`tests/gpu_kernels.rs` projects each color once after the reset λ = 0,
+//! where α~λ vanishes.) Kernel level, both backends from the same state;
+//! f64 on lavapipe bit for bit after every call (`common::exact`). This
+//! test asserts identity only: on an adapter that does not promise it, it
+//! says so and checks nothing (the whole-step tests keep their bounds
+//! there).
+
+use super::*;
+
+use common::exact::{assert_identical_if_claimed, f64_identical};
+use common::gpu::adapter_or_skip;
+use hyperpbd::{
+    Backend, ConstraintFamily, ConstraintKind, CpuBackend, Kernel, Obstacle, Particle, Plan,
+    SceneBuilder, State,
+};
+use hyperpbd_gpu::{GpuBackend, Precision};
+
+/// A chain in R^dim whose links are stretched 5 %, tethers from its fixed
+/// first particle stretched too (rest 90 % of the distance), squared-area
+/// triangles and one oriented N-simplex off their rest values, and a plane
+/// with friction that every particle penetrates by 1–3 mm: every family
+/// kind violated, every one compliant.
+fn violated(dim: usize) -> Scene {
+    let mut rng = Lcg(31 + dim as u64);
+    let mut b = SceneBuilder::new(dim)
+        .dt(1.0 / 60.0)
+        .substeps(2)
+        .iterations(4)
+        .gravity_along(1, 9.81);
+    let n = 9;
+    let mut ids = Vec::new();
+    for i in 0..n {
+        let x: Vec<f64> = (0..dim)
+            .map(|a| match a {
+                0 => 0.105 * i as f64 + 0.003 * rng.next(),
+                1 => -0.002 - 0.001 * (1.0 + rng.next()),
+                _ => 0.02 * rng.next(),
+            })
+            .collect();
+        let v: Vec<f64> = (0..dim).map(|_| 0.4 * rng.next()).collect();
+        let mut p = Particle::new(x, 0.2 + 0.1 * i as f64).with_velocity(v);
+        if i == 0 {
+            p = Particle::fixed(p.position.clone());
+        }
+        ids.push(b.particle(p));
+    }
+    let links: Vec<Vec<usize>> = ids.windows(2).map(|w| w.to_vec()).collect();
+    let mut distance = ConstraintFamily::new(ConstraintKind::Distance, 1e-5, links);
+    distance.rest = Some(vec![0.1; n - 1]);
+    b.family(distance);
+    let tethers: Vec<Vec<usize>> = ids[2..].iter().map(|&i| vec![ids[0], i]).collect();
+    let mut tether = ConstraintFamily::new(ConstraintKind::Tether, 1e-6, tethers);
+    tether.rest = Some((2..n).map(|i| 0.09 * i as f64).collect());
+    b.family(tether);
+    let triangles: Vec<Vec<usize>> = ids[1..].windows(3).map(|w| w.to_vec()).collect();
+    let count = triangles.len();
+    let mut area = ConstraintFamily::new(ConstraintKind::SimplexMeasure, 1e-9, triangles);
+    area.rest = Some(vec![1e-6; count]);
+    b.family(area);
+    let simplex: Vec<usize> = ids[1..=dim + 1].to_vec();
+    let mut oriented = ConstraintFamily::new(ConstraintKind::OrientedMeasure, 1e-8, vec![simplex]);
+    oriented.rest = Some(vec![1e-4]);
+    b.family(oriented);
+    let mut scene = b.build().expect("valid");
+    scene.obstacles.push(Obstacle::Hyperplane {
+        normal: unit(dim, &[0.0, 1.0]),
+        offset: 0.0,
+        friction: 0.6,
+        compliance: 1e-7,
+    });
+    valid(scene)
+}
+
+#[test]
+fn repeated_projections_with_nonzero_multipliers_match_bit_for_bit() {
+    let Some((adapter, summary)) = adapter_or_skip(
+        "repeated_projections_with_nonzero_multipliers_match_bit_for_bit",
+        Precision::F64,
+    ) else {
+        return;
+    };
+    if !f64_identical(&summary) {
+        println!(
+            "NOT CHECKED: repeated projections assert f64 bit identity, which {} does not promise",
+            summary.name
+        );
+        return;
+    }
+    for dim in [2, 3, 4] {
+        let scene = violated(dim);
+        let plan = Plan::compile(&scene).expect("compiles");
+        let state = State::from_scene(&scene);
+        let mut cpu = CpuBackend::new(plan.clone(), &state).expect("cpu");
+        let mut gpu =
+            GpuBackend::with_adapter(&adapter, plan.clone(), &state, Precision::F64).expect("gpu");
+        let mut calls = 0;
+        let mut nonzero = vec![false; plan.families.len()];
+        for (f, family) in plan.families.iter().enumerate() {
+            for color in 0..family.color_count() {
+                // Same start on both: the GPU's state; Predict resets λ.
+                let start = gpu.read_state().expect("gpu state");
+                cpu.write_state(&start).expect("cpu write_state");
+                cpu.run_kernel(Kernel::Predict).expect("cpu predict");
+                gpu.run_kernel(Kernel::Predict).expect("gpu predict");
+                for repeat in 0..4 {
+                    let kernel = Kernel::Project { family: f, color };
+                    cpu.run_kernel(kernel).expect("cpu project");
+                    gpu.run_kernel(kernel).expect("gpu project");
+                    calls += 1;
+                    let name = format!("R^{dim} {} color {color} call {repeat}", family.label);
+                    assert_identical_if_claimed(
+                        &summary,
+                        &name,
+                        &cpu.read_state().expect("cpu"),
+                        &gpu.read_state().expect("gpu"),
+                    );
+                    if repeat == 0 {
+                        let lambda = cpu.multipliers(f).expect("family");
+                        nonzero[f] |= family.color(color).any(|slot| lambda[slot] != 0.0);
+                    }
+                }
+            }
+        }
+        // The repeated calls did see λ ≠ 0 in every family (else α~λ and
+        // the clamps would still be untested).
+        for (f, family) in plan.families.iter().enumerate() {
+            assert!(
+                nonzero[f],
+                "R^{dim} {}: every multiplier stayed 0",
+                family.label
+            );
+        }
+        println!("LAMBDA | R^{dim} | {calls} projection calls with λ ≠ 0 | f64 bit-identical");
+    }
+}
