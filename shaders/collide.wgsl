@@ -1,141 +1,196 @@
-// Particle–particle contact, one gather-Jacobi iteration in two kernels —
-// the arithmetic of cpu/src/collide.rs, in the same order:
+// Particle–particle contact, one gather-Jacobi iteration — the arithmetic of
+// cpu/src/collide.rs, in the same order:
 //
-//   collide_pairs   per pair e = (i, j), from the iterate x:
-//                   d = x_j − x_i;  C = |d| − (r_i + r_j);  active iff C < 0, |d| > 0
-//                   n = d / |d|;  s = −C;  c_e = n s − t_f  (t_f: clamped tangential
-//                   relative motion since the substep start p, μ > 0 only)
-//   collide_gather  per particle k, over its sorted contact list:
-//                   x_k += Σ ±(w_k / (w_i + w_j)) c_e / (number of active contacts)
+//   contact_snapshot  y = x                      (the iterate every pair reads)
+//   collide           particle k, over its list (ascending partners m):
+//                     pair (i, j) = (min(k, m), max(k, m)), from y:
+//                       d = y_j − y_i;  C = |d| − (r_i + r_j);  active iff C < 0, |d| > 0
+//                       n = d / |d|;  s = −C;  c = n s − t_f   (t_f: clamped tangential
+//                       motion since the substep start p, μ > 0 only)
+//                     x_k = y_k + Σ_active ±(w_k / (w_i + w_j)) c / (active count)
 //
-// `lists` holds the pairs (2 per pair), then the list offsets (n + 1),
-// then the entries (2 e + side). `corr` holds DIM + 1 reals per pair: c_e
-// and an active flag (1 or 0). No atomics: each invocation writes only its
-// own pair or particle.
+// Each pair's correction is computed by both of its particles with the same
+// operations on the same operands (i < j as on the CPU), so both see the
+// CPU's value; each particle sums in ascending partner order — the order of
+// its CPU contact list. No atomics on reals.
+//
+// Failures, as the CPU reports them: a non-finite |d| fails the pair's
+// lower particle i (index i: the CPU stops at the first such pair, the one
+// with the smallest i); a non-finite new position fails particle k with
+// index count + k, so a pair failure anywhere wins (the CPU's pair loop runs
+// before its gather).
+//
+//   contact_report        per particle: deepest overlap r_k + r_m − |x_m − x_k|
+//                         over its partners m > k → scratch; active pairs
+//   contact_report_final  max(0, deepest), Σ active → scratch[REPORT], counters
 
-struct CollideParams {
-    pairs: u32,       // candidate pairs
-    particles: u32,   // particles
-    offsets: u32,     // start of the offsets in `lists`
-    entries: u32,     // start of the entries in `lists`
-    friction: real,   // Coulomb μ between particles
+fn report_at() -> u32 {
+    return REPORT;
 }
 
-@group(0) @binding(0) var<storage, read> cparams: CollideParams;
-@group(0) @binding(1) var<storage, read_write> x: array<real>;
-@group(0) @binding(2) var<storage, read> p: array<real>;
-// inverse mass and radius, 2 per particle
-@group(0) @binding(3) var<storage, read> props: array<real>;
-@group(0) @binding(4) var<storage, read> lists: array<u32>;
-@group(0) @binding(5) var<storage, read_write> corr: array<real>;
-
-const STRIDE: u32 = DIM + 1u;
-
-fn index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return gid.x + gid.y * groups.x * 64u;
+fn deepest_at(k: u32) -> u32 {
+    return REPORT + 1u + k;
 }
 
 @compute @workgroup_size(64)
-fn collide_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let e = index(gid, groups);
-    if (e >= cparams.pairs) {
+fn contact_snapshot(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = invocation(gid, groups);
+    if (k >= cparams.count || failed_before()) {
         return;
     }
-    let i = lists[2u * e];
-    let j = lists[2u * e + 1u];
-    var d: array<real, DIM>;
-    var len2: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        d[a] = x[j * DIM + a] - x[i * DIM + a];
-        len2 += d[a] * d[a];
+        snapshot[k * DIM + a] = position(k, a);
     }
-    let len = sqrt(len2);
-    let c = len - (props[2u * i + 1u] + props[2u * j + 1u]);
-    let base = e * STRIDE;
-    if (!(c < 0.0 && len > 0.0)) {
-        corr[base + DIM] = 0.0;
+}
+
+fn iterate(i: u32, a: u32) -> real {
+    return snapshot[i * DIM + a];
+}
+
+@compute @workgroup_size(64)
+fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = invocation(gid, groups);
+    let n = cparams.count;
+    if (k >= n || failed_before()) {
         return;
     }
-    corr[base + DIM] = 1.0;
-    let s = -c;
-    let inv = 1.0 / len;
-    for (var a = 0u; a < DIM; a++) {
-        d[a] *= inv;
-    }
-    var out: array<real, DIM>;
-    for (var a = 0u; a < DIM; a++) {
-        out[a] = d[a] * s;
-    }
+    let wk = inverse_mass(k);
     let mu = cparams.friction;
-    if (mu > 0.0) {
-        var dn: real = 0.0;
-        for (var a = 0u; a < DIM; a++) {
-            let dr = (x[j * DIM + a] - p[j * DIM + a]) - (x[i * DIM + a] - p[i * DIM + a]);
-            dn += dr * d[a];
-        }
-        var t2: real = 0.0;
-        for (var a = 0u; a < DIM; a++) {
-            let dr = (x[j * DIM + a] - p[j * DIM + a]) - (x[i * DIM + a] - p[i * DIM + a]);
-            let t = dr - dn * d[a];
-            t2 += t * t;
-        }
-        let t_norm = sqrt(t2);
-        let bound = mu * s;
-        var scale: real = 1.0;
-        if (!(t_norm <= bound)) {
-            scale = bound / t_norm;
-        }
-        for (var a = 0u; a < DIM; a++) {
-            let dr = (x[j * DIM + a] - p[j * DIM + a]) - (x[i * DIM + a] - p[i * DIM + a]);
-            let t = dr - dn * d[a];
-            out[a] -= t * scale;
-        }
-    }
-    for (var a = 0u; a < DIM; a++) {
-        corr[base + a] = out[a];
-    }
-}
-
-@compute @workgroup_size(64)
-fn collide_gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let k = index(gid, groups);
-    if (k >= cparams.particles) {
-        return;
-    }
-    let wk = props[2u * k];
-    if (wk == 0.0) {
-        return;
-    }
     var sum: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
         sum[a] = 0.0;
     }
     var touching = 0u;
-    let first = lists[cparams.offsets + k];
-    let last = lists[cparams.offsets + k + 1u];
-    for (var at = first; at < last; at++) {
-        let entry = lists[cparams.entries + at];
-        let e = entry / 2u;
-        if (corr[e * STRIDE + DIM] == 0.0) {
+    var ahead = 0u;
+    let len = words[list_length_at() + k];
+    for (var t = 0u; t < len; t++) {
+        let m = list_entry(k, t);
+        let i = min(k, m);
+        let j = max(k, m);
+        var d: array<real, DIM>;
+        var len2: real = 0.0;
+        for (var a = 0u; a < DIM; a++) {
+            d[a] = iterate(j, a) - iterate(i, a);
+            len2 += d[a] * d[a];
+        }
+        let dist = sqrt(len2);
+        if (!finite(dist)) {
+            fail(i);
+            return;
+        }
+        let c = dist - (radius(i) + radius(j));
+        if (!(c < 0.0 && dist > 0.0)) {
             continue;
         }
-        let i = lists[2u * e];
-        let j = lists[2u * e + 1u];
-        let share = wk / (props[2u * i] + props[2u * j]);
+        if (m > k) {
+            ahead++;
+        }
+        let s = -c;
+        let inv = 1.0 / dist;
+        for (var a = 0u; a < DIM; a++) {
+            d[a] *= inv;
+        }
+        var out: array<real, DIM>;
+        for (var a = 0u; a < DIM; a++) {
+            out[a] = d[a] * s;
+        }
+        if (mu > 0.0) {
+            var dn: real = 0.0;
+            for (var a = 0u; a < DIM; a++) {
+                let dr = (iterate(j, a) - start(j, a)) - (iterate(i, a) - start(i, a));
+                dn += dr * d[a];
+            }
+            var t2: real = 0.0;
+            for (var a = 0u; a < DIM; a++) {
+                let dr = (iterate(j, a) - start(j, a)) - (iterate(i, a) - start(i, a));
+                let tan = dr - dn * d[a];
+                t2 += tan * tan;
+            }
+            let t_norm = sqrt(t2);
+            let bound = mu * s;
+            var scale: real = 1.0;
+            if (!(t_norm <= bound)) {
+                scale = bound / t_norm;
+            }
+            for (var a = 0u; a < DIM; a++) {
+                let dr = (iterate(j, a) - start(j, a)) - (iterate(i, a) - start(i, a));
+                let tan = dr - dn * d[a];
+                out[a] -= tan * scale;
+            }
+        }
+        if (wk == 0.0) {
+            continue;
+        }
+        let share = wk / (inverse_mass(i) + inverse_mass(j));
         var sign = share;
-        if (entry % 2u == 0u) {
+        if (k == i) {
             sign = -share;
         }
         for (var a = 0u; a < DIM; a++) {
-            sum[a] += sign * corr[e * STRIDE + a];
+            sum[a] += sign * out[a];
         }
         touching++;
     }
+    words[active_at() + k] = ahead;
     if (touching == 0u) {
         return;
     }
     let count = real(touching);
+    var ok = true;
     for (var a = 0u; a < DIM; a++) {
-        x[k * DIM + a] = x[k * DIM + a] + sum[a] / count;
+        let xk = iterate(k, a) + sum[a] / count;
+        set_position(k, a, xk);
+        ok = ok && finite(xk);
     }
+    if (!ok) {
+        fail(n + k);
+    }
+}
+
+@compute @workgroup_size(64)
+fn contact_report(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = invocation(gid, groups);
+    if (k >= cparams.count || failed_before()) {
+        return;
+    }
+    var deepest: real = 0.0;
+    let len = words[list_length_at() + k];
+    for (var t = 0u; t < len; t++) {
+        let m = list_entry(k, t);
+        if (m < k) {
+            continue;
+        }
+        var len2: real = 0.0;
+        for (var a = 0u; a < DIM; a++) {
+            let d = position(m, a) - position(k, a);
+            len2 += d * d;
+        }
+        deepest = max(deepest, radius(k) + radius(m) - sqrt(len2));
+    }
+    scratch[deepest_at(k)] = deepest;
+}
+
+var<workgroup> report_deepest: array<real, 64>;
+var<workgroup> report_active: array<u32, 64>;
+
+@compute @workgroup_size(64)
+fn contact_report_final(@builtin(local_invocation_index) lid: u32) {
+    var deepest: real = 0.0;
+    var pushing = 0u;
+    for (var k = lid; k < cparams.count; k += 64u) {
+        deepest = max(deepest, scratch[deepest_at(k)]);
+        pushing += words[active_at() + k];
+    }
+    report_deepest[lid] = deepest;
+    report_active[lid] = pushing;
+    workgroupBarrier();
+    if (lid != 0u || failed_before()) {
+        return;
+    }
+    for (var t = 1u; t < 64u; t++) {
+        deepest = max(deepest, report_deepest[t]);
+        pushing += report_active[t];
+    }
+    scratch[report_at()] = deepest;
+    atomicStore(&counters[ACTIVE], pushing);
 }

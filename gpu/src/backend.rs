@@ -195,12 +195,16 @@ impl GpuBackend {
         let (buffers, pipelines, state_group, params_group, step_dispatches, residual_dispatches) =
             built?;
         let contacts = match plan.contacts {
-            Some(c) => Some(ContactStage::new(
+            Some(_) => Some(ContactStage::new(
                 &device,
                 &queue,
                 errors.clone(),
-                (plan.dim, plan.particle_count(), precision),
-                c,
+                (&plan, precision),
+                crate::contact::Bound {
+                    x: &buffers.x,
+                    p: &buffers.p,
+                    status: &buffers.status,
+                },
             )?),
             None => None,
         };
@@ -591,6 +595,12 @@ impl GpuBackend {
                 }
                 .into()
             }
+            Kernel::Collide => StepError::NonFiniteParticle {
+                stage: StageName::Project,
+                substep,
+                particle: contact_step::collide_particle(index, self.plan.particle_count()),
+            }
+            .into(),
             other => StepError::NonFiniteParticle {
                 stage: other.stage(),
                 substep,
@@ -756,18 +766,19 @@ impl Backend for GpuBackend {
 
     fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
         check_kernel(&self.plan, kernel)?;
-        if self.contacts.is_some() {
-            return Err(BackendError::InvalidCall(
-                "single kernel calls on a plan with collisions are not offered on the GPU; \
-                 the contact kernels are checked alone through GpuSweep and GpuCollide"
-                    .into(),
-            ));
+        if matches!(kernel, Kernel::Broadphase | Kernel::Collide) {
+            return self.run_contact_kernel(kernel);
         }
-        let Some(index) = self.plan.substep_kernels.iter().position(|&k| k == kernel) else {
+        let Some(at) = self.plan.substep_kernels.iter().position(|&k| k == kernel) else {
             return Err(BackendError::InvalidCall(format!(
                 "{kernel:?} is not in this plan's schedule"
             )));
         };
+        // The contact kernels have no entry in the dispatch list.
+        let index = self.plan.substep_kernels[..at]
+            .iter()
+            .filter(|k| !matches!(k, Kernel::Broadphase | Kernel::Collide))
+            .count();
         self.reset_status();
         let mut encoder = self.device.create_command_encoder(&Default::default());
         {

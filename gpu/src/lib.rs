@@ -16,6 +16,7 @@ mod backend;
 pub mod barrier;
 pub mod broadphase;
 pub mod collide;
+mod contact;
 mod device_errors;
 mod incremental_potential;
 pub mod origin;

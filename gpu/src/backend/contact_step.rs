@@ -1,213 +1,204 @@
-//! The GPU step of a plan with particle–particle contact.
+//! The GPU step of a plan with particle–particle contact: the plain step
+//! with the contact kernel set ([`crate::contact`]) recorded at the plan's
+//! Broadphase and Collide positions, all in one compute pass, one submit.
 //!
 //! ```text
-//! save (x, v)
-//! substeps × plan.substep_kernels:
-//!   Broadphase  submit what is recorded; read x and p back; swept boxes
-//!               (radius + margin) → GpuSweep on this device (same rule as the
-//!               CPU: axis of widest spread, canonical pairs, pairs of two fixed
-//!               particles dropped) → contact lists (core::broadphase::
-//!               contact_lists) → bind the contact kernels to the resident x, p
-//!   Collide     collide_pairs + collide_gather on the resident x, p
+//! reset status and contact counters; save (x, v)
+//! substeps × plan.substep_kernels, one pass:
+//!   Broadphase  boxes from the resident p, x (radius + margin) → hashed grid →
+//!               every particle's sorted contact list (pairs of two fixed
+//!               particles left out)                          (8 dispatches)
+//!   Collide     snapshot + collide on the resident x, p       (2 dispatches)
 //!   other       the plan's dispatch, as in the plain step
-//! residuals; status; on failure roll (x, v) back
+//! residuals; contact report (deepest overlap, active pairs)
+//! one wait; read status + report (backend) and the 32-byte contact outcome
+//!   a list longer than its slots → roll (x, v) back, grow the lists, rerun
+//!   a failed call → roll back, the CPU's error (a contact failure names the
+//!   particle the CPU names)
 //! ```
-//! The broadphase needs the pair total on the host (to grow the pair buffer
-//! and rerun, never dropping a pair), so a contact step synchronises once
-//! per substep; the rest is as resident as the plain step.
+//! No host round trip inside the step: every dispatch size is known when
+//! the plan is loaded (particles, buckets), so nothing waits for a count.
 
-use hyperpbd_core::broadphase::{Aabbs, contact_lists, sweep_axis};
-use hyperpbd_core::{
-    BackendError, FamilyResidual, GpuError, Kernel, ParticleContacts, StageName, StepReport,
-};
+use hyperpbd_core::{BackendError, FamilyResidual, GpuError, Kernel, Plan, StageName, StepReport};
 
 use super::GpuBackend;
-use crate::collide::{ContactLists, GpuCollide, Resident};
-use crate::params::read_reals;
-use crate::{GpuSweep, Precision};
+use crate::Precision;
+use crate::broadphase::grid_broken;
+use crate::contact::{
+    BOXES_FROM_STATE, Block, Bound, ContactBuffers, ContactKernels, Outcome, Particles,
+    SKIP_FIXED_PAIRS,
+};
 
-/// The broadphase and contact kernels of a backend with collisions.
+/// List slots per particle a contact stage starts with (grown on demand).
+const INITIAL_SLOTS: usize = 32;
+/// Reruns of one step after growing the lists before giving up (each
+/// growth at least doubles the slots and fits the longest list seen, and a
+/// rerun from the same state finds the same lists, so one is enough).
+const MAX_REGROWTHS: usize = 4;
+
+/// The contact kernels and buffers of a backend with collisions.
 pub(super) struct ContactStage {
-    sweep: GpuSweep,
-    collide: GpuCollide,
-    friction: f64,
-    margin: f64,
-    /// Pairs and lists of the current substep.
-    resident: Option<Resident>,
-    pairs: Vec<[u32; 2]>,
+    kernels: ContactKernels,
+    buffers: ContactBuffers,
+    /// Parameter block of the end-of-step report.
+    report_block: usize,
 }
 
 impl ContactStage {
-    /// `contacts` of a plan in R^`dim` with `particles` particles.
+    /// The stage of `plan` (which has collisions), bound to the backend's
+    /// resident buffers.
     pub(super) fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         errors: std::sync::Arc<std::sync::Mutex<Vec<String>>>,
-        (dim, particles, precision): (usize, usize, Precision),
-        contacts: ParticleContacts,
+        (plan, precision): (&Plan, Precision),
+        bound: Bound,
     ) -> Result<Self, GpuError> {
-        let ParticleContacts { friction, margin } = contacts;
+        let contacts = plan.contacts.ok_or_else(|| GpuError::Other {
+            message: "a contact stage for a plan without collisions".into(),
+        })?;
+        let k = plan.substep_kernels.len() as u32;
+        let mut blocks = Vec::new();
+        for substep in 0..plan.substeps {
+            for (index, kernel) in plan.substep_kernels.iter().enumerate() {
+                if matches!(kernel, Kernel::Broadphase | Kernel::Collide) {
+                    blocks.push(Block {
+                        call: substep * k + index as u32,
+                        flags: SKIP_FIXED_PAIRS | BOXES_FROM_STATE,
+                        axis: plan.dim as u32,
+                    });
+                }
+            }
+        }
+        // The report runs only when no call of the step failed.
+        blocks.push(Block {
+            call: u32::MAX,
+            flags: 0,
+            axis: plan.dim as u32,
+        });
+        let kernels = ContactKernels::new(device, plan.dim, precision)?;
+        let buffers = ContactBuffers::new(
+            (device, queue, errors),
+            &kernels,
+            bound,
+            &Particles {
+                inverse_mass: &plan.inverse_mass,
+                radius: &plan.radius,
+                margin: contacts.margin,
+                friction: contacts.friction,
+            },
+            INITIAL_SLOTS,
+            blocks,
+        )?;
         Ok(ContactStage {
-            sweep: GpuSweep::with_device(
-                device.clone(),
-                queue.clone(),
-                errors.clone(),
-                dim,
-                precision,
-                8 * particles.max(1),
-            )?,
-            collide: GpuCollide::with_device(
-                device.clone(),
-                queue.clone(),
-                errors,
-                dim,
-                precision,
-            )?,
-            friction,
-            margin,
-            resident: None,
-            pairs: Vec::new(),
+            report_block: buffers.block_of(u32::MAX).unwrap_or(0),
+            kernels,
+            buffers,
         })
+    }
+
+    /// Records kernel `kernel` (Broadphase or Collide) of step call `call`.
+    fn encode(&self, pass: &mut wgpu::ComputePass<'_>, kernel: Kernel, call: u32) {
+        let Some(block) = self.buffers.block_of(call) else {
+            return;
+        };
+        match kernel {
+            Kernel::Broadphase => self.buffers.encode_broadphase(&self.kernels, pass, block),
+            Kernel::Collide => self.buffers.encode_collide(&self.kernels, pass, block),
+            _ => {}
+        }
+    }
+
+    /// `Some(slots)` when a list did not fit: grow to that and rerun.
+    fn regrow(&mut self, outcome: &Outcome) -> Result<bool, GpuError> {
+        if let Some(i) = outcome.grid_broken {
+            return Err(grid_broken(i));
+        }
+        let longest = outcome.longest_list as usize;
+        if longest <= self.buffers.slots() {
+            return Ok(false);
+        }
+        self.buffers.grow(&self.kernels, longest)?;
+        Ok(true)
     }
 }
 
+/// The particle a failed Collide call names: index i for a non-finite pair
+/// (its lower particle), count + k for a non-finite new position of k
+/// (shaders/collide.wgsl).
+pub(super) fn collide_particle(index: u32, particles: usize) -> usize {
+    let index = index as usize;
+    index.checked_sub(particles).unwrap_or(index)
+}
+
 impl GpuBackend {
-    /// Reads x then p (as f64) after everything submitted so far.
-    fn read_x_and_p(&self) -> Result<(Vec<f64>, Vec<f64>), GpuError> {
-        let bytes = self.buffers.state_bytes;
-        if bytes == 0 {
-            return Ok((Vec::new(), Vec::new()));
-        }
-        let mut encoder = self.device.create_command_encoder(&Default::default());
-        encoder.copy_buffer_to_buffer(&self.buffers.x, 0, &self.buffers.state_staging, 0, bytes);
-        encoder.copy_buffer_to_buffer(
-            &self.buffers.p,
-            0,
-            &self.buffers.state_staging,
-            bytes,
-            bytes,
-        );
-        self.submit_and_wait(encoder)?;
-        let data = self.read_mapped(&self.buffers.state_staging, 2 * bytes)?;
-        let split = bytes as usize;
-        Ok((
-            read_reals(&data[..split], self.precision),
-            read_reals(&data[split..], self.precision),
-        ))
-    }
-
-    /// Reads the status word: the failing call, if any.
-    fn read_status(&self) -> Result<Option<(u32, u32)>, GpuError> {
-        let mut encoder = self.device.create_command_encoder(&Default::default());
-        encoder.copy_buffer_to_buffer(&self.buffers.status, 0, &self.buffers.report_staging, 0, 16);
-        self.submit_and_wait(encoder)?;
-        let block = self.read_mapped(&self.buffers.report_staging, 16)?;
-        Ok(self.failure(&block))
-    }
-
-    /// The broadphase of one substep: pairs of the boxes swept from p to x.
-    fn contact_broadphase(&mut self) -> Result<(), GpuError> {
-        let (x, p) = self.read_x_and_p()?;
-        let plan = &self.plan;
-        let Some(stage) = self.contacts.as_mut() else {
-            return Ok(());
-        };
-        let boxes = Aabbs::swept_particles(plan.dim, &p, &x, &plan.radius, stage.margin);
-        let w = &plan.inverse_mass;
-        let mut pairs = stage.sweep.sweep(&boxes, sweep_axis(&boxes))?;
-        pairs.retain(|&[i, j]| w[i as usize] + w[j as usize] > 0.0);
-        let (offsets, entries) = contact_lists(&pairs, plan.particle_count());
-        stage.resident = Some(stage.collide.bind_resident(
-            &self.buffers.x,
-            &self.buffers.p,
-            &ContactLists {
-                inverse_mass: &plan.inverse_mass,
-                radius: &plan.radius,
-                pairs: &pairs,
-                offsets: &offsets,
-                entries: &entries,
-                friction: stage.friction,
-            },
-        ));
-        stage.pairs = pairs;
-        Ok(())
-    }
-
-    fn fail_and_roll_back(&self, call: u32, index: u32) -> BackendError {
-        match self.rollback() {
-            Ok(()) => self.step_error(call, index),
-            Err(e) => e.into(),
-        }
-    }
-
     /// One step of a plan with collisions (see the module doc).
     pub(super) fn step_with_contacts(&mut self) -> Result<StepReport, BackendError> {
+        for _ in 0..=MAX_REGROWTHS {
+            let outcome = self.submit_contact_step()?;
+            let Some(stage) = self.contacts.as_mut() else {
+                break;
+            };
+            match stage.regrow(&outcome) {
+                Ok(false) => return self.finish_contact_step(&outcome),
+                Ok(true) => self.rollback()?,
+                Err(e) => {
+                    self.rollback()?;
+                    return Err(e.into());
+                }
+            }
+        }
+        Err(GpuError::Other {
+            message: "contact lists still too short after growing them".into(),
+        }
+        .into())
+    }
+
+    /// Records, submits and waits for one step; returns the contact outcome
+    /// (the status and report block are in `report_staging`).
+    fn submit_contact_step(&mut self) -> Result<Outcome, BackendError> {
+        let Some(stage) = &self.contacts else {
+            return Err(GpuError::Other {
+                message: "contact step without a contact stage".into(),
+            }
+            .into());
+        };
         self.reset_status();
+        stage.buffers.reset();
         let bytes = self.buffers.state_bytes;
         let mut encoder = self.device.create_command_encoder(&Default::default());
         if bytes > 0 {
             encoder.copy_buffer_to_buffer(&self.buffers.x, 0, &self.buffers.saved_x, 0, bytes);
             encoder.copy_buffer_to_buffer(&self.buffers.v, 0, &self.buffers.saved_v, 0, bytes);
         }
-        let mut kernel_calls: Vec<(StageName, u64)> =
-            self.plan.stages.iter().map(|&s| (s, 0)).collect();
-        let mut count = |stage: StageName| {
-            if let Some(entry) = kernel_calls.iter_mut().find(|(s, _)| *s == stage) {
-                entry.1 += 1;
-            }
-        };
-        let mut dispatch = 0usize;
-        let kernels = self.plan.substep_kernels.clone();
-        for _ in 0..self.plan.substeps {
-            // Segments between broadphases are recorded in one pass each.
-            let mut start = 0;
-            while start < kernels.len() {
-                let end = kernels[start..]
-                    .iter()
-                    .position(|k| *k == Kernel::Broadphase)
-                    .map_or(kernels.len(), |at| start + at);
-                {
-                    let mut pass = encoder.begin_compute_pass(&Default::default());
-                    pass.set_bind_group(0, &self.state_group, &[]);
-                    for &kernel in &kernels[start..end] {
-                        count(kernel.stage());
-                        if kernel == Kernel::Collide {
-                            if let Some(stage) = &self.contacts
-                                && let Some(resident) = &stage.resident
-                            {
-                                stage.collide.encode(&mut pass, resident);
-                                pass.set_bind_group(0, &self.state_group, &[]);
-                            }
-                            continue;
-                        }
-                        let Some(d) = self.step_dispatches.get(dispatch) else {
-                            return Err(GpuError::Other {
-                                message: "contact step: dispatch list shorter than the plan".into(),
-                            }
-                            .into());
-                        };
-                        self.encode(&mut pass, d);
-                        dispatch += 1;
-                    }
-                }
-                if end < kernels.len() {
-                    count(StageName::Broadphase);
-                    self.submit_and_wait(encoder)?;
-                    if let Some((call, index)) = self.read_status()? {
-                        return Err(self.fail_and_roll_back(call, index));
-                    }
-                    self.contact_broadphase()?;
-                    encoder = self.device.create_command_encoder(&Default::default());
-                }
-                start = end + 1;
-            }
-        }
+        let kernels = &self.plan.substep_kernels;
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             pass.set_bind_group(0, &self.state_group, &[]);
+            let mut dispatches = self.step_dispatches.iter();
+            for substep in 0..self.plan.substeps {
+                for (index, &kernel) in kernels.iter().enumerate() {
+                    if matches!(kernel, Kernel::Broadphase | Kernel::Collide) {
+                        let call = substep * kernels.len() as u32 + index as u32;
+                        stage.encode(&mut pass, kernel, call);
+                        pass.set_bind_group(0, &self.state_group, &[]);
+                        continue;
+                    }
+                    let Some(d) = dispatches.next() else {
+                        return Err(GpuError::Other {
+                            message: "contact step: dispatch list shorter than the plan".into(),
+                        }
+                        .into());
+                    };
+                    self.encode(&mut pass, d);
+                }
+            }
             for d in &self.residual_dispatches {
                 self.encode(&mut pass, d);
             }
+            stage
+                .buffers
+                .encode_report(&stage.kernels, &mut pass, stage.report_block);
         }
         encoder.copy_buffer_to_buffer(&self.buffers.status, 0, &self.buffers.report_staging, 0, 16);
         if self.buffers.report_bytes > 0 {
@@ -219,25 +210,23 @@ impl GpuBackend {
                 self.buffers.report_bytes,
             );
         }
+        stage.buffers.copy_outcome(&mut encoder);
         self.submit_and_wait(encoder)?;
+        Ok(stage.buffers.read_outcome()?)
+    }
+
+    /// The report of a submitted step whose lists fitted, or its error
+    /// (state rolled back).
+    fn finish_contact_step(&self, outcome: &Outcome) -> Result<StepReport, BackendError> {
         let block =
             self.read_mapped(&self.buffers.report_staging, 16 + self.buffers.report_bytes)?;
         if let Some((call, index)) = self.failure(&block) {
-            return Err(self.fail_and_roll_back(call, index));
-        }
-        let (x, _) = self.read_x_and_p()?;
-        if let Some(i) = x.iter().position(|c| !c.is_finite()) {
             self.rollback()?;
-            return Err(hyperpbd_core::StepError::NonFiniteParticle {
-                stage: StageName::Project,
-                substep: self.plan.substeps.saturating_sub(1),
-                particle: i / self.plan.dim.max(1),
-            }
-            .into());
+            return Err(self.step_error(call, index));
         }
-        let report = read_reals(&block[16..], self.precision);
+        let report = crate::params::read_reals(&block[16..], self.precision);
         let mut residuals = Vec::with_capacity(self.plan.families.len() + 1);
-        let mut active_contacts = 0;
+        let mut active_contacts = outcome.active as usize;
         for (family, f) in self.plan.families.iter().enumerate() {
             residuals.push(FamilyResidual {
                 label: f.label.clone(),
@@ -247,55 +236,70 @@ impl GpuBackend {
                 active_contacts += report[2 * family + 1] as usize;
             }
         }
-        let (deepest, active) = self.contact_report(&x)?;
         residuals.push(FamilyResidual {
             label: "collisions".into(),
-            max_violation: deepest,
+            max_violation: outcome.deepest,
         });
+        let mut kernel_calls: Vec<(StageName, u64)> =
+            self.plan.stages.iter().map(|&s| (s, 0)).collect();
+        for kernel in &self.plan.substep_kernels {
+            if let Some(entry) = kernel_calls.iter_mut().find(|(s, _)| *s == kernel.stage()) {
+                entry.1 += u64::from(self.plan.substeps);
+            }
+        }
         Ok(StepReport {
             kernel_calls,
             residuals,
-            active_contacts: active_contacts + active,
+            active_contacts,
             minimisation: Vec::new(),
         })
     }
 
-    /// Deepest overlap over the last candidate pairs (the CPU's formula on
-    /// the read-back positions) and the pairs active in the last iteration.
-    fn contact_report(&self, x: &[f64]) -> Result<(f64, usize), GpuError> {
-        let Some(stage) = &self.contacts else {
-            return Ok((0.0, 0));
+    /// `run_kernel` of Broadphase or Collide: the kernel of the first
+    /// substep's call, alone (a broadphase whose lists did not fit is grown
+    /// and rerun; it only reads x and p).
+    pub(super) fn run_contact_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
+        let Some(index) = self.plan.substep_kernels.iter().position(|&k| k == kernel) else {
+            return Err(BackendError::InvalidCall(format!(
+                "{kernel:?} is not in this plan's schedule"
+            )));
         };
-        let dim = self.plan.dim;
-        let mut deepest: f64 = 0.0;
-        for &[i, j] in &stage.pairs {
-            let (i, j) = (i as usize, j as usize);
-            let mut len2 = 0.0;
-            for a in 0..dim {
-                let d = x[j * dim + a] - x[i * dim + a];
-                len2 += d * d;
-            }
-            deepest = deepest.max(self.plan.radius[i] + self.plan.radius[j] - len2.sqrt());
-        }
-        let mut active = 0;
-        if let Some(resident) = &stage.resident
-            && resident.corr_bytes > 0
-        {
-            let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("corrections staging"),
-                size: resident.corr_bytes,
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
+        let call = index as u32;
+        for _ in 0..=MAX_REGROWTHS {
+            let Some(stage) = &self.contacts else {
+                break;
+            };
+            self.reset_status();
+            stage.buffers.reset();
             let mut encoder = self.device.create_command_encoder(&Default::default());
-            encoder.copy_buffer_to_buffer(&resident.corr, 0, &staging, 0, resident.corr_bytes);
-            self.submit_and_wait(encoder)?;
-            let corr = read_reals(
-                &self.read_mapped(&staging, resident.corr_bytes)?,
-                self.precision,
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                stage.encode(&mut pass, kernel, call);
+            }
+            encoder.copy_buffer_to_buffer(
+                &self.buffers.status,
+                0,
+                &self.buffers.report_staging,
+                0,
+                16,
             );
-            active = corr.chunks_exact(dim + 1).filter(|c| c[dim] != 0.0).count();
+            stage.buffers.copy_outcome(&mut encoder);
+            self.submit_and_wait(encoder)?;
+            let block = self.read_mapped(&self.buffers.report_staging, 16)?;
+            let outcome = stage.buffers.read_outcome()?;
+            if let Some((call, index)) = self.failure(&block) {
+                return Err(self.step_error(call, index));
+            }
+            let Some(stage) = self.contacts.as_mut() else {
+                break;
+            };
+            if !stage.regrow(&outcome)? {
+                return Ok(());
+            }
         }
-        Ok((deepest, active))
+        Err(GpuError::Other {
+            message: "contact lists still too short after growing them".into(),
+        }
+        .into())
     }
 }

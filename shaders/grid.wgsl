@@ -1,0 +1,358 @@
+// Broadphase on a hashed uniform grid: every particle's contact list, the
+// particles whose boxes overlap its own, in ascending index order.
+//
+//   boxes_and_bounds  box i = [min(p_i, x_i) − pad_i, max(p_i, x_i) + pad_i]
+//                     (or the boxes given); per-thread partial bounds; clears
+//                     the bucket counters
+//   grid_frame        grid axes g (up to 3: widest spread first) and per axis
+//                     o_g = min over boxes of lo, s_g (cells ≥ 1.25 × widest box)
+//   bin_count         home cell of box i: c_g(i) = cell_g(lo_i[g]);
+//                     bucket = hash(c(i)) mod buckets; count it
+//   (scan.wgsl)       exclusive prefix of the bucket counts
+//   bin_fill          box i → the next slot of its bucket
+//   neighbours        particle i: every box j ≠ i in the buckets of the cells
+//                     c ∈ Π_g [c_g(i) − 1, cell_g(hi_i[g])] whose box overlaps
+//                     (closed intervals, every axis); sort the list ascending
+//
+// cell_g(v) = ⌊(v/2 − o_g/2) · s_g⌋ clamped to [0, 2 · CELLS_MAX] is monotone
+// in v, whatever the rounding. bin_count checks that every box spans at most
+// two cells per grid axis: cell_g(hi_j) ≤ c_g(j) + 1. Then if boxes i and j
+// overlap, lo_j ≤ hi_i gives c_g(j) ≤ cell_g(hi_i), and lo_i ≤ hi_j gives
+// c_g(i) ≤ cell_g(hi_j) ≤ c_g(j) + 1: j's home cell is in i's query range,
+// its bucket is visited (once: visited buckets are remembered) and the exact
+// test decides. So each list holds exactly the overlapping boxes — the
+// exhaustive reference's pairs of i — in ascending order, whatever order the
+// bucket slots were filled in (integer atomics; the order inside a bucket
+// depends on scheduling, the sorted lists do not).
+//
+// f32: box corners are rounded outward by one ulp, so the device box holds
+// the box of the f32 values (the pad is rounded up on the host); f64: the
+// golden path's arithmetic exactly.
+
+const CELLS_MAX: real = 262144.0; // 2^18 cells per grid axis at most
+const CELL_FACTOR: real = 1.25;   // cell edge / widest box edge
+const GRID: u32 = min(DIM, 3u);
+const MAX_VISITS: u32 = 27u;      // 3^GRID buckets at most
+
+// ---- boxes
+
+// The f32 value just below f (f finite; never a denormal).
+fn below_f32(f: f32) -> f32 {
+    let bits = bitcast<u32>(f);
+    if (f > 0.0) {
+        return bitcast<f32>(bits - 1u);
+    }
+    if (f == 0.0) {
+        return -1.1754943508222875e-38;
+    }
+    return bitcast<f32>(bits + 1u);
+}
+
+fn outward_down(v: real) -> real {
+    if (REAL_IS_F32) {
+        return real(below_f32(f32(v)));
+    }
+    return v;
+}
+
+fn outward_up(v: real) -> real {
+    if (REAL_IS_F32) {
+        return -real(below_f32(-f32(v)));
+    }
+    return v;
+}
+
+// The swept box of particle i over the substep, as the golden path builds it.
+fn build_box(i: u32) {
+    let pad = box_pad(i);
+    for (var a = 0u; a < DIM; a++) {
+        let s = start(i, a);
+        let e = position(i, a);
+        boxes[2u * DIM * i + a] = outward_down(min(s, e) - pad);
+        boxes[2u * DIM * i + DIM + a] = outward_up(max(s, e) + pad);
+    }
+}
+
+// Partial index of quantity q (0: min of lo, 1: max of hi, 2: max half
+// extent) of axis a for bound thread t.
+fn partial_at(q: u32, a: u32, t: u32) -> u32 {
+    return (q * DIM + a) * BOUND_THREADS + t;
+}
+
+@compute @workgroup_size(64)
+fn boxes_and_bounds(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let t = gid.x;
+    if (failed_before()) {
+        return;
+    }
+    for (var b = t; b < cparams.buckets; b += BOUND_THREADS) {
+        atomicStore(&counters[COUNTERS + b], 0u);
+    }
+    var lo: array<real, DIM>;
+    var hi: array<real, DIM>;
+    var ext: array<real, DIM>;
+    for (var a = 0u; a < DIM; a++) {
+        lo[a] = REAL_MAX;
+        hi[a] = -REAL_MAX;
+        ext[a] = 0.0;
+    }
+    let from_state = (cparams.flags & 2u) != 0u;
+    for (var i = t; i < cparams.count; i += BOUND_THREADS) {
+        if (from_state) {
+            build_box(i);
+        }
+        for (var a = 0u; a < DIM; a++) {
+            let l = box_min(i, a);
+            let h = box_max(i, a);
+            lo[a] = min(lo[a], l);
+            hi[a] = max(hi[a], h);
+            ext[a] = max(ext[a], 0.5 * h - 0.5 * l);
+        }
+    }
+    for (var a = 0u; a < DIM; a++) {
+        scratch[partial_at(0u, a, t)] = lo[a];
+        scratch[partial_at(1u, a, t)] = hi[a];
+        scratch[partial_at(2u, a, t)] = ext[a];
+    }
+}
+
+// ---- the grid frame: scratch[FRAME ..] = [axis_g, o_g, s_g] for g < 3
+
+var<workgroup> bounds: array<real, 24>; // 3 quantities × DIM ≤ 8
+
+fn frame_axis(g: u32) -> u32 {
+    return u32(scratch[FRAME + g]);
+}
+
+fn frame_origin(g: u32) -> real {
+    return scratch[FRAME + 3u + g];
+}
+
+fn frame_scale(g: u32) -> real {
+    return scratch[FRAME + 6u + g];
+}
+
+// Cells per unit of (v − o)/2 along grid axis g's data.
+fn cell_scale(half_range: real, half_extent: real) -> real {
+    if (!(half_range >= CELLS_MAX / REAL_MAX)) {
+        return 0.0; // a point: one cell
+    }
+    let cap = CELLS_MAX / half_range;
+    if (half_extent * cap * CELL_FACTOR > 1.0) {
+        return (1.0 / half_extent) / CELL_FACTOR;
+    }
+    return cap;
+}
+
+@compute @workgroup_size(64)
+fn grid_frame(@builtin(local_invocation_index) lid: u32) {
+    if (lid < 3u * DIM) {
+        let q = lid / DIM;
+        let a = lid % DIM;
+        var value = scratch[partial_at(q, a, 0u)];
+        for (var t = 1u; t < BOUND_THREADS; t++) {
+            let v = scratch[partial_at(q, a, t)];
+            if (q == 0u) {
+                value = min(value, v);
+            } else {
+                value = max(value, v);
+            }
+        }
+        bounds[lid] = value;
+    }
+    workgroupBarrier();
+    if (lid != 0u || failed_before()) {
+        return;
+    }
+    var used: array<bool, DIM>;
+    for (var a = 0u; a < DIM; a++) {
+        used[a] = false;
+    }
+    for (var g = 0u; g < GRID; g++) {
+        var best = DIM;
+        var spread: real = -1.0;
+        if (g == 0u && cparams.axis < DIM) {
+            best = cparams.axis;
+        } else {
+            for (var a = 0u; a < DIM; a++) {
+                let s = 0.5 * bounds[DIM + a] - 0.5 * bounds[a];
+                if (!used[a] && s > spread) {
+                    best = a;
+                    spread = s;
+                }
+            }
+        }
+        used[best] = true;
+        let o = bounds[best];
+        scratch[FRAME + g] = real(best);
+        scratch[FRAME + 3u + g] = o;
+        scratch[FRAME + 6u + g] = cell_scale(0.5 * bounds[DIM + best] - 0.5 * o, bounds[2u * DIM + best]);
+    }
+}
+
+// ---- cells and buckets
+
+fn cell(g: u32, v: real) -> u32 {
+    let t = floor((0.5 * v - 0.5 * frame_origin(g)) * frame_scale(g));
+    return u32(clamp(t, 0.0, 2.0 * CELLS_MAX));
+}
+
+fn mix32(v: u32) -> u32 {
+    var h = v;
+    h ^= h >> 16u;
+    h *= 0x7feb352du;
+    h ^= h >> 15u;
+    h *= 0x846ca68bu;
+    h ^= h >> 16u;
+    return h;
+}
+
+fn bucket(c: vec3<u32>) -> u32 {
+    return mix32(c.x ^ mix32(c.y ^ mix32(c.z + 0x9e3779b9u))) & (cparams.buckets - 1u);
+}
+
+// Home cell (of the lower corner) and far cell (of the upper corner).
+fn cells_of(i: u32, upper: bool) -> vec3<u32> {
+    var c = vec3<u32>(0u, 0u, 0u);
+    for (var g = 0u; g < GRID; g++) {
+        let a = frame_axis(g);
+        var v = box_min(i, a);
+        if (upper) {
+            v = box_max(i, a);
+        }
+        c[g] = cell(g, v);
+    }
+    return c;
+}
+
+@compute @workgroup_size(64)
+fn bin_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(gid, groups);
+    if (i >= cparams.count || failed_before()) {
+        return;
+    }
+    let home = cells_of(i, false);
+    let far = cells_of(i, true);
+    if (any(far > home + vec3<u32>(1u))) {
+        atomicMin(&counters[GRID_BROKEN], i);
+    }
+    let b = bucket(home);
+    words[i] = b;
+    atomicAdd(&counters[COUNTERS + b], 1u);
+}
+
+@compute @workgroup_size(64)
+fn bin_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(gid, groups);
+    if (i >= cparams.count || failed_before()) {
+        return;
+    }
+    let slot = atomicAdd(&counters[COUNTERS + bucket_of(i)], 1u);
+    words[cparams.count + slot] = i;
+}
+
+// ---- neighbour lists
+
+fn overlap(i: u32, j: u32) -> bool {
+    for (var a = 0u; a < DIM; a++) {
+        if (box_min(i, a) > box_max(j, a) || box_min(j, a) > box_max(i, a)) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// Heapsort of particle k's list entries [0, len): ascending, in place.
+fn sort_list(k: u32, len: u32) {
+    let n = cparams.count;
+    for (var root = len / 2u; root > 0u; root--) {
+        sift_down(k, root - 1u, len, n);
+    }
+    for (var end = len; end > 1u; end--) {
+        let last = (end - 1u) * n + k;
+        let top = lists[k];
+        lists[k] = lists[last];
+        lists[last] = top;
+        sift_down(k, 0u, end - 1u, n);
+    }
+}
+
+fn sift_down(k: u32, first: u32, len: u32, n: u32) {
+    var root = first;
+    loop {
+        var child = 2u * root + 1u;
+        if (child >= len) {
+            break;
+        }
+        if (child + 1u < len && lists[(child + 1u) * n + k] > lists[child * n + k]) {
+            child += 1u;
+        }
+        let r = lists[root * n + k];
+        let c = lists[child * n + k];
+        if (r >= c) {
+            break;
+        }
+        lists[root * n + k] = c;
+        lists[child * n + k] = r;
+        root = child;
+    }
+}
+
+@compute @workgroup_size(64)
+fn neighbours(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(gid, groups);
+    let n = cparams.count;
+    if (i >= n || failed_before()) {
+        return;
+    }
+    let skip_fixed = (cparams.flags & 1u) != 0u;
+    let wi = inverse_mass(i);
+    let home = cells_of(i, false);
+    let far = cells_of(i, true);
+    var first = vec3<u32>(0u, 0u, 0u);
+    var count = vec3<u32>(1u, 1u, 1u);
+    for (var g = 0u; g < GRID; g++) {
+        first[g] = max(home[g], 1u) - 1u;
+        // At most three cells (more only on a broken grid, reported).
+        count[g] = min(far[g] - first[g] + 1u, 3u);
+    }
+    var visited: array<u32, MAX_VISITS>;
+    var visits = 0u;
+    var len = 0u;
+    for (var c0 = 0u; c0 < count.x; c0++) {
+        for (var c1 = 0u; c1 < count.y; c1++) {
+            for (var c2 = 0u; c2 < count.z; c2++) {
+                let b = bucket(first + vec3<u32>(c0, c1, c2));
+                var seen = false;
+                for (var v = 0u; v < visits; v++) {
+                    seen = seen || visited[v] == b;
+                }
+                if (seen) {
+                    continue;
+                }
+                visited[visits] = b;
+                visits++;
+                var slot = 0u;
+                if (b > 0u) {
+                    slot = atomicLoad(&counters[COUNTERS + b - 1u]);
+                }
+                let end = atomicLoad(&counters[COUNTERS + b]);
+                for (; slot < end; slot++) {
+                    let j = sorted_box(slot);
+                    if (j == i || (skip_fixed && wi + inverse_mass(j) == 0.0) || !overlap(i, j)) {
+                        continue;
+                    }
+                    if (len < cparams.slots) {
+                        lists[len * n + i] = j;
+                    }
+                    len++;
+                }
+            }
+        }
+    }
+    words[list_length_at() + i] = len;
+    atomicMax(&counters[MAX_DEGREE], len);
+    if (len <= cparams.slots) {
+        sort_list(i, len);
+    }
+}
