@@ -38,13 +38,14 @@ fn contact_snapshot(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     if (k >= cparams.count || failed_before()) {
         return;
     }
+    var y: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
-        snapshot[k * DIM + a] = position(k, a);
+        y[a] = position(k, a);
     }
-}
-
-fn iterate(i: u32, a: u32) -> real {
-    return snapshot[i * DIM + a];
+    let q = pack(y);
+    for (var c = 0u; c < VECS; c++) {
+        snapshot[VECS * k + c] = q[c];
+    }
 }
 
 @compute @workgroup_size(64)
@@ -54,7 +55,8 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     if (k >= n || failed_before()) {
         return;
     }
-    let wk = inverse_mass(k);
+    let own = props[k];
+    let yk = iterate_point(k);
     let mu = cparams.friction;
     var sum: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
@@ -65,24 +67,25 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     let len = words[list_length_at() + k];
     for (var t = 0u; t < len; t++) {
         let m = list_entry(k, t);
-        let i = min(k, m);
-        let j = max(k, m);
+        let ym = iterate_point(m);
+        let lower = k < m; // k is i of the pair (i, j) = (min, max)
         var d: array<real, DIM>;
         var len2: real = 0.0;
         for (var a = 0u; a < DIM; a++) {
-            d[a] = iterate(j, a) - iterate(i, a);
+            d[a] = select(yk[a] - ym[a], ym[a] - yk[a], lower);
             len2 += d[a] * d[a];
         }
         let dist = sqrt(len2);
         if (!finite(dist)) {
-            fail(i);
+            fail(min(k, m));
             return;
         }
-        let c = dist - (radius(i) + radius(j));
+        let other = props[m];
+        let c = dist - select(other.y + own.y, own.y + other.y, lower);
         if (!(c < 0.0 && dist > 0.0)) {
             continue;
         }
-        if (m > k) {
+        if (lower) {
             ahead++;
         }
         let s = -c;
@@ -95,15 +98,18 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
             out[a] = d[a] * s;
         }
         if (mu > 0.0) {
+            // Δr = (y_j − p_j) − (y_i − p_i)
+            let pk = start_point(k);
+            let pm = start_point(m);
+            var dr: array<real, DIM>;
             var dn: real = 0.0;
             for (var a = 0u; a < DIM; a++) {
-                let dr = (iterate(j, a) - start(j, a)) - (iterate(i, a) - start(i, a));
-                dn += dr * d[a];
+                dr[a] = select((yk[a] - pk[a]) - (ym[a] - pm[a]), (ym[a] - pm[a]) - (yk[a] - pk[a]), lower);
+                dn += dr[a] * d[a];
             }
             var t2: real = 0.0;
             for (var a = 0u; a < DIM; a++) {
-                let dr = (iterate(j, a) - start(j, a)) - (iterate(i, a) - start(i, a));
-                let tan = dr - dn * d[a];
+                let tan = dr[a] - dn * d[a];
                 t2 += tan * tan;
             }
             let t_norm = sqrt(t2);
@@ -113,32 +119,29 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
                 scale = bound / t_norm;
             }
             for (var a = 0u; a < DIM; a++) {
-                let dr = (iterate(j, a) - start(j, a)) - (iterate(i, a) - start(i, a));
-                let tan = dr - dn * d[a];
+                let tan = dr[a] - dn * d[a];
                 out[a] -= tan * scale;
             }
         }
-        if (wk == 0.0) {
+        if (own.x == 0.0) {
             continue;
         }
-        let share = wk / (inverse_mass(i) + inverse_mass(j));
-        var sign = share;
-        if (k == i) {
-            sign = -share;
-        }
+        let share = own.x / select(other.x + own.x, own.x + other.x, lower);
+        let sign = select(share, -share, lower);
         for (var a = 0u; a < DIM; a++) {
             sum[a] += sign * out[a];
         }
         touching++;
     }
     words[active_at() + k] = ahead;
+    check_loops(k);
     if (touching == 0u) {
         return;
     }
     let count = real(touching);
     var ok = true;
     for (var a = 0u; a < DIM; a++) {
-        let xk = iterate(k, a) + sum[a] / count;
+        let xk = yk[a] + sum[a] / count;
         set_position(k, a, xk);
         ok = ok && finite(xk);
     }
@@ -168,6 +171,7 @@ fn contact_report(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
         deepest = max(deepest, radius(k) + radius(m) - sqrt(len2));
     }
     scratch[deepest_at(k)] = deepest;
+    check_loops(k);
 }
 
 var<workgroup> report_deepest: array<real, 64>;
@@ -183,6 +187,7 @@ fn contact_report_final(@builtin(local_invocation_index) lid: u32) {
     }
     report_deepest[lid] = deepest;
     report_active[lid] = pushing;
+    check_loops(lid);
     workgroupBarrier();
     if (lid != 0u || failed_before()) {
         return;

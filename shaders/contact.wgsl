@@ -7,16 +7,22 @@
 // one parameter block per kernel call (dynamic offset), like the step
 // kernels' group 1.
 //
-//   props     per particle [w, r, pad, 0]: inverse mass, radius, box pad
-//             r + margin (f32: rounded up on the host)
-//   boxes     per box [min_0 … min_{N−1}, max_0 … max_{N−1}]
-//   counters  [0] largest contact list, [1] box that broke the grid rule
-//             (NONE: none), [2] active contacts (report), [3] unused,
-//             then one counter per hash bucket
+//   props     per particle vec4 [w, r, pad, 0]: inverse mass, radius, box
+//             pad r + margin (f32: rounded up on the host)
+//   boxes     per box VECS vec4 of lower corner, then VECS of upper corner
+//   snapshot  per particle VECS vec4 of the iterate y (collide), then from
+//             count · VECS on, VECS of the substep start p (broadphase)
+//   counters  [0] longest contact list, [1] box that broke the grid rule
+//             (NONE: none), [2] active contacts (report), [3] first
+//             invocation whose loops were cut short (NONE: none), then one
+//             counter per hash bucket
 //   words     per box: bucket | bucket order | list length | active, then
-//             the scan's block sums
+//             the scan's block sums, then the first slot of every bucket
 //   lists     slot-major: entry t of particle k at lists[t · count + k]
 //   scratch   reduction partials, the grid frame, the report
+//
+// Points in the contact buffers are vec4-packed (VECS = ⌈N/4⌉ vec4 per
+// point, unused components 0): one wide load per 4 coordinates.
 
 struct ContactParams {
     call: u32,       // index of this kernel call within the step (status)
@@ -33,9 +39,9 @@ struct ContactParams {
 @group(0) @binding(0) var<storage, read_write> x: array<real>;
 @group(0) @binding(1) var<storage, read> p: array<real>;
 @group(0) @binding(2) var<storage, read_write> status: array<atomic<u32>, 4>;
-@group(0) @binding(3) var<storage, read> props: array<real>;
-@group(0) @binding(4) var<storage, read_write> boxes: array<real>;
-@group(0) @binding(5) var<storage, read_write> snapshot: array<real>;
+@group(0) @binding(3) var<storage, read> props: array<vec4<real>>;
+@group(0) @binding(4) var<storage, read_write> boxes: array<vec4<real>>;
+@group(0) @binding(5) var<storage, read_write> snapshot: array<vec4<real>>;
 @group(0) @binding(6) var<storage, read_write> scratch: array<real>;
 @group(0) @binding(7) var<storage, read_write> counters: array<atomic<u32>>;
 @group(0) @binding(8) var<storage, read_write> words: array<u32>;
@@ -43,11 +49,13 @@ struct ContactParams {
 @group(1) @binding(0) var<storage, read> cparams: ContactParams;
 
 const NONE: u32 = 0xffffffffu;
+const VECS: u32 = (DIM + 3u) / 4u;
 const CONTACT_WORKGROUP: u32 = 64u;
 const COUNTERS: u32 = 4u;      // status counters before the buckets
 const MAX_DEGREE: u32 = 0u;
 const GRID_BROKEN: u32 = 1u;
 const ACTIVE: u32 = 2u;
+const CUT_SHORT: u32 = 3u;
 const REAL_IS_F32: bool = REAL_MAX == real(3.4028234663852886e38);
 
 // Scratch layout: per-thread partial bounds (grid.wgsl), the grid frame,
@@ -76,23 +84,78 @@ fn start(i: u32, a: u32) -> real {
 }
 
 fn inverse_mass(i: u32) -> real {
-    return props[4u * i];
+    return props[i].x;
 }
 
 fn radius(i: u32) -> real {
-    return props[4u * i + 1u];
+    return props[i].y;
 }
 
 fn box_pad(i: u32) -> real {
-    return props[4u * i + 2u];
+    return props[i].z;
 }
 
-fn box_min(i: u32, a: u32) -> real {
-    return boxes[2u * DIM * i + a];
+// Point `at` (VECS vec4) of a vec4-packed buffer, unpacked.
+fn unpack(q: array<vec4<real>, VECS>) -> array<real, DIM> {
+    var out: array<real, DIM>;
+    for (var a = 0u; a < DIM; a++) {
+        out[a] = q[a / 4u][a % 4u];
+    }
+    return out;
 }
 
-fn box_max(i: u32, a: u32) -> real {
-    return boxes[2u * DIM * i + DIM + a];
+fn pack(v: array<real, DIM>) -> array<vec4<real>, VECS> {
+    var out: array<vec4<real>, VECS>;
+    for (var c = 0u; c < VECS; c++) {
+        out[c] = vec4<real>(0.0);
+    }
+    for (var a = 0u; a < DIM; a++) {
+        out[a / 4u][a % 4u] = v[a];
+    }
+    return out;
+}
+
+fn box_lo(i: u32) -> array<real, DIM> {
+    var q: array<vec4<real>, VECS>;
+    for (var c = 0u; c < VECS; c++) {
+        q[c] = boxes[2u * VECS * i + c];
+    }
+    return unpack(q);
+}
+
+fn box_hi(i: u32) -> array<real, DIM> {
+    var q: array<vec4<real>, VECS>;
+    for (var c = 0u; c < VECS; c++) {
+        q[c] = boxes[2u * VECS * i + VECS + c];
+    }
+    return unpack(q);
+}
+
+fn store_box(i: u32, lo: array<real, DIM>, hi: array<real, DIM>) {
+    let l = pack(lo);
+    let h = pack(hi);
+    for (var c = 0u; c < VECS; c++) {
+        boxes[2u * VECS * i + c] = l[c];
+        boxes[2u * VECS * i + VECS + c] = h[c];
+    }
+}
+
+// The iterate y_i of the running contact iteration.
+fn iterate_point(i: u32) -> array<real, DIM> {
+    var q: array<vec4<real>, VECS>;
+    for (var c = 0u; c < VECS; c++) {
+        q[c] = snapshot[VECS * i + c];
+    }
+    return unpack(q);
+}
+
+// The substep start p_i, as copied by the broadphase.
+fn start_point(i: u32) -> array<real, DIM> {
+    var q: array<vec4<real>, VECS>;
+    for (var c = 0u; c < VECS; c++) {
+        q[c] = snapshot[VECS * (cparams.count + i) + c];
+    }
+    return unpack(q);
 }
 
 // ---- the per-box words
@@ -117,6 +180,14 @@ fn scan_sums_at() -> u32 {
     return 4u * cparams.count;
 }
 
+// First slot of bucket b in the bucket order (b ≤ buckets).
+fn bucket_start(b: u32) -> u32 {
+    if (b >= cparams.buckets) {
+        return cparams.count;
+    }
+    return words[4u * cparams.count + cparams.blocks + b];
+}
+
 fn list_entry(k: u32, t: u32) -> u32 {
     return lists[t * cparams.count + k];
 }
@@ -132,6 +203,25 @@ fn failed_before() -> bool {
 fn fail(index: u32) {
     atomicMin(&status[0], cparams.call);
     atomicMin(&status[1], index);
+}
+
+// llvmpipe (lavapipe) ends every loop of an invocation once 65 535 loop
+// iterations have run in it, all loops together, silently. After that a
+// loop runs its body once and stops, so a two-iteration probe at the end
+// of a kernel tells whether any loop before it was cut short; the kernels
+// whose loops depend on the data report it (a typed error on the host,
+// never a silently short list).
+fn check_loops(invocation_index: u32) {
+    // A trip count the compiler cannot see (flags never has bit 31), so
+    // the probe stays a loop instead of being unrolled.
+    let trips = 2u + (cparams.flags >> 31u);
+    var probe = 0u;
+    for (var t = 0u; t < trips; t++) {
+        probe++;
+    }
+    if (probe != 2u) {
+        atomicMin(&counters[CUT_SHORT], invocation_index);
+    }
 }
 
 // Not NaN and not ±Inf.

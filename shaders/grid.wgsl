@@ -13,14 +13,15 @@
 //   neighbours        particle i: every box j ≠ i in the buckets of the cells
 //                     c ∈ Π_g [c_g(i) − 1, cell_g(hi_i[g])] whose box overlaps
 //                     (closed intervals, every axis); sort the list ascending
+//                     and drop repeats (two cells of one bucket)
 //
 // cell_g(v) = ⌊(v/2 − o_g/2) · s_g⌋ clamped to [0, 2 · CELLS_MAX] is monotone
 // in v, whatever the rounding. bin_count checks that every box spans at most
 // two cells per grid axis: cell_g(hi_j) ≤ c_g(j) + 1. Then if boxes i and j
 // overlap, lo_j ≤ hi_i gives c_g(j) ≤ cell_g(hi_i), and lo_i ≤ hi_j gives
 // c_g(i) ≤ cell_g(hi_j) ≤ c_g(j) + 1: j's home cell is in i's query range,
-// its bucket is visited (once: visited buckets are remembered) and the exact
-// test decides. So each list holds exactly the overlapping boxes — the
+// its bucket is visited and the exact test decides (a bucket met through
+// two cells gives repeats, removed after the sort). So each list holds exactly the overlapping boxes — the
 // exhaustive reference's pairs of i — in ascending order, whatever order the
 // bucket slots were filled in (integer atomics; the order inside a bucket
 // depends on scheduling, the sorted lists do not).
@@ -32,7 +33,6 @@
 const CELLS_MAX: real = 262144.0; // 2^18 cells per grid axis at most
 const CELL_FACTOR: real = 1.25;   // cell edge / widest box edge
 const GRID: u32 = min(DIM, 3u);
-const MAX_VISITS: u32 = 27u;      // 3^GRID buckets at most
 
 // ---- boxes
 
@@ -62,14 +62,24 @@ fn outward_up(v: real) -> real {
     return v;
 }
 
-// The swept box of particle i over the substep, as the golden path builds it.
+// The swept box of particle i over the substep, as the golden path builds
+// it; p_i is kept (vec4-packed) for the contact iterations.
 fn build_box(i: u32) {
     let pad = box_pad(i);
+    var start: array<real, DIM>;
+    var lo: array<real, DIM>;
+    var hi: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
-        let s = start(i, a);
+        let s = p[i * DIM + a];
         let e = position(i, a);
-        boxes[2u * DIM * i + a] = outward_down(min(s, e) - pad);
-        boxes[2u * DIM * i + DIM + a] = outward_up(max(s, e) + pad);
+        start[a] = s;
+        lo[a] = outward_down(min(s, e) - pad);
+        hi[a] = outward_up(max(s, e) + pad);
+    }
+    store_box(i, lo, hi);
+    let q = pack(start);
+    for (var c = 0u; c < VECS; c++) {
+        snapshot[VECS * (cparams.count + i) + c] = q[c];
     }
 }
 
@@ -101,12 +111,12 @@ fn boxes_and_bounds(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (from_state) {
             build_box(i);
         }
+        let l = box_lo(i);
+        let h = box_hi(i);
         for (var a = 0u; a < DIM; a++) {
-            let l = box_min(i, a);
-            let h = box_max(i, a);
-            lo[a] = min(lo[a], l);
-            hi[a] = max(hi[a], h);
-            ext[a] = max(ext[a], 0.5 * h - 0.5 * l);
+            lo[a] = min(lo[a], l[a]);
+            hi[a] = max(hi[a], h[a]);
+            ext[a] = max(ext[a], 0.5 * h[a] - 0.5 * l[a]);
         }
     }
     for (var a = 0u; a < DIM; a++) {
@@ -114,6 +124,7 @@ fn boxes_and_bounds(@builtin(global_invocation_id) gid: vec3<u32>) {
         scratch[partial_at(1u, a, t)] = hi[a];
         scratch[partial_at(2u, a, t)] = ext[a];
     }
+    check_loops(t);
 }
 
 // ---- the grid frame: scratch[FRAME ..] = [axis_g, o_g, s_g] for g < 3
@@ -160,6 +171,7 @@ fn grid_frame(@builtin(local_invocation_index) lid: u32) {
         }
         bounds[lid] = value;
     }
+    check_loops(lid);
     workgroupBarrier();
     if (lid != 0u || failed_before()) {
         return;
@@ -211,16 +223,11 @@ fn bucket(c: vec3<u32>) -> u32 {
     return mix32(c.x ^ mix32(c.y ^ mix32(c.z + 0x9e3779b9u))) & (cparams.buckets - 1u);
 }
 
-// Home cell (of the lower corner) and far cell (of the upper corner).
-fn cells_of(i: u32, upper: bool) -> vec3<u32> {
+// The cells of a corner on the grid axes (unused axes: 0).
+fn cells_of(corner: array<real, DIM>) -> vec3<u32> {
     var c = vec3<u32>(0u, 0u, 0u);
     for (var g = 0u; g < GRID; g++) {
-        let a = frame_axis(g);
-        var v = box_min(i, a);
-        if (upper) {
-            v = box_max(i, a);
-        }
-        c[g] = cell(g, v);
+        c[g] = cell(g, corner[frame_axis(g)]);
     }
     return c;
 }
@@ -231,8 +238,8 @@ fn bin_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     if (i >= cparams.count || failed_before()) {
         return;
     }
-    let home = cells_of(i, false);
-    let far = cells_of(i, true);
+    let home = cells_of(box_lo(i));
+    let far = cells_of(box_hi(i));
     if (any(far > home + vec3<u32>(1u))) {
         atomicMin(&counters[GRID_BROKEN], i);
     }
@@ -253,49 +260,64 @@ fn bin_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
 
 // ---- neighbour lists
 
-fn overlap(i: u32, j: u32) -> bool {
-    for (var a = 0u; a < DIM; a++) {
-        if (box_min(i, a) > box_max(j, a) || box_min(j, a) > box_max(i, a)) {
-            return false;
+// Entry t of particle k's list.
+fn entry_at(k: u32, t: u32) -> u32 {
+    return lists[t * cparams.count + k];
+}
+
+fn set_entry(k: u32, t: u32, value: u32) {
+    lists[t * cparams.count + k] = value;
+}
+
+// Heapsort of particle k's list entries [0, len), ascending, in place
+// (O(len log len) steps: few loop iterations for long lists), then drops
+// repeats (one box met through two cells of the same bucket). Returns the
+// new length.
+fn sort_list(k: u32, len: u32) -> u32 {
+    for (var root = len / 2u; root > 0u; root--) {
+        sift_down(k, root - 1u, len);
+    }
+    for (var end = len - min(len, 1u); end > 0u; end--) {
+        let top = entry_at(k, 0u);
+        set_entry(k, 0u, entry_at(k, end));
+        set_entry(k, end, top);
+        sift_down(k, 0u, end);
+    }
+    var kept = min(len, 1u);
+    for (var t = 1u; t < len; t++) {
+        let value = entry_at(k, t);
+        if (value != entry_at(k, kept - 1u)) {
+            set_entry(k, kept, value);
+            kept++;
         }
     }
-    return true;
+    return kept;
 }
 
-// Heapsort of particle k's list entries [0, len): ascending, in place.
-fn sort_list(k: u32, len: u32) {
-    let n = cparams.count;
-    for (var root = len / 2u; root > 0u; root--) {
-        sift_down(k, root - 1u, len, n);
-    }
-    for (var end = len; end > 1u; end--) {
-        let last = (end - 1u) * n + k;
-        let top = lists[k];
-        lists[k] = lists[last];
-        lists[last] = top;
-        sift_down(k, 0u, end - 1u, n);
-    }
-}
-
-fn sift_down(k: u32, first: u32, len: u32, n: u32) {
+// Restores the max-heap below `root` within [0, len).
+fn sift_down(k: u32, first: u32, len: u32) {
     var root = first;
+    var value = entry_at(k, root);
     loop {
         var child = 2u * root + 1u;
         if (child >= len) {
             break;
         }
-        if (child + 1u < len && lists[(child + 1u) * n + k] > lists[child * n + k]) {
-            child += 1u;
+        var larger = entry_at(k, child);
+        if (child + 1u < len) {
+            let right = entry_at(k, child + 1u);
+            if (right > larger) {
+                child += 1u;
+                larger = right;
+            }
         }
-        let r = lists[root * n + k];
-        let c = lists[child * n + k];
-        if (r >= c) {
+        if (value >= larger) {
             break;
         }
-        lists[root * n + k] = c;
-        lists[child * n + k] = r;
+        set_entry(k, root, larger);
         root = child;
     }
+    set_entry(k, root, value);
 }
 
 @compute @workgroup_size(64)
@@ -307,8 +329,10 @@ fn neighbours(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     }
     let skip_fixed = (cparams.flags & 1u) != 0u;
     let wi = inverse_mass(i);
-    let home = cells_of(i, false);
-    let far = cells_of(i, true);
+    let lo = box_lo(i);
+    let hi = box_hi(i);
+    let home = cells_of(lo);
+    let far = cells_of(hi);
     var first = vec3<u32>(0u, 0u, 0u);
     var count = vec3<u32>(1u, 1u, 1u);
     for (var g = 0u; g < GRID; g++) {
@@ -316,43 +340,38 @@ fn neighbours(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         // At most three cells (more only on a broken grid, reported).
         count[g] = min(far[g] - first[g] + 1u, 3u);
     }
-    var visited: array<u32, MAX_VISITS>;
-    var visits = 0u;
     var len = 0u;
     for (var c0 = 0u; c0 < count.x; c0++) {
         for (var c1 = 0u; c1 < count.y; c1++) {
             for (var c2 = 0u; c2 < count.z; c2++) {
                 let b = bucket(first + vec3<u32>(c0, c1, c2));
-                var seen = false;
-                for (var v = 0u; v < visits; v++) {
-                    seen = seen || visited[v] == b;
-                }
-                if (seen) {
-                    continue;
-                }
-                visited[visits] = b;
-                visits++;
-                var slot = 0u;
-                if (b > 0u) {
-                    slot = atomicLoad(&counters[COUNTERS + b - 1u]);
-                }
-                let end = atomicLoad(&counters[COUNTERS + b]);
-                for (; slot < end; slot++) {
+                let end = bucket_start(b + 1u);
+                for (var slot = bucket_start(b); slot < end; slot++) {
                     let j = sorted_box(slot);
-                    if (j == i || (skip_fixed && wi + inverse_mass(j) == 0.0) || !overlap(i, j)) {
+                    if (j == i || (skip_fixed && wi + inverse_mass(j) == 0.0)) {
+                        continue;
+                    }
+                    let lj = box_lo(j);
+                    let hj = box_hi(j);
+                    var overlap = true;
+                    for (var a = 0u; a < DIM; a++) {
+                        overlap = overlap && lo[a] <= hj[a] && lj[a] <= hi[a];
+                    }
+                    if (!overlap) {
                         continue;
                     }
                     if (len < cparams.slots) {
-                        lists[len * n + i] = j;
+                        set_entry(i, len, j);
                     }
                     len++;
                 }
             }
         }
     }
-    words[list_length_at() + i] = len;
     atomicMax(&counters[MAX_DEGREE], len);
     if (len <= cparams.slots) {
-        sort_list(i, len);
+        len = sort_list(i, len);
     }
+    words[list_length_at() + i] = len;
+    check_loops(i);
 }

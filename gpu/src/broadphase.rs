@@ -108,12 +108,12 @@ impl GpuSweep {
         self.stats
     }
 
-    /// Device bytes per box: the box (2N reals), its grid and list words
-    /// and its share of the scratch, without the list slots (4 bytes each,
-    /// [`GpuSweep::capacity`] per box).
+    /// Device bytes per box: the box and snapshot (4 vec4-packed points),
+    /// its properties, grid and list words and its share of the scratch,
+    /// without the list slots (4 bytes each, [`GpuSweep::capacity`] per box).
     pub fn bytes_per_box(&self) -> usize {
         let r = crate::params::real_size(self.precision);
-        (7 * self.dim + 5) * r + 5 * 4
+        (4 * 4 * self.dim.div_ceil(4) + 5) * r + 8 * 4
     }
 
     /// All overlapping pairs (i < j) of `boxes` in canonical
@@ -154,9 +154,7 @@ impl GpuSweep {
             };
             buffers.write_boxes(&boxes.min, &boxes.max);
             let (outcome, data) = self.run(buffers, axis as u32)?;
-            if let Some(i) = outcome.grid_broken {
-                return Err(grid_broken(i));
-            }
+            outcome.trusted()?;
             let longest = outcome.longest_list as usize;
             if longest <= buffers.slots() {
                 break data;
@@ -244,15 +242,5 @@ impl GpuSweep {
         let data = crate::readback::read_mapped(&self.device, &staging, buffers.lists_bytes())?;
         let words: &[u32] = bytemuck::cast_slice(&data);
         Ok((outcome, (words[..n].to_vec(), words[n..].to_vec())))
-    }
-}
-
-/// The error of a box that spans more than two grid cells on an axis (the
-/// grid's precondition; see shaders/grid.wgsl).
-pub(crate) fn grid_broken(i: u32) -> GpuError {
-    GpuError::Other {
-        message: format!(
-            "broadphase grid: box {i} spans more than two cells on a grid axis (cells too fine for this adapter's rounding)"
-        ),
     }
 }

@@ -149,6 +149,7 @@ impl GpuCollide {
                 .collect(),
         )?;
         buffers.write_lists(&lists);
+        buffers.write_starts(input.p);
         let bytes = (n * self.dim * real_size(self.precision)) as u64;
         let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("collide staging"),
@@ -167,12 +168,14 @@ impl GpuCollide {
                 buffers.encode_collide(&self.kernels, &mut pass, iteration);
             }
         }
+        buffers.copy_outcome(&mut encoder);
         encoder.copy_buffer_to_buffer(&status, 0, &staging, 0, 16);
         if bytes > 0 {
             encoder.copy_buffer_to_buffer(&x, 0, &staging, 16, bytes);
         }
         crate::device_errors::submit_and_wait(&self.device, &self.queue, encoder, &self.errors)?;
         let data = crate::readback::read_mapped(&self.device, &staging, 16 + bytes)?;
+        buffers.read_outcome()?.trusted()?;
         let words: &[u32] = bytemuck::cast_slice(&data[..16]);
         if words[0] != u32::MAX {
             let index = words[1] as usize;

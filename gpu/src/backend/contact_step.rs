@@ -23,7 +23,6 @@ use hyperpbd_core::{BackendError, FamilyResidual, GpuError, Kernel, Plan, StageN
 
 use super::GpuBackend;
 use crate::Precision;
-use crate::broadphase::grid_broken;
 use crate::contact::{
     BOXES_FROM_STATE, Block, Bound, ContactBuffers, ContactKernels, Outcome, Particles,
     SKIP_FIXED_PAIRS,
@@ -111,9 +110,7 @@ impl ContactStage {
 
     /// `Some(slots)` when a list did not fit: grow to that and rerun.
     fn regrow(&mut self, outcome: &Outcome) -> Result<bool, GpuError> {
-        if let Some(i) = outcome.grid_broken {
-            return Err(grid_broken(i));
-        }
+        outcome.trusted()?;
         let longest = outcome.longest_list as usize;
         if longest <= self.buffers.slots() {
             return Ok(false);

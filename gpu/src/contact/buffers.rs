@@ -3,13 +3,13 @@
 //! kernel call (group 1, dynamic offset).
 //!
 //! ```text
-//! props     4 reals per particle   [w, r, pad, 0]
-//! boxes     2N reals per particle  scratch  3N·1024 + 10 + n reals
-//! snapshot  N reals per particle   counters 4 + buckets u32
-//! words     4n + scan blocks u32   lists    slots · n u32 (grown on demand)
+//! props     vec4 per particle [w, r, pad, 0]     P = 4⌈N/4⌉ reals per point
+//! boxes     2P reals per particle    scratch   3N·1024 + 10 + n reals
+//! snapshot  2P reals per particle    counters  4 + buckets u32
+//! words     4n + scan blocks + buckets u32     lists  slots · n u32 (grown)
 //! staging   32 bytes: counters[0..4], deepest overlap
 //! ```
-//! Device bytes per particle, without the lists: (7N + 5) reals + 5 words
+//! Device bytes per particle, without the lists: (4P + 5) reals + 8 words
 //! (two buckets each); the lists add 4 bytes per slot.
 
 use std::sync::{Arc, Mutex};
@@ -56,6 +56,33 @@ pub(crate) struct Outcome {
     pub(crate) active: u32,
     /// Deepest overlap over the last lists (after a report).
     pub(crate) deepest: f64,
+    /// An invocation whose loops the adapter cut short (llvmpipe's
+    /// 65 535-iteration limit): its results are not trusted.
+    pub(crate) cut_short: Option<u32>,
+}
+
+impl Outcome {
+    /// The typed error of results the kernels could not vouch for: a box
+    /// spanning more than two grid cells on an axis (the grid's
+    /// precondition, shaders/grid.wgsl), or loops the adapter cut short.
+    pub(crate) fn trusted(&self) -> Result<(), GpuError> {
+        if let Some(i) = self.grid_broken {
+            return Err(GpuError::Other {
+                message: format!(
+                    "broadphase grid: box {i} spans more than two cells on a grid axis (cells too fine for this adapter's rounding)"
+                ),
+            });
+        }
+        if let Some(i) = self.cut_short {
+            return Err(GpuError::Unsupported {
+                what: format!(
+                    "contact lists this long on this adapter: it ended the loops of invocation {i} early \
+                     (llvmpipe stops a shader's loops after 65 535 iterations); use the CPU backend"
+                ),
+            });
+        }
+        Ok(())
+    }
 }
 
 /// The buffers, bind groups and parameter blocks of one contact stage.
@@ -148,15 +175,17 @@ impl ContactBuffers {
             out
         };
         let scratch_reals = 3 * dim * BOUND_THREADS as usize + 10 + n;
-        let words = 4 * n + scan_blocks_for(buckets);
+        let words = 4 * n + scan_blocks_for(buckets) + buckets;
+        // vec4-packed points: ⌈N/4⌉ vec4 each.
+        let point = 4 * dim.div_ceil(4);
         let align = limits.min_storage_buffer_offset_alignment;
         let stride = (PARAMS_BYTES as u32).div_ceil(align) * align;
-        let mut counters = vec![0u32, NONE, 0, 0];
+        let mut counters = vec![0u32, NONE, 0, NONE];
         counters.resize(4 + buckets, 0);
         let slots = slots.max(1);
         let props = make("contact props", &reals(&props), storage)?;
-        let boxes = make("contact boxes", &zeros(2 * dim * n * r), storage)?;
-        let snapshot = make("contact snapshot", &zeros(dim * n * r), storage)?;
+        let boxes = make("contact boxes", &zeros(2 * point * n * r), storage)?;
+        let snapshot = make("contact snapshot", &zeros(2 * point * n * r), storage)?;
         let scratch = make("contact scratch", &zeros(scratch_reals * r), storage)?;
         let counters = make("contact counters", bytemuck::cast_slice(&counters), storage)?;
         let words = make("contact words", &zeros(4 * words), storage)?;
@@ -298,7 +327,7 @@ impl ContactBuffers {
     /// Clears the counters the outcome reads (before a submission).
     pub(crate) fn reset(&self) {
         self.queue
-            .write_buffer(&self.counters, 0, bytemuck::cast_slice(&[0u32, NONE, 0, 0]));
+            .write_buffer(&self.counters, 0, bytemuck::cast_slice(&[0u32, NONE, 0, NONE]));
     }
 
     /// Copies the outcome into the staging buffer (end of a submission).
@@ -319,22 +348,44 @@ impl ContactBuffers {
             grid_broken: (words[1] != NONE).then_some(words[1]),
             active: words[2],
             deepest: deepest.first().copied().unwrap_or(0.0),
+            cut_short: (words[3] != NONE).then_some(words[3]),
         })
     }
 
-    /// Writes boxes (flat `min` then `max` per box, as the kernels hold
-    /// them) for a sweep of given boxes.
+    /// Writes boxes (flat corners, `dim` per box) for a sweep of given
+    /// boxes, vec4-packed as the kernels hold them.
     pub(crate) fn write_boxes(&self, min: &[f64], max: &[f64]) {
         let d = self.dim;
-        let mut values = Vec::with_capacity(2 * min.len());
+        let point = 4 * d.div_ceil(4);
+        let mut values = Vec::with_capacity(2 * point * self.n);
         for (lo, hi) in min.chunks_exact(d).zip(max.chunks_exact(d)) {
-            values.extend_from_slice(lo);
-            values.extend_from_slice(hi);
+            for corner in [lo, hi] {
+                values.extend_from_slice(corner);
+                values.resize(values.len() + point - d, 0.0);
+            }
         }
         let mut bytes = Vec::new();
         push_reals(&mut bytes, &values, self.precision);
         if !bytes.is_empty() {
             self.queue.write_buffer(&self.boxes, 0, &bytes);
+        }
+    }
+
+    /// Writes the substep starts p (flat, `dim` per particle) where the
+    /// broadphase keeps them for the contact iterations (vec4-packed).
+    pub(crate) fn write_starts(&self, p: &[f64]) {
+        let d = self.dim;
+        let point = 4 * d.div_ceil(4);
+        let mut values = Vec::with_capacity(point * self.n);
+        for start in p.chunks_exact(d) {
+            values.extend_from_slice(start);
+            values.resize(values.len() + point - d, 0.0);
+        }
+        let mut bytes = Vec::new();
+        push_reals(&mut bytes, &values, self.precision);
+        if !bytes.is_empty() {
+            let at = (point * self.n * real_size(self.precision)) as u64;
+            self.queue.write_buffer(&self.snapshot, at, &bytes);
         }
     }
 

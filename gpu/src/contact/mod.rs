@@ -209,6 +209,7 @@ impl ContactBuffers {
         entry: ContactEntry,
         groups: (u32, u32),
     ) {
+        if let Ok(skip) = std::env::var("PROF_SKIP") && skip.split(',').any(|s| format!("{entry:?}") == s) { return; }
         pass.set_pipeline(kernels.pipeline(entry));
         pass.dispatch_workgroups(groups.0, groups.1, 1);
     }
