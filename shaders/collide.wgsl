@@ -42,9 +42,9 @@ fn contact_snapshot(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     for (var a = 0u; a < DIM; a++) {
         y[a] = position(k, a);
     }
-    let q = pack(y);
-    for (var c = 0u; c < VECS; c++) {
-        snapshot[VECS * k + c] = q[c];
+    let q = record(y, radius(k));
+    for (var c = 0u; c < CV; c++) {
+        snapshot[CV * k + c] = q[c];
     }
 }
 
@@ -55,8 +55,12 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     if (k >= n || failed_before()) {
         return;
     }
-    let own = props[k];
-    let yk = iterate_point(k);
+    let own = iterate_record(k);
+    let yk = coords(own);
+    let rk = extra(own);
+    let own_start = start_record(k);
+    let pk = coords(own_start);
+    let wk = extra(own_start);
     let mu = cparams.friction;
     var sum: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
@@ -65,9 +69,14 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     var touching = 0u;
     var ahead = 0u;
     let len = words[list_length_at() + k];
+    var quad = vec4<u32>(0u);
     for (var t = 0u; t < len; t++) {
-        let m = list_entry(k, t);
-        let ym = iterate_point(m);
+        if (t % 4u == 0u) {
+            quad = list_quad(k, t / 4u);
+        }
+        let m = quad[t % 4u];
+        let other = iterate_record(m);
+        let ym = coords(other);
         let lower = k < m; // k is i of the pair (i, j) = (min, max)
         var d: array<real, DIM>;
         var len2: real = 0.0;
@@ -80,8 +89,8 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
             fail(min(k, m));
             return;
         }
-        let other = props[m];
-        let c = dist - select(other.y + own.y, own.y + other.y, lower);
+        let rm = extra(other);
+        let c = dist - select(rm + rk, rk + rm, lower);
         if (!(c < 0.0 && dist > 0.0)) {
             continue;
         }
@@ -97,10 +106,10 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         for (var a = 0u; a < DIM; a++) {
             out[a] = d[a] * s;
         }
+        let other_start = start_record(m);
         if (mu > 0.0) {
             // Δr = (y_j − p_j) − (y_i − p_i)
-            let pk = start_point(k);
-            let pm = start_point(m);
+            let pm = coords(other_start);
             var dr: array<real, DIM>;
             var dn: real = 0.0;
             for (var a = 0u; a < DIM; a++) {
@@ -123,10 +132,11 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
                 out[a] -= tan * scale;
             }
         }
-        if (own.x == 0.0) {
+        if (wk == 0.0) {
             continue;
         }
-        let share = own.x / select(other.x + own.x, own.x + other.x, lower);
+        let wm = extra(other_start);
+        let share = wk / select(wm + wk, wk + wm, lower);
         let sign = select(share, -share, lower);
         for (var a = 0u; a < DIM; a++) {
             sum[a] += sign * out[a];
@@ -159,7 +169,7 @@ fn contact_report(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     var deepest: real = 0.0;
     let len = words[list_length_at() + k];
     for (var t = 0u; t < len; t++) {
-        let m = list_entry(k, t);
+        let m = entry_at(k, t);
         if (m < k) {
             continue;
         }

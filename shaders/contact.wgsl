@@ -1,36 +1,41 @@
 // Common part of the contact kernels (scan.wgsl, grid.wgsl, collide.wgsl):
-// bindings, per-particle accessors, failure reports. The host prepends the
-// header (real, DIM, REAL_MAX).
+// bindings, layouts and their accessors, failure reports. The host
+// prepends the header (real, DIM, REAL_MAX).
 //
 // Group 0 is bound once per backend: the resident positions x and p and the
 // step status word of the backend, then the contact buffers. Group 1 holds
 // one parameter block per kernel call (dynamic offset), like the step
 // kernels' group 1.
 //
+// A record is a point of R^N and one extra real in CV = ⌊N/4⌋ + 1 vec4
+// (coordinates first, the extra in the lane after them, the rest 0): one
+// wide access reads a 3D point and its extra. Software adapters pay per
+// access, not per byte, and real GPUs coalesce vec4 loads.
+//
 //   props     per particle vec4 [w, r, pad, 0]: inverse mass, radius, box
 //             pad r + margin (f32: rounded up on the host)
-//   boxes     per box VECS vec4 of lower corner, then VECS of upper corner
-//   snapshot  per particle VECS vec4 of the iterate y (collide), then from
-//             count · VECS on, VECS of the substep start p (broadphase)
-//   counters  [0] longest contact list, [1] box that broke the grid rule
-//             (NONE: none), [2] active contacts (report), [3] first
-//             invocation whose loops were cut short (NONE: none), then one
-//             counter per hash bucket
-//   words     per box: bucket | bucket order | list length | active, then
-//             the scan's block sums, then the first slot of every bucket
-//   lists     slot-major: entry t of particle k at lists[t · count + k]
+//   boxes     per box: record (lower corner, index), record (upper corner, w)
+//   cands     the same two records per box, in bucket order (bin_fill)
+//   snapshot  per particle: record (iterate y, radius), then from count on,
+//             record (substep start p, inverse mass)
+//   counters  [0] longest contact list, [1] first invocation whose loops
+//             were cut short (NONE: none), [2] active contacts (report),
+//             [3] unused, [4..7] per grid axis the most cells a box spans
+//             minus one, then one counter per hash bucket
+//   ranges    per bucket [first slot, end slot) in bucket order
+//   words     per box: bucket | list length | active, then the scan's
+//             block sums
+//   lists     entry t of particle k in lists[(t / 4) · count + k][t % 4]:
+//             four entries per access, neighbouring particles adjacent
 //   scratch   reduction partials, the grid frame, the report
-//
-// Points in the contact buffers are vec4-packed (VECS = ⌈N/4⌉ vec4 per
-// point, unused components 0): one wide load per 4 coordinates.
 
 struct ContactParams {
     call: u32,       // index of this kernel call within the step (status)
     count: u32,      // particles (boxes)
     buckets: u32,    // hash buckets, a power of two
-    slots: u32,      // list slots per particle
+    slots: u32,      // list slots per particle (a multiple of 4)
     blocks: u32,     // scan blocks of the bucket counters
-    flags: u32,      // bit 0: skip pairs of two fixed particles
+    flags: u32,      // bit 0: skip pairs of two fixed particles; bit 1: boxes from x, p
     axis: u32,       // grid axis to use first (≥ DIM: widest spread first)
     pad0: u32,
     friction: real,  // Coulomb μ between particles
@@ -41,21 +46,23 @@ struct ContactParams {
 @group(0) @binding(2) var<storage, read_write> status: array<atomic<u32>, 4>;
 @group(0) @binding(3) var<storage, read> props: array<vec4<real>>;
 @group(0) @binding(4) var<storage, read_write> boxes: array<vec4<real>>;
-@group(0) @binding(5) var<storage, read_write> snapshot: array<vec4<real>>;
-@group(0) @binding(6) var<storage, read_write> scratch: array<real>;
-@group(0) @binding(7) var<storage, read_write> counters: array<atomic<u32>>;
-@group(0) @binding(8) var<storage, read_write> words: array<u32>;
-@group(0) @binding(9) var<storage, read_write> lists: array<u32>;
+@group(0) @binding(5) var<storage, read_write> cands: array<vec4<real>>;
+@group(0) @binding(6) var<storage, read_write> snapshot: array<vec4<real>>;
+@group(0) @binding(7) var<storage, read_write> scratch: array<real>;
+@group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(9) var<storage, read_write> ranges: array<vec2<u32>>;
+@group(0) @binding(10) var<storage, read_write> words: array<u32>;
+@group(0) @binding(11) var<storage, read_write> lists: array<vec4<u32>>;
 @group(1) @binding(0) var<storage, read> cparams: ContactParams;
 
 const NONE: u32 = 0xffffffffu;
-const VECS: u32 = (DIM + 3u) / 4u;
+const CV: u32 = DIM / 4u + 1u;
 const CONTACT_WORKGROUP: u32 = 64u;
-const COUNTERS: u32 = 4u;      // status counters before the buckets
+const COUNTERS: u32 = 8u;      // status counters before the buckets
 const MAX_DEGREE: u32 = 0u;
-const GRID_BROKEN: u32 = 1u;
+const CUT_SHORT: u32 = 1u;
 const ACTIVE: u32 = 2u;
-const CUT_SHORT: u32 = 3u;
+const SPAN: u32 = 4u;          // 3 counters: widest box in cells − 1, per grid axis
 const REAL_IS_F32: bool = REAL_MAX == real(3.4028234663852886e38);
 
 // Scratch layout: per-thread partial bounds (grid.wgsl), the grid frame,
@@ -69,7 +76,7 @@ fn invocation(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
     return gid.x + gid.y * groups.x * CONTACT_WORKGROUP;
 }
 
-// ---- per-particle accessors (one place for the layout of x and p)
+// ---- the backend's x and p (one place for their layout)
 
 fn position(i: u32, a: u32) -> real {
     return x[i * DIM + a];
@@ -81,6 +88,79 @@ fn set_position(i: u32, a: u32, value: real) {
 
 fn start(i: u32, a: u32) -> real {
     return p[i * DIM + a];
+}
+
+// ---- records
+
+alias Record = array<vec4<real>, CV>;
+
+fn coords(q: Record) -> array<real, DIM> {
+    var out: array<real, DIM>;
+    for (var a = 0u; a < DIM; a++) {
+        out[a] = q[a / 4u][a % 4u];
+    }
+    return out;
+}
+
+fn extra(q: Record) -> real {
+    return q[DIM / 4u][DIM % 4u];
+}
+
+fn record(v: array<real, DIM>, e: real) -> Record {
+    var out: Record;
+    for (var c = 0u; c < CV; c++) {
+        out[c] = vec4<real>(0.0);
+    }
+    for (var a = 0u; a < DIM; a++) {
+        out[a / 4u][a % 4u] = v[a];
+    }
+    out[DIM / 4u][DIM % 4u] = e;
+    return out;
+}
+
+// Lower (upper = false) or upper corner record of box i.
+fn box_record(i: u32, upper: bool) -> Record {
+    let at = (2u * i + u32(upper)) * CV;
+    var q: Record;
+    for (var c = 0u; c < CV; c++) {
+        q[c] = boxes[at + c];
+    }
+    return q;
+}
+
+fn store_box(i: u32, lo: Record, hi: Record) {
+    for (var c = 0u; c < CV; c++) {
+        boxes[2u * CV * i + c] = lo[c];
+        boxes[(2u * i + 1u) * CV + c] = hi[c];
+    }
+}
+
+fn cand_record(slot: u32, upper: bool) -> Record {
+    let at = (2u * slot + u32(upper)) * CV;
+    var q: Record;
+    for (var c = 0u; c < CV; c++) {
+        q[c] = cands[at + c];
+    }
+    return q;
+}
+
+// (y_i, r_i): the iterate of the running contact iteration and the radius.
+fn iterate_record(i: u32) -> Record {
+    var q: Record;
+    for (var c = 0u; c < CV; c++) {
+        q[c] = snapshot[CV * i + c];
+    }
+    return q;
+}
+
+// (p_i, w_i): the substep start, as the broadphase copied it, and the
+// inverse mass.
+fn start_record(i: u32) -> Record {
+    var q: Record;
+    for (var c = 0u; c < CV; c++) {
+        q[c] = snapshot[CV * (cparams.count + i) + c];
+    }
+    return q;
 }
 
 fn inverse_mass(i: u32) -> real {
@@ -95,101 +175,39 @@ fn box_pad(i: u32) -> real {
     return props[i].z;
 }
 
-// Point `at` (VECS vec4) of a vec4-packed buffer, unpacked.
-fn unpack(q: array<vec4<real>, VECS>) -> array<real, DIM> {
-    var out: array<real, DIM>;
-    for (var a = 0u; a < DIM; a++) {
-        out[a] = q[a / 4u][a % 4u];
-    }
-    return out;
-}
-
-fn pack(v: array<real, DIM>) -> array<vec4<real>, VECS> {
-    var out: array<vec4<real>, VECS>;
-    for (var c = 0u; c < VECS; c++) {
-        out[c] = vec4<real>(0.0);
-    }
-    for (var a = 0u; a < DIM; a++) {
-        out[a / 4u][a % 4u] = v[a];
-    }
-    return out;
-}
-
-fn box_lo(i: u32) -> array<real, DIM> {
-    var q: array<vec4<real>, VECS>;
-    for (var c = 0u; c < VECS; c++) {
-        q[c] = boxes[2u * VECS * i + c];
-    }
-    return unpack(q);
-}
-
-fn box_hi(i: u32) -> array<real, DIM> {
-    var q: array<vec4<real>, VECS>;
-    for (var c = 0u; c < VECS; c++) {
-        q[c] = boxes[2u * VECS * i + VECS + c];
-    }
-    return unpack(q);
-}
-
-fn store_box(i: u32, lo: array<real, DIM>, hi: array<real, DIM>) {
-    let l = pack(lo);
-    let h = pack(hi);
-    for (var c = 0u; c < VECS; c++) {
-        boxes[2u * VECS * i + c] = l[c];
-        boxes[2u * VECS * i + VECS + c] = h[c];
-    }
-}
-
-// The iterate y_i of the running contact iteration.
-fn iterate_point(i: u32) -> array<real, DIM> {
-    var q: array<vec4<real>, VECS>;
-    for (var c = 0u; c < VECS; c++) {
-        q[c] = snapshot[VECS * i + c];
-    }
-    return unpack(q);
-}
-
-// The substep start p_i, as copied by the broadphase.
-fn start_point(i: u32) -> array<real, DIM> {
-    var q: array<vec4<real>, VECS>;
-    for (var c = 0u; c < VECS; c++) {
-        q[c] = snapshot[VECS * (cparams.count + i) + c];
-    }
-    return unpack(q);
-}
-
-// ---- the per-box words
+// ---- the per-box words and the lists
 
 fn bucket_of(i: u32) -> u32 {
     return words[i];
 }
 
-fn sorted_box(slot: u32) -> u32 {
-    return words[cparams.count + slot];
-}
-
 fn list_length_at() -> u32 {
-    return 2u * cparams.count;
+    return cparams.count;
 }
 
 fn active_at() -> u32 {
-    return 3u * cparams.count;
+    return 2u * cparams.count;
 }
 
 fn scan_sums_at() -> u32 {
-    return 4u * cparams.count;
+    return 3u * cparams.count;
 }
 
-// First slot of bucket b in the bucket order (b ≤ buckets).
-fn bucket_start(b: u32) -> u32 {
-    if (b >= cparams.buckets) {
-        return cparams.count;
-    }
-    return words[4u * cparams.count + cparams.blocks + b];
+// Entries 4q … 4q + 3 of particle k's list.
+fn list_quad(k: u32, q: u32) -> vec4<u32> {
+    return lists[q * cparams.count + k];
 }
 
-fn list_entry(k: u32, t: u32) -> u32 {
-    return lists[t * cparams.count + k];
+fn set_list_quad(k: u32, q: u32, value: vec4<u32>) {
+    lists[q * cparams.count + k] = value;
+}
+
+fn entry_at(k: u32, t: u32) -> u32 {
+    return lists[(t / 4u) * cparams.count + k][t % 4u];
+}
+
+fn set_entry(k: u32, t: u32, value: u32) {
+    lists[(t / 4u) * cparams.count + k][t % 4u] = value;
 }
 
 // ---- failures, the rule of the step kernels (prelude.wgsl)

@@ -5,33 +5,38 @@
 //                     (or the boxes given); per-thread partial bounds; clears
 //                     the bucket counters
 //   grid_frame        grid axes g (up to 3: widest spread first) and per axis
-//                     o_g = min over boxes of lo, s_g (cells ≥ 1.25 × widest box)
-//   bin_count         home cell of box i: c_g(i) = cell_g(lo_i[g]);
+//                     o_g = min over boxes of lo, s_g (cells as wide as the widest box)
+//   bin_count         home cell of box i: c_g(i) = cell_g(lo_i[g]); the most
+//                     cells any box spans: K_g = max (cell_g(hi_i[g]) − c_g(i));
 //                     bucket = hash(c(i)) mod buckets; count it
 //   (scan.wgsl)       exclusive prefix of the bucket counts
-//   bin_fill          box i → the next slot of its bucket
+//   bin_fill          box i → the next slot of its bucket (its two records
+//                     copied there: candidates are read in bucket order)
 //   neighbours        particle i: every box j ≠ i in the buckets of the cells
-//                     c ∈ Π_g [c_g(i) − 1, cell_g(hi_i[g])] whose box overlaps
+//                     c ∈ Π_g [c_g(i) − K_g, cell_g(hi_i[g])] whose box overlaps
 //                     (closed intervals, every axis); sort the list ascending
-//                     and drop repeats (two cells of one bucket)
+//                     (in registers up to LOCAL entries) and drop repeats (two
+//                     cells of one bucket)
 //
 // cell_g(v) = ⌊(v/2 − o_g/2) · s_g⌋ clamped to [0, 2 · CELLS_MAX] is monotone
-// in v, whatever the rounding. bin_count checks that every box spans at most
-// two cells per grid axis: cell_g(hi_j) ≤ c_g(j) + 1. Then if boxes i and j
-// overlap, lo_j ≤ hi_i gives c_g(j) ≤ cell_g(hi_i), and lo_i ≤ hi_j gives
-// c_g(i) ≤ cell_g(hi_j) ≤ c_g(j) + 1: j's home cell is in i's query range,
-// its bucket is visited and the exact test decides (a bucket met through
-// two cells gives repeats, removed after the sort). So each list holds exactly the overlapping boxes — the
-// exhaustive reference's pairs of i — in ascending order, whatever order the
-// bucket slots were filled in (integer atomics; the order inside a bucket
-// depends on scheduling, the sorted lists do not).
+// in v, whatever the rounding. If boxes i and j overlap, lo_j ≤ hi_i gives
+// c_g(j) ≤ cell_g(hi_i), and lo_i ≤ hi_j gives c_g(i) ≤ cell_g(hi_j) ≤
+// c_g(j) + K_g: j's home cell is in i's query range, its bucket is visited
+// and the exact test decides. So each list holds exactly the overlapping
+// boxes — the exhaustive reference's pairs of i — in ascending order,
+// whatever order the bucket slots were filled in (integer atomics; the
+// order inside a bucket depends on scheduling, the sorted lists do not).
+// K_g is measured, not assumed: cells as wide as the widest box make it 1
+// (2 where rounding moves a corner across a cell edge); the grid's scale
+// only changes how many boxes are tested, never which pairs come out.
 //
 // f32: box corners are rounded outward by one ulp, so the device box holds
 // the box of the f32 values (the pad is rounded up on the host); f64: the
 // golden path's arithmetic exactly.
 
 const CELLS_MAX: real = 262144.0; // 2^18 cells per grid axis at most
-const CELL_FACTOR: real = 1.25;   // cell edge / widest box edge
+const CELL_FACTOR: real = 1.0;    // cell edge / widest box edge
+const LOCAL: u32 = 32u;           // list entries kept in registers
 const GRID: u32 = min(DIM, 3u);
 
 // ---- boxes
@@ -63,9 +68,9 @@ fn outward_up(v: real) -> real {
 }
 
 // The swept box of particle i over the substep, as the golden path builds
-// it; p_i is kept (vec4-packed) for the contact iterations.
+// it; (p_i, w_i) is kept for the contact iterations.
 fn build_box(i: u32) {
-    let pad = box_pad(i);
+    let own = props[i];
     var start: array<real, DIM>;
     var lo: array<real, DIM>;
     var hi: array<real, DIM>;
@@ -73,13 +78,13 @@ fn build_box(i: u32) {
         let s = p[i * DIM + a];
         let e = position(i, a);
         start[a] = s;
-        lo[a] = outward_down(min(s, e) - pad);
-        hi[a] = outward_up(max(s, e) + pad);
+        lo[a] = outward_down(min(s, e) - own.z);
+        hi[a] = outward_up(max(s, e) + own.z);
     }
-    store_box(i, lo, hi);
-    let q = pack(start);
-    for (var c = 0u; c < VECS; c++) {
-        snapshot[VECS * (cparams.count + i) + c] = q[c];
+    store_box(i, record(lo, real(i)), record(hi, own.x));
+    let q = record(start, own.x);
+    for (var c = 0u; c < CV; c++) {
+        snapshot[CV * (cparams.count + i) + c] = q[c];
     }
 }
 
@@ -98,6 +103,9 @@ fn boxes_and_bounds(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var b = t; b < cparams.buckets; b += BOUND_THREADS) {
         atomicStore(&counters[COUNTERS + b], 0u);
     }
+    if (t < 3u) {
+        atomicStore(&counters[SPAN + t], 0u);
+    }
     var lo: array<real, DIM>;
     var hi: array<real, DIM>;
     var ext: array<real, DIM>;
@@ -111,8 +119,8 @@ fn boxes_and_bounds(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (from_state) {
             build_box(i);
         }
-        let l = box_lo(i);
-        let h = box_hi(i);
+        let l = coords(box_record(i, false));
+        let h = coords(box_record(i, true));
         for (var a = 0u; a < DIM; a++) {
             lo[a] = min(lo[a], l[a]);
             hi[a] = max(hi[a], h[a]);
@@ -238,10 +246,14 @@ fn bin_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     if (i >= cparams.count || failed_before()) {
         return;
     }
-    let home = cells_of(box_lo(i));
-    let far = cells_of(box_hi(i));
-    if (any(far > home + vec3<u32>(1u))) {
-        atomicMin(&counters[GRID_BROKEN], i);
+    let home = cells_of(coords(box_record(i, false)));
+    let far = cells_of(coords(box_record(i, true)));
+    for (var g = 0u; g < GRID; g++) {
+        // Most boxes span what is already recorded: read before writing.
+        let span = far[g] - home[g];
+        if (span > atomicLoad(&counters[SPAN + g])) {
+            atomicMax(&counters[SPAN + g], span);
+        }
     }
     let b = bucket(home);
     words[i] = b;
@@ -255,24 +267,38 @@ fn bin_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
         return;
     }
     let slot = atomicAdd(&counters[COUNTERS + bucket_of(i)], 1u);
-    words[cparams.count + slot] = i;
+    for (var c = 0u; c < 2u * CV; c++) {
+        cands[2u * CV * slot + c] = boxes[2u * CV * i + c];
+    }
 }
 
 // ---- neighbour lists
 
-// Entry t of particle k's list.
-fn entry_at(k: u32, t: u32) -> u32 {
-    return lists[t * cparams.count + k];
-}
-
-fn set_entry(k: u32, t: u32, value: u32) {
-    lists[t * cparams.count + k] = value;
+// Insertion sort of found[0..len) (registers), then drops repeats;
+// returns the new length.
+fn sort_found(found: ptr<function, array<u32, LOCAL>>, len: u32) -> u32 {
+    for (var t = 1u; t < len; t++) {
+        let value = (*found)[t];
+        var at = t;
+        while (at > 0u && (*found)[at - 1u] > value) {
+            (*found)[at] = (*found)[at - 1u];
+            at--;
+        }
+        (*found)[at] = value;
+    }
+    var kept = min(len, 1u);
+    for (var t = 1u; t < len; t++) {
+        if ((*found)[t] != (*found)[kept - 1u]) {
+            (*found)[kept] = (*found)[t];
+            kept++;
+        }
+    }
+    return kept;
 }
 
 // Heapsort of particle k's list entries [0, len), ascending, in place
 // (O(len log len) steps: few loop iterations for long lists), then drops
-// repeats (one box met through two cells of the same bucket). Returns the
-// new length.
+// repeats. Returns the new length.
 fn sort_list(k: u32, len: u32) -> u32 {
     for (var root = len / 2u; root > 0u; root--) {
         sift_down(k, root - 1u, len);
@@ -294,10 +320,10 @@ fn sort_list(k: u32, len: u32) -> u32 {
     return kept;
 }
 
-// Restores the max-heap below `root` within [0, len).
+// Restores the max-heap below `first` within [0, len).
 fn sift_down(k: u32, first: u32, len: u32) {
     var root = first;
-    var value = entry_at(k, root);
+    let value = entry_at(k, root);
     loop {
         var child = 2u * root + 1u;
         if (child >= len) {
@@ -328,40 +354,51 @@ fn neighbours(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         return;
     }
     let skip_fixed = (cparams.flags & 1u) != 0u;
-    let wi = inverse_mass(i);
-    let lo = box_lo(i);
-    let hi = box_hi(i);
+    let own_hi = box_record(i, true);
+    let lo = coords(box_record(i, false));
+    let hi = coords(own_hi);
+    let wi = extra(own_hi);
     let home = cells_of(lo);
     let far = cells_of(hi);
     var first = vec3<u32>(0u, 0u, 0u);
     var count = vec3<u32>(1u, 1u, 1u);
     for (var g = 0u; g < GRID; g++) {
-        first[g] = max(home[g], 1u) - 1u;
-        // At most three cells (more only on a broken grid, reported).
-        count[g] = min(far[g] - first[g] + 1u, 3u);
+        let reach = atomicLoad(&counters[SPAN + g]);
+        first[g] = max(home[g], reach) - reach;
+        count[g] = far[g] - first[g] + 1u;
     }
+    // The first LOCAL partners stay in registers; longer lists spill to
+    // the list buffer and are sorted there.
+    var found: array<u32, LOCAL>;
     var len = 0u;
     for (var c0 = 0u; c0 < count.x; c0++) {
         for (var c1 = 0u; c1 < count.y; c1++) {
             for (var c2 = 0u; c2 < count.z; c2++) {
-                let b = bucket(first + vec3<u32>(c0, c1, c2));
-                let end = bucket_start(b + 1u);
-                for (var slot = bucket_start(b); slot < end; slot++) {
-                    let j = sorted_box(slot);
-                    if (j == i || (skip_fixed && wi + inverse_mass(j) == 0.0)) {
-                        continue;
-                    }
-                    let lj = box_lo(j);
-                    let hj = box_hi(j);
-                    var overlap = true;
+                let range = ranges[bucket(first + vec3<u32>(c0, c1, c2))];
+                for (var slot = range.x; slot < range.y; slot++) {
+                    let cand_lo = cand_record(slot, false);
+                    let cand_hi = cand_record(slot, true);
+                    let lj = coords(cand_lo);
+                    let hj = coords(cand_hi);
+                    let j = u32(extra(cand_lo));
+                    var overlap = j != i;
                     for (var a = 0u; a < DIM; a++) {
                         overlap = overlap && lo[a] <= hj[a] && lj[a] <= hi[a];
                     }
-                    if (!overlap) {
+                    if (!overlap || (skip_fixed && wi + extra(cand_hi) == 0.0)) {
                         continue;
                     }
-                    if (len < cparams.slots) {
-                        set_entry(i, len, j);
+                    if (len < LOCAL) {
+                        found[len] = j;
+                    } else {
+                        if (len == LOCAL) {
+                            for (var t = 0u; t < min(LOCAL, cparams.slots); t++) {
+                                set_entry(i, t, found[t]);
+                            }
+                        }
+                        if (len < cparams.slots) {
+                            set_entry(i, len, j);
+                        }
                     }
                     len++;
                 }
@@ -369,7 +406,14 @@ fn neighbours(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         }
     }
     atomicMax(&counters[MAX_DEGREE], len);
-    if (len <= cparams.slots) {
+    if (len <= LOCAL) {
+        len = sort_found(&found, len);
+        if (len <= cparams.slots) {
+            for (var q = 0u; q < (len + 3u) / 4u; q++) {
+                set_list_quad(i, q, vec4<u32>(found[4u * q], found[4u * q + 1u], found[4u * q + 2u], found[4u * q + 3u]));
+            }
+        }
+    } else if (len <= cparams.slots) {
         len = sort_list(i, len);
     }
     words[list_length_at() + i] = len;

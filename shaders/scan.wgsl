@@ -4,7 +4,7 @@
 //   scan_reduce   block b (SCAN_BLOCK counters): its total → sums[b]
 //   scan_top      one workgroup: sums ← exclusive prefix of sums
 //   scan_apply    block b: counter ← sums[b] + exclusive prefix in the block
-//                 (also kept as the bucket's first slot in `words`)
+//                 (the bucket's slot range also kept in `ranges`)
 //
 // Each of the 256 invocations of a block owns SCAN_CHUNK consecutive
 // counters; the chunk totals are scanned across the workgroup (Hillis–
@@ -95,7 +95,7 @@ fn scan_apply(@builtin(local_invocation_index) lid: u32, @builtin(workgroup_id) 
         if (e < cparams.buckets) {
             let c = atomicLoad(&counters[COUNTERS + e]);
             atomicStore(&counters[COUNTERS + e], running);
-            words[4u * cparams.count + cparams.blocks + e] = running;
+            ranges[e] = vec2<u32>(running, running + c);
             running += c;
         }
     }

@@ -108,12 +108,13 @@ impl GpuSweep {
         self.stats
     }
 
-    /// Device bytes per box: the box and snapshot (4 vec4-packed points),
-    /// its properties, grid and list words and its share of the scratch,
-    /// without the list slots (4 bytes each, [`GpuSweep::capacity`] per box).
+    /// Device bytes per box: its records (box, candidate, snapshot: six
+    /// points of ⌊N/4⌋ + 1 vec4), properties, grid and list words and its
+    /// share of the scratch, without the list slots (4 bytes each,
+    /// [`GpuSweep::capacity`] per box).
     pub fn bytes_per_box(&self) -> usize {
         let r = crate::params::real_size(self.precision);
-        (4 * 4 * self.dim.div_ceil(4) + 5) * r + 8 * 4
+        (6 * 4 * (self.dim / 4 + 1) + 5) * r + 7 * 4
     }
 
     /// All overlapping pairs (i < j) of `boxes` in canonical
@@ -146,7 +147,7 @@ impl GpuSweep {
             }
             Precision::F64 => boxes,
         };
-        let (lengths, lists) = loop {
+        let lists = loop {
             let Some(buffers) = &self.buffers else {
                 return Err(GpuError::Other {
                     message: "broadphase buffers were not allocated".into(),
@@ -167,13 +168,12 @@ impl GpuSweep {
             }
         };
         let mut pairs = Vec::new();
-        for i in 0..n {
-            for t in 0..lengths[i] as usize {
-                let j = lists[t * n + i];
-                if j as usize > i {
-                    pairs.push([i as u32, j]);
-                }
-            }
+        for (i, list) in lists.iter().enumerate() {
+            pairs.extend(
+                list.iter()
+                    .filter(|&&j| j as usize > i)
+                    .map(|&j| [i as u32, j]),
+            );
         }
         self.stats.pairs = pairs.len();
         Ok(pairs)
@@ -210,15 +210,13 @@ impl GpuSweep {
         Ok(())
     }
 
-    /// One broadphase on the uploaded boxes; returns the outcome, the list
-    /// lengths and the slot-major lists.
-    #[allow(clippy::type_complexity)]
+    /// One broadphase on the uploaded boxes; returns the outcome and every
+    /// box's list.
     fn run(
         &self,
         buffers: &ContactBuffers,
         axis: u32,
-    ) -> Result<(crate::contact::Outcome, (Vec<u32>, Vec<u32>)), GpuError> {
-        let n = buffers.particles();
+    ) -> Result<(crate::contact::Outcome, Vec<Vec<u32>>), GpuError> {
         let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("sweep lists staging"),
             size: buffers.lists_bytes().max(16),
@@ -240,7 +238,6 @@ impl GpuSweep {
         crate::device_errors::submit_and_wait(&self.device, &self.queue, encoder, &self.errors)?;
         let outcome = buffers.read_outcome()?;
         let data = crate::readback::read_mapped(&self.device, &staging, buffers.lists_bytes())?;
-        let words: &[u32] = bytemuck::cast_slice(&data);
-        Ok((outcome, (words[..n].to_vec(), words[n..].to_vec())))
+        Ok((outcome, buffers.decode_lists(bytemuck::cast_slice(&data))))
     }
 }

@@ -149,7 +149,7 @@ impl GpuCollide {
                 .collect(),
         )?;
         buffers.write_lists(&lists);
-        buffers.write_starts(input.p);
+        buffers.write_starts(input.p, input.inverse_mass);
         let bytes = (n * self.dim * real_size(self.precision)) as u64;
         let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("collide staging"),

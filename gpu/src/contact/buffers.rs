@@ -3,13 +3,17 @@
 //! kernel call (group 1, dynamic offset).
 //!
 //! ```text
-//! props     vec4 per particle [w, r, pad, 0]     P = 4⌈N/4⌉ reals per point
-//! boxes     2P reals per particle    scratch   3N·1024 + 10 + n reals
-//! snapshot  2P reals per particle    counters  4 + buckets u32
-//! words     4n + scan blocks + buckets u32     lists  slots · n u32 (grown)
+//! record    ⌊N/4⌋ + 1 vec4: a point and one extra real (R reals, R = 4⌊N/4⌋ + 4)
+//! props     vec4 per particle [w, r, pad, 0]
+//! boxes     2 records per box      (lower corner, index), (upper corner, w)
+//! cands     2 records per box      the same, in bucket order
+//! snapshot  2 records per particle (iterate y, r), (substep start p, w)
+//! scratch   3N·1024 + 10 + n reals counters  8 + buckets u32
+//! ranges    2 u32 per bucket       words     3n + scan blocks u32
+//! lists     slots · n u32 (slots a multiple of 4; grown on demand)
 //! staging   32 bytes: counters[0..4], deepest overlap
 //! ```
-//! Device bytes per particle, without the lists: (4P + 5) reals + 8 words
+//! Device bytes per particle, without the lists: (6R + 5) reals + 7 words
 //! (two buckets each); the lists add 4 bytes per slot.
 
 use std::sync::{Arc, Mutex};
@@ -21,6 +25,8 @@ use crate::Precision;
 use crate::params::{push_reals, read_reals, real_size};
 
 const NONE: u32 = u32::MAX;
+/// Status counters before the bucket counters (`COUNTERS` in contact.wgsl).
+const COUNTERS: usize = 8;
 /// u32 words of a parameter block before the friction real.
 const PARAM_WORDS: usize = 8;
 /// Bytes bound per parameter block: the words and one real (f64 at most).
@@ -49,9 +55,6 @@ pub(crate) struct Block {
 pub(crate) struct Outcome {
     /// Longest contact list of any broadphase since [`ContactBuffers::reset`].
     pub(crate) longest_list: u32,
-    /// A box spanning more than two grid cells (the grid's precondition
-    /// broken: its lists are not trusted).
-    pub(crate) grid_broken: Option<u32>,
     /// Active pairs of the last iteration (after a report).
     pub(crate) active: u32,
     /// Deepest overlap over the last lists (after a report).
@@ -62,17 +65,9 @@ pub(crate) struct Outcome {
 }
 
 impl Outcome {
-    /// The typed error of results the kernels could not vouch for: a box
-    /// spanning more than two grid cells on an axis (the grid's
-    /// precondition, shaders/grid.wgsl), or loops the adapter cut short.
+    /// The typed error of results the kernels could not vouch for: loops
+    /// the adapter cut short.
     pub(crate) fn trusted(&self) -> Result<(), GpuError> {
-        if let Some(i) = self.grid_broken {
-            return Err(GpuError::Other {
-                message: format!(
-                    "broadphase grid: box {i} spans more than two cells on a grid axis (cells too fine for this adapter's rounding)"
-                ),
-            });
-        }
         if let Some(i) = self.cut_short {
             return Err(GpuError::Unsupported {
                 what: format!(
@@ -103,9 +98,11 @@ pub(crate) struct ContactBuffers {
     status: wgpu::Buffer,
     props: wgpu::Buffer,
     boxes: wgpu::Buffer,
+    cands: wgpu::Buffer,
     snapshot: wgpu::Buffer,
     scratch: wgpu::Buffer,
     counters: wgpu::Buffer,
+    ranges: wgpu::Buffer,
     words: wgpu::Buffer,
     lists: wgpu::Buffer,
     params: wgpu::Buffer,
@@ -175,49 +172,39 @@ impl ContactBuffers {
             out
         };
         let scratch_reals = 3 * dim * BOUND_THREADS as usize + 10 + n;
-        let words = 4 * n + scan_blocks_for(buckets) + buckets;
-        // vec4-packed points: ⌈N/4⌉ vec4 each.
-        let point = 4 * dim.div_ceil(4);
+        let record = record_reals(dim);
         let align = limits.min_storage_buffer_offset_alignment;
         let stride = (PARAMS_BYTES as u32).div_ceil(align) * align;
-        let mut counters = vec![0u32, NONE, 0, NONE];
-        counters.resize(4 + buckets, 0);
-        let slots = slots.max(1);
-        let props = make("contact props", &reals(&props), storage)?;
-        let boxes = make("contact boxes", &zeros(2 * point * n * r), storage)?;
-        let snapshot = make("contact snapshot", &zeros(2 * point * n * r), storage)?;
-        let scratch = make("contact scratch", &zeros(scratch_reals * r), storage)?;
-        let counters = make("contact counters", bytemuck::cast_slice(&counters), storage)?;
-        let words = make("contact words", &zeros(4 * words), storage)?;
-        let lists = empty_storage(device, "contact lists", 4 * (slots * n) as u64)?;
+        let mut counters = vec![0u32, NONE, 0, 0];
+        counters.resize(COUNTERS + buckets, 0);
+        let slots = slots_for(slots);
         let params = make(
             "contact params",
             &zeros(stride as usize * blocks.len().max(1)),
             storage,
         )?;
-        let staging = make(
-            "contact staging",
-            &zeros(32),
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        )?;
-        let (group, params_group) = bind_groups(
-            device,
-            kernels,
-            [
-                bound.x,
-                bound.p,
-                bound.status,
-                &props,
-                &boxes,
-                &snapshot,
-                &scratch,
-                &counters,
-                &words,
-                &lists,
-            ],
-            &params,
-        );
-        let buffers = ContactBuffers {
+        let mut buffers = ContactBuffers {
+            props: make("contact props", &reals(&props), storage)?,
+            boxes: make("contact boxes", &zeros(2 * record * n * r), storage)?,
+            cands: make("contact candidates", &zeros(2 * record * n * r), storage)?,
+            snapshot: make("contact snapshot", &zeros(2 * record * n * r), storage)?,
+            scratch: make("contact scratch", &zeros(scratch_reals * r), storage)?,
+            counters: make("contact counters", bytemuck::cast_slice(&counters), storage)?,
+            ranges: make("contact ranges", &zeros(8 * buckets), storage)?,
+            words: make(
+                "contact words",
+                &zeros(4 * (3 * n + scan_blocks_for(buckets))),
+                storage,
+            )?,
+            lists: empty_storage(device, "contact lists", 4 * (slots * n) as u64)?,
+            staging: make(
+                "contact staging",
+                &zeros(32),
+                wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            )?,
+            group: placeholder(device, &kernels.params_layout, &params),
+            params_group: placeholder(device, &kernels.params_layout, &params),
+            params,
             device: device.clone(),
             queue: queue.clone(),
             errors,
@@ -232,18 +219,8 @@ impl ContactBuffers {
             x: bound.x.clone(),
             p: bound.p.clone(),
             status: bound.status.clone(),
-            props,
-            boxes,
-            snapshot,
-            scratch,
-            counters,
-            words,
-            lists,
-            params,
-            group,
-            params_group,
-            staging,
         };
+        buffers.rebind(kernels);
         buffers.write_params();
         crate::device_errors::take_device_errors(&buffers.errors)?;
         Ok(buffers)
@@ -298,36 +275,50 @@ impl ContactBuffers {
     /// Grows the lists to at least `need` slots per particle (doubling at
     /// least), keeping everything else.
     pub(crate) fn grow(&mut self, kernels: &ContactKernels, need: usize) -> Result<(), GpuError> {
-        let slots = need.max(2 * self.slots);
+        let slots = slots_for(need.max(2 * self.slots));
         self.lists = empty_storage(&self.device, "contact lists", 4 * (slots * self.n) as u64)?;
         self.slots = slots;
-        let (group, params_group) = bind_groups(
-            &self.device,
-            kernels,
-            [
-                &self.x,
-                &self.p,
-                &self.status,
-                &self.props,
-                &self.boxes,
-                &self.snapshot,
-                &self.scratch,
-                &self.counters,
-                &self.words,
-                &self.lists,
-            ],
-            &self.params,
-        );
-        self.group = group;
-        self.params_group = params_group;
+        self.rebind(kernels);
         self.write_params();
         crate::device_errors::take_device_errors(&self.errors)
+    }
+
+    /// Both bind groups over the current buffers (at load, after a growth).
+    fn rebind(&mut self, kernels: &ContactKernels) {
+        let resources = [
+            &self.x,
+            &self.p,
+            &self.status,
+            &self.props,
+            &self.boxes,
+            &self.cands,
+            &self.snapshot,
+            &self.scratch,
+            &self.counters,
+            &self.ranges,
+            &self.words,
+            &self.lists,
+        ];
+        let entries: Vec<_> = resources
+            .iter()
+            .enumerate()
+            .map(|(b, buffer)| wgpu::BindGroupEntry {
+                binding: b as u32,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
+        self.group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("hyperpbd contact"),
+            layout: &kernels.layout,
+            entries: &entries,
+        });
+        self.params_group = placeholder(&self.device, &kernels.params_layout, &self.params);
     }
 
     /// Clears the counters the outcome reads (before a submission).
     pub(crate) fn reset(&self) {
         self.queue
-            .write_buffer(&self.counters, 0, bytemuck::cast_slice(&[0u32, NONE, 0, NONE]));
+            .write_buffer(&self.counters, 0, bytemuck::cast_slice(&[0u32, NONE, 0, 0]));
     }
 
     /// Copies the outcome into the staging buffer (end of a submission).
@@ -345,46 +336,53 @@ impl ContactBuffers {
         let deepest = read_reals(&bytes[16..16 + real_size(self.precision)], self.precision);
         Ok(Outcome {
             longest_list: words[0],
-            grid_broken: (words[1] != NONE).then_some(words[1]),
             active: words[2],
             deepest: deepest.first().copied().unwrap_or(0.0),
-            cut_short: (words[3] != NONE).then_some(words[3]),
+            cut_short: (words[1] != NONE).then_some(words[1]),
         })
     }
 
-    /// Writes boxes (flat corners, `dim` per box) for a sweep of given
-    /// boxes, vec4-packed as the kernels hold them.
-    pub(crate) fn write_boxes(&self, min: &[f64], max: &[f64]) {
+    /// Flat points (`dim` per point) with one extra each, as records.
+    fn records(&self, points: &[f64], extra: impl Fn(usize) -> f64) -> Vec<u8> {
         let d = self.dim;
-        let point = 4 * d.div_ceil(4);
-        let mut values = Vec::with_capacity(2 * point * self.n);
-        for (lo, hi) in min.chunks_exact(d).zip(max.chunks_exact(d)) {
-            for corner in [lo, hi] {
-                values.extend_from_slice(corner);
-                values.resize(values.len() + point - d, 0.0);
-            }
+        let record = record_reals(d);
+        let mut values = Vec::with_capacity(record * points.len() / d.max(1));
+        for (i, point) in points.chunks_exact(d).enumerate() {
+            let at = values.len();
+            values.extend_from_slice(point);
+            values.push(extra(i));
+            values.resize(at + record, 0.0);
         }
         let mut bytes = Vec::new();
         push_reals(&mut bytes, &values, self.precision);
+        bytes
+    }
+
+    /// Writes given boxes (flat corners, `dim` per box) as the kernels
+    /// hold them: (lower corner, index), (upper corner, 0).
+    pub(crate) fn write_boxes(&self, min: &[f64], max: &[f64]) {
+        let lower = self.records(min, |i| i as f64);
+        let upper = self.records(max, |_| 0.0);
+        let half = lower.len() / self.n.max(1);
+        let mut bytes = Vec::with_capacity(2 * lower.len());
+        for (lo, hi) in lower
+            .chunks_exact(half.max(1))
+            .zip(upper.chunks_exact(half.max(1)))
+        {
+            bytes.extend_from_slice(lo);
+            bytes.extend_from_slice(hi);
+        }
         if !bytes.is_empty() {
             self.queue.write_buffer(&self.boxes, 0, &bytes);
         }
     }
 
-    /// Writes the substep starts p (flat, `dim` per particle) where the
-    /// broadphase keeps them for the contact iterations (vec4-packed).
-    pub(crate) fn write_starts(&self, p: &[f64]) {
-        let d = self.dim;
-        let point = 4 * d.div_ceil(4);
-        let mut values = Vec::with_capacity(point * self.n);
-        for start in p.chunks_exact(d) {
-            values.extend_from_slice(start);
-            values.resize(values.len() + point - d, 0.0);
-        }
-        let mut bytes = Vec::new();
-        push_reals(&mut bytes, &values, self.precision);
+    /// Writes the substep starts p (flat) and inverse masses where the
+    /// broadphase keeps them for the contact iterations.
+    pub(crate) fn write_starts(&self, p: &[f64], inverse_mass: &[f64]) {
+        let bytes = self.records(p, |i| inverse_mass[i]);
         if !bytes.is_empty() {
-            let at = (point * self.n * real_size(self.precision)) as u64;
+            let at = (record_reals(self.dim) * self.n * real_size(self.precision)) as u64;
             self.queue.write_buffer(&self.snapshot, at, &bytes);
         }
     }
@@ -396,7 +394,7 @@ impl ContactBuffers {
         if n == 0 {
             return;
         }
-        encoder.copy_buffer_to_buffer(&self.words, 8 * n, staging, 0, 4 * n);
+        encoder.copy_buffer_to_buffer(&self.words, 4 * n, staging, 0, 4 * n);
         encoder.copy_buffer_to_buffer(&self.lists, 0, staging, 4 * n, 4 * n * self.slots as u64);
     }
 
@@ -405,51 +403,54 @@ impl ContactBuffers {
         4 * self.n as u64 * (1 + self.slots as u64)
     }
 
+    /// The lists from the words [`ContactBuffers::copy_lists`] copied (a
+    /// list longer than the slots, which the outcome reports, is cut at
+    /// the slots).
+    pub(crate) fn decode_lists(&self, words: &[u32]) -> Vec<Vec<u32>> {
+        let n = self.n;
+        let (lengths, lists) = words.split_at(n.min(words.len()));
+        lengths
+            .iter()
+            .enumerate()
+            .map(|(k, &len)| {
+                (0..(len as usize).min(self.slots))
+                    .filter_map(|t| lists.get(4 * ((t / 4) * n + k) + t % 4).copied())
+                    .collect()
+            })
+            .collect()
+    }
+
     /// Writes per-particle lists (`lists[k]` ascending) for a contact
     /// iteration on given lists; they must fit the slots.
     pub(crate) fn write_lists(&self, lists: &[Vec<u32>]) {
         let n = self.n;
         let mut lengths = vec![0u32; n];
-        let mut slots = vec![0u32; n * self.slots];
+        let mut entries = vec![0u32; n * self.slots];
         for (k, list) in lists.iter().enumerate() {
             lengths[k] = list.len() as u32;
             for (t, &m) in list.iter().enumerate() {
-                slots[t * n + k] = m;
+                entries[4 * ((t / 4) * n + k) + t % 4] = m;
             }
         }
         if n > 0 {
             self.queue
-                .write_buffer(&self.words, 8 * n as u64, bytemuck::cast_slice(&lengths));
+                .write_buffer(&self.words, 4 * n as u64, bytemuck::cast_slice(&lengths));
             self.queue
-                .write_buffer(&self.lists, 0, bytemuck::cast_slice(&slots));
+                .write_buffer(&self.lists, 0, bytemuck::cast_slice(&entries));
         }
     }
 }
 
-/// Group 0 over `resources` (binding order of contact.wgsl) and group 1
-/// over one parameter block of `params`.
-fn bind_groups(
+/// Group 1 over one parameter block of `params` (the dynamic offset picks
+/// the block).
+fn placeholder(
     device: &wgpu::Device,
-    kernels: &ContactKernels,
-    resources: [&wgpu::Buffer; 10],
+    layout: &wgpu::BindGroupLayout,
     params: &wgpu::Buffer,
-) -> (wgpu::BindGroup, wgpu::BindGroup) {
-    let entries: Vec<_> = resources
-        .iter()
-        .enumerate()
-        .map(|(b, buffer)| wgpu::BindGroupEntry {
-            binding: b as u32,
-            resource: buffer.as_entire_binding(),
-        })
-        .collect();
-    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("hyperpbd contact"),
-        layout: &kernels.layout,
-        entries: &entries,
-    });
-    let params_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("hyperpbd contact params"),
-        layout: &kernels.params_layout,
+        layout,
         entries: &[wgpu::BindGroupEntry {
             binding: 0,
             resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
@@ -458,8 +459,18 @@ fn bind_groups(
                 size: wgpu::BufferSize::new(PARAMS_BYTES),
             }),
         }],
-    });
-    (group, params_group)
+    })
+}
+
+/// Reals of one record (contact.wgsl): ⌊N/4⌋ + 1 vec4.
+fn record_reals(dim: usize) -> usize {
+    4 * (dim / 4 + 1)
+}
+
+/// List slots for at least `slots` entries: a multiple of 4 (one vec4 of
+/// entries per access), at least 4.
+fn slots_for(slots: usize) -> usize {
+    slots.max(1).next_multiple_of(4)
 }
 
 /// An uninitialised storage buffer of `bytes` (at least 16), refused with

@@ -103,9 +103,9 @@ pub(crate) struct ContactKernels {
 }
 
 /// Read-only flags of the group-0 bindings (contact.wgsl), in order:
-/// x p status props boxes snapshot scratch counters words lists.
-const READ_ONLY: [bool; 10] = [
-    false, true, false, true, false, false, false, false, false, false,
+/// x p status props boxes cands snapshot scratch counters ranges words lists.
+const READ_ONLY: [bool; 12] = [
+    false, true, false, true, false, false, false, false, false, false, false, false,
 ];
 
 impl ContactKernels {
@@ -209,7 +209,6 @@ impl ContactBuffers {
         entry: ContactEntry,
         groups: (u32, u32),
     ) {
-        if let Ok(skip) = std::env::var("PROF_SKIP") && skip.split(',').any(|s| format!("{entry:?}") == s) { return; }
         pass.set_pipeline(kernels.pipeline(entry));
         pass.dispatch_workgroups(groups.0, groups.1, 1);
     }
