@@ -39,7 +39,6 @@ struct BarrierParams {
 @group(0) @binding(8) var<storage, read_write> scalar: array<real>;
 @group(0) @binding(9) var<storage, read> bp: BarrierParams;
 
-const WORKGROUP: u32 = 64u;
 const SLOTS: u32 = 4u;
 
 fn linear_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
@@ -192,7 +191,7 @@ fn barrier_law(d: real) -> vec3<real> {
     return vec3<real>(b, b1, b2);
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
     if (i >= bp.count) {
@@ -242,7 +241,7 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     scalar[i] = smallest;
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn filter_fraction(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
     if (i >= bp.count) {
@@ -281,7 +280,7 @@ fn filter_fraction(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
 }
 
 // ln of every delta[i] into scalar[i] (the ln helper's own test).
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn ln_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
     if (i >= bp.count) {

@@ -32,25 +32,22 @@ fn deepest_at(k: u32) -> u32 {
     return REPORT + 1u + k;
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn contact_snapshot(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let k = invocation(gid, groups);
+    let k = linear_index(gid, groups);
     if (k >= cparams.count || failed_before()) {
         return;
     }
-    var y: array<real, DIM>;
-    for (var a = 0u; a < DIM; a++) {
-        y[a] = position(k, a);
-    }
-    let q = record(y, radius(k));
-    for (var c = 0u; c < CV; c++) {
-        snapshot[CV * k + c] = q[c];
+    var q = load_x(k);
+    q[VEC - 1u].w = radius(k);
+    for (var c = 0u; c < VEC; c++) {
+        snapshot[VEC * k + c] = q[c];
     }
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let k = invocation(gid, groups);
+    let k = linear_index(gid, groups);
     let n = cparams.count;
     if (k >= n || failed_before()) {
         return;
@@ -58,9 +55,9 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     let own = iterate_record(k);
     let yk = coords(own);
     let rk = extra(own);
-    let own_start = start_record(k);
+    var own_start = load_p(k);
     let pk = coords(own_start);
-    let wk = extra(own_start);
+    let wk = inverse_mass_of(&own_start);
     let mu = cparams.friction;
     var sum: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
@@ -106,7 +103,7 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         for (var a = 0u; a < DIM; a++) {
             out[a] = d[a] * s;
         }
-        let other_start = start_record(m);
+        var other_start = load_p(m);
         if (mu > 0.0) {
             // Δr = (y_j − p_j) − (y_i − p_i)
             let pm = coords(other_start);
@@ -135,7 +132,7 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         if (wk == 0.0) {
             continue;
         }
-        let wm = extra(other_start);
+        let wm = inverse_mass_of(&other_start);
         let share = wk / select(wm + wk, wk + wm, lower);
         let sign = select(share, -share, lower);
         for (var a = 0u; a < DIM; a++) {
@@ -150,32 +147,36 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     }
     let count = real(touching);
     var ok = true;
+    var moved = load_x(k);
     for (var a = 0u; a < DIM; a++) {
         let xk = yk[a] + sum[a] / count;
-        set_position(k, a, xk);
+        set_lane(&moved, a, xk);
         ok = ok && finite(xk);
     }
+    store_x(k, moved);
     if (!ok) {
         fail(n + k);
     }
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn contact_report(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let k = invocation(gid, groups);
+    let k = linear_index(gid, groups);
     if (k >= cparams.count || failed_before()) {
         return;
     }
     var deepest: real = 0.0;
+    var xk = load_x(k);
     let len = words[list_length_at() + k];
     for (var t = 0u; t < len; t++) {
         let m = entry_at(k, t);
         if (m < k) {
             continue;
         }
+        var xm = load_x(m);
         var len2: real = 0.0;
         for (var a = 0u; a < DIM; a++) {
-            let d = position(m, a) - position(k, a);
+            let d = lane(&xm, a) - lane(&xk, a);
             len2 += d * d;
         }
         deepest = max(deepest, radius(k) + radius(m) - sqrt(len2));
@@ -184,14 +185,14 @@ fn contact_report(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     check_loops(k);
 }
 
-var<workgroup> report_deepest: array<real, 64>;
-var<workgroup> report_active: array<u32, 64>;
+var<workgroup> report_deepest: array<real, WORKGROUP>;
+var<workgroup> report_active: array<u32, WORKGROUP>;
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn contact_report_final(@builtin(local_invocation_index) lid: u32) {
     var deepest: real = 0.0;
     var pushing = 0u;
-    for (var k = lid; k < cparams.count; k += 64u) {
+    for (var k = lid; k < cparams.count; k += WORKGROUP) {
         deepest = max(deepest, scratch[deepest_at(k)]);
         pushing += words[active_at() + k];
     }
@@ -202,7 +203,7 @@ fn contact_report_final(@builtin(local_invocation_index) lid: u32) {
     if (lid != 0u || failed_before()) {
         return;
     }
-    for (var t = 1u; t < 64u; t++) {
+    for (var t = 1u; t < WORKGROUP; t++) {
         deepest = max(deepest, report_deepest[t]);
         pushing += report_active[t];
     }

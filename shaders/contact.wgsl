@@ -1,14 +1,14 @@
-// Common part of the contact kernels (scan.wgsl, grid.wgsl, collide.wgsl):
-// bindings, layouts and their accessors, failure reports. The host
-// prepends the header (real, DIM, REAL_MAX).
+// Common part of the contact kernels (scan.wgsl, grid.wgsl, collide.wgsl),
+// after prelude.wgsl: bindings, layouts and their accessors, failure
+// reports.
 //
-// Group 0 is bound once per backend: the resident positions x and p and the
-// step status word of the backend, then the contact buffers. Group 1 holds
-// one parameter block per kernel call (dynamic offset), like the step
-// kernels' group 1.
+// Group 0 is bound once per backend: the particle records x v p force of
+// the prelude (bindings 0..=3) and the step status word of the backend,
+// then the contact buffers. Group 1 holds one parameter block per kernel
+// call (dynamic offset).
 //
-// A record is a point of R^N and one extra real in CV = ⌊N/4⌋ + 1 vec4
-// (coordinates first, the extra in the lane after them, the rest 0): one
+// The contact buffers hold points as the prelude's particle records (VEC
+// vec4: coordinates in lanes 0..N, one extra real in the last lane): one
 // wide access reads a 3D point and its extra. Software adapters pay per
 // access, not per byte, and real GPUs coalesce vec4 loads.
 //
@@ -16,8 +16,7 @@
 //             pad r + margin (f32: rounded up on the host)
 //   boxes     per box: record (lower corner, index), record (upper corner, w)
 //   cands     the same two records per box, in bucket order (bin_fill)
-//   snapshot  per particle: record (iterate y, radius), then from count on,
-//             record (substep start p, inverse mass)
+//   snapshot  per particle: record (iterate y, radius)
 //   counters  [0] longest contact list, [1] first invocation whose loops
 //             were cut short (NONE: none), [2] active contacts (report),
 //             [3] unused, [4..7] per grid axis the most cells a box spans
@@ -41,23 +40,19 @@ struct ContactParams {
     friction: real,  // Coulomb μ between particles
 }
 
-@group(0) @binding(0) var<storage, read_write> x: array<real>;
-@group(0) @binding(1) var<storage, read> p: array<real>;
-@group(0) @binding(2) var<storage, read_write> status: array<atomic<u32>, 4>;
-@group(0) @binding(3) var<storage, read> props: array<vec4<real>>;
-@group(0) @binding(4) var<storage, read_write> boxes: array<vec4<real>>;
-@group(0) @binding(5) var<storage, read_write> cands: array<vec4<real>>;
-@group(0) @binding(6) var<storage, read_write> snapshot: array<vec4<real>>;
-@group(0) @binding(7) var<storage, read_write> scratch: array<real>;
-@group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
-@group(0) @binding(9) var<storage, read_write> ranges: array<vec2<u32>>;
-@group(0) @binding(10) var<storage, read_write> words: array<u32>;
-@group(0) @binding(11) var<storage, read_write> lists: array<vec4<u32>>;
+@group(0) @binding(4) var<storage, read_write> status: array<atomic<u32>, 4>;
+@group(0) @binding(5) var<storage, read> props: array<vec4<real>>;
+@group(0) @binding(6) var<storage, read_write> boxes: array<vec4<real>>;
+@group(0) @binding(7) var<storage, read_write> cands: array<vec4<real>>;
+@group(0) @binding(8) var<storage, read_write> snapshot: array<vec4<real>>;
+@group(0) @binding(9) var<storage, read_write> scratch: array<real>;
+@group(0) @binding(10) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(11) var<storage, read_write> ranges: array<vec2<u32>>;
+@group(0) @binding(12) var<storage, read_write> words: array<u32>;
+@group(0) @binding(13) var<storage, read_write> lists: array<vec4<u32>>;
 @group(1) @binding(0) var<storage, read> cparams: ContactParams;
 
 const NONE: u32 = 0xffffffffu;
-const CV: u32 = DIM / 4u + 1u;
-const CONTACT_WORKGROUP: u32 = 64u;
 const COUNTERS: u32 = 8u;      // status counters before the buckets
 const MAX_DEGREE: u32 = 0u;
 const CUT_SHORT: u32 = 1u;
@@ -67,32 +62,11 @@ const REAL_IS_F32: bool = REAL_MAX == real(3.4028234663852886e38);
 
 // Scratch layout: per-thread partial bounds (grid.wgsl), the grid frame,
 // the report (collide.wgsl: deepest overlap, then one value per particle).
-const BOUND_THREADS: u32 = 1024u; // 16 workgroups of CONTACT_WORKGROUP
+const BOUND_THREADS: u32 = 1024u; // 16 workgroups of 64
 const FRAME: u32 = 3u * DIM * BOUND_THREADS;
 const REPORT: u32 = FRAME + 9u;
 
-// Linear invocation index over a 2D grid of workgroups.
-fn invocation(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return gid.x + gid.y * groups.x * CONTACT_WORKGROUP;
-}
-
-// ---- the backend's x and p (one place for their layout)
-
-fn position(i: u32, a: u32) -> real {
-    return x[i * DIM + a];
-}
-
-fn set_position(i: u32, a: u32, value: real) {
-    x[i * DIM + a] = value;
-}
-
-fn start(i: u32, a: u32) -> real {
-    return p[i * DIM + a];
-}
-
 // ---- records
-
-alias Record = array<vec4<real>, CV>;
 
 fn coords(q: Record) -> array<real, DIM> {
     var out: array<real, DIM>;
@@ -103,42 +77,42 @@ fn coords(q: Record) -> array<real, DIM> {
 }
 
 fn extra(q: Record) -> real {
-    return q[DIM / 4u][DIM % 4u];
+    return q[VEC - 1u].w;
 }
 
 fn record(v: array<real, DIM>, e: real) -> Record {
     var out: Record;
-    for (var c = 0u; c < CV; c++) {
+    for (var c = 0u; c < VEC; c++) {
         out[c] = vec4<real>(0.0);
     }
     for (var a = 0u; a < DIM; a++) {
         out[a / 4u][a % 4u] = v[a];
     }
-    out[DIM / 4u][DIM % 4u] = e;
+    out[VEC - 1u].w = e;
     return out;
 }
 
 // Lower (upper = false) or upper corner record of box i.
 fn box_record(i: u32, upper: bool) -> Record {
-    let at = (2u * i + u32(upper)) * CV;
+    let at = (2u * i + u32(upper)) * VEC;
     var q: Record;
-    for (var c = 0u; c < CV; c++) {
+    for (var c = 0u; c < VEC; c++) {
         q[c] = boxes[at + c];
     }
     return q;
 }
 
 fn store_box(i: u32, lo: Record, hi: Record) {
-    for (var c = 0u; c < CV; c++) {
-        boxes[2u * CV * i + c] = lo[c];
-        boxes[(2u * i + 1u) * CV + c] = hi[c];
+    for (var c = 0u; c < VEC; c++) {
+        boxes[2u * VEC * i + c] = lo[c];
+        boxes[(2u * i + 1u) * VEC + c] = hi[c];
     }
 }
 
 fn cand_record(slot: u32, upper: bool) -> Record {
-    let at = (2u * slot + u32(upper)) * CV;
+    let at = (2u * slot + u32(upper)) * VEC;
     var q: Record;
-    for (var c = 0u; c < CV; c++) {
+    for (var c = 0u; c < VEC; c++) {
         q[c] = cands[at + c];
     }
     return q;
@@ -147,18 +121,8 @@ fn cand_record(slot: u32, upper: bool) -> Record {
 // (y_i, r_i): the iterate of the running contact iteration and the radius.
 fn iterate_record(i: u32) -> Record {
     var q: Record;
-    for (var c = 0u; c < CV; c++) {
-        q[c] = snapshot[CV * i + c];
-    }
-    return q;
-}
-
-// (p_i, w_i): the substep start, as the broadphase copied it, and the
-// inverse mass.
-fn start_record(i: u32) -> Record {
-    var q: Record;
-    for (var c = 0u; c < CV; c++) {
-        q[c] = snapshot[CV * (cparams.count + i) + c];
+    for (var c = 0u; c < VEC; c++) {
+        q[c] = snapshot[VEC * i + c];
     }
     return q;
 }
@@ -242,7 +206,3 @@ fn check_loops(invocation_index: u32) {
     }
 }
 
-// Not NaN and not ±Inf.
-fn finite(a: real) -> bool {
-    return abs(a) <= REAL_MAX;
-}

@@ -1,45 +1,43 @@
-// Dynamic Coulomb friction against a hyperplane, one invocation per contact
-// slot of the family (velocity response after velocity reconstruction).
+// Dynamic Coulomb friction against a hyperplane, one particle (velocity
+// response after velocity reconstruction; its records in registers).
 //
-//   for each contact with λ > 0:  v_n = n·v;  v_t = v − v_n n
+//   for a contact with λ > 0:  v_n = n·v;  v_t = v − v_n n
 //   v −= v_t · min(μ w λ / h, |v_t|) / |v_t|
 //
 // Same arithmetic, in the same order, as cpu/src/friction.rs.
 
-@compute @workgroup_size(64)
-fn friction(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let e = linear_index(gid, groups);
-    if (e >= params.count || failed_before()) {
+fn friction_particle(c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+    let e = contact_slot[calls[c].slot_map + i];
+    if (e == NONE) {
         return;
     }
-    let l = lambda[params.slot_base + e];
+    let l = lambda[calls[c].slot_base + e];
     if (l <= 0.0) {
         return;
     }
-    let i = elements[params.elem_base + e];
     var vn: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        vn += params.normal[a] * v[i * DIM + a];
+        vn += calls[c].normal[a] * lane(rv, a);
     }
     var t2: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        let t = v[i * DIM + a] - vn * params.normal[a];
+        let t = lane(rv, a) - vn * calls[c].normal[a];
         t2 += t * t;
     }
     let vt = sqrt(t2);
     if (vt == 0.0) {
         return;
     }
-    let limit = params.friction * inv_mass[i] * l / params.h;
+    let limit = calls[c].friction * inverse_mass_of(rx) * l / calls[c].h;
     let scale = min(limit, vt) / vt;
     var ok = true;
     for (var a = 0u; a < DIM; a++) {
-        let t = v[i * DIM + a] - vn * params.normal[a];
-        let vk = v[i * DIM + a] - t * scale;
-        v[i * DIM + a] = vk;
+        let t = lane(rv, a) - vn * calls[c].normal[a];
+        let vk = lane(rv, a) - t * scale;
+        set_lane(rv, a, vk);
         ok = ok && finite(vk);
     }
     if (!ok) {
-        fail(i);
+        fail(c, i);
     }
 }

@@ -68,24 +68,20 @@ fn outward_up(v: real) -> real {
 }
 
 // The swept box of particle i over the substep, as the golden path builds
-// it; (p_i, w_i) is kept for the contact iterations.
+// it, with the index and the inverse mass in the records' extra lanes.
 fn build_box(i: u32) {
     let own = props[i];
-    var start: array<real, DIM>;
+    var start = load_p(i);
+    var end = load_x(i);
     var lo: array<real, DIM>;
     var hi: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
-        let s = p[i * DIM + a];
-        let e = position(i, a);
-        start[a] = s;
+        let s = lane(&start, a);
+        let e = lane(&end, a);
         lo[a] = outward_down(min(s, e) - own.z);
         hi[a] = outward_up(max(s, e) + own.z);
     }
     store_box(i, record(lo, real(i)), record(hi, own.x));
-    let q = record(start, own.x);
-    for (var c = 0u; c < CV; c++) {
-        snapshot[CV * (cparams.count + i) + c] = q[c];
-    }
 }
 
 // Partial index of quantity q (0: min of lo, 1: max of hi, 2: max half
@@ -94,7 +90,7 @@ fn partial_at(q: u32, a: u32, t: u32) -> u32 {
     return (q * DIM + a) * BOUND_THREADS + t;
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn boxes_and_bounds(@builtin(global_invocation_id) gid: vec3<u32>) {
     let t = gid.x;
     if (failed_before()) {
@@ -163,7 +159,7 @@ fn cell_scale(half_range: real, half_extent: real) -> real {
     return cap;
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn grid_frame(@builtin(local_invocation_index) lid: u32) {
     if (lid < 3u * DIM) {
         let q = lid / DIM;
@@ -240,9 +236,9 @@ fn cells_of(corner: array<real, DIM>) -> vec3<u32> {
     return c;
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn bin_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = invocation(gid, groups);
+    let i = linear_index(gid, groups);
     if (i >= cparams.count || failed_before()) {
         return;
     }
@@ -260,15 +256,15 @@ fn bin_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     atomicAdd(&counters[COUNTERS + b], 1u);
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn bin_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = invocation(gid, groups);
+    let i = linear_index(gid, groups);
     if (i >= cparams.count || failed_before()) {
         return;
     }
     let slot = atomicAdd(&counters[COUNTERS + bucket_of(i)], 1u);
-    for (var c = 0u; c < 2u * CV; c++) {
-        cands[2u * CV * slot + c] = boxes[2u * CV * i + c];
+    for (var c = 0u; c < 2u * VEC; c++) {
+        cands[2u * VEC * slot + c] = boxes[2u * VEC * i + c];
     }
 }
 
@@ -346,9 +342,9 @@ fn sift_down(k: u32, first: u32, len: u32) {
     set_entry(k, root, value);
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn neighbours(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = invocation(gid, groups);
+    let i = linear_index(gid, groups);
     let n = cparams.count;
     if (i >= n || failed_before()) {
         return;

@@ -1,79 +1,72 @@
-// Prediction, velocity reconstruction and damping, one invocation per
-// particle (prediction also resets one multiplier per invocation).
+// Prediction, velocity reconstruction and damping of one particle, on its
+// records held in registers by the step's runner (step.wgsl).
 //
-//   predict   λ = 0;  p = x;  for dynamic i: v += h (s g + w f);  x += h v
+//   predict   p = x;  for dynamic i: v += h (s g + w f);  x += h v
 //   velocity  for dynamic i: v = (x − p) / h
 //   damping   for dynamic i: v *= factor          (factor = exp(−rate h))
 //
-// Same arithmetic, in the same order, as cpu/src/integrate.rs.
+// Same arithmetic, in the same order, as cpu/src/integrate.rs. The
+// multipliers are not reset here: the first projection of each family in a
+// substep reads λ as 0 and writes it (FLAG_FIRST, project.wgsl).
 
-@compute @workgroup_size(64)
-fn predict(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let t = linear_index(gid, groups);
-    if (failed_before()) {
-        return;
-    }
-    if (t < arrayLength(&lambda)) {
-        lambda[t] = 0.0;
-    }
-    if (t >= params.count) {
-        return;
-    }
-    let i = t;
-    for (var a = 0u; a < DIM; a++) {
-        p[i * DIM + a] = x[i * DIM + a];
-    }
-    let w = inv_mass[i];
+fn predict_particle(c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+    *rp = *rx;
+    let w = inverse_mass_of(rx);
     if (w == 0.0) {
         return;
     }
-    let s = gravity_scale[i];
+    let flags = calls[c].flags;
+    let h = calls[c].h;
+    var f: Record;
+    if ((flags & FLAG_FORCE) != 0u) {
+        f = load_force(i);
+    }
+    var s: real = 0.0;
+    if ((flags & FLAG_GRAVITY) != 0u) {
+        s = gravity_scale[i];
+    }
     var ok = true;
     for (var a = 0u; a < DIM; a++) {
-        let k = i * DIM + a;
         var acc: real = 0.0;
-        if ((params.flags & 1u) != 0u) {
-            acc += s * params.gravity[a];
+        if ((flags & FLAG_GRAVITY) != 0u) {
+            acc += s * calls[c].gravity[a];
         }
-        if ((params.flags & 2u) != 0u) {
-            acc += w * force[k];
+        if ((flags & FLAG_FORCE) != 0u) {
+            acc += w * lane(&f, a);
         }
-        let vk = v[k] + params.h * acc;
-        let xk = x[k] + params.h * vk;
-        v[k] = vk;
-        x[k] = xk;
+        let vk = lane(rv, a) + h * acc;
+        let xk = lane(rx, a) + h * vk;
+        set_lane(rv, a, vk);
+        set_lane(rx, a, xk);
         ok = ok && finite(vk) && finite(xk);
     }
     if (!ok) {
-        fail(i);
+        fail(c, i);
     }
 }
 
-@compute @workgroup_size(64)
-fn velocity(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = linear_index(gid, groups);
-    if (i >= params.count || failed_before() || inv_mass[i] == 0.0) {
+fn velocity_particle(c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+    if (inverse_mass_of(rx) == 0.0) {
         return;
     }
+    let h = calls[c].h;
     var ok = true;
     for (var a = 0u; a < DIM; a++) {
-        let k = i * DIM + a;
-        let vk = (x[k] - p[k]) / params.h;
-        v[k] = vk;
+        let vk = (lane(rx, a) - lane(rp, a)) / h;
+        set_lane(rv, a, vk);
         ok = ok && finite(vk);
     }
     if (!ok) {
-        fail(i);
+        fail(c, i);
     }
 }
 
-@compute @workgroup_size(64)
-fn damping(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = linear_index(gid, groups);
-    if (i >= params.count || failed_before() || inv_mass[i] == 0.0) {
+fn damping_particle(c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+    if (inverse_mass_of(rx) == 0.0) {
         return;
     }
+    let factor = calls[c].factor;
     for (var a = 0u; a < DIM; a++) {
-        v[i * DIM + a] *= params.factor;
+        set_lane(rv, a, lane(rv, a) * factor);
     }
 }

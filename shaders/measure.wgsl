@@ -174,13 +174,3 @@ fn distance(pts: ptr<function, array<real, POINTS>>, grad: ptr<function, array<r
     }
     return d;
 }
-
-// Gathers the element in `slot` of the current family into `pts`.
-fn gather(slot: u32, pts: ptr<function, array<real, POINTS>>) {
-    for (var j = 0u; j < params.arity; j++) {
-        let i = elements[params.elem_base + slot * params.arity + j];
-        for (var a = 0u; a < DIM; a++) {
-            (*pts)[j * DIM + a] = x[i * DIM + a];
-        }
-    }
-}

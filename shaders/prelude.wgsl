@@ -1,68 +1,112 @@
-// Common prelude of every hyperpbd kernel. The host prepends:
+// Common prelude of the particle kernels (the XPBD step, particle contact).
+// The host prepends (gpu/src/shader.rs):
 //   alias real = f32;            (or f64)
 //   const DIM: u32 = N;          spatial dimension
 //   const POINTS: u32 = (N+1)·N; coordinates of the largest element
 //   const MAT: u32 = N·N;        largest square matrix
 //   const MINOR: u32 = max((N−1)², 1)
 //   const REAL_MAX: real = …;    largest finite real
+//   const WORKGROUP: u32 = …;    the workgroup size of every entry point
+//   const VEC: u32 = ⌊N/4⌋ + 1;  vec4 words per particle record
 //
-// One bind group (group 0) holds the resident state; group 1 holds the
-// parameters of one kernel call, selected per dispatch by a dynamic offset.
+// PARTICLE RECORDS — the one place the per-particle layout is decided
+// (host side: gpu/src/layout.rs; measured choice: docs/performance.md).
+// x, v, p and force hold one record of VEC vec4 words per particle:
+//
+//   lanes 0..DIM   the vector's coordinates
+//   last lane      (4·VEC − 1) the inverse mass w in position records (x, p);
+//                  0 in v and force
+//   other lanes    0
+//
+// e.g. DIM = 3: [x y z w];  DIM = 4: [x0 x1 x2 x3][0 0 0 w].
+// A particle's vector is then one access of 16·VEC bytes: one instruction
+// per lane on lavapipe, one 128-bit load per thread on a GPU with
+// neighbouring threads reading neighbouring words (coalesced), and a
+// projection reads an endpoint's position and inverse mass together.
+//
+// Every module composed with this prelude binds the particle buffers at
+// group 0, bindings 0..=3, and reads and writes them ONLY through
+// load_*/store_* below and the lane helpers: change the layout here (and in
+// layout.rs) and every kernel follows. Writers of x keep the last lane: they
+// modify the loaded record and store it back.
 
-struct Params {
-    count: u32,        // invocations that do work in this call
-    first: u32,        // first slot of this color within the family
-    elem_base: u32,    // offset of the family's particle indices in `elements`
-    slot_base: u32,    // offset of the family's slots in `rest`, `lambda`, `resid`
-    arity: u32,        // particles per element
-    call: u32,         // index of this call within the step (error reports)
-    flags: u32,        // predict: bit 0 gravity, bit 1 force; project_distance: 1 = tether; residual: family kind
-    family: u32,       // family index (report slot)
-    alpha_tilde: real, // α / h²
-    h: real,           // substep length
-    friction: real,    // Coulomb μ of a contact family
-    factor: real,      // damping factor exp(−rate h)
-    normal: array<real, DIM>,
-    gravity: array<real, DIM>,
+alias Record = array<vec4<real>, VEC>;
+
+@group(0) @binding(0) var<storage, read_write> x: array<vec4<real>>;
+@group(0) @binding(1) var<storage, read_write> v: array<vec4<real>>;
+@group(0) @binding(2) var<storage, read_write> p: array<vec4<real>>;
+@group(0) @binding(3) var<storage, read> force: array<vec4<real>>;
+
+fn load_x(i: u32) -> Record {
+    var r: Record;
+    for (var k = 0u; k < VEC; k++) {
+        r[k] = x[VEC * i + k];
+    }
+    return r;
 }
 
-@group(0) @binding(0) var<storage, read_write> x: array<real>;
-@group(0) @binding(1) var<storage, read_write> v: array<real>;
-@group(0) @binding(2) var<storage, read_write> p: array<real>;
-@group(0) @binding(3) var<storage, read> inv_mass: array<real>;
-@group(0) @binding(4) var<storage, read> gravity_scale: array<real>;
-@group(0) @binding(5) var<storage, read> force: array<real>;
-@group(0) @binding(6) var<storage, read> elements: array<u32>;
-@group(0) @binding(7) var<storage, read> rest: array<real>;
-@group(0) @binding(8) var<storage, read_write> lambda: array<real>;
-// status[0]: first failing call (0xffffffff: none), status[1]: smallest
-// failing slot or particle of that call.
-@group(0) @binding(9) var<storage, read_write> status: array<atomic<u32>, 4>;
-// Per-slot residuals, then per-family [max violation, active contacts].
-@group(0) @binding(10) var<storage, read_write> resid: array<real>;
-@group(0) @binding(11) var<storage, read_write> report: array<real>;
-@group(1) @binding(0) var<storage, read> params: Params;
+fn store_x(i: u32, r: Record) {
+    for (var k = 0u; k < VEC; k++) {
+        x[VEC * i + k] = r[k];
+    }
+}
 
-const NONE: u32 = 0xffffffffu;
-const WORKGROUP: u32 = 64u;
+fn load_v(i: u32) -> Record {
+    var r: Record;
+    for (var k = 0u; k < VEC; k++) {
+        r[k] = v[VEC * i + k];
+    }
+    return r;
+}
+
+fn store_v(i: u32, r: Record) {
+    for (var k = 0u; k < VEC; k++) {
+        v[VEC * i + k] = r[k];
+    }
+}
+
+fn load_p(i: u32) -> Record {
+    var r: Record;
+    for (var k = 0u; k < VEC; k++) {
+        r[k] = p[VEC * i + k];
+    }
+    return r;
+}
+
+fn store_p(i: u32, r: Record) {
+    for (var k = 0u; k < VEC; k++) {
+        p[VEC * i + k] = r[k];
+    }
+}
+
+fn load_force(i: u32) -> Record {
+    var r: Record;
+    for (var k = 0u; k < VEC; k++) {
+        r[k] = force[VEC * i + k];
+    }
+    return r;
+}
+
+// Coordinate a of a record. (Records are passed by pointer: naga 30's
+// SPIR-V writer fails on some calls that pass them by value.)
+fn lane(r: ptr<function, Record>, a: u32) -> real {
+    return (*r)[a / 4u][a % 4u];
+}
+
+// Sets coordinate a of a record.
+fn set_lane(r: ptr<function, Record>, a: u32, value: real) {
+    (*r)[a / 4u][a % 4u] = value;
+}
+
+// The inverse mass of a position record (its last lane).
+fn inverse_mass_of(r: ptr<function, Record>) -> real {
+    return (*r)[VEC - 1u].w;
+}
 
 // Linear invocation index over a 2D grid of workgroups (more than 65535
 // workgroups are spread over y).
 fn linear_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
     return gid.x + gid.y * groups.x * WORKGROUP;
-}
-
-// True when an earlier call of this step failed: later calls do nothing.
-// Calls are ordered, so invocations of one call all see the same answer.
-fn failed_before() -> bool {
-    return atomicLoad(&status[0]) < params.call;
-}
-
-// Records a failure of this call at `index`; the smallest index wins, so
-// the report does not depend on scheduling.
-fn fail(index: u32) {
-    atomicMin(&status[0], params.call);
-    atomicMin(&status[1], index);
 }
 
 // Not NaN and not ±Inf (WGSL has no isnan/isinf).

@@ -1,175 +1,226 @@
-// XPBD projection of one color of one family, one invocation per element.
-// Elements of one color share no dynamic particle, so invocations write
-// disjoint particles: no atomics, no dependence on scheduling.
+// XPBD projection of one colour of one family: one invocation per element
+// (distance, tether, simplex measures), or per particle on its records in
+// registers (hyperplane contact, run by step.wgsl's `particles`). Elements
+// of one colour share no dynamic particle, so invocations write disjoint
+// particles: no atomics, no dependence on scheduling.
 //
 //   α~ = α / h²
 //   Δλ = (−C − α~ λ) / (Σ_j w_j |∇_j C|² + α~)
 //   contacts (C ≥ 0): λ' = max(λ + Δλ, 0);  Δλ = λ' − λ
-//   tethers (|x1 − x0| ≤ rest, params.flags == 1): λ' = min(λ + Δλ, 0)
+//   tethers (|x1 − x0| ≤ rest, FLAG_TETHER): λ' = min(λ + Δλ, 0)
 //   x_j += w_j ∇_j C Δλ
 //   static friction (active contact, μ > 0): Δt = tangential part of x − p;
 //   if |Δt| ≤ μ w λ then x −= Δt
 //
 // Same arithmetic, in the same order, as cpu/src/project.rs. Fixed
-// particles (w = 0) are never written.
+// particles (w = 0, the last lane of their record) are never written.
+// The first projection of a family in a substep (FLAG_FIRST) reads λ as 0
+// — the CPU resets λ in predict — and writes λ on every path, so friction
+// and the report see this substep's multipliers.
 
-@compute @workgroup_size(64)
-fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let t = linear_index(gid, groups);
-    if (t >= params.count || failed_before()) {
+// Gathers element e of call c into `pts`.
+fn gather(c: u32, e: u32, pts: ptr<function, array<real, POINTS>>) {
+    let arity = calls[c].arity;
+    for (var j = 0u; j < arity; j++) {
+        var r = load_x(elements[calls[c].elem_base + e * arity + j]);
+        for (var a = 0u; a < DIM; a++) {
+            (*pts)[j * DIM + a] = lane(&r, a);
+        }
+    }
+}
+
+// λ of slot s before this projection.
+fn lambda_before(c: u32, s: u32) -> real {
+    if ((calls[c].flags & FLAG_FIRST) != 0u) {
+        return 0.0;
+    }
+    return lambda[s];
+}
+
+// An element that makes no response keeps λ (0 on the first projection).
+fn no_response(c: u32, s: u32) {
+    if ((calls[c].flags & FLAG_FIRST) != 0u) {
+        lambda[s] = 0.0;
+    }
+}
+
+fn project_distance_element(c: u32, t: u32) {
+    if (failed_before(c)) {
         return;
     }
-    let e = params.first + t;
-    let s = params.slot_base + e;
-    let i = elements[params.elem_base + 2u * e];
-    let j = elements[params.elem_base + 2u * e + 1u];
-    let wi = inv_mass[i];
-    let wj = inv_mass[j];
+    let e = calls[c].first + t;
+    let s = calls[c].slot_base + e;
+    let at = calls[c].elem_base + 2u * e;
+    let i = elements[at];
+    let j = elements[at + 1u];
+    var ri = load_x(i);
+    var rj = load_x(j);
+    let wi = inverse_mass_of(&ri);
+    let wj = inverse_mass_of(&rj);
     var d: array<real, DIM>;
     var d2: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        d[a] = x[j * DIM + a] - x[i * DIM + a];
+        d[a] = lane(&rj, a) - lane(&ri, a);
         d2 += d[a] * d[a];
     }
     let len = sqrt(d2);
     let wsum = wi + wj;
     if (!(len > 0.0) || wsum == 0.0) {
         if (!finite(len)) {
-            fail(e);
+            fail(c, e);
         }
+        no_response(c, s);
         return;
     }
-    let c = len - rest[s];
-    var dl = (-c - params.alpha_tilde * lambda[s]) / (wsum + params.alpha_tilde);
+    let l = lambda_before(c, s);
+    let alpha_tilde = calls[c].alpha_tilde;
+    var dl = (-(len - rest[s]) - alpha_tilde * l) / (wsum + alpha_tilde);
     if (!finite(dl)) {
-        fail(e);
+        fail(c, e);
         return;
     }
-    if (params.flags == 1u) {
-        dl = min(lambda[s] + dl, 0.0) - lambda[s];
+    if ((calls[c].flags & FLAG_TETHER) != 0u) {
+        dl = min(l + dl, 0.0) - l;
     }
-    lambda[s] += dl;
+    lambda[s] = l + dl;
     let inv = 1.0 / len;
-    for (var a = 0u; a < DIM; a++) {
-        let unit = d[a] * inv;
-        if (wi != 0.0) {
-            x[i * DIM + a] += wi * -unit * dl;
+    if (wi != 0.0) {
+        for (var a = 0u; a < DIM; a++) {
+            set_lane(&ri, a, lane(&ri, a) + wi * -(d[a] * inv) * dl);
         }
-        if (wj != 0.0) {
-            x[j * DIM + a] += wj * unit * dl;
+        store_x(i, ri);
+    }
+    if (wj != 0.0) {
+        for (var a = 0u; a < DIM; a++) {
+            set_lane(&rj, a, lane(&rj, a) + wj * (d[a] * inv) * dl);
         }
+        store_x(j, rj);
     }
 }
 
 // Simplex measures (kind 1: squared k-measure, kind 2: oriented N-measure):
 // gather, evaluate C and ∇C, update.
-fn project_generic(t: u32, kind: u32) {
-    let e = params.first + t;
-    let s = params.slot_base + e;
+fn project_measure_element(c: u32, t: u32, kind: u32) {
+    if (failed_before(c)) {
+        return;
+    }
+    let e = calls[c].first + t;
+    let s = calls[c].slot_base + e;
+    let arity = calls[c].arity;
     var pts: array<real, POINTS>;
     var grad: array<real, POINTS>;
-    gather(e, &pts);
+    gather(c, e, &pts);
     var value: real;
     if (kind == 1u) {
-        value = simplex_squared_measure(&pts, params.arity - 1u, &grad);
+        value = simplex_squared_measure(&pts, arity - 1u, &grad);
     } else {
         value = oriented_measure(&pts, &grad);
     }
     if (!finite(value)) {
-        fail(e);
+        fail(c, e);
         return;
     }
     var wsum: real = 0.0;
-    for (var j = 0u; j < params.arity; j++) {
+    for (var j = 0u; j < arity; j++) {
         var g2: real = 0.0;
         for (var a = 0u; a < DIM; a++) {
             g2 += grad[j * DIM + a] * grad[j * DIM + a];
         }
-        wsum += inv_mass[elements[params.elem_base + e * params.arity + j]] * g2;
+        var r = load_x(elements[calls[c].elem_base + e * arity + j]);
+        wsum += inverse_mass_of(&r) * g2;
     }
     if (wsum == 0.0) {
+        no_response(c, s);
         return;
     }
-    let c = value - rest[s];
-    let dl = (-c - params.alpha_tilde * lambda[s]) / (wsum + params.alpha_tilde);
+    let l = lambda_before(c, s);
+    let alpha_tilde = calls[c].alpha_tilde;
+    let dl = (-(value - rest[s]) - alpha_tilde * l) / (wsum + alpha_tilde);
     if (!finite(dl)) {
-        fail(e);
+        fail(c, e);
         return;
     }
-    lambda[s] += dl;
-    for (var j = 0u; j < params.arity; j++) {
-        let i = elements[params.elem_base + e * params.arity + j];
-        let w = inv_mass[i];
+    lambda[s] = l + dl;
+    for (var j = 0u; j < arity; j++) {
+        let i = elements[calls[c].elem_base + e * arity + j];
+        var r = load_x(i);
+        let w = inverse_mass_of(&r);
         if (w == 0.0) {
             continue;
         }
         for (var a = 0u; a < DIM; a++) {
-            x[i * DIM + a] += w * grad[j * DIM + a] * dl;
+            set_lane(&r, a, lane(&r, a) + w * grad[j * DIM + a] * dl);
         }
+        store_x(i, r);
     }
 }
 
-@compute @workgroup_size(64)
-fn project_simplex_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let t = linear_index(gid, groups);
-    if (t >= params.count || failed_before()) {
+// A hyperplane contact of particle i (its records in registers).
+fn contact_particle(c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+    let e = contact_slot[calls[c].slot_map + i];
+    if (e == NONE) {
         return;
     }
-    project_generic(t, 1u);
-}
-
-@compute @workgroup_size(64)
-fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let t = linear_index(gid, groups);
-    if (t >= params.count || failed_before()) {
-        return;
-    }
-    project_generic(t, 2u);
-}
-
-@compute @workgroup_size(64)
-fn project_contact(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let t = linear_index(gid, groups);
-    if (t >= params.count || failed_before()) {
-        return;
-    }
-    let e = params.first + t;
-    let s = params.slot_base + e;
-    let i = elements[params.elem_base + e];
-    let w = inv_mass[i];
+    let s = calls[c].slot_base + e;
+    let w = inverse_mass_of(rx);
     var nx: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        nx += params.normal[a] * x[i * DIM + a];
+        nx += calls[c].normal[a] * lane(rx, a);
     }
-    let c = nx - rest[s];
-    let l = lambda[s];
-    let raw = (-c - params.alpha_tilde * l) / (w + params.alpha_tilde);
+    let cval = nx - rest[s];
+    let l = lambda_before(c, s);
+    let alpha_tilde = calls[c].alpha_tilde;
+    let raw = (-cval - alpha_tilde * l) / (w + alpha_tilde);
     if (!finite(raw)) {
-        fail(e);
+        fail(c, e);
         return;
     }
     let dl = max(l + raw, 0.0) - l;
     let l_new = l + dl;
     lambda[s] = l_new;
     for (var a = 0u; a < DIM; a++) {
-        x[i * DIM + a] += w * params.normal[a] * dl;
+        set_lane(rx, a, lane(rx, a) + w * calls[c].normal[a] * dl);
     }
-    if (params.friction > 0.0 && l_new > 0.0) {
+    let mu = calls[c].friction;
+    if (mu > 0.0 && l_new > 0.0) {
         var dn: real = 0.0;
         for (var a = 0u; a < DIM; a++) {
-            dn += (x[i * DIM + a] - p[i * DIM + a]) * params.normal[a];
+            dn += (lane(rx, a) - lane(rp, a)) * calls[c].normal[a];
         }
         var t2: real = 0.0;
         for (var a = 0u; a < DIM; a++) {
-            let tan = (x[i * DIM + a] - p[i * DIM + a]) - dn * params.normal[a];
+            let tan = (lane(rx, a) - lane(rp, a)) - dn * calls[c].normal[a];
             t2 += tan * tan;
         }
-        let bound = params.friction * w * l_new;
-        if (sqrt(t2) <= bound) {
+        if (sqrt(t2) <= mu * w * l_new) {
             for (var a = 0u; a < DIM; a++) {
-                let tan = (x[i * DIM + a] - p[i * DIM + a]) - dn * params.normal[a];
-                x[i * DIM + a] -= tan;
+                let tan = (lane(rx, a) - lane(rp, a)) - dn * calls[c].normal[a];
+                set_lane(rx, a, lane(rx, a) - tan);
             }
         }
+    }
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let t = linear_index(gid, groups);
+    if (t < here.count) {
+        project_distance_element(here.first_call, t);
+    }
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn project_simplex_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let t = linear_index(gid, groups);
+    if (t < here.count) {
+        project_measure_element(here.first_call, t, 1u);
+    }
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let t = linear_index(gid, groups);
+    if (t < here.count) {
+        project_measure_element(here.first_call, t, 2u);
     }
 }

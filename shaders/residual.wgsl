@@ -1,69 +1,122 @@
-// Constraint violation after a step: one invocation per element writes its
-// violation, then one workgroup per family reduces to the maximum and
-// counts active contacts. Maximum and integer counts are exact, so the
-// result does not depend on the reduction order.
+// Constraint violation after a step, per family: the largest violation and
+// the active contacts (λ > 0). Elements are split into chunks of CHUNK; one
+// workgroup per chunk strides over it and reduces in workgroup memory into
+// `partials`, then one workgroup per family reduces its chunks into
+// `report`. Maximum and integer counts are exact, so the result does not
+// depend on the reduction order.
 //
 //   equality:  |C(x)|          contact:  max(0, −C(x)),  active if λ > 0
 //   tether:    max(0, |x1 − x0| − rest)
 
-@compute @workgroup_size(64)
-fn residual(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let e = linear_index(gid, groups);
-    if (e >= params.count) {
-        return;
-    }
-    let s = params.slot_base + e;
+const CHUNK: u32 = 16u * WORKGROUP;
+
+var<workgroup> partial_max: array<real, WORKGROUP>;
+var<workgroup> partial_count: array<u32, WORKGROUP>;
+
+// Violation of element e of residual call c.
+fn violation(c: u32, e: u32) -> real {
+    let s = calls[c].slot_base + e;
     var pts: array<real, POINTS>;
     var grad: array<real, POINTS>;
-    gather(e, &pts);
-    // params.flags holds the family kind here: 0 distance, 1 simplex
-    // measure, 2 oriented measure, 3 hyperplane contact, 4 tether.
-    let kind = params.flags;
-    var violation: real;
+    gather(c, e, &pts);
+    let kind = calls[c].kind;
     if (kind == 0u) {
-        violation = abs(distance(&pts, &grad) - rest[s]);
+        return abs(distance(&pts, &grad) - rest[s]);
     } else if (kind == 1u) {
-        violation = abs(simplex_squared_measure(&pts, params.arity - 1u, &grad) - rest[s]);
+        return abs(simplex_squared_measure(&pts, calls[c].arity - 1u, &grad) - rest[s]);
     } else if (kind == 2u) {
-        violation = abs(oriented_measure(&pts, &grad) - rest[s]);
+        return abs(oriented_measure(&pts, &grad) - rest[s]);
     } else if (kind == 4u) {
-        violation = max(distance(&pts, &grad) - rest[s], 0.0);
-    } else {
-        var nx: real = 0.0;
-        for (var a = 0u; a < DIM; a++) {
-            nx += params.normal[a] * pts[a];
-        }
-        violation = max(rest[s] - nx, 0.0);
+        return max(distance(&pts, &grad) - rest[s], 0.0);
     }
-    resid[s] = violation;
+    var nx: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        nx += calls[c].normal[a] * pts[a];
+    }
+    return max(rest[s] - nx, 0.0);
 }
 
-var<workgroup> partial_max: array<real, 64>;
-var<workgroup> partial_count: array<u32, 64>;
-
-@compute @workgroup_size(64)
-fn reduce(@builtin(local_invocation_id) lid: vec3<u32>) {
-    let t = lid.x;
-    var worst: real = 0.0;
-    var contacts = 0u;
-    for (var e = t; e < params.count; e += 64u) {
-        worst = max(worst, resid[params.slot_base + e]);
-        if (params.flags == 3u && lambda[params.slot_base + e] > 0.0) {
-            contacts += 1u;
-        }
-    }
-    partial_max[t] = worst;
-    partial_count[t] = contacts;
+// Tree reduction of the workgroup's partial_max / partial_count into
+// element 0 (every invocation of the workgroup calls it).
+fn reduce_workgroup(lid: u32) {
     workgroupBarrier();
-    for (var stride = 32u; stride > 0u; stride = stride / 2u) {
-        if (t < stride) {
-            partial_max[t] = max(partial_max[t], partial_max[t + stride]);
-            partial_count[t] += partial_count[t + stride];
+    for (var stride = WORKGROUP / 2u; stride > 0u; stride = stride / 2u) {
+        if (lid < stride) {
+            partial_max[lid] = max(partial_max[lid], partial_max[lid + stride]);
+            partial_count[lid] += partial_count[lid + stride];
         }
         workgroupBarrier();
     }
-    if (t == 0u) {
-        report[2u * params.family] = partial_max[0];
-        report[2u * params.family + 1u] = real(partial_count[0]);
+}
+
+// Chunk k (of residual call c, elements start..end) into partials[k].
+fn residual_chunk(c: u32, k: u32, start: u32, end: u32, lid: u32) {
+    var worst: real = 0.0;
+    var contacts = 0u;
+    let contact = calls[c].kind == 3u;
+    for (var e = start + lid; e < end; e += WORKGROUP) {
+        worst = max(worst, violation(c, e));
+        if (contact && lambda[calls[c].slot_base + e] > 0.0) {
+            contacts += 1u;
+        }
     }
+    partial_max[lid] = worst;
+    partial_count[lid] = contacts;
+    reduce_workgroup(lid);
+    if (lid == 0u) {
+        partials[2u * k] = partial_max[0];
+        partials[2u * k + 1u] = real(partial_count[0]); // ≤ CHUNK: exact
+    }
+    workgroupBarrier();
+}
+
+// The chunks of residual call c into report[2 family], report[2 family + 1].
+fn reduce_family(c: u32, lid: u32) {
+    let first = calls[c].chunk;
+    let end = first + (calls[c].count + CHUNK - 1u) / CHUNK;
+    var worst: real = 0.0;
+    var contacts = 0u;
+    for (var k = first + lid; k < end; k += WORKGROUP) {
+        worst = max(worst, partials[2u * k]);
+        contacts += u32(partials[2u * k + 1u]);
+    }
+    partial_max[lid] = worst;
+    partial_count[lid] = contacts;
+    reduce_workgroup(lid);
+    if (lid == 0u) {
+        report[2u * calls[c].family] = partial_max[0];
+        report[2u * calls[c].family + 1u] = real(partial_count[0]);
+    }
+    workgroupBarrier();
+}
+
+// The whole residual of call c by one workgroup (step_small).
+fn residual_family(c: u32, lid: u32) {
+    let count = calls[c].count;
+    let chunks = (count + CHUNK - 1u) / CHUNK;
+    for (var k = 0u; k < chunks; k++) {
+        let start = k * CHUNK;
+        residual_chunk(c, calls[c].chunk + k, start, min(start + CHUNK, count), lid);
+    }
+    storageBarrier();
+    reduce_family(c, lid);
+}
+
+// One workgroup per chunk of every residual call (the chunk table).
+@compute @workgroup_size(WORKGROUP)
+fn residual(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
+            @builtin(local_invocation_index) lid: u32) {
+    let k = wid.x + wid.y * groups.x;
+    if (k >= here.count) {
+        return;
+    }
+    let entry = chunks[k];
+    let c = entry.x;
+    residual_chunk(c, k, entry.y, min(entry.y + CHUNK, calls[c].count), lid);
+}
+
+// One workgroup per residual call (family).
+@compute @workgroup_size(WORKGROUP)
+fn reduce(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    reduce_family(here.first_call + wid.x, lid);
 }

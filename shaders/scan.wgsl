@@ -6,22 +6,21 @@
 //   scan_apply    block b: counter ← sums[b] + exclusive prefix in the block
 //                 (the bucket's slot range also kept in `ranges`)
 //
-// Each of the 256 invocations of a block owns SCAN_CHUNK consecutive
+// Each of the WORKGROUP (256) invocations of a block owns SCAN_CHUNK consecutive
 // counters; the chunk totals are scanned across the workgroup (Hillis–
 // Steele, one fixed shape). Integer sums: exact in any order.
 
-const SCAN_THREADS: u32 = 256u;
 const SCAN_CHUNK: u32 = 8u;
-const SCAN_BLOCK: u32 = 2048u; // SCAN_THREADS · SCAN_CHUNK
+const SCAN_BLOCK: u32 = SCAN_CHUNK * WORKGROUP; // 2048 counters
 
-var<workgroup> chunk_sums: array<u32, SCAN_THREADS>;
+var<workgroup> chunk_sums: array<u32, WORKGROUP>;
 
 // Exclusive prefix of `value` over the invocations of the workgroup; the
-// workgroup's total lands in chunk_sums[SCAN_THREADS − 1] + its value.
+// workgroup's total lands in chunk_sums[WORKGROUP − 1] + its value.
 fn workgroup_exclusive(lid: u32, value: u32) -> u32 {
     chunk_sums[lid] = value;
     workgroupBarrier();
-    for (var offset = 1u; offset < SCAN_THREADS; offset *= 2u) {
+    for (var offset = 1u; offset < WORKGROUP; offset *= 2u) {
         var add = 0u;
         if (lid >= offset) {
             add = chunk_sums[lid - offset];
@@ -48,17 +47,17 @@ fn chunk_total(first: u32) -> u32 {
     return total;
 }
 
-@compute @workgroup_size(256)
+@compute @workgroup_size(WORKGROUP)
 fn scan_reduce(@builtin(local_invocation_index) lid: u32, @builtin(workgroup_id) wid: vec3<u32>) {
     let block = wid.x;
     let total = chunk_total(block * SCAN_BLOCK + lid * SCAN_CHUNK);
     let before = workgroup_exclusive(lid, total);
-    if (lid == SCAN_THREADS - 1u && block < cparams.blocks) {
+    if (lid == WORKGROUP - 1u && block < cparams.blocks) {
         words[scan_sums_at() + block] = before + total;
     }
 }
 
-@compute @workgroup_size(256)
+@compute @workgroup_size(WORKGROUP)
 fn scan_top(@builtin(local_invocation_index) lid: u32) {
     let sums = scan_sums_at();
     var values: array<u32, SCAN_CHUNK>;
@@ -81,7 +80,7 @@ fn scan_top(@builtin(local_invocation_index) lid: u32) {
     }
 }
 
-@compute @workgroup_size(256)
+@compute @workgroup_size(WORKGROUP)
 fn scan_apply(@builtin(local_invocation_index) lid: u32, @builtin(workgroup_id) wid: vec3<u32>) {
     let block = wid.x;
     let first = block * SCAN_BLOCK + lid * SCAN_CHUNK;

@@ -71,6 +71,12 @@ pub trait Backend {
     /// `Kernel::Predict` starts a substep: it saves p = x and resets the
     /// multipliers used by the following `Project` calls.
     fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError>;
+
+    /// Says that [`Backend::read_state`] will follow the next
+    /// [`Backend::step`] (a trajectory frame). A GPU backend then copies the
+    /// state out inside that step's own submission, so the read waits for
+    /// nothing more; the others ignore it. Results do not change.
+    fn prefetch_state(&mut self) {}
 }
 
 /// Checks that a replacement state fits the plan.

@@ -1,121 +1,75 @@
 //! `GpuBackend`: the plan's kernels as wgpu compute dispatches.
 //!
 //! ```text
-//! load   buffers (structure of arrays), pipelines, both bind groups and
-//!        every parameter block, once
-//! step   one command buffer: save (x, v); substeps × plan.substep_kernels
-//!        as dispatches; residual + reduction per family; copy the small
-//!        status/report block out. One wait, one 16-byte + report readback.
-//!        A failed call (status) → copy (x, v) back: state byte-identical.
+//! load   particle records, families, call blocks, the schedules and every
+//!        dispatch block, pipelines and both bind groups, once
+//! step   one command buffer: save (x, v); ONE compute pass with every
+//!        dispatch of the step (the chosen schedule, residual included);
+//!        copy the status/report block (and a prefetched state) out; ONE
+//!        submit, one wait, one small readback.
+//!        A failed call → (x, v) restored byte for byte; a fused schedule
+//!        replays the step one call per dispatch first, so the error names
+//!        the kernel and element the CPU names.
 //! ```
-//! The schedule is the plan's: the GPU runs the algorithm of the CPU golden
-//! path, kernel for kernel, in the same order.
-
-use std::sync::{Arc, Mutex};
+//! The schedule is the plan's (xpbd/schedule.rs): the GPU runs the
+//! algorithm of the CPU golden path, kernel for kernel, in the same order
+//! per particle and per colour.
 
 use hyperpbd_core::{
-    Backend, BackendError, FamilyKind, FamilyResidual, GpuError, Kernel, Plan, StageName, State,
-    StepError, StepReport, check_forces, check_kernel, check_state,
+    Backend, BackendError, GpuError, Kernel, Plan, StageName, State, StepError, StepReport,
+    check_forces, check_kernel, check_state,
 };
 
+use crate::context::GpuContext;
+use crate::kernel_set::{KernelSet, KernelSetSpec, ParamBlocks};
+use crate::layout::VectorLayout;
 use crate::origin::SceneOrigin;
-use crate::params::{Params, params_size, push_reals, read_reals, real_size};
+use crate::params::{push_reals, read_reals, real_size};
+use crate::resident::ResidentState;
+use crate::shader::ShaderFile;
+use crate::xpbd::schedule::{Dispatch, Run, Schedule, StepMode};
+use crate::xpbd::{BINDINGS, Families, NONE, Placed, XpbdEntry};
+use crate::{AdapterSummary, Precision};
 
 mod contact_step;
-use crate::pipelines::{Entry, Pipelines};
-use crate::state_transfer::ResidentState;
-use crate::{AdapterSummary, Precision};
 use contact_step::ContactStage;
 
-const WORKGROUP: u32 = 64;
-const MAX_GROUPS_X: u32 = 65_535;
-const NONE: u32 = u32::MAX;
-
-/// One dispatch of a step.
-#[derive(Debug, Clone, Copy)]
-struct Dispatch {
-    entry: Entry,
-    params_offset: u32,
-    groups: (u32, u32),
-    stage: Option<StageName>,
-}
-
-/// The device buffers.
+/// The device buffers besides the resident state.
 struct Buffers {
-    x: wgpu::Buffer,
-    v: wgpu::Buffer,
-    /// Positions at the substep start (read by the contact broadphase).
-    p: wgpu::Buffer,
-    force: wgpu::Buffer,
+    lambda: wgpu::Buffer,
     status: wgpu::Buffer,
     report: wgpu::Buffer,
-    saved_x: wgpu::Buffer,
-    saved_v: wgpu::Buffer,
     /// Readback of status (16 bytes) followed by the report.
     report_staging: wgpu::Buffer,
-    /// Readback of x then v.
-    state_staging: wgpu::Buffer,
-    state_bytes: u64,
     report_bytes: u64,
+    /// Buffers only the kernels use.
+    _rest: Vec<wgpu::Buffer>,
 }
 
 /// The wgpu backend.
 pub struct GpuBackend {
     plan: Plan,
     precision: Precision,
-    summary: AdapterSummary,
-    device: wgpu::Device,
-    queue: wgpu::Queue,
+    ctx: GpuContext,
+    state: ResidentState,
     buffers: Buffers,
-    pipelines: Pipelines,
-    state_group: wgpu::BindGroup,
-    params_group: wgpu::BindGroup,
-    /// Dispatches of a whole step, substeps included.
-    step_dispatches: Vec<Dispatch>,
-    /// Residual dispatches run after the step.
-    residual_dispatches: Vec<Dispatch>,
-    /// Kernel calls per substep.
-    kernels_per_substep: usize,
-    errors: Arc<Mutex<Vec<String>>>,
-    lost: Arc<Mutex<Option<String>>>,
-    /// Device positions are world positions − origin (f32 only).
-    origin: SceneOrigin,
+    kernels: KernelSet<XpbdEntry>,
+    /// Group 0: the particle records and every kernel buffer.
+    group: wgpu::BindGroup,
+    /// Group 1: the dispatch blocks.
+    blocks: wgpu::BindGroup,
+    schedule: Schedule,
+    /// One dispatch per call (failure diagnosis, contact plans).
+    exact: Vec<Placed>,
+    /// The dispatches of a step in the chosen mode.
+    fast: Vec<Placed>,
+    /// The dispatch of each kernel of a substep run alone (run_kernel).
+    alone: Vec<Placed>,
     /// Broadphase and contact kernels, when the plan has collisions.
     contacts: Option<ContactStage>,
 }
 
-pub(crate) fn groups_for(invocations: u32) -> (u32, u32) {
-    let groups = invocations.div_ceil(WORKGROUP).max(1);
-    if groups <= MAX_GROUPS_X {
-        (groups, 1)
-    } else {
-        (MAX_GROUPS_X, groups.div_ceil(MAX_GROUPS_X))
-    }
-}
-
-fn kind_code(kind: &FamilyKind) -> u32 {
-    match kind {
-        FamilyKind::Distance => 0,
-        FamilyKind::SimplexMeasure { .. } => 1,
-        FamilyKind::OrientedMeasure => 2,
-        FamilyKind::HyperplaneContact { .. } => 3,
-        FamilyKind::Tether => 4,
-    }
-}
-
 impl GpuBackend {
-    /// x and v as resident on the device, with their read-back staging.
-    fn resident_state(&self) -> ResidentState<'_> {
-        ResidentState {
-            x: &self.buffers.x,
-            v: &self.buffers.v,
-            staging: &self.buffers.state_staging,
-            bytes: self.buffers.state_bytes,
-            precision: self.precision,
-            origin: &self.origin,
-        }
-    }
-
     /// Finds an adapter for `precision`, creates a device and loads `plan`
     /// with `state`.
     pub fn new(plan: Plan, state: &State, precision: Precision) -> Result<Self, BackendError> {
@@ -131,7 +85,7 @@ impl GpuBackend {
         precision: Precision,
     ) -> Result<Self, BackendError> {
         let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
-        Self::with_origin(adapter, plan, state, precision, origin)
+        Self::load(adapter, plan, state, precision, origin, None)
     }
 
     /// Loads `plan` with `state`, storing positions relative to `origin`
@@ -142,6 +96,39 @@ impl GpuBackend {
         state: &State,
         precision: Precision,
         origin: SceneOrigin,
+    ) -> Result<Self, BackendError> {
+        Self::load(adapter, plan, state, precision, origin, None)
+    }
+
+    /// Loads `plan` with `state`, forming the step's dispatches as `mode`
+    /// says rather than as the plan's size suggests (every mode gives the
+    /// same results; [`StepMode::Small`] is refused for plans with particle
+    /// contact).
+    pub fn with_step_mode(
+        adapter: &wgpu::Adapter,
+        plan: Plan,
+        state: &State,
+        precision: Precision,
+        mode: StepMode,
+    ) -> Result<Self, BackendError> {
+        if mode == StepMode::Small && plan.contacts.is_some() {
+            return Err(BackendError::InvalidCall(
+                "step mode small: plans with particle contact run the exact or fused schedule \
+                 (the contact kernels are dispatches of their own)"
+                    .into(),
+            ));
+        }
+        let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
+        Self::load(adapter, plan, state, precision, origin, Some(mode))
+    }
+
+    fn load(
+        adapter: &wgpu::Adapter,
+        plan: Plan,
+        state: &State,
+        precision: Precision,
+        origin: SceneOrigin,
+        mode: Option<StepMode>,
     ) -> Result<Self, BackendError> {
         check_state(&plan, state)?;
         if origin.as_slice().len() != plan.dim {
@@ -162,336 +149,187 @@ impl GpuBackend {
             .into());
         }
         if plan.incremental_potential.is_some() {
-            return Err(incremental_potential_unsupported().into());
-        }
-        let summary = AdapterSummary::of(adapter);
-        let (device, queue) = crate::request_device(adapter, precision)?;
-        let errors = crate::device_errors::collect_device_errors(&device);
-        let lost: Arc<Mutex<Option<String>>> = Arc::default();
-        let lost_sink = lost.clone();
-        device.set_device_lost_callback(move |reason, message| {
-            if let Ok(mut l) = lost_sink.lock() {
-                *l = Some(format!("{reason:?}: {message}"));
-            }
-        });
-
-        let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let built = Self::build(&device, &queue, &plan, state, precision, &origin);
-        let validation_error = pollster::block_on(validation.pop());
-        let oom = pollster::block_on(scope.pop());
-        if let Some(e) = oom {
-            return Err(GpuError::OutOfMemory {
-                message: e.to_string(),
+            return Err(GpuError::Unsupported {
+                what: "the incremental_potential solver on GpuBackend (use GpuBarrierBackend)"
+                    .into(),
             }
             .into());
         }
-        if let Some(e) = validation_error {
-            return Err(GpuError::Other {
-                message: e.to_string(),
-            }
-            .into());
-        }
-        let (buffers, pipelines, state_group, params_group, step_dispatches, residual_dispatches) =
-            built?;
-        let contacts = match plan.contacts {
-            Some(_) => Some(ContactStage::new(
-                &device,
-                &queue,
-                errors.clone(),
-                (&plan, precision),
-                crate::contact::Bound {
-                    x: &buffers.x,
-                    p: &buffers.p,
-                    status: &buffers.status,
-                },
-            )?),
-            None => None,
-        };
-        Ok(GpuBackend {
-            contacts,
-            kernels_per_substep: plan.substep_kernels.len(),
-            plan,
-            precision,
-            summary,
-            device,
-            queue,
-            buffers,
-            pipelines,
-            state_group,
-            params_group,
-            step_dispatches,
-            residual_dispatches,
-            errors,
-            lost,
-            origin,
-        })
+        let ctx = GpuContext::new(adapter, precision)?;
+        ctx.building(|| Self::build(ctx.clone(), plan, state, precision, origin, mode))
     }
 
-    #[allow(clippy::type_complexity)]
+    /// Creates every buffer, pipeline, bind group and dispatch block.
     fn build(
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        plan: &Plan,
+        ctx: GpuContext,
+        plan: Plan,
         state: &State,
         precision: Precision,
-        origin: &SceneOrigin,
-    ) -> Result<
-        (
-            Buffers,
-            Pipelines,
-            wgpu::BindGroup,
-            wgpu::BindGroup,
-            Vec<Dispatch>,
-            Vec<Dispatch>,
-        ),
-        BackendError,
-    > {
-        let limits = device.limits();
+        origin: SceneOrigin,
+        mode: Option<StepMode>,
+    ) -> Result<Self, BackendError> {
+        let device = &ctx.device;
         let dim = plan.dim;
-        let n = plan.particle_count();
+        let workgroup = ShaderFile::Step.workgroup_size();
+        let families = Families::new(&plan, &origin)?;
+        let software = ctx.summary.device_type == "Cpu";
+        let schedule = Schedule::new(&plan, &families, workgroup, mode, software);
+        if schedule.mode == StepMode::Small
+            && !crate::xpbd::schedule::small_supported(&schedule.calls[..schedule.step_calls])
+        {
+            return Err(BackendError::InvalidCall(
+                "step mode small: the plan has measure families (they run one dispatch per colour)"
+                    .into(),
+            ));
+        }
+        // Pipelines for the entry points this plan's schedules use only
+        // (lavapipe compiles each one: seconds for the measure kernels).
+        let entries = schedule.entries();
+        let kernels = KernelSet::new(
+            device,
+            &KernelSetSpec {
+                label: "hyperpbd xpbd",
+                dim,
+                precision,
+                groups: &[&BINDINGS, &[crate::kernel_set::Binding::BLOCK]],
+                entries: &entries,
+            },
+        )?;
+        // The call blocks first: the largest buffer of a long step, named
+        // `params` in a BufferTooLarge refusal.
+        let mut call_bytes = Vec::new();
+        for call in &schedule.calls {
+            call_bytes.extend(call.encode(dim, precision));
+        }
+        if call_bytes.is_empty() {
+            // The binding holds at least one block.
+            call_bytes = crate::xpbd::call::Call::default().encode(dim, precision);
+        }
+        let calls = ctx.storage("params", &call_bytes)?;
         let reals = |values: &[f64]| {
             let mut out = Vec::with_capacity(values.len() * real_size(precision));
             push_reals(&mut out, values, precision);
             out
         };
-        // Family layout in the shared element / slot arrays.
-        let mut elements: Vec<u32> = Vec::new();
-        let mut rest: Vec<f64> = Vec::new();
-        let mut bases = Vec::new();
-        for f in &plan.families {
-            bases.push((elements.len() as u32, rest.len() as u32));
-            elements.extend_from_slice(&f.elements);
-            match &f.kind {
-                FamilyKind::HyperplaneContact { normal, .. } => {
-                    rest.extend(f.rest.iter().map(|&r| origin.local_offset(normal, r)))
-                }
-                _ => rest.extend_from_slice(&f.rest),
-            }
-        }
-        let positions = origin.to_local(&state.positions);
-        let slots = rest.len();
-        let make = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
-            create_buffer(device, queue, &limits, label, bytes, usage)
-        };
-        let storage = wgpu::BufferUsages::STORAGE
-            | wgpu::BufferUsages::COPY_DST
-            | wgpu::BufferUsages::COPY_SRC;
-        let x = make("x", &reals(&positions), storage)?;
-        let v = make("v", &reals(&state.velocities), storage)?;
-        let p = make("p", &reals(&positions), storage)?;
-        let inv_mass = make("inverse_mass", &reals(&plan.inverse_mass), storage)?;
-        let gravity_scale = make("gravity_scale", &reals(&plan.gravity_scale), storage)?;
-        let force = make("force", &reals(&plan.force), storage)?;
-        let element_buffer = make("elements", bytemuck::cast_slice(&elements), storage)?;
-        let rest_buffer = make("rest", &reals(&rest), storage)?;
-        let lambda = make("lambda", &reals(&vec![0.0; slots]), storage)?;
-        let status = make("status", bytemuck::cast_slice(&[NONE, NONE, 0, 0]), storage)?;
-        let resid = make("residuals", &reals(&vec![0.0; slots]), storage)?;
+        let resident = ResidentState::new(
+            &ctx,
+            VectorLayout::Record,
+            precision,
+            origin,
+            state,
+            &plan.inverse_mass,
+            &plan.force,
+        )?;
+        let make = |label: &str, bytes: &[u8]| ctx.storage(label, bytes);
+        let slots = families.rest.len();
+        let p = make("p", &resident.packing.positions(&state.positions))?;
+        let gravity_scale = make("gravity_scale", &reals(&plan.gravity_scale))?;
+        let elements = make("elements", bytemuck::cast_slice(&families.elements))?;
+        let rest = make("rest", &reals(&families.rest))?;
+        let lambda = make("lambda", &reals(&vec![0.0; slots]))?;
+        let status = make("status", bytemuck::cast_slice(&[NONE, NONE, 0, 0]))?;
         let report_len = 2 * plan.families.len();
-        let report = make("report", &reals(&vec![0.0; report_len]), storage)?;
-        let state_bytes = (n * dim * real_size(precision)) as u64;
-        let saved_x = make("saved_x", &reals(&positions), storage)?;
-        let saved_v = make("saved_v", &reals(&state.velocities), storage)?;
+        let report = make("report", &reals(&vec![0.0; report_len]))?;
+        let contact_slot = make("contact_slot", bytemuck::cast_slice(&families.slot_maps))?;
+        let partials = make("partials", &reals(&vec![0.0; 2 * schedule.chunks.len()]))?;
+        let chunk_words: Vec<u32> = schedule.chunks.iter().flatten().copied().collect();
+        let chunks = make("chunks", bytemuck::cast_slice(&chunk_words))?;
         let report_bytes = (report_len * real_size(precision)) as u64;
-        let report_staging = make(
-            "report_staging",
-            &vec![0u8; 16 + report_bytes as usize],
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        )?;
-        let state_staging = make(
-            "state_staging",
-            &vec![0u8; 2 * state_bytes as usize],
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        )?;
+        let report_staging = ctx.staging("report_staging", 16 + report_bytes)?;
 
-        // Parameter blocks: one per kernel call of a step, then one per
-        // family for the residual.
-        let align = limits.min_storage_buffer_offset_alignment as usize;
-        let size = params_size(dim, precision);
-        let stride = size.div_ceil(align) * align;
-        let mut blocks = Vec::new();
-        let mut step_dispatches = Vec::new();
-        let k = plan.substep_kernels.len();
-        let lambda_total = slots as u32;
-        for substep in 0..plan.substeps as usize {
-            for (index, kernel) in plan.substep_kernels.iter().enumerate() {
-                let call = (substep * k + index) as u32;
-                let mut params = Params {
-                    call,
-                    h: plan.h,
-                    gravity: plan.gravity.clone(),
-                    ..Params::default()
-                };
-                let (entry, invocations) = match *kernel {
-                    Kernel::Predict => {
-                        params.count = n as u32;
-                        params.flags =
-                            u32::from(plan.predict.gravity) | (u32::from(plan.predict.force) << 1);
-                        (Entry::Predict, (n as u32).max(lambda_total))
-                    }
-                    Kernel::Velocity => {
-                        params.count = n as u32;
-                        (Entry::Velocity, n as u32)
-                    }
-                    // Run by `contact_step` between these dispatches.
-                    Kernel::Broadphase | Kernel::Collide => continue,
-                    Kernel::Damping => {
-                        params.count = n as u32;
-                        params.factor = plan.damping.map_or(1.0, |(_, f)| f);
-                        (Entry::Damping, n as u32)
-                    }
-                    Kernel::Project { family, color } => {
-                        let f = &plan.families[family];
-                        let range = f.color(color);
-                        params.count = range.len() as u32;
-                        params.first = range.start as u32;
-                        params.elem_base = bases[family].0;
-                        params.slot_base = bases[family].1;
-                        params.arity = f.arity as u32;
-                        params.family = family as u32;
-                        params.alpha_tilde = f.compliance / (plan.h * plan.h);
-                        let entry = match &f.kind {
-                            FamilyKind::Distance => Entry::ProjectDistance,
-                            FamilyKind::Tether => {
-                                // project_distance with the one-sided clamp.
-                                params.flags = 1;
-                                Entry::ProjectDistance
-                            }
-                            FamilyKind::SimplexMeasure { .. } => Entry::ProjectSimplexMeasure,
-                            FamilyKind::OrientedMeasure => Entry::ProjectOrientedMeasure,
-                            FamilyKind::HyperplaneContact { normal, friction } => {
-                                params.normal = normal.clone();
-                                params.friction = *friction;
-                                Entry::ProjectContact
-                            }
-                        };
-                        (entry, params.count)
-                    }
-                    Kernel::Minimise => return Err(incremental_potential_unsupported().into()),
-                    Kernel::Friction { family } => {
-                        let f = &plan.families[family];
-                        params.count = f.len() as u32;
-                        params.elem_base = bases[family].0;
-                        params.slot_base = bases[family].1;
-                        params.family = family as u32;
-                        if let FamilyKind::HyperplaneContact { normal, friction } = &f.kind {
-                            params.normal = normal.clone();
-                            params.friction = *friction;
-                        }
-                        (Entry::Friction, params.count)
-                    }
-                };
-                step_dispatches.push(Dispatch {
-                    entry,
-                    params_offset: blocks.len() as u32,
-                    groups: groups_for(invocations),
-                    stage: Some(kernel.stage()),
-                });
-                params.encode(dim, precision, stride, &mut blocks);
-            }
-        }
-        let mut residual_dispatches = Vec::new();
-        for (family, f) in plan.families.iter().enumerate() {
-            let mut params = Params {
-                count: f.len() as u32,
-                elem_base: bases[family].0,
-                slot_base: bases[family].1,
-                arity: f.arity as u32,
-                flags: kind_code(&f.kind),
-                family: family as u32,
-                ..Params::default()
-            };
-            if let FamilyKind::HyperplaneContact { normal, .. } = &f.kind {
-                params.normal = normal.clone();
-            }
-            let offset = blocks.len() as u32;
-            params.encode(dim, precision, stride, &mut blocks);
-            residual_dispatches.push(Dispatch {
-                entry: Entry::Residual,
-                params_offset: offset,
-                groups: groups_for(params.count),
-                stage: None,
-            });
-            residual_dispatches.push(Dispatch {
-                entry: Entry::Reduce,
-                params_offset: offset,
-                groups: (1, 1),
-                stage: None,
-            });
-        }
-        if blocks.is_empty() {
-            Params::default().encode(dim, precision, stride, &mut blocks);
-        }
-        let params_buffer = make("params", &blocks, wgpu::BufferUsages::STORAGE)?;
-
-        let pipelines = Pipelines::new(device, dim, precision, &limits)?;
-        let state_buffers = [
-            &x,
-            &v,
-            &p,
-            &inv_mass,
-            &gravity_scale,
-            &force,
-            &element_buffer,
-            &rest_buffer,
-            &lambda,
-            &status,
-            &resid,
-            &report,
-        ];
-        let entries: Vec<wgpu::BindGroupEntry> = state_buffers
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
-        let state_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("hyperpbd state"),
-            layout: &pipelines.state_layout,
-            entries: &entries,
-        });
-        let params_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("hyperpbd params"),
-            layout: &pipelines.params_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &params_buffer,
-                    offset: 0,
-                    size: wgpu::BufferSize::new(size as u64),
-                }),
-            }],
-        });
-        let buffers = Buffers {
-            x,
-            v,
-            p,
-            force,
-            status,
-            report,
-            saved_x,
-            saved_v,
-            report_staging,
-            state_staging,
-            state_bytes,
-            report_bytes,
+        let mut blocks = ParamBlocks::new(device);
+        let mut place = |dispatches: &[Dispatch]| -> Vec<Placed> {
+            dispatches
+                .iter()
+                .map(|&dispatch| Placed {
+                    dispatch,
+                    offset: blocks.push(bytemuck::cast_slice(&dispatch.block())),
+                })
+                .collect()
         };
-        Ok((
-            buffers,
-            pipelines,
-            state_group,
-            params_group,
-            step_dispatches,
-            residual_dispatches,
-        ))
+        let exact = place(&schedule.exact);
+        let fast = place(&schedule.fast);
+        let alone_dispatches: Vec<Dispatch> = plan
+            .substep_kernels
+            .iter()
+            .filter_map(|&k| schedule.run_kernel(k))
+            .collect();
+        let alone = place(&alone_dispatches);
+        let block = blocks.block_size();
+        let dispatch_buffer = blocks.finish(&ctx, "dispatches")?;
+        let group = kernels.bind(
+            device,
+            0,
+            &[
+                &resident.x,
+                &resident.v,
+                &p,
+                &resident.force,
+                &gravity_scale,
+                &elements,
+                &rest,
+                &lambda,
+                &status,
+                &report,
+                &calls,
+                &contact_slot,
+                &partials,
+                &chunks,
+            ],
+            0,
+        )?;
+        let blocks_group = kernels.bind(device, 1, &[&dispatch_buffer], block)?;
+        let contacts = match plan.contacts {
+            Some(_) => Some(ContactStage::new(
+                &ctx,
+                (&plan, precision),
+                crate::contact::Bound {
+                    x: &resident.x,
+                    v: &resident.v,
+                    p: &p,
+                    force: &resident.force,
+                    status: &status,
+                },
+            )?),
+            None => None,
+        };
+        Ok(GpuBackend {
+            plan,
+            precision,
+            ctx,
+            state: resident,
+            buffers: Buffers {
+                lambda,
+                status,
+                report,
+                report_staging,
+                report_bytes,
+                _rest: vec![
+                    p,
+                    gravity_scale,
+                    elements,
+                    rest,
+                    calls,
+                    contact_slot,
+                    partials,
+                    chunks,
+                    dispatch_buffer,
+                ],
+            },
+            kernels,
+            group,
+            blocks: blocks_group,
+            schedule,
+            exact,
+            fast,
+            alone,
+            contacts,
+        })
     }
 
     /// The adapter this backend runs on.
     pub fn adapter(&self) -> &AdapterSummary {
-        &self.summary
+        &self.ctx.summary
     }
 
     /// The precision of the kernels.
@@ -501,69 +339,68 @@ impl GpuBackend {
 
     /// The origin device positions are relative to.
     pub fn origin(&self) -> &SceneOrigin {
-        &self.origin
+        self.state.origin()
+    }
+
+    /// How the dispatches of a step are formed.
+    pub fn step_mode(&self) -> StepMode {
+        self.schedule.mode
+    }
+
+    /// Compute dispatches per step (residual and contact stage included).
+    pub fn dispatches_per_step(&self) -> usize {
+        let contact = match self.contacts {
+            Some(_) => ContactStage::dispatches_per_step(&self.plan),
+            None => 0,
+        };
+        self.schedule.dispatches_per_step() + contact
     }
 
     /// Destroys the device, as a driver reset or a removed GPU would:
     /// every later call answers [`GpuError::DeviceLost`]. For
     /// fault-injection tests of that path.
     pub fn destroy_device(&self) {
-        self.device.destroy();
+        self.ctx.device.destroy();
     }
 
     /// Device bytes per particle and per constraint slot (buffers that
     /// scale with them), for reports.
     pub fn bytes_per_particle_and_slot(&self) -> (usize, usize) {
         let r = real_size(self.precision);
-        // x, v, p, saved_x, saved_v, force: DIM reals each; inverse mass,
-        // gravity scale: one real each.
-        let per_particle = 6 * self.plan.dim * r + 2 * r;
-        // rest, lambda, residual: one real each, plus the particle indices.
-        let per_slot = 3 * r;
+        let record = VectorLayout::Record.reals_per_particle(self.plan.dim) * r;
+        // x, v, p, saved_x, saved_v, force: one record each; gravity scale:
+        // one real; a slot per hyperplane family: one u32.
+        let per_particle = 6 * record + r;
+        // rest, lambda: one real each, plus the particle indices.
+        let per_slot = 2 * r;
         (per_particle, per_slot)
     }
 
-    fn encode(&self, pass: &mut wgpu::ComputePass<'_>, d: &Dispatch) {
-        pass.set_pipeline(self.pipelines.get(d.entry));
-        pass.set_bind_group(1, &self.params_group, &[d.params_offset]);
-        pass.dispatch_workgroups(d.groups.0, d.groups.1, 1);
-    }
-
-    fn check_device(&self) -> Result<(), GpuError> {
-        if let Ok(l) = self.lost.lock()
-            && let Some(message) = l.clone()
-        {
-            return Err(GpuError::DeviceLost { message });
+    fn encode(&self, pass: &mut wgpu::ComputePass<'_>, d: &Placed) {
+        if let (Run::Host(kernel), Some(stage)) = (d.dispatch.run, &self.contacts) {
+            // The contact kernels (their own bind groups), at the call's
+            // place in the schedule.
+            if let Some(call) = self.schedule.calls.get(d.dispatch.first_call as usize) {
+                stage.encode(pass, kernel, call.call);
+                pass.set_bind_group(0, &self.group, &[]);
+            }
+            return;
         }
-        crate::device_errors::take_device_errors(&self.errors)
+        crate::xpbd::encode(&self.kernels, &self.blocks, pass, d);
     }
 
     /// Submits `encoder` and waits for it.
     fn submit_and_wait(&self, encoder: wgpu::CommandEncoder) -> Result<(), GpuError> {
-        let index = self.queue.submit(Some(encoder.finish()));
-        self.check_device()?;
-        self.device
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(index),
-                timeout: None,
-            })
-            .map_err(|e| {
-                // The device-lost callback's reason, when it has fired, says
-                // more than the failed wait.
-                self.check_device().err().unwrap_or(GpuError::DeviceLost {
-                    message: e.to_string(),
-                })
-            })?;
-        self.check_device()
+        self.ctx.submit_and_wait(encoder)
     }
 
     /// Maps `buffer` (already filled and waited for) and copies `len` bytes.
     fn read_mapped(&self, buffer: &wgpu::Buffer, len: u64) -> Result<Vec<u8>, GpuError> {
-        crate::readback::read_mapped(&self.device, buffer, len)
+        self.ctx.read(buffer, len)
     }
 
     fn reset_status(&self) {
-        self.queue.write_buffer(
+        self.ctx.queue.write_buffer(
             &self.buffers.status,
             0,
             bytemuck::cast_slice(&[NONE, NONE, 0u32, 0u32]),
@@ -577,11 +414,10 @@ impl GpuBackend {
     }
 
     fn step_error(&self, call: u32, index: u32) -> BackendError {
-        let k = self.kernels_per_substep.max(1);
-        let substep = call / k as u32;
-        let kernel = self.plan.substep_kernels[call as usize % k];
-        match kernel {
-            Kernel::Project { family, .. } => {
+        let k = self.schedule.kernels_per_substep.max(1) as u32;
+        let substep = call / k;
+        match self.schedule.kernel_of(call) {
+            Some(Kernel::Project { family, .. }) => {
                 let f = &self.plan.families[family];
                 StepError::NonFiniteConstraint {
                     stage: StageName::Project,
@@ -595,14 +431,14 @@ impl GpuBackend {
                 }
                 .into()
             }
-            Kernel::Collide => StepError::NonFiniteParticle {
+            Some(Kernel::Collide) => StepError::NonFiniteParticle {
                 stage: StageName::Project,
                 substep,
                 particle: contact_step::collide_particle(index, self.plan.particle_count()),
             }
             .into(),
             other => StepError::NonFiniteParticle {
-                stage: other.stage(),
+                stage: other.map_or(StageName::Project, |k| k.stage()),
                 substep,
                 particle: index as usize,
             }
@@ -610,62 +446,101 @@ impl GpuBackend {
         }
     }
 
-    fn rollback(&self) -> Result<(), GpuError> {
-        let mut encoder = self.device.create_command_encoder(&Default::default());
-        let bytes = self.buffers.state_bytes;
-        if bytes > 0 {
-            encoder.copy_buffer_to_buffer(&self.buffers.saved_x, 0, &self.buffers.x, 0, bytes);
-            encoder.copy_buffer_to_buffer(&self.buffers.saved_v, 0, &self.buffers.v, 0, bytes);
+    fn rollback(&mut self) -> Result<(), GpuError> {
+        self.state.rollback(&self.ctx)
+    }
+
+    /// One command buffer: `before` (copies, clears), `dispatches` in one
+    /// compute pass (`repeats` times), then the status word (and the report
+    /// when `report`) copied to the staging buffer.
+    fn record(
+        &self,
+        before: impl FnOnce(&mut wgpu::CommandEncoder),
+        dispatches: &[Placed],
+        repeats: u32,
+        report: bool,
+    ) -> wgpu::CommandEncoder {
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        before(&mut encoder);
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_bind_group(0, &self.group, &[]);
+            for _ in 0..repeats {
+                for d in dispatches {
+                    self.encode(&mut pass, d);
+                }
+            }
         }
-        self.submit_and_wait(encoder)
+        let staging = &self.buffers.report_staging;
+        encoder.copy_buffer_to_buffer(&self.buffers.status, 0, staging, 0, 16);
+        if report && self.buffers.report_bytes > 0 {
+            let bytes = self.buffers.report_bytes;
+            encoder.copy_buffer_to_buffer(&self.buffers.report, 0, staging, 16, bytes);
+        }
+        encoder
     }
-}
 
-/// The incremental-potential step has its own GPU backend
-/// ([`crate::GpuBarrierBackend`]); this one runs XPBD plans only.
-fn incremental_potential_unsupported() -> GpuError {
-    GpuError::Unsupported {
-        what: "the incremental_potential solver on GpuBackend (use GpuBarrierBackend)".into(),
+    /// The failure of the step that just failed in a shared dispatch,
+    /// named as the CPU names it: from the saved state, the step again
+    /// one call per dispatch. Leaves the state rolled back.
+    fn diagnose(&mut self, fallback: (u32, u32)) -> Result<(u32, u32), GpuError> {
+        self.rollback()?;
+        self.reset_status();
+        let encoder = self.record(|_| {}, &self.exact, 1, false);
+        self.submit_and_wait(encoder)?;
+        let block = self.read_mapped(&self.buffers.report_staging, 16)?;
+        let found = self.failure(&block).unwrap_or(fallback);
+        self.rollback()?;
+        Ok(found)
     }
-}
 
-/// Creates a buffer with `bytes` (at least 16 bytes), refusing sizes over
-/// the device limits with a typed error.
-pub(crate) fn create_buffer(
-    device: &wgpu::Device,
-    queue: &wgpu::Queue,
-    limits: &wgpu::Limits,
-    label: &str,
-    bytes: &[u8],
-    usage: wgpu::BufferUsages,
-) -> Result<wgpu::Buffer, GpuError> {
-    let size = (bytes.len() as u64).max(16).next_multiple_of(4);
-    let maximum = if usage.contains(wgpu::BufferUsages::STORAGE) {
-        limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size)
-    } else {
-        limits.max_buffer_size
-    };
-    if size > maximum {
-        return Err(GpuError::BufferTooLarge {
-            buffer: label.into(),
-            requested: size,
-            maximum,
-        });
+    /// Runs `kernel` alone `repeats` times in one compute pass and one
+    /// submit, the CPU's way (`Predict` resets the multipliers).
+    fn run_alone(&mut self, kernel: Kernel, repeats: u32) -> Result<(), BackendError> {
+        check_kernel(&self.plan, kernel)?;
+        if matches!(kernel, Kernel::Broadphase | Kernel::Collide) {
+            return self.run_contact_kernel(kernel);
+        }
+        let Some(index) = self.plan.substep_kernels.iter().position(|&k| k == kernel) else {
+            return Err(BackendError::InvalidCall(format!(
+                "{kernel:?} is not in this plan's schedule"
+            )));
+        };
+        let Some(d) = self.alone.iter().find(|d| {
+            self.schedule.kernel_of(d.dispatch.first_call) == Some(kernel)
+                && d.dispatch.first_call as usize >= self.schedule.run_base
+        }) else {
+            return Err(BackendError::InvalidCall(format!(
+                "{kernel:?} (call {index}) has no dispatch"
+            )));
+        };
+        self.reset_status();
+        self.state.forget_snapshot();
+        let lambda = &self.buffers.lambda;
+        let encoder = self.record(
+            |encoder| {
+                if kernel == Kernel::Predict {
+                    encoder.clear_buffer(lambda, 0, None);
+                }
+            },
+            std::slice::from_ref(d),
+            repeats,
+            false,
+        );
+        self.submit_and_wait(encoder)?;
+        let block = self.read_mapped(&self.buffers.report_staging, 16)?;
+        match self.failure(&block) {
+            Some((call, index)) => Err(self.step_error(call, index)),
+            None => Ok(()),
+        }
     }
-    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        size,
-        usage: usage | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    if !bytes.is_empty() && !usage.contains(wgpu::BufferUsages::MAP_READ) {
-        let mut padded = bytes.to_vec();
-        padded.resize(padded.len().next_multiple_of(4), 0);
-        queue.write_buffer(&buffer, 0, &padded);
+
+    /// Runs `kernel` `repeats` times in one compute pass and one submit
+    /// (benchmarks: the per-element cost of a kernel without a round trip
+    /// per call). The state changes as `repeats` calls would change it.
+    pub fn repeat_kernel(&mut self, kernel: Kernel, repeats: u32) -> Result<(), BackendError> {
+        self.run_alone(kernel, repeats)
     }
-    Ok(buffer)
 }
 
 impl Backend for GpuBackend {
@@ -682,60 +557,28 @@ impl Backend for GpuBackend {
             return self.step_with_contacts();
         }
         self.reset_status();
-        let bytes = self.buffers.state_bytes;
-        let mut encoder = self.device.create_command_encoder(&Default::default());
-        if bytes > 0 {
-            encoder.copy_buffer_to_buffer(&self.buffers.x, 0, &self.buffers.saved_x, 0, bytes);
-            encoder.copy_buffer_to_buffer(&self.buffers.v, 0, &self.buffers.saved_v, 0, bytes);
+        let mut encoder = self.record(|e| self.state.save(e), &self.fast, 1, true);
+        let snapshot = self.state.record_snapshot(&mut encoder);
+        let index = self.ctx.submit(encoder)?;
+        if let Some(slot) = snapshot {
+            self.state.map_snapshot(slot);
         }
-        let mut kernel_calls: Vec<(StageName, u64)> =
-            self.plan.stages.iter().map(|&s| (s, 0)).collect();
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_bind_group(0, &self.state_group, &[]);
-            for d in &self.step_dispatches {
-                self.encode(&mut pass, d);
-                if let Some(stage) = d.stage
-                    && let Some(entry) = kernel_calls.iter_mut().find(|(s, _)| *s == stage)
-                {
-                    entry.1 += 1;
-                }
-            }
-            for d in &self.residual_dispatches {
-                self.encode(&mut pass, d);
-            }
-        }
-        encoder.copy_buffer_to_buffer(&self.buffers.status, 0, &self.buffers.report_staging, 0, 16);
-        if self.buffers.report_bytes > 0 {
-            encoder.copy_buffer_to_buffer(
-                &self.buffers.report,
-                0,
-                &self.buffers.report_staging,
-                16,
-                self.buffers.report_bytes,
-            );
-        }
-        self.submit_and_wait(encoder)?;
+        self.ctx.wait(index)?;
         let block =
             self.read_mapped(&self.buffers.report_staging, 16 + self.buffers.report_bytes)?;
-        if let Some((call, index)) = self.failure(&block) {
-            self.rollback()?;
+        if let Some(failed) = self.failure(&block) {
+            let (call, index) = if self.schedule.mode == StepMode::Fused {
+                self.diagnose(failed)?
+            } else {
+                self.rollback()?;
+                failed
+            };
             return Err(self.step_error(call, index));
         }
         let report = read_reals(&block[16..], self.precision);
-        let mut residuals = Vec::with_capacity(self.plan.families.len());
-        let mut active_contacts = 0;
-        for (family, f) in self.plan.families.iter().enumerate() {
-            residuals.push(FamilyResidual {
-                label: f.label.clone(),
-                max_violation: report[2 * family],
-            });
-            if f.kind.is_inequality() {
-                active_contacts += report[2 * family + 1] as usize;
-            }
-        }
+        let (residuals, active_contacts) = crate::xpbd::read_report(&self.plan, &report);
         Ok(StepReport {
-            kernel_calls,
+            kernel_calls: self.plan.kernel_counts(),
             residuals,
             active_contacts,
             ..StepReport::default()
@@ -743,55 +586,26 @@ impl Backend for GpuBackend {
     }
 
     fn read_state(&mut self) -> Result<State, BackendError> {
-        Ok(self
-            .resident_state()
-            .read(&self.device, self.plan.dim, |e| self.submit_and_wait(e))?)
+        Ok(self.state.read(&self.ctx)?)
+    }
+
+    fn prefetch_state(&mut self) {
+        self.state.prefetch();
     }
 
     fn write_state(&mut self, state: &State) -> Result<(), BackendError> {
         check_state(&self.plan, state)?;
-        self.resident_state().write(&self.queue, state);
+        self.state.write(&self.ctx, state);
         Ok(())
     }
 
     fn set_forces(&mut self, forces: &[f64]) -> Result<(), BackendError> {
         check_forces(&self.plan, forces)?;
-        let mut f = Vec::new();
-        push_reals(&mut f, forces, self.precision);
-        if !f.is_empty() {
-            self.queue.write_buffer(&self.buffers.force, 0, &f);
-        }
+        self.state.set_forces(&self.ctx, forces);
         Ok(())
     }
 
     fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
-        check_kernel(&self.plan, kernel)?;
-        if matches!(kernel, Kernel::Broadphase | Kernel::Collide) {
-            return self.run_contact_kernel(kernel);
-        }
-        let Some(at) = self.plan.substep_kernels.iter().position(|&k| k == kernel) else {
-            return Err(BackendError::InvalidCall(format!(
-                "{kernel:?} is not in this plan's schedule"
-            )));
-        };
-        // The contact kernels have no entry in the dispatch list.
-        let index = self.plan.substep_kernels[..at]
-            .iter()
-            .filter(|k| !matches!(k, Kernel::Broadphase | Kernel::Collide))
-            .count();
-        self.reset_status();
-        let mut encoder = self.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_bind_group(0, &self.state_group, &[]);
-            self.encode(&mut pass, &self.step_dispatches[index]);
-        }
-        encoder.copy_buffer_to_buffer(&self.buffers.status, 0, &self.buffers.report_staging, 0, 16);
-        self.submit_and_wait(encoder)?;
-        let block = self.read_mapped(&self.buffers.report_staging, 16)?;
-        match self.failure(&block) {
-            Some((call, index)) => Err(self.step_error(call, index)),
-            None => Ok(()),
-        }
+        self.run_alone(kernel, 1)
     }
 }

@@ -14,14 +14,13 @@
 //! device coordinates x − o of a [`SceneOrigin`] (f32 far from the world
 //! origin: plane offsets shift by n·o, simplex vertices by −o).
 
-use std::sync::{Arc, Mutex};
-
 use hyperpbd_core::GpuError;
 use hyperpbd_core::barrier::{BarrierLaw, BarrierObstacles, FILTER_SAFETY};
 
-use crate::backend::{create_buffer, groups_for};
+use crate::context::GpuContext;
+use crate::kernel_set::{Binding, BlockWriter, EntryPoint, KernelSet, KernelSetSpec};
 use crate::params::{push_reals, read_reals, real_size};
-use crate::shader::{MAX_GPU_DIM, ShaderFile, compose};
+use crate::shader::{MAX_GPU_DIM, ShaderFile};
 use crate::{Precision, SceneOrigin};
 
 /// Per-particle barrier terms read back from the device.
@@ -81,36 +80,74 @@ pub fn obstacle_geometry(obstacles: &BarrierObstacles) -> (Vec<f64>, Vec<u32>) {
     (reals, arity)
 }
 
-#[derive(Clone, Copy)]
+/// Entry points of `shaders/barrier.wgsl`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum BarrierEntry {
     Evaluate,
     Filter,
     Ln,
 }
 
-/// Pipelines and resident obstacle data of the barrier kernels.
-pub struct BarrierKernels {
-    device: wgpu::Device,
-    queue: wgpu::Queue,
-    precision: Precision,
-    dim: usize,
-    layout: wgpu::BindGroupLayout,
-    evaluate: wgpu::ComputePipeline,
-    filter: wgpu::ComputePipeline,
-    ln: wgpu::ComputePipeline,
-    geometry: wgpu::Buffer,
-    arity: wgpu::Buffer,
-    planes: u32,
-    simplices: u32,
-    law: BarrierLaw,
-    scale: f64,
-    errors: Arc<Mutex<Vec<String>>>,
+impl EntryPoint for BarrierEntry {
+    fn source(self) -> (ShaderFile, &'static str) {
+        let name = match self {
+            BarrierEntry::Evaluate => "evaluate",
+            BarrierEntry::Filter => "filter_fraction",
+            BarrierEntry::Ln => "ln_check",
+        };
+        (ShaderFile::Barrier, name)
+    }
 }
 
-/// Read-only flags of the bindings 0..=9 of barrier.wgsl.
-const READ_ONLY: [bool; 10] = [
-    false, true, true, true, true, false, false, false, false, true,
+/// Bindings of `shaders/barrier.wgsl` (group 0): x radius geometry arity
+/// delta energy gradient hessian scalar params.
+pub(crate) const BARRIER_BINDINGS: [Binding; 10] = [
+    Binding::WRITE,
+    Binding::READ,
+    Binding::READ,
+    Binding::READ,
+    Binding::READ,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::READ,
 ];
+
+/// The `BarrierParams` block of `shaders/barrier.wgsl`.
+pub(crate) fn barrier_params(
+    precision: Precision,
+    particles: usize,
+    obstacles: &BarrierObstacles,
+    law: &BarrierLaw,
+) -> Vec<u8> {
+    BlockWriter::new(precision)
+        .words(&[
+            particles as u32,
+            obstacles.plane_count() as u32,
+            obstacles.simplex_count() as u32,
+            0,
+        ])
+        .reals(&[
+            law.stiffness,
+            law.activation_distance,
+            FILTER_SAFETY,
+            obstacles.scale,
+        ])
+        .finish()
+}
+
+/// Pipelines and resident obstacle data of the barrier kernels.
+pub struct BarrierKernels {
+    ctx: GpuContext,
+    kernels: KernelSet<BarrierEntry>,
+    precision: Precision,
+    dim: usize,
+    geometry: wgpu::Buffer,
+    arity: wgpu::Buffer,
+    obstacles: BarrierObstacles,
+    law: BarrierLaw,
+}
 
 impl BarrierKernels {
     /// Creates a device on `adapter`, builds the pipelines for `dim` and
@@ -127,85 +164,38 @@ impl BarrierKernels {
                 what: format!("dimension {dim} (the GPU kernels support 1..={MAX_GPU_DIM})"),
             });
         }
-        let (device, queue) = crate::request_device(adapter, precision)?;
-        let errors = crate::device_errors::collect_device_errors(&device);
-        let limits = device.limits();
-        if limits.max_storage_buffers_per_shader_stage < READ_ONLY.len() as u32 {
-            return Err(GpuError::Unsupported {
-                what: format!(
-                    "the adapter allows {} storage buffers per shader stage; the barrier kernels need {}",
-                    limits.max_storage_buffers_per_shader_stage,
-                    READ_ONLY.len()
-                ),
-            });
-        }
-        let entries: Vec<_> = READ_ONLY
-            .iter()
-            .enumerate()
-            .map(|(i, &ro)| crate::pipelines::storage(i as u32, ro, false))
-            .collect();
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("hyperpbd barrier"),
-            entries: &entries,
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("hyperpbd barrier"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("barrier.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(compose(ShaderFile::Barrier, dim, precision).into()),
-        });
-        let pipeline = |name: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(name),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(name),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
-        let evaluate = pipeline("evaluate");
-        let filter = pipeline("filter_fraction");
-        let ln = pipeline("ln_check");
+        let ctx = GpuContext::new(adapter, precision)?;
+        let kernels = KernelSet::new(
+            &ctx.device,
+            &KernelSetSpec {
+                label: "hyperpbd barrier",
+                dim,
+                precision,
+                groups: &[&BARRIER_BINDINGS],
+                entries: &[
+                    BarrierEntry::Evaluate,
+                    BarrierEntry::Filter,
+                    BarrierEntry::Ln,
+                ],
+            },
+        )?;
         let (reals, arity) = obstacle_geometry(obstacles);
         let mut bytes = Vec::new();
         push_reals(&mut bytes, &reals, precision);
         let storage = wgpu::BufferUsages::STORAGE;
-        let geometry = create_buffer(&device, &queue, &limits, "geometry", &bytes, storage)?;
-        let arity = create_buffer(
-            &device,
-            &queue,
-            &limits,
-            "arity",
-            bytemuck::cast_slice(&arity),
-            storage,
-        )?;
-        let kernels = BarrierKernels {
-            device,
-            queue,
+        let geometry = ctx.buffer("geometry", &bytes, storage)?;
+        let arity = ctx.buffer("arity", bytemuck::cast_slice(&arity), storage)?;
+        ctx.check()?;
+        Ok(BarrierKernels {
+            ctx,
+            kernels,
             precision,
             dim,
-            layout,
-            evaluate,
-            filter,
-            ln,
             geometry,
             arity,
-            planes: obstacles.plane_count() as u32,
-            simplices: obstacles.simplex_count() as u32,
+            obstacles: obstacles.clone(),
             law,
-            scale: obstacles.scale,
-            errors,
-        };
-        kernels.check()?;
-        Ok(kernels)
-    }
-
-    fn check(&self) -> Result<(), GpuError> {
-        crate::device_errors::take_device_errors(&self.errors)
+        })
     }
 
     /// Barrier energy, gradient, Hessian block and smallest distance of
@@ -280,17 +270,13 @@ impl BarrierKernels {
         count: usize,
     ) -> Result<PreparedBatch, GpuError> {
         let dim = self.dim;
-        let limits = self.device.limits();
-        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
         let reals = |values: &[f64]| {
             let mut b = Vec::new();
             push_reals(&mut b, values, self.precision);
             b
         };
         let zeros = |len: usize| vec![0u8; len * real_size(self.precision)];
-        let make = |label: &str, bytes: &[u8]| {
-            create_buffer(&self.device, &self.queue, &limits, label, bytes, storage)
-        };
+        let make = |label: &str, bytes: &[u8]| self.ctx.storage(label, bytes);
         let x = make("x", &reals(positions))?;
         let radius = make("radius", &reals(radii))?;
         let delta = make("delta", &reals(deltas))?;
@@ -298,22 +284,10 @@ impl BarrierKernels {
         let gradient = make("gradient", &zeros(count * dim))?;
         let hessian = make("hessian", &zeros(count * dim * dim))?;
         let scalar = make("scalar", &zeros(count))?;
-        let mut params = Vec::new();
-        params.extend_from_slice(&(count as u32).to_le_bytes());
-        params.extend_from_slice(&self.planes.to_le_bytes());
-        params.extend_from_slice(&self.simplices.to_le_bytes());
-        params.extend_from_slice(&0u32.to_le_bytes());
-        push_reals(
-            &mut params,
-            &[
-                self.law.stiffness,
-                self.law.activation_distance,
-                FILTER_SAFETY,
-                self.scale,
-            ],
-            self.precision,
-        );
-        let params = make("barrier params", &params)?;
+        let params = make(
+            "barrier params",
+            &barrier_params(self.precision, count, &self.obstacles, &self.law),
+        )?;
         let buffers = [
             &x,
             &radius,
@@ -326,19 +300,7 @@ impl BarrierKernels {
             &scalar,
             &params,
         ];
-        let entries: Vec<_> = buffers
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
-        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("hyperpbd barrier"),
-            layout: &self.layout,
-            entries: &entries,
-        });
+        let group = self.kernels.bind(&self.ctx.device, 0, &buffers, 0)?;
         let r = real_size(self.precision) as u64;
         let sizes = [
             count as u64 * r,
@@ -346,15 +308,10 @@ impl BarrierKernels {
             (count * dim * dim) as u64 * r,
             count as u64 * r,
         ];
-        let staging = create_buffer(
-            &self.device,
-            &self.queue,
-            &limits,
-            "barrier staging",
-            &vec![0u8; sizes.iter().sum::<u64>() as usize],
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        )?;
-        self.check()?;
+        let staging = self
+            .ctx
+            .staging("barrier staging", sizes.iter().sum::<u64>())?;
+        self.ctx.check()?;
         Ok(PreparedBatch {
             count: count as u32,
             group,
@@ -377,27 +334,20 @@ impl BarrierKernels {
         which: BarrierEntry,
         repeats: u32,
     ) -> Result<(), GpuError> {
-        let pipeline = match which {
-            BarrierEntry::Evaluate => &self.evaluate,
-            BarrierEntry::Filter => &self.filter,
-            BarrierEntry::Ln => &self.ln,
-        };
-        let (gx, gy) = groups_for(batch.count);
-        let mut encoder = self.device.create_command_encoder(&Default::default());
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &batch.group, &[]);
             for _ in 0..repeats {
-                pass.dispatch_workgroups(gx, gy, 1);
+                self.kernels.dispatch(&mut pass, which, batch.count);
             }
         }
-        crate::device_errors::submit_and_wait(&self.device, &self.queue, encoder, &self.errors)
+        self.ctx.submit_and_wait(encoder)
     }
 
     /// Reads back [energy, gradient, hessian, scalar] of a batch.
     pub fn read(&self, batch: &PreparedBatch) -> Result<[Vec<f64>; 4], GpuError> {
-        let mut encoder = self.device.create_command_encoder(&Default::default());
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         let mut offset = 0;
         for (buffer, &size) in batch.outputs.iter().zip(&batch.sizes) {
             if size > 0 {
@@ -405,10 +355,8 @@ impl BarrierKernels {
             }
             offset += size;
         }
-        self.queue.submit(Some(encoder.finish()));
-        let total = offset;
-        let bytes = crate::readback::read_mapped(&self.device, &batch.staging, total)?;
-        self.check()?;
+        self.ctx.submit_and_wait(encoder)?;
+        let bytes = self.ctx.read(&batch.staging, offset)?;
         let mut out: [Vec<f64>; 4] = Default::default();
         let mut start = 0usize;
         for (k, &size) in batch.sizes.iter().enumerate() {

@@ -14,13 +14,12 @@
 //! boxes given, in f32 on those boxes rounded outward
 //! ([`Aabbs::rounded_outward_to_f32`]), a superset of the f64 pairs.
 
-use std::sync::{Arc, Mutex};
-
 use hyperpbd_core::GpuError;
 use hyperpbd_core::broadphase::{Aabbs, Pair};
 
 use crate::Precision;
 use crate::contact::{Block, Bound, ContactBuffers, ContactKernels, Particles};
+use crate::context::GpuContext;
 
 /// Statistics of the last sweep.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -36,17 +35,16 @@ pub struct SweepStats {
 /// The GPU broadphase on given boxes: the contact step's kernels, with
 /// buffers sized for the largest box count seen and grown on demand.
 pub struct GpuSweep {
-    device: wgpu::Device,
-    queue: wgpu::Queue,
+    ctx: GpuContext,
     precision: Precision,
     dim: usize,
     kernels: ContactKernels,
-    /// Dummy positions and status (the boxes are given).
-    unused: [wgpu::Buffer; 3],
+    /// Unused particle records x v p force (one f64 record of the largest
+    /// dimension: 96 bytes) and the status (the boxes are given).
+    unused: [wgpu::Buffer; 5],
     buffers: Option<ContactBuffers>,
     capacity: usize,
     stats: SweepStats,
-    errors: Arc<Mutex<Vec<String>>>,
 }
 
 impl GpuSweep {
@@ -65,28 +63,21 @@ impl GpuSweep {
         precision: Precision,
         capacity: usize,
     ) -> Result<Self, GpuError> {
-        let (device, queue) = crate::request_device(adapter, precision)?;
-        let errors = crate::device_errors::collect_device_errors(&device);
-        let kernels = ContactKernels::new(&device, dim, precision)?;
-        let dummy = |label: &str, words: &[u32]| {
-            crate::backend::create_buffer(
-                &device,
-                &queue,
-                &device.limits(),
-                label,
-                bytemuck::cast_slice(words),
-                wgpu::BufferUsages::STORAGE,
-            )
-        };
+        let ctx = GpuContext::new(adapter, precision)?;
+        let kernels = ContactKernels::new(&ctx.device, dim, precision)?;
         let unused = [
-            dummy("sweep x", &[0; 4])?,
-            dummy("sweep p", &[0; 4])?,
-            dummy("sweep status", &[u32::MAX, u32::MAX, 0, 0])?,
+            ctx.storage("sweep x", &[0; 128])?,
+            ctx.storage("sweep v", &[0; 128])?,
+            ctx.storage("sweep p", &[0; 128])?,
+            ctx.storage("sweep force", &[0; 128])?,
+            ctx.storage(
+                "sweep status",
+                bytemuck::cast_slice(&[u32::MAX, u32::MAX, 0, 0]),
+            )?,
         ];
-        crate::device_errors::take_device_errors(&errors)?;
+        ctx.check()?;
         Ok(GpuSweep {
-            device,
-            queue,
+            ctx,
             precision,
             dim,
             kernels,
@@ -94,7 +85,6 @@ impl GpuSweep {
             buffers: None,
             capacity: capacity.max(1),
             stats: SweepStats::default(),
-            errors,
         })
     }
 
@@ -187,11 +177,17 @@ impl GpuSweep {
             return Ok(());
         }
         let zeros = vec![0.0; n];
-        let [x, p, status] = &self.unused;
+        let [x, v, p, force, status] = &self.unused;
         self.buffers = Some(ContactBuffers::new(
-            (&self.device, &self.queue, self.errors.clone()),
+            &self.ctx,
             &self.kernels,
-            Bound { x, p, status },
+            Bound {
+                x,
+                v,
+                p,
+                force,
+                status,
+            },
             &Particles {
                 inverse_mass: &zeros,
                 radius: &zeros,
@@ -217,14 +213,12 @@ impl GpuSweep {
         buffers: &ContactBuffers,
         axis: u32,
     ) -> Result<(crate::contact::Outcome, Vec<Vec<u32>>), GpuError> {
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("sweep lists staging"),
-            size: buffers.lists_bytes().max(16),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let staging = self
+            .ctx
+            .staging("sweep lists staging", buffers.lists_bytes())?;
         buffers.reset();
         let mut encoder = self
+            .ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("broadphase"),
@@ -235,9 +229,9 @@ impl GpuSweep {
         }
         buffers.copy_outcome(&mut encoder);
         buffers.copy_lists(&mut encoder, &staging);
-        crate::device_errors::submit_and_wait(&self.device, &self.queue, encoder, &self.errors)?;
+        self.ctx.submit_and_wait(encoder)?;
         let outcome = buffers.read_outcome()?;
-        let data = crate::readback::read_mapped(&self.device, &staging, buffers.lists_bytes())?;
+        let data = self.ctx.read(&staging, buffers.lists_bytes())?;
         Ok((outcome, buffers.decode_lists(bytemuck::cast_slice(&data))))
     }
 }

@@ -11,13 +11,13 @@
 //! [`crate::GpuBackend`], so it is held to the CPU golden path by a
 //! differential test.
 
-use std::sync::{Arc, Mutex};
-
 use hyperpbd_core::GpuError;
 use hyperpbd_core::broadphase::Pair;
 
 use crate::Precision;
 use crate::contact::{Block, Bound, ContactBuffers, ContactKernels, Particles};
+use crate::context::GpuContext;
+use crate::layout::VectorLayout;
 use crate::params::{push_reals, read_reals, real_size};
 
 /// Inputs of one contact solve.
@@ -42,12 +42,10 @@ pub struct CollideInput<'a> {
 
 /// The contact kernels for one dimension and precision.
 pub struct GpuCollide {
-    device: wgpu::Device,
-    queue: wgpu::Queue,
+    ctx: GpuContext,
     precision: Precision,
     dim: usize,
     kernels: ContactKernels,
-    errors: Arc<Mutex<Vec<String>>>,
 }
 
 impl GpuCollide {
@@ -57,29 +55,15 @@ impl GpuCollide {
         dim: usize,
         precision: Precision,
     ) -> Result<Self, GpuError> {
-        let (device, queue) = crate::request_device(adapter, precision)?;
-        let errors = crate::device_errors::collect_device_errors(&device);
-        let kernels = ContactKernels::new(&device, dim, precision)?;
-        crate::device_errors::take_device_errors(&errors)?;
+        let ctx = GpuContext::new(adapter, precision)?;
+        let kernels = ContactKernels::new(&ctx.device, dim, precision)?;
+        ctx.check()?;
         Ok(GpuCollide {
-            device,
-            queue,
+            ctx,
             precision,
             dim,
             kernels,
-            errors,
         })
-    }
-
-    fn storage(&self, label: &str, bytes: &[u8]) -> Result<wgpu::Buffer, GpuError> {
-        crate::backend::create_buffer(
-            &self.device,
-            &self.queue,
-            &self.device.limits(),
-            label,
-            bytes,
-            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        )
     }
 
     /// Runs `iterations` contact iterations on `input` and returns the new
@@ -112,23 +96,31 @@ impl GpuCollide {
                 what: format!("collide input: offsets of particle {k} out of range"),
             })?);
         }
-        let reals = |values: &[f64]| {
-            let mut out = Vec::with_capacity(values.len() * real_size(self.precision));
-            push_reals(&mut out, values, self.precision);
+        // x and p as the prelude's particle records (inverse mass in the
+        // last lane).
+        let records = |values: &[f64]| {
+            let packed = VectorLayout::Record.pack(self.dim, values, Some(input.inverse_mass));
+            let mut out = Vec::with_capacity(packed.len() * real_size(self.precision));
+            push_reals(&mut out, &packed, self.precision);
             out
         };
-        let x = self.storage("collide x", &reals(input.x))?;
-        let p = self.storage("collide p", &reals(input.p))?;
-        let status = self.storage(
+        let ctx = &self.ctx;
+        let x = ctx.storage("collide x", &records(input.x))?;
+        let p = ctx.storage("collide p", &records(input.p))?;
+        let unused = ctx.storage("collide v", &[0; 128])?;
+        let force = ctx.storage("collide force", &[0; 128])?;
+        let status = ctx.storage(
             "collide status",
             bytemuck::cast_slice(&[u32::MAX, u32::MAX, 0, 0]),
         )?;
         let buffers = ContactBuffers::new(
-            (&self.device, &self.queue, self.errors.clone()),
+            ctx,
             &self.kernels,
             Bound {
                 x: &x,
+                v: &unused,
                 p: &p,
+                force: &force,
                 status: &status,
             },
             &Particles {
@@ -149,15 +141,11 @@ impl GpuCollide {
                 .collect(),
         )?;
         buffers.write_lists(&lists);
-        buffers.write_starts(input.p, input.inverse_mass);
-        let bytes = (n * self.dim * real_size(self.precision)) as u64;
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("collide staging"),
-            size: bytes.max(16) + 16,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut encoder = self
+        let bytes = (n
+            * VectorLayout::Record.reals_per_particle(self.dim)
+            * real_size(self.precision)) as u64;
+        let staging = ctx.staging("collide staging", 16 + bytes)?;
+        let mut encoder = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("collide"),
@@ -173,8 +161,8 @@ impl GpuCollide {
         if bytes > 0 {
             encoder.copy_buffer_to_buffer(&x, 0, &staging, 16, bytes);
         }
-        crate::device_errors::submit_and_wait(&self.device, &self.queue, encoder, &self.errors)?;
-        let data = crate::readback::read_mapped(&self.device, &staging, 16 + bytes)?;
+        ctx.submit_and_wait(encoder)?;
+        let data = ctx.read(&staging, 16 + bytes)?;
         buffers.read_outcome()?.trusted()?;
         let words: &[u32] = bytemuck::cast_slice(&data[..16]);
         if words[0] != u32::MAX {
@@ -186,6 +174,6 @@ impl GpuCollide {
                 ),
             });
         }
-        Ok(read_reals(&data[16..], self.precision))
+        Ok(VectorLayout::Record.unpack(self.dim, &read_reals(&data[16..], self.precision)))
     }
 }

@@ -2,8 +2,11 @@
 //! precision) by prepending a small header.
 //!
 //! ```text
-//! module = header(DIM, real) + prelude.wgsl [+ measure.wgsl] + family.wgsl
+//! module = header(DIM, real, WORKGROUP) + prelude.wgsl [+ measure.wgsl] + family.wgsl
 //! ```
+//! The header's `WORKGROUP` is [`ShaderFile::workgroup_size`]: entry points
+//! declare `@workgroup_size(WORKGROUP)` and the host sizes its dispatches
+//! with the same number (`kernel_set.rs`).
 
 use crate::Precision;
 
@@ -14,6 +17,7 @@ pub const MAX_GPU_DIM: usize = 8;
 
 const PRELUDE: &str = include_str!("../../shaders/prelude.wgsl");
 const MEASURE: &str = include_str!("../../shaders/measure.wgsl");
+const STEP: &str = include_str!("../../shaders/step.wgsl");
 const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
 const PROJECT: &str = include_str!("../../shaders/project.wgsl");
 const FRICTION: &str = include_str!("../../shaders/friction.wgsl");
@@ -30,22 +34,20 @@ const LN_F64: &str = include_str!("../../shaders/ln_f64.wgsl");
 /// A kernel family: one WGSL file and its entry points.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ShaderFile {
-    /// `integrate.wgsl`: predict, velocity, damping.
-    Integrate,
-    /// `project.wgsl`: XPBD projection of every constraint kind.
-    Project,
-    /// `friction.wgsl`: dynamic Coulomb friction.
-    Friction,
-    /// `residual.wgsl`: constraint violation and its reduction.
-    Residual,
+    /// The XPBD step: `step.wgsl` (bindings, call blocks, the schedule
+    /// runners) composed with the kernels' own files — `integrate.wgsl`
+    /// (predict, velocity, damping), `project.wgsl` (every constraint kind),
+    /// `friction.wgsl` (dynamic Coulomb friction), `residual.wgsl`
+    /// (constraint violation and its reduction) — after `measure.wgsl`.
+    Step,
     /// `scan.wgsl` (after `contact.wgsl`): exclusive prefix sum of the
     /// broadphase's hash-bucket counters.
     Scan,
     /// `grid.wgsl` (after `contact.wgsl`): boxes, hashed grid and every
     /// particle's sorted contact list (broadphase).
     Grid,
-    /// `collide.wgsl` (after `contact.wgsl`): one
-    /// gather-Jacobi iteration of particle contact and the contact report.
+    /// `collide.wgsl` (after `contact.wgsl`): one gather-Jacobi iteration
+    /// of particle contact and the contact report.
     Collide,
     /// `barrier.wgsl` (+ `ln_f32.wgsl` / `ln_f64.wgsl`): per-particle
     /// barrier evaluation and step filter (incremental-potential path).
@@ -58,11 +60,8 @@ pub enum ShaderFile {
 
 impl ShaderFile {
     /// Every kernel family.
-    pub const ALL: [ShaderFile; 9] = [
-        ShaderFile::Integrate,
-        ShaderFile::Project,
-        ShaderFile::Friction,
-        ShaderFile::Residual,
+    pub const ALL: [ShaderFile; 6] = [
+        ShaderFile::Step,
         ShaderFile::Scan,
         ShaderFile::Grid,
         ShaderFile::Collide,
@@ -70,24 +69,10 @@ impl ShaderFile {
         ShaderFile::IncrementalPotential,
     ];
 
-    /// The files of the step kernels (group-0 state layout).
-    pub const STEP: [ShaderFile; 4] = [
-        ShaderFile::Integrate,
-        ShaderFile::Project,
-        ShaderFile::Friction,
-        ShaderFile::Residual,
-    ];
-
-    /// The files of the contact kernels (their own layout, `contact.wgsl`).
-    pub const CONTACT: [ShaderFile; 3] = [ShaderFile::Scan, ShaderFile::Grid, ShaderFile::Collide];
-
     /// File name under `shaders/`.
     pub fn file_name(self) -> &'static str {
         match self {
-            ShaderFile::Integrate => "integrate.wgsl",
-            ShaderFile::Project => "project.wgsl",
-            ShaderFile::Friction => "friction.wgsl",
-            ShaderFile::Residual => "residual.wgsl",
+            ShaderFile::Step => "step.wgsl",
             ShaderFile::Scan => "scan.wgsl",
             ShaderFile::Grid => "grid.wgsl",
             ShaderFile::Collide => "collide.wgsl",
@@ -99,15 +84,15 @@ impl ShaderFile {
     /// Entry points defined by the file.
     pub fn entry_points(self) -> &'static [&'static str] {
         match self {
-            ShaderFile::Integrate => &["predict", "velocity", "damping"],
-            ShaderFile::Project => &[
+            ShaderFile::Step => &[
+                "particles",
+                "step_small",
                 "project_distance",
                 "project_simplex_measure",
                 "project_oriented_measure",
-                "project_contact",
+                "residual",
+                "reduce",
             ],
-            ShaderFile::Friction => &["friction"],
-            ShaderFile::Residual => &["residual", "reduce"],
             ShaderFile::Scan => &["scan_reduce", "scan_top", "scan_apply"],
             ShaderFile::Grid => &[
                 "boxes_and_bounds",
@@ -137,8 +122,10 @@ impl ShaderFile {
         }
     }
 
-    /// Workgroup size of every entry point of the file: 256 for the scan
-    /// (one block of counters per 8 × 256), 64 for every other kernel.
+    /// Workgroup size of every entry point of the file: 64 for the step
+    /// and contact kernels (measured: docs/performance.md), 256 for the
+    /// scan (a block of 8 × 256 counters). [`compose`] writes it into the
+    /// header.
     pub fn workgroup_size(self) -> u32 {
         match self {
             ShaderFile::Scan => 256,
@@ -148,13 +135,12 @@ impl ShaderFile {
 
     fn body(self) -> &'static [&'static str] {
         match self {
-            ShaderFile::Integrate => &[PRELUDE, INTEGRATE],
-            ShaderFile::Project => &[PRELUDE, MEASURE, PROJECT],
-            ShaderFile::Friction => &[PRELUDE, FRICTION],
-            ShaderFile::Residual => &[PRELUDE, MEASURE, RESIDUAL],
-            ShaderFile::Scan => &[CONTACT, SCAN],
-            ShaderFile::Grid => &[CONTACT, GRID],
-            ShaderFile::Collide => &[CONTACT, COLLIDE],
+            ShaderFile::Step => &[
+                PRELUDE, MEASURE, STEP, INTEGRATE, PROJECT, FRICTION, RESIDUAL,
+            ],
+            ShaderFile::Scan => &[PRELUDE, CONTACT, SCAN],
+            ShaderFile::Grid => &[PRELUDE, CONTACT, GRID],
+            ShaderFile::Collide => &[PRELUDE, CONTACT, COLLIDE],
             ShaderFile::Barrier => &[BARRIER],
             ShaderFile::IncrementalPotential => &[BARRIER, INCREMENTAL_POTENTIAL],
         }
@@ -174,11 +160,15 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
          const POINTS: u32 = {points}u;\n\
          const MAT: u32 = {mat}u;\n\
          const MINOR: u32 = {minor}u;\n\
-         const REAL_MAX: real = {real_max};\n\n",
+         const REAL_MAX: real = {real_max};\n\
+         const WORKGROUP: u32 = {workgroup}u;\n\
+         const VEC: u32 = {vec}u;\n\n",
         file = file.file_name(),
         points = (dim + 1) * dim,
         mat = dim * dim,
         minor = (dim.saturating_sub(1) * dim.saturating_sub(1)).max(1),
+        workgroup = file.workgroup_size(),
+        vec = crate::layout::record_words(dim),
     );
     if matches!(file, ShaderFile::Barrier | ShaderFile::IncrementalPotential) {
         source.push_str(match precision {

@@ -1,16 +1,17 @@
 //! The GPU step of a plan with particle–particle contact: the plain step
-//! with the contact kernel set ([`crate::contact`]) recorded at the plan's
-//! Broadphase and Collide positions, all in one compute pass, one submit.
+//! (the plan's schedule, fused where the golden order allows) with the
+//! contact kernel set ([`crate::contact`]) recorded at the plan's
+//! Broadphase and Collide calls, all in one compute pass, one submit.
 //!
 //! ```text
 //! reset status and contact counters; save (x, v)
-//! substeps × plan.substep_kernels, one pass:
+//! one pass, the schedule's dispatches in order:
 //!   Broadphase  boxes from the resident p, x (radius + margin) → hashed grid →
 //!               every particle's sorted contact list (pairs of two fixed
 //!               particles left out)                          (8 dispatches)
 //!   Collide     snapshot + collide on the resident x, p       (2 dispatches)
 //!   other       the plan's dispatch, as in the plain step
-//! residuals; contact report (deepest overlap, active pairs)
+//! residuals; contact report (deepest overlap, active pairs)  (2 dispatches)
 //! one wait; read status + report (backend) and the 32-byte contact outcome
 //!   a list longer than its slots → roll (x, v) back, grow the lists, rerun
 //!   a failed call → roll back, the CPU's error (a contact failure names the
@@ -19,7 +20,7 @@
 //! No host round trip inside the step: every dispatch size is known when
 //! the plan is loaded (particles, buckets), so nothing waits for a count.
 
-use hyperpbd_core::{BackendError, FamilyResidual, GpuError, Kernel, Plan, StageName, StepReport};
+use hyperpbd_core::{BackendError, GpuError, Kernel, Plan, StepReport};
 
 use super::GpuBackend;
 use crate::Precision;
@@ -27,6 +28,8 @@ use crate::contact::{
     BOXES_FROM_STATE, Block, Bound, ContactBuffers, ContactKernels, Outcome, Particles,
     SKIP_FIXED_PAIRS,
 };
+use crate::context::GpuContext;
+use crate::xpbd::schedule::StepMode;
 
 /// List slots per particle a contact stage starts with (grown on demand).
 const INITIAL_SLOTS: usize = 32;
@@ -45,11 +48,9 @@ pub(super) struct ContactStage {
 
 impl ContactStage {
     /// The stage of `plan` (which has collisions), bound to the backend's
-    /// resident buffers.
+    /// resident particle records and status word.
     pub(super) fn new(
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        errors: std::sync::Arc<std::sync::Mutex<Vec<String>>>,
+        ctx: &GpuContext,
         (plan, precision): (&Plan, Precision),
         bound: Bound,
     ) -> Result<Self, GpuError> {
@@ -75,9 +76,9 @@ impl ContactStage {
             flags: 0,
             axis: plan.dim as u32,
         });
-        let kernels = ContactKernels::new(device, plan.dim, precision)?;
+        let kernels = ContactKernels::new(&ctx.device, plan.dim, precision)?;
         let buffers = ContactBuffers::new(
-            (device, queue, errors),
+            ctx,
             &kernels,
             bound,
             &Particles {
@@ -97,7 +98,7 @@ impl ContactStage {
     }
 
     /// Records kernel `kernel` (Broadphase or Collide) of step call `call`.
-    fn encode(&self, pass: &mut wgpu::ComputePass<'_>, kernel: Kernel, call: u32) {
+    pub(super) fn encode(&self, pass: &mut wgpu::ComputePass<'_>, kernel: Kernel, call: u32) {
         let Some(block) = self.buffers.block_of(call) else {
             return;
         };
@@ -108,7 +109,22 @@ impl ContactStage {
         }
     }
 
-    /// `Some(slots)` when a list did not fit: grow to that and rerun.
+    /// Compute dispatches of the stage in one step of `plan`.
+    pub(super) fn dispatches_per_step(plan: &Plan) -> usize {
+        let per_substep: usize = plan
+            .substep_kernels
+            .iter()
+            .map(|k| match k {
+                Kernel::Broadphase => 8,
+                Kernel::Collide => 2,
+                _ => 0,
+            })
+            .sum();
+        per_substep * plan.substeps as usize + 2
+    }
+
+    /// Whether a list did not fit (the lists are grown then: rerun), or
+    /// the outcome's typed error.
     fn regrow(&mut self, outcome: &Outcome) -> Result<bool, GpuError> {
         outcome.trusted()?;
         let longest = outcome.longest_list as usize;
@@ -132,13 +148,21 @@ impl GpuBackend {
     /// One step of a plan with collisions (see the module doc).
     pub(super) fn step_with_contacts(&mut self) -> Result<StepReport, BackendError> {
         for _ in 0..=MAX_REGROWTHS {
-            let outcome = self.submit_contact_step()?;
+            let (outcome, snapshot) = self.submit_contact_step()?;
             let Some(stage) = self.contacts.as_mut() else {
                 break;
             };
             match stage.regrow(&outcome) {
                 Ok(false) => return self.finish_contact_step(&outcome),
-                Ok(true) => self.rollback()?,
+                Ok(true) => {
+                    self.rollback()?;
+                    if snapshot {
+                        // The state the snapshot showed is gone: take the
+                        // rerun's.
+                        self.state.forget_snapshot();
+                        self.state.prefetch();
+                    }
+                }
                 Err(e) => {
                     self.rollback()?;
                     return Err(e.into());
@@ -151,9 +175,10 @@ impl GpuBackend {
         .into())
     }
 
-    /// Records, submits and waits for one step; returns the contact outcome
+    /// Records, submits and waits for one step in the schedule's mode;
+    /// returns the contact outcome and whether a state snapshot was taken
     /// (the status and report block are in `report_staging`).
-    fn submit_contact_step(&mut self) -> Result<Outcome, BackendError> {
+    fn submit_contact_step(&mut self) -> Result<(Outcome, bool), BackendError> {
         let Some(stage) = &self.contacts else {
             return Err(GpuError::Other {
                 message: "contact step without a contact stage".into(),
@@ -162,93 +187,63 @@ impl GpuBackend {
         };
         self.reset_status();
         stage.buffers.reset();
-        let bytes = self.buffers.state_bytes;
-        let mut encoder = self.device.create_command_encoder(&Default::default());
-        if bytes > 0 {
-            encoder.copy_buffer_to_buffer(&self.buffers.x, 0, &self.buffers.saved_x, 0, bytes);
-            encoder.copy_buffer_to_buffer(&self.buffers.v, 0, &self.buffers.saved_v, 0, bytes);
-        }
-        let kernels = &self.plan.substep_kernels;
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        self.state.save(&mut encoder);
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_bind_group(0, &self.state_group, &[]);
-            let mut dispatches = self.step_dispatches.iter();
-            for substep in 0..self.plan.substeps {
-                for (index, &kernel) in kernels.iter().enumerate() {
-                    if matches!(kernel, Kernel::Broadphase | Kernel::Collide) {
-                        let call = substep * kernels.len() as u32 + index as u32;
-                        stage.encode(&mut pass, kernel, call);
-                        pass.set_bind_group(0, &self.state_group, &[]);
-                        continue;
-                    }
-                    let Some(d) = dispatches.next() else {
-                        return Err(GpuError::Other {
-                            message: "contact step: dispatch list shorter than the plan".into(),
-                        }
-                        .into());
-                    };
-                    self.encode(&mut pass, d);
-                }
-            }
-            for d in &self.residual_dispatches {
+            pass.set_bind_group(0, &self.group, &[]);
+            for d in &self.fast {
                 self.encode(&mut pass, d);
             }
             stage
                 .buffers
                 .encode_report(&stage.kernels, &mut pass, stage.report_block);
         }
-        encoder.copy_buffer_to_buffer(&self.buffers.status, 0, &self.buffers.report_staging, 0, 16);
+        let staging = &self.buffers.report_staging;
+        encoder.copy_buffer_to_buffer(&self.buffers.status, 0, staging, 0, 16);
         if self.buffers.report_bytes > 0 {
-            encoder.copy_buffer_to_buffer(
-                &self.buffers.report,
-                0,
-                &self.buffers.report_staging,
-                16,
-                self.buffers.report_bytes,
-            );
+            let bytes = self.buffers.report_bytes;
+            encoder.copy_buffer_to_buffer(&self.buffers.report, 0, staging, 16, bytes);
         }
         stage.buffers.copy_outcome(&mut encoder);
-        self.submit_and_wait(encoder)?;
-        Ok(stage.buffers.read_outcome()?)
+        let snapshot = self.state.record_snapshot(&mut encoder);
+        let index = self.ctx.submit(encoder)?;
+        if let Some(slot) = snapshot {
+            self.state.map_snapshot(slot);
+        }
+        self.ctx.wait(index)?;
+        let outcome = match &self.contacts {
+            Some(stage) => stage.buffers.read_outcome()?,
+            None => unreachable_stage()?,
+        };
+        Ok((outcome, snapshot.is_some()))
     }
 
     /// The report of a submitted step whose lists fitted, or its error
     /// (state rolled back).
-    fn finish_contact_step(&self, outcome: &Outcome) -> Result<StepReport, BackendError> {
+    fn finish_contact_step(&mut self, outcome: &Outcome) -> Result<StepReport, BackendError> {
         let block =
             self.read_mapped(&self.buffers.report_staging, 16 + self.buffers.report_bytes)?;
-        if let Some((call, index)) = self.failure(&block) {
-            self.rollback()?;
+        if let Some(failed) = self.failure(&block) {
+            let (call, index) = if self.schedule.mode == StepMode::Fused {
+                self.diagnose(failed)?
+            } else {
+                self.rollback()?;
+                failed
+            };
             return Err(self.step_error(call, index));
         }
         let report = crate::params::read_reals(&block[16..], self.precision);
-        let mut residuals = Vec::with_capacity(self.plan.families.len() + 1);
-        let mut active_contacts = outcome.active as usize;
-        for (family, f) in self.plan.families.iter().enumerate() {
-            residuals.push(FamilyResidual {
-                label: f.label.clone(),
-                max_violation: report[2 * family],
-            });
-            if f.kind.is_inequality() {
-                active_contacts += report[2 * family + 1] as usize;
-            }
-        }
-        residuals.push(FamilyResidual {
+        let (mut residuals, active_contacts) = crate::xpbd::read_report(&self.plan, &report);
+        residuals.push(hyperpbd_core::FamilyResidual {
             label: "collisions".into(),
             max_violation: outcome.deepest,
         });
-        let mut kernel_calls: Vec<(StageName, u64)> =
-            self.plan.stages.iter().map(|&s| (s, 0)).collect();
-        for kernel in &self.plan.substep_kernels {
-            if let Some(entry) = kernel_calls.iter_mut().find(|(s, _)| *s == kernel.stage()) {
-                entry.1 += u64::from(self.plan.substeps);
-            }
-        }
         Ok(StepReport {
-            kernel_calls,
+            kernel_calls: self.plan.kernel_counts(),
             residuals,
-            active_contacts,
-            minimisation: Vec::new(),
+            active_contacts: active_contacts + outcome.active as usize,
+            ..StepReport::default()
         })
     }
 
@@ -262,24 +257,20 @@ impl GpuBackend {
             )));
         };
         let call = index as u32;
+        self.state.forget_snapshot();
         for _ in 0..=MAX_REGROWTHS {
             let Some(stage) = &self.contacts else {
                 break;
             };
             self.reset_status();
             stage.buffers.reset();
-            let mut encoder = self.device.create_command_encoder(&Default::default());
+            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
                 stage.encode(&mut pass, kernel, call);
             }
-            encoder.copy_buffer_to_buffer(
-                &self.buffers.status,
-                0,
-                &self.buffers.report_staging,
-                0,
-                16,
-            );
+            let staging = &self.buffers.report_staging;
+            encoder.copy_buffer_to_buffer(&self.buffers.status, 0, staging, 0, 16);
             stage.buffers.copy_outcome(&mut encoder);
             self.submit_and_wait(encoder)?;
             let block = self.read_mapped(&self.buffers.report_staging, 16)?;
@@ -299,4 +290,10 @@ impl GpuBackend {
         }
         .into())
     }
+}
+
+fn unreachable_stage<T>() -> Result<T, GpuError> {
+    Err(GpuError::Other {
+        message: "contact step without a contact stage".into(),
+    })
 }

@@ -1,43 +1,43 @@
 //! Buffers of the contact kernel set, bound once (group 0) with the
-//! positions and status word they act on, plus one parameter block per
-//! kernel call (group 1, dynamic offset).
+//! particle records and status word they act on, plus one parameter block
+//! per kernel call (group 1, dynamic offset).
 //!
 //! ```text
-//! record    ⌊N/4⌋ + 1 vec4: a point and one extra real (R reals, R = 4⌊N/4⌋ + 4)
+//! record    VEC = ⌊N/4⌋ + 1 vec4: a point and one extra real in the last lane
+//!           (R = 4·VEC reals; the prelude's particle records)
 //! props     vec4 per particle [w, r, pad, 0]
 //! boxes     2 records per box      (lower corner, index), (upper corner, w)
 //! cands     2 records per box      the same, in bucket order
-//! snapshot  2 records per particle (iterate y, r), (substep start p, w)
+//! snapshot  1 record per particle  (iterate y, r)
 //! scratch   3N·1024 + 10 + n reals counters  8 + buckets u32
 //! ranges    2 u32 per bucket       words     3n + scan blocks u32
 //! lists     slots · n u32 (slots a multiple of 4; grown on demand)
 //! staging   32 bytes: counters[0..4], deepest overlap
 //! ```
-//! Device bytes per particle, without the lists: (6R + 5) reals + 7 words
+//! Device bytes per particle, without the lists: (5R + 5) reals + 7 words
 //! (two buckets each); the lists add 4 bytes per slot.
-
-use std::sync::{Arc, Mutex};
 
 use hyperpbd_core::GpuError;
 
 use super::{BOUND_THREADS, ContactKernels, buckets_for, scan_blocks_for};
-use crate::Precision;
+use crate::context::GpuContext;
+use crate::kernel_set::{BlockWriter, ParamBlocks};
+use crate::layout::{VectorLayout, record_words};
 use crate::params::{push_reals, read_reals, real_size};
 
 const NONE: u32 = u32::MAX;
 /// Status counters before the bucket counters (`COUNTERS` in contact.wgsl).
 const COUNTERS: usize = 8;
-/// u32 words of a parameter block before the friction real.
-const PARAM_WORDS: usize = 8;
-/// Bytes bound per parameter block: the words and one real (f64 at most).
-const PARAMS_BYTES: u64 = (PARAM_WORDS * 4 + 8) as u64;
 
-/// The buffers the kernels act on: the backend's resident positions and
-/// status word, or a kernel-level caller's own.
+/// The buffers the kernels act on: the particle records x v p force
+/// (prelude.wgsl) and the step's status word — the backend's resident
+/// ones, or a kernel-level caller's own.
 #[derive(Clone, Copy)]
 pub(crate) struct Bound<'a> {
     pub(crate) x: &'a wgpu::Buffer,
+    pub(crate) v: &'a wgpu::Buffer,
     pub(crate) p: &'a wgpu::Buffer,
+    pub(crate) force: &'a wgpu::Buffer,
     pub(crate) status: &'a wgpu::Buffer,
 }
 
@@ -80,37 +80,6 @@ impl Outcome {
     }
 }
 
-/// The buffers, bind groups and parameter blocks of one contact stage.
-pub(crate) struct ContactBuffers {
-    device: wgpu::Device,
-    queue: wgpu::Queue,
-    errors: Arc<Mutex<Vec<String>>>,
-    dim: usize,
-    precision: Precision,
-    n: usize,
-    buckets: usize,
-    slots: usize,
-    friction: f64,
-    blocks: Vec<Block>,
-    stride: u32,
-    x: wgpu::Buffer,
-    p: wgpu::Buffer,
-    status: wgpu::Buffer,
-    props: wgpu::Buffer,
-    boxes: wgpu::Buffer,
-    cands: wgpu::Buffer,
-    snapshot: wgpu::Buffer,
-    scratch: wgpu::Buffer,
-    counters: wgpu::Buffer,
-    ranges: wgpu::Buffer,
-    words: wgpu::Buffer,
-    lists: wgpu::Buffer,
-    params: wgpu::Buffer,
-    pub(super) group: wgpu::BindGroup,
-    pub(super) params_group: wgpu::BindGroup,
-    staging: wgpu::Buffer,
-}
-
 /// The per-particle constants of a contact stage.
 pub(crate) struct Particles<'a> {
     pub(crate) inverse_mass: &'a [f64],
@@ -121,11 +90,38 @@ pub(crate) struct Particles<'a> {
     pub(crate) friction: f64,
 }
 
+/// The buffers, bind groups and parameter blocks of one contact stage.
+pub(crate) struct ContactBuffers {
+    ctx: GpuContext,
+    dim: usize,
+    precision: crate::Precision,
+    n: usize,
+    buckets: usize,
+    slots: usize,
+    friction: f64,
+    blocks: Vec<Block>,
+    offsets: Vec<u32>,
+    /// x v p force status, then the contact buffers, in binding order.
+    bound: [wgpu::Buffer; 5],
+    props: wgpu::Buffer,
+    boxes: wgpu::Buffer,
+    cands: wgpu::Buffer,
+    snapshot: wgpu::Buffer,
+    scratch: wgpu::Buffer,
+    counters: wgpu::Buffer,
+    ranges: wgpu::Buffer,
+    words: wgpu::Buffer,
+    lists: wgpu::Buffer,
+    pub(super) group: wgpu::BindGroup,
+    pub(super) params_group: wgpu::BindGroup,
+    staging: wgpu::Buffer,
+}
+
 impl ContactBuffers {
     /// Buffers for `particles` with `slots` list entries per particle,
     /// bound to `bound`, with the parameter blocks `blocks`.
     pub(crate) fn new(
-        (device, queue, errors): (&wgpu::Device, &wgpu::Queue, Arc<Mutex<Vec<String>>>),
+        ctx: &GpuContext,
         kernels: &ContactKernels,
         bound: Bound,
         particles: &Particles,
@@ -148,8 +144,8 @@ impl ContactBuffers {
                 // The golden path's pad r + m; in f32 rounded up so the
                 // device box holds the f64 one.
                 let pad = match precision {
-                    Precision::F64 => r + particles.margin,
-                    Precision::F32 => {
+                    crate::Precision::F64 => r + particles.margin,
+                    crate::Precision::F32 => {
                         f64::from(hyperpbd_core::broadphase::key_up(r + particles.margin))
                     }
                 };
@@ -158,56 +154,52 @@ impl ContactBuffers {
             .collect();
         let buckets = buckets_for(n);
         let r = real_size(precision);
-        let limits = device.limits();
-        let storage = wgpu::BufferUsages::STORAGE
-            | wgpu::BufferUsages::COPY_DST
-            | wgpu::BufferUsages::COPY_SRC;
-        let make = |label: &str, bytes: &[u8], usage| {
-            crate::backend::create_buffer(device, queue, &limits, label, bytes, usage)
-        };
+        let record = 4 * record_words(dim);
         let zeros = |count: usize| vec![0u8; count];
-        let reals = |values: &[f64]| {
-            let mut out = Vec::with_capacity(values.len() * r);
-            push_reals(&mut out, values, precision);
-            out
-        };
-        let scratch_reals = 3 * dim * BOUND_THREADS as usize + 10 + n;
-        let record = record_reals(dim);
-        let align = limits.min_storage_buffer_offset_alignment;
-        let stride = (PARAMS_BYTES as u32).div_ceil(align) * align;
+        let mut props_bytes = Vec::with_capacity(props.len() * r);
+        push_reals(&mut props_bytes, &props, precision);
         let mut counters = vec![0u32, NONE, 0, 0];
         counters.resize(COUNTERS + buckets, 0);
         let slots = slots_for(slots);
-        let params = make(
-            "contact params",
-            &zeros(stride as usize * blocks.len().max(1)),
-            storage,
+        let scratch_reals = 3 * dim * BOUND_THREADS as usize + 10 + n;
+        let props = ctx.storage("contact props", &props_bytes)?;
+        let boxes = ctx.storage("contact boxes", &zeros(2 * record * n * r))?;
+        let cands = ctx.storage("contact candidates", &zeros(2 * record * n * r))?;
+        let snapshot = ctx.storage("contact snapshot", &zeros(record * n * r))?;
+        let scratch = ctx.storage("contact scratch", &zeros(scratch_reals * r))?;
+        let counters = ctx.storage("contact counters", bytemuck::cast_slice(&counters))?;
+        let ranges = ctx.storage("contact ranges", &zeros(8 * buckets))?;
+        let words = ctx.storage(
+            "contact words",
+            &zeros(4 * (3 * n + scan_blocks_for(buckets))),
         )?;
-        let mut buffers = ContactBuffers {
-            props: make("contact props", &reals(&props), storage)?,
-            boxes: make("contact boxes", &zeros(2 * record * n * r), storage)?,
-            cands: make("contact candidates", &zeros(2 * record * n * r), storage)?,
-            snapshot: make("contact snapshot", &zeros(2 * record * n * r), storage)?,
-            scratch: make("contact scratch", &zeros(scratch_reals * r), storage)?,
-            counters: make("contact counters", bytemuck::cast_slice(&counters), storage)?,
-            ranges: make("contact ranges", &zeros(8 * buckets), storage)?,
-            words: make(
-                "contact words",
-                &zeros(4 * (3 * n + scan_blocks_for(buckets))),
-                storage,
-            )?,
-            lists: empty_storage(device, "contact lists", 4 * (slots * n) as u64)?,
-            staging: make(
-                "contact staging",
-                &zeros(32),
-                wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            )?,
-            group: placeholder(device, &kernels.params_layout, &params),
-            params_group: placeholder(device, &kernels.params_layout, &params),
-            params,
-            device: device.clone(),
-            queue: queue.clone(),
-            errors,
+        let lists = empty_storage(ctx, "contact lists", 4 * (slots * n) as u64)?;
+        let staging = ctx.staging("contact staging", 32)?;
+        let bound = [
+            bound.x.clone(),
+            bound.v.clone(),
+            bound.p.clone(),
+            bound.force.clone(),
+            bound.status.clone(),
+        ];
+        let (group, params_group, offsets) = bind(
+            ctx,
+            kernels,
+            [
+                &bound[0], &bound[1], &bound[2], &bound[3], &bound[4], &props, &boxes, &cands,
+                &snapshot, &scratch, &counters, &ranges, &words, &lists,
+            ],
+            &ParamsOf {
+                blocks: &blocks,
+                n,
+                buckets,
+                slots,
+                friction: particles.friction,
+                precision,
+            },
+        )?;
+        Ok(ContactBuffers {
+            ctx: ctx.clone(),
             dim,
             precision,
             n,
@@ -215,15 +207,21 @@ impl ContactBuffers {
             slots,
             friction: particles.friction,
             blocks,
-            stride,
-            x: bound.x.clone(),
-            p: bound.p.clone(),
-            status: bound.status.clone(),
-        };
-        buffers.rebind(kernels);
-        buffers.write_params();
-        crate::device_errors::take_device_errors(&buffers.errors)?;
-        Ok(buffers)
+            offsets,
+            bound,
+            props,
+            boxes,
+            cands,
+            snapshot,
+            scratch,
+            counters,
+            ranges,
+            words,
+            lists,
+            group,
+            params_group,
+            staging,
+        })
     }
 
     pub(crate) fn particles(&self) -> usize {
@@ -245,79 +243,52 @@ impl ContactBuffers {
     }
 
     pub(super) fn block_offset(&self, block: usize) -> u32 {
-        block as u32 * self.stride
-    }
-
-    /// Writes the parameter blocks (at load and after a growth).
-    fn write_params(&self) {
-        let mut bytes = Vec::with_capacity(self.stride as usize * self.blocks.len());
-        for block in &self.blocks {
-            let start = bytes.len();
-            let words = [
-                block.call,
-                self.n as u32,
-                self.buckets as u32,
-                self.slots as u32,
-                self.scan_blocks() as u32,
-                block.flags,
-                block.axis,
-                0,
-            ];
-            bytes.extend_from_slice(bytemuck::cast_slice(&words));
-            push_reals(&mut bytes, &[self.friction], self.precision);
-            bytes.resize(start + self.stride as usize, 0);
-        }
-        if !bytes.is_empty() {
-            self.queue.write_buffer(&self.params, 0, &bytes);
-        }
+        self.offsets.get(block).copied().unwrap_or(0)
     }
 
     /// Grows the lists to at least `need` slots per particle (doubling at
     /// least), keeping everything else.
     pub(crate) fn grow(&mut self, kernels: &ContactKernels, need: usize) -> Result<(), GpuError> {
         let slots = slots_for(need.max(2 * self.slots));
-        self.lists = empty_storage(&self.device, "contact lists", 4 * (slots * self.n) as u64)?;
+        self.lists = empty_storage(&self.ctx, "contact lists", 4 * (slots * self.n) as u64)?;
         self.slots = slots;
-        self.rebind(kernels);
-        self.write_params();
-        crate::device_errors::take_device_errors(&self.errors)
-    }
-
-    /// Both bind groups over the current buffers (at load, after a growth).
-    fn rebind(&mut self, kernels: &ContactKernels) {
-        let resources = [
-            &self.x,
-            &self.p,
-            &self.status,
-            &self.props,
-            &self.boxes,
-            &self.cands,
-            &self.snapshot,
-            &self.scratch,
-            &self.counters,
-            &self.ranges,
-            &self.words,
-            &self.lists,
-        ];
-        let entries: Vec<_> = resources
-            .iter()
-            .enumerate()
-            .map(|(b, buffer)| wgpu::BindGroupEntry {
-                binding: b as u32,
-                resource: buffer.as_entire_binding(),
-            })
-            .collect();
-        self.group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("hyperpbd contact"),
-            layout: &kernels.layout,
-            entries: &entries,
-        });
-        self.params_group = placeholder(&self.device, &kernels.params_layout, &self.params);
+        let b = &self.bound;
+        let (group, params_group, offsets) = bind(
+            &self.ctx,
+            kernels,
+            [
+                &b[0],
+                &b[1],
+                &b[2],
+                &b[3],
+                &b[4],
+                &self.props,
+                &self.boxes,
+                &self.cands,
+                &self.snapshot,
+                &self.scratch,
+                &self.counters,
+                &self.ranges,
+                &self.words,
+                &self.lists,
+            ],
+            &ParamsOf {
+                blocks: &self.blocks,
+                n: self.n,
+                buckets: self.buckets,
+                slots,
+                friction: self.friction,
+                precision: self.precision,
+            },
+        )?;
+        (self.group, self.params_group, self.offsets) = (group, params_group, offsets);
+        self.ctx.check()
     }
 
     /// Clears the counters the outcome reads (before a submission).
     pub(crate) fn reset(&self) {
-        self.queue
+        self.ctx
+            .queue
             .write_buffer(&self.counters, 0, bytemuck::cast_slice(&[0u32, NONE, 0, 0]));
     }
 
@@ -331,7 +302,7 @@ impl ContactBuffers {
 
     /// Reads the outcome copied by the last waited-for submission.
     pub(crate) fn read_outcome(&self) -> Result<Outcome, GpuError> {
-        let bytes = crate::readback::read_mapped(&self.device, &self.staging, 32)?;
+        let bytes = self.ctx.read(&self.staging, 32)?;
         let words: &[u32] = bytemuck::cast_slice(&bytes[..16]);
         let deepest = read_reals(&bytes[16..16 + real_size(self.precision)], self.precision);
         Ok(Outcome {
@@ -342,48 +313,23 @@ impl ContactBuffers {
         })
     }
 
-    /// Flat points (`dim` per point) with one extra each, as records.
-    fn records(&self, points: &[f64], extra: impl Fn(usize) -> f64) -> Vec<u8> {
-        let d = self.dim;
-        let record = record_reals(d);
-        let mut values = Vec::with_capacity(record * points.len() / d.max(1));
-        for (i, point) in points.chunks_exact(d).enumerate() {
-            let at = values.len();
-            values.extend_from_slice(point);
-            values.push(extra(i));
-            values.resize(at + record, 0.0);
-        }
-        let mut bytes = Vec::new();
-        push_reals(&mut bytes, &values, self.precision);
-        bytes
-    }
-
     /// Writes given boxes (flat corners, `dim` per box) as the kernels
     /// hold them: (lower corner, index), (upper corner, 0).
     pub(crate) fn write_boxes(&self, min: &[f64], max: &[f64]) {
-        let lower = self.records(min, |i| i as f64);
-        let upper = self.records(max, |_| 0.0);
-        let half = lower.len() / self.n.max(1);
-        let mut bytes = Vec::with_capacity(2 * lower.len());
-        for (lo, hi) in lower
-            .chunks_exact(half.max(1))
-            .zip(upper.chunks_exact(half.max(1)))
-        {
-            bytes.extend_from_slice(lo);
-            bytes.extend_from_slice(hi);
+        let (d, n) = (self.dim, self.n);
+        let index: Vec<f64> = (0..n).map(|i| i as f64).collect();
+        let lower = VectorLayout::Record.pack(d, min, Some(&index));
+        let upper = VectorLayout::Record.pack(d, max, None);
+        let record = 4 * record_words(d);
+        let mut values = Vec::with_capacity(2 * lower.len());
+        for (lo, hi) in lower.chunks_exact(record).zip(upper.chunks_exact(record)) {
+            values.extend_from_slice(lo);
+            values.extend_from_slice(hi);
         }
+        let mut bytes = Vec::new();
+        push_reals(&mut bytes, &values, self.precision);
         if !bytes.is_empty() {
-            self.queue.write_buffer(&self.boxes, 0, &bytes);
-        }
-    }
-
-    /// Writes the substep starts p (flat) and inverse masses where the
-    /// broadphase keeps them for the contact iterations.
-    pub(crate) fn write_starts(&self, p: &[f64], inverse_mass: &[f64]) {
-        let bytes = self.records(p, |i| inverse_mass[i]);
-        if !bytes.is_empty() {
-            let at = (record_reals(self.dim) * self.n * real_size(self.precision)) as u64;
-            self.queue.write_buffer(&self.snapshot, at, &bytes);
+            self.ctx.queue.write_buffer(&self.boxes, 0, &bytes);
         }
     }
 
@@ -433,38 +379,60 @@ impl ContactBuffers {
             }
         }
         if n > 0 {
-            self.queue
-                .write_buffer(&self.words, 4 * n as u64, bytemuck::cast_slice(&lengths));
-            self.queue
-                .write_buffer(&self.lists, 0, bytemuck::cast_slice(&entries));
+            let queue = &self.ctx.queue;
+            queue.write_buffer(&self.words, 4 * n as u64, bytemuck::cast_slice(&lengths));
+            queue.write_buffer(&self.lists, 0, bytemuck::cast_slice(&entries));
         }
     }
 }
 
-/// Group 1 over one parameter block of `params` (the dynamic offset picks
-/// the block).
-fn placeholder(
-    device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
-    params: &wgpu::Buffer,
-) -> wgpu::BindGroup {
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("hyperpbd contact params"),
-        layout,
-        entries: &[wgpu::BindGroupEntry {
-            binding: 0,
-            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                buffer: params,
-                offset: 0,
-                size: wgpu::BufferSize::new(PARAMS_BYTES),
-            }),
-        }],
-    })
+/// What the parameter blocks hold.
+struct ParamsOf<'a> {
+    blocks: &'a [Block],
+    n: usize,
+    buckets: usize,
+    slots: usize,
+    friction: f64,
+    precision: crate::Precision,
 }
 
-/// Reals of one record (contact.wgsl): ⌊N/4⌋ + 1 vec4.
-fn record_reals(dim: usize) -> usize {
-    4 * (dim / 4 + 1)
+/// Group 0 over `buffers` (binding order of contact.wgsl), the parameter
+/// blocks (`ContactParams`) and group 1 over them; returns both groups and
+/// each block's dynamic offset.
+fn bind(
+    ctx: &GpuContext,
+    kernels: &ContactKernels,
+    buffers: [&wgpu::Buffer; 14],
+    params: &ParamsOf,
+) -> Result<(wgpu::BindGroup, wgpu::BindGroup, Vec<u32>), GpuError> {
+    let mut blocks = ParamBlocks::new(&ctx.device);
+    let offsets = params
+        .blocks
+        .iter()
+        .map(|b| {
+            let words = [
+                b.call,
+                params.n as u32,
+                params.buckets as u32,
+                params.slots as u32,
+                scan_blocks_for(params.buckets) as u32,
+                b.flags,
+                b.axis,
+                0,
+            ];
+            blocks.push(
+                &BlockWriter::new(params.precision)
+                    .words(&words)
+                    .reals(&[params.friction])
+                    .finish(),
+            )
+        })
+        .collect();
+    let size = blocks.block_size();
+    let buffer = blocks.finish(ctx, "contact params")?;
+    let group = kernels.set.bind(&ctx.device, 0, &buffers, 0)?;
+    let params_group = kernels.set.bind(&ctx.device, 1, &[&buffer], size)?;
+    Ok((group, params_group, offsets))
 }
 
 /// List slots for at least `slots` entries: a multiple of 4 (one vec4 of
@@ -475,8 +443,8 @@ fn slots_for(slots: usize) -> usize {
 
 /// An uninitialised storage buffer of `bytes` (at least 16), refused with
 /// a typed error beyond the device's limits.
-fn empty_storage(device: &wgpu::Device, label: &str, bytes: u64) -> Result<wgpu::Buffer, GpuError> {
-    let limits = device.limits();
+fn empty_storage(ctx: &GpuContext, label: &str, bytes: u64) -> Result<wgpu::Buffer, GpuError> {
+    let limits = ctx.device.limits();
     let size = bytes.max(16).next_multiple_of(4);
     let maximum = limits
         .max_storage_buffer_binding_size
@@ -488,7 +456,7 @@ fn empty_storage(device: &wgpu::Device, label: &str, bytes: u64) -> Result<wgpu:
             maximum,
         });
     }
-    Ok(device.create_buffer(&wgpu::BufferDescriptor {
+    Ok(ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size,
         usage: wgpu::BufferUsages::STORAGE

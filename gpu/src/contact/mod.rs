@@ -1,6 +1,7 @@
 //! The contact kernel set: broadphase on a hashed grid, per-particle
 //! contact lists and the gather-Jacobi contact iteration, all on the
-//! device (`shaders/{contact,scan,grid,collide}.wgsl`).
+//! device (`shaders/{contact,scan,grid,collide}.wgsl` after the prelude),
+//! built with the kernel-set builder.
 //!
 //! ```text
 //! broadphase   boxes_and_bounds → grid_frame → bin_count → scan (3) → bin_fill
@@ -11,16 +12,16 @@
 //! ```
 //! Every dispatch size is the particle count, the bucket count or a
 //! constant — known when the plan is loaded — so nothing waits for a count
-//! from the device inside a step: the lists have a fixed number of slots
-//! per particle, the longest list found is reported in the outcome, and a
-//! list that did not fit (outcome: "need N slots") makes the caller grow
-//! the lists and rerun from the saved state ([`ContactBuffers::grow`]).
-//! Nothing is dropped silently.
+//! from the device inside a step (no indirect dispatch is needed): the
+//! lists have a fixed number of slots per particle, the longest list found
+//! is reported in the outcome, and a list that did not fit (outcome: "need
+//! N slots") makes the caller grow the lists and rerun from the saved
+//! state ([`ContactBuffers::grow`]). Nothing is dropped silently.
 //!
 //! Three users share it: [`crate::GpuBackend`] (the step, bound to its
-//! resident x, p and status word), [`crate::GpuSweep`] (boxes given, lists
-//! read back as canonical pairs) and [`crate::GpuCollide`] (one iteration
-//! on given lists).
+//! resident particle records and status word), [`crate::GpuSweep`] (boxes
+//! given, lists read back as canonical pairs) and [`crate::GpuCollide`]
+//! (iterations on given lists).
 
 mod buffers;
 
@@ -29,11 +30,9 @@ pub(crate) use buffers::{Block, Bound, ContactBuffers, Outcome, Particles};
 use hyperpbd_core::GpuError;
 
 use crate::Precision;
-use crate::shader::{ShaderFile, compose};
+use crate::kernel_set::{Binding, EntryPoint, KernelSet, KernelSetSpec};
+use crate::shader::ShaderFile;
 
-/// Particles per workgroup of the per-particle kernels.
-const WORKGROUP: u32 = 64;
-const MAX_GROUPS_X: u32 = 65_535;
 /// Invocations of `boxes_and_bounds` (`BOUND_THREADS` in contact.wgsl).
 const BOUND_THREADS: u32 = 1024;
 /// Hash-bucket counters per scan block (`SCAN_BLOCK` in scan.wgsl).
@@ -44,7 +43,7 @@ pub(crate) const BOXES_FROM_STATE: u32 = 2;
 
 /// Every entry point of the set, in dispatch order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum ContactEntry {
+pub(crate) enum ContactEntry {
     BoxesAndBounds,
     GridFrame,
     BinCount,
@@ -74,7 +73,9 @@ impl ContactEntry {
         ContactEntry::Report,
         ContactEntry::ReportFinal,
     ];
+}
 
+impl EntryPoint for ContactEntry {
     fn source(self) -> (ShaderFile, &'static str) {
         match self {
             ContactEntry::BoxesAndBounds => (ShaderFile::Grid, "boxes_and_bounds"),
@@ -93,20 +94,31 @@ impl ContactEntry {
     }
 }
 
-/// Layouts and pipelines of the set, for one dimension and precision.
+/// Group 0 (contact.wgsl): the prelude's x v p force, then status props
+/// boxes cands snapshot scratch counters ranges words lists.
+const BINDINGS: [Binding; 14] = [
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::READ,
+    Binding::WRITE,
+    Binding::READ,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::WRITE,
+];
+
+/// The contact kernel set for one dimension and precision.
 pub(crate) struct ContactKernels {
     dim: usize,
     precision: Precision,
-    layout: wgpu::BindGroupLayout,
-    params_layout: wgpu::BindGroupLayout,
-    pipelines: Vec<wgpu::ComputePipeline>,
+    set: KernelSet<ContactEntry>,
 }
-
-/// Read-only flags of the group-0 bindings (contact.wgsl), in order:
-/// x p status props boxes cands snapshot scratch counters ranges words lists.
-const READ_ONLY: [bool; 12] = [
-    false, true, false, true, false, false, false, false, false, false, false, false,
-];
 
 impl ContactKernels {
     /// Builds every pipeline of the set on `device`.
@@ -123,96 +135,25 @@ impl ContactKernels {
                 ),
             });
         }
-        let needed = READ_ONLY.len() as u32 + 1;
-        if device.limits().max_storage_buffers_per_shader_stage < needed {
-            return Err(GpuError::Unsupported {
-                what: format!("the contact kernels need {needed} storage buffers per shader stage"),
-            });
-        }
-        let entries: Vec<_> = READ_ONLY
-            .iter()
-            .enumerate()
-            .map(|(b, &ro)| crate::pipelines::storage(b as u32, ro, false))
-            .collect();
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("hyperpbd contact"),
-            entries: &entries,
-        });
-        let params_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("hyperpbd contact params"),
-            entries: &[crate::pipelines::storage(0, true, true)],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("hyperpbd contact"),
-            bind_group_layouts: &[Some(&layout), Some(&params_layout)],
-            immediate_size: 0,
-        });
-        let modules: Vec<(ShaderFile, wgpu::ShaderModule)> = ShaderFile::CONTACT
-            .iter()
-            .map(|&file| {
-                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some(file.file_name()),
-                    source: wgpu::ShaderSource::Wgsl(compose(file, dim, precision).into()),
-                });
-                (file, module)
-            })
-            .collect();
-        let mut pipelines = Vec::new();
-        for entry in ContactEntry::ALL {
-            let (file, name) = entry.source();
-            let Some((_, module)) = modules.iter().find(|(f, _)| *f == file) else {
-                return Err(GpuError::Other {
-                    message: format!("no module for {file:?}"),
-                });
-            };
-            pipelines.push(
-                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(name),
-                    layout: Some(&pipeline_layout),
-                    module,
-                    entry_point: Some(name),
-                    compilation_options: Default::default(),
-                    cache: None,
-                }),
-            );
-        }
+        let set = KernelSet::new(
+            device,
+            &KernelSetSpec {
+                label: "hyperpbd contact",
+                dim,
+                precision,
+                groups: &[&BINDINGS, &[Binding::BLOCK]],
+                entries: &ContactEntry::ALL,
+            },
+        )?;
         Ok(ContactKernels {
             dim,
             precision,
-            layout,
-            params_layout,
-            pipelines,
+            set,
         })
     }
-
-    fn pipeline(&self, entry: ContactEntry) -> &wgpu::ComputePipeline {
-        let index = ContactEntry::ALL
-            .iter()
-            .position(|&e| e == entry)
-            .unwrap_or(0);
-        &self.pipelines[index]
-    }
-}
-
-/// Workgroups (x, y) for one invocation per particle.
-fn per_particle(n: usize) -> (u32, u32) {
-    let groups = (n as u32).div_ceil(WORKGROUP).max(1);
-    let x = groups.min(MAX_GROUPS_X);
-    (x, groups.div_ceil(x))
 }
 
 impl ContactBuffers {
-    fn dispatch(
-        &self,
-        kernels: &ContactKernels,
-        pass: &mut wgpu::ComputePass<'_>,
-        entry: ContactEntry,
-        groups: (u32, u32),
-    ) {
-        pass.set_pipeline(kernels.pipeline(entry));
-        pass.dispatch_workgroups(groups.0, groups.1, 1);
-    }
-
     fn bind(&self, pass: &mut wgpu::ComputePass<'_>, block: usize) {
         pass.set_bind_group(0, &self.group, &[]);
         pass.set_bind_group(1, &self.params_group, &[self.block_offset(block)]);
@@ -226,26 +167,22 @@ impl ContactBuffers {
         pass: &mut wgpu::ComputePass<'_>,
         block: usize,
     ) {
-        if self.particles() == 0 {
+        let n = self.particles() as u32;
+        if n == 0 {
             return;
         }
         self.bind(pass, block);
-        let each = per_particle(self.particles());
-        let scan = (self.scan_blocks() as u32, 1);
+        let set = &kernels.set;
+        let scan = self.scan_blocks() as u32;
         use ContactEntry::*;
-        self.dispatch(
-            kernels,
-            pass,
-            BoxesAndBounds,
-            (BOUND_THREADS / WORKGROUP, 1),
-        );
-        self.dispatch(kernels, pass, GridFrame, (1, 1));
-        self.dispatch(kernels, pass, BinCount, each);
-        self.dispatch(kernels, pass, ScanReduce, scan);
-        self.dispatch(kernels, pass, ScanTop, (1, 1));
-        self.dispatch(kernels, pass, ScanApply, scan);
-        self.dispatch(kernels, pass, BinFill, each);
-        self.dispatch(kernels, pass, Neighbours, each);
+        set.dispatch(pass, BoxesAndBounds, BOUND_THREADS);
+        set.dispatch_workgroups(pass, GridFrame, 1);
+        set.dispatch(pass, BinCount, n);
+        set.dispatch_workgroups(pass, ScanReduce, scan);
+        set.dispatch_workgroups(pass, ScanTop, 1);
+        set.dispatch_workgroups(pass, ScanApply, scan);
+        set.dispatch(pass, BinFill, n);
+        set.dispatch(pass, Neighbours, n);
     }
 
     /// Records one contact iteration (parameter block `block`).
@@ -255,13 +192,13 @@ impl ContactBuffers {
         pass: &mut wgpu::ComputePass<'_>,
         block: usize,
     ) {
-        if self.particles() == 0 {
+        let n = self.particles() as u32;
+        if n == 0 {
             return;
         }
         self.bind(pass, block);
-        let each = per_particle(self.particles());
-        self.dispatch(kernels, pass, ContactEntry::Snapshot, each);
-        self.dispatch(kernels, pass, ContactEntry::Collide, each);
+        kernels.set.dispatch(pass, ContactEntry::Snapshot, n);
+        kernels.set.dispatch(pass, ContactEntry::Collide, n);
     }
 
     /// Records the report of the last lists on the current positions:
@@ -272,13 +209,15 @@ impl ContactBuffers {
         pass: &mut wgpu::ComputePass<'_>,
         block: usize,
     ) {
-        if self.particles() == 0 {
+        let n = self.particles() as u32;
+        if n == 0 {
             return;
         }
         self.bind(pass, block);
-        let each = per_particle(self.particles());
-        self.dispatch(kernels, pass, ContactEntry::Report, each);
-        self.dispatch(kernels, pass, ContactEntry::ReportFinal, (1, 1));
+        kernels.set.dispatch(pass, ContactEntry::Report, n);
+        kernels
+            .set
+            .dispatch_workgroups(pass, ContactEntry::ReportFinal, 1);
     }
 }
 

@@ -1,0 +1,185 @@
+//! A device with the rules every GPU backend follows: how it is created,
+//! how its failures become typed errors, how work is submitted and waited
+//! for, how buffers are created and read back.
+//!
+//! ```text
+//! GpuContext::new(adapter, precision)   device + queue (the features the
+//!                                       precision needs), the uncaptured-
+//!                                       error sink, the device-lost flag
+//! check()           lost → DeviceLost; reported errors → OutOfMemory / Other
+//! submit_and_wait   submit, wait for that submission, check()
+//! buffer            a buffer of the given bytes; over the device limits →
+//!                   BufferTooLarge naming it, before asking the device
+//! read              map a MAP_READ buffer, copy, unmap (readback.rs)
+//! building(f)       runs f inside out-of-memory and validation error scopes
+//! ```
+
+use std::sync::{Arc, Mutex};
+
+use hyperpbd_core::{BackendError, GpuError};
+
+use crate::{AdapterSummary, Precision};
+
+/// A device, its queue, and where its errors go (clones share them).
+#[derive(Clone)]
+pub(crate) struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    /// The adapter the device was created on.
+    pub summary: AdapterSummary,
+    errors: Arc<Mutex<Vec<String>>>,
+    lost: Arc<Mutex<Option<String>>>,
+}
+
+impl GpuContext {
+    /// A device on `adapter` with the features `precision` needs.
+    pub fn new(adapter: &wgpu::Adapter, precision: Precision) -> Result<Self, GpuError> {
+        let summary = AdapterSummary::of(adapter);
+        let (device, queue) = crate::request_device(adapter, precision)?;
+        let errors = crate::device_errors::collect_device_errors(&device);
+        let lost: Arc<Mutex<Option<String>>> = Arc::default();
+        let sink = lost.clone();
+        device.set_device_lost_callback(move |reason, message| {
+            if let Ok(mut l) = sink.lock() {
+                *l = Some(format!("{reason:?}: {message}"));
+            }
+        });
+        Ok(GpuContext {
+            device,
+            queue,
+            summary,
+            errors,
+            lost,
+        })
+    }
+
+    /// A lost device, then any error the device reported since the last
+    /// check.
+    pub fn check(&self) -> Result<(), GpuError> {
+        if let Ok(l) = self.lost.lock()
+            && let Some(message) = l.clone()
+        {
+            return Err(GpuError::DeviceLost { message });
+        }
+        crate::device_errors::take_device_errors(&self.errors)
+    }
+
+    /// Submits `encoder` and waits for it.
+    pub fn submit_and_wait(&self, encoder: wgpu::CommandEncoder) -> Result<(), GpuError> {
+        let index = self.submit(encoder)?;
+        self.wait(index)
+    }
+
+    /// Submits `encoder` without waiting.
+    pub fn submit(&self, encoder: wgpu::CommandEncoder) -> Result<wgpu::SubmissionIndex, GpuError> {
+        let index = self.queue.submit(Some(encoder.finish()));
+        self.check()?;
+        Ok(index)
+    }
+
+    /// Waits for the submission `index`.
+    pub fn wait(&self, index: wgpu::SubmissionIndex) -> Result<(), GpuError> {
+        self.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(index),
+                timeout: None,
+            })
+            .map_err(|e| {
+                // The device-lost callback's reason, when it has fired, says
+                // more than the failed wait.
+                self.check().err().unwrap_or(GpuError::DeviceLost {
+                    message: e.to_string(),
+                })
+            })?;
+        self.check()
+    }
+
+    /// Maps the first `len` bytes of `buffer` (its copies submitted) and
+    /// returns them.
+    pub fn read(&self, buffer: &wgpu::Buffer, len: u64) -> Result<Vec<u8>, GpuError> {
+        crate::readback::read_mapped(&self.device, buffer, len)
+    }
+
+    /// A buffer holding `bytes` (at least 16 bytes), refusing sizes over the
+    /// device limits with a typed error naming `label`.
+    pub fn buffer(
+        &self,
+        label: &str,
+        bytes: &[u8],
+        usage: wgpu::BufferUsages,
+    ) -> Result<wgpu::Buffer, GpuError> {
+        let limits = self.device.limits();
+        let size = (bytes.len() as u64).max(16).next_multiple_of(4);
+        let maximum = if usage.contains(wgpu::BufferUsages::STORAGE) {
+            limits
+                .max_storage_buffer_binding_size
+                .min(limits.max_buffer_size)
+        } else {
+            limits.max_buffer_size
+        };
+        if size > maximum {
+            return Err(GpuError::BufferTooLarge {
+                buffer: label.into(),
+                requested: size,
+                maximum,
+            });
+        }
+        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage: usage | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        if !bytes.is_empty() && !usage.contains(wgpu::BufferUsages::MAP_READ) {
+            let mut padded = bytes.to_vec();
+            padded.resize(padded.len().next_multiple_of(4), 0);
+            self.queue.write_buffer(&buffer, 0, &padded);
+        }
+        Ok(buffer)
+    }
+
+    /// A storage buffer (also a copy source and destination) of `bytes`.
+    pub fn storage(&self, label: &str, bytes: &[u8]) -> Result<wgpu::Buffer, GpuError> {
+        self.buffer(
+            label,
+            bytes,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        )
+    }
+
+    /// A mappable read-back buffer of `len` bytes.
+    pub fn staging(&self, label: &str, len: u64) -> Result<wgpu::Buffer, GpuError> {
+        self.buffer(
+            label,
+            &vec![0u8; len as usize],
+            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        )
+    }
+
+    /// Runs `build` (buffer and pipeline creation) inside out-of-memory and
+    /// validation error scopes, so a device that refuses is a typed error
+    /// of the load, not a later surprise.
+    pub fn building<T>(
+        &self,
+        build: impl FnOnce() -> Result<T, BackendError>,
+    ) -> Result<T, BackendError> {
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let built = build();
+        let validation_error = pollster::block_on(validation.pop());
+        let oom_error = pollster::block_on(oom.pop());
+        if let Some(e) = oom_error {
+            return Err(GpuError::OutOfMemory {
+                message: e.to_string(),
+            }
+            .into());
+        }
+        if let Some(e) = validation_error {
+            return Err(GpuError::Other {
+                message: e.to_string(),
+            }
+            .into());
+        }
+        built
+    }
+}

@@ -1,0 +1,355 @@
+//! The kernel-set builder: the one piece of code that turns a kernel
+//! family's WGSL into wgpu objects — bind-group layouts, the shader modules,
+//! one compute pipeline per entry point, bind groups, parameter blocks — and
+//! that knows each entry point's workgroup size. Every kernel set of this
+//! crate is built with it.
+//!
+//! ```text
+//! KernelSet::new(device, &KernelSetSpec {
+//!     label, dim, precision,
+//!     groups:  [[Binding; …]; …]       bind group g, binding k = groups[g][k]
+//!     entries: [E; …]                  E: EntryPoint → (ShaderFile, "name")
+//! })
+//!   checks the storage bindings per stage against the device limit;
+//!   composes each ShaderFile once: shader::compose(file, dim, precision),
+//!   whose header carries `const WORKGROUP: u32 = file.workgroup_size()`
+//!   (every entry point is `@workgroup_size(WORKGROUP)`, so the host's
+//!   dispatch size and the shader's come from the same number);
+//!   creates one pipeline per entry on one pipeline layout.
+//! set.bind(device, g, &[buffers])     the bind group g (whole buffers; a
+//!                                     dynamic binding sees one block)
+//! ParamBlocks::new(device)            parameter blocks at the device's
+//! blocks.push(&block) -> offset       dynamic-offset alignment, one buffer,
+//! blocks.finish(ctx, label)           selected per dispatch by the offset
+//! set.dispatch(pass, entry, n)        set_pipeline + workgroups for n
+//!                                     invocations (grid split over y)
+//! ```
+//! Parameter blocks are encoded with [`BlockWriter`] (u32 words and reals of
+//! the set's precision in WGSL struct order), so every kernel set lays its
+//! blocks out the same way.
+//!
+//! A new kernel set (say, a contact solver) writes its WGSL file with
+//! `@workgroup_size(WORKGROUP)` and [`linear_index`-style] indexing, adds its
+//! [`ShaderFile`], lists its bindings and entry points, and gets everything
+//! else from here.
+//!
+//! [`linear_index`-style]: crate::shader
+
+use hyperpbd_core::GpuError;
+
+use crate::Precision;
+use crate::context::GpuContext;
+use crate::params::push_reals;
+use crate::shader::{ShaderFile, compose};
+
+/// Workgroups along x before the grid spills over to y (the WebGPU limit).
+pub(crate) const MAX_GROUPS_X: u32 = 65_535;
+
+/// One storage-buffer binding of a kernel set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Binding {
+    /// `var<storage, read>` rather than `read_write`.
+    pub read_only: bool,
+    /// Bound with a dynamic offset (one parameter block per dispatch).
+    pub dynamic: bool,
+}
+
+impl Binding {
+    /// A `read_write` storage buffer.
+    pub const WRITE: Binding = Binding {
+        read_only: false,
+        dynamic: false,
+    };
+    /// A `read` storage buffer.
+    pub const READ: Binding = Binding {
+        read_only: true,
+        dynamic: false,
+    };
+    /// A read-only parameter block selected per dispatch by a dynamic offset.
+    pub const BLOCK: Binding = Binding {
+        read_only: true,
+        dynamic: true,
+    };
+}
+
+/// A storage-buffer layout entry visible to compute shaders.
+pub(crate) fn storage(binding: u32, read_only: bool, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: dynamic,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// An entry point of a kernel set: its WGSL file and function name.
+pub(crate) trait EntryPoint: Copy + Eq + std::fmt::Debug + 'static {
+    /// The file that defines it and its name there.
+    fn source(self) -> (ShaderFile, &'static str);
+}
+
+/// What a kernel set is made of.
+pub(crate) struct KernelSetSpec<'a, E> {
+    /// Label of the layouts and pipelines (wgpu debugging).
+    pub label: &'static str,
+    /// Spatial dimension the modules are composed for.
+    pub dim: usize,
+    /// Precision the modules are composed for.
+    pub precision: Precision,
+    /// Bind groups in order; binding k of group g is `groups[g][k]`.
+    pub groups: &'a [&'a [Binding]],
+    /// Every entry point the set dispatches.
+    pub entries: &'a [E],
+}
+
+/// Layouts and pipelines of one kernel family.
+pub(crate) struct KernelSet<E> {
+    label: &'static str,
+    layouts: Vec<wgpu::BindGroupLayout>,
+    groups: Vec<Vec<Binding>>,
+    pipelines: Vec<(E, wgpu::ComputePipeline, u32)>,
+}
+
+impl<E: EntryPoint> KernelSet<E> {
+    /// Builds the layouts, modules and pipelines of `spec` on `device`.
+    pub fn new(device: &wgpu::Device, spec: &KernelSetSpec<'_, E>) -> Result<Self, GpuError> {
+        let limits = device.limits();
+        let needed: usize = spec.groups.iter().map(|g| g.len()).sum();
+        if (limits.max_storage_buffers_per_shader_stage as usize) < needed {
+            return Err(GpuError::Unsupported {
+                what: format!(
+                    "the adapter allows {} storage buffers per shader stage; the {} kernels need {needed}",
+                    limits.max_storage_buffers_per_shader_stage, spec.label
+                ),
+            });
+        }
+        let layouts: Vec<wgpu::BindGroupLayout> = spec
+            .groups
+            .iter()
+            .map(|bindings| {
+                let entries: Vec<_> = bindings
+                    .iter()
+                    .enumerate()
+                    .map(|(k, b)| storage(k as u32, b.read_only, b.dynamic))
+                    .collect();
+                device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some(spec.label),
+                    entries: &entries,
+                })
+            })
+            .collect();
+        let layout_refs: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().map(Some).collect();
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(spec.label),
+            bind_group_layouts: &layout_refs,
+            immediate_size: 0,
+        });
+        let mut modules: Vec<(ShaderFile, wgpu::ShaderModule)> = Vec::new();
+        let mut pipelines = Vec::with_capacity(spec.entries.len());
+        for &entry in spec.entries {
+            let (file, name) = entry.source();
+            if !modules.iter().any(|(f, _)| *f == file) {
+                let source = compose(file, spec.dim, spec.precision);
+                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(file.file_name()),
+                    source: wgpu::ShaderSource::Wgsl(source.into()),
+                });
+                modules.push((file, module));
+            }
+            let Some((_, module)) = modules.iter().find(|(f, _)| *f == file) else {
+                return Err(GpuError::Other {
+                    message: format!("{}: no module for {file:?}", spec.label),
+                });
+            };
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(name),
+                layout: Some(&pipeline_layout),
+                module,
+                entry_point: Some(name),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+            pipelines.push((entry, pipeline, file.workgroup_size()));
+        }
+        Ok(KernelSet {
+            label: spec.label,
+            layouts,
+            groups: spec.groups.iter().map(|g| g.to_vec()).collect(),
+            pipelines,
+        })
+    }
+
+    /// Bind group `group` over `buffers` in binding order. A dynamic
+    /// binding sees `block` bytes at the offset given per dispatch; the
+    /// others see their whole buffer.
+    pub fn bind(
+        &self,
+        device: &wgpu::Device,
+        group: usize,
+        buffers: &[&wgpu::Buffer],
+        block: u64,
+    ) -> Result<wgpu::BindGroup, GpuError> {
+        let (Some(layout), Some(bindings)) = (self.layouts.get(group), self.groups.get(group))
+        else {
+            return Err(GpuError::Other {
+                message: format!("{}: no bind group {group}", self.label),
+            });
+        };
+        if bindings.len() != buffers.len() {
+            return Err(GpuError::Other {
+                message: format!(
+                    "{}: bind group {group} has {} bindings, {} buffers given",
+                    self.label,
+                    bindings.len(),
+                    buffers.len()
+                ),
+            });
+        }
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .zip(bindings)
+            .enumerate()
+            .map(|(k, (buffer, binding))| wgpu::BindGroupEntry {
+                binding: k as u32,
+                resource: if binding.dynamic {
+                    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(block.max(4)),
+                    })
+                } else {
+                    buffer.as_entire_binding()
+                },
+            })
+            .collect();
+        Ok(device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(self.label),
+            layout,
+            entries: &entries,
+        }))
+    }
+
+    fn find(&self, entry: E) -> Option<&(E, wgpu::ComputePipeline, u32)> {
+        self.pipelines.iter().find(|(e, _, _)| *e == entry)
+    }
+
+    /// Sets `entry`'s pipeline and dispatches `invocations` invocations.
+    /// The caller has set the bind groups.
+    pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, entry: E, invocations: u32) {
+        if let Some((_, pipeline, workgroup)) = self.find(entry) {
+            let (x, y) = grid(invocations, *workgroup);
+            pass.set_pipeline(pipeline);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+    }
+
+    /// Sets `entry`'s pipeline and dispatches `workgroups` workgroups
+    /// (kernels that index by workgroup: more than 65,535 spread over y,
+    /// the kernel rebuilds x + y · groups_x).
+    pub fn dispatch_workgroups(&self, pass: &mut wgpu::ComputePass<'_>, entry: E, workgroups: u32) {
+        if let Some((_, pipeline, _)) = self.find(entry) {
+            let (x, y) = grid(workgroups, 1);
+            pass.set_pipeline(pipeline);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+    }
+}
+
+/// Workgroups (x, y) covering `invocations` at `workgroup` per group.
+pub(crate) fn grid(invocations: u32, workgroup: u32) -> (u32, u32) {
+    let groups = invocations.div_ceil(workgroup.max(1)).max(1);
+    if groups <= MAX_GROUPS_X {
+        (groups, 1)
+    } else {
+        (MAX_GROUPS_X, groups.div_ceil(MAX_GROUPS_X))
+    }
+}
+
+/// Encodes one parameter block: u32 words and reals of one precision, in
+/// the order of the WGSL struct's members. Reals are aligned to their own
+/// size (WGSL's rule for f32/f64 members and arrays of them).
+pub(crate) struct BlockWriter {
+    bytes: Vec<u8>,
+    precision: Precision,
+}
+
+impl BlockWriter {
+    /// An empty block of reals in `precision`.
+    pub fn new(precision: Precision) -> Self {
+        BlockWriter {
+            bytes: Vec::new(),
+            precision,
+        }
+    }
+
+    /// Appends u32 words.
+    pub fn words(mut self, words: &[u32]) -> Self {
+        for w in words {
+            self.bytes.extend_from_slice(&w.to_le_bytes());
+        }
+        self
+    }
+
+    /// Appends reals, first aligning to one real.
+    pub fn reals(mut self, values: &[f64]) -> Self {
+        let size = crate::params::real_size(self.precision);
+        self.bytes
+            .resize(self.bytes.len().next_multiple_of(size), 0);
+        push_reals(&mut self.bytes, values, self.precision);
+        self
+    }
+
+    /// The encoded bytes.
+    pub fn finish(self) -> Vec<u8> {
+        self.bytes
+    }
+}
+
+/// Parameter blocks of one kernel set in one buffer, each at a multiple of
+/// the device's dynamic-offset alignment.
+pub(crate) struct ParamBlocks {
+    stride_alignment: usize,
+    bytes: Vec<u8>,
+    largest: usize,
+    last: usize,
+}
+
+impl ParamBlocks {
+    /// No blocks yet; offsets will be multiples of `device`'s
+    /// `min_storage_buffer_offset_alignment`.
+    pub fn new(device: &wgpu::Device) -> Self {
+        ParamBlocks {
+            stride_alignment: device.limits().min_storage_buffer_offset_alignment as usize,
+            bytes: Vec::new(),
+            largest: 0,
+            last: 0,
+        }
+    }
+
+    /// Appends `block`; returns its dynamic offset.
+    pub fn push(&mut self, block: &[u8]) -> u32 {
+        let offset = self.bytes.len().next_multiple_of(self.stride_alignment);
+        self.bytes.resize(offset, 0);
+        self.bytes.extend_from_slice(block);
+        self.largest = self.largest.max(block.len());
+        self.last = offset;
+        offset as u32
+    }
+
+    /// Bytes one dispatch sees (the largest block, at least 16).
+    pub fn block_size(&self) -> u64 {
+        (self.largest.max(16).next_multiple_of(16)) as u64
+    }
+
+    /// The read-only storage buffer holding every block (padded so the
+    /// last block's binding fits).
+    pub fn finish(mut self, ctx: &GpuContext, label: &str) -> Result<wgpu::Buffer, GpuError> {
+        let end = self.last + self.block_size() as usize;
+        self.bytes.resize(end.max(self.bytes.len()), 0);
+        ctx.buffer(label, &self.bytes, wgpu::BufferUsages::STORAGE)
+    }
+}

@@ -1,0 +1,183 @@
+//! One kernel call of a step as the device reads it: the `Call` block of
+//! `shaders/step.wgsl`, its op codes and flags, and which particle records
+//! each per-particle call reads and writes.
+//!
+//! ```text
+//! Call   op count first family elem_base slot_base arity call      (u32)
+//!        flags kind slot_map chunk io pad pad pad                  (u32)
+//!        alpha_tilde h friction factor                             (real)
+//!        normal[DIM] gravity[DIM]                                  (real)
+//! ```
+
+use hyperpbd_core::Kernel;
+
+use crate::Precision;
+use crate::kernel_set::BlockWriter;
+
+pub(crate) const OP_PREDICT: u32 = 0;
+pub(crate) const OP_PROJECT_DISTANCE: u32 = 1;
+pub(crate) const OP_PROJECT_SIMPLEX: u32 = 2;
+pub(crate) const OP_PROJECT_ORIENTED: u32 = 3;
+pub(crate) const OP_PROJECT_CONTACT: u32 = 4;
+pub(crate) const OP_VELOCITY: u32 = 5;
+pub(crate) const OP_FRICTION: u32 = 6;
+pub(crate) const OP_DAMPING: u32 = 7;
+pub(crate) const OP_RESIDUAL: u32 = 8;
+/// A kernel the host runs itself between dispatches (broadphase, particle
+/// contact): no block of its own is ever executed.
+pub(crate) const OP_HOST: u32 = 0xff;
+
+pub(crate) const FLAG_GRAVITY: u32 = 1;
+pub(crate) const FLAG_FORCE: u32 = 2;
+pub(crate) const FLAG_FIRST: u32 = 4;
+pub(crate) const FLAG_TETHER: u32 = 8;
+
+pub(crate) const IO_LOAD_X: u32 = 1;
+pub(crate) const IO_LOAD_V: u32 = 2;
+pub(crate) const IO_LOAD_P: u32 = 4;
+pub(crate) const IO_STORE_X: u32 = 8;
+pub(crate) const IO_STORE_V: u32 = 16;
+pub(crate) const IO_STORE_P: u32 = 32;
+
+/// One kernel call, before encoding.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Call {
+    pub op: u32,
+    pub count: u32,
+    pub first: u32,
+    pub family: u32,
+    pub elem_base: u32,
+    pub slot_base: u32,
+    pub arity: u32,
+    /// Index of the plan's kernel call within the step (error reports).
+    pub call: u32,
+    pub flags: u32,
+    pub kind: u32,
+    pub slot_map: u32,
+    pub chunk: u32,
+    pub alpha_tilde: f64,
+    pub h: f64,
+    pub friction: f64,
+    pub factor: f64,
+    pub normal: Vec<f64>,
+    pub gravity: Vec<f64>,
+    /// The plan kernel this call runs (`None` for residual calls).
+    pub kernel: Option<Kernel>,
+}
+
+impl Call {
+    /// True for calls that touch one particle's records only (run per
+    /// particle by `particles`, fusable with their neighbours).
+    pub fn per_particle(&self) -> bool {
+        matches!(
+            self.op,
+            OP_PREDICT | OP_PROJECT_CONTACT | OP_VELOCITY | OP_FRICTION | OP_DAMPING
+        )
+    }
+
+    /// The encoded block (`Call` of step.wgsl).
+    pub fn encode(&self, dim: usize, precision: Precision) -> Vec<u8> {
+        let vector = |v: &[f64]| {
+            let mut out = v.to_vec();
+            out.resize(dim, 0.0);
+            out
+        };
+        BlockWriter::new(precision)
+            .words(&[
+                self.op,
+                self.count,
+                self.first,
+                self.family,
+                self.elem_base,
+                self.slot_base,
+                self.arity,
+                self.call,
+                self.flags,
+                self.kind,
+                self.slot_map,
+                self.chunk,
+                records_io(std::slice::from_ref(self)),
+                0,
+                0,
+                0,
+            ])
+            .reals(&[self.alpha_tilde, self.h, self.friction, self.factor])
+            .reals(&vector(&self.normal))
+            .reals(&vector(&self.gravity))
+            .finish()
+    }
+}
+
+/// (read, written) records of a per-particle op, as IO_LOAD_* bits.
+fn access(op: u32) -> (u32, u32) {
+    let (x, v, p) = (IO_LOAD_X, IO_LOAD_V, IO_LOAD_P);
+    match op {
+        OP_PREDICT => (x | v, x | v | p),
+        OP_PROJECT_CONTACT => (x | p, x),
+        OP_VELOCITY => (x | p, v),
+        OP_FRICTION | OP_DAMPING => (x | v, v),
+        _ => (0, 0),
+    }
+}
+
+/// The records per-particle `calls` (run in order on each particle) must
+/// load — those some call reads before an earlier one wrote them, and x
+/// whenever x or v is stored (the inverse mass in x decides) — and store.
+pub(crate) fn records_io(calls: &[Call]) -> u32 {
+    let (mut written, mut io) = (0, 0);
+    for call in calls {
+        let (reads, writes) = access(call.op);
+        io |= reads & !written;
+        written |= writes;
+    }
+    for (load, store) in [
+        (IO_LOAD_X, IO_STORE_X),
+        (IO_LOAD_V, IO_STORE_V),
+        (IO_LOAD_P, IO_STORE_P),
+    ] {
+        if written & load != 0 {
+            io |= store;
+        }
+    }
+    if io & (IO_STORE_X | IO_STORE_V) != 0 {
+        io |= IO_LOAD_X;
+    }
+    io
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn op(op: u32) -> Call {
+        Call {
+            op,
+            ..Call::default()
+        }
+    }
+
+    #[test]
+    fn a_fused_substep_end_loads_x_and_p_only() {
+        // contact, velocity, friction, damping, then the next predict.
+        let segment = [
+            op(OP_PROJECT_CONTACT),
+            op(OP_VELOCITY),
+            op(OP_FRICTION),
+            op(OP_DAMPING),
+            op(OP_PREDICT),
+        ];
+        let io = records_io(&segment);
+        assert_eq!(
+            io,
+            IO_LOAD_X | IO_LOAD_P | IO_STORE_X | IO_STORE_V | IO_STORE_P
+        );
+        assert_eq!(
+            records_io(&[op(OP_PREDICT)]),
+            IO_LOAD_X | IO_LOAD_V | IO_STORE_X | IO_STORE_V | IO_STORE_P
+        );
+        assert_eq!(
+            records_io(&[op(OP_DAMPING)]),
+            IO_LOAD_X | IO_LOAD_V | IO_STORE_V
+        );
+    }
+}

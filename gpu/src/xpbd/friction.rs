@@ -1,0 +1,35 @@
+//! Dispatch side of dynamic Coulomb friction (`shaders/friction.wgsl` ↔
+//! `cpu/src/friction.rs`): its call block.
+//!
+//! ```text
+//! for each contact with λ > 0:  v −= v_t · min(μ w λ / h, |v_t|) / |v_t|
+//! ```
+//! Run per particle: particle i finds its slot in the family through the
+//! family's particle → slot map (fixed particles have none).
+
+use hyperpbd_core::{FamilyKind, Kernel, Plan};
+
+use super::Families;
+use super::call::{Call, OP_FRICTION};
+
+/// Friction of hyperplane family `family`.
+pub(crate) fn friction(plan: &Plan, families: &Families, family: usize, call: u32) -> Call {
+    let f = &plan.families[family];
+    let (normal, mu) = match &f.kind {
+        FamilyKind::HyperplaneContact { normal, friction } => (normal.clone(), *friction),
+        _ => (Vec::new(), 0.0),
+    };
+    Call {
+        op: OP_FRICTION,
+        count: plan.particle_count() as u32,
+        family: family as u32,
+        slot_base: families.slot_base[family],
+        slot_map: families.slot_map[family],
+        call,
+        h: plan.h,
+        friction: mu,
+        normal,
+        kernel: Some(Kernel::Friction { family }),
+        ..Call::default()
+    }
+}

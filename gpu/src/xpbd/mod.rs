@@ -1,0 +1,185 @@
+//! The XPBD kernel set: `shaders/step.wgsl` and the kernels' own files,
+//! built with the kernel-set builder, and the device data of a plan.
+//!
+//! ```text
+//! kernel ↔ CPU golden ↔ WGSL ↔ dispatch side (call blocks)
+//!   predict, velocity, damping   cpu/src/integrate.rs  shaders/integrate.wgsl  integrate.rs
+//!   projection                   cpu/src/project.rs    shaders/project.wgsl    project.rs
+//!   friction                     cpu/src/friction.rs   shaders/friction.wgsl   friction.rs
+//!   residual                     cpu/src/residual.rs   shaders/residual.wgsl   residual.rs
+//! schedule.rs   the calls of a step and the dispatches that run them
+//! call.rs       the call block, op codes, flags, record io
+//! ```
+//! Group 0: x v p force (particle records, prelude.wgsl) gravity_scale
+//! elements rest lambda status report calls contact_slot partials chunks;
+//! group 1: the `Dispatch` block of each dispatch (dynamic offset).
+
+pub(crate) mod call;
+mod friction;
+mod integrate;
+mod project;
+mod residual;
+pub(crate) mod schedule;
+
+use hyperpbd_core::{FamilyKind, GpuError, Plan};
+
+use crate::SceneOrigin;
+use crate::kernel_set::{Binding, EntryPoint, KernelSet};
+use crate::shader::ShaderFile;
+pub(crate) use residual::read_report;
+use schedule::Dispatch;
+
+/// No slot (a fixed particle in a hyperplane family's slot map).
+pub(crate) const NONE: u32 = u32::MAX;
+
+/// The families in the shared element / slot arrays of the device.
+pub(crate) struct Families {
+    /// Particle indices of every family, in family order.
+    pub elements: Vec<u32>,
+    /// Rest values (hyperplane offsets in device coordinates).
+    pub rest: Vec<f64>,
+    /// Offset of each family's particle indices in `elements`.
+    pub elem_base: Vec<u32>,
+    /// Offset of each family's slots in `rest` and `lambda`.
+    pub slot_base: Vec<u32>,
+    /// Offset of each hyperplane family's particle → slot map in
+    /// `slot_maps` (0 for the others).
+    pub slot_map: Vec<u32>,
+    /// Per hyperplane family, per particle: its slot, or NONE.
+    pub slot_maps: Vec<u32>,
+}
+
+impl Families {
+    /// Lays out `plan`'s families, hyperplane offsets relative to `origin`.
+    pub fn new(plan: &Plan, origin: &SceneOrigin) -> Result<Self, GpuError> {
+        let n = plan.particle_count();
+        let mut out = Families {
+            elements: Vec::new(),
+            rest: Vec::new(),
+            elem_base: Vec::new(),
+            slot_base: Vec::new(),
+            slot_map: Vec::new(),
+            slot_maps: Vec::new(),
+        };
+        for f in &plan.families {
+            out.elem_base.push(out.elements.len() as u32);
+            out.slot_base.push(out.rest.len() as u32);
+            out.elements.extend_from_slice(&f.elements);
+            match &f.kind {
+                FamilyKind::HyperplaneContact { normal, .. } => {
+                    out.rest
+                        .extend(f.rest.iter().map(|&r| origin.local_offset(normal, r)));
+                    // Run per particle: one colour, one slot per particle.
+                    let mut map = vec![NONE; n];
+                    for (e, &i) in f.elements.iter().enumerate() {
+                        match map.get_mut(i as usize) {
+                            Some(slot) if *slot == NONE && f.color_count() == 1 => *slot = e as u32,
+                            _ => {
+                                return Err(GpuError::Unsupported {
+                                    what: format!(
+                                        "{}: a hyperplane family must hold each particle once, in one colour",
+                                        f.label
+                                    ),
+                                });
+                            }
+                        }
+                    }
+                    out.slot_map.push(out.slot_maps.len() as u32);
+                    out.slot_maps.extend(map);
+                }
+                _ => {
+                    out.rest.extend_from_slice(&f.rest);
+                    out.slot_map.push(0);
+                }
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Entry points of the step module.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum XpbdEntry {
+    Particles,
+    Distance,
+    Simplex,
+    Oriented,
+    Residual,
+    Reduce,
+    Small,
+}
+
+impl XpbdEntry {
+    pub const ALL: [XpbdEntry; 7] = [
+        XpbdEntry::Particles,
+        XpbdEntry::Distance,
+        XpbdEntry::Simplex,
+        XpbdEntry::Oriented,
+        XpbdEntry::Residual,
+        XpbdEntry::Reduce,
+        XpbdEntry::Small,
+    ];
+}
+
+impl EntryPoint for XpbdEntry {
+    fn source(self) -> (ShaderFile, &'static str) {
+        let name = match self {
+            XpbdEntry::Particles => "particles",
+            XpbdEntry::Distance => "project_distance",
+            XpbdEntry::Simplex => "project_simplex_measure",
+            XpbdEntry::Oriented => "project_oriented_measure",
+            XpbdEntry::Residual => "residual",
+            XpbdEntry::Reduce => "reduce",
+            XpbdEntry::Small => "step_small",
+        };
+        (ShaderFile::Step, name)
+    }
+}
+
+/// Group 0 of the step module, in binding order (see the module doc).
+pub(crate) const BINDINGS: [Binding; 14] = [
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::READ,
+    Binding::READ,
+    Binding::READ,
+    Binding::READ,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::READ,
+    Binding::READ,
+    Binding::WRITE,
+    Binding::READ,
+];
+
+/// A dispatch with its block's dynamic offset.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Placed {
+    pub dispatch: Dispatch,
+    pub offset: u32,
+}
+
+/// Records `d` into `pass` (group 0 set by the caller). Host kernels
+/// record nothing.
+pub(crate) fn encode(
+    kernels: &KernelSet<XpbdEntry>,
+    blocks: &wgpu::BindGroup,
+    pass: &mut wgpu::ComputePass<'_>,
+    d: &Placed,
+) {
+    let Some(entry) = d.dispatch.run.entry() else {
+        return;
+    };
+    if d.dispatch.count == 0 && entry != XpbdEntry::Small {
+        return;
+    }
+    pass.set_bind_group(1, blocks, &[d.offset]);
+    match entry {
+        XpbdEntry::Residual | XpbdEntry::Reduce | XpbdEntry::Small => {
+            kernels.dispatch_workgroups(pass, entry, d.dispatch.count)
+        }
+        _ => kernels.dispatch(pass, entry, d.dispatch.count),
+    }
+}

@@ -1,0 +1,62 @@
+//! Dispatch side of the XPBD projection (`shaders/project.wgsl` ↔
+//! `cpu/src/project.rs`): the call block of one colour of one family.
+//!
+//! ```text
+//! Δλ = (−C − α~ λ) / (Σ_j w_j |∇_j C|² + α~),  α~ = α / h²
+//! x_j += w_j ∇_j C Δλ                       (inequalities clamp λ first)
+//! ```
+//! Distance, tether and measure colours run one invocation per element;
+//! a hyperplane family (one colour, one element per dynamic particle) runs
+//! per particle, so it fuses with the per-particle calls around it.
+//! `first` marks the first projection of the family in its substep: λ is
+//! read as 0 there (the CPU resets it in predict) and written on every path.
+
+use hyperpbd_core::{FamilyKind, Kernel, Plan};
+
+use super::Families;
+use super::call::{
+    Call, FLAG_FIRST, FLAG_TETHER, OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE, OP_PROJECT_ORIENTED,
+    OP_PROJECT_SIMPLEX,
+};
+
+/// Projection of colour `color` of family `family`.
+pub(crate) fn project(
+    plan: &Plan,
+    families: &Families,
+    (family, color): (usize, usize),
+    call: u32,
+    first: bool,
+) -> Call {
+    let f = &plan.families[family];
+    let range = f.color(color);
+    let mut c = Call {
+        count: range.len() as u32,
+        first: range.start as u32,
+        family: family as u32,
+        elem_base: families.elem_base[family],
+        slot_base: families.slot_base[family],
+        arity: f.arity as u32,
+        call,
+        flags: if first { FLAG_FIRST } else { 0 },
+        alpha_tilde: f.compliance / (plan.h * plan.h),
+        kernel: Some(Kernel::Project { family, color }),
+        ..Call::default()
+    };
+    match &f.kind {
+        FamilyKind::Distance => c.op = OP_PROJECT_DISTANCE,
+        FamilyKind::Tether => {
+            c.op = OP_PROJECT_DISTANCE;
+            c.flags |= FLAG_TETHER;
+        }
+        FamilyKind::SimplexMeasure { .. } => c.op = OP_PROJECT_SIMPLEX,
+        FamilyKind::OrientedMeasure => c.op = OP_PROJECT_ORIENTED,
+        FamilyKind::HyperplaneContact { normal, friction } => {
+            c.op = OP_PROJECT_CONTACT;
+            c.count = plan.particle_count() as u32;
+            c.slot_map = families.slot_map[family];
+            c.normal = normal.clone();
+            c.friction = *friction;
+        }
+    }
+    c
+}

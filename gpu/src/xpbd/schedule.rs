@@ -1,0 +1,365 @@
+//! Which dispatches run a step: the plan's kernel calls as call blocks, and
+//! three schedules over them.
+//!
+//! ```text
+//! calls    substeps × plan.substep_kernels (call = substep · k + index),
+//!          one residual call per family, then the kernels of one substep
+//!          again with no λ shortcut (run_kernel: exactly the CPU's kernel)
+//! exact    one dispatch per call; residual + reduce
+//! fused    maximal runs of per-particle calls (predict, contact projection,
+//!          velocity, friction, damping — across substep boundaries too) in
+//!          ONE `particles` dispatch each; one dispatch per colour of the
+//!          other families; residual + reduce
+//! small    ONE `step_small` dispatch: the whole step, residual included,
+//!          in one workgroup with a storage barrier between calls
+//! ```
+//! Fusing per-particle calls keeps each particle's order of operations:
+//! they read and write that particle's records and its own multipliers
+//! only. The small schedule keeps the order of all calls (barriers); both
+//! give the exact schedule's results bit for bit (tests/gpu_schedules.rs).
+//!
+//! The automatic choice (measured, docs/performance.md): small on a
+//! hardware GPU when the scene's work fits one workgroup — every call has
+//! at most WORKGROUP invocations and only per-particle calls and distance or
+//! tether colours; fused otherwise, and always on a software adapter
+//! (lavapipe runs a workgroup barrier as a coroutine switch, dearer than a
+//! dispatch with one worker thread). Plans with particle contact run fused:
+//! the contact kernels (gpu/src/contact) are dispatches of their own at the
+//! Broadphase and Collide calls, between the fused runs.
+
+use hyperpbd_core::{Kernel, Plan};
+
+use super::call::{Call, OP_HOST, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX, records_io};
+use super::{Families, friction, integrate, project, residual};
+
+/// How the dispatches of a step are formed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepMode {
+    /// One dispatch per kernel call.
+    Exact,
+    /// Per-particle calls fused into one dispatch per run.
+    Fused,
+    /// The whole step in one dispatch of one workgroup.
+    Small,
+}
+
+impl StepMode {
+    /// `exact`, `fused` or `small`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            StepMode::Exact => "exact",
+            StepMode::Fused => "fused",
+            StepMode::Small => "small",
+        }
+    }
+}
+
+/// What a dispatch runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Run {
+    /// `particles`: the per-particle calls of the range.
+    Particles,
+    /// `project_distance` / `project_simplex_measure` /
+    /// `project_oriented_measure`: one colour.
+    Distance,
+    Simplex,
+    Oriented,
+    /// `residual`: one workgroup per chunk.
+    Residual,
+    /// `reduce`: one workgroup per family.
+    Reduce,
+    /// `step_small`: one workgroup, every call of the range.
+    Small,
+    /// A kernel the host runs between dispatches (broadphase, particle
+    /// contact).
+    Host(Kernel),
+}
+
+impl Run {
+    /// The entry point that runs it (`None`: the host runs it).
+    pub fn entry(self) -> Option<super::XpbdEntry> {
+        use super::XpbdEntry as E;
+        Some(match self {
+            Run::Particles => E::Particles,
+            Run::Distance => E::Distance,
+            Run::Simplex => E::Simplex,
+            Run::Oriented => E::Oriented,
+            Run::Residual => E::Residual,
+            Run::Reduce => E::Reduce,
+            Run::Small => E::Small,
+            Run::Host(_) => return None,
+        })
+    }
+}
+
+/// One dispatch: calls `first_call..end_call`, `count` invocations (or
+/// workgroups for Residual / Reduce / Small), the records `io` a
+/// Particles dispatch loads and stores.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Dispatch {
+    pub run: Run,
+    pub first_call: u32,
+    pub end_call: u32,
+    pub count: u32,
+    pub io: u32,
+}
+
+impl Dispatch {
+    /// The `Dispatch` block of step.wgsl.
+    pub fn block(&self) -> [u32; 4] {
+        [self.first_call, self.end_call, self.count, self.io]
+    }
+}
+
+/// The calls of a step and its schedules.
+pub(crate) struct Schedule {
+    /// Every call block (see the module doc for the order).
+    pub calls: Vec<Call>,
+    /// Residual chunks: (call index, first element).
+    pub chunks: Vec<[u32; 2]>,
+    /// Kernel calls of one substep.
+    pub kernels_per_substep: usize,
+    /// Calls of the step proper (before the residual calls).
+    pub step_calls: usize,
+    /// First call of the run_kernel copies.
+    pub run_base: usize,
+    /// One dispatch per call.
+    pub exact: Vec<Dispatch>,
+    /// The dispatches of the chosen mode.
+    pub fast: Vec<Dispatch>,
+    pub mode: StepMode,
+}
+
+impl Schedule {
+    /// The schedule of `plan` (its families laid out by `families`) for
+    /// kernels of `workgroup` invocations; `mode` None chooses (`software`:
+    /// the adapter is a software rasteriser).
+    pub fn new(
+        plan: &Plan,
+        families: &Families,
+        workgroup: u32,
+        mode: Option<StepMode>,
+        software: bool,
+    ) -> Schedule {
+        let k = plan.substep_kernels.len();
+        let mut calls = Vec::new();
+        for substep in 0..plan.substeps as usize {
+            let mut projected = vec![false; plan.families.len()];
+            for (index, &kernel) in plan.substep_kernels.iter().enumerate() {
+                let call = (substep * k + index) as u32;
+                calls.push(kernel_call(plan, families, kernel, call, &mut projected));
+            }
+        }
+        let step_end = calls.len();
+        let (residuals, chunks) =
+            residual::residual_calls(plan, families, step_end as u32, workgroup);
+        calls.extend(residuals);
+        let run_base = calls.len();
+        let mut projected = vec![true; plan.families.len()];
+        for (index, &kernel) in plan.substep_kernels.iter().enumerate() {
+            calls.push(kernel_call(
+                plan,
+                families,
+                kernel,
+                index as u32,
+                &mut projected,
+            ));
+        }
+        let residual_range = (step_end as u32, run_base as u32);
+        let mode = mode.unwrap_or_else(|| choose(plan, &calls[..step_end], workgroup, software));
+        let exact = exact(&calls[..step_end], residual_range, chunks.len() as u32);
+        let fast = match mode {
+            StepMode::Exact => exact.clone(),
+            StepMode::Fused => fused(&calls[..step_end], residual_range, chunks.len() as u32),
+            StepMode::Small => {
+                let mut small = vec![Dispatch {
+                    run: Run::Small,
+                    first_call: 0,
+                    end_call: step_end as u32,
+                    count: 1,
+                    io: 0,
+                }];
+                small.extend(residual_pair(residual_range, chunks.len() as u32));
+                small
+            }
+        };
+        Schedule {
+            calls,
+            chunks,
+            kernels_per_substep: k,
+            step_calls: step_end,
+            run_base,
+            exact,
+            fast,
+            mode,
+        }
+    }
+
+    /// The dispatch that runs `kernel` alone, the CPU's way (λ from memory).
+    pub fn run_kernel(&self, kernel: Kernel) -> Option<Dispatch> {
+        let index = self
+            .calls
+            .iter()
+            .skip(self.run_base)
+            .position(|c| c.kernel == Some(kernel))?;
+        Some(single(
+            &self.calls[self.run_base + index],
+            self.run_base + index,
+        ))
+    }
+
+    /// Compute dispatches of one step in the chosen mode (residual
+    /// included; host kernels and empty dispatches not counted).
+    pub fn dispatches_per_step(&self) -> usize {
+        self.fast
+            .iter()
+            .filter(|d| !matches!(d.run, Run::Host(_)) && (d.count > 0 || d.run == Run::Small))
+            .count()
+    }
+
+    /// The entry points the exact, chosen and run-alone dispatches use.
+    pub fn entries(&self) -> Vec<super::XpbdEntry> {
+        let mut used: Vec<super::XpbdEntry> = self
+            .exact
+            .iter()
+            .chain(&self.fast)
+            .filter(|d| d.count > 0 || d.run == Run::Small)
+            .filter_map(|d| d.run.entry())
+            .collect();
+        used.sort_by_key(|e| super::XpbdEntry::ALL.iter().position(|a| a == e));
+        used.dedup();
+        used
+    }
+
+    /// The plan kernel of step call `call`.
+    pub fn kernel_of(&self, call: u32) -> Option<Kernel> {
+        self.calls.get(call as usize).and_then(|c| c.kernel)
+    }
+}
+
+/// The call of `kernel` (`projected[f]`: family f was projected already
+/// this substep).
+fn kernel_call(
+    plan: &Plan,
+    families: &Families,
+    kernel: Kernel,
+    call: u32,
+    projected: &mut [bool],
+) -> Call {
+    match kernel {
+        Kernel::Predict => integrate::predict(plan, call),
+        Kernel::Velocity => integrate::velocity(plan, call),
+        Kernel::Damping => integrate::damping(plan, call),
+        Kernel::Project { family, color } => {
+            let first = !projected[family];
+            // Every colour of the first iteration is its slots' first
+            // projection in the substep.
+            if color + 1 == plan.families[family].color_count() {
+                projected[family] = true;
+            }
+            project::project(plan, families, (family, color), call, first)
+        }
+        Kernel::Friction { family } => friction::friction(plan, families, family, call),
+        Kernel::Broadphase | Kernel::Collide | Kernel::Minimise => Call {
+            op: OP_HOST,
+            call,
+            kernel: Some(kernel),
+            ..Call::default()
+        },
+    }
+}
+
+/// The dispatch of call `index` alone.
+fn single(call: &Call, index: usize) -> Dispatch {
+    let run = if call.per_particle() {
+        Run::Particles
+    } else {
+        match call.op {
+            OP_HOST => Run::Host(call.kernel.unwrap_or(Kernel::Broadphase)),
+            OP_PROJECT_SIMPLEX => Run::Simplex,
+            OP_PROJECT_ORIENTED => Run::Oriented,
+            _ => Run::Distance,
+        }
+    };
+    Dispatch {
+        run,
+        first_call: index as u32,
+        end_call: index as u32 + 1,
+        count: call.count,
+        io: records_io(std::slice::from_ref(call)),
+    }
+}
+
+/// Residual over every chunk, then the per-family reduction.
+fn residual_pair((first, end): (u32, u32), chunks: u32) -> [Dispatch; 2] {
+    [
+        Dispatch {
+            run: Run::Residual,
+            first_call: first,
+            end_call: end,
+            count: chunks,
+            io: 0,
+        },
+        Dispatch {
+            run: Run::Reduce,
+            first_call: first,
+            end_call: end,
+            count: end - first,
+            io: 0,
+        },
+    ]
+}
+
+fn exact(step: &[Call], residual: (u32, u32), chunks: u32) -> Vec<Dispatch> {
+    let mut out: Vec<Dispatch> = step.iter().enumerate().map(|(i, c)| single(c, i)).collect();
+    out.extend(residual_pair(residual, chunks));
+    out
+}
+
+fn fused(step: &[Call], residual: (u32, u32), chunks: u32) -> Vec<Dispatch> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < step.len() {
+        if step[i].per_particle() {
+            let end = i + step[i..].iter().take_while(|c| c.per_particle()).count();
+            out.push(Dispatch {
+                run: Run::Particles,
+                first_call: i as u32,
+                end_call: end as u32,
+                count: step[i].count,
+                io: records_io(&step[i..end]),
+            });
+            i = end;
+        } else {
+            out.push(single(&step[i], i));
+            i += 1;
+        }
+    }
+    out.extend(residual_pair(residual, chunks));
+    out
+}
+
+/// Whether the small schedule can run these step calls: nothing on the
+/// host, only per-particle calls and distance / tether colours.
+pub(crate) fn small_supported(step: &[Call]) -> bool {
+    step.iter()
+        .all(|c| c.per_particle() || c.op == super::call::OP_PROJECT_DISTANCE)
+}
+
+/// Fused with particle contact (its kernels are dispatches of their own
+/// between the fused runs); exact with other host kernels; small on a
+/// hardware GPU when every call fits one workgroup; fused otherwise.
+fn choose(plan: &Plan, step: &[Call], workgroup: u32, software: bool) -> StepMode {
+    if plan.contacts.is_some() {
+        return StepMode::Fused;
+    }
+    if step.iter().any(|c| c.op == OP_HOST) {
+        return StepMode::Exact;
+    }
+    let fits = step.iter().all(|c| c.count <= workgroup);
+    if !software && fits && small_supported(step) {
+        StepMode::Small
+    } else {
+        StepMode::Fused
+    }
+}
