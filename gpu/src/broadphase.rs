@@ -7,7 +7,7 @@
 //! read the lists; a list longer than its slots: grow the slots, rerun
 //! canonical pairs = for each i, the partners j > i of its ascending list
 //! ```
-//! The kernels are the step's ([`crate::contact`], `shaders/grid.wgsl`):
+//! The kernels are the step's (`gpu/src/contact`, `shaders/grid.wgsl`):
 //! each box's list is exactly the boxes that overlap it (closed intervals,
 //! every axis), in ascending order, so the pairs equal the exhaustive
 //! reference [`hyperpbd_core::broadphase::exhaustive_pairs`] — in f64 on the

@@ -145,6 +145,13 @@ pub(super) fn collide_particle(index: u32, particles: usize) -> usize {
 }
 
 impl GpuBackend {
+    /// List slots per particle of the contact stage (`None` without
+    /// particle contact): 32 at load, grown when a step found a longer
+    /// list (that step then ran again from its start).
+    pub fn contact_list_slots(&self) -> Option<usize> {
+        self.contacts.as_ref().map(|stage| stage.buffers.slots())
+    }
+
     /// One step of a plan with collisions (see the module doc).
     pub(super) fn step_with_contacts(&mut self) -> Result<StepReport, BackendError> {
         for _ in 0..=MAX_REGROWTHS {
@@ -249,7 +256,8 @@ impl GpuBackend {
 
     /// `run_kernel` of Broadphase or Collide: the kernel of the first
     /// substep's call, alone (a broadphase whose lists did not fit is grown
-    /// and rerun; it only reads x and p).
+    /// and rerun; it only reads x and p). Results the kernels cannot vouch
+    /// for (loops cut short) are a typed error with x and v restored.
     pub(super) fn run_contact_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
         let Some(index) = self.plan.substep_kernels.iter().position(|&k| k == kernel) else {
             return Err(BackendError::InvalidCall(format!(
@@ -265,6 +273,7 @@ impl GpuBackend {
             self.reset_status();
             stage.buffers.reset();
             let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+            self.state.save(&mut encoder);
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
                 stage.encode(&mut pass, kernel, call);
@@ -281,8 +290,14 @@ impl GpuBackend {
             let Some(stage) = self.contacts.as_mut() else {
                 break;
             };
-            if !stage.regrow(&outcome)? {
-                return Ok(());
+            match stage.regrow(&outcome) {
+                Ok(false) => return Ok(()),
+                Ok(true) => {}
+                Err(e) => {
+                    // A Collide whose loops were cut short moved x: undo it.
+                    self.rollback()?;
+                    return Err(e.into());
+                }
             }
         }
         Err(GpuError::Other {
