@@ -10,8 +10,10 @@
 //! With `HYPERPBD_RATIO=1` the benchmark instead steps the CPU and the GPU
 //! alternately from the same start (so both see the same phase of the
 //! flow), takes the median of each and prints the per-frame table with the
-//! ratio CPU time / GPU time (≥ 1: the GPU is faster). `HYPERPBD_FRAMES`
-//! sets the frames timed per scene (default 12; 3 for the 100k column).
+//! ratio CPU time / GPU time (≥ 1: the GPU is faster) and the host's waits
+//! for the device per GPU frame (`GpuBackend::host_waits`). `HYPERPBD_FRAMES`
+//! sets the frames timed per scene (default 12; 3 for the 100k column),
+//! `HYPERPBD_SCENES=pit16k,column3d` the scenes (default: all).
 //!
 //! The CPU runs on one thread (`RAYON_NUM_THREADS=1` is set before any
 //! work), the reference of issue 12. GPU cases are skipped with a printed
@@ -66,15 +68,26 @@ fn ratio_table() {
     let frames: Option<usize> = std::env::var("HYPERPBD_FRAMES")
         .ok()
         .and_then(|f| f.parse().ok());
-    println!("| scene | balls | cpu-f64 ms/frame | gpu-f32 ms/frame | cpu / gpu |");
-    println!("|---|---|---|---|---|");
+    let only = std::env::var("HYPERPBD_SCENES").ok();
+    println!(
+        "| scene | balls | substeps | cpu-f64 ms/frame | gpu-f32 ms/frame | cpu / gpu | gpu host waits/frame |"
+    );
+    println!("|---|---|---|---|---|---|---|");
     for (name, scene, default_frames) in cases() {
+        if only
+            .as_ref()
+            .is_some_and(|o| !o.split(',').any(|n| n == name))
+        {
+            continue;
+        }
         let mut c = cpu(&scene);
         let Some(mut g) = gpu(&scene) else {
             return;
         };
         let (mut tc, mut tg) = (Vec::new(), Vec::new());
-        for _ in 0..frames.unwrap_or(default_frames) {
+        let frames = frames.unwrap_or(default_frames);
+        let waits = g.host_waits();
+        for _ in 0..frames {
             let t = Instant::now();
             black_box(c.step().expect("cpu step"));
             tc.push(t.elapsed().as_secs_f64() * 1e3);
@@ -83,9 +96,11 @@ fn ratio_table() {
             tg.push(t.elapsed().as_secs_f64() * 1e3);
         }
         let (mc, mg) = (median(tc), median(tg));
+        let waits = (g.host_waits() - waits) as f64 / frames.max(1) as f64;
         println!(
-            "| {name} | {} | {mc:.2} | {mg:.2} | {:.3} |",
+            "| {name} | {} | {} | {mc:.2} | {mg:.2} | {:.3} | {waits} |",
             scene.particles.len(),
+            scene.substeps,
             mc / mg
         );
     }

@@ -401,3 +401,33 @@ fn a_step_whose_loops_the_adapter_cuts_short_is_refused_and_rolled_back() {
         }
     }
 }
+
+#[test]
+fn a_contact_step_waits_for_the_device_the_same_times_whatever_its_substeps() {
+    let Some((adapter, _)) = adapter_or_skip("gpu_contact_round_trips", Precision::F32) else {
+        return;
+    };
+    let mut waits = Vec::new();
+    for substeps in [1, 8] {
+        let mut scene = hyperpbd::scenes::pit3d(8, 6);
+        scene.substeps = substeps;
+        let plan = Plan::compile(&scene).expect("valid");
+        let state = State::from_scene(&scene);
+        let mut gpu =
+            GpuBackend::with_adapter(&adapter, plan, &state, Precision::F32).expect("gpu");
+        gpu.step().expect("first step (lists may grow)");
+        let before = gpu.host_waits();
+        let steps = 3;
+        for _ in 0..steps {
+            gpu.step().expect("gpu step");
+        }
+        let per_step = (gpu.host_waits() - before) / steps;
+        assert_eq!((gpu.host_waits() - before) % steps, 0, "uneven steps");
+        waits.push(per_step);
+        println!(
+            "BOUND | host waits per contact step (pit3d 8x6, {substeps} substeps) | {per_step} | 3 | one wait, the status/report read, the contact outcome read; none per substep"
+        );
+    }
+    assert_eq!(waits[0], waits[1], "a substep added a round trip");
+    assert!(waits[1] <= 3, "more than one submission's waits per step");
+}

@@ -152,6 +152,15 @@ impl GpuBackend {
         self.contacts.as_ref().map(|stage| stage.buffers.slots())
     }
 
+    /// Times the host has waited for this backend's device (waits for a
+    /// submission and buffer reads) since it was loaded: a step with
+    /// contact costs the same count whatever its substeps (one wait, the
+    /// status/report read and the contact outcome read; no round trip
+    /// per substep).
+    pub fn host_waits(&self) -> u64 {
+        self.ctx.host_waits()
+    }
+
     /// One step of a plan with collisions (see the module doc).
     pub(super) fn step_with_contacts(&mut self) -> Result<StepReport, BackendError> {
         for _ in 0..=MAX_REGROWTHS {
