@@ -27,7 +27,7 @@ use crate::origin::SceneOrigin;
 use crate::params::{push_reals, read_reals, real_size};
 use crate::resident::ResidentState;
 use crate::shader::ShaderFile;
-use crate::xpbd::schedule::{Dispatch, Run, Schedule, StepMode};
+use crate::xpbd::schedule::{Dispatch, Schedule, StepMode};
 use crate::xpbd::{BINDINGS, Families, NONE, Placed, XpbdEntry};
 use crate::{AdapterSummary, Precision};
 
@@ -349,11 +349,7 @@ impl GpuBackend {
 
     /// Compute dispatches per step (residual and contact stage included).
     pub fn dispatches_per_step(&self) -> usize {
-        let contact = match self.contacts {
-            Some(_) => ContactStage::dispatches_per_step(&self.plan),
-            None => 0,
-        };
-        self.schedule.dispatches_per_step() + contact
+        self.schedule.dispatches_per_step() + self.contact_dispatches_per_step()
     }
 
     /// Destroys the device, as a driver reset or a removed GPU would:
@@ -377,16 +373,9 @@ impl GpuBackend {
     }
 
     fn encode(&self, pass: &mut wgpu::ComputePass<'_>, d: &Placed) {
-        if let (Run::Host(kernel), Some(stage)) = (d.dispatch.run, &self.contacts) {
-            // The contact kernels (their own bind groups), at the call's
-            // place in the schedule.
-            if let Some(call) = self.schedule.calls.get(d.dispatch.first_call as usize) {
-                stage.encode(pass, kernel, call.call);
-                pass.set_bind_group(0, &self.group, &[]);
-            }
-            return;
+        if !self.encode_contact(pass, d) {
+            crate::xpbd::encode(&self.kernels, &self.blocks, pass, d);
         }
-        crate::xpbd::encode(&self.kernels, &self.blocks, pass, d);
     }
 
     /// Submits `encoder` and waits for it.
@@ -431,16 +420,15 @@ impl GpuBackend {
                 }
                 .into()
             }
-            Some(Kernel::Collide) => StepError::NonFiniteParticle {
-                stage: StageName::Project,
-                substep,
-                particle: contact_step::collide_particle(index, self.plan.particle_count()),
-            }
-            .into(),
             other => StepError::NonFiniteParticle {
                 stage: other.map_or(StageName::Project, |k| k.stage()),
                 substep,
-                particle: index as usize,
+                particle: match other {
+                    Some(Kernel::Collide) => {
+                        contact_step::collide_particle(index, self.plan.particle_count())
+                    }
+                    _ => index as usize,
+                },
             }
             .into(),
         }

@@ -29,7 +29,8 @@ use crate::contact::{
     SKIP_FIXED_PAIRS,
 };
 use crate::context::GpuContext;
-use crate::xpbd::schedule::StepMode;
+use crate::xpbd::Placed;
+use crate::xpbd::schedule::{Run, StepMode};
 
 /// List slots per particle a contact stage starts with (grown on demand).
 const INITIAL_SLOTS: usize = 32;
@@ -159,6 +160,27 @@ impl GpuBackend {
     /// per substep).
     pub fn host_waits(&self) -> u64 {
         self.ctx.host_waits()
+    }
+
+    /// The contact stage's dispatches per step (0 without one).
+    pub(super) fn contact_dispatches_per_step(&self) -> usize {
+        match self.contacts {
+            Some(_) => ContactStage::dispatches_per_step(&self.plan),
+            None => 0,
+        }
+    }
+
+    /// Records a Host dispatch's contact kernels (their own bind groups) at
+    /// the call's place in the schedule; false for any other dispatch.
+    pub(super) fn encode_contact(&self, pass: &mut wgpu::ComputePass<'_>, d: &Placed) -> bool {
+        let (Run::Host(kernel), Some(stage)) = (d.dispatch.run, &self.contacts) else {
+            return false;
+        };
+        if let Some(call) = self.schedule.calls.get(d.dispatch.first_call as usize) {
+            stage.encode(pass, kernel, call.call);
+            pass.set_bind_group(0, &self.group, &[]);
+        }
+        true
     }
 
     /// One step of a plan with collisions (see the module doc).
