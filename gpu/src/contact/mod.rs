@@ -154,9 +154,16 @@ impl ContactKernels {
 }
 
 impl ContactBuffers {
-    fn bind(&self, pass: &mut wgpu::ComputePass<'_>, block: usize) {
+    /// Binds the groups with parameter block `block` and returns the
+    /// particle count, or `None` (nothing bound) when there are none.
+    fn bind(&self, pass: &mut wgpu::ComputePass<'_>, block: usize) -> Option<u32> {
+        let n = self.particles() as u32;
+        if n == 0 {
+            return None;
+        }
         pass.set_bind_group(0, &self.group, &[]);
         pass.set_bind_group(1, &self.params_group, &[self.block_offset(block)]);
+        Some(n)
     }
 
     /// Records the broadphase (parameter block `block`) into `pass`; the
@@ -167,11 +174,9 @@ impl ContactBuffers {
         pass: &mut wgpu::ComputePass<'_>,
         block: usize,
     ) {
-        let n = self.particles() as u32;
-        if n == 0 {
+        let Some(n) = self.bind(pass, block) else {
             return;
-        }
-        self.bind(pass, block);
+        };
         let set = &kernels.set;
         let scan = self.scan_blocks() as u32;
         use ContactEntry::*;
@@ -192,11 +197,9 @@ impl ContactBuffers {
         pass: &mut wgpu::ComputePass<'_>,
         block: usize,
     ) {
-        let n = self.particles() as u32;
-        if n == 0 {
+        let Some(n) = self.bind(pass, block) else {
             return;
-        }
-        self.bind(pass, block);
+        };
         kernels.set.dispatch(pass, ContactEntry::Snapshot, n);
         kernels.set.dispatch(pass, ContactEntry::Collide, n);
     }
@@ -209,11 +212,9 @@ impl ContactBuffers {
         pass: &mut wgpu::ComputePass<'_>,
         block: usize,
     ) {
-        let n = self.particles() as u32;
-        if n == 0 {
+        let Some(n) = self.bind(pass, block) else {
             return;
-        }
-        self.bind(pass, block);
+        };
         kernels.set.dispatch(pass, ContactEntry::Report, n);
         kernels
             .set
