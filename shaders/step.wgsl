@@ -93,7 +93,8 @@ const NONE: u32 = 0xffffffffu;
 @group(0) @binding(6) var<storage, read> rest: array<real>;
 @group(0) @binding(7) var<storage, read_write> lambda: array<real>;
 // status[0]: first failing call (NONE: none), status[1]: smallest failing
-// slot or particle of that call.
+// slot or particle of that call, status[2]: nonzero when an invocation's
+// loops were cut short (`check_loops`).
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>, 4>;
 // Per family [max violation, active contacts].
 @group(0) @binding(9) var<storage, read_write> report: array<real>;
@@ -115,6 +116,23 @@ fn failed_before(c: u32) -> bool {
 fn fail(c: u32, index: u32) {
     atomicMin(&status[0], calls[c].call);
     atomicMin(&status[1], index);
+}
+
+// llvmpipe (lavapipe) ends every loop of an invocation once 65 535 loop
+// iterations have run in it, all loops together, silently; after that a
+// loop runs its body once and stops. A fused run or the small step loops
+// over its calls, so a long run (many substeps) can be cut: a two-trip
+// probe with a trip count the compiler cannot see (count < 2^31) tells,
+// and the host refuses the step (gpu/src/backend/loop_budget.rs).
+fn check_loops() {
+    let trips = 2u + (here.count >> 31u);
+    var probe = 0u;
+    for (var t = 0u; t < trips; t++) {
+        probe++;
+    }
+    if (probe != 2u) {
+        atomicMax(&status[2], 1u);
+    }
 }
 
 // Runs the per-particle calls first..end on particle i. `io` loads every
@@ -178,6 +196,7 @@ fn particles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         return;
     }
     run_particle(here.first_call, here.end_call, here.io, i);
+    check_loops();
 }
 
 @compute @workgroup_size(WORKGROUP)
@@ -195,4 +214,5 @@ fn step_small(@builtin(local_invocation_index) lid: u32) {
         }
         storageBarrier();
     }
+    check_loops();
 }

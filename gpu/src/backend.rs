@@ -32,6 +32,7 @@ use crate::xpbd::{BINDINGS, Families, NONE, Placed, XpbdEntry};
 use crate::{AdapterSummary, Precision};
 
 mod contact_step;
+pub(crate) mod status;
 use contact_step::ContactStage;
 
 /// The device buffers besides the resident state.
@@ -388,20 +389,6 @@ impl GpuBackend {
         self.ctx.read(buffer, len)
     }
 
-    fn reset_status(&self) {
-        self.ctx.queue.write_buffer(
-            &self.buffers.status,
-            0,
-            bytemuck::cast_slice(&[NONE, NONE, 0u32, 0u32]),
-        );
-    }
-
-    /// Reads the status block: the failing call and index, if any.
-    fn failure(&self, status: &[u8]) -> Option<(u32, u32)> {
-        let words: &[u32] = bytemuck::cast_slice(&status[..8]);
-        (words[0] != NONE).then_some((words[0], words[1]))
-    }
-
     fn step_error(&self, call: u32, index: u32) -> BackendError {
         let k = self.schedule.kernels_per_substep.max(1) as u32;
         let substep = call / k;
@@ -554,6 +541,7 @@ impl Backend for GpuBackend {
         self.ctx.wait(index)?;
         let block =
             self.read_mapped(&self.buffers.report_staging, 16 + self.buffers.report_bytes)?;
+        self.refuse_cut_loops(&block)?;
         if let Some(failed) = self.failure(&block) {
             let (call, index) = if self.schedule.mode == StepMode::Fused {
                 self.diagnose(failed)?

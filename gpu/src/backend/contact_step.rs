@@ -262,6 +262,7 @@ impl GpuBackend {
     fn finish_contact_step(&mut self, outcome: &Outcome) -> Result<StepReport, BackendError> {
         let block =
             self.read_mapped(&self.buffers.report_staging, 16 + self.buffers.report_bytes)?;
+        self.refuse_cut_loops(&block)?;
         if let Some(failed) = self.failure(&block) {
             let (call, index) = if self.schedule.mode == StepMode::Fused {
                 self.diagnose(failed)?

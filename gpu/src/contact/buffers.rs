@@ -68,15 +68,10 @@ impl Outcome {
     /// The typed error of results the kernels could not vouch for: loops
     /// the adapter cut short.
     pub(crate) fn trusted(&self) -> Result<(), GpuError> {
-        if let Some(i) = self.cut_short {
-            return Err(GpuError::Unsupported {
-                what: format!(
-                    "contact lists this long on this adapter: it ended the loops of invocation {i} early \
-                     (llvmpipe stops a shader's loops after 65 535 iterations); use the CPU backend"
-                ),
-            });
+        match self.cut_short {
+            Some(i) => Err(crate::backend::status::loops_cut_short(Some(i))),
+            None => Ok(()),
         }
-        Ok(())
     }
 }
 
