@@ -8,24 +8,33 @@
 //! kernel/{cpu-f64,gpu-f32}/..        one kernel call on the 256² cloth (the GPU
 //!                                    figure includes one submit + wait round trip)
 //! overhead/{cpu-f64,gpu-f32}         a one-particle scene: fixed cost of a step
-//! frame/{cpu-f64,gpu-f32,gpu-f64}/S  the issue-12 targets, one step each:
+//! frame/{cpu-f64,gpu-P-M}/S          the issue-12 targets, one step each, on the
+//!                                    GPU in f32 and f64 under each schedule
+//!                                    M = exact, fused, small (dispatches per
+//!                                    step printed; small only where it fits):
 //!                                    cloth256 = scenes::cloth(256) (ground plane,
 //!                                    friction, damping; 10 substeps × 1 iteration),
 //!                                    chain20 = scenes::chain2d() at 10 substeps ×
 //!                                    2 iterations (20 links, plane, friction, damping)
+//! threads/gpu-f32/cloth{N}            the ground cloth at N = 16 … 181 (256 … 32,761
+//!                                    particles): run once as is and once with
+//!                                    LP_NUM_THREADS=0 in the shell to find
+//!                                    lavapipe's thread crossover
+//!                                    (gpu/src/software_threads.rs)
 //! dispatch/gpu-{f32,f64}/K           one kernel of the 256² ground cloth, 20 calls
 //!                                    in one pass and one submit: the per-element
 //!                                    cost without a round trip per call
 //! throughput                         distance projections per step (elem/s)
 //! ```
-//! The CPU golden step runs on one thread.
+//! The CPU golden step runs on one thread. lavapipe runs with the
+//! environment's LP_NUM_THREADS, else its default (printed first).
 //! GPU cases are skipped with a printed notice when no adapter exists.
 
 use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use hyperpbd::gpu::{GpuBackend, Precision};
+use hyperpbd::gpu::{GpuBackend, Precision, StepMode};
 use hyperpbd::{Backend, CpuBackend, Kernel, Particle, Plan, Scene, SceneBuilder, State, scenes};
 
 fn load(scene: &Scene, backend: &str) -> Option<Box<dyn Backend>> {
@@ -166,14 +175,85 @@ fn frames(c: &mut Criterion) {
         .warm_up_time(Duration::from_millis(300))
         .measurement_time(Duration::from_secs(3));
     for (name, scene) in [("chain20", chain20()), ("cloth256", scenes::cloth(256))] {
-        for backend in ["cpu-f64", "gpu-f32", "gpu-f64"] {
-            let Some(mut b) = load(&scene, backend) else {
-                continue;
-            };
-            group.bench_function(BenchmarkId::new(backend, name), |bench| {
+        if let Some(mut b) = load(&scene, "cpu-f64") {
+            group.bench_function(BenchmarkId::new("cpu-f64", name), |bench| {
                 bench.iter(|| black_box(b.step().expect("step")));
             });
         }
+        for precision in [Precision::F32, Precision::F64] {
+            for mode in [StepMode::Exact, StepMode::Fused, StepMode::Small] {
+                let Some(mut b) = load_mode(&scene, precision, mode) else {
+                    continue;
+                };
+                let id = format!("gpu-{precision}-{}", mode.as_str());
+                eprintln!(
+                    "frame/{id}/{name}: {} dispatches per step",
+                    b.dispatches_per_step()
+                );
+                group.bench_function(BenchmarkId::new(id, name), |bench| {
+                    bench.iter(|| black_box(b.step().expect("step")));
+                });
+            }
+        }
+    }
+    group.finish();
+}
+
+/// The GPU backend on `scene` with its step formed as `mode` says, three
+/// steps in; `None` (with the reason printed) when there is no adapter or
+/// the mode does not fit the scene.
+fn load_mode(scene: &Scene, precision: Precision, mode: StepMode) -> Option<GpuBackend> {
+    let plan = Plan::compile(scene).expect("scene compiles");
+    let state = State::from_scene(scene);
+    // A mode the adapter refuses at its first steps (llvmpipe's loop
+    // budget on the small schedule of a large scene) is skipped, never
+    // timed.
+    let loaded = hyperpbd::gpu::request_adapter(precision)
+        .map_err(|e| e.to_string())
+        .and_then(|(adapter, _)| {
+            GpuBackend::with_step_mode(&adapter, plan, &state, precision, mode)
+                .map_err(|e| e.to_string())
+        })
+        .and_then(|mut b| {
+            for _ in 0..3 {
+                b.step().map_err(|e| format!("warm-up step: {e}"))?;
+            }
+            Ok(b)
+        });
+    match loaded {
+        Ok(b) => Some(b),
+        Err(e) => {
+            eprintln!("SKIPPED gpu-{precision}-{}: {e}", mode.as_str());
+            None
+        }
+    }
+}
+
+/// lavapipe's threads for this whole run: the environment's LP_NUM_THREADS
+/// (set it in the shell: the bench never writes its own environment), else
+/// lavapipe's default.
+fn software_threads(_: &mut Criterion) {
+    let variable = hyperpbd::gpu::software_threads::VARIABLE;
+    match std::env::var(variable) {
+        Ok(value) => eprintln!("backends bench: {variable}={value}"),
+        Err(_) => eprintln!("backends bench: lavapipe's default threads ({variable} unset)"),
+    }
+}
+
+fn threads(c: &mut Criterion) {
+    let mut group = c.benchmark_group("threads");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(2));
+    for n in [16, 32, 64, 90, 128, 181] {
+        let scene = scenes::cloth(n);
+        let Some(mut b) = load(&scene, "gpu-f32") else {
+            continue;
+        };
+        group.bench_function(BenchmarkId::new("gpu-f32", format!("cloth{n}")), |bench| {
+            bench.iter(|| black_box(b.step().expect("step")));
+        });
     }
     group.finish();
 }
@@ -228,6 +308,6 @@ criterion_group!(
     name = benches;
     // No plots: plotters needs system fonts, which CI images may lack.
     config = Criterion::default().without_plots();
-    targets = step, kernels, overhead, frames, dispatches
+    targets = software_threads, step, kernels, overhead, frames, threads, dispatches
 );
 criterion_main!(benches);

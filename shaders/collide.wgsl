@@ -39,9 +39,9 @@ fn contact_snapshot(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
         return;
     }
     var q = load_x(k);
-    q[VEC - 1u].w = radius(k);
+    set_last_lane(&q, radius(k));
     for (var c = 0u; c < VEC; c++) {
-        snapshot[VEC * k + c] = q[c];
+        snapshot[VEC * k + c] = word(&q, c);
     }
 }
 

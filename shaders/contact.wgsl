@@ -68,27 +68,31 @@ const REPORT: u32 = FRAME + 9u;
 
 // ---- records
 
+// Records go through the prelude's accessors (record4.wgsl or
+// records.wgsl): a Record is one vec4 or an array of VEC of them.
 fn coords(q: Record) -> array<real, DIM> {
+    var r = q;
     var out: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
-        out[a] = q[a / 4u][a % 4u];
+        out[a] = lane(&r, a);
     }
     return out;
 }
 
 fn extra(q: Record) -> real {
-    return q[VEC - 1u].w;
+    var r = q;
+    return inverse_mass_of(&r); // the last lane, whatever it holds
 }
 
 fn record(v: array<real, DIM>, e: real) -> Record {
     var out: Record;
     for (var c = 0u; c < VEC; c++) {
-        out[c] = vec4<real>(0.0);
+        set_word(&out, c, vec4<real>(0.0));
     }
     for (var a = 0u; a < DIM; a++) {
-        out[a / 4u][a % 4u] = v[a];
+        set_lane(&out, a, v[a]);
     }
-    out[VEC - 1u].w = e;
+    set_last_lane(&out, e);
     return out;
 }
 
@@ -97,15 +101,17 @@ fn box_record(i: u32, upper: bool) -> Record {
     let at = (2u * i + u32(upper)) * VEC;
     var q: Record;
     for (var c = 0u; c < VEC; c++) {
-        q[c] = boxes[at + c];
+        set_word(&q, c, boxes[at + c]);
     }
     return q;
 }
 
 fn store_box(i: u32, lo: Record, hi: Record) {
+    var l = lo;
+    var h = hi;
     for (var c = 0u; c < VEC; c++) {
-        boxes[2u * VEC * i + c] = lo[c];
-        boxes[(2u * i + 1u) * VEC + c] = hi[c];
+        boxes[2u * VEC * i + c] = word(&l, c);
+        boxes[(2u * i + 1u) * VEC + c] = word(&h, c);
     }
 }
 
@@ -113,7 +119,7 @@ fn cand_record(slot: u32, upper: bool) -> Record {
     let at = (2u * slot + u32(upper)) * VEC;
     var q: Record;
     for (var c = 0u; c < VEC; c++) {
-        q[c] = cands[at + c];
+        set_word(&q, c, cands[at + c]);
     }
     return q;
 }
@@ -122,7 +128,7 @@ fn cand_record(slot: u32, upper: bool) -> Record {
 fn iterate_record(i: u32) -> Record {
     var q: Record;
     for (var c = 0u; c < VEC; c++) {
-        q[c] = snapshot[VEC * i + c];
+        set_word(&q, c, snapshot[VEC * i + c]);
     }
     return q;
 }

@@ -25,83 +25,28 @@
 // projection reads an endpoint's position and inverse mass together.
 //
 // Every module composed with this prelude binds the particle buffers at
-// group 0, bindings 0..=3, and reads and writes them ONLY through
-// load_*/store_* below and the lane helpers: change the layout here (and in
-// layout.rs) and every kernel follows. Writers of x keep the last lane: they
-// modify the loaded record and store it back.
-
-alias Record = array<vec4<real>, VEC>;
+// group 0, bindings 0..=3, and reads and writes them ONLY through the record
+// accessors below: change the layout in gpu/src/layout.rs (host packing and
+// these accessors, side by side) and every kernel follows. Writers of x
+// keep the last lane: they modify the loaded record and store it back.
 
 @group(0) @binding(0) var<storage, read_write> x: array<vec4<real>>;
 @group(0) @binding(1) var<storage, read_write> v: array<vec4<real>>;
 @group(0) @binding(2) var<storage, read_write> p: array<vec4<real>>;
 @group(0) @binding(3) var<storage, read> force: array<vec4<real>>;
 
-fn load_x(i: u32) -> Record {
-    var r: Record;
-    for (var k = 0u; k < VEC; k++) {
-        r[k] = x[VEC * i + k];
-    }
-    return r;
-}
-
-fn store_x(i: u32, r: Record) {
-    for (var k = 0u; k < VEC; k++) {
-        x[VEC * i + k] = r[k];
-    }
-}
-
-fn load_v(i: u32) -> Record {
-    var r: Record;
-    for (var k = 0u; k < VEC; k++) {
-        r[k] = v[VEC * i + k];
-    }
-    return r;
-}
-
-fn store_v(i: u32, r: Record) {
-    for (var k = 0u; k < VEC; k++) {
-        v[VEC * i + k] = r[k];
-    }
-}
-
-fn load_p(i: u32) -> Record {
-    var r: Record;
-    for (var k = 0u; k < VEC; k++) {
-        r[k] = p[VEC * i + k];
-    }
-    return r;
-}
-
-fn store_p(i: u32, r: Record) {
-    for (var k = 0u; k < VEC; k++) {
-        p[VEC * i + k] = r[k];
-    }
-}
-
-fn load_force(i: u32) -> Record {
-    var r: Record;
-    for (var k = 0u; k < VEC; k++) {
-        r[k] = force[VEC * i + k];
-    }
-    return r;
-}
-
-// Coordinate a of a record. (Records are passed by pointer: naga 30's
-// SPIR-V writer fails on some calls that pass them by value.)
-fn lane(r: ptr<function, Record>, a: u32) -> real {
-    return (*r)[a / 4u][a % 4u];
-}
-
-// Sets coordinate a of a record.
-fn set_lane(r: ptr<function, Record>, a: u32, value: real) {
-    (*r)[a / 4u][a % 4u] = value;
-}
-
-// The inverse mass of a position record (its last lane).
-fn inverse_mass_of(r: ptr<function, Record>) -> real {
-    return (*r)[VEC - 1u].w;
-}
+// The accessors follow this prelude: record4.wgsl when VEC = 1 (a record
+// in registers is a vec4), records.wgsl when VEC > 1 (an array of vec4):
+//   alias Record = …;                       one particle's record in registers
+//   fn load_x(i) -> Record, store_x(i, r)   and the same for v, p (load_force)
+//   fn lane(r: ptr<function, Record>, a) -> real      coordinate a
+//   fn set_lane(r: ptr<function, Record>, a, value)
+//   fn inverse_mass_of(r: ptr<function, Record>) -> real   the last lane
+//   fn set_last_lane(r: ptr<function, Record>, value)
+//   fn word(r: ptr<function, Record>, c) -> vec4<real>, set_word(r, c, w)
+//                                           vec4 word c < VEC, as stored
+// (Records are passed by pointer: naga 30's SPIR-V writer fails on some
+// calls that pass arrays by value.)
 
 // Linear invocation index over a 2D grid of workgroups (more than 65535
 // workgroups are spread over y).

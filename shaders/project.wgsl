@@ -39,8 +39,15 @@ fn lambda_before(c: u32, s: u32) -> real {
 
 // An element that makes no response keeps λ (0 on the first projection).
 fn no_response(c: u32, s: u32) {
-    if ((calls[c].flags & FLAG_FIRST) != 0u) {
+    if ((calls[c].flags & (FLAG_FIRST | FLAG_UNREAD)) == FLAG_FIRST) {
         lambda[s] = 0.0;
+    }
+}
+
+// λ after this projection.
+fn set_lambda(c: u32, s: u32, value: real) {
+    if ((calls[c].flags & FLAG_UNREAD) == 0u) {
+        lambda[s] = value;
     }
 }
 
@@ -50,9 +57,9 @@ fn project_distance_element(c: u32, t: u32) {
     }
     let e = calls[c].first + t;
     let s = calls[c].slot_base + e;
-    let at = calls[c].elem_base + 2u * e;
-    let i = elements[at];
-    let j = elements[at + 1u];
+    let ij = pairs[calls[c].elem_base / 2u + e];
+    let i = ij.x;
+    let j = ij.y;
     var ri = load_x(i);
     var rj = load_x(j);
     let wi = inverse_mass_of(&ri);
@@ -82,7 +89,7 @@ fn project_distance_element(c: u32, t: u32) {
     if ((calls[c].flags & FLAG_TETHER) != 0u) {
         dl = min(l + dl, 0.0) - l;
     }
-    lambda[s] = l + dl;
+    set_lambda(c, s, l + dl);
     let inv = 1.0 / len;
     if (wi != 0.0) {
         for (var a = 0u; a < DIM; a++) {
@@ -140,7 +147,7 @@ fn project_measure_element(c: u32, t: u32, kind: u32) {
         fail(c, e);
         return;
     }
-    lambda[s] = l + dl;
+    set_lambda(c, s, l + dl);
     for (var j = 0u; j < arity; j++) {
         let i = elements[calls[c].elem_base + e * arity + j];
         var r = load_x(i);

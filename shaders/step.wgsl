@@ -7,12 +7,13 @@
 // `calls`. A DISPATCH runs the calls `here.first_call .. here.end_call`:
 //
 //   particles       one invocation per particle runs every call of the range
-//                   on that particle, its records held in registers: loaded
-//                   once (here.io), stored once. The range holds only
-//                   per-particle calls (predict, contact projection,
-//                   velocity, friction, damping), which read and write that
-//                   particle alone, so running them particle by particle is
-//                   the golden order for each particle.
+//                   (up to 8, fixed per pipeline: OP0..OP7 below) on that
+//                   particle, its records held in registers: loaded once,
+//                   stored once (IO). The range holds only per-particle calls
+//                   (predict, contact projection, velocity, friction,
+//                   damping), which read and write that particle alone, so
+//                   running them particle by particle is the golden order
+//                   for each particle.
 //   project_*       one invocation per element of one colour (project.wgsl)
 //   residual/reduce one workgroup per chunk / per family (residual.wgsl)
 //   step_small      ONE workgroup runs every call of the range in order, its
@@ -61,7 +62,7 @@ struct Dispatch {
     first_call: u32,
     end_call: u32,
     count: u32,       // invocations (particles, elements) or workgroups
-    io: u32,          // particles: records loaded and stored (IO_*)
+    pad: u32,
 }
 
 const OP_PREDICT: u32 = 0u;
@@ -78,6 +79,7 @@ const FLAG_GRAVITY: u32 = 1u;  // predict: s g term
 const FLAG_FORCE: u32 = 2u;    // predict: w f term
 const FLAG_FIRST: u32 = 4u;    // projection: first of its family this substep (λ = 0 before)
 const FLAG_TETHER: u32 = 8u;   // distance: one-sided (|x1 − x0| ≤ rest)
+const FLAG_UNREAD: u32 = 16u;  // projection: nothing reads this λ later (not stored)
 
 const IO_LOAD_X: u32 = 1u;
 const IO_LOAD_V: u32 = 2u;
@@ -105,7 +107,10 @@ const NONE: u32 = 0xffffffffu;
 @group(0) @binding(12) var<storage, read_write> partials: array<real>;
 // Per residual chunk (residual call, first element).
 @group(0) @binding(13) var<storage, read> chunks: array<vec2<u32>>;
-@group(1) @binding(0) var<storage, read> here: Dispatch;
+// `elements` again, read two indices at a time (distance families start at
+// an even offset).
+@group(0) @binding(14) var<storage, read> pairs: array<vec2<u32>>;
+@group(1) @binding(0) var<uniform> here: Dispatch;
 
 // True when an earlier call of this step failed: later calls do nothing.
 fn failed_before(c: u32) -> bool {
@@ -120,10 +125,12 @@ fn fail(c: u32, index: u32) {
 
 // llvmpipe (lavapipe) ends every loop of an invocation once 65 535 loop
 // iterations have run in it, all loops together, silently; after that a
-// loop runs its body once and stops. A fused run or the small step loops
-// over its calls, so a long run (many substeps) can be cut: a two-trip
-// probe with a trip count the compiler cannot see (count < 2^31) tells,
-// and the host refuses the step (gpu/src/backend/loop_budget.rs).
+// loop runs its body once and stops. The small step loops over its calls,
+// so a long run (many substeps) can be cut; a `particles` run unrolls its
+// calls but each still loops over coordinates. A two-trip probe at the end
+// of both kernels, with a trip count the compiler cannot see (count <
+// 2^31), tells, and the host refuses the step
+// (gpu/src/backend/status.rs).
 fn check_loops() {
     let trips = 2u + (here.count >> 31u);
     var probe = 0u;
@@ -135,57 +142,82 @@ fn check_loops() {
     }
 }
 
-// Runs the per-particle calls first..end on particle i. `io` loads every
-// record a call reads before the range writes it, and x whenever x or v is
-// stored (the inverse mass decides).
-fn run_particle(first: u32, end: u32, io: u32, i: u32) {
-    // The particle's records, held in registers across the calls.
-    var rx: Record;
-    var rv: Record;
-    var rp: Record;
+// Per-particle call c on particle i (its records in registers).
+fn run_op(op: u32, c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
+          rp: ptr<function, Record>) {
+    switch (op) {
+        case OP_PREDICT: {
+            predict_particle(c, i, rx, rv, rp);
+        }
+        case OP_PROJECT_CONTACT: {
+            contact_particle(c, i, rx, rv, rp);
+        }
+        case OP_VELOCITY: {
+            velocity_particle(c, i, rx, rv, rp);
+        }
+        case OP_FRICTION: {
+            friction_particle(c, i, rx, rv, rp);
+        }
+        case OP_DAMPING: {
+            damping_particle(c, i, rx, rv, rp);
+        }
+        default: {}
+    }
+}
+
+// The records a run of per-particle calls loads (`io`: IO_LOAD_*).
+fn load_records(io: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
+                rp: ptr<function, Record>) {
     if ((io & IO_LOAD_X) != 0u) {
-        rx = load_x(i);
+        *rx = load_x(i);
     }
     if ((io & IO_LOAD_V) != 0u) {
-        rv = load_v(i);
+        *rv = load_v(i);
     }
     if ((io & IO_LOAD_P) != 0u) {
-        rp = load_p(i);
+        *rp = load_p(i);
     }
-    for (var c = first; c < end; c++) {
-        if (failed_before(c)) {
-            return;
-        }
-        switch (calls[c].op) {
-            case OP_PREDICT: {
-                predict_particle(c, i, &rx, &rv, &rp);
-            }
-            case OP_PROJECT_CONTACT: {
-                contact_particle(c, i, &rx, &rv, &rp);
-            }
-            case OP_VELOCITY: {
-                velocity_particle(c, i, &rx, &rv, &rp);
-            }
-            case OP_FRICTION: {
-                friction_particle(c, i, &rx, &rv, &rp);
-            }
-            case OP_DAMPING: {
-                damping_particle(c, i, &rx, &rv, &rp);
-            }
-            default: {}
-        }
-    }
-    // Only dynamic particles move: a fixed particle's x and v are never
-    // written (its v may not even have been loaded).
-    let dynamic = inverse_mass_of(&rx) != 0.0;
+}
+
+// The records a run stores (`io`: IO_STORE_*). Only dynamic particles
+// move: a fixed particle's x and v are never written (its v may not even
+// have been loaded); `io` loads x whenever x or v is stored.
+fn store_records(io: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
+                 rp: ptr<function, Record>) {
+    let dynamic = inverse_mass_of(rx) != 0.0;
     if ((io & IO_STORE_X) != 0u && dynamic) {
-        store_x(i, rx);
+        store_x(i, *rx);
     }
     if ((io & IO_STORE_V) != 0u && dynamic) {
-        store_v(i, rv);
+        store_v(i, *rv);
     }
     if ((io & IO_STORE_P) != 0u) {
-        store_p(i, rp);
+        store_p(i, *rp);
+    }
+}
+
+// THE OPS OF A `particles` PIPELINE are fixed when it is created
+// (pipeline-overridable constants: OP0..OP7 the ops of calls first_call +
+// 0..7, NO_OP for none; IO the records loaded and stored), so a pipeline
+// runs exactly its calls: no run-time branch on the op, which a SIMD
+// implementation such as lavapipe would execute for every op under masks.
+const NO_OP: u32 = 255u;
+override OP0: u32 = NO_OP;
+override OP1: u32 = NO_OP;
+override OP2: u32 = NO_OP;
+override OP3: u32 = NO_OP;
+override OP4: u32 = NO_OP;
+override OP5: u32 = NO_OP;
+override OP6: u32 = NO_OP;
+override OP7: u32 = NO_OP;
+override IO: u32 = 0u;
+
+// Call c with op `op` of a fixed run (skipped after a failed call; the
+// records then stored are garbage, and the step is rolled back).
+fn run_slot(op: u32, c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
+            rp: ptr<function, Record>) {
+    if (op != NO_OP && !failed_before(c)) {
+        run_op(op, c, i, rx, rv, rp);
     }
 }
 
@@ -195,7 +227,20 @@ fn particles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     if (i >= here.count) {
         return;
     }
-    run_particle(here.first_call, here.end_call, here.io, i);
+    var rx: Record;
+    var rv: Record;
+    var rp: Record;
+    load_records(IO, i, &rx, &rv, &rp);
+    let c = here.first_call;
+    run_slot(OP0, c, i, &rx, &rv, &rp);
+    run_slot(OP1, c + 1u, i, &rx, &rv, &rp);
+    run_slot(OP2, c + 2u, i, &rx, &rv, &rp);
+    run_slot(OP3, c + 3u, i, &rx, &rv, &rp);
+    run_slot(OP4, c + 4u, i, &rx, &rv, &rp);
+    run_slot(OP5, c + 5u, i, &rx, &rv, &rp);
+    run_slot(OP6, c + 6u, i, &rx, &rv, &rp);
+    run_slot(OP7, c + 7u, i, &rx, &rv, &rp);
+    store_records(IO, i, &rx, &rv, &rp);
     check_loops();
 }
 
@@ -208,8 +253,17 @@ fn step_small(@builtin(local_invocation_index) lid: u32) {
                 project_distance_element(c, t);
             }
         } else {
+            let op = calls[c].op;
+            let io = calls[c].io;
             for (var i = lid; i < count; i += WORKGROUP) {
-                run_particle(c, c + 1u, calls[c].io, i);
+                var rx: Record;
+                var rv: Record;
+                var rp: Record;
+                load_records(io, i, &rx, &rv, &rp);
+                if (!failed_before(c)) {
+                    run_op(op, c, i, &rx, &rv, &rp);
+                }
+                store_records(io, i, &rx, &rv, &rp);
             }
         }
         storageBarrier();

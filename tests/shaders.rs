@@ -53,11 +53,22 @@ fn label(file: ShaderFile, dim: usize, precision: Precision) -> String {
     format!("{} dim {dim} {precision}", file.file_name())
 }
 
-/// Composes and validates one case, failing with naga's rendered message.
+/// Composes and validates one case, failing with naga's rendered message;
+/// pipeline-overridable constants take their defaults (as a pipeline
+/// created without constants would).
 fn module_of(file: ShaderFile, dim: usize, precision: Precision) -> (naga::Module, ModuleInfo) {
     let source = compose(file, dim, precision);
-    validate(&source, precision)
-        .unwrap_or_else(|e| panic!("{} does not validate:\n{e}", label(file, dim, precision)))
+    let (module, info) = validate(&source, precision)
+        .unwrap_or_else(|e| panic!("{} does not validate:\n{e}", label(file, dim, precision)));
+    with_default_overrides(&module, &info)
+}
+
+/// `module` with every override replaced by its default.
+fn with_default_overrides(module: &naga::Module, info: &ModuleInfo) -> (naga::Module, ModuleInfo) {
+    let (module, info) =
+        naga::back::pipeline_constants::process_overrides(module, info, None, &Default::default())
+            .expect("every override has a default");
+    (module.into_owned(), info.into_owned())
 }
 
 #[test]
@@ -273,6 +284,7 @@ fn f32_modules_translate_to_msl_and_f64_modules_are_refused_for_lack_of_float64(
                         e.emit_to_string(&source)
                     )
                 });
+                let (module, info) = with_default_overrides(&module, &info);
                 let options = msl_options(&module);
                 let (text, translation) = msl::write_string(&module, &info, &options, &pipeline)
                     .unwrap_or_else(|e| {

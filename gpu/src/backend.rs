@@ -192,7 +192,7 @@ impl GpuBackend {
                 label: "hyperpbd xpbd",
                 dim,
                 precision,
-                groups: &[&BINDINGS, &[crate::kernel_set::Binding::BLOCK]],
+                groups: &[&BINDINGS, &[crate::kernel_set::Binding::UNIFORM_BLOCK]],
                 entries: &entries,
             },
         )?;
@@ -238,7 +238,7 @@ impl GpuBackend {
         let report_bytes = (report_len * real_size(precision)) as u64;
         let report_staging = ctx.staging("report_staging", 16 + report_bytes)?;
 
-        let mut blocks = ParamBlocks::new(device);
+        let mut blocks = ParamBlocks::uniform(device);
         let mut place = |dispatches: &[Dispatch]| -> Vec<Placed> {
             dispatches
                 .iter()
@@ -276,6 +276,7 @@ impl GpuBackend {
                 &contact_slot,
                 &partials,
                 &chunks,
+                &elements,
             ],
             0,
         )?;

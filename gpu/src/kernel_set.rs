@@ -52,6 +52,8 @@ pub(crate) struct Binding {
     pub read_only: bool,
     /// Bound with a dynamic offset (one parameter block per dispatch).
     pub dynamic: bool,
+    /// A uniform buffer rather than a storage buffer.
+    pub uniform: bool,
 }
 
 impl Binding {
@@ -59,16 +61,25 @@ impl Binding {
     pub const WRITE: Binding = Binding {
         read_only: false,
         dynamic: false,
+        uniform: false,
     };
     /// A `read` storage buffer.
     pub const READ: Binding = Binding {
         read_only: true,
         dynamic: false,
+        uniform: false,
     };
     /// A read-only parameter block selected per dispatch by a dynamic offset.
     pub const BLOCK: Binding = Binding {
         read_only: true,
         dynamic: true,
+        uniform: false,
+    };
+    /// A uniform block selected per dispatch by a dynamic offset.
+    pub const UNIFORM_BLOCK: Binding = Binding {
+        read_only: true,
+        dynamic: true,
+        uniform: true,
     };
 }
 
@@ -86,10 +97,17 @@ pub(crate) fn storage(binding: u32, read_only: bool, dynamic: bool) -> wgpu::Bin
     }
 }
 
-/// An entry point of a kernel set: its WGSL file and function name.
+/// An entry point of a kernel set: its WGSL file and function name, and
+/// the values of the module's pipeline-overridable constants it is
+/// specialised with (one pipeline per distinct entry).
 pub(crate) trait EntryPoint: Copy + Eq + std::fmt::Debug + 'static {
     /// The file that defines it and its name there.
     fn source(self) -> (ShaderFile, &'static str);
+
+    /// `override` constants of the pipeline (none by default).
+    fn constants(self) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
 }
 
 /// What a kernel set is made of.
@@ -118,7 +136,11 @@ impl<E: EntryPoint> KernelSet<E> {
     /// Builds the layouts, modules and pipelines of `spec` on `device`.
     pub fn new(device: &wgpu::Device, spec: &KernelSetSpec<'_, E>) -> Result<Self, GpuError> {
         let limits = device.limits();
-        let needed: usize = spec.groups.iter().map(|g| g.len()).sum();
+        let needed: usize = spec
+            .groups
+            .iter()
+            .map(|g| g.iter().filter(|b| !b.uniform).count())
+            .sum();
         if (limits.max_storage_buffers_per_shader_stage as usize) < needed {
             return Err(GpuError::Unsupported {
                 what: format!(
@@ -134,7 +156,17 @@ impl<E: EntryPoint> KernelSet<E> {
                 let entries: Vec<_> = bindings
                     .iter()
                     .enumerate()
-                    .map(|(k, b)| storage(k as u32, b.read_only, b.dynamic))
+                    .map(|(k, b)| {
+                        let mut entry = storage(k as u32, b.read_only, b.dynamic);
+                        if b.uniform {
+                            entry.ty = wgpu::BindingType::Buffer {
+                                ty: wgpu::BufferBindingType::Uniform,
+                                has_dynamic_offset: b.dynamic,
+                                min_binding_size: None,
+                            };
+                        }
+                        entry
+                    })
                     .collect();
                 device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                     label: Some(spec.label),
@@ -165,12 +197,16 @@ impl<E: EntryPoint> KernelSet<E> {
                     message: format!("{}: no module for {file:?}", spec.label),
                 });
             };
+            let constants = entry.constants();
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(name),
                 layout: Some(&pipeline_layout),
                 module,
                 entry_point: Some(name),
-                compilation_options: Default::default(),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    ..Default::default()
+                },
                 cache: None,
             });
             pipelines.push((entry, pipeline, file.workgroup_size()));
@@ -312,6 +348,7 @@ impl BlockWriter {
 /// Parameter blocks of one kernel set in one buffer, each at a multiple of
 /// the device's dynamic-offset alignment.
 pub(crate) struct ParamBlocks {
+    uniform: bool,
     stride_alignment: usize,
     bytes: Vec<u8>,
     largest: usize,
@@ -319,11 +356,29 @@ pub(crate) struct ParamBlocks {
 }
 
 impl ParamBlocks {
-    /// No blocks yet; offsets will be multiples of `device`'s
+    /// No blocks yet, for a storage dynamic binding ([`Binding::BLOCK`]);
+    /// offsets will be multiples of `device`'s
     /// `min_storage_buffer_offset_alignment`.
     pub fn new(device: &wgpu::Device) -> Self {
+        Self::with_kind(device, false)
+    }
+
+    /// No blocks yet, for a uniform dynamic binding
+    /// ([`Binding::UNIFORM_BLOCK`]); offsets will be multiples of `device`'s
+    /// `min_uniform_buffer_offset_alignment`.
+    pub fn uniform(device: &wgpu::Device) -> Self {
+        Self::with_kind(device, true)
+    }
+
+    fn with_kind(device: &wgpu::Device, uniform: bool) -> Self {
+        let limits = device.limits();
         ParamBlocks {
-            stride_alignment: device.limits().min_storage_buffer_offset_alignment as usize,
+            uniform,
+            stride_alignment: if uniform {
+                limits.min_uniform_buffer_offset_alignment
+            } else {
+                limits.min_storage_buffer_offset_alignment
+            } as usize,
             bytes: Vec::new(),
             largest: 0,
             last: 0,
@@ -345,11 +400,16 @@ impl ParamBlocks {
         (self.largest.max(16).next_multiple_of(16)) as u64
     }
 
-    /// The read-only storage buffer holding every block (padded so the
-    /// last block's binding fits).
+    /// The buffer holding every block (padded so the last block's binding
+    /// fits).
     pub fn finish(mut self, ctx: &GpuContext, label: &str) -> Result<wgpu::Buffer, GpuError> {
         let end = self.last + self.block_size() as usize;
         self.bytes.resize(end.max(self.bytes.len()), 0);
-        ctx.buffer(label, &self.bytes, wgpu::BufferUsages::STORAGE)
+        let usage = if self.uniform {
+            wgpu::BufferUsages::UNIFORM
+        } else {
+            wgpu::BufferUsages::STORAGE
+        };
+        ctx.buffer(label, &self.bytes, usage)
     }
 }

@@ -1,8 +1,7 @@
-//! hyperpbd's wgpu backend.
-//!
-//! For now this crate only finds adapters and creates devices
-//! ([`list_adapters`], [`request_adapter`], [`request_device`]); the step
-//! kernels come with the GPU-backend issue.
+//! hyperpbd's wgpu backend: [`GpuBackend`] (the XPBD step) and
+//! [`GpuBarrierBackend`] (the incremental-potential step), the kernel-level
+//! entry points ([`GpuSweep`], [`GpuCollide`], [`barrier`]), and adapter
+//! discovery ([`list_adapters`], [`request_adapter`], [`request_device`]).
 //!
 //! Asking for the GPU and not getting it is always a [`GpuError`], never a
 //! silent fallback to the CPU.
@@ -27,6 +26,7 @@ mod params;
 mod readback;
 mod resident;
 pub mod shader;
+pub mod software_threads;
 mod xpbd;
 
 pub use adapter::*;
@@ -35,4 +35,4 @@ pub use broadphase::{GpuSweep, SweepStats};
 pub use collide::{CollideInput, GpuCollide};
 pub use incremental_potential::GpuBarrierBackend;
 pub use origin::SceneOrigin;
-pub use xpbd::schedule::StepMode;
+pub use xpbd::schedule::{StepMode, dispatches_per_step};

@@ -16,6 +16,8 @@ use crate::Precision;
 pub const MAX_GPU_DIM: usize = 8;
 
 const PRELUDE: &str = include_str!("../../shaders/prelude.wgsl");
+const RECORD4: &str = include_str!("../../shaders/record4.wgsl");
+const RECORDS: &str = include_str!("../../shaders/records.wgsl");
 const MEASURE: &str = include_str!("../../shaders/measure.wgsl");
 const STEP: &str = include_str!("../../shaders/step.wgsl");
 const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
@@ -123,9 +125,10 @@ impl ShaderFile {
     }
 
     /// Workgroup size of every entry point of the file: 64 for the step
-    /// and contact kernels (measured: docs/performance.md), 256 for the
-    /// scan (a block of 8 × 256 counters). [`compose`] writes it into the
-    /// header.
+    /// and contact kernels (64 and 256 measure within noise of each other
+    /// on lavapipe, docs/performance.md; 64 spreads a small dispatch over
+    /// more of a GPU's multiprocessors), 256 for the scan (a block of
+    /// 8 × 256 counters). [`compose`] writes it into the header.
     pub fn workgroup_size(self) -> u32 {
         match self {
             ShaderFile::Scan => 256,
@@ -177,9 +180,18 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
         });
         source.push('\n');
     }
-    for part in file.body() {
+    for &part in file.body() {
         source.push_str(part);
         source.push('\n');
+        if std::ptr::eq(part, PRELUDE) {
+            // The record accessors of this dimension (prelude.wgsl).
+            source.push_str(if crate::layout::record_words(dim) == 1 {
+                RECORD4
+            } else {
+                RECORDS
+            });
+            source.push('\n');
+        }
     }
     source
 }

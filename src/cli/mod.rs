@@ -11,7 +11,7 @@ mod run;
 pub use broken_pipe::exit_quietly_on_broken_pipe;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use hyperpbd::gpu::{GpuBackend, Precision};
+use hyperpbd::gpu::{GpuBackend, Precision, software_threads};
 use hyperpbd::{Backend, CpuBackend, Plan, Scene, State};
 use std::path::PathBuf;
 
@@ -110,6 +110,7 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
             let scene = load_scene(&scene)?;
             let plan = Plan::compile(&scene).map_err(|e| CliError::Input(e.to_string()))?;
             print!("{}", plan.describe());
+            print_gpu_dispatches(&plan);
             Ok(())
         }
         Command::Info => {
@@ -155,6 +156,67 @@ fn info() {
         println!("{a}");
     }
     println!("CPU golden backend: cpu-f64 (always available)");
+    println!(
+        "lavapipe threads: {}",
+        match std::env::var(software_threads::VARIABLE) {
+            Ok(value) => format!(
+                "{}={value} (from the environment)",
+                software_threads::VARIABLE
+            ),
+            Err(_) => format!(
+                "chosen per scene by run, demo and render: one thread ({}=0) when the \
+                 largest dispatch has fewer than {} items, lavapipe's default above; set {} \
+                 to override",
+                software_threads::VARIABLE,
+                software_threads::CROSSOVER,
+                software_threads::VARIABLE
+            ),
+        }
+    );
+}
+
+/// `hyperpbd plan`: the GPU schedule the first adapter would run and its
+/// dispatches per step.
+fn print_gpu_dispatches(plan: &Plan) {
+    let (software, on) = match hyperpbd::gpu::request_adapter(Precision::F32) {
+        Ok((_, summary)) => (summary.device_type == "Cpu", summary.name),
+        Err(_) => (false, "a hardware GPU (no adapter here)".to_string()),
+    };
+    match hyperpbd::gpu::dispatches_per_step(plan, software) {
+        Some((mode, chosen, exact)) => println!(
+            "gpu step on {on}: {} schedule, {chosen} compute dispatches per step \
+             (one per kernel call: {exact})",
+            mode.as_str()
+        ),
+        None => println!("gpu step: incremental potential, dispatched per Newton iteration"),
+    }
+}
+
+/// The notice `run`, `demo` and `render` print when the GPU backend runs on
+/// a software adapter: the threads it got.
+fn software_notice(summary: &hyperpbd::gpu::AdapterSummary, threads: &software_threads::Threads) {
+    if summary.device_type == "Cpu" {
+        eprintln!("notice: {} threads: {threads}", summary.name);
+    }
+}
+
+/// Sets lavapipe's threads for `plan` ([`software_threads`]) before the
+/// process's first wgpu instance; the first call of the process decides.
+/// Returns what the GPU backend will run with.
+fn set_software_threads(plan: &Plan) -> software_threads::Threads {
+    static DECIDED: std::sync::Once = std::sync::Once::new();
+    DECIDED.call_once(|| {
+        if let Some(value) = software_threads::Threads::for_plan(plan).wanted() {
+            // SAFETY: `set_var` is unsound only while another thread reads
+            // or writes the environment. The command line is single-threaded
+            // up to here: it starts no threads (no rayon in core or cpu), and
+            // run, demo and render reach this before creating any wgpu
+            // instance, so no driver thread exists yet; `Once` makes it the
+            // first and only write.
+            unsafe { std::env::set_var(software_threads::VARIABLE, value) };
+        }
+    });
+    software_threads::Threads::for_plan(plan)
 }
 
 /// Chooses and loads a backend, printing what was picked and why.
@@ -163,16 +225,20 @@ pub fn load_backend(
     plan: Plan,
     state: &State,
 ) -> Result<Box<dyn Backend>, CliError> {
+    // lavapipe's threads follow the scene's size: decided before any
+    // adapter is looked up.
+    let threads = set_software_threads(&plan);
     let gpu = |plan: Plan, precision: Precision| -> Result<Box<dyn Backend>, CliError> {
         if plan.incremental_potential.is_some() {
-            return Ok(Box::new(
-                hyperpbd::gpu::GpuBarrierBackend::new(plan, state, precision)
-                    .map_err(|e| CliError::Input(format!("--backend gpu: {e}")))?,
-            ));
+            let b = hyperpbd::gpu::GpuBarrierBackend::new(plan, state, precision)
+                .map_err(|e| CliError::Input(format!("--backend gpu: {e}")))?;
+            software_notice(b.adapter(), &threads);
+            return Ok(Box::new(b));
         }
-        Ok(Box::new(GpuBackend::new(plan, state, precision).map_err(
-            |e| CliError::Input(format!("--backend gpu: {e}")),
-        )?))
+        let b = GpuBackend::new(plan, state, precision)
+            .map_err(|e| CliError::Input(format!("--backend gpu: {e}")))?;
+        software_notice(b.adapter(), &threads);
+        Ok(Box::new(b))
     };
     match choice {
         BackendChoice::Cpu => Ok(Box::new(

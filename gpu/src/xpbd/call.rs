@@ -31,6 +31,7 @@ pub(crate) const FLAG_GRAVITY: u32 = 1;
 pub(crate) const FLAG_FORCE: u32 = 2;
 pub(crate) const FLAG_FIRST: u32 = 4;
 pub(crate) const FLAG_TETHER: u32 = 8;
+pub(crate) const FLAG_UNREAD: u32 = 16;
 
 pub(crate) const IO_LOAD_X: u32 = 1;
 pub(crate) const IO_LOAD_V: u32 = 2;

@@ -11,7 +11,8 @@
 //! call.rs       the call block, op codes, flags, record io
 //! ```
 //! Group 0: x v p force (particle records, prelude.wgsl) gravity_scale
-//! elements rest lambda status report calls contact_slot partials chunks;
+//! elements rest lambda status report calls contact_slot partials chunks
+//! pairs (= elements, read as vec2);
 //! group 1: the `Dispatch` block of each dispatch (dynamic offset).
 
 pub(crate) mod call;
@@ -62,6 +63,10 @@ impl Families {
             slot_maps: Vec::new(),
         };
         for f in &plan.families {
+            if f.arity == 2 && out.elements.len() % 2 == 1 {
+                // Pairs are read as vec2<u32>: an even offset.
+                out.elements.push(0);
+            }
             out.elem_base.push(out.elements.len() as u32);
             out.slot_base.push(out.rest.len() as u32);
             out.elements.extend_from_slice(&f.elements);
@@ -97,10 +102,10 @@ impl Families {
     }
 }
 
-/// Entry points of the step module.
+/// Entry points of the step module (`particles` once per run shape).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum XpbdEntry {
-    Particles,
+    Particles(schedule::Segment),
     Distance,
     Simplex,
     Oriented,
@@ -110,21 +115,24 @@ pub(crate) enum XpbdEntry {
 }
 
 impl XpbdEntry {
-    pub const ALL: [XpbdEntry; 7] = [
-        XpbdEntry::Particles,
-        XpbdEntry::Distance,
-        XpbdEntry::Simplex,
-        XpbdEntry::Oriented,
-        XpbdEntry::Residual,
-        XpbdEntry::Reduce,
-        XpbdEntry::Small,
-    ];
+    /// Order of the entry kinds (pipelines are built in this order).
+    pub fn rank(self) -> usize {
+        match self {
+            XpbdEntry::Particles(_) => 0,
+            XpbdEntry::Distance => 1,
+            XpbdEntry::Simplex => 2,
+            XpbdEntry::Oriented => 3,
+            XpbdEntry::Residual => 4,
+            XpbdEntry::Reduce => 5,
+            XpbdEntry::Small => 6,
+        }
+    }
 }
 
 impl EntryPoint for XpbdEntry {
     fn source(self) -> (ShaderFile, &'static str) {
         let name = match self {
-            XpbdEntry::Particles => "particles",
+            XpbdEntry::Particles(_) => "particles",
             XpbdEntry::Distance => "project_distance",
             XpbdEntry::Simplex => "project_simplex_measure",
             XpbdEntry::Oriented => "project_oriented_measure",
@@ -134,10 +142,25 @@ impl EntryPoint for XpbdEntry {
         };
         (ShaderFile::Step, name)
     }
+
+    fn constants(self) -> Vec<(&'static str, f64)> {
+        let XpbdEntry::Particles(segment) = self else {
+            return Vec::new();
+        };
+        const SLOTS: [&str; schedule::SEGMENT] =
+            ["OP0", "OP1", "OP2", "OP3", "OP4", "OP5", "OP6", "OP7"];
+        let mut out: Vec<(&'static str, f64)> = SLOTS
+            .iter()
+            .zip(segment.ops)
+            .map(|(&name, op)| (name, f64::from(op)))
+            .collect();
+        out.push(("IO", f64::from(segment.io)));
+        out
+    }
 }
 
 /// Group 0 of the step module, in binding order (see the module doc).
-pub(crate) const BINDINGS: [Binding; 14] = [
+pub(crate) const BINDINGS: [Binding; 15] = [
     Binding::WRITE,
     Binding::WRITE,
     Binding::WRITE,
@@ -151,6 +174,7 @@ pub(crate) const BINDINGS: [Binding; 14] = [
     Binding::READ,
     Binding::READ,
     Binding::WRITE,
+    Binding::READ,
     Binding::READ,
 ];
 

@@ -10,13 +10,15 @@
 //! per particle, so it fuses with the per-particle calls around it.
 //! `first` marks the first projection of the family in its substep: λ is
 //! read as 0 there (the CPU resets it in predict) and written on every path.
+//! `last` marks its last: a λ nothing reads afterwards (not a contact,
+//! whose λ friction and the report read) is then not stored.
 
 use hyperpbd_core::{FamilyKind, Kernel, Plan};
 
 use super::Families;
 use super::call::{
-    Call, FLAG_FIRST, FLAG_TETHER, OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE, OP_PROJECT_ORIENTED,
-    OP_PROJECT_SIMPLEX,
+    Call, FLAG_FIRST, FLAG_TETHER, FLAG_UNREAD, OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE,
+    OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX,
 };
 
 /// Projection of colour `color` of family `family`.
@@ -25,7 +27,7 @@ pub(crate) fn project(
     families: &Families,
     (family, color): (usize, usize),
     call: u32,
-    first: bool,
+    (first, last): (bool, bool),
 ) -> Call {
     let f = &plan.families[family];
     let range = f.color(color);
@@ -37,7 +39,7 @@ pub(crate) fn project(
         slot_base: families.slot_base[family],
         arity: f.arity as u32,
         call,
-        flags: if first { FLAG_FIRST } else { 0 },
+        flags: if first { FLAG_FIRST } else { 0 } | if last { FLAG_UNREAD } else { 0 },
         alpha_tilde: f.compliance / (plan.h * plan.h),
         kernel: Some(Kernel::Project { family, color }),
         ..Call::default()
@@ -51,6 +53,8 @@ pub(crate) fn project(
         FamilyKind::SimplexMeasure { .. } => c.op = OP_PROJECT_SIMPLEX,
         FamilyKind::OrientedMeasure => c.op = OP_PROJECT_ORIENTED,
         FamilyKind::HyperplaneContact { normal, friction } => {
+            // friction and the report read a contact's λ: always stored.
+            c.flags &= !FLAG_UNREAD;
             c.op = OP_PROJECT_CONTACT;
             c.count = plan.particle_count() as u32;
             c.slot_map = families.slot_map[family];

@@ -10,8 +10,8 @@
 //!          velocity, friction, damping — across substep boundaries too) in
 //!          ONE `particles` dispatch each; one dispatch per colour of the
 //!          other families; residual + reduce
-//! small    ONE `step_small` dispatch: the whole step, residual included,
-//!          in one workgroup with a storage barrier between calls
+//! small    ONE `step_small` dispatch: the whole step in one workgroup
+//!          with a storage barrier between calls; residual + reduce
 //! ```
 //! Fusing per-particle calls keeps each particle's order of operations:
 //! they read and write that particle's records and its own multipliers
@@ -54,11 +54,39 @@ impl StepMode {
     }
 }
 
+/// Per-particle calls in one `particles` dispatch at most (OP0..OP7 of
+/// step.wgsl).
+pub(crate) const SEGMENT: usize = 8;
+
+/// The ops and record io of a `particles` pipeline (its overridable
+/// constants).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub(crate) struct Segment {
+    /// Op of call first + k; NO_OP (255) past the run.
+    pub ops: [u8; SEGMENT],
+    /// IO_* of the run.
+    pub io: u8,
+}
+
+impl Segment {
+    fn of(calls: &[Call]) -> Segment {
+        let mut ops = [255u8; SEGMENT];
+        for (slot, call) in ops.iter_mut().zip(calls) {
+            *slot = call.op as u8;
+        }
+        Segment {
+            ops,
+            io: records_io(calls) as u8,
+        }
+    }
+}
+
 /// What a dispatch runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Run {
-    /// `particles`: the per-particle calls of the range.
-    Particles,
+    /// `particles`: the per-particle calls of the range (at most
+    /// [`SEGMENT`]).
+    Particles(Segment),
     /// `project_distance` / `project_simplex_measure` /
     /// `project_oriented_measure`: one colour.
     Distance,
@@ -80,7 +108,7 @@ impl Run {
     pub fn entry(self) -> Option<super::XpbdEntry> {
         use super::XpbdEntry as E;
         Some(match self {
-            Run::Particles => E::Particles,
+            Run::Particles(segment) => E::Particles(segment),
             Run::Distance => E::Distance,
             Run::Simplex => E::Simplex,
             Run::Oriented => E::Oriented,
@@ -93,21 +121,19 @@ impl Run {
 }
 
 /// One dispatch: calls `first_call..end_call`, `count` invocations (or
-/// workgroups for Residual / Reduce / Small), the records `io` a
-/// Particles dispatch loads and stores.
+/// workgroups for Residual / Reduce / Small).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct Dispatch {
     pub run: Run,
     pub first_call: u32,
     pub end_call: u32,
     pub count: u32,
-    pub io: u32,
 }
 
 impl Dispatch {
     /// The `Dispatch` block of step.wgsl.
     pub fn block(&self) -> [u32; 4] {
-        [self.first_call, self.end_call, self.count, self.io]
+        [self.first_call, self.end_call, self.count, 0]
     }
 }
 
@@ -143,11 +169,25 @@ impl Schedule {
     ) -> Schedule {
         let k = plan.substep_kernels.len();
         let mut calls = Vec::new();
+        // A projection in the last iteration: the last time its colour is
+        // projected in the substep.
+        let last_iteration = |index: usize, kernel: Kernel| {
+            matches!(kernel, Kernel::Project { .. })
+                && !plan.substep_kernels[index + 1..].contains(&kernel)
+        };
         for substep in 0..plan.substeps as usize {
             let mut projected = vec![false; plan.families.len()];
             for (index, &kernel) in plan.substep_kernels.iter().enumerate() {
                 let call = (substep * k + index) as u32;
-                calls.push(kernel_call(plan, families, kernel, call, &mut projected));
+                let last = last_iteration(index, kernel);
+                calls.push(kernel_call(
+                    plan,
+                    families,
+                    kernel,
+                    call,
+                    &mut projected,
+                    last,
+                ));
             }
         }
         let step_end = calls.len();
@@ -163,6 +203,7 @@ impl Schedule {
                 kernel,
                 index as u32,
                 &mut projected,
+                false,
             ));
         }
         let residual_range = (step_end as u32, run_base as u32);
@@ -177,7 +218,6 @@ impl Schedule {
                     first_call: 0,
                     end_call: step_end as u32,
                     count: 1,
-                    io: 0,
                 }];
                 small.extend(residual_pair(residual_range, chunks.len() as u32));
                 small
@@ -226,9 +266,14 @@ impl Schedule {
             .filter(|d| d.count > 0 || d.run == Run::Small)
             .filter_map(|d| d.run.entry())
             .collect();
-        used.sort_by_key(|e| super::XpbdEntry::ALL.iter().position(|a| a == e));
-        used.dedup();
-        used
+        let mut unique: Vec<super::XpbdEntry> = Vec::new();
+        used.sort_by_key(|e| e.rank());
+        for e in used {
+            if !unique.contains(&e) {
+                unique.push(e);
+            }
+        }
+        unique
     }
 
     /// The plan kernel of step call `call`.
@@ -238,13 +283,14 @@ impl Schedule {
 }
 
 /// The call of `kernel` (`projected[f]`: family f was projected already
-/// this substep).
+/// this substep; `last`: a projection of the family's last iteration).
 fn kernel_call(
     plan: &Plan,
     families: &Families,
     kernel: Kernel,
     call: u32,
     projected: &mut [bool],
+    last: bool,
 ) -> Call {
     match kernel {
         Kernel::Predict => integrate::predict(plan, call),
@@ -257,7 +303,7 @@ fn kernel_call(
             if color + 1 == plan.families[family].color_count() {
                 projected[family] = true;
             }
-            project::project(plan, families, (family, color), call, first)
+            project::project(plan, families, (family, color), call, (first, last))
         }
         Kernel::Friction { family } => friction::friction(plan, families, family, call),
         Kernel::Broadphase | Kernel::Collide | Kernel::Minimise => Call {
@@ -272,7 +318,7 @@ fn kernel_call(
 /// The dispatch of call `index` alone.
 fn single(call: &Call, index: usize) -> Dispatch {
     let run = if call.per_particle() {
-        Run::Particles
+        Run::Particles(Segment::of(std::slice::from_ref(call)))
     } else {
         match call.op {
             OP_HOST => Run::Host(call.kernel.unwrap_or(Kernel::Broadphase)),
@@ -286,7 +332,6 @@ fn single(call: &Call, index: usize) -> Dispatch {
         first_call: index as u32,
         end_call: index as u32 + 1,
         count: call.count,
-        io: records_io(std::slice::from_ref(call)),
     }
 }
 
@@ -298,14 +343,12 @@ fn residual_pair((first, end): (u32, u32), chunks: u32) -> [Dispatch; 2] {
             first_call: first,
             end_call: end,
             count: chunks,
-            io: 0,
         },
         Dispatch {
             run: Run::Reduce,
             first_call: first,
             end_call: end,
             count: end - first,
-            io: 0,
         },
     ]
 }
@@ -321,15 +364,17 @@ fn fused(step: &[Call], residual: (u32, u32), chunks: u32) -> Vec<Dispatch> {
     let mut i = 0;
     while i < step.len() {
         if step[i].per_particle() {
-            let end = i + step[i..].iter().take_while(|c| c.per_particle()).count();
-            out.push(Dispatch {
-                run: Run::Particles,
-                first_call: i as u32,
-                end_call: end as u32,
-                count: step[i].count,
-                io: records_io(&step[i..end]),
-            });
-            i = end;
+            let run_end = i + step[i..].iter().take_while(|c| c.per_particle()).count();
+            for first in (i..run_end).step_by(SEGMENT) {
+                let end = (first + SEGMENT).min(run_end);
+                out.push(Dispatch {
+                    run: Run::Particles(Segment::of(&step[first..end])),
+                    first_call: first as u32,
+                    end_call: end as u32,
+                    count: step[first].count,
+                });
+            }
+            i = run_end;
         } else {
             out.push(single(&step[i], i));
             i += 1;
@@ -362,4 +407,24 @@ fn choose(plan: &Plan, step: &[Call], workgroup: u32, software: bool) -> StepMod
     } else {
         StepMode::Fused
     }
+}
+
+/// The schedule mode the backend would choose for `plan` on a software
+/// (`software`) or hardware adapter, and the compute dispatches per step
+/// that mode and the exact schedule record (for `hyperpbd plan`). `None`
+/// for plans the XPBD backend does not run (the incremental potential).
+pub fn dispatches_per_step(plan: &Plan, software: bool) -> Option<(StepMode, usize, usize)> {
+    if plan.incremental_potential.is_some() {
+        return None;
+    }
+    let origin = crate::SceneOrigin::zero(plan.dim);
+    let families = Families::new(plan, &origin).ok()?;
+    let workgroup = crate::shader::ShaderFile::Step.workgroup_size();
+    let chosen = Schedule::new(plan, &families, workgroup, None, software);
+    let exact = Schedule::new(plan, &families, workgroup, Some(StepMode::Exact), software);
+    Some((
+        chosen.mode,
+        chosen.dispatches_per_step(),
+        exact.dispatches_per_step(),
+    ))
 }
