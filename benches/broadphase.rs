@@ -72,7 +72,7 @@ fn cube(n: usize) -> Aabbs {
 }
 
 fn gpu_sweep() -> Option<GpuSweep> {
-    match GpuSweep::new(3, Precision::F32, 1 << 16) {
+    match GpuSweep::new(3, Precision::F32, 32) {
         Ok(g) => Some(g),
         Err(e) => {
             eprintln!("SKIPPED gpu sweep: {e}");
@@ -224,8 +224,7 @@ fn scaling_report() {
     }
     if let Some(g) = gpu.as_ref() {
         println!(
-            "\nGPU device memory: {} bytes per pair slot, {} bytes per box (f32, 3D); capacity after the run {} pairs",
-            hyperpbd::gpu::broadphase::BYTES_PER_PAIR_SLOT,
+            "\nGPU device memory: {} bytes per box (f32, 3D) + 4 bytes per list slot; {} slots per box after the run",
             g.bytes_per_box(),
             g.capacity()
         );

@@ -1,142 +1,212 @@
-// Particle–particle contact, one gather-Jacobi iteration in two kernels —
-// the arithmetic of cpu/src/collide.rs, in the same order:
+// Particle–particle contact, one gather-Jacobi iteration — the arithmetic of
+// cpu/src/collide.rs, in the same order:
 //
-//   collide_pairs   per pair e = (i, j), from the iterate x:
-//                   d = x_j − x_i;  C = |d| − (r_i + r_j);  active iff C < 0, |d| > 0
-//                   n = d / |d|;  s = −C;  c_e = n s − t_f  (t_f: clamped tangential
-//                   relative motion since the substep start p, μ > 0 only)
-//   collide_gather  per particle k, over its sorted contact list:
-//                   x_k += Σ ±(w_k / (w_i + w_j)) c_e / (number of active contacts)
+//   contact_snapshot  y = x                      (the iterate every pair reads)
+//   collide           particle k, over its list (ascending partners m):
+//                     pair (i, j) = (min(k, m), max(k, m)), from y:
+//                       d = y_j − y_i;  C = |d| − (r_i + r_j);  active iff C < 0, |d| > 0
+//                       n = d / |d|;  s = −C;  c = n s − t_f   (t_f: clamped tangential
+//                       motion since the substep start p, μ > 0 only)
+//                     x_k = y_k + Σ_active ±(w_k / (w_i + w_j)) c / (active count)
 //
-// `lists` holds the pairs (2 per pair), then the list offsets (n + 1),
-// then the entries (2 e + side). `corr` holds DIM + 1 reals per pair: c_e
-// and an active flag (1 or 0). No atomics: each invocation writes only its
-// own pair or particle. Positions x and p are the particle records of
-// prelude.wgsl (bindings 0..=3), read and written through its accessors.
+// Each pair's correction is computed by both of its particles with the same
+// operations on the same operands (i < j as on the CPU), so both see the
+// CPU's value; each particle sums in ascending partner order — the order of
+// its CPU contact list. No atomics on reals.
+//
+// Failures, as the CPU reports them: a non-finite |d| fails the pair's
+// lower particle i (index i: the CPU stops at the first such pair, the one
+// with the smallest i); a non-finite new position fails particle k with
+// index count + k, so a pair failure anywhere wins (the CPU's pair loop runs
+// before its gather).
+//
+//   contact_report        per particle: deepest overlap r_k + r_m − |x_m − x_k|
+//                         over its partners m > k → scratch; active pairs
+//   contact_report_final  max(0, deepest), Σ active → scratch[REPORT], counters
 
-struct CollideParams {
-    pairs: u32,       // candidate pairs
-    particles: u32,   // particles
-    offsets: u32,     // start of the offsets in `lists`
-    entries: u32,     // start of the entries in `lists`
-    friction: real,   // Coulomb μ between particles
+fn report_at() -> u32 {
+    return REPORT;
 }
 
-@group(0) @binding(4) var<storage, read> cparams: CollideParams;
-// inverse mass and radius, 2 per particle
-@group(0) @binding(5) var<storage, read> props: array<real>;
-@group(0) @binding(6) var<storage, read> lists: array<u32>;
-@group(0) @binding(7) var<storage, read_write> corr: array<real>;
-
-const STRIDE: u32 = DIM + 1u;
-
-@compute @workgroup_size(WORKGROUP)
-fn collide_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let e = linear_index(gid, groups);
-    if (e >= cparams.pairs) {
-        return;
-    }
-    let i = lists[2u * e];
-    let j = lists[2u * e + 1u];
-    var xi = load_x(i);
-    var xj = load_x(j);
-    var pi = load_p(i);
-    var pj = load_p(j);
-    var d: array<real, DIM>;
-    var len2: real = 0.0;
-    for (var a = 0u; a < DIM; a++) {
-        d[a] = lane(&xj, a) - lane(&xi, a);
-        len2 += d[a] * d[a];
-    }
-    let len = sqrt(len2);
-    let c = len - (props[2u * i + 1u] + props[2u * j + 1u]);
-    let base = e * STRIDE;
-    if (!(c < 0.0 && len > 0.0)) {
-        corr[base + DIM] = 0.0;
-        return;
-    }
-    corr[base + DIM] = 1.0;
-    let s = -c;
-    let inv = 1.0 / len;
-    for (var a = 0u; a < DIM; a++) {
-        d[a] *= inv;
-    }
-    var out: array<real, DIM>;
-    for (var a = 0u; a < DIM; a++) {
-        out[a] = d[a] * s;
-    }
-    let mu = cparams.friction;
-    if (mu > 0.0) {
-        var dn: real = 0.0;
-        for (var a = 0u; a < DIM; a++) {
-            let dr = (lane(&xj, a) - lane(&pj, a)) - (lane(&xi, a) - lane(&pi, a));
-            dn += dr * d[a];
-        }
-        var t2: real = 0.0;
-        for (var a = 0u; a < DIM; a++) {
-            let dr = (lane(&xj, a) - lane(&pj, a)) - (lane(&xi, a) - lane(&pi, a));
-            let t = dr - dn * d[a];
-            t2 += t * t;
-        }
-        let t_norm = sqrt(t2);
-        let bound = mu * s;
-        var scale: real = 1.0;
-        if (!(t_norm <= bound)) {
-            scale = bound / t_norm;
-        }
-        for (var a = 0u; a < DIM; a++) {
-            let dr = (lane(&xj, a) - lane(&pj, a)) - (lane(&xi, a) - lane(&pi, a));
-            let t = dr - dn * d[a];
-            out[a] -= t * scale;
-        }
-    }
-    for (var a = 0u; a < DIM; a++) {
-        corr[base + a] = out[a];
-    }
+fn deepest_at(k: u32) -> u32 {
+    return REPORT + 1u + k;
 }
 
 @compute @workgroup_size(WORKGROUP)
-fn collide_gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+fn contact_snapshot(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let k = linear_index(gid, groups);
-    if (k >= cparams.particles) {
+    if (k >= cparams.count || failed_before()) {
         return;
     }
-    let wk = props[2u * k];
-    if (wk == 0.0) {
+    var q = load_x(k);
+    set_last_lane(&q, radius(k));
+    for (var c = 0u; c < VEC; c++) {
+        snapshot[VEC * k + c] = word(&q, c);
+    }
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = linear_index(gid, groups);
+    let n = cparams.count;
+    if (k >= n || failed_before()) {
         return;
     }
+    let own = iterate_record(k);
+    let yk = coords(own);
+    let rk = extra(own);
+    var own_start = load_p(k);
+    let pk = coords(own_start);
+    let wk = inverse_mass_of(&own_start);
+    let mu = cparams.friction;
     var sum: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
         sum[a] = 0.0;
     }
     var touching = 0u;
-    let first = lists[cparams.offsets + k];
-    let last = lists[cparams.offsets + k + 1u];
-    for (var at = first; at < last; at++) {
-        let entry = lists[cparams.entries + at];
-        let e = entry / 2u;
-        if (corr[e * STRIDE + DIM] == 0.0) {
+    var ahead = 0u;
+    let len = words[list_length_at() + k];
+    var quad = vec4<u32>(0u);
+    for (var t = 0u; t < len; t++) {
+        if (t % 4u == 0u) {
+            quad = list_quad(k, t / 4u);
+        }
+        let m = quad[t % 4u];
+        let other = iterate_record(m);
+        let ym = coords(other);
+        let lower = k < m; // k is i of the pair (i, j) = (min, max)
+        var d: array<real, DIM>;
+        var len2: real = 0.0;
+        for (var a = 0u; a < DIM; a++) {
+            d[a] = select(yk[a] - ym[a], ym[a] - yk[a], lower);
+            len2 += d[a] * d[a];
+        }
+        let dist = sqrt(len2);
+        if (!finite(dist)) {
+            fail(min(k, m));
+            return;
+        }
+        let rm = extra(other);
+        let c = dist - select(rm + rk, rk + rm, lower);
+        if (!(c < 0.0 && dist > 0.0)) {
             continue;
         }
-        let i = lists[2u * e];
-        let j = lists[2u * e + 1u];
-        let share = wk / (props[2u * i] + props[2u * j]);
-        var sign = share;
-        if (entry % 2u == 0u) {
-            sign = -share;
+        if (lower) {
+            ahead++;
         }
+        let s = -c;
+        let inv = 1.0 / dist;
         for (var a = 0u; a < DIM; a++) {
-            sum[a] += sign * corr[e * STRIDE + a];
+            d[a] *= inv;
+        }
+        var out: array<real, DIM>;
+        for (var a = 0u; a < DIM; a++) {
+            out[a] = d[a] * s;
+        }
+        var other_start = load_p(m);
+        if (mu > 0.0) {
+            // Δr = (y_j − p_j) − (y_i − p_i)
+            let pm = coords(other_start);
+            var dr: array<real, DIM>;
+            var dn: real = 0.0;
+            for (var a = 0u; a < DIM; a++) {
+                dr[a] = select((yk[a] - pk[a]) - (ym[a] - pm[a]), (ym[a] - pm[a]) - (yk[a] - pk[a]), lower);
+                dn += dr[a] * d[a];
+            }
+            var t2: real = 0.0;
+            for (var a = 0u; a < DIM; a++) {
+                let tan = dr[a] - dn * d[a];
+                t2 += tan * tan;
+            }
+            let t_norm = sqrt(t2);
+            let bound = mu * s;
+            var scale: real = 1.0;
+            if (!(t_norm <= bound)) {
+                scale = bound / t_norm;
+            }
+            for (var a = 0u; a < DIM; a++) {
+                let tan = dr[a] - dn * d[a];
+                out[a] -= tan * scale;
+            }
+        }
+        if (wk == 0.0) {
+            continue;
+        }
+        let wm = inverse_mass_of(&other_start);
+        let share = wk / select(wm + wk, wk + wm, lower);
+        let sign = select(share, -share, lower);
+        for (var a = 0u; a < DIM; a++) {
+            sum[a] += sign * out[a];
         }
         touching++;
     }
+    words[active_at() + k] = ahead;
+    check_loops(k);
     if (touching == 0u) {
         return;
     }
     let count = real(touching);
-    var xk = load_x(k);
+    var ok = true;
+    var moved = load_x(k);
     for (var a = 0u; a < DIM; a++) {
-        set_lane(&xk, a, lane(&xk, a) + sum[a] / count);
+        let xk = yk[a] + sum[a] / count;
+        set_lane(&moved, a, xk);
+        ok = ok && finite(xk);
     }
-    store_x(k, xk);
+    store_x(k, moved);
+    if (!ok) {
+        fail(n + k);
+    }
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn contact_report(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = linear_index(gid, groups);
+    if (k >= cparams.count || failed_before()) {
+        return;
+    }
+    var deepest: real = 0.0;
+    var xk = load_x(k);
+    let len = words[list_length_at() + k];
+    for (var t = 0u; t < len; t++) {
+        let m = entry_at(k, t);
+        if (m < k) {
+            continue;
+        }
+        var xm = load_x(m);
+        var len2: real = 0.0;
+        for (var a = 0u; a < DIM; a++) {
+            let d = lane(&xm, a) - lane(&xk, a);
+            len2 += d * d;
+        }
+        deepest = max(deepest, radius(k) + radius(m) - sqrt(len2));
+    }
+    scratch[deepest_at(k)] = deepest;
+    check_loops(k);
+}
+
+var<workgroup> report_deepest: array<real, WORKGROUP>;
+var<workgroup> report_active: array<u32, WORKGROUP>;
+
+@compute @workgroup_size(WORKGROUP)
+fn contact_report_final(@builtin(local_invocation_index) lid: u32) {
+    var deepest: real = 0.0;
+    var pushing = 0u;
+    for (var k = lid; k < cparams.count; k += WORKGROUP) {
+        deepest = max(deepest, scratch[deepest_at(k)]);
+        pushing += words[active_at() + k];
+    }
+    report_deepest[lid] = deepest;
+    report_active[lid] = pushing;
+    check_loops(lid);
+    workgroupBarrier();
+    if (lid != 0u || failed_before()) {
+        return;
+    }
+    for (var t = 1u; t < WORKGROUP; t++) {
+        deepest = max(deepest, report_deepest[t]);
+        pushing += report_active[t];
+    }
+    scratch[report_at()] = deepest;
+    atomicStore(&counters[ACTIVE], pushing);
 }

@@ -42,6 +42,9 @@
 //   fn lane(r: ptr<function, Record>, a) -> real      coordinate a
 //   fn set_lane(r: ptr<function, Record>, a, value)
 //   fn inverse_mass_of(r: ptr<function, Record>) -> real   the last lane
+//   fn set_last_lane(r: ptr<function, Record>, value)
+//   fn word(r: ptr<function, Record>, c) -> vec4<real>, set_word(r, c, w)
+//                                           vec4 word c < VEC, as stored
 // (Records are passed by pointer: naga 30's SPIR-V writer fails on some
 // calls that pass arrays by value.)
 

@@ -45,3 +45,16 @@ fn set_lane(r: ptr<function, Record>, a: u32, value: real) {
 fn inverse_mass_of(r: ptr<function, Record>) -> real {
     return (*r).w;
 }
+
+fn set_last_lane(r: ptr<function, Record>, value: real) {
+    (*r).w = value;
+}
+
+// vec4 word c of the record (c < VEC = 1), as stored in a buffer.
+fn word(r: ptr<function, Record>, c: u32) -> vec4<real> {
+    return *r;
+}
+
+fn set_word(r: ptr<function, Record>, c: u32, value: vec4<real>) {
+    *r = value;
+}

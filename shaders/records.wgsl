@@ -64,3 +64,16 @@ fn set_lane(r: ptr<function, Record>, a: u32, value: real) {
 fn inverse_mass_of(r: ptr<function, Record>) -> real {
     return (*r)[VEC - 1u].w;
 }
+
+fn set_last_lane(r: ptr<function, Record>, value: real) {
+    (*r)[VEC - 1u].w = value;
+}
+
+// vec4 word c of the record (c < VEC), as stored in a buffer.
+fn word(r: ptr<function, Record>, c: u32) -> vec4<real> {
+    return (*r)[c];
+}
+
+fn set_word(r: ptr<function, Record>, c: u32, value: vec4<real>) {
+    (*r)[c] = value;
+}

@@ -95,7 +95,8 @@ const NONE: u32 = 0xffffffffu;
 @group(0) @binding(6) var<storage, read> rest: array<real>;
 @group(0) @binding(7) var<storage, read_write> lambda: array<real>;
 // status[0]: first failing call (NONE: none), status[1]: smallest failing
-// slot or particle of that call.
+// slot or particle of that call, status[2]: nonzero when an invocation's
+// loops were cut short (`check_loops`).
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>, 4>;
 // Per family [max violation, active contacts].
 @group(0) @binding(9) var<storage, read_write> report: array<real>;
@@ -131,6 +132,25 @@ fn fail(c: u32, index: u32) {
 // number NONE), but only the run knows it.
 fn kept(a: real, c: u32) -> real {
     return select(a, -a, calls[c].call == NONE);
+}
+
+// llvmpipe (lavapipe) ends every loop of an invocation once 65 535 loop
+// iterations have run in it, all loops together, silently; after that a
+// loop runs its body once and stops. The small step loops over its calls,
+// so a long run (many substeps) can be cut; a `particles` run unrolls its
+// calls but each still loops over coordinates. A two-trip probe at the end
+// of both kernels, with a trip count the compiler cannot see (count <
+// 2^31), tells, and the host refuses the step
+// (gpu/src/backend/status.rs).
+fn check_loops() {
+    let trips = 2u + (here.count >> 31u);
+    var probe = 0u;
+    for (var t = 0u; t < trips; t++) {
+        probe++;
+    }
+    if (probe != 2u) {
+        atomicMax(&status[2], 1u);
+    }
 }
 
 // Per-particle call c on particle i (its records in registers).
@@ -232,6 +252,7 @@ fn particles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     run_slot(OP6, c + 6u, i, &rx, &rv, &rp);
     run_slot(OP7, c + 7u, i, &rx, &rv, &rp);
     store_records(IO, i, &rx, &rv, &rp);
+    check_loops();
 }
 
 @compute @workgroup_size(WORKGROUP)
@@ -258,4 +279,5 @@ fn step_small(@builtin(local_invocation_index) lid: u32) {
         }
         storageBarrier();
     }
+    check_loops();
 }

@@ -7,7 +7,7 @@
 mod granular;
 mod peer_cloth;
 
-pub use granular::{ballpit4d, column3d, sandpile2d};
+pub use granular::{ballpit4d, column3d, pit3d, sandpile2d};
 use hyperpbd_core::builders::{BlockSpec, GridSpec};
 use hyperpbd_core::{Scene, SceneBuilder};
 pub use peer_cloth::peer_cloth;

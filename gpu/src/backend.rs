@@ -32,19 +32,16 @@ use crate::xpbd::{BINDINGS, Families, NONE, Placed, XpbdEntry};
 use crate::{AdapterSummary, Precision};
 
 mod contact_step;
+pub(crate) mod status;
 use contact_step::ContactStage;
 
 /// The device buffers besides the resident state.
 struct Buffers {
-    /// Positions at the substep start (read by the contact broadphase).
-    p: wgpu::Buffer,
     lambda: wgpu::Buffer,
     status: wgpu::Buffer,
     report: wgpu::Buffer,
     /// Readback of status (16 bytes) followed by the report.
     report_staging: wgpu::Buffer,
-    /// Readback of x then p (the contact broadphase).
-    probe_staging: wgpu::Buffer,
     report_bytes: u64,
     /// Buffers only the kernels use.
     _rest: Vec<wgpu::Buffer>,
@@ -115,11 +112,12 @@ impl GpuBackend {
         precision: Precision,
         mode: StepMode,
     ) -> Result<Self, BackendError> {
-        if mode != StepMode::Exact && plan.contacts.is_some() {
-            return Err(BackendError::InvalidCall(format!(
-                "step mode {}: plans with particle contact run the exact schedule",
-                mode.as_str()
-            )));
+        if mode == StepMode::Small && plan.contacts.is_some() {
+            return Err(BackendError::InvalidCall(
+                "step mode small: plans with particle contact run the exact or fused schedule \
+                 (the contact kernels are dispatches of their own)"
+                    .into(),
+            ));
         }
         let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
         Self::load(adapter, plan, state, precision, origin, Some(mode))
@@ -235,7 +233,6 @@ impl GpuBackend {
         let chunks = make("chunks", bytemuck::cast_slice(&chunk_words))?;
         let report_bytes = (report_len * real_size(precision)) as u64;
         let report_staging = ctx.staging("report_staging", 16 + report_bytes)?;
-        let probe_staging = ctx.staging("probe_staging", 2 * resident.bytes())?;
 
         let mut blocks = ParamBlocks::uniform(device);
         let mut place = |dispatches: &[Dispatch]| -> Vec<Placed> {
@@ -281,12 +278,16 @@ impl GpuBackend {
         )?;
         let blocks_group = kernels.bind(device, 1, &[&dispatch_buffer], block)?;
         let contacts = match plan.contacts {
-            Some(c) => Some(ContactStage::new(
-                &ctx.device,
-                &ctx.queue,
-                ctx.errors(),
-                (plan.dim, plan.particle_count(), precision),
-                c,
+            Some(_) => Some(ContactStage::new(
+                &ctx,
+                (&plan, precision),
+                crate::contact::Bound {
+                    x: &resident.x,
+                    v: &resident.v,
+                    p: &p,
+                    force: &resident.force,
+                    status: &status,
+                },
             )?),
             None => None,
         };
@@ -296,14 +297,13 @@ impl GpuBackend {
             ctx,
             state: resident,
             buffers: Buffers {
-                p,
                 lambda,
                 status,
                 report,
                 report_staging,
-                probe_staging,
                 report_bytes,
                 _rest: vec![
+                    p,
                     gravity_scale,
                     elements,
                     rest,
@@ -345,10 +345,9 @@ impl GpuBackend {
         self.schedule.mode
     }
 
-    /// Compute dispatches per step (residual included; the contact stage's
-    /// own dispatches not counted).
+    /// Compute dispatches per step (residual and contact stage included).
     pub fn dispatches_per_step(&self) -> usize {
-        self.schedule.dispatches_per_step()
+        self.schedule.dispatches_per_step() + self.contact_dispatches_per_step()
     }
 
     /// Destroys the device, as a driver reset or a removed GPU would:
@@ -372,7 +371,9 @@ impl GpuBackend {
     }
 
     fn encode(&self, pass: &mut wgpu::ComputePass<'_>, d: &Placed) {
-        crate::xpbd::encode(&self.kernels, &self.blocks, pass, d);
+        if !self.encode_contact(pass, d) {
+            crate::xpbd::encode(&self.kernels, &self.blocks, pass, d);
+        }
     }
 
     /// Submits `encoder` and waits for it.
@@ -383,20 +384,6 @@ impl GpuBackend {
     /// Maps `buffer` (already filled and waited for) and copies `len` bytes.
     fn read_mapped(&self, buffer: &wgpu::Buffer, len: u64) -> Result<Vec<u8>, GpuError> {
         self.ctx.read(buffer, len)
-    }
-
-    fn reset_status(&self) {
-        self.ctx.queue.write_buffer(
-            &self.buffers.status,
-            0,
-            bytemuck::cast_slice(&[NONE, NONE, 0u32, 0u32]),
-        );
-    }
-
-    /// Reads the status block: the failing call and index, if any.
-    fn failure(&self, status: &[u8]) -> Option<(u32, u32)> {
-        let words: &[u32] = bytemuck::cast_slice(&status[..8]);
-        (words[0] != NONE).then_some((words[0], words[1]))
     }
 
     fn step_error(&self, call: u32, index: u32) -> BackendError {
@@ -420,7 +407,12 @@ impl GpuBackend {
             other => StepError::NonFiniteParticle {
                 stage: other.map_or(StageName::Project, |k| k.stage()),
                 substep,
-                particle: index as usize,
+                particle: match other {
+                    Some(Kernel::Collide) => {
+                        contact_step::collide_particle(index, self.plan.particle_count())
+                    }
+                    _ => index as usize,
+                },
             }
             .into(),
         }
@@ -463,6 +455,22 @@ impl GpuBackend {
     /// The failure of the step that just failed in a shared dispatch,
     /// named as the CPU names it: from the saved state, the step again
     /// one call per dispatch. Leaves the state rolled back.
+    /// The error of a step whose status names `failed` (call, index), with
+    /// the state rolled back. The fused schedule finds the failing call by
+    /// rerunning the step exactly; a rollback or rerun that fails keeps the
+    /// step's error as its source.
+    fn diagnosed_error(&mut self, failed: (u32, u32)) -> BackendError {
+        let diagnosed = if self.schedule.mode == StepMode::Fused {
+            self.diagnose(failed)
+        } else {
+            self.rollback().map(|()| failed)
+        };
+        match diagnosed {
+            Ok((call, index)) => self.step_error(call, index),
+            Err(e) => self.step_error(failed.0, failed.1).after_rollback(Err(e)),
+        }
+    }
+
     fn diagnose(&mut self, fallback: (u32, u32)) -> Result<(u32, u32), GpuError> {
         self.rollback()?;
         self.reset_status();
@@ -478,12 +486,8 @@ impl GpuBackend {
     /// submit, the CPU's way (`Predict` resets the multipliers).
     fn run_alone(&mut self, kernel: Kernel, repeats: u32) -> Result<(), BackendError> {
         check_kernel(&self.plan, kernel)?;
-        if self.contacts.is_some() {
-            return Err(BackendError::InvalidCall(
-                "single kernel calls on a plan with collisions are not offered on the GPU; \
-                 the contact kernels are checked alone through GpuSweep and GpuCollide"
-                    .into(),
-            ));
+        if matches!(kernel, Kernel::Broadphase | Kernel::Collide) {
+            return self.run_contact_kernel(kernel);
         }
         let Some(index) = self.plan.substep_kernels.iter().position(|&k| k == kernel) else {
             return Err(BackendError::InvalidCall(format!(
@@ -550,19 +554,9 @@ impl Backend for GpuBackend {
         self.ctx.wait(index)?;
         let block =
             self.read_mapped(&self.buffers.report_staging, 16 + self.buffers.report_bytes)?;
+        self.refuse_cut_loops(&block)?;
         if let Some(failed) = self.failure(&block) {
-            // The fused schedule finds the failing call by rerunning the
-            // step exactly (and rolls back); a rollback or rerun that fails
-            // keeps the step's error as its source.
-            let diagnosed = if self.schedule.mode == StepMode::Fused {
-                self.diagnose(failed)
-            } else {
-                self.rollback().map(|()| failed)
-            };
-            return Err(match diagnosed {
-                Ok((call, index)) => self.step_error(call, index),
-                Err(e) => self.step_error(failed.0, failed.1).after_rollback(Err(e)),
-            });
+            return Err(self.diagnosed_error(failed));
         }
         let report = read_reals(&block[16..], self.precision);
         let (residuals, active_contacts) = crate::xpbd::read_report(&self.plan, &report);

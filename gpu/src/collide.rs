@@ -1,28 +1,24 @@
 //! `GpuCollide`: the particle–particle contact iteration
-//! (`shaders/collide.wgsl`) as a kernel-level entry point.
+//! (`shaders/collide.wgsl`) on given lists, as a kernel-level entry point.
 //!
 //! ```text
-//! upload x, p, (w, r) per particle, the pair lists (pairs, offsets, entries)
-//! iterations × { collide_pairs (per pair) ; collide_gather (per particle) }
+//! upload x, p, (w, r) per particle; each particle's list from the CSR lists
+//! iterations × { contact_snapshot ; collide }
 //! read x back
 //! ```
 //! The same averaged gather-Jacobi iteration as `hyperpbd_cpu::collide`,
-//! operation for operation, so it is held to the CPU golden path by a
-//! differential test. It is not yet wired into [`crate::GpuBackend`]'s step
-//! (that backend refuses plans with collisions).
-
-use std::sync::{Arc, Mutex};
+//! operation for operation, and the same kernels as the contact step of
+//! [`crate::GpuBackend`], so it is held to the CPU golden path by a
+//! differential test.
 
 use hyperpbd_core::GpuError;
 use hyperpbd_core::broadphase::Pair;
 
 use crate::Precision;
+use crate::contact::{Block, Bound, ContactBuffers, ContactKernels, Particles};
+use crate::context::GpuContext;
 use crate::layout::VectorLayout;
 use crate::params::{push_reals, read_reals, real_size};
-use crate::shader::{ShaderFile, compose};
-
-const WORKGROUP: u32 = 64;
-const MAX_GROUPS_X: u32 = 65_535;
 
 /// Inputs of one contact solve.
 pub struct CollideInput<'a> {
@@ -44,44 +40,12 @@ pub struct CollideInput<'a> {
     pub friction: f64,
 }
 
-/// The per-particle data and lists of one broadphase (resident mode).
-#[derive(Clone, Copy)]
-pub(crate) struct ContactLists<'a> {
-    pub(crate) inverse_mass: &'a [f64],
-    pub(crate) radius: &'a [f64],
-    pub(crate) pairs: &'a [Pair],
-    pub(crate) offsets: &'a [u32],
-    pub(crate) entries: &'a [u32],
-    pub(crate) friction: f64,
-}
-
-/// Buffers and bind group of one substep's contact lists, bound to a
-/// backend's resident positions.
-pub(crate) struct Resident {
-    group: wgpu::BindGroup,
-    /// Corrections and active flags, `pairs × (dim + 1)` reals.
-    pub(crate) corr: wgpu::Buffer,
-    pub(crate) corr_bytes: u64,
-    pairs: usize,
-    particles: usize,
-}
-
 /// The contact kernels for one dimension and precision.
 pub struct GpuCollide {
-    device: wgpu::Device,
-    queue: wgpu::Queue,
+    ctx: GpuContext,
     precision: Precision,
     dim: usize,
-    layout: wgpu::BindGroupLayout,
-    pairs_pipeline: wgpu::ComputePipeline,
-    gather_pipeline: wgpu::ComputePipeline,
-    errors: Arc<Mutex<Vec<String>>>,
-}
-
-fn groups(invocations: usize) -> (u32, u32) {
-    let g = (invocations as u32).div_ceil(WORKGROUP).max(1);
-    let x = g.min(MAX_GROUPS_X);
-    (x, g.div_ceil(x))
+    kernels: ContactKernels,
 }
 
 impl GpuCollide {
@@ -91,174 +55,20 @@ impl GpuCollide {
         dim: usize,
         precision: Precision,
     ) -> Result<Self, GpuError> {
-        if dim == 0 || dim > crate::shader::MAX_GPU_DIM {
-            return Err(GpuError::Unsupported {
-                what: format!(
-                    "contact dimension {dim} (the GPU kernels support 1..={})",
-                    crate::shader::MAX_GPU_DIM
-                ),
-            });
-        }
-        let (device, queue) = crate::request_device(adapter, precision)?;
-        let errors = crate::device_errors::collect_device_errors(&device);
-        Self::with_device(device, queue, errors, dim, precision)
-    }
-
-    /// As [`GpuCollide::with_adapter`] on an existing device.
-    pub(crate) fn with_device(
-        device: wgpu::Device,
-        queue: wgpu::Queue,
-        errors: Arc<Mutex<Vec<String>>>,
-        dim: usize,
-        precision: Precision,
-    ) -> Result<Self, GpuError> {
-        // x v p force (particle records, prelude.wgsl), then cparams props
-        // lists corr.
-        let read_only = [false, false, false, true, true, true, true, false];
-        let entries: Vec<_> = read_only
-            .iter()
-            .enumerate()
-            .map(|(b, &ro)| crate::kernel_set::storage(b as u32, ro, false))
-            .collect();
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("hyperpbd collide"),
-            entries: &entries,
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("hyperpbd collide"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let source = compose(ShaderFile::Collide, dim, precision);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("collide.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(source.into()),
-        });
-        let pipeline = |name: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(name),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(name),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
-        let pairs_pipeline = pipeline("collide_pairs");
-        let gather_pipeline = pipeline("collide_gather");
-        let collide = GpuCollide {
-            device,
-            queue,
+        let ctx = GpuContext::new(adapter, precision)?;
+        let kernels = ContactKernels::new(&ctx.device, dim, precision)?;
+        ctx.check()?;
+        Ok(GpuCollide {
+            ctx,
             precision,
             dim,
-            layout,
-            pairs_pipeline,
-            gather_pipeline,
-            errors,
-        };
-        collide.check_device()?;
-        Ok(collide)
-    }
-
-    /// Binds the kernels to a backend's resident particle records
-    /// `[x, v, p, force]` (of this device) with the lists of one
-    /// broadphase, for [`GpuCollide::encode`].
-    pub(crate) fn bind_resident(
-        &self,
-        records: [&wgpu::Buffer; 4],
-        lists: &ContactLists,
-    ) -> Resident {
-        let ContactLists {
-            inverse_mass,
-            radius,
-            pairs,
-            offsets,
-            entries,
-            friction,
-        } = *lists;
-        let n = inverse_mass.len();
-        let mut params = Vec::new();
-        let offsets_at = 2 * pairs.len() as u32;
-        let entries_at = offsets_at + n as u32 + 1;
-        for word in [pairs.len() as u32, n as u32, offsets_at, entries_at] {
-            params.extend_from_slice(&word.to_le_bytes());
-        }
-        push_reals(&mut params, &[friction], self.precision);
-        params.resize(params.len().next_multiple_of(16), 0);
-        let props: Vec<f64> = inverse_mass
-            .iter()
-            .zip(radius)
-            .flat_map(|(&w, &r)| [w, r])
-            .collect();
-        let mut props_bytes = Vec::new();
-        push_reals(&mut props_bytes, &props, self.precision);
-        let mut lists: Vec<u32> = pairs.iter().flatten().copied().collect();
-        lists.extend_from_slice(offsets);
-        lists.extend_from_slice(entries);
-        let params = self.storage("collide params", &params);
-        let props = self.storage("props", &props_bytes);
-        let lists = self.storage("lists", bytemuck::cast_slice(&lists));
-        let corr_bytes = pairs.len() * (self.dim + 1) * real_size(self.precision);
-        let corr = self.storage("corrections", &vec![0u8; corr_bytes]);
-        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("collide resident"),
-            layout: &self.layout,
-            entries: &[
-                records[0], records[1], records[2], records[3], &params, &props, &lists, &corr,
-            ]
-            .iter()
-            .enumerate()
-            .map(|(b, buffer)| wgpu::BindGroupEntry {
-                binding: b as u32,
-                resource: buffer.as_entire_binding(),
-            })
-            .collect::<Vec<_>>(),
-        });
-        Resident {
-            group,
-            corr,
-            corr_bytes: corr_bytes as u64,
-            pairs: pairs.len(),
-            particles: n,
-        }
-    }
-
-    /// Records one iteration (pair kernel, gather kernel) on `resident`
-    /// into `pass`; the caller restores its own bind group 0 afterwards.
-    pub(crate) fn encode(&self, pass: &mut wgpu::ComputePass<'_>, resident: &Resident) {
-        pass.set_bind_group(0, &resident.group, &[]);
-        let (gx, gy) = groups(resident.pairs);
-        pass.set_pipeline(&self.pairs_pipeline);
-        pass.dispatch_workgroups(gx, gy, 1);
-        let (gx, gy) = groups(resident.particles);
-        pass.set_pipeline(&self.gather_pipeline);
-        pass.dispatch_workgroups(gx, gy, 1);
-    }
-
-    fn check_device(&self) -> Result<(), GpuError> {
-        crate::device_errors::take_device_errors(&self.errors)
-    }
-
-    fn storage(&self, label: &str, bytes: &[u8]) -> wgpu::Buffer {
-        let size = (bytes.len() as u64).max(16).next_multiple_of(4);
-        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size,
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_DST
-                | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        if !bytes.is_empty() {
-            let mut padded = bytes.to_vec();
-            padded.resize(padded.len().next_multiple_of(4), 0);
-            self.queue.write_buffer(&buffer, 0, &padded);
-        }
-        buffer
+            kernels,
+        })
     }
 
     /// Runs `iterations` contact iterations on `input` and returns the new
-    /// positions (as f64). Fails with a typed error on a non-finite result.
+    /// positions (as f64). Fails with a typed error on a non-finite result,
+    /// naming the particle the CPU names.
     pub fn iterate(&self, input: &CollideInput, iterations: u32) -> Result<Vec<f64>, GpuError> {
         let n = input.inverse_mass.len();
         let pairs = input.pairs.len();
@@ -272,108 +82,98 @@ impl GpuCollide {
                 what: "collide input arrays of inconsistent lengths".into(),
             });
         }
-        let reals = |values: &[f64]| {
-            let mut out = Vec::with_capacity(values.len() * real_size(self.precision));
-            push_reals(&mut out, values, self.precision);
+        // Particle k's partners in the order of its CSR list.
+        let mut lists = Vec::with_capacity(n);
+        for k in 0..n {
+            let range = input.offsets[k] as usize..input.offsets[k + 1] as usize;
+            let list: Option<Vec<u32>> = input.entries.get(range).map(|entries| {
+                entries
+                    .iter()
+                    .map(|&entry| input.pairs[entry as usize / 2][1 - entry as usize % 2])
+                    .collect()
+            });
+            lists.push(list.ok_or_else(|| GpuError::Unsupported {
+                what: format!("collide input: offsets of particle {k} out of range"),
+            })?);
+        }
+        // x and p as the prelude's particle records (inverse mass in the
+        // last lane).
+        let records = |values: &[f64]| {
+            let packed = VectorLayout::Record.pack(self.dim, values, Some(input.inverse_mass));
+            let mut out = Vec::with_capacity(packed.len() * real_size(self.precision));
+            push_reals(&mut out, &packed, self.precision);
             out
         };
-        let mut params = Vec::new();
-        let offsets_at = 2 * pairs as u32;
-        let entries_at = offsets_at + n as u32 + 1;
-        for word in [pairs as u32, n as u32, offsets_at, entries_at] {
-            params.extend_from_slice(&word.to_le_bytes());
-        }
-        push_reals(&mut params, &[input.friction], self.precision);
-        params.resize(params.len().next_multiple_of(16), 0);
-        let props: Vec<f64> = input
-            .inverse_mass
-            .iter()
-            .zip(input.radius)
-            .flat_map(|(&w, &r)| [w, r])
-            .collect();
-        let mut lists: Vec<u32> = input.pairs.iter().flatten().copied().collect();
-        lists.extend_from_slice(input.offsets);
-        lists.extend_from_slice(input.entries);
-        let params = self.storage("collide params", &params);
-        let layout = VectorLayout::Record;
-        let pack = |values: &[f64]| reals(&layout.pack(self.dim, values, Some(input.inverse_mass)));
-        let x = self.storage("x", &pack(input.x));
-        let p = self.storage("p", &pack(input.p));
-        let unused_v = self.storage("v (unused)", &[]);
-        let unused_force = self.storage("force (unused)", &[]);
-        let props = self.storage("props", &reals(&props));
-        let lists = self.storage("lists", bytemuck::cast_slice(&lists));
-        let corr = self.storage("corrections", &reals(&vec![0.0; pairs * (self.dim + 1)]));
-        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("collide"),
-            layout: &self.layout,
-            entries: &[
-                x.clone(),
-                unused_v,
-                p,
-                unused_force,
-                params,
-                props,
-                lists,
-                corr,
-            ]
-            .iter()
-            .enumerate()
-            .map(|(b, buffer)| wgpu::BindGroupEntry {
-                binding: b as u32,
-                resource: buffer.as_entire_binding(),
-            })
-            .collect::<Vec<_>>(),
-        });
-        let bytes = (n * layout.reals_per_particle(self.dim) * real_size(self.precision)) as u64;
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("collide staging"),
-            size: bytes.max(16),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut encoder = self
+        let ctx = &self.ctx;
+        let x = ctx.storage("collide x", &records(input.x))?;
+        let p = ctx.storage("collide p", &records(input.p))?;
+        let unused = ctx.storage("collide v", &[0; 128])?;
+        let force = ctx.storage("collide force", &[0; 128])?;
+        let status = ctx.storage(
+            "collide status",
+            bytemuck::cast_slice(&[u32::MAX, u32::MAX, 0, 0]),
+        )?;
+        let buffers = ContactBuffers::new(
+            ctx,
+            &self.kernels,
+            Bound {
+                x: &x,
+                v: &unused,
+                p: &p,
+                force: &force,
+                status: &status,
+            },
+            &Particles {
+                inverse_mass: input.inverse_mass,
+                radius: input.radius,
+                margin: 0.0,
+                friction: input.friction,
+            },
+            lists.iter().map(Vec::len).max().unwrap_or(1),
+            // One block per iteration: after a failure, later iterations
+            // see an earlier failed call and do nothing.
+            (0..iterations.max(1))
+                .map(|call| Block {
+                    call,
+                    flags: 0,
+                    axis: 0,
+                })
+                .collect(),
+        )?;
+        buffers.write_lists(&lists);
+        let bytes = (n
+            * VectorLayout::Record.reals_per_particle(self.dim)
+            * real_size(self.precision)) as u64;
+        let staging = ctx.staging("collide staging", 16 + bytes)?;
+        let mut encoder = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("collide"),
             });
         {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("collide"),
-                timestamp_writes: None,
-            });
-            pass.set_bind_group(0, &group, &[]);
-            for _ in 0..iterations {
-                let (gx, gy) = groups(pairs);
-                pass.set_pipeline(&self.pairs_pipeline);
-                pass.dispatch_workgroups(gx, gy, 1);
-                let (gx, gy) = groups(n);
-                pass.set_pipeline(&self.gather_pipeline);
-                pass.dispatch_workgroups(gx, gy, 1);
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            for iteration in 0..iterations as usize {
+                buffers.encode_collide(&self.kernels, &mut pass, iteration);
             }
         }
+        buffers.copy_outcome(&mut encoder);
+        encoder.copy_buffer_to_buffer(&status, 0, &staging, 0, 16);
         if bytes > 0 {
-            encoder.copy_buffer_to_buffer(&x, 0, &staging, 0, bytes);
+            encoder.copy_buffer_to_buffer(&x, 0, &staging, 16, bytes);
         }
-        crate::device_errors::submit_and_wait(&self.device, &self.queue, encoder, &self.errors)?;
-        if bytes == 0 {
-            return Ok(Vec::new());
-        }
-        let data = layout.unpack(
-            self.dim,
-            &read_reals(
-                &crate::readback::read_mapped(&self.device, &staging, bytes)?,
-                self.precision,
-            ),
-        );
-        if let Some(bad) = data.iter().position(|v| !v.is_finite()) {
+        ctx.submit_and_wait(encoder)?;
+        let data = ctx.read(&staging, 16 + bytes)?;
+        buffers.read_outcome()?.trusted()?;
+        let words: &[u32] = bytemuck::cast_slice(&data[..16]);
+        if words[0] != u32::MAX {
+            let index = words[1] as usize;
             return Err(GpuError::Other {
                 message: format!(
                     "particle {} became non-finite in the contact solve",
-                    bad / self.dim
+                    index.checked_sub(n).unwrap_or(index)
                 ),
             });
         }
-        Ok(data)
+        Ok(VectorLayout::Record.unpack(self.dim, &read_reals(&data[16..], self.precision)))
     }
 }

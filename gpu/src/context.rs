@@ -11,9 +11,11 @@
 //! buffer            a buffer of the given bytes; over the device limits →
 //!                   BufferTooLarge naming it, before asking the device
 //! read              map a MAP_READ buffer, copy, unmap (readback.rs)
+//! host_waits        waits and reads so far (round trips, for tests/benches)
 //! building(f)       runs f inside out-of-memory and validation error scopes
 //! ```
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use hyperpbd_core::{BackendError, GpuError};
@@ -29,6 +31,9 @@ pub(crate) struct GpuContext {
     pub summary: AdapterSummary,
     errors: Arc<Mutex<Vec<String>>>,
     lost: Arc<Mutex<Option<String>>>,
+    /// Times the host waited for the device ([`GpuContext::wait`],
+    /// [`GpuContext::read`]): the round trips a caller can count.
+    waits: Arc<AtomicU64>,
 }
 
 impl GpuContext {
@@ -50,12 +55,8 @@ impl GpuContext {
             summary,
             errors,
             lost,
+            waits: Arc::default(),
         })
-    }
-
-    /// The uncaptured-error sink (for kernel sets sharing this device).
-    pub fn errors(&self) -> Arc<Mutex<Vec<String>>> {
-        self.errors.clone()
     }
 
     /// A lost device, then any error the device reported since the last
@@ -82,8 +83,14 @@ impl GpuContext {
         Ok(index)
     }
 
+    /// Times the host has waited for the device since it was created.
+    pub fn host_waits(&self) -> u64 {
+        self.waits.load(Ordering::Relaxed)
+    }
+
     /// Waits for the submission `index`.
     pub fn wait(&self, index: wgpu::SubmissionIndex) -> Result<(), GpuError> {
+        self.waits.fetch_add(1, Ordering::Relaxed);
         self.device
             .poll(wgpu::PollType::Wait {
                 submission_index: Some(index),
@@ -102,6 +109,7 @@ impl GpuContext {
     /// Maps the first `len` bytes of `buffer` (its copies submitted) and
     /// returns them.
     pub fn read(&self, buffer: &wgpu::Buffer, len: u64) -> Result<Vec<u8>, GpuError> {
+        self.waits.fetch_add(1, Ordering::Relaxed);
         crate::readback::read_mapped(&self.device, buffer, len)
     }
 

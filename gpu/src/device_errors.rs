@@ -38,22 +38,3 @@ pub(crate) fn collect_device_errors(device: &wgpu::Device) -> Arc<Mutex<Vec<Stri
     }));
     errors
 }
-
-/// Submits `encoder`, waits for it, and drains the errors it caused.
-pub(crate) fn submit_and_wait(
-    device: &wgpu::Device,
-    queue: &wgpu::Queue,
-    encoder: wgpu::CommandEncoder,
-    errors: &Mutex<Vec<String>>,
-) -> Result<(), GpuError> {
-    let index = queue.submit(Some(encoder.finish()));
-    device
-        .poll(wgpu::PollType::Wait {
-            submission_index: Some(index),
-            timeout: None,
-        })
-        .map_err(|e| GpuError::DeviceLost {
-            message: e.to_string(),
-        })?;
-    take_device_errors(errors)
-}

@@ -15,6 +15,7 @@ mod backend;
 pub mod barrier;
 pub mod broadphase;
 pub mod collide;
+mod contact;
 mod context;
 mod device_errors;
 mod incremental_potential;

@@ -134,11 +134,6 @@ impl ResidentState {
         &self.packing.origin
     }
 
-    /// Bytes of each of x and v.
-    pub fn bytes(&self) -> u64 {
-        self.bytes
-    }
-
     /// Records the copies x → saved_x, v → saved_v.
     pub fn save(&self, encoder: &mut wgpu::CommandEncoder) {
         if self.bytes > 0 {

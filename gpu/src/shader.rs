@@ -24,9 +24,9 @@ const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
 const PROJECT: &str = include_str!("../../shaders/project.wgsl");
 const FRICTION: &str = include_str!("../../shaders/friction.wgsl");
 const RESIDUAL: &str = include_str!("../../shaders/residual.wgsl");
-const BROADPHASE: &str = include_str!("../../shaders/broadphase.wgsl");
-const RADIX_SORT: &str = include_str!("../../shaders/radix_sort.wgsl");
-const SWEEP: &str = include_str!("../../shaders/sweep.wgsl");
+const CONTACT: &str = include_str!("../../shaders/contact.wgsl");
+const SCAN: &str = include_str!("../../shaders/scan.wgsl");
+const GRID: &str = include_str!("../../shaders/grid.wgsl");
 const COLLIDE: &str = include_str!("../../shaders/collide.wgsl");
 const BARRIER: &str = include_str!("../../shaders/barrier.wgsl");
 const INCREMENTAL_POTENTIAL: &str = include_str!("../../shaders/incremental_potential.wgsl");
@@ -42,12 +42,14 @@ pub enum ShaderFile {
     /// `friction.wgsl` (dynamic Coulomb friction), `residual.wgsl`
     /// (constraint violation and its reduction) — after `measure.wgsl`.
     Step,
-    /// `radix_sort.wgsl`: stable radix sort of u32-pair records and the
-    /// exclusive prefix scan (broadphase).
-    RadixSort,
-    /// `sweep.wgsl`: box keys and the sort-and-sweep count / emit.
-    Sweep,
-    /// `collide.wgsl`: one gather-Jacobi iteration of particle contact.
+    /// `scan.wgsl` (after `contact.wgsl`): exclusive prefix sum of the
+    /// broadphase's hash-bucket counters.
+    Scan,
+    /// `grid.wgsl` (after `contact.wgsl`): boxes, hashed grid and every
+    /// particle's sorted contact list (broadphase).
+    Grid,
+    /// `collide.wgsl` (after `contact.wgsl`): one gather-Jacobi iteration
+    /// of particle contact and the contact report.
     Collide,
     /// `barrier.wgsl` (+ `ln_f32.wgsl` / `ln_f64.wgsl`): per-particle
     /// barrier evaluation and step filter (incremental-potential path).
@@ -62,22 +64,19 @@ impl ShaderFile {
     /// Every kernel family.
     pub const ALL: [ShaderFile; 6] = [
         ShaderFile::Step,
-        ShaderFile::RadixSort,
-        ShaderFile::Sweep,
+        ShaderFile::Scan,
+        ShaderFile::Grid,
         ShaderFile::Collide,
         ShaderFile::Barrier,
         ShaderFile::IncrementalPotential,
     ];
 
-    /// The files of the broadphase kernels (their own layout).
-    pub const BROADPHASE: [ShaderFile; 2] = [ShaderFile::RadixSort, ShaderFile::Sweep];
-
     /// File name under `shaders/`.
     pub fn file_name(self) -> &'static str {
         match self {
             ShaderFile::Step => "step.wgsl",
-            ShaderFile::RadixSort => "radix_sort.wgsl",
-            ShaderFile::Sweep => "sweep.wgsl",
+            ShaderFile::Scan => "scan.wgsl",
+            ShaderFile::Grid => "grid.wgsl",
             ShaderFile::Collide => "collide.wgsl",
             ShaderFile::Barrier => "barrier.wgsl",
             ShaderFile::IncrementalPotential => "incremental_potential.wgsl",
@@ -96,9 +95,20 @@ impl ShaderFile {
                 "residual",
                 "reduce",
             ],
-            ShaderFile::RadixSort => &["histogram", "scatter", "scan_blocks", "scan_add"],
-            ShaderFile::Sweep => &["box_keys", "sweep_count", "sweep_emit"],
-            ShaderFile::Collide => &["collide_pairs", "collide_gather"],
+            ShaderFile::Scan => &["scan_reduce", "scan_top", "scan_apply"],
+            ShaderFile::Grid => &[
+                "boxes_and_bounds",
+                "grid_frame",
+                "bin_count",
+                "bin_fill",
+                "neighbours",
+            ],
+            ShaderFile::Collide => &[
+                "contact_snapshot",
+                "collide",
+                "contact_report",
+                "contact_report_final",
+            ],
             ShaderFile::Barrier => &["evaluate", "filter_fraction", "ln_check"],
             ShaderFile::IncrementalPotential => &[
                 "evaluate",
@@ -115,13 +125,13 @@ impl ShaderFile {
     }
 
     /// Workgroup size of every entry point of the file: 64 for the step
-    /// kernels (64 and 256 measure within noise of each other on lavapipe,
-    /// docs/performance.md; 64 spreads a small dispatch over more of a
-    /// GPU's multiprocessors), 256 (one radix block) for the broadphase.
-    /// [`compose`] writes it into the header.
+    /// and contact kernels (64 and 256 measure within noise of each other
+    /// on lavapipe, docs/performance.md; 64 spreads a small dispatch over
+    /// more of a GPU's multiprocessors), 256 for the scan (a block of
+    /// 8 × 256 counters). [`compose`] writes it into the header.
     pub fn workgroup_size(self) -> u32 {
         match self {
-            ShaderFile::RadixSort | ShaderFile::Sweep => 256,
+            ShaderFile::Scan => 256,
             _ => 64,
         }
     }
@@ -131,9 +141,9 @@ impl ShaderFile {
             ShaderFile::Step => &[
                 PRELUDE, MEASURE, STEP, INTEGRATE, PROJECT, FRICTION, RESIDUAL,
             ],
-            ShaderFile::RadixSort => &[BROADPHASE, RADIX_SORT],
-            ShaderFile::Sweep => &[BROADPHASE, SWEEP],
-            ShaderFile::Collide => &[PRELUDE, COLLIDE],
+            ShaderFile::Scan => &[PRELUDE, CONTACT, SCAN],
+            ShaderFile::Grid => &[PRELUDE, CONTACT, GRID],
+            ShaderFile::Collide => &[PRELUDE, CONTACT, COLLIDE],
             ShaderFile::Barrier => &[BARRIER],
             ShaderFile::IncrementalPotential => &[BARRIER, INCREMENTAL_POTENTIAL],
         }

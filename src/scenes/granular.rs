@@ -72,6 +72,36 @@ pub fn column3d(side: usize, height: usize) -> Scene {
         .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
 }
 
+/// 3D granular pit: `side × height × side` balls (r = 0.05 m) dropped
+/// into a square pit (floor and four walls, friction 0.5) just wider than
+/// the lattice; ball–ball friction 0.5; 8 substeps × 2 iterations.
+/// `pit3d(26, 24)` is the ~16k-ball scene of the GPU contact benchmark
+/// (benches/granular_gpu.rs).
+pub fn pit3d(side: usize, height: usize) -> Scene {
+    let r = 0.05;
+    let mut b = SceneBuilder::new(3)
+        .dt(1.0 / 60.0)
+        .substeps(8)
+        .iterations(2)
+        .gravity_along(1, 9.81);
+    lattice(&mut b, &[side, height, side], 1, r, 0.01, 5);
+    b.hyperplane(vec![0.0, 1.0, 0.0], 0.0, 0.5);
+    let half = 0.5 * side as f64 * 2.0 * r * 1.05 + r;
+    for a in [0, 2] {
+        for sign in [1.0, -1.0] {
+            let mut normal = vec![0.0; 3];
+            normal[a] = sign;
+            b.hyperplane(normal, -half, 0.5);
+        }
+    }
+    b.scene_mut().collisions = Some(Collisions {
+        friction: 0.5,
+        margin: 0.01,
+    });
+    b.build()
+        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+}
+
 /// 4D ball pit: 6 × 6 × 6 × 4 balls of two radii dropped into a pit
 /// bounded by the floor x₃ = 0 and six walls ±x₀, ±x₁, ±x₂.
 pub fn ballpit4d() -> Scene {

@@ -1,275 +1,336 @@
-//! The GPU step of a plan with particle–particle contact.
+//! The GPU step of a plan with particle–particle contact: the plain step
+//! (the plan's schedule, fused where the golden order allows) with the
+//! contact kernel set ([`crate::contact`]) recorded at the plan's
+//! Broadphase and Collide calls, all in one compute pass, one submit.
 //!
 //! ```text
-//! save (x, v)
-//! substeps × plan.substep_kernels:
-//!   Broadphase  submit what is recorded; read x and p back; swept boxes
-//!               (radius + margin) → GpuSweep on this device (same rule as the
-//!               CPU: axis of widest spread, canonical pairs, pairs of two fixed
-//!               particles dropped) → contact lists (core::broadphase::
-//!               contact_lists) → bind the contact kernels to the resident x, p
-//!   Collide     collide_pairs + collide_gather on the resident x, p
+//! reset status and contact counters; save (x, v)
+//! one pass, the schedule's dispatches in order:
+//!   Broadphase  boxes from the resident p, x (radius + margin) → hashed grid →
+//!               every particle's sorted contact list (pairs of two fixed
+//!               particles left out)                          (8 dispatches)
+//!   Collide     snapshot + collide on the resident x, p       (2 dispatches)
 //!   other       the plan's dispatch, as in the plain step
-//! residuals; status; on failure roll (x, v) back
+//! residuals; contact report (deepest overlap, active pairs)  (2 dispatches)
+//! one wait; read status + report (backend) and the 32-byte contact outcome
+//!   a list longer than its slots → roll (x, v) back, grow the lists, rerun
+//!   a failed call → roll back, the CPU's error (a contact failure names the
+//!   particle the CPU names)
 //! ```
-//! The broadphase needs the pair total on the host (to grow the pair buffer
-//! and rerun, never dropping a pair), so a contact step synchronises once
-//! per substep; the rest is as resident as the plain step.
+//! No host round trip inside the step: every dispatch size is known when
+//! the plan is loaded (particles, buckets), so nothing waits for a count.
 
-use hyperpbd_core::broadphase::{Aabbs, contact_lists, sweep_axis};
-use hyperpbd_core::geometry::deepest_overlap;
-use hyperpbd_core::{
-    BackendError, FamilyResidual, GpuError, Kernel, ParticleContacts, StageName, StepReport,
-};
+use hyperpbd_core::{BackendError, GpuError, Kernel, Plan, StepReport};
 
 use super::GpuBackend;
-use crate::collide::{ContactLists, GpuCollide, Resident};
-use crate::params::read_reals;
+use crate::Precision;
+use crate::contact::{
+    BOXES_FROM_STATE, Block, Bound, ContactBuffers, ContactKernels, Outcome, Particles,
+    SKIP_FIXED_PAIRS,
+};
+use crate::context::GpuContext;
+use crate::xpbd::Placed;
 use crate::xpbd::schedule::Run;
-use crate::{GpuSweep, Precision};
 
-/// The broadphase and contact kernels of a backend with collisions.
+/// List slots per particle a contact stage starts with (grown on demand).
+const INITIAL_SLOTS: usize = 32;
+/// Reruns of one step after growing the lists before giving up (each
+/// growth at least doubles the slots and fits the longest list seen, and a
+/// rerun from the same state finds the same lists, so one is enough).
+const MAX_REGROWTHS: usize = 4;
+
+/// The contact kernels and buffers of a backend with collisions.
 pub(super) struct ContactStage {
-    sweep: GpuSweep,
-    collide: GpuCollide,
-    friction: f64,
-    margin: f64,
-    /// Pairs and lists of the current substep.
-    resident: Option<Resident>,
-    pairs: Vec<[u32; 2]>,
+    kernels: ContactKernels,
+    buffers: ContactBuffers,
+    /// Parameter block of the end-of-step report.
+    report_block: usize,
 }
 
 impl ContactStage {
-    /// `contacts` of a plan in R^`dim` with `particles` particles.
+    /// The stage of `plan` (which has collisions), bound to the backend's
+    /// resident particle records and status word.
     pub(super) fn new(
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        errors: std::sync::Arc<std::sync::Mutex<Vec<String>>>,
-        (dim, particles, precision): (usize, usize, Precision),
-        contacts: ParticleContacts,
+        ctx: &GpuContext,
+        (plan, precision): (&Plan, Precision),
+        bound: Bound,
     ) -> Result<Self, GpuError> {
-        let ParticleContacts { friction, margin } = contacts;
+        let contacts = plan.contacts.ok_or_else(|| GpuError::Other {
+            message: "a contact stage for a plan without collisions".into(),
+        })?;
+        let k = plan.substep_kernels.len() as u32;
+        let mut blocks = Vec::new();
+        for substep in 0..plan.substeps {
+            for (index, kernel) in plan.substep_kernels.iter().enumerate() {
+                if matches!(kernel, Kernel::Broadphase | Kernel::Collide) {
+                    blocks.push(Block {
+                        call: substep * k + index as u32,
+                        flags: SKIP_FIXED_PAIRS | BOXES_FROM_STATE,
+                        axis: plan.dim as u32,
+                    });
+                }
+            }
+        }
+        // The report runs only when no call of the step failed.
+        blocks.push(Block {
+            call: u32::MAX,
+            flags: 0,
+            axis: plan.dim as u32,
+        });
+        let kernels = ContactKernels::new(&ctx.device, plan.dim, precision)?;
+        let buffers = ContactBuffers::new(
+            ctx,
+            &kernels,
+            bound,
+            &Particles {
+                inverse_mass: &plan.inverse_mass,
+                radius: &plan.radius,
+                margin: contacts.margin,
+                friction: contacts.friction,
+            },
+            INITIAL_SLOTS,
+            blocks,
+        )?;
         Ok(ContactStage {
-            sweep: GpuSweep::with_device(
-                device.clone(),
-                queue.clone(),
-                errors.clone(),
-                dim,
-                precision,
-                8 * particles.max(1),
-            )?,
-            collide: GpuCollide::with_device(
-                device.clone(),
-                queue.clone(),
-                errors,
-                dim,
-                precision,
-            )?,
-            friction,
-            margin,
-            resident: None,
-            pairs: Vec::new(),
+            report_block: buffers.block_of(u32::MAX).unwrap_or(0),
+            kernels,
+            buffers,
         })
+    }
+
+    /// Records kernel `kernel` (Broadphase or Collide) of step call `call`.
+    pub(super) fn encode(&self, pass: &mut wgpu::ComputePass<'_>, kernel: Kernel, call: u32) {
+        let Some(block) = self.buffers.block_of(call) else {
+            return;
+        };
+        match kernel {
+            Kernel::Broadphase => self.buffers.encode_broadphase(&self.kernels, pass, block),
+            Kernel::Collide => self.buffers.encode_collide(&self.kernels, pass, block),
+            _ => {}
+        }
+    }
+
+    /// Compute dispatches of the stage in one step of `plan`.
+    pub(super) fn dispatches_per_step(plan: &Plan) -> usize {
+        let per_substep: usize = plan
+            .substep_kernels
+            .iter()
+            .map(|k| match k {
+                Kernel::Broadphase => 8,
+                Kernel::Collide => 2,
+                _ => 0,
+            })
+            .sum();
+        per_substep * plan.substeps as usize + 2
+    }
+
+    /// Whether a list did not fit (the lists are grown then: rerun), or
+    /// the outcome's typed error.
+    fn regrow(&mut self, outcome: &Outcome) -> Result<bool, GpuError> {
+        outcome.trusted()?;
+        let longest = outcome.longest_list as usize;
+        if longest <= self.buffers.slots() {
+            return Ok(false);
+        }
+        self.buffers.grow(&self.kernels, longest)?;
+        Ok(true)
     }
 }
 
+/// The particle a failed Collide call names: index i for a non-finite pair
+/// (its lower particle), count + k for a non-finite new position of k
+/// (shaders/collide.wgsl).
+pub(super) fn collide_particle(index: u32, particles: usize) -> usize {
+    let index = index as usize;
+    index.checked_sub(particles).unwrap_or(index)
+}
+
 impl GpuBackend {
-    /// Reads x then p (as f64) after everything submitted so far.
-    fn read_x_and_p(&self) -> Result<(Vec<f64>, Vec<f64>), GpuError> {
-        let bytes = self.state.bytes();
-        if bytes == 0 {
-            return Ok((Vec::new(), Vec::new()));
+    /// List slots per particle of the contact stage (`None` without
+    /// particle contact): 32 at load, grown when a step found a longer
+    /// list (that step then ran again from its start).
+    pub fn contact_list_slots(&self) -> Option<usize> {
+        self.contacts.as_ref().map(|stage| stage.buffers.slots())
+    }
+
+    /// Times the host has waited for this backend's device (waits for a
+    /// submission and buffer reads) since it was loaded: a step with
+    /// contact costs the same count whatever its substeps (one wait, the
+    /// status/report read and the contact outcome read; no round trip
+    /// per substep).
+    pub fn host_waits(&self) -> u64 {
+        self.ctx.host_waits()
+    }
+
+    /// The contact stage's dispatches per step (0 without one).
+    pub(super) fn contact_dispatches_per_step(&self) -> usize {
+        match self.contacts {
+            Some(_) => ContactStage::dispatches_per_step(&self.plan),
+            None => 0,
         }
-        let staging = &self.buffers.probe_staging;
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        encoder.copy_buffer_to_buffer(&self.state.x, 0, staging, 0, bytes);
-        encoder.copy_buffer_to_buffer(&self.buffers.p, 0, staging, bytes, bytes);
-        self.submit_and_wait(encoder)?;
-        let data = self.read_mapped(staging, 2 * bytes)?;
-        let split = bytes as usize;
-        Ok((
-            self.state.packing.unpack(&data[..split]),
-            self.state.packing.unpack(&data[split..]),
-        ))
     }
 
-    /// Reads the status word: the failing call, if any.
-    fn read_status(&self) -> Result<Option<(u32, u32)>, GpuError> {
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        encoder.copy_buffer_to_buffer(&self.buffers.status, 0, &self.buffers.report_staging, 0, 16);
-        self.submit_and_wait(encoder)?;
-        let block = self.read_mapped(&self.buffers.report_staging, 16)?;
-        Ok(self.failure(&block))
-    }
-
-    /// The broadphase of one substep: pairs of the boxes swept from p to x.
-    fn contact_broadphase(&mut self) -> Result<(), GpuError> {
-        let (x, p) = self.read_x_and_p()?;
-        let plan = &self.plan;
-        let Some(stage) = self.contacts.as_mut() else {
-            return Ok(());
+    /// Records a Host dispatch's contact kernels (their own bind groups) at
+    /// the call's place in the schedule; false for any other dispatch.
+    pub(super) fn encode_contact(&self, pass: &mut wgpu::ComputePass<'_>, d: &Placed) -> bool {
+        let (Run::Host(kernel), Some(stage)) = (d.dispatch.run, &self.contacts) else {
+            return false;
         };
-        let boxes = Aabbs::swept_particles(plan.dim, &p, &x, &plan.radius, stage.margin);
-        let w = &plan.inverse_mass;
-        let mut pairs = stage.sweep.sweep(&boxes, sweep_axis(&boxes))?;
-        pairs.retain(|&[i, j]| w[i as usize] + w[j as usize] > 0.0);
-        let (offsets, entries) = contact_lists(&pairs, plan.particle_count());
-        stage.resident = Some(stage.collide.bind_resident(
-            [
-                &self.state.x,
-                &self.state.v,
-                &self.buffers.p,
-                &self.state.force,
-            ],
-            &ContactLists {
-                inverse_mass: &plan.inverse_mass,
-                radius: &plan.radius,
-                pairs: &pairs,
-                offsets: &offsets,
-                entries: &entries,
-                friction: stage.friction,
-            },
-        ));
-        stage.pairs = pairs;
-        Ok(())
-    }
-
-    fn fail_and_roll_back(&mut self, call: u32, index: u32) -> BackendError {
-        let rollback = self.rollback();
-        self.step_error(call, index).after_rollback(rollback)
+        if let Some(call) = self.schedule.calls.get(d.dispatch.first_call as usize) {
+            stage.encode(pass, kernel, call.call);
+            pass.set_bind_group(0, &self.group, &[]);
+        }
+        true
     }
 
     /// One step of a plan with collisions (see the module doc).
     pub(super) fn step_with_contacts(&mut self) -> Result<StepReport, BackendError> {
+        for _ in 0..=MAX_REGROWTHS {
+            let (outcome, snapshot) = self.submit_contact_step()?;
+            let Some(stage) = self.contacts.as_mut() else {
+                break;
+            };
+            match stage.regrow(&outcome) {
+                Ok(false) => return self.finish_contact_step(&outcome),
+                Ok(true) => {
+                    self.rollback()?;
+                    if snapshot {
+                        // The state the snapshot showed is gone: take the
+                        // rerun's.
+                        self.state.forget_snapshot();
+                        self.state.prefetch();
+                    }
+                }
+                Err(e) => return Err(self.roll_back_after(e.into())),
+            }
+        }
+        Err(self.roll_back_after(
+            GpuError::Other {
+                message: "contact lists still too short after growing them".into(),
+            }
+            .into(),
+        ))
+    }
+
+    /// Records, submits and waits for one step in the schedule's mode;
+    /// returns the contact outcome and whether a state snapshot was taken
+    /// (the status and report block are in `report_staging`).
+    fn submit_contact_step(&mut self) -> Result<(Outcome, bool), BackendError> {
+        let Some(stage) = &self.contacts else {
+            return Err(GpuError::Other {
+                message: "contact step without a contact stage".into(),
+            }
+            .into());
+        };
         self.reset_status();
+        stage.buffers.reset();
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         self.state.save(&mut encoder);
-        let mut kernel_calls: Vec<(StageName, u64)> =
-            self.plan.stages.iter().map(|&s| (s, 0)).collect();
-        let mut count = |stage: StageName| {
-            if let Some(entry) = kernel_calls.iter_mut().find(|(s, _)| *s == stage) {
-                entry.1 += 1;
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_bind_group(0, &self.group, &[]);
+            for d in &self.fast {
+                self.encode(&mut pass, d);
             }
-        };
-        // The exact schedule, in passes split at each broadphase (which
-        // runs on the host); particle contact is encoded in place.
-        let dispatches = self.exact.clone();
-        let mut start = 0;
-        while start < dispatches.len() {
-            let end = dispatches[start..]
-                .iter()
-                .position(|d| d.dispatch.run == Run::Host(Kernel::Broadphase))
-                .map_or(dispatches.len(), |at| start + at);
-            {
-                let mut pass = encoder.begin_compute_pass(&Default::default());
-                pass.set_bind_group(0, &self.group, &[]);
-                for d in &dispatches[start..end] {
-                    // One call per dispatch here; residual calls have no kernel.
-                    if let Some(kernel) = self.schedule.kernel_of(d.dispatch.first_call) {
-                        count(kernel.stage());
-                    }
-                    if d.dispatch.run == Run::Host(Kernel::Collide) {
-                        if let Some(stage) = &self.contacts
-                            && let Some(resident) = &stage.resident
-                        {
-                            stage.collide.encode(&mut pass, resident);
-                            pass.set_bind_group(0, &self.group, &[]);
-                        }
-                        continue;
-                    }
-                    self.encode(&mut pass, d);
-                }
-            }
-            if end < dispatches.len() {
-                count(StageName::Broadphase);
-                self.submit_and_wait(encoder)?;
-                if let Some((call, index)) = self.read_status()? {
-                    return Err(self.fail_and_roll_back(call, index));
-                }
-                self.contact_broadphase()?;
-                encoder = self.ctx.device.create_command_encoder(&Default::default());
-            }
-            start = end + 1;
+            stage
+                .buffers
+                .encode_report(&stage.kernels, &mut pass, stage.report_block);
         }
-        encoder.copy_buffer_to_buffer(&self.buffers.status, 0, &self.buffers.report_staging, 0, 16);
+        let staging = &self.buffers.report_staging;
+        encoder.copy_buffer_to_buffer(&self.buffers.status, 0, staging, 0, 16);
         if self.buffers.report_bytes > 0 {
-            encoder.copy_buffer_to_buffer(
-                &self.buffers.report,
-                0,
-                &self.buffers.report_staging,
-                16,
-                self.buffers.report_bytes,
-            );
+            let bytes = self.buffers.report_bytes;
+            encoder.copy_buffer_to_buffer(&self.buffers.report, 0, staging, 16, bytes);
         }
-        self.submit_and_wait(encoder)?;
+        stage.buffers.copy_outcome(&mut encoder);
+        let snapshot = self.state.record_snapshot(&mut encoder);
+        let index = self.ctx.submit(encoder)?;
+        if let Some(slot) = snapshot {
+            self.state.map_snapshot(slot);
+        }
+        self.ctx.wait(index)?;
+        let outcome = match &self.contacts {
+            Some(stage) => stage.buffers.read_outcome()?,
+            None => unreachable_stage()?,
+        };
+        Ok((outcome, snapshot.is_some()))
+    }
+
+    /// The report of a submitted step whose lists fitted, or its error
+    /// (state rolled back).
+    fn finish_contact_step(&mut self, outcome: &Outcome) -> Result<StepReport, BackendError> {
         let block =
             self.read_mapped(&self.buffers.report_staging, 16 + self.buffers.report_bytes)?;
-        if let Some((call, index)) = self.failure(&block) {
-            return Err(self.fail_and_roll_back(call, index));
+        self.refuse_cut_loops(&block)?;
+        if let Some(failed) = self.failure(&block) {
+            return Err(self.diagnosed_error(failed));
         }
-        let (x, _) = self.read_x_and_p()?;
-        if let Some(i) = x.iter().position(|c| !c.is_finite()) {
-            let error: BackendError = hyperpbd_core::StepError::NonFiniteParticle {
-                stage: StageName::Project,
-                substep: self.plan.substeps.saturating_sub(1),
-                particle: i / self.plan.dim.max(1),
-            }
-            .into();
-            return Err(error.after_rollback(self.rollback()));
-        }
-        let report = read_reals(&block[16..], self.precision);
-        let mut residuals = Vec::with_capacity(self.plan.families.len() + 1);
-        let mut active_contacts = 0;
-        for (family, f) in self.plan.families.iter().enumerate() {
-            residuals.push(FamilyResidual {
-                label: f.label.clone(),
-                max_violation: report[2 * family],
-            });
-            if f.kind.is_inequality() {
-                active_contacts += report[2 * family + 1] as usize;
-            }
-        }
-        let (deepest, active) = self.contact_report(&x)?;
-        residuals.push(FamilyResidual {
+        let report = crate::params::read_reals(&block[16..], self.precision);
+        let (mut residuals, active_contacts) = crate::xpbd::read_report(&self.plan, &report);
+        residuals.push(hyperpbd_core::FamilyResidual {
             label: "collisions".into(),
-            max_violation: deepest,
+            max_violation: outcome.deepest,
         });
         Ok(StepReport {
-            kernel_calls,
+            kernel_calls: self.plan.kernel_counts(),
             residuals,
-            active_contacts: active_contacts + active,
-            minimisation: Vec::new(),
-            threads: 0,
+            active_contacts: active_contacts + outcome.active as usize,
+            ..StepReport::default()
         })
     }
 
-    /// Deepest overlap over the last candidate pairs (the CPU's formula on
-    /// the read-back positions) and the pairs active in the last iteration.
-    fn contact_report(&self, x: &[f64]) -> Result<(f64, usize), GpuError> {
-        let Some(stage) = &self.contacts else {
-            return Ok((0.0, 0));
+    /// `run_kernel` of Broadphase or Collide: the kernel of the first
+    /// substep's call, alone (a broadphase whose lists did not fit is grown
+    /// and rerun; it only reads x and p). Results the kernels cannot vouch
+    /// for (loops cut short) are a typed error with x and v restored.
+    pub(super) fn run_contact_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
+        let Some(index) = self.plan.substep_kernels.iter().position(|&k| k == kernel) else {
+            return Err(BackendError::InvalidCall(format!(
+                "{kernel:?} is not in this plan's schedule"
+            )));
         };
-        let dim = self.plan.dim;
-        let deepest = deepest_overlap(dim, &self.plan.radius, &stage.pairs, x);
-        let mut active = 0;
-        if let Some(resident) = &stage.resident
-            && resident.corr_bytes > 0
-        {
-            let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("corrections staging"),
-                size: resident.corr_bytes,
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
+        let call = index as u32;
+        self.state.forget_snapshot();
+        for _ in 0..=MAX_REGROWTHS {
+            let Some(stage) = &self.contacts else {
+                break;
+            };
+            self.reset_status();
+            stage.buffers.reset();
             let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-            encoder.copy_buffer_to_buffer(&resident.corr, 0, &staging, 0, resident.corr_bytes);
+            self.state.save(&mut encoder);
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                stage.encode(&mut pass, kernel, call);
+            }
+            let staging = &self.buffers.report_staging;
+            encoder.copy_buffer_to_buffer(&self.buffers.status, 0, staging, 0, 16);
+            stage.buffers.copy_outcome(&mut encoder);
             self.submit_and_wait(encoder)?;
-            let corr = read_reals(
-                &self.read_mapped(&staging, resident.corr_bytes)?,
-                self.precision,
-            );
-            active = corr.chunks_exact(dim + 1).filter(|c| c[dim] != 0.0).count();
+            let block = self.read_mapped(&self.buffers.report_staging, 16)?;
+            let outcome = stage.buffers.read_outcome()?;
+            if let Some((call, index)) = self.failure(&block) {
+                return Err(self.step_error(call, index));
+            }
+            let Some(stage) = self.contacts.as_mut() else {
+                break;
+            };
+            match stage.regrow(&outcome) {
+                Ok(false) => return Ok(()),
+                Ok(true) => {}
+                // A Collide whose loops were cut short moved x: undo it.
+                Err(e) => return Err(self.roll_back_after(e.into())),
+            }
         }
-        Ok((deepest, active))
+        Err(GpuError::Other {
+            message: "contact lists still too short after growing them".into(),
+        }
+        .into())
     }
+}
+
+fn unreachable_stage<T>() -> Result<T, GpuError> {
+    Err(GpuError::Other {
+        message: "contact step without a contact stage".into(),
+    })
 }

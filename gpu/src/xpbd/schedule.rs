@@ -23,8 +23,9 @@
 //! at most WORKGROUP invocations and only per-particle calls and distance or
 //! tether colours; fused otherwise, and always on a software adapter
 //! (lavapipe runs a workgroup barrier as a coroutine switch, dearer than a
-//! dispatch with one worker thread). Plans with particle contact stay on the
-//! exact schedule: their broadphase runs on the host between dispatches.
+//! dispatch with one worker thread). Plans with particle contact run fused:
+//! the contact kernels (gpu/src/contact) are dispatches of their own at the
+//! Broadphase and Collide calls, between the fused runs.
 
 use hyperpbd_core::{Kernel, Plan};
 
@@ -390,10 +391,14 @@ pub(crate) fn small_supported(step: &[Call]) -> bool {
         .all(|c| c.per_particle() || c.op == super::call::OP_PROJECT_DISTANCE)
 }
 
-/// Exact with host kernels; small on a hardware GPU when every call fits
-/// one workgroup; fused otherwise.
+/// Fused with particle contact (its kernels are dispatches of their own
+/// between the fused runs); exact with other host kernels; small on a
+/// hardware GPU when every call fits one workgroup; fused otherwise.
 fn choose(plan: &Plan, step: &[Call], workgroup: u32, software: bool) -> StepMode {
-    if step.iter().any(|c| c.op == OP_HOST) || plan.contacts.is_some() {
+    if plan.contacts.is_some() {
+        return StepMode::Fused;
+    }
+    if step.iter().any(|c| c.op == OP_HOST) {
         return StepMode::Exact;
     }
     let fits = step.iter().all(|c| c.count <= workgroup);

@@ -1,0 +1,66 @@
+//! The step's status word: failures and loops a software adapter cut short.
+//!
+//! ```text
+//! status    [first failing call (NONE), its smallest index (NONE), cut flag, 0]
+//!           reset before every submission, copied to the report staging
+//! llvmpipe: one counter per shader invocation, 65 535 loop iterations in
+//!           all loops together; past it every loop runs its body once and
+//!           stops, silently
+//! kernels:  a two-trip probe loop at the end (trip count unknown to the
+//!           compiler) counts 1 instead of 2 once the budget is spent →
+//!           status[2] (step.wgsl) or the contact outcome (contact.wgsl)
+//! host:     any cut → x and v restored from the step's saved copy, then
+//!           GpuError::Unsupported; never a silently shortened step
+//! ```
+
+use hyperpbd_core::{BackendError, GpuError};
+
+use super::GpuBackend;
+use crate::xpbd::NONE;
+
+/// The typed error of results whose loops were cut short (`invocation`:
+/// the first such invocation, when the kernel names one).
+pub(crate) fn loops_cut_short(invocation: Option<u32>) -> GpuError {
+    let which = invocation.map_or_else(String::new, |i| format!(" of invocation {i}"));
+    GpuError::Unsupported {
+        what: format!(
+            "loops this long on this adapter: it ended the loops{which} early \
+             (llvmpipe stops a shader's loops after 65 535 iterations); use the CPU \
+             backend (or, for a long fused run of calls, fewer substeps per step)"
+        ),
+    }
+}
+
+impl GpuBackend {
+    pub(super) fn reset_status(&self) {
+        self.ctx.queue.write_buffer(
+            &self.buffers.status,
+            0,
+            bytemuck::cast_slice(&[NONE, NONE, 0u32, 0u32]),
+        );
+    }
+
+    /// Reads the status block: the failing call and index, if any.
+    pub(super) fn failure(&self, status: &[u8]) -> Option<(u32, u32)> {
+        let words: &[u32] = bytemuck::cast_slice(&status[..8]);
+        (words[0] != NONE).then_some((words[0], words[1]))
+    }
+
+    /// Refuses a submitted step whose status block (16 bytes: failing call,
+    /// index, cut flag, unused) says a step kernel's loops were cut short,
+    /// restoring x and v first.
+    pub(super) fn refuse_cut_loops(&mut self, status: &[u8]) -> Result<(), BackendError> {
+        let words: &[u32] = bytemuck::cast_slice(&status[..16]);
+        if words[2] == 0 {
+            return Ok(());
+        }
+        Err(self.roll_back_after(loops_cut_short(None).into()))
+    }
+
+    /// `error` after rolling the state back to the step's start: a rollback
+    /// that fails itself keeps `error` as its source.
+    pub(super) fn roll_back_after(&mut self, error: BackendError) -> BackendError {
+        let rollback = self.rollback();
+        error.after_rollback(rollback)
+    }
+}
