@@ -507,26 +507,13 @@ fn reference(kernel: Kernel, precision: Precision, d: &Data) -> (Vec<f64>, Vec<f
 }
 
 fn reals(values: &[f64], precision: Precision) -> Vec<u8> {
-    match precision {
-        Precision::F32 => values
-            .iter()
-            .flat_map(|&v| (v as f32).to_le_bytes())
-            .collect(),
-        Precision::F64 => values.iter().flat_map(|&v| v.to_le_bytes()).collect(),
-    }
+    let mut out = Vec::new();
+    hyperpbd::gpu::push_reals(&mut out, values, precision);
+    out
 }
 
 fn from_reals(bytes: &[u8], precision: Precision) -> Vec<f64> {
-    match precision {
-        Precision::F32 => bytes
-            .chunks_exact(4)
-            .map(|c| f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]])))
-            .collect(),
-        Precision::F64 => bytes
-            .chunks_exact(8)
-            .map(|c| f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]))
-            .collect(),
-    }
+    hyperpbd::gpu::read_reals(bytes, precision)
 }
 
 /// One candidate on the device: pipeline, buffers, bind group.

@@ -35,4 +35,5 @@ pub use broadphase::{GpuSweep, SweepStats};
 pub use collide::{CollideInput, GpuCollide};
 pub use incremental_potential::GpuBarrierBackend;
 pub use origin::SceneOrigin;
+pub use params::{push_reals, read_reals};
 pub use xpbd::schedule::{StepMode, dispatches_per_step};
