@@ -70,11 +70,10 @@ impl Batch {
         }
         let mut plans = Vec::with_capacity(worlds.len());
         for (world, scene) in worlds.iter().enumerate() {
-            scene
-                .validate()
-                .and_then(|()| Plan::compile(scene))
-                .map(|plan| plans.push(plan))
-                .map_err(|source| BatchError::Scene { world, source })?;
+            // `Plan::compile` validates the scene first.
+            let plan =
+                Plan::compile(scene).map_err(|source| BatchError::Scene { world, source })?;
+            plans.push(plan);
         }
         for (world, plan) in plans.iter().enumerate().skip(1) {
             same_topology(&plans[0], plan).map_err(|(field, what)| BatchError::Topology {

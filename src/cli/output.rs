@@ -9,19 +9,21 @@ use std::path::Path;
 
 /// One state record: `{"time", "frames", "positions", "velocities"}`.
 pub fn state_json(time: f64, frames: u64, state: &State) -> String {
-    let rows = |flat: &[f64]| -> Vec<Vec<f64>> {
-        if state.dim == 0 {
-            return Vec::new();
-        }
-        flat.chunks(state.dim).map(<[f64]>::to_vec).collect()
-    };
     serde_json::json!({
         "time": time,
         "frames": frames,
-        "positions": rows(&state.positions),
-        "velocities": rows(&state.velocities),
+        "positions": rows(state, &state.positions),
+        "velocities": rows(state, &state.velocities),
     })
     .to_string()
+}
+
+/// `flat` (positions or velocities of `state`) as one row per particle.
+pub fn rows(state: &State, flat: &[f64]) -> Vec<Vec<f64>> {
+    if state.dim == 0 {
+        return Vec::new();
+    }
+    flat.chunks(state.dim).map(<[f64]>::to_vec).collect()
 }
 
 /// Writes `bytes` to `path` atomically ([`write_atomically`]); a failure

@@ -4,7 +4,8 @@ use super::error::{CliError, with_sources};
 use super::load::{load_backend, load_scene, parse_backend};
 use super::output::{state_json, write_file};
 use hyperpbd::atomic_file::AtomicFile;
-use hyperpbd::{Backend, BackendKind, Plan, Scene, State, StepReport};
+use hyperpbd::sweep::Metric;
+use hyperpbd::{Backend, BackendKind, Plan, State, StepReport};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -152,20 +153,6 @@ fn lowest(state: &State, axis: usize) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// Kinetic energy ½ Σ m |v|² of the dynamic particles.
-fn kinetic_energy(scene: &Scene, state: &State) -> f64 {
-    scene
-        .particles
-        .iter()
-        .enumerate()
-        .filter(|(_, p)| !p.fixed)
-        .map(|(i, p)| {
-            let v2: f64 = state.velocity(i).iter().map(|v| v * v).sum();
-            0.5 * p.mass.unwrap_or(0.0) * v2
-        })
-        .sum()
-}
-
 pub fn demo(frames: u64, choice: BackendKind) -> Result<(), CliError> {
     let scene = hyperpbd::scenes::cloth(32);
     let plan = Plan::compile(&scene).map_err(|e| CliError::Input(e.to_string()))?;
@@ -190,7 +177,7 @@ pub fn demo(frames: u64, choice: BackendKind) -> Result<(), CliError> {
                 lowest(&state, 1),
                 report.residuals.first().map_or(0.0, |r| r.max_violation),
                 report.active_contacts,
-                kinetic_energy(&scene, &state),
+                Metric::KineticEnergy.value(&scene, &state, None),
             );
         }
         Ok(())

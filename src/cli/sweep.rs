@@ -13,7 +13,7 @@
 
 use super::error::{CliError, with_sources};
 use super::load::{load_backend, parse_backend};
-use super::output::write_file;
+use super::output::{rows, write_file};
 use hyperpbd::atomic_file::AtomicFile;
 use hyperpbd::sweep::{Metric, Shard, Sweep, SweepAxis};
 use hyperpbd::{Backend, BackendKind, CpuBackend, Plan, State, StepReport};
@@ -83,7 +83,6 @@ pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
         |e: std::io::Error| CliError::Output(format!("cannot write {}: {e}", args.out.display()));
     let mut file = AtomicFile::create(&args.out).map_err(cannot_write)?;
     let bar = progress(worlds.len() as u64 * args.frames);
-    let metric = args.plot.unwrap_or(Metric::MaxViolation);
     let run = |world: usize, threads: Option<usize>| -> Result<Finished, CliError> {
         let scene = sweep
             .scene(world)
@@ -115,7 +114,7 @@ pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
         Ok(Finished {
             line: world_line(&sweep, world, &state, last.as_ref()).to_string(),
             backend: backend.name(),
-            metric: metric.value(&scene, &state, last.as_ref()),
+            metric: args.plot.map(|m| m.value(&scene, &state, last.as_ref())),
         })
     };
     let mut backend_name = String::new();
@@ -139,7 +138,7 @@ pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
                 let done = result?;
                 writeln!(file, "{}", done.line).map_err(cannot_write)?;
                 backend_name = done.backend;
-                metrics.push(done.metric);
+                metrics.extend(done.metric);
             }
         }
     } else {
@@ -147,12 +146,15 @@ pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
             let done = run(world, None)?;
             writeln!(file, "{}", done.line).map_err(cannot_write)?;
             backend_name = done.backend;
-            metrics.push(done.metric);
+            metrics.extend(done.metric);
         }
     }
     bar.finish_and_clear();
     let chart = match args.plot {
-        Some(metric) => Some(chart(&sweep, worlds.clone(), &metrics, metric, &args.out)?),
+        Some(metric) => Some((
+            metric,
+            chart(&sweep, worlds.clone(), &metrics, metric, &args.out)?,
+        )),
         None => None,
     };
     file.commit().map_err(cannot_write)?;
@@ -165,7 +167,7 @@ pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
         args.frames,
         args.out.display()
     );
-    if let Some((path, bytes)) = chart {
+    if let Some((metric, (path, bytes))) = chart {
         write_file(&path, &bytes)?;
         println!(
             "{metric} against the swept values drawn in {}",
@@ -175,11 +177,12 @@ pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-/// What one world left: its JSON line, the backend's name, the metric.
+/// What one world left: its JSON line, the backend's name, the `--plot`
+/// metric (when plotting).
 struct Finished {
     line: String,
     backend: String,
-    metric: f64,
+    metric: Option<f64>,
 }
 
 /// The `--plot` chart of `metrics` (one per world of `worlds`) and where
@@ -238,9 +241,6 @@ fn progress(total: u64) -> ProgressBar {
 
 /// The JSON line of one world (see the module docs).
 fn world_line(sweep: &Sweep, world: usize, state: &State, report: Option<&StepReport>) -> Value {
-    let rows = |flat: &[f64]| -> Vec<Vec<f64>> {
-        flat.chunks(state.dim.max(1)).map(<[f64]>::to_vec).collect()
-    };
     let mut set = Map::new();
     for (path, value) in sweep.settings(world) {
         set.insert(path.to_string(), json!(value));
@@ -259,8 +259,8 @@ fn world_line(sweep: &Sweep, world: usize, state: &State, report: Option<&StepRe
     json!({
         "world": world,
         "set": set,
-        "positions": rows(&state.positions),
-        "velocities": rows(&state.velocities),
+        "positions": rows(state, &state.positions),
+        "velocities": rows(state, &state.velocities),
         "report": report,
     })
 }
