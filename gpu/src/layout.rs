@@ -11,7 +11,7 @@
 //!            N = 2:  [x y 0 w]            N = 8:  [x0..x3][x4..x7][0 0 0 w]
 //! dense    N reals per particle, [x_0 … x_{N−1}] (the barrier path)
 //! ```
-//! Why records (measured by `benches/gpu_kernels.rs`, see
+//! Why records (measured by `benches/gpu_kernels/`, see
 //! docs/performance.md): a particle's vector is one access of 16·VEC bytes
 //! (one instruction per lane on lavapipe instead of N; one 128-bit load per
 //! thread on a GPU, neighbouring threads reading neighbouring 16-byte words:
