@@ -22,7 +22,8 @@
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
-use criterion::{BenchmarkId, Criterion, criterion_group};
+use criterion::measurement::WallTime;
+use criterion::{BenchmarkGroup, BenchmarkId, Criterion, criterion_group};
 use hyperpbd::gpu::{GpuBackend, Precision};
 use hyperpbd::{Backend, CpuBackend, Plan, Scene, State, scenes};
 
@@ -106,6 +107,20 @@ fn ratio_table() {
     }
 }
 
+/// One step of `scene` on the CPU golden path and, when an adapter exists,
+/// on gpu-f32, as two benchmarks of `group`.
+fn bench_both(group: &mut BenchmarkGroup<'_, WallTime>, name: &str, scene: &Scene) {
+    let mut b = cpu(scene);
+    group.bench_function(BenchmarkId::new("cpu-f64", name), |bench| {
+        bench.iter(|| black_box(b.step().expect("step")));
+    });
+    if let Some(mut g) = gpu(scene) {
+        group.bench_function(BenchmarkId::new("gpu-f32", name), |bench| {
+            bench.iter(|| black_box(g.step().expect("step")));
+        });
+    }
+}
+
 fn granular(c: &mut Criterion) {
     let mut group = c.benchmark_group("granular");
     group
@@ -118,15 +133,7 @@ fn granular(c: &mut Criterion) {
             large.push((name, scene));
             continue;
         }
-        let mut b = cpu(&scene);
-        group.bench_function(BenchmarkId::new("cpu-f64", name), |bench| {
-            bench.iter(|| black_box(b.step().expect("step")));
-        });
-        if let Some(mut g) = gpu(&scene) {
-            group.bench_function(BenchmarkId::new("gpu-f32", name), |bench| {
-                bench.iter(|| black_box(g.step().expect("step")));
-            });
-        }
+        bench_both(&mut group, name, &scene);
     }
     group.finish();
     let mut group = c.benchmark_group("granular_100k");
@@ -135,15 +142,7 @@ fn granular(c: &mut Criterion) {
         .warm_up_time(Duration::from_millis(1))
         .measurement_time(Duration::from_secs(20));
     for (name, scene) in large {
-        let mut b = cpu(&scene);
-        group.bench_function(BenchmarkId::new("cpu-f64", name), |bench| {
-            bench.iter(|| black_box(b.step().expect("step")));
-        });
-        if let Some(mut g) = gpu(&scene) {
-            group.bench_function(BenchmarkId::new("gpu-f32", name), |bench| {
-                bench.iter(|| black_box(g.step().expect("step")));
-            });
-        }
+        bench_both(&mut group, name, &scene);
     }
     group.finish();
 }
