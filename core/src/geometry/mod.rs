@@ -10,6 +10,7 @@
 
 mod closest_point;
 mod distance;
+mod edges;
 mod linalg;
 mod oriented_measure;
 mod overlap;
@@ -18,6 +19,7 @@ mod symmetric_eigen;
 
 pub use closest_point::{ClosestPoint, MAX_SIMPLEX_ORDER, closest_point_on_simplex};
 pub use distance::distance;
+pub(crate) use edges::{edge_matrix, gram, scatter_edge_gradient};
 pub use linalg::{adjugate, determinant, unit_vector};
 pub use oriented_measure::oriented_measure;
 pub use overlap::deepest_overlap;

@@ -8,7 +8,7 @@
 //! ```
 //! Reflection or an odd vertex permutation flips the sign of V.
 
-use super::{Scratch, adjugate, determinant, factorial};
+use super::{Scratch, adjugate, determinant, edge_matrix, factorial, scatter_edge_gradient};
 
 /// V for the N + 1 points `points` in R^`dim` (N = dim).
 pub fn oriented_measure(
@@ -25,22 +25,11 @@ pub fn oriented_measure(
     edges.resize(n * n, 0.0);
     adj.resize(n * n, 0.0);
     minor.resize(n * n, 0.0);
-    for j in 0..n {
-        for a in 0..n {
-            edges[a * n + j] = points[(j + 1) * n + a] - points[a];
-        }
-    }
+    edge_matrix(points, n, n, edges);
     adjugate(edges, n, adj, minor);
     minor.copy_from_slice(&edges[..n * n]);
     let measure = determinant(minor, n) * scale;
-    grad[..n].fill(0.0);
-    for j in 0..n {
-        for a in 0..n {
-            let gj = adj[j * n + a] * scale;
-            grad[(j + 1) * n + a] = gj;
-            grad[a] -= gj;
-        }
-    }
+    scatter_edge_gradient(grad, n, n, |j, a| adj[j * n + a] * scale);
     measure
 }
 

@@ -10,7 +10,7 @@
 //! The adjugate keeps ∇S finite at a singular Gram matrix; a collapsed
 //! simplex whose first derivative vanishes gets ∇S = 0 (no response).
 
-use super::{Scratch, adjugate, determinant, factorial};
+use super::{Scratch, adjugate, determinant, edge_matrix, factorial, gram, scatter_edge_gradient};
 
 /// S for the k-simplex `points` (k + 1 points of length `dim`).
 pub fn simplex_squared_measure(
@@ -23,44 +23,26 @@ pub fn simplex_squared_measure(
     let scale = 1.0 / (factorial(k) * factorial(k));
     let Scratch {
         edges,
-        gram,
+        gram: gram_matrix,
         adj,
         minor,
     } = scratch;
     edges.resize(dim * k, 0.0);
-    gram.resize(k * k, 0.0);
+    gram_matrix.resize(k * k, 0.0);
     adj.resize(k * k, 0.0);
     minor.resize(k * k, 0.0);
-    // edges[a * k + j] = (x_{j+1} − x_0)[a]
-    for j in 0..k {
-        for a in 0..dim {
-            edges[a * k + j] = points[(j + 1) * dim + a] - points[a];
-        }
-    }
-    for i in 0..k {
-        for j in 0..k {
-            let mut s = 0.0;
-            for a in 0..dim {
-                s += edges[a * k + i] * edges[a * k + j];
-            }
-            gram[i * k + j] = s;
-        }
-    }
-    adjugate(gram, k, adj, minor);
-    let mut g = gram.clone();
+    edge_matrix(points, dim, k, edges);
+    gram(edges, dim, k, gram_matrix);
+    adjugate(gram_matrix, k, adj, minor);
+    let mut g = gram_matrix.clone();
     let measure = determinant(&mut g, k) * scale;
-    grad[..dim].fill(0.0);
-    for j in 0..k {
-        for a in 0..dim {
-            let mut s = 0.0;
-            for i in 0..k {
-                s += edges[a * k + i] * adj[i * k + j];
-            }
-            let gj = 2.0 * s * scale;
-            grad[(j + 1) * dim + a] = gj;
-            grad[a] -= gj;
+    scatter_edge_gradient(grad, dim, k, |j, a| {
+        let mut s = 0.0;
+        for i in 0..k {
+            s += edges[a * k + i] * adj[i * k + j];
         }
-    }
+        2.0 * s * scale
+    });
     measure
 }
 

@@ -18,16 +18,7 @@
 
 use super::cholesky::cholesky;
 use super::{MaterialScratch, RestView};
-use crate::geometry::determinant;
-
-/// D = [x_1 − x_0 … x_k − x_0] of `points` into `edges` (N × k, row-major).
-pub(crate) fn edge_matrix(points: &[f64], dim: usize, k: usize, edges: &mut [f64]) {
-    for j in 0..k {
-        for a in 0..dim {
-            edges[a * k + j] = points[(j + 1) * dim + a] - points[a];
-        }
-    }
-}
+use crate::geometry::{determinant, edge_matrix, gram};
 
 /// Fills `s.edges`, `s.image` (F̂) and `s.cauchy_green` (C) for the
 /// simplex `points` with rest frame `frame`; returns k.
@@ -50,15 +41,7 @@ pub(crate) fn deform(points: &[f64], dim: usize, frame: &[f64], s: &mut Material
             image[a * k + j] = f;
         }
     }
-    for i in 0..k {
-        for j in 0..k {
-            let mut c = 0.0;
-            for a in 0..dim {
-                c += image[a * k + i] * image[a * k + j];
-            }
-            cauchy_green[i * k + j] = c;
-        }
-    }
+    gram(image, dim, k, cauchy_green);
     k
 }
 

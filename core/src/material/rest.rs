@@ -19,9 +19,9 @@
 //! scene validation applies to oriented-measure elements.
 
 use super::cholesky::lower_triangular_inverse;
-use super::deformation::edge_matrix;
 use super::{MaterialError, MaterialScratch, RestView};
 use crate::DEGENERATE_VOLUME_RATIO;
+use crate::geometry::edge_matrix;
 use crate::geometry::{determinant, factorial};
 
 /// Why a rest simplex defines no element: its measure and the floor it
