@@ -14,6 +14,8 @@
 //   evaluate: energy Σ b, gradient Σ b' n, hessian Σ b'' n nᵀ, min d
 //   filter_fraction: t = min(1, η min_o t*_o),  t*_plane = d0/(−n·Δ) if n·Δ < 0,
 //             t*_simplex = d0/|Δ|;  0 if some d0 ≤ 0
+//   every entry point ends with check_loops (llvmpipe's loop budget):
+//             status[LOOPS_CUT] = smallest particle whose loops were cut
 // The host prepends `alias real`, DIM and REAL_MAX (shader.rs).
 
 struct BarrierParams {
@@ -38,8 +40,32 @@ struct BarrierParams {
 @group(0) @binding(7) var<storage, read_write> hessian: array<real>;
 @group(0) @binding(8) var<storage, read_write> scalar: array<real>;
 @group(0) @binding(9) var<storage, read> bp: BarrierParams;
+// status[0..4]: incremental_potential.wgsl's words; status[LOOPS_CUT]: the
+// smallest particle whose loops were cut short (NONE: none).
+@group(0) @binding(10) var<storage, read_write> status: array<atomic<u32>, 5>;
 
 const SLOTS: u32 = 4u;
+const LOOPS_CUT: u32 = 4u;
+
+// llvmpipe (lavapipe) keeps one loop budget per group of 8 neighbouring
+// invocations (its SIMD width): 65 535 iterations of every data-dependent
+// loop of the kernel together (a loop of n trips costs n + 1; loops with a
+// constant trip count are unrolled and cost nothing), shared by the 8
+// lanes, which run a loop as long as any of them is still in it. Once it
+// is spent every loop runs its body once and stops, silently. A two-trip
+// probe at the end of every entry point, with a trip count the compiler
+// cannot see (bp.count < 2^31), then counts 1 instead of 2 (measured:
+// gpu/src/barrier.rs); the host refuses the results.
+fn check_loops(i: u32) {
+    let trips = 2u + (bp.count >> 31u);
+    var probe = 0u;
+    for (var t = 0u; t < trips; t++) {
+        probe++;
+    }
+    if (probe != 2u) {
+        atomicMin(&status[LOOPS_CUT], i);
+    }
+}
 
 fn linear_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
     return gid.x + gid.y * groups.x * WORKGROUP;
@@ -197,6 +223,11 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     if (i >= bp.count) {
         return;
     }
+    evaluate_particle(i);
+    check_loops(i);
+}
+
+fn evaluate_particle(i: u32) {
     var p: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
         p[a] = x[i * DIM + a];
@@ -247,6 +278,11 @@ fn filter_fraction(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
     if (i >= bp.count) {
         return;
     }
+    scalar[i] = particle_filter_fraction(i);
+    check_loops(i);
+}
+
+fn particle_filter_fraction(i: u32) -> real {
     var p: array<real, DIM>;
     var step: array<real, DIM>;
     var length2: real = 0.0;
@@ -261,8 +297,7 @@ fn filter_fraction(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
     for (var o = 0u; o < bp.planes + bp.simplices; o++) {
         let d0 = obstacle_distance(o, &p, radius[i], &n);
         if (!(d0 > 0.0)) {
-            scalar[i] = 0.0;
-            return;
+            return 0.0;
         }
         var approach = length;
         if (o < bp.planes) {
@@ -276,7 +311,7 @@ fn filter_fraction(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
             t = min(t, d0 / approach);
         }
     }
-    scalar[i] = min(bp.safety * t, 1.0);
+    return min(bp.safety * t, 1.0);
 }
 
 // ln of every delta[i] into scalar[i] (the ln helper's own test).
@@ -287,4 +322,5 @@ fn ln_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
         return;
     }
     scalar[i] = ln_real(delta[i]);
+    check_loops(i);
 }

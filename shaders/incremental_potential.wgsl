@@ -13,6 +13,7 @@
 //                 Armijo halving on F(x + tΔ) − F(x) in difference form
 //                 (c = 1e-4, ≤ 60), x += tΔ; status: moved
 //   ip_velocity   v = (x − x_prev) / h                       (free particles)
+//   every entry point ends with barrier.wgsl's check_loops (status[4])
 
 struct IpParams {
     count: u32,     // particles
@@ -25,18 +26,18 @@ struct IpParams {
     pad_b: real,
 }
 
-@group(0) @binding(10) var<storage, read_write> v: array<real>;
-@group(0) @binding(11) var<storage, read_write> x_prev: array<real>;
-@group(0) @binding(12) var<storage, read_write> prediction: array<real>;
-@group(0) @binding(13) var<storage, read> inv_mass: array<real>;
-@group(0) @binding(14) var<storage, read> gravity_scale: array<real>;
-@group(0) @binding(15) var<storage, read> force: array<real>;
-@group(0) @binding(16) var<storage, read_write> terms: array<real>;
-// status[0]: some particle moved (newton); status[1]: smallest particle with
-// a non-finite gradient or direction; status[2]: smallest infeasible particle;
-// status[3]: some particle's Armijo search failed although x + Δ ≠ x and
-// its expected decrease was above the rounding of F's change.
-@group(0) @binding(17) var<storage, read_write> status: array<atomic<u32>, 4>;
+// barrier.wgsl's status (binding 10): status[0]: some particle moved
+// (newton); status[1]: smallest particle with a non-finite gradient or
+// direction; status[2]: smallest infeasible particle; status[3]: some
+// particle's Armijo search failed although x + Δ ≠ x and its expected
+// decrease was above the rounding of F's change; status[4]: LOOPS_CUT.
+@group(0) @binding(11) var<storage, read_write> v: array<real>;
+@group(0) @binding(12) var<storage, read_write> x_prev: array<real>;
+@group(0) @binding(13) var<storage, read_write> prediction: array<real>;
+@group(0) @binding(14) var<storage, read> inv_mass: array<real>;
+@group(0) @binding(15) var<storage, read> gravity_scale: array<real>;
+@group(0) @binding(16) var<storage, read> force: array<real>;
+@group(0) @binding(17) var<storage, read_write> terms: array<real>;
 @group(0) @binding(18) var<storage, read> gravity: array<real>;
 @group(1) @binding(0) var<storage, read> ip: IpParams;
 
@@ -125,6 +126,7 @@ fn ip_predict(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         x_prev[k] = x[k];
         prediction[k] = x[k] + ip.h * v[k];
     }
+    check_loops(i);
 }
 
 @compute @workgroup_size(WORKGROUP)
@@ -135,8 +137,13 @@ fn ip_gradient(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     }
     if (inv_mass[i] == 0.0) {
         terms[i] = 0.0;
-        return;
+    } else {
+        gradient_particle(i);
     }
+    check_loops(i);
+}
+
+fn gradient_particle(i: u32) {
     var p: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
         p[a] = x[i * DIM + a];
@@ -177,6 +184,7 @@ fn ip_reduce_sum(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     let i = 2u * ip.stride * k;
     if (i + ip.stride < ip.count) {
         terms[i] = terms[i] + terms[i + ip.stride];
+        check_loops(i);
     }
 }
 
@@ -186,15 +194,24 @@ fn ip_reduce_max(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     let i = 2u * ip.stride * k;
     if (i + ip.stride < ip.count) {
         terms[i] = max(terms[i], terms[i + ip.stride]);
+        check_loops(i);
     }
 }
 
 @compute @workgroup_size(WORKGROUP)
 fn ip_newton(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
-    if (i >= ip.count || inv_mass[i] == 0.0) {
+    if (i >= ip.count) {
         return;
     }
+    if (inv_mass[i] != 0.0) {
+        newton_particle(i);
+    }
+    check_loops(i);
+}
+
+// One damped Newton step of free particle i (x[i] moves or not).
+fn newton_particle(i: u32) {
     var p: array<real, DIM>;
     var g: array<real, DIM>;
     var all_zero = true;
@@ -354,4 +371,5 @@ fn ip_velocity(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
         let k = i * DIM + a;
         v[k] = (x[k] - x_prev[k]) / ip.h;
     }
+    check_loops(i);
 }

@@ -17,6 +17,7 @@
 use hyperpbd_core::GpuError;
 use hyperpbd_core::barrier::{BarrierLaw, BarrierObstacles, FILTER_SAFETY};
 
+use crate::backend::status::obstacle_loops_cut_short;
 use crate::context::GpuContext;
 use crate::kernel_set::{Binding, BlockWriter, EntryPoint, KernelSet, KernelSetSpec};
 use crate::params::{push_reals, read_reals, real_size};
@@ -100,8 +101,8 @@ impl EntryPoint for BarrierEntry {
 }
 
 /// Bindings of `shaders/barrier.wgsl` (group 0): x radius geometry arity
-/// delta energy gradient hessian scalar params.
-pub(crate) const BARRIER_BINDINGS: [Binding; 10] = [
+/// delta energy gradient hessian scalar params status.
+pub(crate) const BARRIER_BINDINGS: [Binding; 11] = [
     Binding::WRITE,
     Binding::READ,
     Binding::READ,
@@ -112,7 +113,36 @@ pub(crate) const BARRIER_BINDINGS: [Binding; 10] = [
     Binding::WRITE,
     Binding::WRITE,
     Binding::READ,
+    Binding::WRITE,
 ];
+
+/// Words of the status block the barrier and incremental-potential kernels
+/// share (binding 10): four of the incremental-potential step, then
+/// [`LOOPS_CUT`].
+pub(crate) const STATUS_WORDS: usize = 5;
+/// Status word: the smallest particle whose loops were cut short (`NONE`:
+/// none).
+pub(crate) const LOOPS_CUT: usize = 4;
+/// An index word that holds no index.
+pub(crate) const NONE: u32 = u32::MAX;
+
+/// `Err` naming the first particle whose loops were cut short, if the
+/// status words say any were.
+pub(crate) fn refuse_cut_loops(status: &[u32; STATUS_WORDS]) -> Result<(), GpuError> {
+    match status[LOOPS_CUT] {
+        NONE => Ok(()),
+        particle => Err(obstacle_loops_cut_short(particle)),
+    }
+}
+
+/// The status words in `bytes` (little-endian u32s, as the device wrote them).
+pub(crate) fn status_words(bytes: &[u8]) -> [u32; STATUS_WORDS] {
+    let mut words = [0u32; STATUS_WORDS];
+    for (w, b) in words.iter_mut().zip(bytes.chunks_exact(4)) {
+        *w = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+    }
+    words
+}
 
 /// The `BarrierParams` block of `shaders/barrier.wgsl`.
 pub(crate) fn barrier_params(
@@ -288,6 +318,7 @@ impl BarrierKernels {
             "barrier params",
             &barrier_params(self.precision, count, &self.obstacles, &self.law),
         )?;
+        let status = make("status", bytemuck::cast_slice(&[NONE; STATUS_WORDS]))?;
         let buffers = [
             &x,
             &radius,
@@ -299,6 +330,7 @@ impl BarrierKernels {
             &hessian,
             &scalar,
             &params,
+            &status,
         ];
         let group = self.kernels.bind(&self.ctx.device, 0, &buffers, 0)?;
         let r = real_size(self.precision) as u64;
@@ -307,6 +339,7 @@ impl BarrierKernels {
             (count * dim) as u64 * r,
             (count * dim * dim) as u64 * r,
             count as u64 * r,
+            (4 * STATUS_WORDS) as u64,
         ];
         let staging = self
             .ctx
@@ -315,7 +348,7 @@ impl BarrierKernels {
         Ok(PreparedBatch {
             count: count as u32,
             group,
-            outputs: [energy, gradient, hessian, scalar],
+            outputs: [energy, gradient, hessian, scalar, status],
             sizes,
             staging,
             _inputs: [x, radius, delta, params],
@@ -345,7 +378,8 @@ impl BarrierKernels {
         self.ctx.submit_and_wait(encoder)
     }
 
-    /// Reads back [energy, gradient, hessian, scalar] of a batch.
+    /// Reads back [energy, gradient, hessian, scalar] of a batch, refusing
+    /// them when the status block says a particle's loops were cut short.
     pub fn read(&self, batch: &PreparedBatch) -> Result<[Vec<f64>; 4], GpuError> {
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         let mut offset = 0;
@@ -359,10 +393,11 @@ impl BarrierKernels {
         let bytes = self.ctx.read(&batch.staging, offset)?;
         let mut out: [Vec<f64>; 4] = Default::default();
         let mut start = 0usize;
-        for (k, &size) in batch.sizes.iter().enumerate() {
+        for (k, &size) in batch.sizes[..4].iter().enumerate() {
             out[k] = read_reals(&bytes[start..start + size as usize], self.precision);
             start += size as usize;
         }
+        refuse_cut_loops(&status_words(&bytes[start..]))?;
         Ok(out)
     }
 }
@@ -371,8 +406,9 @@ impl BarrierKernels {
 pub struct PreparedBatch {
     count: u32,
     group: wgpu::BindGroup,
-    outputs: [wgpu::Buffer; 4],
-    sizes: [u64; 4],
+    /// energy, gradient, hessian, scalar, status.
+    outputs: [wgpu::Buffer; 5],
+    sizes: [u64; 5],
     staging: wgpu::Buffer,
     _inputs: [wgpu::Buffer; 4],
 }
