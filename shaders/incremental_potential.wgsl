@@ -7,6 +7,8 @@
 //   ip_predict    x_prev = x;  x~ = x + h v                  (free particles)
 //   ip_gradient   g = m (x − x~) − h² load + h² Σ b' n;  residual term
 //                 (packed: |g|², acceleration: |g| w / h²; 0 for fixed);
+//                 Σ b'' n nᵀ, Σ b, Σ |b'| kept for ip_newton (hessian,
+//                 energy, scalar: one obstacle loop fewer there);
 //                 status: infeasible start, non-finite gradient
 //   ip_reduce_sum / ip_reduce_max   terms[i] ⊕= terms[i + s] for i ≡ 0 mod 2s
 //   ip_newton     Δ = −(m I + h² Σ b'' n nᵀ)⁻¹ g (Cholesky), t = filter,
@@ -168,6 +170,9 @@ fn gradient_particle(i: u32) {
     for (var a = 0u; a < MAT; a++) {
         hessian[i * MAT + a] = hm[a];
     }
+    // The barrier terms at x, for ip_newton at the same x.
+    energy[i] = e;
+    scalar[i] = fs;
     if (!ok) {
         atomicMin(&status[1], i);
     }
@@ -220,11 +225,13 @@ fn newton_particle(i: u32) {
         g[a] = gradient[i * DIM + a];
         all_zero = all_zero && g[a] == 0.0;
     }
+    // Σ b, Σ b'' n nᵀ and Σ |b'| at x, as ip_gradient left them.
     var hm: array<real, MAT>;
-    var barrier_at_x: real;
-    var bg: array<real, DIM>;
-    var force_sum: real;
-    barrier_sum(&p, radius[i], &barrier_at_x, &bg, &hm, &force_sum);
+    for (var a = 0u; a < MAT; a++) {
+        hm[a] = hessian[i * MAT + a];
+    }
+    let barrier_at_x = energy[i];
+    let force_sum = scalar[i];
     if (all_zero) {
         return;
     }

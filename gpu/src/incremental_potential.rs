@@ -184,10 +184,10 @@ impl GpuBarrierBackend {
         let geometry = make("geometry", &reals(&geometry_reals))?;
         let arity = make("arity", bytemuck::cast_slice(&arity))?;
         let delta = make("delta", &zeros(1))?;
-        let energy = make("energy", &zeros(1))?;
+        let energy = make("energy", &zeros(n))?;
         let gradient = make("gradient", &zeros(n * dim))?;
         let hessian = make("hessian", &zeros(n * dim * dim))?;
-        let scalar = make("scalar", &zeros(1))?;
+        let scalar = make("scalar", &zeros(n))?;
         let barrier_params = make(
             "barrier params",
             &barrier_params(precision, n, &obstacles, &ip.law),
