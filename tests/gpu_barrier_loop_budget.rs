@@ -143,10 +143,7 @@ fn barrier_steps_over_large_meshes_match_the_cpu_or_are_refused() {
                         is_loop_budget_refusal(&e),
                         "{label}: refused for another reason than the loop budget: {e}"
                     );
-                    assert!(
-                        triangles > 200,
-                        "{label}: a small mesh was refused: {e}"
-                    );
+                    assert!(triangles > 200, "{label}: a small mesh was refused: {e}");
                     assert_unchanged(&label, &before, &gpu.read_state().expect("read"));
                     println!(
                         "BOUND | loop budget, {label} on {} | typed error, state unchanged | — | never a silently cut step",
@@ -179,9 +176,8 @@ fn cut_kernel_calls_are_refused_with_the_state_unchanged() {
     let plan = Plan::compile(&scene).expect("valid");
     let state = State::from_scene(&scene);
 
-    let mut gpu =
-        GpuBarrierBackend::with_adapter(&adapter, plan.clone(), &state, Precision::F64)
-            .expect("gpu");
+    let mut gpu = GpuBarrierBackend::with_adapter(&adapter, plan.clone(), &state, Precision::F64)
+        .expect("gpu");
     match gpu.run_kernel(Kernel::Minimise) {
         Ok(()) => assert!(
             !summary.name.contains("llvmpipe"),
@@ -216,6 +212,9 @@ fn cut_kernel_calls_are_refused_with_the_state_unchanged() {
         let evaluated = evaluated.expect("evaluate");
         let mut expected = ParticleBarrier::new(3);
         evaluate_particle_barrier(&ip.law, &ip.obstacles, &x, radii[0], &mut expected);
-        assert_eq!(evaluated.min_distance[0].to_bits(), expected.min_distance.to_bits());
+        assert_eq!(
+            evaluated.min_distance[0].to_bits(),
+            expected.min_distance.to_bits()
+        );
     }
 }

@@ -2,13 +2,42 @@
 //! (`shaders/barrier.wgsl`): per-particle barrier evaluation (energy,
 //! gradient, PSD-projected Hessian block, smallest distance) and the
 //! certified step-filter fraction, one invocation per particle looping over
-//! every obstacle; plus the f64 `ln` helper's own check.
+//! every obstacle; plus the f64 `ln` helper's own check. Results whose
+//! loops llvmpipe cut short are refused (below).
 //!
 //! ```text
 //! BarrierKernels::new(adapter, precision, dim, law, obstacles)   pipelines + obstacle upload
 //! evaluate(positions, radii)            -> BarrierEvaluation      (one dispatch)
 //! filter_fractions(positions, radii, Δ) -> fraction per particle  (one dispatch)
 //! ```
+//!
+//! llvmpipe's loop budget (measured on Mesa 22.3.6, LLVM 15, 256-bit
+//! vectors: `tests/gpu_llvmpipe_loop_budget.rs`) and what these kernels do
+//! about it:
+//!
+//! ```text
+//! budget     65 535 loop iterations per dispatch and SIMD group of 8
+//!            neighbouring invocations (256 bits / 32), all loops of the
+//!            kernel together: not per loop, not per invocation; a lane
+//!            is cut by its neighbours' loops too
+//! cost       a loop with a data-dependent trip count n costs n + 1 (the
+//!            group runs it while any lane is in it); a loop with a
+//!            constant trip count is unrolled and costs nothing
+//! when spent every loop runs its body once and stops, silently
+//! probe      every entry point ends with check_loops: two trips, trip
+//!            count unknown to the compiler; 1 → status[LOOPS_CUT] =
+//!            smallest such particle → GpuError::Unsupported, results
+//!            refused (the step: x and v restored)
+//! cost here  per pass over the obstacles: 1 per plane, 11 per triangle
+//!            (measured; 147 before the closest-point solve's inner loops
+//!            got constant trip counts: the face loop's 2^k remains);
+//!            ip_gradient makes one pass, ip_newton one for the filter and
+//!            one per Armijo trial (it reuses ip_gradient's terms at x).
+//!            So a ball over 1 800 triangles (≈ 20 000 per pass) steps like
+//!            the CPU; 7 200 triangles are refused on llvmpipe
+//!            (tests/gpu_barrier_loop_budget.rs)
+//! ```
+//!
 //! Obstacle geometry is laid out for the device in one place,
 //! [`obstacle_geometry`], after [`local_obstacles`] has moved it into the
 //! device coordinates x − o of a [`SceneOrigin`] (f32 far from the world
