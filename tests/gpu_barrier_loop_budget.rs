@@ -25,6 +25,7 @@
 
 mod common;
 
+use common::exact::bits;
 use common::gpu::adapter_or_skip;
 use hyperpbd::core::barrier::{ParticleBarrier, evaluate_particle_barrier};
 use hyperpbd::gpu::barrier::BarrierKernels;
@@ -81,26 +82,15 @@ const WITHIN_THE_BUDGET: usize = 1_800;
 /// evaluation over them is cut there, whatever the per-simplex cost.
 const OVER_THE_BUDGET: usize = 65_535;
 
-fn bits(values: &[f64]) -> Vec<u64> {
-    values.iter().map(|v| v.to_bits()).collect()
-}
-
 /// The refusal of a cut loop: typed, naming the budget and the obstacles.
 fn is_loop_budget_refusal(e: &BackendError) -> bool {
     matches!(e, BackendError::Gpu(GpuError::Unsupported { what })
         if what.contains("65 535") && what.contains("obstacle loops"))
 }
 
-/// Asserts `after` is `before`, byte for byte.
+/// Asserts `after` is `before`, byte for byte (x and v).
 fn assert_unchanged(label: &str, before: &State, after: &State) {
-    assert!(
-        bits(&after.positions) == bits(&before.positions),
-        "{label}: x moved"
-    );
-    assert!(
-        bits(&after.velocities) == bits(&before.velocities),
-        "{label}: v moved"
-    );
+    assert!(bits(after) == bits(before), "{label}: the state moved");
 }
 
 #[test]
@@ -133,14 +123,7 @@ fn barrier_steps_over_large_meshes_match_the_cpu_or_are_refused() {
                         cpu.read_state().expect("read"),
                         gpu.read_state().expect("read"),
                     );
-                    assert!(
-                        bits(&c.positions) == bits(&g.positions),
-                        "{label}: positions differ from the CPU"
-                    );
-                    assert!(
-                        bits(&c.velocities) == bits(&g.velocities),
-                        "{label}: velocities differ from the CPU"
-                    );
+                    assert!(bits(&c) == bits(&g), "{label}: x or v differ from the CPU");
                 }
                 Err(e) => {
                     assert!(
