@@ -14,6 +14,8 @@
 //   evaluate: energy Σ b, gradient Σ b' n, hessian Σ b'' n nᵀ, min d
 //   filter_fraction: t = min(1, η min_o t*_o),  t*_plane = d0/(−n·Δ) if n·Δ < 0,
 //             t*_simplex = d0/|Δ|;  0 if some d0 ≤ 0
+//   every entry point ends with check_loops (llvmpipe's loop budget):
+//             status[LOOPS_CUT] = smallest particle whose loops were cut
 // The host prepends `alias real`, DIM and REAL_MAX (shader.rs).
 
 struct BarrierParams {
@@ -38,8 +40,32 @@ struct BarrierParams {
 @group(0) @binding(7) var<storage, read_write> hessian: array<real>;
 @group(0) @binding(8) var<storage, read_write> scalar: array<real>;
 @group(0) @binding(9) var<storage, read> bp: BarrierParams;
+// status[0..4]: incremental_potential.wgsl's words; status[LOOPS_CUT]: the
+// smallest particle whose loops were cut short (NONE: none).
+@group(0) @binding(10) var<storage, read_write> status: array<atomic<u32>, 5>;
 
 const SLOTS: u32 = 4u;
+const LOOPS_CUT: u32 = 4u;
+
+// llvmpipe (lavapipe) keeps one loop budget per group of 8 neighbouring
+// invocations (its SIMD width): 65 535 iterations of every data-dependent
+// loop of the kernel together (a loop of n trips costs n + 1; loops with a
+// constant trip count are unrolled and cost nothing), shared by the 8
+// lanes, which run a loop as long as any of them is still in it. Once it
+// is spent every loop runs its body once and stops, silently. A two-trip
+// probe at the end of every entry point, with a trip count the compiler
+// cannot see (bp.count < 2^31), then counts 1 instead of 2 (measured:
+// gpu/src/barrier.rs); the host refuses the results.
+fn check_loops(i: u32) {
+    let trips = 2u + (bp.count >> 31u);
+    var probe = 0u;
+    for (var t = 0u; t < trips; t++) {
+        probe++;
+    }
+    if (probe != 2u) {
+        atomicMin(&status[LOOPS_CUT], i);
+    }
+}
 
 fn linear_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
     return gid.x + gid.y * groups.x * WORKGROUP;
@@ -49,6 +75,75 @@ fn linear_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
 fn vertex(s: u32, j: u32, a: u32) -> real {
     let base = bp.planes * DIM + bp.planes;
     return geometry[base + (s * SLOTS + j) * DIM + a];
+}
+
+// Row s1 < m of face's Gram system G μ = rhs (anchor members[0], the
+// other members at 1..=m): G[s1][t1] = (v_js − v_a)·(v_jt − v_a),
+// rhs[s1] = (v_js − v_a)·(p − v_a). Called with constant s1 (llvmpipe's
+// loop budget: check_loops), nothing when s1 ≥ m.
+fn gram_row(s: u32, s1: u32, m: u32, members: ptr<function, array<u32, 4>>,
+            g: ptr<function, array<array<real, 3>, 3>>, rhs: ptr<function, array<real, 3>>,
+            p: ptr<function, array<real, DIM>>) {
+    if (s1 >= m) {
+        return;
+    }
+    let anchor = (*members)[0];
+    let js = (*members)[s1 + 1u];
+    for (var t1 = 0u; t1 < 3u; t1++) {
+        if (t1 < m) {
+            let jt = (*members)[t1 + 1u];
+            var acc: real = 0.0;
+            for (var a = 0u; a < DIM; a++) {
+                acc += (vertex(s, js, a) - vertex(s, anchor, a)) * (vertex(s, jt, a) - vertex(s, anchor, a));
+            }
+            (*g)[s1][t1] = acc;
+        }
+    }
+    var acc: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        acc += (vertex(s, js, a) - vertex(s, anchor, a)) * ((*p)[a] - vertex(s, anchor, a));
+    }
+    (*rhs)[s1] = acc;
+}
+
+// Elimination step c < m of G μ = rhs without pivoting (G is SPD); a bad
+// pivot clears ok, and once ok is false later steps do nothing.
+fn eliminate(c: u32, m: u32, ok: ptr<function, bool>, g: ptr<function, array<array<real, 3>, 3>>,
+             rhs: ptr<function, array<real, 3>>) {
+    if (c >= m || !(*ok)) {
+        return;
+    }
+    if (!((*g)[c][c] > 0.0) || (*g)[c][c] > REAL_MAX) {
+        *ok = false;
+        return;
+    }
+    for (var r2 = 1u; r2 < 3u; r2++) {
+        if (r2 > c && r2 < m) {
+            let factor = (*g)[r2][c] / (*g)[c][c];
+            for (var s2 = 0u; s2 < 3u; s2++) {
+                if (s2 >= c && s2 < m) {
+                    (*g)[r2][s2] -= factor * (*g)[c][s2];
+                }
+            }
+            (*rhs)[r2] -= factor * (*rhs)[c];
+        }
+    }
+}
+
+// Back substitution step k < m: μ[c] for c = m − 1 − k.
+fn back_substitute(k: u32, m: u32, g: ptr<function, array<array<real, 3>, 3>>,
+                   rhs: ptr<function, array<real, 3>>, mu: ptr<function, array<real, 3>>) {
+    if (k >= m) {
+        return;
+    }
+    let c = m - 1u - k;
+    var value = (*rhs)[c];
+    for (var s2 = 1u; s2 < 3u; s2++) {
+        if (s2 > c && s2 < m) {
+            value -= (*g)[c][s2] * (*mu)[s2];
+        }
+    }
+    (*mu)[c] = value / (*g)[c][c];
 }
 
 // Distance to obstacle o from p (radius r); the unit direction into n.
@@ -66,6 +161,9 @@ fn obstacle_distance(o: u32, p: ptr<function, array<real, DIM>>, r: real, n: ptr
     var best_squared: real = REAL_MAX;
     var found = false;
     var rr: array<real, DIM>;
+    // Every loop below but the one over faces has a constant trip count
+    // (guards inside): llvmpipe unrolls those, so they cost nothing of its
+    // loop budget (check_loops); the face loop costs 2^count per simplex.
     for (var face = 1u; face < (1u << count); face++) {
         // Members of the face.
         var members: array<u32, 4>;
@@ -88,50 +186,25 @@ fn obstacle_distance(o: u32, p: ptr<function, array<real, DIM>>, r: real, n: ptr
         } else {
             var g: array<array<real, 3>, 3>;
             var rhs: array<real, 3>;
-            for (var s1 = 0u; s1 < m; s1++) {
-                let js = members[s1 + 1u];
-                for (var t1 = 0u; t1 < m; t1++) {
-                    let jt = members[t1 + 1u];
-                    var acc: real = 0.0;
-                    for (var a = 0u; a < DIM; a++) {
-                        acc += (vertex(s, js, a) - vertex(s, anchor, a)) * (vertex(s, jt, a) - vertex(s, anchor, a));
-                    }
-                    g[s1][t1] = acc;
-                }
-                var acc: real = 0.0;
-                for (var a = 0u; a < DIM; a++) {
-                    acc += (vertex(s, js, a) - vertex(s, anchor, a)) * ((*p)[a] - vertex(s, anchor, a));
-                }
-                rhs[s1] = acc;
-            }
-            // Gaussian elimination without pivoting (SPD).
-            for (var c = 0u; c < m; c++) {
-                if (!(g[c][c] > 0.0) || g[c][c] > REAL_MAX) {
-                    ok = false;
-                    break;
-                }
-                for (var r2 = c + 1u; r2 < m; r2++) {
-                    let factor = g[r2][c] / g[c][c];
-                    for (var s2 = c; s2 < m; s2++) {
-                        g[r2][s2] -= factor * g[c][s2];
-                    }
-                    rhs[r2] -= factor * rhs[c];
-                }
-            }
+            gram_row(s, 0u, m, &members, &g, &rhs, p);
+            gram_row(s, 1u, m, &members, &g, &rhs, p);
+            gram_row(s, 2u, m, &members, &g, &rhs, p);
+            // Gaussian elimination without pivoting (SPD); the first bad
+            // pivot stops it (ok = false).
+            eliminate(0u, m, &ok, &g, &rhs);
+            eliminate(1u, m, &ok, &g, &rhs);
+            eliminate(2u, m, &ok, &g, &rhs);
             if (ok) {
                 var mu: array<real, 3>;
-                for (var k = 0u; k < m; k++) {
-                    let c = m - 1u - k;
-                    var value = rhs[c];
-                    for (var s2 = c + 1u; s2 < m; s2++) {
-                        value -= g[c][s2] * mu[s2];
-                    }
-                    mu[c] = value / g[c][c];
-                }
+                back_substitute(0u, m, &g, &rhs, &mu);
+                back_substitute(1u, m, &g, &rhs, &mu);
+                back_substitute(2u, m, &g, &rhs, &mu);
                 var sum: real = 0.0;
-                for (var k = 0u; k < m; k++) {
-                    lambda[members[k + 1u]] = mu[k];
-                    sum += mu[k];
+                for (var k = 0u; k < 3u; k++) {
+                    if (k < m) {
+                        lambda[members[k + 1u]] = mu[k];
+                        sum += mu[k];
+                    }
                 }
                 lambda[anchor] = 1.0 - sum;
             }
@@ -151,8 +224,8 @@ fn obstacle_distance(o: u32, p: ptr<function, array<real, DIM>>, r: real, n: ptr
         for (var a = 0u; a < DIM; a++) {
             rr[a] = (*p)[a];
         }
-        for (var j = 0u; j < count; j++) {
-            if ((face & (1u << j)) != 0u) {
+        for (var j = 0u; j < 4u; j++) {
+            if (j < count && (face & (1u << j)) != 0u) {
                 for (var a = 0u; a < DIM; a++) {
                     rr[a] -= lambda[j] * vertex(s, j, a);
                 }
@@ -197,6 +270,11 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     if (i >= bp.count) {
         return;
     }
+    evaluate_particle(i);
+    check_loops(i);
+}
+
+fn evaluate_particle(i: u32) {
     var p: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
         p[a] = x[i * DIM + a];
@@ -247,6 +325,11 @@ fn filter_fraction(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
     if (i >= bp.count) {
         return;
     }
+    scalar[i] = particle_filter_fraction(i);
+    check_loops(i);
+}
+
+fn particle_filter_fraction(i: u32) -> real {
     var p: array<real, DIM>;
     var step: array<real, DIM>;
     var length2: real = 0.0;
@@ -261,8 +344,7 @@ fn filter_fraction(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
     for (var o = 0u; o < bp.planes + bp.simplices; o++) {
         let d0 = obstacle_distance(o, &p, radius[i], &n);
         if (!(d0 > 0.0)) {
-            scalar[i] = 0.0;
-            return;
+            return 0.0;
         }
         var approach = length;
         if (o < bp.planes) {
@@ -276,7 +358,7 @@ fn filter_fraction(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
             t = min(t, d0 / approach);
         }
     }
-    scalar[i] = min(bp.safety * t, 1.0);
+    return min(bp.safety * t, 1.0);
 }
 
 // ln of every delta[i] into scalar[i] (the ln helper's own test).
@@ -287,4 +369,5 @@ fn ln_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
         return;
     }
     scalar[i] = ln_real(delta[i]);
+    check_loops(i);
 }

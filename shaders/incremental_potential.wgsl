@@ -7,12 +7,15 @@
 //   ip_predict    x_prev = x;  x~ = x + h v                  (free particles)
 //   ip_gradient   g = m (x − x~) − h² load + h² Σ b' n;  residual term
 //                 (packed: |g|², acceleration: |g| w / h²; 0 for fixed);
+//                 Σ b'' n nᵀ, Σ b, Σ |b'| kept for ip_newton (hessian,
+//                 energy, scalar: one obstacle loop fewer there);
 //                 status: infeasible start, non-finite gradient
 //   ip_reduce_sum / ip_reduce_max   terms[i] ⊕= terms[i + s] for i ≡ 0 mod 2s
 //   ip_newton     Δ = −(m I + h² Σ b'' n nᵀ)⁻¹ g (Cholesky), t = filter,
 //                 Armijo halving on F(x + tΔ) − F(x) in difference form
 //                 (c = 1e-4, ≤ 60), x += tΔ; status: moved
 //   ip_velocity   v = (x − x_prev) / h                       (free particles)
+//   every entry point ends with barrier.wgsl's check_loops (status[4])
 
 struct IpParams {
     count: u32,     // particles
@@ -25,18 +28,18 @@ struct IpParams {
     pad_b: real,
 }
 
-@group(0) @binding(10) var<storage, read_write> v: array<real>;
-@group(0) @binding(11) var<storage, read_write> x_prev: array<real>;
-@group(0) @binding(12) var<storage, read_write> prediction: array<real>;
-@group(0) @binding(13) var<storage, read> inv_mass: array<real>;
-@group(0) @binding(14) var<storage, read> gravity_scale: array<real>;
-@group(0) @binding(15) var<storage, read> force: array<real>;
-@group(0) @binding(16) var<storage, read_write> terms: array<real>;
-// status[0]: some particle moved (newton); status[1]: smallest particle with
-// a non-finite gradient or direction; status[2]: smallest infeasible particle;
-// status[3]: some particle's Armijo search failed although x + Δ ≠ x and
-// its expected decrease was above the rounding of F's change.
-@group(0) @binding(17) var<storage, read_write> status: array<atomic<u32>, 4>;
+// barrier.wgsl's status (binding 10): status[0]: some particle moved
+// (newton); status[1]: smallest particle with a non-finite gradient or
+// direction; status[2]: smallest infeasible particle; status[3]: some
+// particle's Armijo search failed although x + Δ ≠ x and its expected
+// decrease was above the rounding of F's change; status[4]: LOOPS_CUT.
+@group(0) @binding(11) var<storage, read_write> v: array<real>;
+@group(0) @binding(12) var<storage, read_write> x_prev: array<real>;
+@group(0) @binding(13) var<storage, read_write> prediction: array<real>;
+@group(0) @binding(14) var<storage, read> inv_mass: array<real>;
+@group(0) @binding(15) var<storage, read> gravity_scale: array<real>;
+@group(0) @binding(16) var<storage, read> force: array<real>;
+@group(0) @binding(17) var<storage, read_write> terms: array<real>;
 @group(0) @binding(18) var<storage, read> gravity: array<real>;
 @group(1) @binding(0) var<storage, read> ip: IpParams;
 
@@ -125,6 +128,7 @@ fn ip_predict(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         x_prev[k] = x[k];
         prediction[k] = x[k] + ip.h * v[k];
     }
+    check_loops(i);
 }
 
 @compute @workgroup_size(WORKGROUP)
@@ -135,8 +139,13 @@ fn ip_gradient(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     }
     if (inv_mass[i] == 0.0) {
         terms[i] = 0.0;
-        return;
+    } else {
+        gradient_particle(i);
     }
+    check_loops(i);
+}
+
+fn gradient_particle(i: u32) {
     var p: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
         p[a] = x[i * DIM + a];
@@ -161,6 +170,9 @@ fn ip_gradient(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     for (var a = 0u; a < MAT; a++) {
         hessian[i * MAT + a] = hm[a];
     }
+    // The barrier terms at x, for ip_newton at the same x.
+    energy[i] = e;
+    scalar[i] = fs;
     if (!ok) {
         atomicMin(&status[1], i);
     }
@@ -177,6 +189,7 @@ fn ip_reduce_sum(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     let i = 2u * ip.stride * k;
     if (i + ip.stride < ip.count) {
         terms[i] = terms[i] + terms[i + ip.stride];
+        check_loops(i);
     }
 }
 
@@ -186,15 +199,24 @@ fn ip_reduce_max(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     let i = 2u * ip.stride * k;
     if (i + ip.stride < ip.count) {
         terms[i] = max(terms[i], terms[i + ip.stride]);
+        check_loops(i);
     }
 }
 
 @compute @workgroup_size(WORKGROUP)
 fn ip_newton(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
-    if (i >= ip.count || inv_mass[i] == 0.0) {
+    if (i >= ip.count) {
         return;
     }
+    if (inv_mass[i] != 0.0) {
+        newton_particle(i);
+    }
+    check_loops(i);
+}
+
+// One damped Newton step of free particle i (x[i] moves or not).
+fn newton_particle(i: u32) {
     var p: array<real, DIM>;
     var g: array<real, DIM>;
     var all_zero = true;
@@ -203,11 +225,13 @@ fn ip_newton(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         g[a] = gradient[i * DIM + a];
         all_zero = all_zero && g[a] == 0.0;
     }
+    // Σ b, Σ b'' n nᵀ and Σ |b'| at x, as ip_gradient left them.
     var hm: array<real, MAT>;
-    var barrier_at_x: real;
-    var bg: array<real, DIM>;
-    var force_sum: real;
-    barrier_sum(&p, radius[i], &barrier_at_x, &bg, &hm, &force_sum);
+    for (var a = 0u; a < MAT; a++) {
+        hm[a] = hessian[i * MAT + a];
+    }
+    let barrier_at_x = energy[i];
+    let force_sum = scalar[i];
     if (all_zero) {
         return;
     }
@@ -354,4 +378,5 @@ fn ip_velocity(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
         let k = i * DIM + a;
         v[k] = (x[k] - x_prev[k]) / ip.h;
     }
+    check_loops(i);
 }

@@ -1,31 +1,38 @@
-//! A KNOWN BUG, kept as a reproduction (ignored, with the reason): the
-//! barrier / incremental-potential kernels loop per particle over every
-//! obstacle simplex and its faces inside one invocation, and llvmpipe ends
-//! all loops of an invocation after 65 535 iterations, silently. Unlike the
-//! contact and XPBD step kernels (tests/gpu_contact_step.rs,
-//! tests/gpu_loop_budget.rs) these kernels carry no probe yet.
+//! llvmpipe's loop budget in the barrier / incremental-potential kernels
+//! (shaders/barrier.wgsl, shaders/incremental_potential.wgsl): one
+//! invocation per particle loops over every obstacle simplex and its faces,
+//! and llvmpipe ends all loops of a group of 8 invocations after 65 535
+//! iterations, silently (the measurement: gpu/src/barrier.rs). Every entry
+//! point ends with a probe; a cut is a typed error naming the budget, with
+//! x and v exactly as before — never a silently wrong step.
 //!
-//! Measured on lavapipe (Mesa 22.3.6), f64, a ball falling at 1 m/s onto a
-//! flat triangle mesh, 3 steps:
+//! A ball of radius 0.005 falling at 1 m/s onto a flat triangle mesh,
+//! 3 steps, f64, against the CPU golden path:
 //!
 //! ```text
-//! 200 triangles                        bit-identical to the CPU
-//! 1 800 triangles, ball over the last  GPU y = -4.6e-2 (through the mesh),
-//!                                      CPU y = +1.0e-2, no error: SILENT
-//! 7 200 triangles, ball over the first GPU refuses ("objective not
-//!                                      finite"); the CPU steps fine
+//! mesh                  before the probe (lavapipe)      now
+//! 200 triangles         bit-identical                    bit-identical (required)
+//! 1 800 triangles       through the mesh, no error       bit-identical (required)
+//! 7 200 triangles       "objective not finite"           bit-identical or refused
+//!                                                        (refused at step 0)
+//! 66 248 triangles      —                                refused on llvmpipe (more
+//!                                                        obstacles than the budget:
+//!                                                        the probe must trip)
 //! ```
-//! Run with `cargo test --release --test gpu_barrier_loop_budget -- --ignored`.
-//! Fixed when the kernels end with the same probe and the host refuses a
-//! cut step with the state unchanged (or splits the obstacle loop).
+//! "Refused" means `GpuError::Unsupported` naming the 65 535 budget and
+//! the obstacle loops, x and v byte-identical to the state before the
+//! step; any other adapter must match the CPU at every size.
 
 mod common;
 
+use common::exact::bits;
 use common::gpu::adapter_or_skip;
+use hyperpbd::core::barrier::{ParticleBarrier, evaluate_particle_barrier};
+use hyperpbd::gpu::barrier::BarrierKernels;
 use hyperpbd::gpu::{GpuBarrierBackend, Precision};
 use hyperpbd::{
-    Backend, BackendError, Convergence, CpuBackend, GpuError, Obstacle, Particle, Plan, Scene,
-    State,
+    Backend, BackendError, Convergence, CpuBackend, GpuError, Kernel, Obstacle, Particle, Plan,
+    Scene, State,
 };
 
 /// A ball of radius 0.005 at height 0.02 over (at, at), falling at 1 m/s
@@ -66,13 +73,36 @@ fn ball_over_mesh(side: usize, at: f64) -> Scene {
     scene
 }
 
+/// (side, ball over (at, at)): 200, 1 800, 7 200 and 66 248 triangles.
+const MESHES: [(usize, f64); 4] = [(10, 0.95), (30, 2.95), (60, 0.05), (182, 18.15)];
+/// Meshes up to this many triangles fit llvmpipe's budget (11 iterations
+/// per triangle and pass: gpu/src/barrier.rs) and must match the CPU.
+const WITHIN_THE_BUDGET: usize = 1_800;
+/// Meshes with more simplices than llvmpipe's whole budget: every
+/// evaluation over them is cut there, whatever the per-simplex cost.
+const OVER_THE_BUDGET: usize = 65_535;
+
+/// The refusal of a cut loop: typed, naming the budget and the obstacles.
+fn is_loop_budget_refusal(e: &BackendError) -> bool {
+    matches!(e, BackendError::Gpu(GpuError::Unsupported { what })
+        if what.contains("65 535") && what.contains("obstacle loops"))
+}
+
+/// Asserts `after` is `before`, byte for byte (x and v).
+fn assert_unchanged(label: &str, before: &State, after: &State) {
+    assert!(bits(after) == bits(before), "{label}: the state moved");
+}
+
 #[test]
-#[ignore = "known bug: llvmpipe's loop budget silently cuts the barrier kernels' obstacle loop (see the module doc); kept as the reproduction for the fix"]
 fn barrier_steps_over_large_meshes_match_the_cpu_or_are_refused() {
-    let Some((adapter, _)) = adapter_or_skip("gpu_barrier_loop_budget", Precision::F64) else {
+    let Some((adapter, summary)) = adapter_or_skip("gpu_barrier_loop_budget", Precision::F64)
+    else {
         return;
     };
-    for (side, at) in [(10, 0.95), (30, 2.95), (60, 0.05)] {
+    let llvmpipe = summary.name.contains("llvmpipe");
+    let mut tripped = 0;
+    for (side, at) in MESHES {
+        let triangles = 2 * side * side;
         let scene = ball_over_mesh(side, at);
         let plan = Plan::compile(&scene).expect("valid");
         let state = State::from_scene(&scene);
@@ -82,29 +112,99 @@ fn barrier_steps_over_large_meshes_match_the_cpu_or_are_refused() {
         for step in 0..3 {
             cpu.step().expect("cpu step");
             let before = gpu.read_state().expect("read");
-            let label = format!("{} triangles, step {step}", 2 * side * side);
+            let label = format!("{triangles} triangles, step {step}");
             match gpu.step() {
                 Ok(_) => {
+                    assert!(
+                        !(llvmpipe && triangles > OVER_THE_BUDGET),
+                        "{label}: llvmpipe cannot finish these loops, yet the step succeeded"
+                    );
                     let (c, g) = (
                         cpu.read_state().expect("read"),
                         gpu.read_state().expect("read"),
                     );
-                    assert!(
-                        c.positions == g.positions,
-                        "{label}: a different step, no error"
-                    );
+                    assert!(bits(&c) == bits(&g), "{label}: x or v differ from the CPU");
                 }
                 Err(e) => {
                     assert!(
-                        matches!(&e, BackendError::Gpu(GpuError::Unsupported { what })
-                            if what.contains("65 535")),
+                        is_loop_budget_refusal(&e),
                         "{label}: refused for another reason than the loop budget: {e}"
                     );
-                    let after = gpu.read_state().expect("read");
-                    assert!(after.positions == before.positions, "{label}: state moved");
+                    assert!(
+                        triangles > WITHIN_THE_BUDGET,
+                        "{label}: a mesh the kernels fit in the budget was refused: {e}"
+                    );
+                    assert_unchanged(&label, &before, &gpu.read_state().expect("read"));
+                    println!(
+                        "BOUND | loop budget, {label} on {} | typed error, state unchanged | — | never a silently cut step",
+                        summary.name
+                    );
+                    tripped += usize::from(triangles > OVER_THE_BUDGET);
                     break;
                 }
             }
         }
+    }
+    if llvmpipe {
+        assert_eq!(tripped, 1, "the mesh over the budget refused on llvmpipe");
+    }
+}
+
+/// The kernel-level entry points (`run_kernel`, `BarrierKernels`) refuse a
+/// cut evaluation the same way: no result, the state as before.
+#[test]
+fn cut_kernel_calls_are_refused_with_the_state_unchanged() {
+    let Some((adapter, summary)) = adapter_or_skip("gpu_barrier_loop_budget", Precision::F64)
+    else {
+        return;
+    };
+    if !summary.name.contains("llvmpipe") {
+        println!("{}: no loop budget to trip on this adapter", summary.name);
+    }
+    let (side, at) = MESHES[3];
+    let scene = ball_over_mesh(side, at);
+    let plan = Plan::compile(&scene).expect("valid");
+    let state = State::from_scene(&scene);
+
+    let mut gpu = GpuBarrierBackend::with_adapter(&adapter, plan.clone(), &state, Precision::F64)
+        .expect("gpu");
+    match gpu.run_kernel(Kernel::Minimise) {
+        Ok(()) => assert!(
+            !summary.name.contains("llvmpipe"),
+            "run_kernel over {} triangles succeeded on llvmpipe",
+            2 * side * side
+        ),
+        Err(e) => {
+            assert!(is_loop_budget_refusal(&e), "unexpected error: {e}");
+            assert_unchanged("run_kernel", &state, &gpu.read_state().expect("read"));
+        }
+    }
+
+    let ip = plan.incremental_potential().expect("barrier plan");
+    let kernels =
+        BarrierKernels::new(&adapter, Precision::F64, 3, ip.law, &ip.obstacles).expect("kernels");
+    let x = state.positions.clone();
+    let radii = plan.radius.clone();
+    let evaluated = kernels.evaluate(&x, &radii);
+    let filtered = kernels.filter_fractions(&x, &radii, &[0.0, -0.1, 0.0]);
+    if summary.name.contains("llvmpipe") {
+        for (what, result) in [
+            ("evaluate", evaluated.map(|_| ())),
+            ("filter_fractions", filtered.map(|_| ())),
+        ] {
+            let e = result.expect_err(what);
+            assert!(
+                is_loop_budget_refusal(&BackendError::Gpu(e.clone())),
+                "{what}: unexpected error {e}"
+            );
+        }
+    } else {
+        let evaluated = evaluated.expect("evaluate");
+        let mut expected = ParticleBarrier::new(3);
+        evaluate_particle_barrier(&ip.law, &ip.obstacles, &x, radii[0], &mut expected);
+        assert_eq!(
+            evaluated.min_distance[0].to_bits(),
+            expected.min_distance.to_bits()
+        );
     }
 }

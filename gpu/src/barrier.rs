@@ -2,13 +2,42 @@
 //! (`shaders/barrier.wgsl`): per-particle barrier evaluation (energy,
 //! gradient, PSD-projected Hessian block, smallest distance) and the
 //! certified step-filter fraction, one invocation per particle looping over
-//! every obstacle; plus the f64 `ln` helper's own check.
+//! every obstacle; plus the f64 `ln` helper's own check. Results whose
+//! loops llvmpipe cut short are refused (below).
 //!
 //! ```text
 //! BarrierKernels::new(adapter, precision, dim, law, obstacles)   pipelines + obstacle upload
 //! evaluate(positions, radii)            -> BarrierEvaluation      (one dispatch)
 //! filter_fractions(positions, radii, Δ) -> fraction per particle  (one dispatch)
 //! ```
+//!
+//! llvmpipe's loop budget (measured on Mesa 22.3.6, LLVM 15, 256-bit
+//! vectors: `tests/gpu_llvmpipe_loop_budget.rs`) and what these kernels do
+//! about it:
+//!
+//! ```text
+//! budget     65 535 loop iterations per dispatch and SIMD group of 8
+//!            neighbouring invocations (256 bits / 32), all loops of the
+//!            kernel together: not per loop, not per invocation; a lane
+//!            is cut by its neighbours' loops too
+//! cost       a loop with a data-dependent trip count n costs n + 1 (the
+//!            group runs it while any lane is in it); a loop with a
+//!            constant trip count is unrolled and costs nothing
+//! when spent every loop runs its body once and stops, silently
+//! probe      every entry point ends with check_loops: two trips, trip
+//!            count unknown to the compiler; 1 → status[LOOPS_CUT] =
+//!            smallest such particle → GpuError::Unsupported, results
+//!            refused (the step: x and v restored)
+//! cost here  per pass over the obstacles: 1 per plane, 11 per triangle
+//!            (measured; 147 before the closest-point solve's inner loops
+//!            got constant trip counts: the face loop's 2^k remains);
+//!            ip_gradient makes one pass, ip_newton one for the filter and
+//!            one per Armijo trial (it reuses ip_gradient's terms at x).
+//!            So a ball over 1 800 triangles (≈ 20 000 per pass) steps like
+//!            the CPU; 7 200 triangles are refused on llvmpipe
+//!            (tests/gpu_barrier_loop_budget.rs)
+//! ```
+//!
 //! Obstacle geometry is laid out for the device in one place,
 //! [`obstacle_geometry`], after [`local_obstacles`] has moved it into the
 //! device coordinates x − o of a [`SceneOrigin`] (f32 far from the world
@@ -17,6 +46,7 @@
 use hyperpbd_core::GpuError;
 use hyperpbd_core::barrier::{BarrierLaw, BarrierObstacles, FILTER_SAFETY};
 
+use crate::backend::status::obstacle_loops_cut_short;
 use crate::context::GpuContext;
 use crate::kernel_set::{Binding, BlockWriter, EntryPoint, KernelSet, KernelSetSpec};
 use crate::params::{push_reals, read_reals, real_size};
@@ -100,8 +130,8 @@ impl EntryPoint for BarrierEntry {
 }
 
 /// Bindings of `shaders/barrier.wgsl` (group 0): x radius geometry arity
-/// delta energy gradient hessian scalar params.
-pub(crate) const BARRIER_BINDINGS: [Binding; 10] = [
+/// delta energy gradient hessian scalar params status.
+pub(crate) const BARRIER_BINDINGS: [Binding; 11] = [
     Binding::WRITE,
     Binding::READ,
     Binding::READ,
@@ -112,7 +142,36 @@ pub(crate) const BARRIER_BINDINGS: [Binding; 10] = [
     Binding::WRITE,
     Binding::WRITE,
     Binding::READ,
+    Binding::WRITE,
 ];
+
+/// Words of the status block the barrier and incremental-potential kernels
+/// share (binding 10): four of the incremental-potential step, then
+/// [`LOOPS_CUT`].
+pub(crate) const STATUS_WORDS: usize = 5;
+/// Status word: the smallest particle whose loops were cut short (`NONE`:
+/// none).
+pub(crate) const LOOPS_CUT: usize = 4;
+/// An index word that holds no index.
+pub(crate) const NONE: u32 = u32::MAX;
+
+/// `Err` naming the first particle whose loops were cut short, if the
+/// status words say any were.
+pub(crate) fn refuse_cut_loops(status: &[u32; STATUS_WORDS]) -> Result<(), GpuError> {
+    match status[LOOPS_CUT] {
+        NONE => Ok(()),
+        particle => Err(obstacle_loops_cut_short(particle)),
+    }
+}
+
+/// The status words in `bytes` (little-endian u32s, as the device wrote them).
+pub(crate) fn status_words(bytes: &[u8]) -> [u32; STATUS_WORDS] {
+    let mut words = [0u32; STATUS_WORDS];
+    for (w, b) in words.iter_mut().zip(bytes.chunks_exact(4)) {
+        *w = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+    }
+    words
+}
 
 /// The `BarrierParams` block of `shaders/barrier.wgsl`.
 pub(crate) fn barrier_params(
@@ -288,6 +347,7 @@ impl BarrierKernels {
             "barrier params",
             &barrier_params(self.precision, count, &self.obstacles, &self.law),
         )?;
+        let status = make("status", bytemuck::cast_slice(&[NONE; STATUS_WORDS]))?;
         let buffers = [
             &x,
             &radius,
@@ -299,6 +359,7 @@ impl BarrierKernels {
             &hessian,
             &scalar,
             &params,
+            &status,
         ];
         let group = self.kernels.bind(&self.ctx.device, 0, &buffers, 0)?;
         let r = real_size(self.precision) as u64;
@@ -307,6 +368,7 @@ impl BarrierKernels {
             (count * dim) as u64 * r,
             (count * dim * dim) as u64 * r,
             count as u64 * r,
+            (4 * STATUS_WORDS) as u64,
         ];
         let staging = self
             .ctx
@@ -315,7 +377,7 @@ impl BarrierKernels {
         Ok(PreparedBatch {
             count: count as u32,
             group,
-            outputs: [energy, gradient, hessian, scalar],
+            outputs: [energy, gradient, hessian, scalar, status],
             sizes,
             staging,
             _inputs: [x, radius, delta, params],
@@ -345,7 +407,8 @@ impl BarrierKernels {
         self.ctx.submit_and_wait(encoder)
     }
 
-    /// Reads back [energy, gradient, hessian, scalar] of a batch.
+    /// Reads back [energy, gradient, hessian, scalar] of a batch, refusing
+    /// them when the status block says a particle's loops were cut short.
     pub fn read(&self, batch: &PreparedBatch) -> Result<[Vec<f64>; 4], GpuError> {
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         let mut offset = 0;
@@ -359,10 +422,11 @@ impl BarrierKernels {
         let bytes = self.ctx.read(&batch.staging, offset)?;
         let mut out: [Vec<f64>; 4] = Default::default();
         let mut start = 0usize;
-        for (k, &size) in batch.sizes.iter().enumerate() {
+        for (k, &size) in batch.sizes[..4].iter().enumerate() {
             out[k] = read_reals(&bytes[start..start + size as usize], self.precision);
             start += size as usize;
         }
+        refuse_cut_loops(&status_words(&bytes[start..]))?;
         Ok(out)
     }
 }
@@ -371,8 +435,9 @@ impl BarrierKernels {
 pub struct PreparedBatch {
     count: u32,
     group: wgpu::BindGroup,
-    outputs: [wgpu::Buffer; 4],
-    sizes: [u64; 4],
+    /// energy, gradient, hessian, scalar, status.
+    outputs: [wgpu::Buffer; 5],
+    sizes: [u64; 5],
     staging: wgpu::Buffer,
     _inputs: [wgpu::Buffer; 4],
 }

@@ -11,6 +11,10 @@
 //!                              ip_newton (filter before every trial, Armijo) }
 //!                       ip_velocity
 //!         on a refusal: restore (x, v) byte for byte, return the typed error
+//! probe:  every kernel ends with barrier.wgsl's check_loops; the status
+//!         block read after each gradient pass (and after ip_velocity) names
+//!         the first particle whose loops llvmpipe cut short → the step is
+//!         refused (GpuError::Unsupported, state restored), never kept
 //! ```
 //! The residual's sqrt (packed criterion) is taken on the host in f64.
 
@@ -20,7 +24,10 @@ use hyperpbd_core::{
     Plan, Refusal, State, StepError, StepReport, check_forces, check_kernel, check_state,
 };
 
-use crate::barrier::{BARRIER_BINDINGS, barrier_params, local_obstacles, obstacle_geometry};
+use crate::barrier::{
+    BARRIER_BINDINGS, NONE, STATUS_WORDS, barrier_params, local_obstacles, obstacle_geometry,
+    refuse_cut_loops, status_words,
+};
 use crate::context::GpuContext;
 use crate::kernel_set::{Binding, BlockWriter, EntryPoint, KernelSet, KernelSetSpec, ParamBlocks};
 use crate::layout::VectorLayout;
@@ -29,7 +36,6 @@ use crate::resident::ResidentState;
 use crate::shader::{MAX_GPU_DIM, ShaderFile};
 use crate::{Precision, SceneOrigin};
 
-const NONE: u32 = u32::MAX;
 /// Armijo constant (same as the CPU's).
 const ARMIJO: f64 = 1e-4;
 
@@ -58,8 +64,8 @@ impl EntryPoint for IpEntry {
     }
 }
 
-/// Group-0 bindings: barrier.wgsl's 0..=9, then v x_prev prediction
-/// inv_mass gravity_scale force terms status gravity.
+/// Group-0 bindings: barrier.wgsl's 0..=10 (10: the shared status block),
+/// then v x_prev prediction inv_mass gravity_scale force terms gravity.
 const IP_BINDINGS: [Binding; 19] = [
     BARRIER_BINDINGS[0],
     BARRIER_BINDINGS[1],
@@ -71,16 +77,24 @@ const IP_BINDINGS: [Binding; 19] = [
     BARRIER_BINDINGS[7],
     BARRIER_BINDINGS[8],
     BARRIER_BINDINGS[9],
+    BARRIER_BINDINGS[10],
     Binding::WRITE,
     Binding::WRITE,
     Binding::WRITE,
     Binding::READ,
     Binding::READ,
     Binding::READ,
-    Binding::WRITE,
     Binding::WRITE,
     Binding::READ,
 ];
+
+/// The status block before a pass: nothing moved, no failing particle,
+/// no stall, no loop cut short.
+const STATUS_RESET: [u32; STATUS_WORDS] = [0, NONE, NONE, 0, NONE];
+/// Bytes of the probe read back per Newton iteration: terms[0] (one real,
+/// at 0) and the status block at [`STATUS_AT`].
+const STATUS_AT: u64 = 16;
+const PROBE_BYTES: u64 = STATUS_AT + 4 * STATUS_WORDS as u64;
 
 /// The GPU backend of the incremental-potential path.
 pub struct GpuBarrierBackend {
@@ -98,7 +112,7 @@ pub struct GpuBarrierBackend {
     state: ResidentState,
     terms: wgpu::Buffer,
     status: wgpu::Buffer,
-    /// terms[0] then the 4 status words.
+    /// terms[0], then the status words at [`STATUS_AT`].
     probe: wgpu::Buffer,
     /// Buffers only the kernels read or write.
     _rest: Vec<wgpu::Buffer>,
@@ -170,10 +184,10 @@ impl GpuBarrierBackend {
         let geometry = make("geometry", &reals(&geometry_reals))?;
         let arity = make("arity", bytemuck::cast_slice(&arity))?;
         let delta = make("delta", &zeros(1))?;
-        let energy = make("energy", &zeros(1))?;
+        let energy = make("energy", &zeros(n))?;
         let gradient = make("gradient", &zeros(n * dim))?;
         let hessian = make("hessian", &zeros(n * dim * dim))?;
-        let scalar = make("scalar", &zeros(1))?;
+        let scalar = make("scalar", &zeros(n))?;
         let barrier_params = make(
             "barrier params",
             &barrier_params(precision, n, &obstacles, &ip.law),
@@ -183,9 +197,9 @@ impl GpuBarrierBackend {
         let inverse_mass = make("inv_mass", &reals(&plan.inverse_mass))?;
         let gravity_scale = make("gravity_scale", &reals(&plan.gravity_scale))?;
         let terms = make("terms", &zeros(n))?;
-        let status = make("status", bytemuck::cast_slice(&[0u32, NONE, NONE, 0]))?;
+        let status = make("status", bytemuck::cast_slice(&STATUS_RESET))?;
         let gravity = make("gravity", &reals(&plan.gravity))?;
-        let probe = ctx.staging("probe", 32)?;
+        let probe = ctx.staging("probe", PROBE_BYTES)?;
         let group = kernels.bind(
             &ctx.device,
             0,
@@ -200,6 +214,7 @@ impl GpuBarrierBackend {
                 &hessian,
                 &scalar,
                 &barrier_params,
+                &status,
                 &resident.v,
                 &x_prev,
                 &prediction,
@@ -207,7 +222,6 @@ impl GpuBarrierBackend {
                 &gravity_scale,
                 &resident.force,
                 &terms,
-                &status,
                 &gravity,
             ],
             0,
@@ -308,8 +322,9 @@ impl GpuBarrierBackend {
         self.ctx.submit_and_wait(encoder)
     }
 
-    /// Gradient pass, reduction, and the probe: (residual, status words).
-    fn evaluate_residual(&self) -> Result<(f64, [u32; 4]), GpuError> {
+    /// Gradient pass, reduction, and the probe: (residual, status words),
+    /// refused when some kernel's loops were cut short since the last reset.
+    fn evaluate_residual(&self) -> Result<(f64, [u32; STATUS_WORDS]), GpuError> {
         let n = self.plan.particle_count() as u32;
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         self.pass(&mut encoder, IpEntry::Gradient, 0, n);
@@ -324,15 +339,9 @@ impl GpuBarrierBackend {
         }
         let r = real_size(self.precision) as u64;
         encoder.copy_buffer_to_buffer(&self.terms, 0, &self.probe, 0, r);
-        encoder.copy_buffer_to_buffer(&self.status, 0, &self.probe, 16, 16);
-        self.ctx.submit_and_wait(encoder)?;
-        let bytes = self.ctx.read(&self.probe, 32)?;
+        let bytes = self.read_status(encoder)?;
         let value = read_reals(&bytes[..r as usize], self.precision)[0];
-        let mut words = [0u32; 4];
-        for (k, w) in words.iter_mut().enumerate() {
-            let at = 16 + 4 * k;
-            *w = u32::from_le_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
-        }
+        let words = status_words(&bytes[STATUS_AT as usize..]);
         let residual = match self.ip.convergence {
             Convergence::PackedGradient { .. } => value.sqrt(),
             Convergence::MaxAccelerationResidual { .. } => value,
@@ -340,12 +349,22 @@ impl GpuBarrierBackend {
         Ok((residual, words))
     }
 
+    /// Submits `encoder` with a copy of the status block into the probe,
+    /// reads the probe back, and refuses it when some kernel's loops were
+    /// cut short since the last reset.
+    fn read_status(&self, mut encoder: wgpu::CommandEncoder) -> Result<Vec<u8>, GpuError> {
+        let words = 4 * STATUS_WORDS as u64;
+        encoder.copy_buffer_to_buffer(&self.status, 0, &self.probe, STATUS_AT, words);
+        self.ctx.submit_and_wait(encoder)?;
+        let bytes = self.ctx.read(&self.probe, PROBE_BYTES)?;
+        refuse_cut_loops(&status_words(&bytes[STATUS_AT as usize..]))?;
+        Ok(bytes)
+    }
+
     fn reset_status(&self) {
-        self.ctx.queue.write_buffer(
-            &self.status,
-            0,
-            bytemuck::cast_slice(&[0u32, NONE, NONE, 0]),
-        );
+        self.ctx
+            .queue
+            .write_buffer(&self.status, 0, bytemuck::cast_slice(&STATUS_RESET));
     }
 
     /// One minimisation on the resident state (CPU: `minimise`).
@@ -408,7 +427,10 @@ impl GpuBarrierBackend {
             self.reset_status();
             self.run(IpEntry::Newton)?;
         }
-        self.run(IpEntry::Velocity)?;
+        let n = self.plan.particle_count() as u32;
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        self.pass(&mut encoder, IpEntry::Velocity, 0, n);
+        self.read_status(encoder)?;
         Ok(report)
     }
 
@@ -506,7 +528,15 @@ impl Backend for GpuBarrierBackend {
 
     fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
         check_kernel(&self.plan, kernel)?;
-        self.run_minimise()
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        self.state.save(&mut encoder);
+        self.ctx.submit_and_wait(encoder)?;
+        match self.run_minimise() {
+            // Results the device could not finish (loops cut short, a lost
+            // device) are not kept: the state goes back to the call's start.
+            Err(e @ BackendError::Gpu(_)) => Err(e.after_rollback(self.state.rollback(&self.ctx))),
+            other => other,
+        }
     }
 }
 

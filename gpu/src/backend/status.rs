@@ -3,9 +3,10 @@
 //! ```text
 //! status    [first failing call (NONE), its smallest index (NONE), cut flag, 0]
 //!           reset before every submission, copied to the report staging
-//! llvmpipe: one counter per shader invocation, 65 535 loop iterations in
-//!           all loops together; past it every loop runs its body once and
-//!           stops, silently
+//! llvmpipe: one counter per group of 8 neighbouring invocations (its SIMD
+//!           width), 65 535 loop iterations in all loops together; past it
+//!           every loop runs its body once and stops, silently (measured:
+//!           gpu/src/barrier.rs)
 //! kernels:  a two-trip probe loop at the end (trip count unknown to the
 //!           compiler) counts 1 instead of 2 once the budget is spent →
 //!           status[2] (step.wgsl) or the contact outcome (contact.wgsl)
@@ -27,6 +28,20 @@ pub(crate) fn loops_cut_short(invocation: Option<u32>) -> GpuError {
             "loops this long on this adapter: it ended the loops{which} early \
              (llvmpipe stops a shader's loops after 65 535 iterations); use the CPU \
              backend (or, for a long fused run of calls, fewer substeps per step)"
+        ),
+    }
+}
+
+/// The typed error of barrier / incremental-potential results whose loops
+/// over the obstacles were cut short (`particle`: the first such particle).
+pub(crate) fn obstacle_loops_cut_short(particle: u32) -> GpuError {
+    GpuError::Unsupported {
+        what: format!(
+            "loops this long on this adapter: it ended the obstacle loops of particle \
+             {particle} early (llvmpipe stops a shader's loops after 65 535 iterations, \
+             shared by 8 neighbouring particles); use fewer obstacle simplices (a coarser \
+             mesh, or only the part the particles can reach), a hardware adapter, or the \
+             CPU backend"
         ),
     }
 }
