@@ -70,15 +70,22 @@ fn time(seconds: f64) -> String {
     }
 }
 
-fn peer_cloth(threads: usize, sizes: &[usize], rounds: usize) {
+/// Particle-frames per timed batch of the full run (≈ 20 ms of serial work).
+const BATCH_WORK: usize = 1 << 22;
+
+/// Particle-frames per batch and rounds of the full run.
+const FULL: (usize, usize) = (BATCH_WORK, ROUNDS);
+
+/// Particle-frames per batch and rounds of the smoke run.
+const SMOKE: (usize, usize) = (1 << 15, 1);
+
+fn peer_cloth(threads: usize, sizes: &[usize], (work, rounds): (usize, usize)) {
     for &n in sizes {
         let scene = scenes::peer_cloth(n);
         let (mut one, mut all) = (backend(&scene, 1), backend(&scene, threads));
         step(&mut one, WARMUP_FRAMES);
         step(&mut all, WARMUP_FRAMES);
-        // A batch of ~20 ms of serial work.
-        let frames = (1 << 22) / (n * n).max(1);
-        let frames = frames.clamp(2, 2000);
+        let frames = (work / (n * n).max(1)).clamp(2, 2000);
         let (mut serial, mut parallel) = (Vec::new(), Vec::new());
         for _ in 0..rounds {
             serial.push(step(&mut one, frames));
@@ -175,7 +182,7 @@ fn kernels(args: &[String]) {
 /// `team [SIZES…]`: the peer cloth on all threads with the substeps on a
 /// team of held threads (the default) and with a rayon fork-join per
 /// kernel, interleaved; the ratio says what the team saves.
-fn team(threads: usize, sizes: &[usize], rounds: usize) {
+fn team(threads: usize, sizes: &[usize], (work, rounds): (usize, usize)) {
     println!(
         "| scene | {threads} threads, fork-join per kernel | {threads} threads, team | fork-join / team |"
     );
@@ -186,7 +193,7 @@ fn team(threads: usize, sizes: &[usize], rounds: usize) {
         let mut teamed = backend(&scene, threads);
         step(&mut joined, WARMUP_FRAMES);
         step(&mut teamed, WARMUP_FRAMES);
-        let frames = ((1 << 22) / (n * n).max(1)).clamp(2, 2000);
+        let frames = (work / (n * n).max(1)).clamp(2, 2000);
         let (mut a, mut b) = (Vec::new(), Vec::new());
         for _ in 0..rounds {
             a.push(step(&mut joined, frames));
@@ -280,8 +287,8 @@ fn main() {
     // `cargo bench` passes --bench; `cargo test --all-targets` runs this
     // main without it: then a smoke run (small sizes, every check) only.
     if !args.iter().any(|a| a == "--bench") {
-        peer_cloth(threads, &[32, 64], 1);
-        team(threads.max(2), &[64], 1);
+        peer_cloth(threads, &[16, 48], SMOKE);
+        team(threads.max(2), &[48], SMOKE);
         println!("smoke run; `cargo bench --bench cpu_threads` for the table");
         return;
     }
@@ -300,7 +307,7 @@ fn main() {
             } else {
                 &sizes
             },
-            ROUNDS,
+            FULL,
         );
     }
     if filter.first().is_some_and(|a| a == "taichi") {
@@ -311,18 +318,14 @@ fn main() {
     println!("|---|---:|---:|---:|---:|---:|");
     if wanted("peer") {
         let all = [32, 64, 128, 256, 512];
-        peer_cloth(
-            threads,
-            if sizes.is_empty() { &all } else { &sizes },
-            ROUNDS,
-        );
+        peer_cloth(threads, if sizes.is_empty() { &all } else { &sizes }, FULL);
     }
     if wanted("column") {
         column(threads);
     }
     if filter.is_empty() {
         println!();
-        team(threads, &[128, 256], ROUNDS);
+        team(threads, &[128, 256], FULL);
         println!();
         taichi(threads);
     }
