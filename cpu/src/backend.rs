@@ -62,12 +62,6 @@ pub struct CpuBackend {
     /// does a step move to the pool (a hand-over costs microseconds, more
     /// than a small scene's whole step).
     on_pool: bool,
-    /// Whether the substeps run on a team (`team.rs`): on the pool, and
-    /// every kernel a chunked loop of particles or colour elements (and
-    /// not turned off by [`CpuBackend::with_team`]).
-    on_team: bool,
-    /// Whether teams are allowed ([`CpuBackend::with_team`]).
-    team_allowed: bool,
 }
 
 impl CpuBackend {
@@ -107,8 +101,6 @@ impl CpuBackend {
             minimisation: Vec::new(),
             workers: Workers::new(threads)?,
             on_pool: false,
-            on_team: false,
-            team_allowed: true,
             fused_tail: None,
         }
         .with_pool_choice())
@@ -117,7 +109,6 @@ impl CpuBackend {
     /// Sets `on_pool` from the plan's largest loops.
     fn with_pool_choice(mut self) -> Self {
         self.on_pool = splits_somewhere(&self.plan, &self.workers);
-        self.on_team = self.team_allowed && self.on_pool && teams_up(&self.plan);
         self.fused_tail = fused_tail(&self.plan);
         self
     }
@@ -133,15 +124,6 @@ impl CpuBackend {
     /// results are the same bytes for any cap.
     pub fn with_max_chunk(mut self, max_chunk: usize) -> Self {
         self.workers = self.workers.with_max_chunk(max_chunk);
-        self.with_pool_choice()
-    }
-
-    /// Whether the substeps may run on a team of held threads (the
-    /// default where the plan allows; `false`: a rayon fork-join per
-    /// kernel, as before teams). For benchmarks and tests: the results are
-    /// the same bytes either way.
-    pub fn with_team(mut self, team: bool) -> Self {
-        self.team_allowed = team;
         self.with_pool_choice()
     }
 
@@ -361,13 +343,7 @@ impl CpuBackend {
         copy(workers, &self.v, &mut self.saved_v);
         self.minimisation.clear();
         self.revertible = false;
-        let substeps = if self.on_team {
-            let workers = self.workers.clone();
-            workers.team(|| self.substeps())
-        } else {
-            self.substeps()
-        };
-        if let Err(e) = substeps {
+        if let Err(e) = self.substeps() {
             self.x.clone_from(&self.saved_x);
             self.v.clone_from(&self.saved_v);
             return Err(e);
@@ -453,22 +429,6 @@ fn splits_somewhere(plan: &Plan, workers: &Workers) -> bool {
         || (plan.contacts.is_some() && splits(count, collide::BOX_GRAIN))
         || (plan.incremental_potential().is_some()
             && splits(count, incremental_potential::PARTICLE_GRAIN))
-}
-
-/// Whether every kernel of `plan` is a chunked loop the team runs
-/// (prediction, colours, velocity, damping, friction); the broadphase,
-/// contacts and the barrier path use rayon loops of their own.
-fn teams_up(plan: &Plan) -> bool {
-    plan.substep_kernels.iter().all(|k| {
-        matches!(
-            k,
-            Kernel::Predict
-                | Kernel::Project { .. }
-                | Kernel::Velocity
-                | Kernel::Friction { .. }
-                | Kernel::Damping
-        )
-    })
 }
 
 /// How many kernels at the end of the plan's substep fuse with the next

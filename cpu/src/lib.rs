@@ -19,7 +19,6 @@ mod integrate;
 mod parallel;
 mod project;
 mod residual;
-mod team;
 mod threads;
 
 pub use backend::CpuBackend;

@@ -48,8 +48,6 @@ use std::sync::{Arc, Mutex};
 use hyperpbd_core::BackendError;
 use rayon::prelude::*;
 
-use crate::team;
-
 /// The thread pool of a backend (shared by every backend of the same
 /// thread count in the process) and its size.
 #[derive(Clone)]
@@ -137,34 +135,16 @@ impl Workers {
         }
     }
 
-    /// Runs `op` with the pool's threads held as a team (`team.rs`): the
-    /// chunked loops inside it go to threads that wait for them instead of
-    /// through a rayon fork-join each. For `op`s whose loops are all
-    /// chunked loops of this module (no `map_chunks`, no rayon of their
-    /// own: those run on the calling thread alone inside a team). Inline
-    /// when the caller is not on the pool.
-    pub fn team<R>(&self, op: impl FnOnce() -> R) -> R {
-        match &self.pool {
-            Some(pool) if pool.current_thread_index().is_some() && !team::leading() => {
-                team::lead(self.threads, op)
-            }
-            _ => op(),
-        }
-    }
-
     /// `a` and `b` at once (each may split further) when the caller runs
     /// on the pool; one after the other otherwise (a hand-over to the pool
-    /// costs more than a small scene's two loops; inside a team, whose
-    /// helpers take no rayon work, `a`'s and `b`'s own loops split).
+    /// costs more than a small scene's two loops).
     pub fn join<A: Send, B: Send>(
         &self,
         a: impl FnOnce() -> A + Send,
         b: impl FnOnce() -> B + Send,
     ) -> (A, B) {
         match &self.pool {
-            Some(pool) if pool.current_thread_index().is_some() && !team::leading() => {
-                rayon::join(a, b)
-            }
+            Some(pool) if pool.current_thread_index().is_some() => rayon::join(a, b),
             _ => (a(), b()),
         }
     }
@@ -235,11 +215,6 @@ impl Workers {
         fresh: impl Fn() -> S + Sync + Send,
         body: impl Fn(Range<usize>, &mut S) -> Result<(), usize> + Sync,
     ) -> Result<(), usize> {
-        let chunks = len.div_ceil(grain);
-        let on_team = team::run(chunks, &|c| body(chunk(c, len, grain), &mut fresh()));
-        if let Some(result) = on_team {
-            return result;
-        }
         self.install(|| {
             (0..len.div_ceil(grain))
                 .into_par_iter()
@@ -296,7 +271,7 @@ impl Workers {
     ) -> Vec<T> {
         let grain = self.grain(grain);
         let chunks = len.div_ceil(grain);
-        if !self.splits(len, grain) || team::leading() {
+        if !self.splits(len, grain) {
             return (0..chunks).map(|c| body(chunk(c, len, grain))).collect();
         }
         self.install(|| {
