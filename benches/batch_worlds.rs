@@ -7,7 +7,8 @@
 //! alone    the same worlds one after another, each its own CpuBackend
 //!          on one thread (what a loop over single runs costs)
 //! ```
-//! `cargo bench --bench batch_worlds [-- chain|cloth]`. Both variants step
+//! `cargo bench --bench batch_worlds [-- chain|cloth]` (without `--bench`,
+//! as under `cargo test --all-targets`: a smoke run of 1 and 16 worlds). Both variants step
 //! the same frames; the final states are asserted bit-identical, so a fast
 //! wrong answer cannot pass. The GPU batch (one dispatch per kernel for all
 //! worlds) is not built yet; a single-world GPU run costs what
@@ -96,14 +97,22 @@ fn main() {
         .collect();
     let wanted = |n: &str| filter.is_empty() || filter.iter().any(|f| n.contains(f.as_str()));
     let threads = hyperpbd::default_threads().expect("threads");
+    // `cargo bench` passes --bench; `cargo test --all-targets` runs this
+    // main without it: then a smoke run (few worlds, every check) only.
+    let full = std::env::args().any(|a| a == "--bench");
     println!(
         "| scene | worlds | alone (worlds·steps/s) | batch, {threads} threads | batch / alone |"
     );
     println!("|---|---:|---:|---:|---:|");
     if wanted("chain") {
-        measure("chain2d", &scenes::chain2d(), &[1, 16, 256, 4096]);
+        let counts: &[usize] = if full { &[1, 16, 256, 4096] } else { &[1, 16] };
+        measure("chain2d", &scenes::chain2d(), counts);
     }
     if wanted("cloth") {
-        measure("cloth 16²", &scenes::cloth(16), &[1, 16, 256, 1024]);
+        let counts: &[usize] = if full { &[1, 16, 256, 1024] } else { &[1, 16] };
+        measure("cloth 16²", &scenes::cloth(16), counts);
+    }
+    if !full {
+        println!("smoke run; `cargo bench --bench batch_worlds` for the table");
     }
 }

@@ -9,7 +9,9 @@
 //! timing  median of 5 runs per search; both must return the same pairs
 //! fit     the log–log slope of time against n
 //! ```
-//! `cargo bench --bench broadphase_grid`; prints a markdown table.
+//! `cargo bench --bench broadphase_grid`; prints a markdown table (without
+//! `--bench`, as under `cargo test --all-targets`: a smoke run of two small
+//! cubes).
 
 use std::time::Instant;
 
@@ -64,7 +66,15 @@ fn main() {
     println!("| n (dense cube) | pairs | CPU sort-and-sweep | CPU grid | sweep / grid |");
     println!("|---:|---:|---:|---:|---:|");
     let (mut sweep_points, mut grid_points) = (Vec::new(), Vec::new());
-    for side in [10, 20, 32, 40, 50] {
+    // `cargo bench` passes --bench; `cargo test --all-targets` runs this
+    // main without it: then a smoke run (two small cubes) only.
+    let full = std::env::args().any(|a| a == "--bench");
+    let sides: &[usize] = if full {
+        &[10, 20, 32, 40, 50]
+    } else {
+        &[10, 12]
+    };
+    for &side in sides {
         let boxes = cube(side);
         let n = boxes.len();
         let axis = sweep_axis(&boxes);
