@@ -240,7 +240,7 @@ impl GpuBackend {
                 .iter()
                 .map(|&dispatch| Placed {
                     dispatch,
-                    offset: blocks.push(bytemuck::cast_slice(&dispatch.block())),
+                    offset: blocks.push(&dispatch.block(&schedule.calls, dim, precision)),
                 })
                 .collect()
         };

@@ -29,8 +29,11 @@
 
 use hyperpbd_core::{Kernel, Plan};
 
-use super::call::{Call, OP_HOST, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX, records_io};
+use super::call::{
+    Call, OP_HOST, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX, dispatch_block, records_io,
+};
 use super::{Families, friction, integrate, project, residual};
+use crate::Precision;
 
 /// How the dispatches of a step are formed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -131,9 +134,22 @@ pub(crate) struct Dispatch {
 }
 
 impl Dispatch {
-    /// The `Dispatch` block of step.wgsl.
-    pub fn block(&self) -> [u32; 4] {
-        [self.first_call, self.end_call, self.count, 0]
+    /// The uniform `Dispatch` block of step.wgsl (`calls`: every call
+    /// block of the schedule): with copies of its calls when its runner
+    /// reads them from the block (particles, project_*).
+    pub fn block(&self, calls: &[Call], dim: usize, precision: Precision) -> Vec<u8> {
+        let own = match self.run {
+            Run::Particles(_) | Run::Distance | Run::Simplex | Run::Oriented => calls
+                .get(self.first_call as usize..self.end_call as usize)
+                .unwrap_or_default(),
+            _ => &[],
+        };
+        dispatch_block(
+            [self.first_call, self.end_call, self.count, 0],
+            own,
+            dim,
+            precision,
+        )
     }
 }
 
