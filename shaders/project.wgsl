@@ -208,6 +208,7 @@ fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     if (t < here.count) {
         call = here.calls[0];
         project_distance_element(t);
+        record_failure();
     }
 }
 
@@ -217,6 +218,7 @@ fn project_simplex_measure(@builtin(global_invocation_id) gid: vec3<u32>, @built
     if (t < here.count) {
         call = here.calls[0];
         project_measure_element(t, 1u);
+        record_failure();
     }
 }
 
@@ -226,5 +228,6 @@ fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @buil
     if (t < here.count) {
         call = here.calls[0];
         project_measure_element(t, 2u);
+        record_failure();
     }
 }

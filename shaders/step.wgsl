@@ -35,17 +35,22 @@
 // made the parameter reads as dear as the particle data;
 // docs/performance.md).
 //
-// Failure: `fail` records the first failing call (status[0]) and, for
-// that call only, the smallest failing index (status[1]): a call records
-// its index when no earlier call had failed as it recorded itself. Calls
-// are not skipped after a failure — the step is refused and rolled back
-// whatever they compute — so no kernel reads the status per invocation
-// (an atomic per lane on lavapipe). In the exact and small schedules
-// every call runs after the calls before it (dispatch order, storage
-// barriers), so (call, index) are those of the first failure, as the CPU
-// names it. When several calls share a dispatch (fused), a later call may
-// fail before an earlier one records itself; the host then replays the
-// step one call per dispatch (the exact schedule) to name the failure.
+// Failure: `fail` notes the invocation's first failure (call, index) in
+// private variables; `record_failure`, once at the end of an invocation's
+// work (per call in step_small), puts it in the status block: the first
+// failing call in status[0] and, for that call only, the smallest failing
+// index in status[1] (a call records its index when no earlier call had
+// failed as it recorded itself). Calls are not skipped after a failure —
+// the step is refused and rolled back whatever they compute — so no
+// kernel reads the status per invocation, and each invocation touches it
+// at one place: on lavapipe every atomic and every branch of a kernel
+// costs its SIMD batch whether or not a lane takes it. In the exact and
+// small schedules every call runs after the calls before it recorded
+// themselves (dispatch order, storage barriers), so (call, index) are
+// those of the first failure, as the CPU names it. When several calls
+// share a dispatch (fused), a later call may fail before an earlier one
+// records itself; the host then replays the step one call per dispatch
+// (the exact schedule) to name the failure.
 
 // One kernel call of a step (encoded by gpu/src/xpbd/call.rs).
 struct Call {
@@ -149,10 +154,26 @@ fn gravity(a: u32) -> real {
     return call.gravity[a / 4u][a % 4u];
 }
 
-// Records a failure of the running call at `index` (see Failure above).
+// This invocation's first failure (call, index); NONE: none yet.
+var<private> failed_call: u32 = NONE;
+var<private> failed_index: u32;
+
+// Notes a failure of the running call at `index` (see Failure above): the
+// invocation's first one is kept (its calls run in order).
 fn fail(index: u32) {
-    if (atomicMin(&status[0], call.call) >= call.call) {
-        atomicMin(&status[1], index);
+    if (failed_call == NONE) {
+        failed_call = call.call;
+        failed_index = index;
+    }
+}
+
+// Puts this invocation's noted failure, if any, in the status block.
+fn record_failure() {
+    if (failed_call != NONE) {
+        if (atomicMin(&status[0], failed_call) >= failed_call) {
+            atomicMin(&status[1], failed_index);
+        }
+        failed_call = NONE;
     }
 }
 
@@ -284,6 +305,7 @@ fn particles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     run_slot(OP6, 6u, i, &rx, &rv, &rp);
     run_slot(OP7, 7u, i, &rx, &rv, &rp);
     store_records(IO, i, &rx, &rv, &rp);
+    record_failure();
     check_loops();
 }
 
@@ -308,6 +330,7 @@ fn step_small(@builtin(local_invocation_index) lid: u32) {
                 store_records(io, i, &rx, &rv, &rp);
             }
         }
+        record_failure();
         storageBarrier();
     }
     check_loops();
