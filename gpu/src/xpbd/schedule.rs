@@ -427,7 +427,9 @@ fn choose(plan: &Plan, step: &[Call], workgroup: u32, software: bool) -> StepMod
 
 /// The schedule mode the backend would choose for `plan` on a software
 /// (`software`) or hardware adapter, and the compute dispatches per step
-/// that mode and the exact schedule record (for `hyperpbd plan`). `None`
+/// that mode and the exact schedule record, the contact stage's
+/// (broadphase, contact iterations, report) included — what
+/// `GpuBackend::dispatches_per_step` counts (for `hyperpbd plan`). `None`
 /// for plans the XPBD backend does not run (the incremental potential).
 pub fn dispatches_per_step(plan: &Plan, software: bool) -> Option<(StepMode, usize, usize)> {
     if plan.incremental_potential().is_some() {
@@ -438,9 +440,10 @@ pub fn dispatches_per_step(plan: &Plan, software: bool) -> Option<(StepMode, usi
     let workgroup = crate::shader::ShaderFile::Step.workgroup_size();
     let chosen = Schedule::new(plan, &families, workgroup, None, software);
     let exact = Schedule::new(plan, &families, workgroup, Some(StepMode::Exact), software);
+    let contact = crate::backend::contact_dispatches_per_step(plan);
     Some((
         chosen.mode,
-        chosen.dispatches_per_step(),
-        exact.dispatches_per_step(),
+        chosen.dispatches_per_step() + contact,
+        exact.dispatches_per_step() + contact,
     ))
 }
