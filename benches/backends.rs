@@ -24,6 +24,14 @@
 //! dispatch/gpu-{f32,f64}/K           one kernel of the 256² ground cloth, 20 calls
 //!                                    in one pass and one submit: the per-element
 //!                                    cost without a round trip per call
+//! frame_cpu/{cpu-f64,gpu-P-fused}/S  frame/'s cloth256 and chain20, timed as
+//!                                    the CPU time of the bench process (its
+//!                                    threads' time ON a core, lavapipe's
+//!                                    queue and worker threads included;
+//!                                    /proc/self/task/*/schedstat), not wall
+//!                                    time: it ignores the time other jobs on
+//!                                    a shared machine hold the cores (the
+//!                                    A/B measure on a loaded machine)
 //! throughput                         distance projections per step (elem/s)
 //! ```
 //! The CPU golden step runs on one thread. lavapipe runs with the
@@ -197,6 +205,59 @@ fn frames(c: &mut Criterion) {
     group.finish();
 }
 
+/// Time the threads of this process have run on a CPU core (Linux:
+/// /proc/self/task/*/schedstat, nanoseconds); `None` where it is missing.
+fn on_cpu() -> Option<Duration> {
+    let mut ns = 0u64;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let text = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+        ns += text.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(Duration::from_nanos(ns))
+}
+
+/// `frame/`'s cloth256 and chain20 (cpu-f64 and the fused GPU steps) in
+/// the process's CPU time per step.
+fn frames_on_cpu(c: &mut Criterion) {
+    if on_cpu().is_none() {
+        eprintln!("SKIPPED frame_cpu: no /proc/self/task/*/schedstat");
+        return;
+    }
+    let mut group = c.benchmark_group("frame_cpu");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(3));
+    let timed = |step: &mut dyn FnMut(), iterations: u64| {
+        let start = on_cpu().unwrap_or_default();
+        for _ in 0..iterations {
+            step();
+        }
+        on_cpu().unwrap_or_default().saturating_sub(start)
+    };
+    for (name, scene) in [("chain20", chain20()), ("cloth256", scenes::cloth(256))] {
+        if let Some(mut b) = load(&scene, BackendKind::Cpu) {
+            group.bench_function(BenchmarkId::new("cpu-f64", name), |bench| {
+                bench.iter_custom(|n| timed(&mut || drop(black_box(b.step().expect("step"))), n));
+            });
+        }
+        for precision in [Precision::F32, Precision::F64] {
+            let Some(mut b) = load_mode(&scene, precision, StepMode::Fused) else {
+                continue;
+            };
+            group.bench_function(
+                BenchmarkId::new(format!("gpu-{precision}-fused"), name),
+                |bench| {
+                    bench.iter_custom(|n| {
+                        timed(&mut || drop(black_box(b.step().expect("step"))), n)
+                    });
+                },
+            );
+        }
+    }
+    group.finish();
+}
+
 /// The GPU backend on `scene` with its step formed as `mode` says, three
 /// steps in; `None` (with the reason printed) when there is no adapter or
 /// the mode does not fit the scene.
@@ -306,6 +367,6 @@ criterion_group!(
     name = benches;
     // No plots: plotters needs system fonts, which CI images may lack.
     config = Criterion::default().without_plots();
-    targets = software_threads, step, kernels, overhead, frames, threads, dispatches
+    targets = software_threads, step, kernels, overhead, frames, frames_on_cpu, threads, dispatches
 );
 criterion_main!(benches);

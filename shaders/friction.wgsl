@@ -6,38 +6,38 @@
 //
 // Same arithmetic, in the same order, as cpu/src/friction.rs.
 
-fn friction_particle(c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
-    let e = contact_slot[calls[c].slot_map + i];
+fn friction_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+    let e = contact_slot[call.slot_map + i];
     if (e == NONE) {
         return;
     }
-    let l = lambda[calls[c].slot_base + e];
+    let l = lambda[call.slot_base + e];
     if (l <= 0.0) {
         return;
     }
     var vn: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        vn += calls[c].normal[a] * lane(rv, a);
+        vn += normal(a) * lane(rv, a);
     }
     var t2: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        let t = lane(rv, a) - vn * calls[c].normal[a];
+        let t = lane(rv, a) - vn * normal(a);
         t2 += t * t;
     }
     let vt = sqrt(t2);
     if (vt == 0.0) {
         return;
     }
-    let limit = calls[c].friction * inverse_mass_of(rx) * l / calls[c].h;
+    let limit = call.friction * inverse_mass_of(rx) * l / call.h;
     let scale = min(limit, vt) / vt;
     var ok = true;
     for (var a = 0u; a < DIM; a++) {
-        let t = lane(rv, a) - vn * calls[c].normal[a];
+        let t = lane(rv, a) - vn * normal(a);
         let vk = lane(rv, a) - t * scale;
         set_lane(rv, a, vk);
         ok = ok && finite(vk);
     }
     if (!ok) {
-        fail(c, i);
+        fail(i);
     }
 }

@@ -9,14 +9,14 @@
 // multipliers are not reset here: the first projection of each family in a
 // substep reads λ as 0 and writes it (FLAG_FIRST, project.wgsl).
 
-fn predict_particle(c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+fn predict_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
     *rp = *rx;
     let w = inverse_mass_of(rx);
     if (w == 0.0) {
         return;
     }
-    let flags = calls[c].flags;
-    let h = calls[c].h;
+    let flags = call.flags;
+    let h = call.h;
     var f: Record;
     if ((flags & FLAG_FORCE) != 0u) {
         f = load_force(i);
@@ -29,7 +29,7 @@ fn predict_particle(c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function,
     for (var a = 0u; a < DIM; a++) {
         var acc: real = 0.0;
         if ((flags & FLAG_GRAVITY) != 0u) {
-            acc += s * calls[c].gravity[a];
+            acc += s * gravity(a);
         }
         if ((flags & FLAG_FORCE) != 0u) {
             acc += w * lane(&f, a);
@@ -41,15 +41,15 @@ fn predict_particle(c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function,
         ok = ok && finite(vk) && finite(xk);
     }
     if (!ok) {
-        fail(c, i);
+        fail(i);
     }
 }
 
-fn velocity_particle(c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+fn velocity_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
     if (inverse_mass_of(rx) == 0.0) {
         return;
     }
-    let h = calls[c].h;
+    let h = call.h;
     var ok = true;
     for (var a = 0u; a < DIM; a++) {
         let vk = (lane(rx, a) - lane(rp, a)) / h;
@@ -57,15 +57,15 @@ fn velocity_particle(c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function
         ok = ok && finite(vk);
     }
     if (!ok) {
-        fail(c, i);
+        fail(i);
     }
 }
 
-fn damping_particle(c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+fn damping_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
     if (inverse_mass_of(rx) == 0.0) {
         return;
     }
-    let factor = calls[c].factor;
+    let factor = call.factor;
     for (var a = 0u; a < DIM; a++) {
         set_lane(rv, a, lane(rv, a) * factor);
     }

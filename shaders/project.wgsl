@@ -18,11 +18,11 @@
 // — the CPU resets λ in predict — and writes λ on every path, so friction
 // and the report see this substep's multipliers.
 
-// Gathers element e of call c into `pts`.
-fn gather(c: u32, e: u32, pts: ptr<function, array<real, POINTS>>) {
-    let arity = calls[c].arity;
+// Gathers element e of the running call into `pts`.
+fn gather(e: u32, pts: ptr<function, array<real, POINTS>>) {
+    let arity = call.arity;
     for (var j = 0u; j < arity; j++) {
-        var r = load_x(elements[calls[c].elem_base + e * arity + j]);
+        var r = load_x(elements[call.elem_base + e * arity + j]);
         for (var a = 0u; a < DIM; a++) {
             (*pts)[j * DIM + a] = lane(&r, a);
         }
@@ -30,34 +30,31 @@ fn gather(c: u32, e: u32, pts: ptr<function, array<real, POINTS>>) {
 }
 
 // λ of slot s before this projection.
-fn lambda_before(c: u32, s: u32) -> real {
-    if ((calls[c].flags & FLAG_FIRST) != 0u) {
+fn lambda_before(s: u32) -> real {
+    if ((call.flags & FLAG_FIRST) != 0u) {
         return 0.0;
     }
     return lambda[s];
 }
 
 // An element that makes no response keeps λ (0 on the first projection).
-fn no_response(c: u32, s: u32) {
-    if ((calls[c].flags & (FLAG_FIRST | FLAG_UNREAD)) == FLAG_FIRST) {
+fn no_response(s: u32) {
+    if ((call.flags & (FLAG_FIRST | FLAG_UNREAD)) == FLAG_FIRST) {
         lambda[s] = 0.0;
     }
 }
 
 // λ after this projection.
-fn set_lambda(c: u32, s: u32, value: real) {
-    if ((calls[c].flags & FLAG_UNREAD) == 0u) {
+fn set_lambda(s: u32, value: real) {
+    if ((call.flags & FLAG_UNREAD) == 0u) {
         lambda[s] = value;
     }
 }
 
-fn project_distance_element(c: u32, t: u32) {
-    if (failed_before(c)) {
-        return;
-    }
-    let e = calls[c].first + t;
-    let s = calls[c].slot_base + e;
-    let ij = pairs[calls[c].elem_base / 2u + e];
+fn project_distance_element(t: u32) {
+    let e = call.first + t;
+    let s = call.slot_base + e;
+    let ij = pairs[call.elem_base / 2u + e];
     let i = ij.x;
     let j = ij.y;
     var ri = load_x(i);
@@ -74,22 +71,22 @@ fn project_distance_element(c: u32, t: u32) {
     let wsum = wi + wj;
     if (!(len > 0.0) || wsum == 0.0) {
         if (!finite(len)) {
-            fail(c, e);
+            fail(e);
         }
-        no_response(c, s);
+        no_response(s);
         return;
     }
-    let l = lambda_before(c, s);
-    let alpha_tilde = calls[c].alpha_tilde;
+    let l = lambda_before(s);
+    let alpha_tilde = call.alpha_tilde;
     var dl = (-(len - rest[s]) - alpha_tilde * l) / (wsum + alpha_tilde);
     if (!finite(dl)) {
-        fail(c, e);
+        fail(e);
         return;
     }
-    if ((calls[c].flags & FLAG_TETHER) != 0u) {
+    if ((call.flags & FLAG_TETHER) != 0u) {
         dl = min(l + dl, 0.0) - l;
     }
-    set_lambda(c, s, l + dl);
+    set_lambda(s, l + dl);
     let inv = 1.0 / len;
     if (wi != 0.0) {
         for (var a = 0u; a < DIM; a++) {
@@ -107,16 +104,13 @@ fn project_distance_element(c: u32, t: u32) {
 
 // Simplex measures (kind 1: squared k-measure, kind 2: oriented N-measure):
 // gather, evaluate C and ∇C, update.
-fn project_measure_element(c: u32, t: u32, kind: u32) {
-    if (failed_before(c)) {
-        return;
-    }
-    let e = calls[c].first + t;
-    let s = calls[c].slot_base + e;
-    let arity = calls[c].arity;
+fn project_measure_element(t: u32, kind: u32) {
+    let e = call.first + t;
+    let s = call.slot_base + e;
+    let arity = call.arity;
     var pts: array<real, POINTS>;
     var grad: array<real, POINTS>;
-    gather(c, e, &pts);
+    gather(e, &pts);
     var value: real;
     if (kind == 1u) {
         value = simplex_squared_measure(&pts, arity - 1u, &grad);
@@ -124,7 +118,7 @@ fn project_measure_element(c: u32, t: u32, kind: u32) {
         value = oriented_measure(&pts, &grad);
     }
     if (!finite(value)) {
-        fail(c, e);
+        fail(e);
         return;
     }
     var wsum: real = 0.0;
@@ -133,23 +127,23 @@ fn project_measure_element(c: u32, t: u32, kind: u32) {
         for (var a = 0u; a < DIM; a++) {
             g2 += grad[j * DIM + a] * grad[j * DIM + a];
         }
-        var r = load_x(elements[calls[c].elem_base + e * arity + j]);
+        var r = load_x(elements[call.elem_base + e * arity + j]);
         wsum += inverse_mass_of(&r) * g2;
     }
     if (wsum == 0.0) {
-        no_response(c, s);
+        no_response(s);
         return;
     }
-    let l = lambda_before(c, s);
-    let alpha_tilde = calls[c].alpha_tilde;
+    let l = lambda_before(s);
+    let alpha_tilde = call.alpha_tilde;
     let dl = (-(value - rest[s]) - alpha_tilde * l) / (wsum + alpha_tilde);
     if (!finite(dl)) {
-        fail(c, e);
+        fail(e);
         return;
     }
-    set_lambda(c, s, l + dl);
+    set_lambda(s, l + dl);
     for (var j = 0u; j < arity; j++) {
-        let i = elements[calls[c].elem_base + e * arity + j];
+        let i = elements[call.elem_base + e * arity + j];
         var r = load_x(i);
         let w = inverse_mass_of(&r);
         if (w == 0.0) {
@@ -163,45 +157,45 @@ fn project_measure_element(c: u32, t: u32, kind: u32) {
 }
 
 // A hyperplane contact of particle i (its records in registers).
-fn contact_particle(c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
-    let e = contact_slot[calls[c].slot_map + i];
+fn contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+    let e = contact_slot[call.slot_map + i];
     if (e == NONE) {
         return;
     }
-    let s = calls[c].slot_base + e;
+    let s = call.slot_base + e;
     let w = inverse_mass_of(rx);
     var nx: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        nx += calls[c].normal[a] * lane(rx, a);
+        nx += normal(a) * lane(rx, a);
     }
-    let cval = kept(nx, c) - rest[s];
-    let l = lambda_before(c, s);
-    let alpha_tilde = calls[c].alpha_tilde;
+    let cval = kept(nx) - rest[s];
+    let l = lambda_before(s);
+    let alpha_tilde = call.alpha_tilde;
     let raw = (-cval - alpha_tilde * l) / (w + alpha_tilde);
     if (!finite(raw)) {
-        fail(c, e);
+        fail(e);
         return;
     }
     let dl = max(l + raw, 0.0) - l;
     let l_new = l + dl;
     lambda[s] = l_new;
     for (var a = 0u; a < DIM; a++) {
-        set_lane(rx, a, lane(rx, a) + w * calls[c].normal[a] * dl);
+        set_lane(rx, a, lane(rx, a) + w * normal(a) * dl);
     }
-    let mu = calls[c].friction;
+    let mu = call.friction;
     if (mu > 0.0 && l_new > 0.0) {
         var dn: real = 0.0;
         for (var a = 0u; a < DIM; a++) {
-            dn += (lane(rx, a) - lane(rp, a)) * calls[c].normal[a];
+            dn += (lane(rx, a) - lane(rp, a)) * normal(a);
         }
         var t2: real = 0.0;
         for (var a = 0u; a < DIM; a++) {
-            let tan = (lane(rx, a) - lane(rp, a)) - dn * calls[c].normal[a];
+            let tan = (lane(rx, a) - lane(rp, a)) - dn * normal(a);
             t2 += tan * tan;
         }
         if (sqrt(t2) <= mu * w * l_new) {
             for (var a = 0u; a < DIM; a++) {
-                let tan = (lane(rx, a) - lane(rp, a)) - dn * calls[c].normal[a];
+                let tan = (lane(rx, a) - lane(rp, a)) - dn * normal(a);
                 set_lane(rx, a, lane(rx, a) - tan);
             }
         }
@@ -212,7 +206,9 @@ fn contact_particle(c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function,
 fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
     if (t < here.count) {
-        project_distance_element(here.first_call, t);
+        call = here.calls[0];
+        project_distance_element(t);
+        record_failure();
     }
 }
 
@@ -220,7 +216,9 @@ fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
 fn project_simplex_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
     if (t < here.count) {
-        project_measure_element(here.first_call, t, 1u);
+        call = here.calls[0];
+        project_measure_element(t, 1u);
+        record_failure();
     }
 }
 
@@ -228,6 +226,8 @@ fn project_simplex_measure(@builtin(global_invocation_id) gid: vec3<u32>, @built
 fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
     if (t < here.count) {
-        project_measure_element(here.first_call, t, 2u);
+        call = here.calls[0];
+        project_measure_element(t, 2u);
+        record_failure();
     }
 }

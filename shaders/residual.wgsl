@@ -13,17 +13,17 @@ const CHUNK: u32 = 16u * WORKGROUP;
 var<workgroup> partial_max: array<real, WORKGROUP>;
 var<workgroup> partial_count: array<u32, WORKGROUP>;
 
-// Violation of element e of residual call c.
-fn violation(c: u32, e: u32) -> real {
-    let s = calls[c].slot_base + e;
+// Violation of element e of the running residual call.
+fn violation(e: u32) -> real {
+    let s = call.slot_base + e;
     var pts: array<real, POINTS>;
     var grad: array<real, POINTS>;
-    gather(c, e, &pts);
-    let kind = calls[c].kind;
+    gather(e, &pts);
+    let kind = call.kind;
     if (kind == 0u) {
         return abs(distance(&pts, &grad) - rest[s]);
     } else if (kind == 1u) {
-        return abs(simplex_squared_measure(&pts, calls[c].arity - 1u, &grad) - rest[s]);
+        return abs(simplex_squared_measure(&pts, call.arity - 1u, &grad) - rest[s]);
     } else if (kind == 2u) {
         return abs(oriented_measure(&pts, &grad) - rest[s]);
     } else if (kind == 4u) {
@@ -31,7 +31,7 @@ fn violation(c: u32, e: u32) -> real {
     }
     var nx: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        nx += calls[c].normal[a] * pts[a];
+        nx += normal(a) * pts[a];
     }
     return max(rest[s] - nx, 0.0);
 }
@@ -49,14 +49,15 @@ fn reduce_workgroup(lid: u32) {
     }
 }
 
-// Chunk k (of residual call c, elements start..end) into partials[k].
-fn residual_chunk(c: u32, k: u32, start: u32, end: u32, lid: u32) {
+// Chunk k (of the running residual call, elements start..end) into
+// partials[k].
+fn residual_chunk(k: u32, start: u32, end: u32, lid: u32) {
     var worst: real = 0.0;
     var contacts = 0u;
-    let contact = calls[c].kind == 3u;
+    let contact = call.kind == 3u;
     for (var e = start + lid; e < end; e += WORKGROUP) {
-        worst = max(worst, violation(c, e));
-        if (contact && lambda[calls[c].slot_base + e] > 0.0) {
+        worst = max(worst, violation(e));
+        if (contact && lambda[call.slot_base + e] > 0.0) {
             contacts += 1u;
         }
     }
@@ -72,8 +73,9 @@ fn residual_chunk(c: u32, k: u32, start: u32, end: u32, lid: u32) {
 
 // The chunks of residual call c into report[2 family], report[2 family + 1].
 fn reduce_family(c: u32, lid: u32) {
-    let first = calls[c].chunk;
-    let end = first + (calls[c].count + CHUNK - 1u) / CHUNK;
+    call = calls[c];
+    let first = call.chunk;
+    let end = first + (call.count + CHUNK - 1u) / CHUNK;
     var worst: real = 0.0;
     var contacts = 0u;
     for (var k = first + lid; k < end; k += WORKGROUP) {
@@ -84,22 +86,10 @@ fn reduce_family(c: u32, lid: u32) {
     partial_count[lid] = contacts;
     reduce_workgroup(lid);
     if (lid == 0u) {
-        report[2u * calls[c].family] = partial_max[0];
-        report[2u * calls[c].family + 1u] = real(partial_count[0]);
+        report[2u * call.family] = partial_max[0];
+        report[2u * call.family + 1u] = real(partial_count[0]);
     }
     workgroupBarrier();
-}
-
-// The whole residual of call c by one workgroup (step_small).
-fn residual_family(c: u32, lid: u32) {
-    let count = calls[c].count;
-    let chunks = (count + CHUNK - 1u) / CHUNK;
-    for (var k = 0u; k < chunks; k++) {
-        let start = k * CHUNK;
-        residual_chunk(c, calls[c].chunk + k, start, min(start + CHUNK, count), lid);
-    }
-    storageBarrier();
-    reduce_family(c, lid);
 }
 
 // One workgroup per chunk of every residual call (the chunk table).
@@ -111,8 +101,8 @@ fn residual(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) grou
         return;
     }
     let entry = chunks[k];
-    let c = entry.x;
-    residual_chunk(c, k, entry.y, min(entry.y + CHUNK, calls[c].count), lid);
+    call = calls[entry.x];
+    residual_chunk(k, entry.y, min(entry.y + CHUNK, call.count), lid);
 }
 
 // One workgroup per residual call (family).

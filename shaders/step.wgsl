@@ -25,11 +25,32 @@
 //                   arrays are kept out of this one long-running workgroup:
 //                   lavapipe miscomputes them there, docs/performance.md).
 //
-// Failure: `fail` records the first failing call (status[0]) and the
-// smallest failing index (status[1]); calls after a failed one do nothing
-// (failed_before). When several calls share a dispatch the index may come
-// from a later call; the host then replays the step one call per dispatch
-// (the exact schedule) to name the failure as the CPU does.
+// THE CALL RUNNING NOW is the private `call`, copied in before each call
+// runs: from the dispatch's uniform block (`here.calls`, the calls of a
+// `particles` or `project_*` dispatch) or, for the runners that loop over
+// calls the host cannot list in one block (step_small, residual), from
+// the storage array `calls`. Kernels read their parameters from `call`
+// only. A uniform block is read once per SIMD batch of invocations on
+// lavapipe (a per-lane storage read is a masked 8-lane loop each, which
+// made the parameter reads as dear as the particle data;
+// docs/performance.md).
+//
+// Failure: `fail` notes the invocation's first failure (call, index) in
+// private variables; `record_failure`, once at the end of an invocation's
+// work (per call in step_small), puts it in the status block: the first
+// failing call in status[0] and, for that call only, the smallest failing
+// index in status[1] (a call records its index when no earlier call had
+// failed as it recorded itself). Calls are not skipped after a failure —
+// the step is refused and rolled back whatever they compute — so no
+// kernel reads the status per invocation, and each invocation touches it
+// at one place: on lavapipe every atomic and every branch of a kernel
+// costs its SIMD batch whether or not a lane takes it. In the exact and
+// small schedules every call runs after the calls before it recorded
+// themselves (dispatch order, storage barriers), so (call, index) are
+// those of the first failure, as the CPU names it. When several calls
+// share a dispatch (fused), a later call may fail before an earlier one
+// records itself; the host then replays the step one call per dispatch
+// (the exact schedule) to name the failure.
 
 // One kernel call of a step (encoded by gpu/src/xpbd/call.rs).
 struct Call {
@@ -53,16 +74,25 @@ struct Call {
     h: real,           // substep length
     friction: real,    // Coulomb μ of a contact family
     factor: real,      // damping factor exp(−rate h)
-    normal: array<real, DIM>,
-    gravity: array<real, DIM>,
+    // Vectors as records (lanes 0..DIM; a uniform block's arrays need
+    // 16-byte elements): normal(a), gravity(a).
+    normal: array<vec4<real>, VEC>,
+    gravity: array<vec4<real>, VEC>,
 }
 
-// The calls of one dispatch (one block per dispatch, dynamic offset).
+// Calls of one dispatch in its uniform block (OP0..OP7).
+const SEGMENT: u32 = 8u;
+
+// The calls of one dispatch (one uniform block per dispatch, dynamic
+// offset): the range, and copies of calls first_call + 0..SEGMENT for the
+// runners that read them from here (particles, project_*; zeros past the
+// range and for the other runners).
 struct Dispatch {
     first_call: u32,
     end_call: u32,
     count: u32,       // invocations (particles, elements) or workgroups
     pad: u32,
+    calls: array<Call, SEGMENT>,
 }
 
 const OP_PREDICT: u32 = 0u;
@@ -112,15 +142,39 @@ const NONE: u32 = 0xffffffffu;
 @group(0) @binding(14) var<storage, read> pairs: array<vec2<u32>>;
 @group(1) @binding(0) var<uniform> here: Dispatch;
 
-// True when an earlier call of this step failed: later calls do nothing.
-fn failed_before(c: u32) -> bool {
-    return atomicLoad(&status[0]) < calls[c].call;
+// The call running now.
+var<private> call: Call;
+
+// Coordinate a of the running call's normal and gravity.
+fn normal(a: u32) -> real {
+    return call.normal[a / 4u][a % 4u];
 }
 
-// Records a failure of call c at `index`; the smallest index wins.
-fn fail(c: u32, index: u32) {
-    atomicMin(&status[0], calls[c].call);
-    atomicMin(&status[1], index);
+fn gravity(a: u32) -> real {
+    return call.gravity[a / 4u][a % 4u];
+}
+
+// This invocation's first failure (call, index); NONE: none yet.
+var<private> failed_call: u32 = NONE;
+var<private> failed_index: u32;
+
+// Notes a failure of the running call at `index` (see Failure above): the
+// invocation's first one is kept (its calls run in order).
+fn fail(index: u32) {
+    if (failed_call == NONE) {
+        failed_call = call.call;
+        failed_index = index;
+    }
+}
+
+// Puts this invocation's noted failure, if any, in the status block.
+fn record_failure() {
+    if (failed_call != NONE) {
+        if (atomicMin(&status[0], failed_call) >= failed_call) {
+            atomicMin(&status[1], failed_index);
+        }
+        failed_call = NONE;
+    }
 }
 
 // Exactly `a`, as a value the driver's optimiser cannot see through.
@@ -128,10 +182,10 @@ fn fail(c: u32, index: u32) {
 // NoContraction), and lavapipe uses that freedom: in R^2 it turned the
 // contact's (n₀x₀ + n₁x₁) − r into n₀x₀ + (n₁x₁ − r), off the golden path
 // by ulps. A sum passed through here is rounded as written before it is
-// used. The condition is false for every call c (no call block has the
+// used. The condition is false for every call (no call block has the
 // number NONE), but only the run knows it.
-fn kept(a: real, c: u32) -> real {
-    return select(a, -a, calls[c].call == NONE);
+fn kept(a: real) -> real {
+    return select(a, -a, call.call == NONE);
 }
 
 // llvmpipe (lavapipe) ends every loop of an invocation once 65 535 loop
@@ -153,24 +207,24 @@ fn check_loops() {
     }
 }
 
-// Per-particle call c on particle i (its records in registers).
-fn run_op(op: u32, c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
+// The running per-particle call on particle i (its records in registers).
+fn run_op(op: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
           rp: ptr<function, Record>) {
     switch (op) {
         case OP_PREDICT: {
-            predict_particle(c, i, rx, rv, rp);
+            predict_particle(i, rx, rv, rp);
         }
         case OP_PROJECT_CONTACT: {
-            contact_particle(c, i, rx, rv, rp);
+            contact_particle(i, rx, rv, rp);
         }
         case OP_VELOCITY: {
-            velocity_particle(c, i, rx, rv, rp);
+            velocity_particle(i, rx, rv, rp);
         }
         case OP_FRICTION: {
-            friction_particle(c, i, rx, rv, rp);
+            friction_particle(i, rx, rv, rp);
         }
         case OP_DAMPING: {
-            damping_particle(c, i, rx, rv, rp);
+            damping_particle(i, rx, rv, rp);
         }
         default: {}
     }
@@ -223,12 +277,12 @@ override OP6: u32 = NO_OP;
 override OP7: u32 = NO_OP;
 override IO: u32 = 0u;
 
-// Call c with op `op` of a fixed run (skipped after a failed call; the
-// records then stored are garbage, and the step is rolled back).
-fn run_slot(op: u32, c: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
+// Call k of a fixed run, with op `op`.
+fn run_slot(op: u32, k: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
             rp: ptr<function, Record>) {
-    if (op != NO_OP && !failed_before(c)) {
-        run_op(op, c, i, rx, rv, rp);
+    if (op != NO_OP) {
+        call = here.calls[k];
+        run_op(op, i, rx, rv, rp);
     }
 }
 
@@ -242,41 +296,41 @@ fn particles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     var rv: Record;
     var rp: Record;
     load_records(IO, i, &rx, &rv, &rp);
-    let c = here.first_call;
-    run_slot(OP0, c, i, &rx, &rv, &rp);
-    run_slot(OP1, c + 1u, i, &rx, &rv, &rp);
-    run_slot(OP2, c + 2u, i, &rx, &rv, &rp);
-    run_slot(OP3, c + 3u, i, &rx, &rv, &rp);
-    run_slot(OP4, c + 4u, i, &rx, &rv, &rp);
-    run_slot(OP5, c + 5u, i, &rx, &rv, &rp);
-    run_slot(OP6, c + 6u, i, &rx, &rv, &rp);
-    run_slot(OP7, c + 7u, i, &rx, &rv, &rp);
+    run_slot(OP0, 0u, i, &rx, &rv, &rp);
+    run_slot(OP1, 1u, i, &rx, &rv, &rp);
+    run_slot(OP2, 2u, i, &rx, &rv, &rp);
+    run_slot(OP3, 3u, i, &rx, &rv, &rp);
+    run_slot(OP4, 4u, i, &rx, &rv, &rp);
+    run_slot(OP5, 5u, i, &rx, &rv, &rp);
+    run_slot(OP6, 6u, i, &rx, &rv, &rp);
+    run_slot(OP7, 7u, i, &rx, &rv, &rp);
     store_records(IO, i, &rx, &rv, &rp);
+    record_failure();
     check_loops();
 }
 
 @compute @workgroup_size(WORKGROUP)
 fn step_small(@builtin(local_invocation_index) lid: u32) {
     for (var c = here.first_call; c < here.end_call; c++) {
-        let count = calls[c].count;
-        if (calls[c].op == OP_PROJECT_DISTANCE) {
+        call = calls[c];
+        let count = call.count;
+        if (call.op == OP_PROJECT_DISTANCE) {
             for (var t = lid; t < count; t += WORKGROUP) {
-                project_distance_element(c, t);
+                project_distance_element(t);
             }
         } else {
-            let op = calls[c].op;
-            let io = calls[c].io;
+            let op = call.op;
+            let io = call.io;
             for (var i = lid; i < count; i += WORKGROUP) {
                 var rx: Record;
                 var rv: Record;
                 var rp: Record;
                 load_records(io, i, &rx, &rv, &rp);
-                if (!failed_before(c)) {
-                    run_op(op, c, i, &rx, &rv, &rp);
-                }
+                run_op(op, i, &rx, &rv, &rp);
                 store_records(io, i, &rx, &rv, &rp);
             }
         }
+        record_failure();
         storageBarrier();
     }
     check_loops();

@@ -35,6 +35,15 @@ mod contact_step;
 pub(crate) mod status;
 use contact_step::ContactStage;
 
+/// Compute dispatches of the contact stage in one step of `plan` (0
+/// without particle contact).
+pub(crate) fn contact_dispatches_per_step(plan: &Plan) -> usize {
+    match plan.contacts {
+        Some(_) => ContactStage::dispatches_per_step(plan),
+        None => 0,
+    }
+}
+
 /// The device buffers besides the resident state.
 struct Buffers {
     lambda: wgpu::Buffer,
@@ -240,7 +249,7 @@ impl GpuBackend {
                 .iter()
                 .map(|&dispatch| Placed {
                     dispatch,
-                    offset: blocks.push(bytemuck::cast_slice(&dispatch.block())),
+                    offset: blocks.push(&dispatch.block(&schedule.calls, dim, precision)),
                 })
                 .collect()
         };

@@ -164,10 +164,7 @@ impl GpuBackend {
 
     /// The contact stage's dispatches per step (0 without one).
     pub(super) fn contact_dispatches_per_step(&self) -> usize {
-        match self.contacts {
-            Some(_) => ContactStage::dispatches_per_step(&self.plan),
-            None => 0,
-        }
+        super::contact_dispatches_per_step(&self.plan)
     }
 
     /// Records a Host dispatch's contact kernels (their own bind groups) at

@@ -6,8 +6,12 @@
 //! Call   op count first family elem_base slot_base arity call      (u32)
 //!        flags kind slot_map chunk io pad pad pad                  (u32)
 //!        alpha_tilde h friction factor                             (real)
-//!        normal[DIM] gravity[DIM]                                  (real)
+//!        normal[4·VEC] gravity[4·VEC]     (real; lanes ≥ DIM zero)
 //! ```
+//! The vectors are padded to whole vec4 words (VEC = ⌊DIM/4⌋ + 1, as the
+//! particle records) so the block is valid in a uniform buffer too: the
+//! same bytes are the storage array `calls` and the copies in each
+//! dispatch's uniform block ([`dispatch_block`]).
 
 use hyperpbd_core::Kernel;
 
@@ -80,7 +84,7 @@ impl Call {
     pub fn encode(&self, dim: usize, precision: Precision) -> Vec<u8> {
         let vector = |v: &[f64]| {
             let mut out = v.to_vec();
-            out.resize(dim, 0.0);
+            out.resize(4 * crate::layout::record_words(dim), 0.0);
             out
         };
         BlockWriter::new(precision)
@@ -107,6 +111,28 @@ impl Call {
             .reals(&vector(&self.gravity))
             .finish()
     }
+}
+
+/// The uniform `Dispatch` block of step.wgsl: the range
+/// `[first_call, end_call)`, `count`, then copies of `calls` (at most
+/// SEGMENT, the ones the dispatch's runner reads from its block), zeros up
+/// to SEGMENT calls. The calls start at the call block's alignment (one
+/// vec4 of reals).
+pub(crate) fn dispatch_block(
+    header: [u32; 4],
+    calls: &[Call],
+    dim: usize,
+    precision: Precision,
+) -> Vec<u8> {
+    let call_size = Call::default().encode(dim, precision).len();
+    let start = 4 * crate::params::real_size(precision);
+    let mut out = BlockWriter::new(precision).words(&header).finish();
+    out.resize(start, 0);
+    for call in calls.iter().take(super::schedule::SEGMENT) {
+        out.extend(call.encode(dim, precision));
+    }
+    out.resize(start + super::schedule::SEGMENT * call_size, 0);
+    out
 }
 
 /// (read, written) records of a per-particle op, as IO_LOAD_* bits.

@@ -29,8 +29,11 @@
 
 use hyperpbd_core::{Kernel, Plan};
 
-use super::call::{Call, OP_HOST, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX, records_io};
+use super::call::{
+    Call, OP_HOST, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX, dispatch_block, records_io,
+};
 use super::{Families, friction, integrate, project, residual};
+use crate::Precision;
 
 /// How the dispatches of a step are formed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -131,9 +134,22 @@ pub(crate) struct Dispatch {
 }
 
 impl Dispatch {
-    /// The `Dispatch` block of step.wgsl.
-    pub fn block(&self) -> [u32; 4] {
-        [self.first_call, self.end_call, self.count, 0]
+    /// The uniform `Dispatch` block of step.wgsl (`calls`: every call
+    /// block of the schedule): with copies of its calls when its runner
+    /// reads them from the block (particles, project_*).
+    pub fn block(&self, calls: &[Call], dim: usize, precision: Precision) -> Vec<u8> {
+        let own = match self.run {
+            Run::Particles(_) | Run::Distance | Run::Simplex | Run::Oriented => calls
+                .get(self.first_call as usize..self.end_call as usize)
+                .unwrap_or_default(),
+            _ => &[],
+        };
+        dispatch_block(
+            [self.first_call, self.end_call, self.count, 0],
+            own,
+            dim,
+            precision,
+        )
     }
 }
 
@@ -411,7 +427,9 @@ fn choose(plan: &Plan, step: &[Call], workgroup: u32, software: bool) -> StepMod
 
 /// The schedule mode the backend would choose for `plan` on a software
 /// (`software`) or hardware adapter, and the compute dispatches per step
-/// that mode and the exact schedule record (for `hyperpbd plan`). `None`
+/// that mode and the exact schedule record, the contact stage's
+/// (broadphase, contact iterations, report) included — what
+/// `GpuBackend::dispatches_per_step` counts (for `hyperpbd plan`). `None`
 /// for plans the XPBD backend does not run (the incremental potential).
 pub fn dispatches_per_step(plan: &Plan, software: bool) -> Option<(StepMode, usize, usize)> {
     if plan.incremental_potential().is_some() {
@@ -422,9 +440,10 @@ pub fn dispatches_per_step(plan: &Plan, software: bool) -> Option<(StepMode, usi
     let workgroup = crate::shader::ShaderFile::Step.workgroup_size();
     let chosen = Schedule::new(plan, &families, workgroup, None, software);
     let exact = Schedule::new(plan, &families, workgroup, Some(StepMode::Exact), software);
+    let contact = crate::backend::contact_dispatches_per_step(plan);
     Some((
         chosen.mode,
-        chosen.dispatches_per_step(),
-        exact.dispatches_per_step(),
+        chosen.dispatches_per_step() + contact,
+        exact.dispatches_per_step() + contact,
     ))
 }
