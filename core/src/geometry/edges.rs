@@ -1,0 +1,53 @@
+//! The edge matrix of a simplex, its Gram matrix, and the scatter of an
+//! edge-matrix gradient onto the vertices — shared by the measure
+//! constraints and the material deformation measures.
+//!
+//! ```text
+//! D = [x_1 − x_0 … x_k − x_0]        N × k, row-major: D[a][j] = d[a·k + j]
+//! G = DᵀD                            G[i][j] = Σ_a D[a][i] D[a][j]  (a ascending)
+//! ∂f/∂D = Γ  ⇒  ∇_j f = Γ[·][j − 1]  (j = 1..k),   ∇_0 f = −Σ_j ∇_j f
+//! ```
+
+/// D of the k-simplex `points` (k + 1 points of length `dim`) into
+/// `edges` (`dim` × k, row-major).
+pub(crate) fn edge_matrix(points: &[f64], dim: usize, k: usize, edges: &mut [f64]) {
+    for j in 0..k {
+        for a in 0..dim {
+            edges[a * k + j] = points[(j + 1) * dim + a] - points[a];
+        }
+    }
+}
+
+/// G = DᵀD of the `dim` × k row-major `columns` into `gram` (k × k),
+/// each entry summed over the rows in ascending order.
+pub(crate) fn gram(columns: &[f64], dim: usize, k: usize, gram: &mut [f64]) {
+    for i in 0..k {
+        for j in 0..k {
+            let mut s = 0.0;
+            for a in 0..dim {
+                s += columns[a * k + i] * columns[a * k + j];
+            }
+            gram[i * k + j] = s;
+        }
+    }
+}
+
+/// The vertex gradient (k + 1 points × `dim`) of a function whose
+/// derivative with respect to edge entry D[a][j] is `edge_gradient(j, a)`:
+/// ∇_{j+1} = that column, ∇_0 = minus the sum of the columns, accumulated
+/// in the order j ascending, a ascending.
+pub(crate) fn scatter_edge_gradient(
+    grad: &mut [f64],
+    dim: usize,
+    k: usize,
+    mut edge_gradient: impl FnMut(usize, usize) -> f64,
+) {
+    grad[..dim].fill(0.0);
+    for j in 0..k {
+        for a in 0..dim {
+            let gj = edge_gradient(j, a);
+            grad[(j + 1) * dim + a] = gj;
+            grad[a] -= gj;
+        }
+    }
+}
