@@ -125,8 +125,7 @@ impl GpuBarrierBackend {
             return Err(GpuError::Unsupported {
                 what: "the coupled implicit step (constraint springs, ball–ball barriers, \
                        lagged friction or an explicit warm_start under incremental_potential; \
-                       docs/implicit.md §7) on the GPU: it runs on the CPU golden path only \
-                       (--backend cpu)"
+                       docs/implicit.md §7): it runs on the CPU golden path only (--backend cpu)"
                     .into(),
             }
             .into());
