@@ -8,8 +8,8 @@ mod common;
 use std::process::Command;
 
 use hyperpbd::{
-    Backend, BackendError, BackendKind, GpuError, MinimisationStatus, Plan, Precision, Refusal,
-    Scene, SceneError, State, StepError,
+    BackendError, BackendKind, GpuError, MinimisationStatus, Plan, Precision, Refusal, Scene,
+    SceneError, State, StepError,
 };
 
 /// Two balls joined by a distance spring above a plane, with ball–ball
