@@ -122,7 +122,7 @@ impl Particles {
 
     /// g at `x` (gathering the element gradients of `elements`' records)
     /// into `gradient`, and [`Particles::terms`]. The first free particle
-    /// whose gradient is not finite.
+    /// whose gradient or obstacle energy is not finite.
     pub fn gradient(
         &mut self,
         workers: &Workers,
@@ -139,47 +139,43 @@ impl Particles {
         let this = &*self;
         let scale = c.ip.obstacles.scale;
         let gamma = (dim as f64 + 4.0) * f64::EPSILON;
-        // Terms first (stride N² + 2), then the gradient (stride N).
-        let _ = workers.try_for_spans(count, PARTICLE_GRAIN, stride, [&mut terms], |r, [t]| {
+        // One pass per particle writes its gradient (stride N) and its terms
+        // (stride N² + 2): two span sets over the same chunks.
+        let chunks = workers.map_spans(count, PARTICLE_GRAIN, dim, [gradient], |r, [g]| {
             let mut barrier = ParticleBarrier::new(dim);
             let mut own = vec![0.0; dim];
-            for i in r.clone().filter(|&i| this.mass[i] > 0.0) {
-                let ti = &mut t[(i - r.start) * stride..(i - r.start + 1) * stride];
-                let xi = &x[i * dim..(i + 1) * dim];
-                let (block, tail) = ti.split_at_mut(dim * dim);
-                tail[0] = this.obstacle_terms(c, i, xi, &mut barrier, Some((&mut own, block)));
-                let largest = xi.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                tail[1] = barrier.force_sum * gamma * (largest + scale + c.plan.radius[i]);
-            }
-            Ok(())
-        });
-        let terms_ref = &terms;
-        let result = workers.try_for_spans(count, PARTICLE_GRAIN, dim, [gradient], |r, [g]| {
-            let mut barrier = ParticleBarrier::new(dim);
-            let mut own = vec![0.0; dim];
-            let mut block = vec![0.0; dim * dim];
+            let mut local = vec![0.0; r.len() * stride];
             for i in r.clone() {
                 let gi = &mut g[(i - r.start) * dim..(i - r.start + 1) * dim];
                 gi.fill(0.0);
                 if this.mass[i] == 0.0 {
                     continue;
                 }
+                let ti = &mut local[(i - r.start) * stride..(i - r.start + 1) * stride];
                 let xi = &x[i * dim..(i + 1) * dim];
-                this.obstacle_terms(c, i, xi, &mut barrier, Some((&mut own, &mut block)));
+                let (block, tail) = ti.split_at_mut(dim * dim);
+                tail[0] = this.obstacle_terms(c, i, xi, &mut barrier, Some((&mut own, block)));
+                let largest = xi.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                tail[1] = barrier.force_sum * gamma * (largest + scale + c.plan.radius[i]);
                 elements.gather(i, dim, true, &mut own);
                 for a in 0..dim {
                     gi[a] = this.mass[i] * (xi[a] - this.prediction[i * dim + a])
                         - h2 * this.load[i * dim + a]
                         + h2 * own[a];
                 }
-                if gi.iter().any(|v| !v.is_finite())
-                    || !terms_ref[i * stride + dim * dim].is_finite()
-                {
-                    return Err(i);
+                if gi.iter().any(|v| !v.is_finite()) || !tail[0].is_finite() {
+                    return (local, Err(i));
                 }
             }
-            Ok(())
+            (local, Ok(()))
         });
+        let mut result = Ok(());
+        let mut at = 0;
+        for (local, chunk) in chunks {
+            terms[at..at + local.len()].copy_from_slice(&local);
+            at += local.len();
+            result = result.and(chunk);
+        }
         self.terms = terms;
         result
     }
