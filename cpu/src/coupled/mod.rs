@@ -11,7 +11,8 @@
 //! 5    g = ∇F(x_k) over P_k; residual (authored criterion, block tree) ≤ tol → Converged;
 //!      k = max_iterations → BudgetExhausted
 //! 6    P⁻¹ = 1/(m + h² diag Σ K⁺)
-//! 7    PCG on (M + h² Σ K⁺) Δ = −g, relative tolerance min(¼, √(r_k/r_0)), cg_iterations;
+//! 7    PCG on (M + h² Σ K⁺) Δ = −g until ‖r‖₂ ≤ min(¼, √(r_k/r_0)) r_k in the criterion's
+//!      units (see cg_tolerance), at most cg_iterations;
 //!      breakdown at its first iteration → Refused(CurvatureBreakdown)
 //! 8    P_{k+1}: broadphase over the boxes swept along [x_k, x_k + Δ]
 //! 9    t = certified fraction over every obstacle of every free particle and every pair of P_{k+1}
@@ -157,8 +158,8 @@ pub(crate) fn minimise(
         }
         let settings = PcgSettings {
             max_iterations: coupled.cg_iterations,
-            relative_tolerance: (residual / r0).sqrt().min(0.25),
-            absolute_tolerance: 0.0,
+            relative_tolerance: 0.0,
+            absolute_tolerance: cg_tolerance(plan, particles, ip.convergence, residual, r0),
         };
         let cg = pcg(
             |p, out| {
@@ -257,6 +258,37 @@ pub(crate) fn minimise(
         }
     }
     report
+}
+
+/// The CG stop ‖r‖₂ ≤ f · r_k · s (step 7): the forcing f = min(¼, √(r_k/r_0))
+/// relative to the Newton residual r_k **in the authored criterion's
+/// units**, s converting them to the ‖·‖₂ of gradient units: 1 for the packed
+/// gradient, min_i m_i h² for the acceleration residual (a particle's
+/// acceleration error is |r_i|/(m_i h²) ≤ ‖r‖₂/(m_min h²)). A tolerance
+/// relative to ‖g‖₂ instead lets the heaviest particles set it: on the
+/// 1:10⁶ chain the light beads' directions were then useless and Newton
+/// stalled at its budget (`tests/implicit_step.rs`).
+fn cg_tolerance(
+    plan: &Plan,
+    particles: &Particles,
+    criterion: Convergence,
+    residual: f64,
+    first: f64,
+) -> f64 {
+    let forcing = (residual / first).sqrt().min(0.25);
+    let scale = match criterion {
+        Convergence::PackedGradient { .. } => 1.0,
+        Convergence::MaxAccelerationResidual { .. } => {
+            let lightest = particles
+                .mass
+                .iter()
+                .copied()
+                .filter(|&m| m > 0.0)
+                .fold(f64::INFINITY, f64::min);
+            lightest * plan.h * plan.h
+        }
+    };
+    forcing * residual * scale
 }
 
 /// The authored residual over the free particles on the block tree:
