@@ -137,6 +137,9 @@ fn drop_scene(max_iterations: u32, tolerance: f64) -> Scene {
         activation_distance: 0.01,
         convergence: Convergence::MaxAccelerationResidual { tolerance },
         max_iterations,
+        cg_iterations: None,
+        warm_start: None,
+        friction_slip_velocity: None,
     });
     scene
 }

@@ -198,6 +198,9 @@ pub fn barrier4d() -> Scene {
         activation_distance: 0.02,
         convergence: Convergence::MaxAccelerationResidual { tolerance: 1e-3 },
         max_iterations: 100,
+        cg_iterations: None,
+        warm_start: None,
+        friction_slip_velocity: None,
     });
     b.build()
         .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))

@@ -68,6 +68,9 @@ fn ball_over_mesh(side: usize, at: f64) -> Scene {
         activation_distance: 0.01,
         convergence: Convergence::PackedGradient { tolerance: 1e-8 },
         max_iterations: 50,
+        cg_iterations: None,
+        warm_start: None,
+        friction_slip_velocity: None,
     });
     scene.validate().expect("valid scene");
     scene

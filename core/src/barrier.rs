@@ -33,6 +33,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::geometry::{closest_point_on_simplex, unit_vector};
+use crate::implicit::CoupledPlan;
 use crate::{Convergence, IncrementalPotentialSettings, Obstacle, Scene};
 
 /// η: the filter admits this fraction of the certified distance, so a
@@ -294,20 +295,25 @@ pub struct IncrementalPotentialPlan {
     pub max_iterations: u32,
     /// The obstacles.
     pub obstacles: BarrierObstacles,
+    /// The coupled step's settings (docs/implicit.md §7), `None` for a
+    /// scene without coupling terms (the per-particle minimiser runs).
+    pub coupled: Option<Box<CoupledPlan>>,
 }
 
 impl IncrementalPotentialPlan {
     /// The barrier-path part of the plan of a validated scene whose solver
     /// is `settings`.
     pub fn compile(scene: &Scene, settings: &IncrementalPotentialSettings) -> Self {
+        let obstacles = BarrierObstacles::compile(scene);
         IncrementalPotentialPlan {
+            coupled: CoupledPlan::compile(scene, settings, &obstacles).map(Box::new),
             law: BarrierLaw {
                 stiffness: settings.barrier_stiffness,
                 activation_distance: settings.activation_distance,
             },
             convergence: settings.convergence,
             max_iterations: settings.max_iterations,
-            obstacles: BarrierObstacles::compile(scene),
+            obstacles,
         }
     }
 }

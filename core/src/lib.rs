@@ -38,7 +38,10 @@ pub use scene::{
     Collisions, ConstraintFamily, ConstraintKind, Damping, MAX_DIM, Obstacle, ObstacleDocument,
     ObstacleKind, Particle, Scene,
 };
-pub use solver::{Convergence, IncrementalPotentialSettings, Solver};
+pub use solver::{
+    Convergence, DEFAULT_CG_ITERATIONS, DEFAULT_FRICTION_SLIP_VELOCITY,
+    IncrementalPotentialSettings, Solver, WarmStart,
+};
 pub use state::State;
 
 /// The scalar of the golden path.

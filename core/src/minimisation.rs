@@ -46,6 +46,21 @@ pub enum Refusal {
         "no particle can decrease the objective (residual {residual:e}): a representable Newton step found no decrease"
     )]
     NoDescent { residual: f64 },
+    /// Two balls start touching or overlapping (d ≤ 0): the ball–ball
+    /// barrier is undefined there (coupled step, `collisions`).
+    #[error("particles {first} and {second} start at ball distance {distance:e} <= 0")]
+    OverlappingStart {
+        first: usize,
+        second: usize,
+        distance: f64,
+    },
+    /// The first CG iteration of a Newton direction met non-positive or
+    /// non-finite curvature pᵀHp (coupled step; H is SPD by construction,
+    /// so this is rounding or bad input).
+    #[error(
+        "Newton iteration {iteration}: CG found curvature {curvature:e} at its first iteration"
+    )]
+    CurvatureBreakdown { iteration: u32, curvature: f64 },
 }
 
 /// The result of one minimisation (one substep of the barrier path).
@@ -60,6 +75,10 @@ pub struct MinimisationReport {
     pub final_residual: Option<f64>,
     /// Newton iterations run.
     pub iterations: u32,
+    /// CG iterations of each Newton direction, in order (coupled step;
+    /// empty on the per-particle minimiser, which solves each particle's
+    /// N × N system directly).
+    pub cg_iterations: Vec<u32>,
     /// How it ended.
     pub status: MinimisationStatus,
 }

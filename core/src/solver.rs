@@ -6,8 +6,16 @@
 //!            "barrier_stiffness": κ, "activation_distance": d^,
 //!            "convergence": {"kind": "packed_gradient" | "max_acceleration_residual",
 //!                            "tolerance": t},
-//!            "max_iterations": n}
+//!            "max_iterations": n,
+//!            "cg_iterations": c,                        (optional, default 200)
+//!            "warm_start": "inertial" | "previous",      (optional, see below)
+//!            "friction_slip_velocity": ε_v}             (optional, default 1e-3 m/s)
 //! ```
+//! A scene with constraint families, `collisions`, a hyperplane with
+//! friction, or an explicit `warm_start` runs the coupled implicit step
+//! (docs/implicit.md §7; CPU only); any other incremental-potential scene
+//! runs the per-particle minimiser, which is that step's special case with
+//! no coupling term and the warm start at x^t.
 
 use serde::{Deserialize, Serialize};
 
@@ -41,6 +49,38 @@ pub struct IncrementalPotentialSettings {
     pub convergence: Convergence,
     /// Newton iterations allowed per substep (≥ 1).
     pub max_iterations: u32,
+    /// CG iterations allowed per Newton direction of the coupled step (≥ 1;
+    /// [`DEFAULT_CG_ITERATIONS`] when omitted).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cg_iterations: Option<u32>,
+    /// Where the coupled step's Newton iteration starts ([`WarmStart::Inertial`]
+    /// when omitted). Giving it asks for the coupled step even without
+    /// coupling terms.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub warm_start: Option<WarmStart>,
+    /// ε_v > 0, length/time: below this slip velocity lagged friction is the
+    /// smoothed static branch ([`DEFAULT_FRICTION_SLIP_VELOCITY`] when
+    /// omitted).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction_slip_velocity: Option<f64>,
+}
+
+/// CG iterations per Newton direction when `cg_iterations` is omitted.
+pub const DEFAULT_CG_ITERATIONS: u32 = 200;
+
+/// ε_v (m/s) when `friction_slip_velocity` is omitted: a sticking contact
+/// creeps at most this fast (docs/implicit.md §8).
+pub const DEFAULT_FRICTION_SLIP_VELOCITY: f64 = 1e-3;
+
+/// The first Newton iterate of the coupled step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WarmStart {
+    /// x^t + τ (x~ − x^t), τ the certified fraction of the inertial
+    /// prediction over every barrier term.
+    Inertial,
+    /// x^t, the accepted state.
+    Previous,
 }
 
 /// The authored stop test of the Newton iteration.

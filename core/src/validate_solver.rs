@@ -3,9 +3,10 @@
 //! ```text
 //! xpbd:                   no simplex_mesh obstacle (XPBD has no simplex contact)
 //! incremental_potential:  κ > 0, d^ > 0, tolerance > 0, max_iterations ≥ 1;
-//!                         no constraint families, no damping, hyperplanes
-//!                         without friction or compliance (none of them is a
-//!                         term of U in this version);
+//!                         cg_iterations ≥ 1, friction_slip_velocity > 0 (when given);
+//!                         constraint families with compliance α > 0 (springs
+//!                         C²/(2α); α = 0 is no energy), no damping, hyperplanes
+//!                         without compliance;
 //!                         every free particle starts at d > 0 from every obstacle
 //! simplex_mesh:           arity 2…4 (≤ dim + 1), one arity per mesh, indices in
 //!                         range and distinct, k-measure above
@@ -60,22 +61,29 @@ impl Scene {
                 value: 0.0,
             });
         }
+        if settings.cg_iterations == Some(0) {
+            return Err(SceneError::NonPositive {
+                path: "solver.cg_iterations".into(),
+                value: 0.0,
+            });
+        }
+        if let Some(slip) = settings.friction_slip_velocity {
+            positive("solver.friction_slip_velocity", slip)?;
+        }
         let unsupported = |path: String, why: &str| SceneError::UnsupportedBySolver {
             path,
             solver: IP,
             why: why.into(),
         };
-        if !self.constraints.is_empty() {
-            return Err(unsupported(
-                "constraints".into(),
-                "constraint families are not terms of the incremental potential in this version",
-            ));
-        }
-        if self.collisions.is_some() {
-            return Err(unsupported(
-                "collisions".into(),
-                "particle–particle contact is not a term of the incremental potential in this version",
-            ));
+        for (f, family) in self.constraints.iter().enumerate() {
+            if family.compliance == 0.0 && !family.elements.is_empty() {
+                return Err(unsupported(
+                    format!("constraints[{f}].compliance"),
+                    "a constraint is the spring C²/(2α) of the incremental potential, and α = 0 \
+                     is no energy; give compliance > 0, e.g. 1e-8 (m/N for distance and tether: \
+                     a 0.1 m link holding 1 kg then stretches 1e-7 m)",
+                ));
+            }
         }
         if self.damping.is_some() {
             return Err(unsupported(
@@ -84,24 +92,13 @@ impl Scene {
             ));
         }
         for (o, obstacle) in self.obstacles.iter().enumerate() {
-            if let Obstacle::Hyperplane {
-                friction,
-                compliance,
-                ..
-            } = obstacle
+            if let Obstacle::Hyperplane { compliance, .. } = obstacle
+                && *compliance != 0.0
             {
-                if *friction != 0.0 {
-                    return Err(unsupported(
-                        format!("obstacles[{o}].friction"),
-                        "friction is not a term of the incremental potential in this version",
-                    ));
-                }
-                if *compliance != 0.0 {
-                    return Err(unsupported(
-                        format!("obstacles[{o}].compliance"),
-                        "a barrier obstacle has no compliance (κ and d^ set its stiffness)",
-                    ));
-                }
+                return Err(unsupported(
+                    format!("obstacles[{o}].compliance"),
+                    "a barrier obstacle has no compliance (κ and d^ set its stiffness)",
+                ));
             }
         }
         let obstacles = BarrierObstacles::compile(self);

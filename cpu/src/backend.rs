@@ -18,7 +18,9 @@ use crate::collide::{self, Contacts};
 use crate::integrate::Failed;
 use crate::parallel::Workers;
 use crate::project::{Batch, Workspace, project};
-use crate::{colours, friction, incremental_potential, integrate, project, residual, threads};
+use crate::{
+    colours, coupled, friction, incremental_potential, integrate, project, residual, threads,
+};
 use hyperpbd_core::broadphase::Aabbs;
 
 /// Values per chunk of a reset or copy (multipliers, the saved state).
@@ -51,6 +53,8 @@ pub struct CpuBackend {
     substep: u32,
     /// Scratch of the barrier path.
     minimiser: incremental_potential::Workspace,
+    /// Scratch of the coupled implicit step.
+    coupled: coupled::Workspace,
     /// Minimisation reports of the current step, one per substep.
     minimisation: Vec<MinimisationReport>,
     /// The threads the kernels run on.
@@ -98,6 +102,7 @@ impl CpuBackend {
             boxes: Aabbs::default(),
             substep: 0,
             minimiser: incremental_potential::Workspace::default(),
+            coupled: coupled::Workspace::default(),
             minimisation: Vec::new(),
             workers: Workers::new(threads)?,
             on_pool: false,
@@ -236,15 +241,27 @@ impl CpuBackend {
                         "the plan has no incremental-potential settings".into(),
                     ));
                 };
-                let report = incremental_potential::minimise(
-                    workers,
-                    plan,
-                    ip,
-                    &mut self.x,
-                    &mut self.v,
-                    &self.force,
-                    &mut self.minimiser,
-                );
+                let report = match &ip.coupled {
+                    Some(step) => coupled::minimise(
+                        workers,
+                        plan,
+                        ip,
+                        step,
+                        &mut self.x,
+                        &mut self.v,
+                        &self.force,
+                        &mut self.coupled,
+                    ),
+                    None => incremental_potential::minimise(
+                        workers,
+                        plan,
+                        ip,
+                        &mut self.x,
+                        &mut self.v,
+                        &self.force,
+                        &mut self.minimiser,
+                    ),
+                };
                 let refused = StepError::refused(self.substep, &report);
                 self.minimisation.push(report);
                 refused.map_or(Ok(()), |e| Err(e.into()))

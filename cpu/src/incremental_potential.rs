@@ -249,6 +249,7 @@ pub(crate) fn minimise(
         initial_residual: None,
         final_residual: None,
         iterations: 0,
+        cg_iterations: Vec::new(),
         status: MinimisationStatus::Converged,
     };
     let start = &*x;

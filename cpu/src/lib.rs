@@ -12,6 +12,7 @@
 mod backend;
 pub mod collide;
 mod colours;
+mod coupled;
 mod dim;
 mod friction;
 pub mod incremental_potential;

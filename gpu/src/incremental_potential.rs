@@ -135,6 +135,15 @@ impl GpuBarrierBackend {
                 "GpuBarrierBackend runs incremental_potential scenes only".into(),
             ));
         };
+        if ip.coupled.is_some() {
+            return Err(GpuError::Unsupported {
+                what: "the coupled implicit step (constraint springs, ball–ball barriers, \
+                       lagged friction or an explicit warm_start under incremental_potential; \
+                       docs/implicit.md §7): it runs on the CPU golden path only (--backend cpu)"
+                    .into(),
+            }
+            .into());
+        }
         let dim = plan.dim;
         if dim > MAX_GPU_DIM {
             return Err(GpuError::Unsupported {
@@ -374,6 +383,7 @@ impl GpuBarrierBackend {
             initial_residual: None,
             final_residual: None,
             iterations: 0,
+            cg_iterations: Vec::new(),
             status: MinimisationStatus::Converged,
         };
         self.reset_status();

@@ -83,6 +83,9 @@ pub fn barrier(scene: &Scene) -> Scene {
         activation_distance: 0.01,
         convergence: Convergence::MaxAccelerationResidual { tolerance: 1e-3 },
         max_iterations: 100,
+        cg_iterations: None,
+        warm_start: None,
+        friction_slip_velocity: None,
     });
     s
 }

@@ -34,6 +34,9 @@ fn ip(kappa: f64, dhat: f64, convergence: Convergence, max_iterations: u32) -> S
         activation_distance: dhat,
         convergence,
         max_iterations,
+        cg_iterations: None,
+        warm_start: None,
+        friction_slip_velocity: None,
     })
 }
 

@@ -54,6 +54,9 @@ fn obstacles(dim: usize) -> Scene {
         activation_distance: 0.25,
         convergence: hyperpbd::Convergence::PackedGradient { tolerance: 1e-8 },
         max_iterations: 10,
+        cg_iterations: None,
+        warm_start: None,
+        friction_slip_velocity: None,
     });
     scene.validate().expect("valid obstacles");
     scene

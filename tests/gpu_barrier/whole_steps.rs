@@ -19,6 +19,9 @@ fn solver(
         activation_distance: dhat,
         convergence,
         max_iterations,
+        cg_iterations: None,
+        warm_start: None,
+        friction_slip_velocity: None,
     })
 }
 

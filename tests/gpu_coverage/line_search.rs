@@ -75,6 +75,9 @@ fn drop(kappa: f64, tolerance: f64) -> Scene {
         activation_distance: DHAT,
         convergence: Convergence::MaxAccelerationResidual { tolerance },
         max_iterations: 100,
+        cg_iterations: None,
+        warm_start: None,
+        friction_slip_velocity: None,
     });
     valid(scene)
 }

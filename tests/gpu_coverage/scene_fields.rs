@@ -256,6 +256,9 @@ fn barrier_fields(tolerance: f64) -> Scene {
         activation_distance: 0.03,
         convergence: Convergence::MaxAccelerationResidual { tolerance },
         max_iterations: 100,
+        cg_iterations: None,
+        warm_start: None,
+        friction_slip_velocity: None,
     });
     valid(scene)
 }

@@ -42,6 +42,7 @@ mod psd;
 mod radial;
 mod reduction;
 mod springs;
+mod step_plan;
 
 pub use ball_barrier::{BallPair, ball_pair_barrier};
 pub use friction::{
@@ -57,3 +58,4 @@ pub use psd::{PsdProjection, PsdScratch, project_psd};
 pub use radial::RadialCurvature;
 pub use reduction::{REDUCTION_BLOCK, block_tree_max, block_tree_sum, tree_dot};
 pub use springs::{Spring, SpringCurvature, evaluate_spring};
+pub use step_plan::CoupledPlan;

@@ -1,0 +1,483 @@
+//! The coupling elements of the coupled implicit step: springs, ball–ball
+//! barriers and lagged pair friction, evaluated element by element and
+//! gathered per particle in one fixed order.
+//!
+//! ```text
+//! elements  springs (Plan::families, family then colour order), ball pairs (pair order),
+//!           pair-friction lags (pair order at x^t)
+//! record e  [E_e, c_0, c_1, ∇E_e (S values), aux_e (S values)],   S = max arity · N
+//!           spring:    c = (along, across) radial | (1/α, ·) Gauss–Newton;  aux = ∇C
+//!           ball:      c = (along, across) of K⁺;                            aux = ∇d = (−n, n)
+//!           friction:  c = (along, across) of the tangent K;                 aux = (û, ·)
+//! gather    particle k: Σ over its slots (element order, then the slot within the element)
+//! ```
+//! Each element writes only its own record or product slot, each particle
+//! reads its own list: the passes split over the threads and give the same
+//! bytes for any thread count.
+
+// Index loops mirror the math line by line.
+#![allow(clippy::needless_range_loop)]
+
+use crate::parallel::Workers;
+use hyperpbd_core::barrier::BarrierLaw;
+use hyperpbd_core::broadphase::Pair;
+use hyperpbd_core::geometry::Scratch;
+use hyperpbd_core::implicit::{
+    RadialCurvature, Spring, SpringCurvature, TangentCurvature, ball_pair_barrier, evaluate_spring,
+    pair_friction,
+};
+use hyperpbd_core::{ConstraintKind, FamilyKind, Plan};
+
+/// Elements per chunk of the element passes.
+pub const ELEMENT_GRAIN: usize = 256;
+
+/// A frozen friction lag of one ball pair (at x^t).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairLag {
+    /// The pair (i < j).
+    pub pair: Pair,
+    /// n = (x_j − x_i)/|x_j − x_i| at x^t.
+    pub normal: Vec<f64>,
+    /// F_max = μ λ.
+    pub force_limit: f64,
+}
+
+/// What one element is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Kind {
+    /// Element `element` of family `family`.
+    Spring { family: u32, element: u32 },
+    /// A ball–ball barrier.
+    Ball,
+    /// Pair friction of lag `lag`.
+    Friction { lag: u32 },
+}
+
+/// The element list of one pair set, with its per-particle gather lists.
+#[derive(Debug, Default)]
+pub struct Elements {
+    kinds: Vec<Kind>,
+    /// Particles of element e: `particles[e * arity_max..]`, `arity[e]` of them.
+    particles: Vec<u32>,
+    arity: Vec<u32>,
+    /// Largest arity (≥ 2).
+    arity_max: usize,
+    /// Particle k's slots are `entries[offsets[k]..offsets[k + 1]]`, each
+    /// `e * arity_max + local`.
+    offsets: Vec<u32>,
+    entries: Vec<u32>,
+    /// One record per element (see the module docs).
+    pub records: Vec<f64>,
+    /// Product / diagonal values per slot (`arity_max · N` per element).
+    slots: Vec<f64>,
+}
+
+impl Elements {
+    /// Number of elements.
+    pub fn len(&self) -> usize {
+        self.kinds.len()
+    }
+
+    /// The first particle of element e (for a report).
+    pub fn first_particle(&self, e: usize) -> usize {
+        self.particles[e * self.arity_max] as usize
+    }
+
+    /// Values per record.
+    fn record_len(&self, dim: usize) -> usize {
+        3 + 2 * self.arity_max * dim
+    }
+
+    /// Rebuilds the list: every spring of `plan`, the ball pairs `balls`
+    /// (with `collisions`) and the friction lags `lags`.
+    pub fn rebuild(&mut self, plan: &Plan, balls: &[Pair], lags: &[PairLag]) {
+        let n = plan.particle_count();
+        self.arity_max = plan.families.iter().map(|f| f.arity).fold(2, usize::max);
+        self.kinds.clear();
+        self.particles.clear();
+        self.arity.clear();
+        let width = self.arity_max;
+        let mut push = |kind: Kind, members: &[u32]| {
+            self.kinds.push(kind);
+            self.arity.push(members.len() as u32);
+            self.particles.extend_from_slice(members);
+            self.particles
+                .extend(std::iter::repeat_n(0, width - members.len()));
+        };
+        for (f, family) in plan.families.iter().enumerate() {
+            for e in 0..family.len() {
+                let members = &family.elements[e * family.arity..(e + 1) * family.arity];
+                let kind = Kind::Spring {
+                    family: f as u32,
+                    element: e as u32,
+                };
+                push(kind, members);
+            }
+        }
+        for pair in balls {
+            push(Kind::Ball, pair);
+        }
+        for (l, lag) in lags.iter().enumerate() {
+            push(Kind::Friction { lag: l as u32 }, &lag.pair);
+        }
+        // Gather lists: counting sort by particle, slots in ascending order.
+        self.offsets.clear();
+        self.offsets.resize(n + 1, 0);
+        for e in 0..self.kinds.len() {
+            for j in 0..self.arity[e] as usize {
+                self.offsets[self.particles[e * width + j] as usize + 1] += 1;
+            }
+        }
+        for k in 0..n {
+            self.offsets[k + 1] += self.offsets[k];
+        }
+        self.entries.clear();
+        self.entries.resize(self.offsets[n] as usize, 0);
+        let mut fill = self.offsets[..n].to_vec();
+        for e in 0..self.kinds.len() {
+            for j in 0..self.arity[e] as usize {
+                let k = self.particles[e * width + j] as usize;
+                self.entries[fill[k] as usize] = (e * width + j) as u32;
+                fill[k] += 1;
+            }
+        }
+    }
+
+    /// The points of element e at `x` into `points` (arity × N).
+    fn gather_points(&self, e: usize, x: &[f64], dim: usize, points: &mut [f64]) -> usize {
+        let arity = self.arity[e] as usize;
+        for j in 0..arity {
+            let i = self.particles[e * self.arity_max + j] as usize;
+            points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
+        }
+        arity
+    }
+
+    /// Evaluates every element at `x` into [`Elements::records`]; the
+    /// first element (index) whose energy or gradient is not finite.
+    pub fn evaluate(
+        &mut self,
+        workers: &Workers,
+        terms: &Terms<'_>,
+        x: &[f64],
+    ) -> Result<(), usize> {
+        let dim = terms.plan.dim;
+        let stride = self.record_len(dim);
+        let mut records = std::mem::take(&mut self.records);
+        records.clear();
+        records.resize(self.len() * stride, 0.0);
+        let this = &*self;
+        let result = workers.try_for_spans(
+            this.len(),
+            ELEMENT_GRAIN,
+            stride,
+            [&mut records],
+            |r, [out]| {
+                let mut scratch = Scratch::new();
+                let mut points = vec![0.0; this.arity_max * dim];
+                for e in r.clone() {
+                    let record = &mut out[(e - r.start) * stride..(e - r.start + 1) * stride];
+                    this.evaluate_one(e, terms, x, &mut points, record, &mut scratch);
+                    if !record.iter().all(|v| v.is_finite()) {
+                        return Err(e);
+                    }
+                }
+                Ok(())
+            },
+        );
+        self.records = records;
+        result
+    }
+
+    /// Energy of element e at `x` (+∞ for a ball pair at d ≤ 0).
+    fn energy(
+        &self,
+        e: usize,
+        terms: &Terms<'_>,
+        x: &[f64],
+        points: &mut [f64],
+        record: &mut [f64],
+        scratch: &mut Scratch,
+    ) -> f64 {
+        self.evaluate_one(e, terms, x, points, record, scratch);
+        record[0]
+    }
+
+    /// One element's record at `x`.
+    fn evaluate_one(
+        &self,
+        e: usize,
+        terms: &Terms<'_>,
+        x: &[f64],
+        points: &mut [f64],
+        record: &mut [f64],
+        scratch: &mut Scratch,
+    ) {
+        let dim = terms.plan.dim;
+        let arity = self.gather_points(e, x, dim, points);
+        let width = self.arity_max * dim;
+        let (head, rest) = record.split_at_mut(3);
+        let (gradient, aux) = rest.split_at_mut(width);
+        let points = &points[..arity * dim];
+        match self.kinds[e] {
+            Kind::Spring { family, element } => {
+                let family = &terms.plan.families[family as usize];
+                let element = element as usize;
+                let spring = evaluate_spring(
+                    constraint_kind(&family.kind),
+                    family.compliance,
+                    family.rest[element],
+                    points,
+                    dim,
+                    &mut aux[..arity * dim],
+                    &mut gradient[..arity * dim],
+                    scratch,
+                );
+                head[0] = spring.energy;
+                (head[1], head[2]) = match spring.curvature {
+                    SpringCurvature::Radial(k) => (k.along, k.across),
+                    SpringCurvature::GaussNewton { weight } => (weight, 0.0),
+                };
+            }
+            Kind::Ball => {
+                let (i, j) = self.pair(e);
+                let radii = (terms.plan.radius[i], terms.plan.radius[j]);
+                let ball = ball_pair_barrier(
+                    terms.law,
+                    points,
+                    radii,
+                    dim,
+                    &mut aux[..2 * dim],
+                    &mut gradient[..2 * dim],
+                );
+                head[0] = ball.energy;
+                (head[1], head[2]) = (ball.curvature.along, ball.curvature.across);
+            }
+            Kind::Friction { lag } => {
+                let lag = &terms.lags[lag as usize];
+                let (i, j) = self.pair(e);
+                let mut starts = [0.0f64; 2 * hyperpbd_core::MAX_DIM];
+                starts[..dim].copy_from_slice(&terms.start[i * dim..(i + 1) * dim]);
+                starts[dim..2 * dim].copy_from_slice(&terms.start[j * dim..(j + 1) * dim]);
+                let term = pair_friction(
+                    &lag.normal,
+                    lag.force_limit,
+                    terms.slip_length,
+                    points,
+                    &starts[..2 * dim],
+                    &mut gradient[..2 * dim],
+                    &mut aux[..dim],
+                );
+                head[0] = term.energy;
+                (head[1], head[2]) = (term.curvature.along, term.curvature.across);
+            }
+        }
+    }
+
+    /// (i, j) of a two-particle element.
+    fn pair(&self, e: usize) -> (usize, usize) {
+        let base = e * self.arity_max;
+        (
+            self.particles[base] as usize,
+            self.particles[base + 1] as usize,
+        )
+    }
+
+    /// out (arity × N) = K_e⁺ p_e (`diagonal`: the diagonal of K_e⁺ instead)
+    /// from element e's record.
+    fn curvature_of(
+        &self,
+        e: usize,
+        terms: &Terms<'_>,
+        record: &[f64],
+        p: &[f64],
+        out: &mut [f64],
+        diagonal: bool,
+    ) {
+        let dim = terms.plan.dim;
+        let arity = self.arity[e] as usize;
+        let width = self.arity_max * dim;
+        let aux = &record[3 + width..3 + width + arity * dim];
+        let radial = RadialCurvature {
+            along: record[1],
+            across: record[2],
+        };
+        match self.kinds[e] {
+            Kind::Spring { family, .. } => {
+                let curvature = match terms.plan.families[family as usize].kind {
+                    FamilyKind::Distance | FamilyKind::Tether => SpringCurvature::Radial(radial),
+                    _ => SpringCurvature::GaussNewton { weight: record[1] },
+                };
+                let spring = Spring {
+                    energy: record[0],
+                    value: 0.0,
+                    curvature,
+                };
+                if diagonal {
+                    spring.diagonal(aux, dim, &mut out[..arity * dim]);
+                } else {
+                    spring.apply(aux, dim, &p[..arity * dim], &mut out[..arity * dim]);
+                }
+            }
+            Kind::Ball => {
+                let normal = &aux[dim..2 * dim];
+                if diagonal {
+                    radial.diagonal(normal, &mut out[..dim]);
+                    out.copy_within(..dim, dim);
+                } else {
+                    radial.apply(normal, &p[..2 * dim], &mut out[..2 * dim]);
+                }
+            }
+            Kind::Friction { lag } => {
+                let normal = &terms.lags[lag as usize].normal;
+                let tangent = TangentCurvature {
+                    along: record[1],
+                    across: record[2],
+                };
+                let slip_direction = &aux[..dim];
+                if diagonal {
+                    tangent.diagonal(normal, slip_direction, &mut out[..dim]);
+                    out.copy_within(..dim, dim);
+                } else {
+                    tangent.apply_pair(normal, slip_direction, &p[..2 * dim], &mut out[..2 * dim]);
+                }
+            }
+        }
+    }
+
+    /// Per-slot K_e⁺ p (or the diagonal with `diagonal`) into the slot
+    /// buffer, element by element.
+    pub fn fill_slots(&mut self, workers: &Workers, terms: &Terms<'_>, p: &[f64], diagonal: bool) {
+        let dim = terms.plan.dim;
+        let width = self.arity_max * dim;
+        let stride = self.record_len(dim);
+        let mut slots = std::mem::take(&mut self.slots);
+        slots.clear();
+        slots.resize(self.len() * width, 0.0);
+        let this = &*self;
+        let _ = workers.try_for_spans(
+            this.len(),
+            ELEMENT_GRAIN,
+            width,
+            [&mut slots],
+            |r, [out]| {
+                let mut points = vec![0.0; width];
+                for e in r.clone() {
+                    let record = &this.records[e * stride..(e + 1) * stride];
+                    if !diagonal {
+                        this.gather_points(e, p, dim, &mut points);
+                    }
+                    let slot = &mut out[(e - r.start) * width..(e - r.start + 1) * width];
+                    this.curvature_of(e, terms, record, &points, slot, diagonal);
+                }
+                Ok(())
+            },
+        );
+        self.slots = slots;
+    }
+
+    /// Adds particle k's gathered values from `source` (records' gradients
+    /// with `gradient`, else the slots) into `out` (length N).
+    pub fn gather(&self, k: usize, dim: usize, gradient: bool, out: &mut [f64]) {
+        let width = self.arity_max * dim;
+        let stride = 3 + 2 * width;
+        for &slot in &self.entries[self.offsets[k] as usize..self.offsets[k + 1] as usize] {
+            let (e, local) = (
+                slot as usize / self.arity_max,
+                slot as usize % self.arity_max,
+            );
+            let values = if gradient {
+                &self.records[e * stride + 3 + local * dim..e * stride + 3 + (local + 1) * dim]
+            } else {
+                &self.slots[e * width + local * dim..e * width + (local + 1) * dim]
+            };
+            for a in 0..dim {
+                out[a] += values[a];
+            }
+        }
+    }
+
+    /// E_e(y) − E_e(x) per element into `changes` (length `len()`), from
+    /// the records at x. A non-finite change means y is infeasible.
+    pub fn changes(&self, workers: &Workers, terms: &Terms<'_>, y: &[f64], changes: &mut Vec<f64>) {
+        let dim = terms.plan.dim;
+        let stride = self.record_len(dim);
+        changes.clear();
+        changes.resize(self.len(), 0.0);
+        let _ = workers.try_for_spans(self.len(), ELEMENT_GRAIN, 1, [changes], |r, [out]| {
+            let mut scratch = Scratch::new();
+            let mut points = vec![0.0; self.arity_max * dim];
+            let mut record = vec![0.0; stride];
+            for e in r.clone() {
+                let at_y = self.energy(e, terms, y, &mut points, &mut record, &mut scratch);
+                out[e - r.start] = at_y - self.records[e * stride];
+            }
+            Ok(())
+        });
+    }
+
+    /// Σ |E_e|, and Σ |∂E_e/∂C| δC_e over the springs plus Σ |b'_e| δd_e
+    /// over the ball pairs at the records' point (the rounding floor of F's
+    /// change: an energy of a cancelling difference inherits that
+    /// difference's rounding at its slope), both in element order.
+    pub fn energy_scale(&self, terms: &Terms<'_>, x: &[f64]) -> (f64, f64) {
+        let dim = terms.plan.dim;
+        let stride = self.record_len(dim);
+        let gamma = (dim as f64 + 4.0) * f64::EPSILON;
+        let (mut energy, mut force) = (0.0, 0.0);
+        let mut points = vec![0.0; 2 * dim];
+        for e in 0..self.len() {
+            energy += self.records[e * stride].abs();
+            if let Kind::Spring { family, element } = self.kinds[e] {
+                // |∂E/∂C| δC with |∂E/∂C| = |C|/α = √(2E/α) and δC = γ (|C| + |rest|):
+                // C = value − rest cancels, its rounding is relative to the value.
+                let family = &terms.plan.families[family as usize];
+                let alpha = family.compliance;
+                let c = (2.0 * self.records[e * stride] * alpha).sqrt();
+                let rest = family.rest[element as usize].abs();
+                force += c / alpha * gamma * (c + rest);
+            }
+            if self.kinds[e] == Kind::Ball {
+                let (i, j) = self.pair(e);
+                self.gather_points(e, x, dim, &mut points);
+                let mut length = 0.0;
+                for a in 0..dim {
+                    let d = points[dim + a] - points[a];
+                    length += d * d;
+                }
+                let (ri, rj) = (terms.plan.radius[i], terms.plan.radius[j]);
+                let slope = terms.law.evaluate(length.sqrt() - ri - rj).1;
+                force += slope.abs() * gamma * (length.sqrt() + ri + rj);
+            }
+        }
+        (energy, force)
+    }
+}
+
+/// The spring kind of a compiled family.
+fn constraint_kind(kind: &FamilyKind) -> ConstraintKind {
+    match kind {
+        FamilyKind::Distance => ConstraintKind::Distance,
+        FamilyKind::Tether => ConstraintKind::Tether,
+        FamilyKind::SimplexMeasure { .. } => ConstraintKind::SimplexMeasure,
+        // Hyperplane families do not exist on the barrier path's plan.
+        FamilyKind::OrientedMeasure | FamilyKind::HyperplaneContact { .. } => {
+            ConstraintKind::OrientedMeasure
+        }
+    }
+}
+
+/// What element evaluation reads besides the element list.
+#[derive(Debug, Clone, Copy)]
+pub struct Terms<'a> {
+    /// The plan (families, radii).
+    pub plan: &'a Plan,
+    /// κ, d^.
+    pub law: &'a BarrierLaw,
+    /// x^t.
+    pub start: &'a [f64],
+    /// Pair friction lags.
+    pub lags: &'a [PairLag],
+    /// ε = ε_v h.
+    pub slip_length: f64,
+}
