@@ -18,7 +18,9 @@ use crate::collide::{self, Contacts};
 use crate::integrate::Failed;
 use crate::parallel::Workers;
 use crate::project::{Batch, Workspace, project};
-use crate::{colours, friction, incremental_potential, integrate, project, residual, threads};
+use crate::{
+    colours, friction, incremental_potential, integrate, material, project, residual, threads,
+};
 use hyperpbd_core::broadphase::Aabbs;
 
 /// Values per chunk of a reset or copy (multipliers, the saved state).
@@ -178,12 +180,24 @@ impl CpuBackend {
                     &mut self.workspace,
                 )
                 .map_err(|slot| {
-                    StepError::NonFiniteConstraint {
-                        stage: StageName::Project,
-                        substep: self.substep,
-                        family,
-                        family_label: fam.label.clone(),
-                        element: fam.source[slot] as usize,
+                    let (substep, family_label) = (self.substep, fam.label.clone());
+                    let element = fam.source[slot] as usize;
+                    match material::refusal(plan.dim, fam, slot, &self.x) {
+                        Some(refusal) => StepError::MaterialRefused {
+                            stage: StageName::Project,
+                            substep,
+                            family,
+                            family_label,
+                            element,
+                            refusal,
+                        },
+                        None => StepError::NonFiniteConstraint {
+                            stage: StageName::Project,
+                            substep,
+                            family,
+                            family_label,
+                            element,
+                        },
                     }
                     .into()
                 })
