@@ -22,6 +22,7 @@ pub const NAMES: &[&str] = &[
     "ballpit4d",
     "sandpile2d",
     "barrier4d",
+    "jelly4d",
 ];
 
 /// Built-in scenes too large to ship as files; generate them with
@@ -41,6 +42,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "ballpit4d" => Some(ballpit4d()),
         "sandpile2d" => Some(sandpile2d()),
         "barrier4d" => Some(barrier4d()),
+        "jelly4d" => Some(jelly4d()),
         _ => None,
     }
 }
@@ -106,6 +108,59 @@ pub fn tesseract() -> Scene {
         compliance: 1e-6,
         edge_compliance: Some(1e-5),
     });
+    b.hyperplane(vec![0.0, 0.0, 0.0, 1.0], 0.0, 0.5);
+    b.build()
+        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+}
+
+/// A soft 4D jelly: a tesseract 0.5 m across (3⁴ nodes, 2⁴ cells of
+/// 4! Kuhn 4-simplices = 384 elements) of compressible Neo-Hookean
+/// material (E = 20 kPa, ν = 0.25, ρ = 400 kg/m⁴; lumped masses from the
+/// density) dropped from 0.3 m onto a floor with friction 0.5.
+pub fn jelly4d() -> Scene {
+    let mut b = SceneBuilder::new(4)
+        .dt(1.0 / 60.0)
+        .substeps(20)
+        .iterations(2)
+        .gravity_along(3, 9.81)
+        .damping(0.2);
+    let (nodes, spacing) = (3usize, 0.25);
+    for i in 0..nodes.pow(4) {
+        let position: Vec<f64> = (0..4)
+            .map(|a| {
+                let c = (i / nodes.pow(a as u32)) % nodes;
+                let lift = if a == 3 { 0.3 } else { -0.25 };
+                lift + c as f64 * spacing
+            })
+            .collect();
+        let mut particle = hyperpbd_core::Particle::new(position, 1.0);
+        particle.mass = None;
+        b.particle(particle);
+    }
+    let node = |c: &[usize]| (0..4).map(|a| c[a] * nodes.pow(a as u32)).sum::<usize>();
+    let mut elements = Vec::new();
+    for cell in 0..(nodes - 1).pow(4) {
+        let corner: Vec<usize> = (0..4)
+            .map(|a| (cell / (nodes - 1).pow(a as u32)) % (nodes - 1))
+            .collect();
+        for simplex in hyperpbd_core::builders::kuhn_simplices(4) {
+            elements.push(
+                simplex
+                    .iter()
+                    .map(|offset| node(&[0, 1, 2, 3].map(|a| corner[a] + offset[a])))
+                    .collect(),
+            );
+        }
+    }
+    b.family(
+        hyperpbd_core::ConstraintFamily::material(
+            hyperpbd_core::ConstraintKind::NeoHookean,
+            2.0e4,
+            0.25,
+            elements,
+        )
+        .with_density(400.0),
+    );
     b.hyperplane(vec![0.0, 0.0, 0.0, 1.0], 0.0, 0.5);
     b.build()
         .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))

@@ -27,6 +27,11 @@ const CLOTH16_60_FRAMES: u64 = 0x166b_9c6b_e98b_8363;
 /// friction, damping.
 const TESSERACT_30_FRAMES: u64 = 0x0a6f_6981_90f9_ab01;
 
+/// `scenes::jelly4d()` after 30 steps (0.5 s): 81 particles with lumped
+/// masses, 384 Neo-Hookean 4-simplices (the XPBD energy constraint), floor
+/// contact with friction, damping.
+const JELLY4D_30_FRAMES: u64 = 0xa98f_1ac7_70ac_eca9;
+
 /// `scenes::sandpile2d()` after 60 steps (1 s): balls poured onto a floor,
 /// broadphase every substep, averaged gather-Jacobi contact with friction.
 const SANDPILE2D_60_FRAMES: u64 = 0x6a17_493f_e109_e18a;
@@ -67,6 +72,23 @@ fn cloth16_state_hash_is_pinned() {
             "CLOTH16_60_FRAMES",
             got,
             CLOTH16_60_FRAMES
+        )
+    );
+}
+
+#[test]
+fn jelly4d_state_hash_is_pinned() {
+    let got = run(&hyperpbd::scenes::jelly4d(), 30).hash();
+    eprintln!("jelly4d(), 30 frames: hash {got:#018x} / pinned {JELLY4D_30_FRAMES:#018x}");
+    assert_eq!(
+        got,
+        JELLY4D_30_FRAMES,
+        "{}",
+        golden_message(
+            "jelly4d() after 30 frames",
+            "JELLY4D_30_FRAMES",
+            got,
+            JELLY4D_30_FRAMES
         )
     );
 }

@@ -93,6 +93,7 @@ fn family(
             compliance,
             elements,
             rest,
+            ..ConstraintFamily::new(kind, 0.0, Vec::new())
         })
         .boxed()
 }
@@ -684,6 +685,7 @@ fn fixed_negative_zero_keeps_its_sign() {
         compliance: 0.0,
         elements: vec![vec![0, 1]],
         rest: Some(vec![0.5]),
+        ..ConstraintFamily::new(ConstraintKind::Distance, 0.0, Vec::new())
     }];
     let mut backend = hyperpbd::cpu_backend(&scene).expect("valid");
     backend.step().expect("step");

@@ -589,6 +589,7 @@ fn round_trip_is_bit_exact() {
             compliance: 1e-7 / 3.0,
             elements: vec![vec![0, 1], vec![2, 3]],
             rest: Some(vec![0.1 + 0.2, 5e-324]),
+            ..ConstraintFamily::new(ConstraintKind::Distance, 0.0, Vec::new())
         },
         ConstraintFamily::new(ConstraintKind::SimplexMeasure, 0.0, vec![vec![0, 1, 2]]),
         ConstraintFamily {
@@ -596,6 +597,7 @@ fn round_trip_is_bit_exact() {
             compliance: f64::MIN_POSITIVE,
             elements: vec![vec![4, 3, 2, 1, 0]],
             rest: Some(vec![-1.0 / 3.0]),
+            ..ConstraintFamily::new(ConstraintKind::OrientedMeasure, 0.0, Vec::new())
         },
     ];
     s.obstacles = vec![

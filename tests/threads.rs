@@ -19,11 +19,11 @@ use std::path::Path;
 const FINE_CHUNK: usize = 4;
 
 /// Frames per shipped scene: the cloth needs ~20 frames to reach the
-/// ground, the tesseract ~15; the granular scenes touch from the start.
+/// ground, the tesseract and the jelly ~15; the granular scenes touch from the start.
 fn frames(name: &str) -> usize {
     match name {
         "cloth" | "chain2d" => 40,
-        "tesseract" => 30,
+        "tesseract" | "jelly4d" => 30,
         "column3d" => 8,
         "ballpit4d" | "sandpile2d" => 30,
         _ => 20,
@@ -154,6 +154,7 @@ fn every_shipped_scene_gives_the_same_bytes_on_1_2_and_8_threads() {
         "ballpit4d",
         "sandpile2d",
         "barrier4d",
+        "jelly4d",
     ] {
         assert!(
             names.iter().any(|n| n == expected),

@@ -34,6 +34,7 @@ fn base() -> Scene {
             compliance: 0.0,
             elements: vec![vec![0, 1], vec![2, 3]],
             rest: Some(vec![1.0, 0.7]),
+            ..ConstraintFamily::new(ConstraintKind::Distance, 0.0, Vec::new())
         },
         ConstraintFamily::new(ConstraintKind::SimplexMeasure, 1e-6, vec![vec![0, 2, 3]]),
         ConstraintFamily::new(ConstraintKind::OrientedMeasure, 0.0, vec![vec![1, 0, 2, 3]]),

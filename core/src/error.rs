@@ -128,6 +128,30 @@ pub enum SceneError {
     /// affinely dependent vertices).
     #[error("{path}: degenerate simplex: {why}")]
     DegenerateSimplex { path: String, why: String },
+    /// A key the family's kind does not use (a compliance or rest values
+    /// on a material family, material parameters on a geometric one).
+    #[error("{path}: not used by {kind} families: {why}")]
+    FieldNotForKind {
+        path: String,
+        kind: &'static str,
+        why: String,
+    },
+    /// A key the family's kind requires.
+    #[error("{path}: {kind} families need this key")]
+    MissingField { path: String, kind: &'static str },
+    /// Material parameters that define no material (E, ν, density).
+    #[error("{path}: {source}")]
+    Material {
+        path: String,
+        source: crate::material::MaterialError,
+    },
+    /// `rest_positions` with a count other than one per scene particle.
+    #[error("{path}: {found} rest positions for {expected} particles (one per scene particle)")]
+    RestPositionsCount {
+        path: String,
+        expected: usize,
+        found: usize,
+    },
     /// A free particle that starts at d <= 0 from a barrier obstacle.
     #[error(
         "{path}: starts at distance {distance:e} <= 0 from obstacles[{obstacle}]; the barrier path needs every free particle strictly outside every obstacle"
@@ -207,6 +231,23 @@ pub enum StepError {
         family_label: String,
         /// Element index in the authored order.
         element: usize,
+    },
+    /// A material element left its law's domain (a Neo-Hookean element
+    /// collapsed or inverted).
+    #[error(
+        "step aborted in stage {stage}, substep {substep}: {family_label} element {element}: {refusal}; state rolled back"
+    )]
+    MaterialRefused {
+        stage: StageName,
+        substep: u32,
+        /// Index of the family in the plan.
+        family: usize,
+        /// Human-readable family name (`constraints[2]`).
+        family_label: String,
+        /// Element index in the authored order.
+        element: usize,
+        /// Which refusal, with the element's measure ratio J.
+        refusal: crate::material::LawRefusal,
     },
     /// The incremental-potential minimisation was refused.
     #[error("step aborted in substep {substep}: minimisation refused: {reason}; state rolled back")]

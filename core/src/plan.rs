@@ -23,6 +23,8 @@
 use crate::barrier::IncrementalPotentialPlan;
 use crate::coloring::greedy_colors;
 use crate::geometry::{Scratch, constraint_value, unit_vector};
+use crate::material::{Law, Material, RestView};
+use crate::material_plan::{self, FamilyMass};
 use crate::{ConstraintKind, Obstacle, Scene, SceneError, Solver, StageName};
 
 /// What one family projects.
@@ -39,6 +41,18 @@ pub enum FamilyKind {
     OrientedMeasure,
     /// |x1 − x0| ≤ rest: one-sided distance (λ ≤ 0, it only pulls).
     Tether,
+    /// Hyperelastic k-simplices: the energy constraint C = √(2W) ≥ 0 of
+    /// the law (docs/materials.md §5), rest value 0, compliance 1.
+    Material {
+        /// The law and its Lamé parameters.
+        material: Material,
+        /// Simplex order k (k + 1 particles per element).
+        order: usize,
+        /// Rest frame R per (colour-ordered) element, k × k each.
+        frames: Vec<f64>,
+        /// Rest k-measure V_0 per (colour-ordered) element.
+        measures: Vec<f64>,
+    },
     /// n·x − rest ≥ 0 with rest = offset + radius, per dynamic particle.
     HyperplaneContact {
         /// Unit normal.
@@ -57,8 +71,34 @@ impl FamilyKind {
             FamilyKind::SimplexMeasure { .. } => "simplex_measure",
             FamilyKind::OrientedMeasure => "oriented_measure",
             FamilyKind::Tether => "tether",
+            FamilyKind::Material { material, .. } => match material.law {
+                Law::StVenantKirchhoff => "stvk",
+                Law::NeoHookean => "neo_hookean",
+            },
             FamilyKind::HyperplaneContact { .. } => "hyperplane_contact",
         }
+    }
+
+    /// The rest data of element `e` (colour-ordered slot) of a material
+    /// family; `None` for other kinds.
+    pub fn rest_view(&self, e: usize) -> Option<(&Material, RestView<'_>)> {
+        let FamilyKind::Material {
+            material,
+            order,
+            frames,
+            measures,
+        } = self
+        else {
+            return None;
+        };
+        let kk = order * order;
+        Some((
+            material,
+            RestView {
+                frame: frames.get(e * kk..(e + 1) * kk)?,
+                measure: *measures.get(e)?,
+            },
+        ))
     }
 
     /// True for contact families (inequality C ≥ 0 whose active elements
@@ -196,8 +236,13 @@ pub struct Plan {
     pub gravity: Vec<f64>,
     /// Prediction terms in use.
     pub predict: PredictTerms,
-    /// Inverse mass per particle; 0 for fixed particles.
+    /// Inverse mass per particle; 0 for fixed particles. A particle
+    /// without an authored `mass` has the lumped mass of the material
+    /// families with `density` it belongs to.
     pub inverse_mass: Vec<f64>,
+    /// The lumped mass of every family with `density` (element and vertex
+    /// totals), in authored order.
+    pub lumped_mass: Vec<FamilyMass>,
     /// Gravity scale per particle.
     pub gravity_scale: Vec<f64>,
     /// Radius per particle.
@@ -240,11 +285,14 @@ impl Plan {
         let dim = scene.dim;
         let n = scene.particles.len();
         let h = scene.dt / f64::from(scene.substeps);
+        let materials = material_plan::compile(scene)?;
         let inverse_mass: Vec<f64> = scene
             .particles
             .iter()
-            .map(|p| match (p.fixed, p.mass) {
+            .zip(&materials.lumped)
+            .map(|(p, &lumped)| match (p.fixed, p.mass) {
                 (false, Some(m)) => 1.0 / m,
+                (false, None) => 1.0 / lumped,
                 _ => 0.0,
             })
             .collect();
@@ -272,11 +320,19 @@ impl Plan {
                 continue;
             }
             let arity = authored.elements[0].len();
-            let kind = match authored.kind {
-                ConstraintKind::Distance => FamilyKind::Distance,
-                ConstraintKind::SimplexMeasure => FamilyKind::SimplexMeasure { k: arity - 1 },
-                ConstraintKind::OrientedMeasure => FamilyKind::OrientedMeasure,
-                ConstraintKind::Tether => FamilyKind::Tether,
+            let kind = match (authored.kind, &materials.shapes[f]) {
+                (_, Some((material, _))) => FamilyKind::Material {
+                    material: *material,
+                    order: arity - 1,
+                    frames: Vec::new(),
+                    measures: Vec::new(),
+                },
+                (ConstraintKind::Distance, None) => FamilyKind::Distance,
+                (ConstraintKind::SimplexMeasure, None) => {
+                    FamilyKind::SimplexMeasure { k: arity - 1 }
+                }
+                (ConstraintKind::Tether, None) => FamilyKind::Tether,
+                (_, None) => FamilyKind::OrientedMeasure,
             };
             let flat: Vec<usize> = authored.elements.iter().flatten().copied().collect();
             let rest: Vec<f64> = match &authored.rest {
@@ -295,15 +351,25 @@ impl Plan {
                         .collect()
                 }
             };
-            families.push(colored_family(
+            // Material families: compliance 1 (α = 1 of C = √(2W)).
+            let compliance = if materials.shapes[f].is_some() {
+                1.0
+            } else {
+                authored.compliance
+            };
+            let family = colored_family(
                 format!("constraints[{f}]"),
                 kind,
-                authored.compliance,
+                compliance,
                 arity,
                 &flat,
                 &rest,
                 &inverse_mass,
-            ));
+            );
+            families.push(match &materials.shapes[f] {
+                Some((_, shapes)) => material_plan::with_rest_shapes(family, shapes),
+                None => family,
+            });
         }
         let solver = match &scene.solver {
             Solver::Xpbd => SolverPlan::Xpbd,
@@ -409,6 +475,7 @@ impl Plan {
             gravity,
             predict,
             inverse_mass,
+            lumped_mass: materials.report,
             gravity_scale,
             radius,
             force,

@@ -164,6 +164,12 @@ pub enum ConstraintKind {
     /// |x1 − x0| ≤ rest (2 particles): a one-sided distance, a long-range
     /// attachment (tether) that only ever pulls.
     Tether,
+    /// St. Venant–Kirchhoff k-simplices (k + 1 particles, 1 ≤ k ≤ N): the
+    /// XPBD energy constraint C = √(2W) of the law's element energy W.
+    Stvk,
+    /// Compressible Neo-Hookean k-simplices, as `Stvk`; an element that
+    /// collapses or inverts during a step stops the step (typed refusal).
+    NeoHookean,
 }
 
 impl ConstraintKind {
@@ -174,11 +180,26 @@ impl ConstraintKind {
             ConstraintKind::SimplexMeasure => "simplex_measure",
             ConstraintKind::OrientedMeasure => "oriented_measure",
             ConstraintKind::Tether => "tether",
+            ConstraintKind::Stvk => "stvk",
+            ConstraintKind::NeoHookean => "neo_hookean",
+        }
+    }
+
+    /// The constitutive law of a material kind (`None` for the geometric
+    /// kinds).
+    pub fn law(self) -> Option<crate::material::Law> {
+        match self {
+            ConstraintKind::Stvk => Some(crate::material::Law::StVenantKirchhoff),
+            ConstraintKind::NeoHookean => Some(crate::material::Law::NeoHookean),
+            _ => None,
         }
     }
 }
 
-/// One kind, one compliance, many elements.
+/// One kind, one compliance, many elements. Material kinds (`stvk`,
+/// `neo_hookean`) take `youngs_modulus` and `poisson_ratio` instead of a
+/// compliance and rest values, and optionally `rest_positions` and
+/// `density`; the geometric kinds take none of those four.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ConstraintFamily {
@@ -193,6 +214,21 @@ pub struct ConstraintFamily {
     /// Rest value per element; omitted means the authored geometry.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rest: Option<Vec<f64>>,
+    /// Material kinds: Young's modulus E > 0 of the k-dimensional material.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub youngs_modulus: Option<f64>,
+    /// Material kinds: Poisson's ratio ν, −1 < ν < 1/(k − 1) (ν ≥ 0 for
+    /// `neo_hookean`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub poisson_ratio: Option<f64>,
+    /// Material kinds: the rest shape, one position per scene particle;
+    /// omitted means the particles' initial positions.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rest_positions: Option<Vec<Vec<f64>>>,
+    /// Material kinds: density ρ > 0; particles without a `mass` then take
+    /// lumped masses ρ·V_0/(k + 1) from every element they belong to.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub density: Option<f64>,
 }
 
 impl ConstraintFamily {
@@ -203,7 +239,39 @@ impl ConstraintFamily {
             compliance,
             elements,
             rest: None,
+            youngs_modulus: None,
+            poisson_ratio: None,
+            rest_positions: None,
+            density: None,
         }
+    }
+
+    /// A material family (`kind` `Stvk` or `NeoHookean`) with Young's
+    /// modulus E and Poisson's ratio ν, rest shape the initial positions,
+    /// no density.
+    pub fn material(
+        kind: ConstraintKind,
+        youngs_modulus: f64,
+        poisson_ratio: f64,
+        elements: Vec<Vec<usize>>,
+    ) -> Self {
+        ConstraintFamily {
+            youngs_modulus: Some(youngs_modulus),
+            poisson_ratio: Some(poisson_ratio),
+            ..ConstraintFamily::new(kind, 0.0, elements)
+        }
+    }
+
+    /// Sets the rest shape (one position per scene particle).
+    pub fn with_rest_positions(mut self, positions: Vec<Vec<f64>>) -> Self {
+        self.rest_positions = Some(positions);
+        self
+    }
+
+    /// Sets the density (lumped mass for particles without `mass`).
+    pub fn with_density(mut self, density: f64) -> Self {
+        self.density = Some(density);
+        self
     }
 }
 

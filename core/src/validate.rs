@@ -17,7 +17,7 @@ fn finite(path: impl FnOnce() -> String, value: f64) -> Result<(), SceneError> {
     }
 }
 
-fn vector(path: &str, v: &[f64], dim: usize) -> Result<(), SceneError> {
+pub(crate) fn vector(path: &str, v: &[f64], dim: usize) -> Result<(), SceneError> {
     if v.len() != dim {
         return Err(SceneError::WrongLength {
             path: path.to_string(),
@@ -98,6 +98,7 @@ impl Scene {
 
     fn validate_particles(&self) -> Result<(), SceneError> {
         let dim = self.dim;
+        let lumped = self.lumped_particles();
         for (i, p) in self.particles.iter().enumerate() {
             let at = |field: &str| format!("particles[{i}].{field}");
             vector(&at("position"), &p.position, dim)?;
@@ -122,7 +123,9 @@ impl Scene {
                         });
                     }
                 }
-                None if !p.fixed => return Err(SceneError::MissingMass { path: at("mass") }),
+                None if !p.fixed && !lumped[i] => {
+                    return Err(SceneError::MissingMass { path: at("mass") });
+                }
                 None => {}
             }
             non_negative(|| at("radius"), p.radius)?;
@@ -139,6 +142,7 @@ impl Scene {
         let mut grad = Vec::new();
         for (f, family) in self.constraints.iter().enumerate() {
             let at = |field: &str| format!("constraints[{f}].{field}");
+            self.validate_family_keys(f, family)?;
             compliance(at("compliance"), family.compliance)?;
             let kind = family.kind.as_str();
             let first_arity = family.elements.first().map_or(0, Vec::len);
@@ -154,13 +158,21 @@ impl Scene {
                     ConstraintKind::Distance | ConstraintKind::Tether if element.len() != 2 => {
                         return Err(arity_error("2".into()));
                     }
-                    ConstraintKind::SimplexMeasure if !(2..=dim + 1).contains(&element.len()) => {
+                    ConstraintKind::SimplexMeasure
+                    | ConstraintKind::Stvk
+                    | ConstraintKind::NeoHookean
+                        if !(2..=dim + 1).contains(&element.len()) =>
+                    {
                         return Err(arity_error(format!(
                             "k + 1 with 1 <= k <= {dim} (2..={})",
                             dim + 1
                         )));
                     }
-                    ConstraintKind::SimplexMeasure if element.len() != first_arity => {
+                    ConstraintKind::SimplexMeasure
+                    | ConstraintKind::Stvk
+                    | ConstraintKind::NeoHookean
+                        if element.len() != first_arity =>
+                    {
                         return Err(arity_error(format!(
                             "{first_arity} (one k per family, as in elements[0])"
                         )));
@@ -186,7 +198,9 @@ impl Scene {
                     }
                 }
             }
-            if let Some(rest) = &family.rest {
+            if family.kind.law().is_some() {
+                self.validate_material(f, family)?;
+            } else if let Some(rest) = &family.rest {
                 if rest.len() != family.elements.len() {
                     return Err(SceneError::RestCountMismatch {
                         path: at("rest"),

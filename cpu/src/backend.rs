@@ -19,7 +19,8 @@ use crate::integrate::Failed;
 use crate::parallel::Workers;
 use crate::project::{Batch, Workspace, project};
 use crate::{
-    colours, coupled, friction, incremental_potential, integrate, project, residual, threads,
+    colours, coupled, friction, incremental_potential, integrate, material, project, residual,
+    threads,
 };
 use hyperpbd_core::broadphase::Aabbs;
 
@@ -183,12 +184,24 @@ impl CpuBackend {
                     &mut self.workspace,
                 )
                 .map_err(|slot| {
-                    StepError::NonFiniteConstraint {
-                        stage: StageName::Project,
-                        substep: self.substep,
-                        family,
-                        family_label: fam.label.clone(),
-                        element: fam.source[slot] as usize,
+                    let (substep, family_label) = (self.substep, fam.label.clone());
+                    let element = fam.source[slot] as usize;
+                    match material::refusal(plan.dim, fam, slot, &self.x) {
+                        Some(refusal) => StepError::MaterialRefused {
+                            stage: StageName::Project,
+                            substep,
+                            family,
+                            family_label,
+                            element,
+                            refusal,
+                        },
+                        None => StepError::NonFiniteConstraint {
+                            stage: StageName::Project,
+                            substep,
+                            family,
+                            family_label,
+                            element,
+                        },
                     }
                     .into()
                 })

@@ -17,6 +17,7 @@ mod dim;
 mod friction;
 pub mod incremental_potential;
 mod integrate;
+mod material;
 mod parallel;
 mod project;
 mod residual;

@@ -11,6 +11,9 @@
 //!
 //! Σ_j w_j |∇_j C|² is w_0 + w_1 for distance and w for contacts (their
 //! gradients are unit vectors); measure kinds sum the computed gradients.
+//! Material families (`material.rs`) take this generic path with their
+//! energy constraint C = √(2W) (rest value 0, compliance 1); a
+//! Neo-Hookean element with J ≤ 0 fails its slot like a non-finite update.
 //! If that sum is 0 (no dynamic particle, or ∇C = 0: coincident points, a
 //! collapsed simplex) the element makes no response. Fixed particles
 //! (w = 0) are never written, not even with ±0.
@@ -38,6 +41,7 @@
 use crate::dim::{Dim, with_dim};
 use crate::parallel::{Coordinates, DisjointSlice, Shared, Workers, first_error};
 use hyperpbd_core::geometry::{Scratch, oriented_measure, simplex_squared_measure};
+use hyperpbd_core::material::MaterialScratch;
 use hyperpbd_core::{Family, FamilyKind};
 use std::ops::Range;
 
@@ -63,6 +67,8 @@ pub struct Workspace {
     pub points: Vec<f64>,
     pub grad: Vec<f64>,
     pub scratch: Scratch,
+    /// The material laws' buffers.
+    pub material: MaterialScratch,
 }
 
 /// Projects elements `range` (one colour's color-ordered slots) of
@@ -242,6 +248,18 @@ fn measure<D: Dim, X: Coordinates + ?Sized>(
             }
             FamilyKind::SimplexMeasure { .. } => {
                 simplex_squared_measure(&ws.points, dim, &mut ws.grad, &mut ws.scratch)
+            }
+            FamilyKind::Material { .. } => {
+                // A refusal fails the slot; `material::refusal` names it.
+                crate::material::energy_constraint(
+                    f,
+                    e,
+                    &ws.points,
+                    dim,
+                    &mut ws.grad,
+                    &mut ws.material,
+                )
+                .map_err(|_| e)?
             }
             _ => oriented_measure(&ws.points, dim, &mut ws.grad, &mut ws.scratch),
         };

@@ -4,6 +4,7 @@
 //! equality:   max_e |C_e(x)|
 //! contact:    max_e max(0, −C_e(x))
 //! tether:     max_e max(0, |x1 − x0| − rest)
+//! material:   max_e C_e = √(2 W_e)   (+∞ for a refused element; material.rs)
 //! ```
 //! The maximum is taken per chunk of [`RESIDUAL_GRAIN`] elements and then
 //! over the chunks in order: one fixed tree for any thread count.
@@ -53,6 +54,7 @@ fn violation<D: Dim>(
         points,
         grad,
         scratch,
+        material,
     } = ws;
     points.resize(arity * dim, 0.0);
     grad.resize(arity * dim, 0.0);
@@ -74,6 +76,9 @@ fn violation<D: Dim>(
             }
             FamilyKind::HyperplaneContact { normal, .. } => {
                 (family.rest[e] - crate::project::dot(normal, points)).max(0.0)
+            }
+            FamilyKind::Material { .. } => {
+                crate::material::violation(family, e, points, dim, grad, material)
             }
         };
         worst = worst.max(violation);

@@ -16,8 +16,8 @@
 //! per particle and per colour.
 
 use hyperpbd_core::{
-    Backend, BackendError, GpuError, Kernel, Plan, StageName, State, StepError, StepReport,
-    check_forces, check_kernel, check_state,
+    Backend, BackendError, FamilyKind, GpuError, Kernel, Plan, StageName, State, StepError,
+    StepReport, check_forces, check_kernel, check_state,
 };
 
 use crate::context::GpuContext;
@@ -160,6 +160,20 @@ impl GpuBackend {
         }
         if plan.incremental_potential().is_some() {
             return Err(crate::incremental_potential::incremental_potential_unsupported().into());
+        }
+        if let Some(f) = plan
+            .families
+            .iter()
+            .find(|f| matches!(f.kind, FamilyKind::Material { .. }))
+        {
+            return Err(GpuError::Unsupported {
+                what: format!(
+                    "{}: {} material families have no GPU kernel yet (use the CPU backend)",
+                    f.label,
+                    f.kind.name()
+                ),
+            }
+            .into());
         }
         let ctx = GpuContext::new(adapter, precision)?;
         ctx.building(|| Self::build(ctx.clone(), plan, state, precision, origin, mode))

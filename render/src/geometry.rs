@@ -107,6 +107,8 @@ impl SceneGeometry {
                 ConstraintKind::Distance | ConstraintKind::Tether => 1,
                 ConstraintKind::SimplexMeasure => 2 * (arity - 1),
                 ConstraintKind::OrientedMeasure => dim,
+                // No geometric value (rest 0, value 0): drawn unstrained.
+                ConstraintKind::Stvk | ConstraintKind::NeoHookean => 1,
             };
             let fallback = length.powi(power as i32);
             let scale = rest

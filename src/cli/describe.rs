@@ -62,7 +62,21 @@ pub fn describe(plan: &Plan) -> String {
         if let FamilyKind::HyperplaneContact { friction, .. } = f.kind {
             let _ = write!(s, ", friction {friction}");
         }
+        if let FamilyKind::Material { material, .. } = &f.kind {
+            let _ = write!(
+                s,
+                ", Lamé μ {:e} λ {:e}",
+                material.lame.mu, material.lame.lambda
+            );
+        }
         s.push('\n');
+    }
+    for m in &plan.lumped_mass {
+        let _ = writeln!(
+            s,
+            "lumped mass {}: density {}, element total {}, vertex total {}",
+            m.label, m.density, m.element_total, m.vertex_total
+        );
     }
     if let Some(ip) = plan.incremental_potential() {
         let _ = writeln!(

@@ -54,6 +54,9 @@ pub fn factorial(k: usize) -> f64 {
 
 /// The value of constraint `kind` at `points` (k + 1 points of length
 /// `dim`): the rest value an element takes from its authored geometry.
+/// A material kind's rest value is 0, the minimum of its energy
+/// constraint C = √(2W) (its rest shape lives in the plan's rest frames),
+/// with ∇C = 0.
 pub fn constraint_value(
     kind: crate::ConstraintKind,
     points: &[f64],
@@ -69,5 +72,9 @@ pub fn constraint_value(
             simplex_squared_measure(points, dim, grad, scratch)
         }
         crate::ConstraintKind::OrientedMeasure => oriented_measure(points, dim, grad, scratch),
+        crate::ConstraintKind::Stvk | crate::ConstraintKind::NeoHookean => {
+            grad.fill(0.0);
+            0.0
+        }
     }
 }

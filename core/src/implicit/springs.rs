@@ -34,6 +34,10 @@
 //! (m + h² |∇C|²/α) instead of quadratic. At C = 0 the Gauss–Newton block
 //! is the exact Hessian (tests/implicit_terms.rs checks both).
 //!
+//! Material kinds are no springs (their energy is the law's,
+//! material_hessian.rs): here their value is 0 with ∇C = 0
+//! (`geometry::constraint_value`).
+//!
 //! Products (element layout, (k + 1) × N):
 //! ```text
 //! radial:        RadialCurvature::apply
@@ -43,7 +47,7 @@
 
 use super::RadialCurvature;
 use crate::ConstraintKind;
-use crate::geometry::{Scratch, distance, oriented_measure, simplex_squared_measure};
+use crate::geometry::{Scratch, constraint_value};
 
 /// The curvature of one spring element (PSD).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -85,17 +89,7 @@ pub fn evaluate_spring(
     energy_gradient: &mut [f64],
     scratch: &mut Scratch,
 ) -> Spring {
-    let value = match kind {
-        ConstraintKind::Distance | ConstraintKind::Tether => {
-            distance(points, dim, constraint_gradient)
-        }
-        ConstraintKind::SimplexMeasure => {
-            simplex_squared_measure(points, dim, constraint_gradient, scratch)
-        }
-        ConstraintKind::OrientedMeasure => {
-            oriented_measure(points, dim, constraint_gradient, scratch)
-        }
-    };
+    let value = constraint_value(kind, points, dim, constraint_gradient, scratch);
     let c = value - rest;
     let count = points.len();
     if kind == ConstraintKind::Tether && c <= 0.0 {
@@ -115,11 +109,12 @@ pub fn evaluate_spring(
         ConstraintKind::Distance | ConstraintKind::Tether => SpringCurvature::Radial(
             RadialCurvature::exact(force, 1.0 / compliance, value).projected(),
         ),
-        ConstraintKind::SimplexMeasure | ConstraintKind::OrientedMeasure => {
-            SpringCurvature::GaussNewton {
-                weight: 1.0 / compliance,
-            }
-        }
+        ConstraintKind::SimplexMeasure
+        | ConstraintKind::OrientedMeasure
+        | ConstraintKind::Stvk
+        | ConstraintKind::NeoHookean => SpringCurvature::GaussNewton {
+            weight: 1.0 / compliance,
+        },
     };
     Spring {
         energy,

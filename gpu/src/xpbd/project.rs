@@ -52,6 +52,8 @@ pub(crate) fn project(
         }
         FamilyKind::SimplexMeasure { .. } => c.op = OP_PROJECT_SIMPLEX,
         FamilyKind::OrientedMeasure => c.op = OP_PROJECT_ORIENTED,
+        // Refused when the backend loads (no GPU material kernel).
+        FamilyKind::Material { .. } => {}
         FamilyKind::HyperplaneContact { normal, friction } => {
             // friction and the report read a contact's λ: always stored.
             c.flags &= !FLAG_UNREAD;

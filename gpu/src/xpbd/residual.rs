@@ -29,6 +29,8 @@ fn kind_code(kind: &FamilyKind) -> u32 {
         FamilyKind::OrientedMeasure => 2,
         FamilyKind::HyperplaneContact { .. } => 3,
         FamilyKind::Tether => 4,
+        // Refused when the backend loads (no GPU material kernel).
+        FamilyKind::Material { .. } => 5,
     }
 }
 

@@ -1,0 +1,103 @@
+//! The material families of a plan: each family's law and rest shapes,
+//! the lumped masses of particles without an authored `mass`, and the
+//! per-family mass report `hyperpbd plan` prints.
+//!
+//! ```text
+//! per material family f (authored order):
+//!   material    Material::new(law, k, E, ν)               (Lamé per k, docs/materials.md §2)
+//!   rest        R_e, V_0(e) from rest_positions or the initial positions
+//!   density ρ:  m_i^f = Σ_{e ∋ i} ρ V_0(e) / (k + 1)       (material::lump_masses)
+//! mass of particle i:  authored mass, else Σ_f m_i^f (families in authored order)
+//! plan family: rest value 0 (the minimum of C = √(2W)), compliance 1,
+//!              R and V_0 colour-ordered like the elements
+//! ```
+
+use crate::material::{Material, RestShapes, lump_masses};
+use crate::validate_material::{material_of, rest_shapes};
+use crate::{Family, FamilyKind, Scene, SceneError};
+
+/// The lumped mass of one family with `density`, as `hyperpbd plan`
+/// reports it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FamilyMass {
+    /// `constraints[f]`.
+    pub label: String,
+    /// ρ.
+    pub density: f64,
+    /// Σ_e ρ V_0(e).
+    pub element_total: f64,
+    /// Σ_i of the family's per-vertex shares (equal to the element total
+    /// up to rounding; accumulated independently).
+    pub vertex_total: f64,
+}
+
+/// What the plan needs of a scene's material families.
+pub(crate) struct MaterialFamilies {
+    /// Per authored constraint family: its material and rest shapes
+    /// (`None` for the geometric kinds).
+    pub shapes: Vec<Option<(Material, RestShapes)>>,
+    /// Lumped mass per particle, summed over the families with density.
+    pub lumped: Vec<f64>,
+    /// One entry per family with density.
+    pub report: Vec<FamilyMass>,
+}
+
+/// The material families of a validated `scene`.
+pub(crate) fn compile(scene: &Scene) -> Result<MaterialFamilies, SceneError> {
+    let n = scene.particles.len();
+    let mut out = MaterialFamilies {
+        shapes: Vec::with_capacity(scene.constraints.len()),
+        lumped: vec![0.0; n],
+        report: Vec::new(),
+    };
+    for (f, family) in scene.constraints.iter().enumerate() {
+        if family.kind.law().is_none() {
+            out.shapes.push(None);
+            continue;
+        }
+        let label = format!("constraints[{f}]");
+        let error = |source| SceneError::Material {
+            path: label.clone(),
+            source,
+        };
+        let material = material_of(scene.dim, family).map_err(error)?;
+        let shapes = rest_shapes(scene, family).map_err(error)?;
+        if let Some(density) = family.density {
+            let lumped = lump_masses(n, &family.elements, &shapes, density).map_err(error)?;
+            for (total, m) in out.lumped.iter_mut().zip(&lumped.masses) {
+                *total += m;
+            }
+            out.report.push(FamilyMass {
+                label: label.clone(),
+                density,
+                element_total: lumped.element_total,
+                vertex_total: lumped.vertex_total,
+            });
+        }
+        out.shapes.push(Some((material, shapes)));
+    }
+    Ok(out)
+}
+
+/// `family` (a compiled material family, rest values 0, compliance 1)
+/// with its rest frames and measures in its colour order.
+pub(crate) fn with_rest_shapes(mut family: Family, shapes: &RestShapes) -> Family {
+    let k = shapes.order();
+    let mut frames = Vec::with_capacity(family.len() * k * k);
+    let mut measures = Vec::with_capacity(family.len());
+    for &e in &family.source {
+        let rest = shapes.element(e as usize);
+        frames.extend_from_slice(rest.frame);
+        measures.push(rest.measure);
+    }
+    if let FamilyKind::Material {
+        frames: f,
+        measures: m,
+        ..
+    } = &mut family.kind
+    {
+        *f = frames;
+        *m = measures;
+    }
+    family
+}
