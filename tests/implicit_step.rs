@@ -156,12 +156,11 @@ fn alternating_chain() -> Scene {
             .particles
             .push(particle(vec![0.1 * k as f64, 0.0], Some(mass), 0.0));
     }
-    scene.constraints.push(ConstraintFamily {
-        kind: ConstraintKind::Distance,
-        compliance: 1e-8,
-        elements: (0..12).map(|k| vec![k, k + 1]).collect(),
-        rest: None,
-    });
+    scene.constraints.push(ConstraintFamily::new(
+        ConstraintKind::Distance,
+        1e-8,
+        (0..12).map(|k| vec![k, k + 1]).collect(),
+    ));
     scene.solver = Solver::IncrementalPotential(settings(1e3, 1e-3, 1e-1, 50));
     scene
 }

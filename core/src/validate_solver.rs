@@ -76,6 +76,13 @@ impl Scene {
             why: why.into(),
         };
         for (f, family) in self.constraints.iter().enumerate() {
+            if family.kind.law().is_some() {
+                return Err(unsupported(
+                    format!("constraints[{f}].type"),
+                    "material families (stvk, neo_hookean) run on the xpbd solver; their \
+                     energies are not yet terms of the coupled incremental potential",
+                ));
+            }
             if family.compliance == 0.0 && !family.elements.is_empty() {
                 return Err(unsupported(
                     format!("constraints[{f}].compliance"),

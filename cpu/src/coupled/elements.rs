@@ -464,6 +464,11 @@ fn constraint_kind(kind: &FamilyKind) -> ConstraintKind {
         FamilyKind::OrientedMeasure | FamilyKind::HyperplaneContact { .. } => {
             ConstraintKind::OrientedMeasure
         }
+        // Scene validation refuses material families under this solver
+        // (core/src/validate_solver.rs), so no plan reaching here has one.
+        FamilyKind::Material { .. } => {
+            unreachable!("material families are refused by the incremental_potential solver")
+        }
     }
 }
 
