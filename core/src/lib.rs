@@ -7,6 +7,7 @@
 //! ```
 //! Nothing here knows about wgpu.
 
+pub mod adaptive;
 mod backend;
 pub mod barrier;
 pub mod broadphase;
@@ -14,6 +15,7 @@ pub mod builders;
 mod coloring;
 mod error;
 pub mod geometry;
+pub mod guards;
 pub mod implicit;
 mod json;
 pub mod material;
@@ -24,6 +26,7 @@ mod scene;
 mod solver;
 mod state;
 mod validate;
+mod validate_guards;
 mod validate_solver;
 
 pub use backend::{Backend, FamilyResidual, StepReport, check_forces, check_kernel, check_state};
@@ -31,6 +34,7 @@ pub use builders::SceneBuilder;
 pub use coloring::greedy_colors;
 pub use error::{BackendError, GpuError, SceneError, StageName, StepError};
 pub use geometry::DEGENERATE_VOLUME_RATIO;
+pub use guards::{Adaptive, Attempt, GuardKind, GuardRejection, GuardSubject, Guards};
 pub use minimisation::{MinimisationReport, MinimisationStatus, Refusal};
 pub use plan::{Family, FamilyKind, Kernel, ParticleContacts, Plan, PredictTerms, SolverPlan};
 pub use precision::Precision;
