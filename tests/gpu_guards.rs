@@ -19,8 +19,8 @@ use common::gpu::adapter_or_skip;
 use hyperpbd::builders::BlockSpec;
 use hyperpbd::gpu::{GpuBackend, Precision};
 use hyperpbd::{
-    Adaptive, Backend, BackendError, CpuBackend, GuardKind, GuardRejection, Guards, Plan, Scene,
-    SceneBuilder, State, StepError, StepReport,
+    Adaptive, Backend, BackendError, CpuBackend, GuardKind, GuardRejection, Guards, Kernel, Plan,
+    Scene, SceneBuilder, State, StepError, StepReport,
 };
 
 fn block(dim: usize, speed: f64, guards: Guards, adaptive: Option<u32>) -> Scene {
@@ -196,4 +196,70 @@ fn scenes_without_guards_run_no_guard_dispatch() {
         plain.dispatches_per_step()
     );
     assert!(guarded.dispatches_per_step() > plain.dispatches_per_step());
+}
+
+#[test]
+fn guard_kernels_run_alone_reject_as_the_cpu_does() {
+    let guards = Guards {
+        max_speed: Some(30.0),
+        ..orientation()
+    };
+    let mut scene = block(2, 40.0, guards, None);
+    scene.obstacles.clear();
+    let Some((mut cpu, mut gpu, exact)) = pair("guard_alone", &scene, Precision::F64) else {
+        return;
+    };
+    cpu.run_kernel(Kernel::GuardMeasure { family: 0 })
+        .expect("the authored block is oriented");
+    gpu.run_kernel(Kernel::GuardMeasure { family: 0 })
+        .expect("the authored block is oriented");
+    let c = rejection(
+        cpu.run_kernel(Kernel::GuardSpeed)
+            .map(|()| StepReport::default()),
+    );
+    let g = rejection(
+        gpu.run_kernel(Kernel::GuardSpeed)
+            .map(|()| StepReport::default()),
+    );
+    println!("run alone: cpu {c}\nrun alone: gpu {g}");
+    assert_eq!(g.guard, GuardKind::MaxSpeed);
+    if exact {
+        assert_eq!(g, c);
+    }
+}
+
+#[test]
+fn guards_on_the_particle_contact_path_match_the_cpu() {
+    let mut scene = block(2, 40.0, orientation(), Some(3));
+    for p in &mut scene.particles {
+        p.radius = 0.02;
+    }
+    scene.collisions = Some(hyperpbd::Collisions {
+        friction: 0.0,
+        margin: 0.01,
+    });
+    scene.validate().expect("valid");
+    let mut single = scene.clone();
+    single.adaptive = None;
+    if same_rejection("contact_path", &single, Precision::F64).is_none() {
+        return;
+    }
+    let Some((mut cpu, mut gpu, exact)) = pair("contact_path", &scene, Precision::F64) else {
+        return;
+    };
+    for _ in 0..3 {
+        let c = cpu.step().expect("cpu");
+        let g = gpu.step().expect("gpu");
+        println!(
+            "contact path attempts {:?}",
+            g.attempts.iter().map(|a| a.substeps).collect::<Vec<_>>()
+        );
+        if exact {
+            assert_eq!(StepReport { threads: 0, ..c }, g);
+            assert_eq!(
+                bits(&cpu.read_state().expect("cpu")),
+                bits(&gpu.read_state().expect("gpu"))
+            );
+        }
+    }
 }

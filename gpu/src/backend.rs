@@ -179,7 +179,7 @@ impl GpuBackend {
             && !crate::xpbd::schedule::small_supported(&schedule.calls[..schedule.step_calls])
         {
             return Err(BackendError::InvalidCall(
-                "step mode small: the plan has measure families (they run one dispatch per colour)"
+                "step mode small: the plan has measure families or guards (they run one dispatch per call or colour)"
                     .into(),
             ));
         }
@@ -523,7 +523,10 @@ impl GpuBackend {
         self.submit_and_wait(encoder)?;
         let block = self.read_mapped(&self.buffers.report_staging, 16)?;
         match self.failure(&block) {
-            Some((call, index)) => Err(self.step_error(call, index)),
+            Some(failed) => Err(match self.guard_rejection(failed) {
+                Some(found) => found.unwrap_or_else(BackendError::from),
+                None => self.step_error(failed.0, failed.1),
+            }),
             None => Ok(()),
         }
     }

@@ -19,7 +19,7 @@ use hyperpbd_core::adaptive::Subdivided;
 use hyperpbd_core::guards::{
     element_ratio_at, element_verdict, measure_rejection, speed_rejection, squared_speed,
 };
-use hyperpbd_core::{BackendError, GuardKind, Kernel, State, StepError, StepReport};
+use hyperpbd_core::{BackendError, GpuError, GuardKind, Kernel, State, StepError, StepReport};
 
 use super::GpuBackend;
 use crate::params::read_reals;
@@ -55,10 +55,13 @@ impl GpuBackend {
         })
     }
 
-    /// The rejection of a step whose status names guard call `call` at
-    /// `index`, with the state rolled back; `None` when `call` is no
-    /// guard.
-    pub(super) fn guard_error(&mut self, (call, index): (u32, u32)) -> Option<BackendError> {
+    /// The rejection named by a status word whose failing call `call` is
+    /// a guard, at `index`, from the state as the failure left it (the
+    /// caller rolls back); `None` when `call` is no guard.
+    pub(super) fn guard_rejection(
+        &mut self,
+        (call, index): (u32, u32),
+    ) -> Option<Result<BackendError, GpuError>> {
         let kernel = self.schedule.kernel_of(call)?;
         if !matches!(kernel, Kernel::GuardMeasure { .. } | Kernel::GuardSpeed) {
             return None;
@@ -66,7 +69,7 @@ impl GpuBackend {
         let substep = call / self.schedule.kernels_per_substep.max(1) as u32;
         let state = match self.state.read(&self.ctx) {
             Ok(state) => state,
-            Err(e) => return Some(self.roll_back_after(e.into())),
+            Err(e) => return Some(Err(e)),
         };
         let plan = &self.plan;
         let guards = plan.guards.clone().unwrap_or_default();
@@ -97,7 +100,14 @@ impl GpuBackend {
                 speed_rejection((slot, squared_speed(v).sqrt(), limit), substep)
             }
         };
-        Some(self.roll_back_after(StepError::GuardRejected(rejection).into()))
+        Some(Ok(StepError::GuardRejected(rejection).into()))
+    }
+
+    /// The rejection of a step whose status names a guard call, with the
+    /// state rolled back; `None` when the failing call is no guard.
+    pub(super) fn guard_error(&mut self, failed: (u32, u32)) -> Option<BackendError> {
+        let found = self.guard_rejection(failed)?;
+        Some(self.roll_back_after(found.unwrap_or_else(BackendError::from)))
     }
 
     /// One attempt on `plan.subdivided(subdivision)`, run by a backend of
