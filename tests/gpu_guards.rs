@@ -16,65 +16,15 @@ mod common;
 
 use common::exact::f64_identical;
 use common::gpu::adapter_or_skip;
-use hyperpbd::builders::BlockSpec;
+use common::guarded::{bits, orientation, rejection};
 use hyperpbd::gpu::{GpuBackend, Precision};
 use hyperpbd::{
-    Adaptive, Backend, BackendError, CpuBackend, GuardKind, GuardRejection, Guards, Kernel, Plan,
-    Scene, SceneBuilder, State, StepError, StepReport,
+    Backend, CpuBackend, GuardKind, GuardRejection, Guards, Kernel, Plan, Scene, State, StepReport,
 };
 
+/// The block of `common::guarded` in R^dim, every guard in `guards`.
 fn block(dim: usize, speed: f64, guards: Guards, adaptive: Option<u32>) -> Scene {
-    let mut b = SceneBuilder::new(dim)
-        .dt(1.0 / 30.0)
-        .substeps(1)
-        .iterations(10)
-        .gravity_along(1, -9.81);
-    let mut origin = vec![0.0; dim];
-    origin[1] = 0.2;
-    b.soft_block(&BlockSpec {
-        cells: vec![3; dim],
-        origin,
-        spacing: 0.1,
-        mass: 0.1,
-        compliance: 1e-7,
-        edge_compliance: Some(1e-6),
-    });
-    let mut up = vec![0.0; dim];
-    up[1] = 1.0;
-    b.hyperplane(up, 0.0, 0.0);
-    let mut scene = b.build().expect("valid block");
-    for p in &mut scene.particles {
-        let mut v = vec![0.0; dim];
-        v[1] = -speed;
-        p.velocity = Some(v);
-    }
-    scene.guards = Some(guards);
-    scene.adaptive = adaptive.map(|k| Adaptive {
-        max_subdivisions: k,
-    });
-    scene.validate().expect("valid guarded block");
-    scene
-}
-
-fn orientation() -> Guards {
-    Guards {
-        orientation: true,
-        ..Guards::default()
-    }
-}
-
-fn bits(state: &State) -> (Vec<u64>, Vec<u64>) {
-    (
-        state.positions.iter().map(|x| x.to_bits()).collect(),
-        state.velocities.iter().map(|x| x.to_bits()).collect(),
-    )
-}
-
-fn rejection(result: Result<StepReport, BackendError>) -> GuardRejection {
-    match result {
-        Err(BackendError::Step(StepError::GuardRejected(r))) => r,
-        other => panic!("expected a guard rejection, got {other:?}"),
-    }
+    common::guarded::dropped_block(dim, speed, Some(guards), adaptive)
 }
 
 /// The CPU and the GPU (`precision`) on `scene`; `None` when skipped.

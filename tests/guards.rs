@@ -12,45 +12,17 @@
 //! `adaptive` the step is retried with 2, 4, 8 substeps and accepted at 8,
 //! bit for bit the step a plain 8-substep scene takes.
 
-use hyperpbd::builders::BlockSpec;
+mod common;
+
+use common::guarded::{bits, orientation, rejection};
 use hyperpbd::{
-    Adaptive, Backend, BackendError, CpuBackend, GuardKind, GuardRejection, GuardSubject, Guards,
-    Plan, Scene, SceneBuilder, State, StepError,
+    Backend, BackendError, CpuBackend, GuardKind, GuardSubject, Guards, Plan, Scene, State,
+    StepError,
 };
 
-/// The soft block falling at `speed` onto y = 0 (bottom at 0.2 m).
+/// The 2D block of `common::guarded` falling at `speed` onto y = 0.
 fn dropped_block(speed: f64, guards: Option<Guards>, adaptive: Option<u32>) -> Scene {
-    let mut b = SceneBuilder::new(2)
-        .dt(1.0 / 30.0)
-        .substeps(1)
-        .iterations(10)
-        .gravity_along(1, -9.81);
-    b.soft_block(&BlockSpec {
-        cells: vec![3, 3],
-        origin: vec![0.0, 0.2],
-        spacing: 0.1,
-        mass: 0.1,
-        compliance: 1e-7,
-        edge_compliance: Some(1e-6),
-    });
-    b.hyperplane(vec![0.0, 1.0], 0.0, 0.0);
-    let mut scene = b.build().expect("valid block");
-    for p in &mut scene.particles {
-        p.velocity = Some(vec![0.0, -speed]);
-    }
-    scene.guards = guards;
-    scene.adaptive = adaptive.map(|k| Adaptive {
-        max_subdivisions: k,
-    });
-    scene.validate().expect("valid guarded block");
-    scene
-}
-
-fn orientation() -> Guards {
-    Guards {
-        orientation: true,
-        ..Guards::default()
-    }
+    common::guarded::dropped_block(2, speed, guards, adaptive)
 }
 
 fn cpu(scene: &Scene) -> CpuBackend {
@@ -65,20 +37,6 @@ fn smallest_ratio(scene: &Scene, state: &State) -> f64 {
     (0..fam.len())
         .map(|slot| hyperpbd::guards::element_ratio_at(&plan, 0, slot, &state.positions))
         .fold(f64::INFINITY, f64::min)
-}
-
-fn bits(state: &State) -> (Vec<u64>, Vec<u64>) {
-    (
-        state.positions.iter().map(|x| x.to_bits()).collect(),
-        state.velocities.iter().map(|x| x.to_bits()).collect(),
-    )
-}
-
-fn rejection(result: Result<hyperpbd::StepReport, BackendError>) -> GuardRejection {
-    match result {
-        Err(BackendError::Step(StepError::GuardRejected(r))) => r,
-        other => panic!("expected a guard rejection, got {other:?}"),
-    }
 }
 
 #[test]
@@ -291,7 +249,10 @@ fn bad_guard_and_adaptive_keys_are_named() {
             r#", "guards": {"max_speed": -1}"#,
             "guards.max_speed: must be in (0, inf), got -1",
         ),
-        (r#", "guards": {"speed": 1}"#, "guards.speed"),
+        (
+            r#", "guards": {"speed": 1}"#,
+            "guards.speed: unknown field `speed`, expected one of `orientation`, `min_measure_ratio`, `max_speed` at line 1 column 89",
+        ),
         (
             r#", "guards": {"orientation": true}, "adaptive": {"max_subdivisions": 0}"#,
             "adaptive.max_subdivisions: must be in 1 ..= 16, got 0",
@@ -306,17 +267,47 @@ fn bad_guard_and_adaptive_keys_are_named() {
         ),
         (
             r#", "adaptive": {"max_subdivisions": 2}"#,
-            "adaptive: needs \"guards\"",
+            "adaptive: needs \"guards\": only a guard rejection is retried",
         ),
         (
             r#", "guards": {"max_speed": 1}, "solver": {"type": "incremental_potential", "barrier_stiffness": 1, "activation_distance": 0.1, "convergence": {"kind": "packed_gradient", "tolerance": 1e-9}, "max_iterations": 20}"#,
-            "guards: not supported by the incremental_potential solver",
+            "guards: not supported by the incremental_potential solver: guards check XPBD substeps (the barrier path keeps feasibility with its step filter)",
         ),
     ];
+    let docs = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/errors.md"),
+    )
+    .unwrap_or_default();
     for (tail, expected) in cases {
         let message = scene_error(tail);
         println!("{message}");
-        assert!(message.starts_with(expected), "{tail}: {message}");
+        assert_eq!(message, expected, "{tail}");
+        assert!(
+            docs.contains(&message),
+            "docs/errors.md does not quote: {message}"
+        );
+    }
+}
+
+#[test]
+fn docs_errors_md_quotes_the_step_rejections() {
+    let docs = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/errors.md"),
+    )
+    .unwrap_or_default();
+    let speed = Guards {
+        max_speed: Some(30.0),
+        ..Guards::default()
+    };
+    for scene in [
+        dropped_block(40.0, Some(orientation()), None),
+        falling_block(Some(speed), None),
+    ] {
+        let message = cpu(&scene).step().expect_err("rejected").to_string();
+        assert!(
+            docs.contains(&message),
+            "docs/errors.md does not quote: {message}"
+        );
     }
 }
 

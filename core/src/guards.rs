@@ -185,72 +185,63 @@ pub fn measure_violation(
     x: &[f64],
 ) -> Option<(usize, GuardKind, f64, f64)> {
     let guards = plan.guards.as_ref()?;
-    let fam = plan.families.get(family)?;
-    let rest = rest_measures(fam)?;
-    let dim = plan.dim;
-    let mut points = vec![0.0; fam.arity * dim];
-    let mut grad = vec![0.0; fam.arity * dim];
-    let mut scratch = Scratch::new();
-    (0..fam.len()).find_map(|slot| {
-        let j = element_ratio(
-            plan,
-            fam,
-            rest,
-            slot,
-            x,
-            &mut points,
-            &mut grad,
-            &mut scratch,
-        );
+    let mut ratios = ElementRatios::new(plan, family)?;
+    (0..ratios.family.len()).find_map(|slot| {
+        let j = ratios.ratio(slot, x);
         element_verdict(guards, j).map(|(kind, limit)| (slot, kind, j, limit))
     })
 }
 
-/// J of element `slot` at positions `x`.
-#[allow(clippy::too_many_arguments)]
-fn element_ratio(
-    plan: &Plan,
-    fam: &Family,
-    rest: &[f64],
-    slot: usize,
-    x: &[f64],
-    points: &mut [f64],
-    grad: &mut [f64],
-    scratch: &mut Scratch,
-) -> f64 {
-    let dim = plan.dim;
-    let element = &fam.elements[slot * fam.arity..(slot + 1) * fam.arity];
-    for (j, &i) in element.iter().enumerate() {
-        let i = i as usize;
-        points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
-    }
-    let measure = constraint_value(ConstraintKind::OrientedMeasure, points, dim, grad, scratch);
-    measure / rest[slot]
+/// J of element `slot` (compiled order) of family `family` at positions
+/// `x` (NaN for a family without a rest shape or a slot past its end).
+pub fn element_ratio_at(plan: &Plan, family: usize, slot: usize, x: &[f64]) -> f64 {
+    ElementRatios::new(plan, family)
+        .filter(|r| slot < r.family.len())
+        .map_or(f64::NAN, |mut r| r.ratio(slot, x))
 }
 
-/// J of element `slot` (compiled order) of family `family` at positions
-/// `x` (NaN for a family without a rest shape).
-pub fn element_ratio_at(plan: &Plan, family: usize, slot: usize, x: &[f64]) -> f64 {
-    let Some((fam, rest)) = plan
-        .families
-        .get(family)
-        .and_then(|f| Some((f, rest_measures(f)?)))
-        .filter(|(f, _)| slot < f.len())
-    else {
-        return f64::NAN;
-    };
-    let (dim, arity) = (plan.dim, fam.arity);
-    let (mut points, mut grad) = (vec![0.0; arity * dim], vec![0.0; arity * dim]);
-    element_ratio(
-        plan,
-        fam,
-        rest,
-        slot,
-        x,
-        &mut points,
-        &mut grad,
-        &mut Scratch::new(),
-    )
+/// J of the elements of one family with a rest shape, with the scratch
+/// of the measure.
+struct ElementRatios<'a> {
+    dim: usize,
+    family: &'a Family,
+    rest: &'a [f64],
+    points: Vec<f64>,
+    grad: Vec<f64>,
+    scratch: Scratch,
+}
+
+impl<'a> ElementRatios<'a> {
+    fn new(plan: &'a Plan, family: usize) -> Option<Self> {
+        let fam = plan.families.get(family)?;
+        let values = fam.arity * plan.dim;
+        Some(ElementRatios {
+            dim: plan.dim,
+            family: fam,
+            rest: rest_measures(fam)?,
+            points: vec![0.0; values],
+            grad: vec![0.0; values],
+            scratch: Scratch::new(),
+        })
+    }
+
+    /// J = V(x_e) / V_rest of element `slot` at positions `x`.
+    fn ratio(&mut self, slot: usize, x: &[f64]) -> f64 {
+        let (dim, arity) = (self.dim, self.family.arity);
+        let element = &self.family.elements[slot * arity..(slot + 1) * arity];
+        for (j, &i) in element.iter().enumerate() {
+            let i = i as usize;
+            self.points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
+        }
+        let measure = constraint_value(
+            ConstraintKind::OrientedMeasure,
+            &self.points,
+            dim,
+            &mut self.grad,
+            &mut self.scratch,
+        );
+        measure / self.rest[slot]
+    }
 }
 
 /// The guard an element of ratio `j` breaks (orientation first), with its
