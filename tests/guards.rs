@@ -353,3 +353,28 @@ fn run_prints_a_line_per_retried_frame() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn guards_that_never_reject_change_no_bit() {
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/tesseract.json"),
+    )
+    .expect("scenes/tesseract.json");
+    let plain = Scene::from_json_str(&text).expect("tesseract");
+    let mut guarded = plain.clone();
+    guarded.guards = Some(Guards {
+        orientation: true,
+        min_measure_ratio: Some(0.05),
+        max_speed: Some(100.0),
+    });
+    let (mut a, mut b) = (cpu(&plain), cpu(&guarded));
+    for _ in 0..20 {
+        let report = b.step().expect("never rejected");
+        assert_eq!(report.retries(), 0);
+        a.step().expect("plain");
+    }
+    assert_eq!(
+        bits(&a.read_state().unwrap()),
+        bits(&b.read_state().unwrap())
+    );
+}

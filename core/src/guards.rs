@@ -22,8 +22,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::{Scratch, constraint_value};
-use crate::{ConstraintKind, Family, FamilyKind, Plan};
+use crate::geometry::{Scratch, oriented_volume};
+use crate::{Family, FamilyKind, Plan};
 
 /// The `guards` key of a scene: which checks every completed substep
 /// must pass (each optional).
@@ -201,13 +201,13 @@ pub fn element_ratio_at(plan: &Plan, family: usize, slot: usize, x: &[f64]) -> f
 }
 
 /// J of the elements of one family with a rest shape, with the scratch
-/// of the measure.
+/// of the measure (the value alone: bit for bit the measure the
+/// projection and the GPU's guard kernel compute).
 struct ElementRatios<'a> {
     dim: usize,
     family: &'a Family,
     rest: &'a [f64],
     points: Vec<f64>,
-    grad: Vec<f64>,
     scratch: Scratch,
 }
 
@@ -220,7 +220,6 @@ impl<'a> ElementRatios<'a> {
             family: fam,
             rest: rest_measures(fam)?,
             points: vec![0.0; values],
-            grad: vec![0.0; values],
             scratch: Scratch::new(),
         })
     }
@@ -233,14 +232,7 @@ impl<'a> ElementRatios<'a> {
             let i = i as usize;
             self.points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
         }
-        let measure = constraint_value(
-            ConstraintKind::OrientedMeasure,
-            &self.points,
-            dim,
-            &mut self.grad,
-            &mut self.scratch,
-        );
-        measure / self.rest[slot]
+        oriented_volume(&self.points, dim, &mut self.scratch) / self.rest[slot]
     }
 }
 
