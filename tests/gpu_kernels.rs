@@ -379,6 +379,9 @@ fn kernel_bounds(
         Kernel::Minimise => {
             unreachable!("XPBD scenes only; the barrier path has tests/gpu_barrier.rs")
         }
+        Kernel::GuardMeasure { .. } | Kernel::GuardSpeed => {
+            unreachable!("these cases have no guards (tests/gpu_guards.rs has them)")
+        }
     }
 }
 

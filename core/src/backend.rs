@@ -36,9 +36,18 @@ pub struct StepReport {
     /// CPU threads the step ran on (the CPU backend's thread count; 0 for
     /// a GPU backend, whose kernels run on the device).
     pub threads: usize,
+    /// Every attempt of the step in order, the accepted one last: one
+    /// attempt, or more when `adaptive` retried guard rejections
+    /// (`adaptive.rs`).
+    pub attempts: Vec<crate::Attempt>,
 }
 
 impl StepReport {
+    /// Attempts a guard rejected before the accepted one.
+    pub fn retries(&self) -> usize {
+        self.attempts.len().saturating_sub(1)
+    }
+
     /// Largest violation over all families (0 with no families).
     pub fn max_violation(&self) -> f64 {
         self.residuals

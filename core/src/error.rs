@@ -152,6 +152,16 @@ pub enum SceneError {
         expected: usize,
         found: usize,
     },
+    /// A value outside its admissible interval.
+    #[error("{path}: must be in {range}, got {value}")]
+    OutOfRange {
+        path: String,
+        value: f64,
+        range: &'static str,
+    },
+    /// A setting that makes no sense with the rest of the scene.
+    #[error("{path}: {why}")]
+    Inconsistent { path: String, why: String },
     /// A free particle that starts at d <= 0 from a barrier obstacle.
     #[error(
         "{path}: starts at distance {distance:e} <= 0 from obstacles[{obstacle}]; the barrier path needs every free particle strictly outside every obstacle"
@@ -181,6 +191,8 @@ pub enum StageName {
     Broadphase,
     /// Incremental-potential minimisation (barrier path).
     Minimise,
+    /// Read-only guards at the end of a substep.
+    Guard,
 }
 
 impl StageName {
@@ -194,6 +206,7 @@ impl StageName {
             StageName::Damping => "damping",
             StageName::Broadphase => "broadphase",
             StageName::Minimise => "minimise",
+            StageName::Guard => "guard",
         }
     }
 }
@@ -257,6 +270,9 @@ pub enum StepError {
         /// The full report (criterion, residuals, iterations).
         report: Box<crate::MinimisationReport>,
     },
+    /// A guard rejected a completed substep (`guards` in the scene).
+    #[error("step rejected: {0}; state rolled back")]
+    GuardRejected(crate::GuardRejection),
 }
 
 impl StepError {

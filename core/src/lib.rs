@@ -7,6 +7,7 @@
 //! ```
 //! Nothing here knows about wgpu.
 
+pub mod adaptive;
 mod backend;
 pub mod barrier;
 pub mod broadphase;
@@ -14,6 +15,7 @@ pub mod builders;
 mod coloring;
 mod error;
 pub mod geometry;
+pub mod guards;
 pub mod implicit;
 mod json;
 pub mod material;
@@ -25,6 +27,7 @@ mod scene;
 mod solver;
 mod state;
 mod validate;
+mod validate_guards;
 mod validate_material;
 mod validate_solver;
 
@@ -33,6 +36,7 @@ pub use builders::SceneBuilder;
 pub use coloring::greedy_colors;
 pub use error::{BackendError, GpuError, SceneError, StageName, StepError};
 pub use geometry::DEGENERATE_VOLUME_RATIO;
+pub use guards::{Adaptive, Attempt, GuardKind, GuardRejection, GuardSubject, Guards};
 pub use material_plan::FamilyMass;
 pub use minimisation::{MinimisationReport, MinimisationStatus, Refusal};
 pub use plan::{Family, FamilyKind, Kernel, ParticleContacts, Plan, PredictTerms, SolverPlan};

@@ -12,6 +12,7 @@
 //!    iteration; see hyperpbd-cpu's collide.rs)
 //!   Friction(family)             per hyperplane with μ > 0
 //!   Damping                      v *= exp(−rate h), if rate > 0
+//!   GuardMeasure(family), GuardSpeed   read-only checks (with `guards`)
 //! }
 //! ```
 //! Constraint families are projected in authored order, then each
@@ -23,6 +24,7 @@
 use crate::barrier::IncrementalPotentialPlan;
 use crate::coloring::greedy_colors;
 use crate::geometry::{Scratch, constraint_value, unit_vector};
+use crate::guards::{Adaptive, Guards, guarded_families};
 use crate::material::{Law, Material, RestView};
 use crate::material_plan::{self, FamilyMass};
 use crate::{ConstraintKind, Obstacle, Scene, SceneError, Solver, StageName};
@@ -192,6 +194,13 @@ pub enum Kernel {
     /// One incremental-potential minimisation (barrier path): the whole
     /// substep, x~ = x + h v, Newton under the filter, v = (x − x_prev)/h.
     Minimise,
+    /// Orientation / measure-ratio guards over one family (read-only).
+    GuardMeasure {
+        /// Family index in [`Plan::families`].
+        family: usize,
+    },
+    /// Speed guard over the dynamic particles (read-only).
+    GuardSpeed,
 }
 
 impl Kernel {
@@ -206,6 +215,7 @@ impl Kernel {
             Kernel::Broadphase => StageName::Broadphase,
             Kernel::Collide => StageName::Project,
             Kernel::Minimise => StageName::Minimise,
+            Kernel::GuardMeasure { .. } | Kernel::GuardSpeed => StageName::Guard,
         }
     }
 }
@@ -262,6 +272,10 @@ pub struct Plan {
     pub substep_kernels: Vec<Kernel>,
     /// Which solver the substeps run, with that solver's own data.
     pub solver: SolverPlan,
+    /// The checks of every completed substep, when the scene has `guards`.
+    pub guards: Option<Guards>,
+    /// The retry policy of a guard-rejected step.
+    pub adaptive: Option<Adaptive>,
 }
 
 /// The solver a plan's substeps run: one variant per solver path.
@@ -460,6 +474,14 @@ impl Plan {
                 substep_kernels.push(Kernel::Damping);
             }
         }
+        if any_dynamic && let Some(guards) = &scene.guards {
+            for family in guarded_families(&families, guards) {
+                substep_kernels.push(Kernel::GuardMeasure { family });
+            }
+            if guards.max_speed.is_some() {
+                substep_kernels.push(Kernel::GuardSpeed);
+            }
+        }
         let mut stages: Vec<StageName> = Vec::new();
         for k in &substep_kernels {
             if stages.last() != Some(&k.stage()) {
@@ -485,7 +507,23 @@ impl Plan {
             stages,
             substep_kernels,
             solver,
+            guards: scene.guards.clone(),
+            adaptive: scene.adaptive,
         })
+    }
+
+    /// This plan with 2^`subdivision` times the substeps over the same dt
+    /// (an adaptive retry): h and the damping factor follow as
+    /// [`Plan::compile`] computes them; nothing else depends on h.
+    pub fn subdivided(&self, subdivision: u32) -> Plan {
+        let substeps = self.substeps << subdivision;
+        let h = self.dt / f64::from(substeps);
+        Plan {
+            substeps,
+            h,
+            damping: self.damping.map(|(rate, _)| (rate, libm::exp(-rate * h))),
+            ..self.clone()
+        }
     }
 
     /// Number of particles.

@@ -8,6 +8,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::Solver;
+use crate::guards::{Adaptive, Guards};
 
 /// Largest dimension a scene may have (`Scene::validate` refuses more).
 /// Far beyond any practical scene; it keeps the per-dimension allocations
@@ -51,6 +52,12 @@ pub struct Scene {
     /// Solver path; XPBD when omitted.
     #[serde(default, skip_serializing_if = "Solver::is_xpbd")]
     pub solver: Solver,
+    /// Read-only checks of every completed substep (`guards.rs`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub guards: Option<Guards>,
+    /// Retry a guard-rejected step with more substeps (`adaptive.rs`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adaptive: Option<Adaptive>,
 }
 
 fn one() -> u32 {
@@ -410,6 +417,8 @@ impl Scene {
             damping: None,
             collisions: None,
             solver: Solver::Xpbd,
+            guards: None,
+            adaptive: None,
         }
     }
 

@@ -80,6 +80,7 @@ impl Scene {
         self.validate_constraints()?;
         self.validate_obstacles()?;
         self.validate_solver()?;
+        self.validate_guards()?;
         if let Some(d) = &self.damping {
             non_negative(|| "damping.rate".into(), d.rate)?;
         }

@@ -9,6 +9,8 @@
 //! kernels run in the plan's order, each split over the cores where its
 //! items are independent, with the same bytes for any thread count.
 
+use hyperpbd_core::adaptive::{Subdivided, step_adaptive};
+use hyperpbd_core::guards;
 use hyperpbd_core::{
     Backend, BackendError, FamilyResidual, Kernel, MinimisationReport, Plan, StageName, State,
     StepError, StepReport, check_forces, check_kernel, check_state,
@@ -67,6 +69,9 @@ pub struct CpuBackend {
     /// does a step move to the pool (a hand-over costs microseconds, more
     /// than a small scene's whole step).
     on_pool: bool,
+    /// `plan.subdivided(j)` for j = 1, 2, … (adaptive retries), made on
+    /// first use.
+    subdivided: Vec<Plan>,
 }
 
 impl CpuBackend {
@@ -108,6 +113,7 @@ impl CpuBackend {
             workers: Workers::new(threads)?,
             on_pool: false,
             fused_tail: None,
+            subdivided: Vec::new(),
         }
         .with_pool_choice())
     }
@@ -279,6 +285,15 @@ impl CpuBackend {
                 self.minimisation.push(report);
                 refused.map_or(Ok(()), |e| Err(e.into()))
             }
+            Kernel::GuardMeasure { family } => guards::measure_violation(plan, family, &self.x)
+                .map_or(Ok(()), |found| {
+                    let rejection = guards::measure_rejection(plan, family, found, self.substep);
+                    Err(StepError::GuardRejected(rejection).into())
+                }),
+            Kernel::GuardSpeed => guards::speed_violation(plan, &self.v).map_or(Ok(()), |found| {
+                let rejection = guards::speed_rejection(found, self.substep);
+                Err(StepError::GuardRejected(rejection).into())
+            }),
         }
     }
 
@@ -306,6 +321,7 @@ impl CpuBackend {
                 .sum::<usize>()
                 + self.contacts.active_count(),
             minimisation: std::mem::take(&mut self.minimisation),
+            attempts: Vec::new(),
         }
     }
 }
@@ -320,11 +336,7 @@ impl Backend for CpuBackend {
     }
 
     fn step(&mut self) -> Result<StepReport, BackendError> {
-        if !self.on_pool {
-            return self.step_on_workers();
-        }
-        let workers = self.workers.clone();
-        workers.install(|| self.step_on_workers())
+        step_adaptive(self.plan.substeps, self.plan.adaptive, self)
     }
 
     fn read_state(&mut self) -> Result<State, BackendError> {
@@ -363,7 +375,34 @@ impl Backend for CpuBackend {
     }
 }
 
+impl Subdivided for CpuBackend {
+    /// The step on `plan.subdivided(subdivision)` (the plan itself for 0).
+    fn attempt(&mut self, subdivision: u32) -> Result<StepReport, BackendError> {
+        if subdivision == 0 {
+            return self.step_on_pool();
+        }
+        let j = subdivision as usize;
+        while self.subdivided.len() < j {
+            let next = self.plan.subdivided(self.subdivided.len() as u32 + 1);
+            self.subdivided.push(next);
+        }
+        std::mem::swap(&mut self.plan, &mut self.subdivided[j - 1]);
+        let result = self.step_on_pool();
+        std::mem::swap(&mut self.plan, &mut self.subdivided[j - 1]);
+        result
+    }
+}
+
 impl CpuBackend {
+    /// One attempt of the step on the pool (when the plan splits).
+    fn step_on_pool(&mut self) -> Result<StepReport, BackendError> {
+        if !self.on_pool {
+            return self.step_on_workers();
+        }
+        let workers = self.workers.clone();
+        workers.install(|| self.step_on_workers())
+    }
+
     /// The step's schedule (on the pool's thread when there is a pool).
     fn step_on_workers(&mut self) -> Result<StepReport, BackendError> {
         let workers = &self.workers;

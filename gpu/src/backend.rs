@@ -15,6 +15,7 @@
 //! algorithm of the CPU golden path, kernel for kernel, in the same order
 //! per particle and per colour.
 
+use hyperpbd_core::adaptive::step_adaptive;
 use hyperpbd_core::{
     Backend, BackendError, FamilyKind, GpuError, Kernel, Plan, StageName, State, StepError,
     StepReport, check_forces, check_kernel, check_state,
@@ -24,13 +25,14 @@ use crate::context::GpuContext;
 use crate::kernel_set::{KernelSet, KernelSetSpec, ParamBlocks};
 use crate::layout::VectorLayout;
 use crate::origin::SceneOrigin;
-use crate::params::{push_reals, read_reals, real_size};
+use crate::params::{push_reals, real_size};
 use crate::resident::ResidentState;
 use crate::shader::ShaderFile;
 use crate::xpbd::schedule::{Dispatch, Schedule, StepMode};
 use crate::xpbd::{BINDINGS, Families, NONE, Placed, XpbdEntry};
 use crate::{AdapterSummary, Precision};
 
+mod attempt;
 mod contact_step;
 pub(crate) mod status;
 use contact_step::ContactStage;
@@ -77,6 +79,8 @@ pub struct GpuBackend {
     alone: Vec<Placed>,
     /// Broadphase and contact kernels, when the plan has collisions.
     contacts: Option<ContactStage>,
+    /// Backends of `plan.subdivided(j)`, j = 1, 2, … (adaptive; attempt.rs).
+    subdivided: Vec<GpuBackend>,
 }
 
 impl GpuBackend {
@@ -198,7 +202,7 @@ impl GpuBackend {
             && !crate::xpbd::schedule::small_supported(&schedule.calls[..schedule.step_calls])
         {
             return Err(BackendError::InvalidCall(
-                "step mode small: the plan has measure families (they run one dispatch per colour)"
+                "step mode small: the plan has measure families or guards (they run one dispatch per call or colour)"
                     .into(),
             ));
         }
@@ -345,6 +349,7 @@ impl GpuBackend {
             fast,
             alone,
             contacts,
+            subdivided: Vec::new(),
         })
     }
 
@@ -475,14 +480,14 @@ impl GpuBackend {
         encoder
     }
 
-    /// The failure of the step that just failed in a shared dispatch,
-    /// named as the CPU names it: from the saved state, the step again
-    /// one call per dispatch. Leaves the state rolled back.
     /// The error of a step whose status names `failed` (call, index), with
     /// the state rolled back. The fused schedule finds the failing call by
     /// rerunning the step exactly; a rollback or rerun that fails keeps the
     /// step's error as its source.
     fn diagnosed_error(&mut self, failed: (u32, u32)) -> BackendError {
+        if let Some(rejected) = self.guard_error(failed) {
+            return rejected;
+        }
         let diagnosed = if self.schedule.mode == StepMode::Fused {
             self.diagnose(failed)
         } else {
@@ -541,7 +546,10 @@ impl GpuBackend {
         self.submit_and_wait(encoder)?;
         let block = self.read_mapped(&self.buffers.report_staging, 16)?;
         match self.failure(&block) {
-            Some((call, index)) => Err(self.step_error(call, index)),
+            Some(failed) => Err(match self.guard_rejection(failed) {
+                Some(found) => found.unwrap_or_else(BackendError::from),
+                None => self.step_error(failed.0, failed.1),
+            }),
             None => Ok(()),
         }
     }
@@ -564,31 +572,7 @@ impl Backend for GpuBackend {
     }
 
     fn step(&mut self) -> Result<StepReport, BackendError> {
-        if self.contacts.is_some() {
-            return self.step_with_contacts();
-        }
-        self.reset_status();
-        let mut encoder = self.record(|e| self.state.save(e), &self.fast, 1, true);
-        let snapshot = self.state.record_snapshot(&mut encoder);
-        let index = self.ctx.submit(encoder)?;
-        if let Some(slot) = snapshot {
-            self.state.map_snapshot(slot);
-        }
-        self.ctx.wait(index)?;
-        let block =
-            self.read_mapped(&self.buffers.report_staging, 16 + self.buffers.report_bytes)?;
-        self.refuse_cut_loops(&block)?;
-        if let Some(failed) = self.failure(&block) {
-            return Err(self.diagnosed_error(failed));
-        }
-        let report = read_reals(&block[16..], self.precision);
-        let (residuals, active_contacts) = crate::xpbd::read_report(&self.plan, &report);
-        Ok(StepReport {
-            kernel_calls: self.plan.kernel_counts(),
-            residuals,
-            active_contacts,
-            ..StepReport::default()
-        })
+        step_adaptive(self.plan.substeps, self.plan.adaptive, self)
     }
 
     fn read_state(&mut self) -> Result<State, BackendError> {

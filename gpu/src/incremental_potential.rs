@@ -18,6 +18,7 @@
 //! ```
 //! The residual's sqrt (packed criterion) is taken on the host in f64.
 
+use hyperpbd_core::adaptive::{Subdivided, step_adaptive};
 use hyperpbd_core::barrier::IncrementalPotentialPlan;
 use hyperpbd_core::{
     Backend, BackendError, Convergence, GpuError, Kernel, MinimisationReport, MinimisationStatus,
@@ -488,16 +489,15 @@ impl GpuBarrierBackend {
     }
 }
 
-impl Backend for GpuBarrierBackend {
-    fn name(&self) -> String {
-        format!("gpu-{}", self.precision)
-    }
-
-    fn plan(&self) -> &Plan {
-        &self.plan
-    }
-
-    fn step(&mut self) -> Result<StepReport, BackendError> {
+/// The barrier path runs no guards (validation refuses them there), so
+/// its one attempt is the step itself.
+impl Subdivided for GpuBarrierBackend {
+    fn attempt(&mut self, subdivision: u32) -> Result<StepReport, BackendError> {
+        if subdivision > 0 {
+            return Err(BackendError::InvalidCall(
+                "the incremental-potential path has no adaptive steps".into(),
+            ));
+        }
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         self.state.save(&mut encoder);
         self.ctx.submit_and_wait(encoder)?;
@@ -518,6 +518,20 @@ impl Backend for GpuBarrierBackend {
             minimisation: std::mem::take(&mut self.reports),
             ..StepReport::default()
         })
+    }
+}
+
+impl Backend for GpuBarrierBackend {
+    fn name(&self) -> String {
+        format!("gpu-{}", self.precision)
+    }
+
+    fn plan(&self) -> &Plan {
+        &self.plan
+    }
+
+    fn step(&mut self) -> Result<StepReport, BackendError> {
+        step_adaptive(self.plan.substeps, self.plan.adaptive, self)
     }
 
     fn read_state(&mut self) -> Result<State, BackendError> {

@@ -24,6 +24,7 @@ const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
 const PROJECT: &str = include_str!("../../shaders/project.wgsl");
 const FRICTION: &str = include_str!("../../shaders/friction.wgsl");
 const RESIDUAL: &str = include_str!("../../shaders/residual.wgsl");
+const GUARD: &str = include_str!("../../shaders/guard.wgsl");
 const CONTACT: &str = include_str!("../../shaders/contact.wgsl");
 const SCAN: &str = include_str!("../../shaders/scan.wgsl");
 const GRID: &str = include_str!("../../shaders/grid.wgsl");
@@ -40,7 +41,8 @@ pub enum ShaderFile {
     /// runners) composed with the kernels' own files — `integrate.wgsl`
     /// (predict, velocity, damping), `project.wgsl` (every constraint kind),
     /// `friction.wgsl` (dynamic Coulomb friction), `residual.wgsl`
-    /// (constraint violation and its reduction) — after `measure.wgsl`.
+    /// (constraint violation and its reduction), `guard.wgsl` (the
+    /// read-only guards) — after `measure.wgsl`.
     Step,
     /// `scan.wgsl` (after `contact.wgsl`): exclusive prefix sum of the
     /// broadphase's hash-bucket counters.
@@ -94,6 +96,7 @@ impl ShaderFile {
                 "project_oriented_measure",
                 "residual",
                 "reduce",
+                "guard",
             ],
             ShaderFile::Scan => &["scan_reduce", "scan_top", "scan_apply"],
             ShaderFile::Grid => &[
@@ -139,7 +142,7 @@ impl ShaderFile {
     fn body(self) -> &'static [&'static str] {
         match self {
             ShaderFile::Step => &[
-                PRELUDE, MEASURE, STEP, INTEGRATE, PROJECT, FRICTION, RESIDUAL,
+                PRELUDE, MEASURE, STEP, INTEGRATE, PROJECT, FRICTION, RESIDUAL, GUARD,
             ],
             ShaderFile::Scan => &[PRELUDE, CONTACT, SCAN],
             ShaderFile::Grid => &[PRELUDE, CONTACT, GRID],

@@ -7,6 +7,7 @@
 //! family i LABEL KIND        elements, compliance, colours [sizes], friction
 //! incremental potential      κ, d^, criterion ≤ tolerance, budget, obstacles
 //! damping, particle contacts when the plan has them
+//! guards, adaptive           when the scene has them
 //! kernel calls per step      per stage;  constraint projections per step
 //! ```
 
@@ -100,6 +101,28 @@ pub fn describe(plan: &Plan) -> String {
             "particle contacts: friction {}, margin {}, sort-and-sweep + gather-Jacobi",
             c.friction, c.margin
         );
+    }
+    if let Some(g) = &plan.guards {
+        let mut checks = Vec::new();
+        if g.orientation {
+            checks.push("orientation".to_string());
+        }
+        if let Some(r) = g.min_measure_ratio {
+            checks.push(format!("min_measure_ratio {r}"));
+        }
+        if let Some(v) = g.max_speed {
+            checks.push(format!("max_speed {v}"));
+        }
+        let _ = write!(s, "guards: {} after every substep", checks.join(", "));
+        if let Some(a) = plan.adaptive {
+            let k = a.max_subdivisions;
+            let _ = write!(
+                s,
+                "; adaptive: a rejected step retried with up to {} substeps (2^{k} times)",
+                u64::from(plan.substeps) << k
+            );
+        }
+        s.push('\n');
     }
     let counts: Vec<String> = plan
         .kernel_counts()

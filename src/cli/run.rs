@@ -98,7 +98,8 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             .map_err(|e| cannot_write(file.path(), e))?;
     }
     let start = Instant::now();
-    let last = simulate(backend.as_mut(), args.frames, |frame, b, _| {
+    let last = simulate(backend.as_mut(), args.frames, |frame, b, report| {
+        print_retries(frame, report);
         if let Some(file) = &mut trajectory
             && frame % args.every == 0
         {
@@ -132,6 +133,28 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     }
     println!("state hash {:016x}", state.hash());
     Ok(())
+}
+
+/// One line for a frame that `adaptive` retried: every rejected attempt
+/// and the substeps of the accepted one.
+fn print_retries(frame: u64, report: &StepReport) {
+    if report.retries() == 0 {
+        return;
+    }
+    let rejected: Vec<String> = report
+        .attempts
+        .iter()
+        .filter_map(|a| {
+            let r = a.rejection.as_ref()?;
+            Some(format!("{} substeps: {r}", a.substeps))
+        })
+        .collect();
+    let accepted = report.attempts.last().map_or(0, |a| a.substeps);
+    println!(
+        "frame {frame}: retried, accepted with {accepted} substeps after {} rejected attempts ({})",
+        rejected.len(),
+        rejected.join("; ")
+    );
 }
 
 fn print_report(report: &StepReport) {

@@ -8,6 +8,7 @@ pub mod boxes;
 pub mod differential;
 pub mod exact;
 pub mod gpu;
+pub mod guarded;
 
 /// A deterministic pseudo-random number generator (64-bit LCG), so test
 /// scenes are jittered the same way on every run.

@@ -21,7 +21,7 @@ pub use closest_point::{ClosestPoint, MAX_SIMPLEX_ORDER, closest_point_on_simple
 pub use distance::distance;
 pub(crate) use edges::{edge_matrix, gram, scatter_edge_gradient};
 pub use linalg::{adjugate, determinant, unit_vector};
-pub use oriented_measure::oriented_measure;
+pub use oriented_measure::{oriented_measure, oriented_volume};
 pub use overlap::deepest_overlap;
 pub use simplex_measure::simplex_squared_measure;
 pub use symmetric_eigen::{MAX_SWEEPS, SymmetricEigen, symmetric_eigen};

@@ -33,6 +33,17 @@ pub fn oriented_measure(
     measure
 }
 
+/// V alone: the value [`oriented_measure`] returns, bit for bit (the same
+/// determinant of the same edge matrix), without the gradient's adjugate.
+pub fn oriented_volume(points: &[f64], dim: usize, scratch: &mut Scratch) -> f64 {
+    let n = dim;
+    let scale = 1.0 / factorial(n);
+    let minor = &mut scratch.minor;
+    minor.resize(n * n, 0.0);
+    edge_matrix(points, n, n, minor);
+    determinant(minor, n) * scale
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -46,6 +57,26 @@ mod tests {
         approx::assert_relative_eq!(oriented_measure(&flipped, 2, &mut [0.0; 6], &mut s), -0.5);
         let seg = [2.0, 5.0];
         approx::assert_relative_eq!(oriented_measure(&seg, 1, &mut [0.0; 2], &mut s), 3.0);
+    }
+
+    #[test]
+    fn the_volume_alone_is_the_measure_bit_for_bit() {
+        let mut s = Scratch::new();
+        let pts = [
+            0.1, 0.0, 0.2, -0.1, 1.1, 0.1, 0.0, 0.2, 0.0, 0.9, 0.1, 0.0, 0.2, 0.1, 1.2, 0.1, -0.1,
+            0.0, 0.3, 0.8,
+        ];
+        let with_gradient = oriented_measure(&pts, 4, &mut [0.0; 20], &mut s);
+        assert_eq!(
+            oriented_volume(&pts, 4, &mut s).to_bits(),
+            with_gradient.to_bits()
+        );
+        let tri = [0.3, -0.2, 1.7, 0.1, 0.2, 0.9];
+        let with_gradient = oriented_measure(&tri, 2, &mut [0.0; 6], &mut s);
+        assert_eq!(
+            oriented_volume(&tri, 2, &mut s).to_bits(),
+            with_gradient.to_bits()
+        );
     }
 
     #[test]

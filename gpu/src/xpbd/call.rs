@@ -27,6 +27,8 @@ pub(crate) const OP_VELOCITY: u32 = 5;
 pub(crate) const OP_FRICTION: u32 = 6;
 pub(crate) const OP_DAMPING: u32 = 7;
 pub(crate) const OP_RESIDUAL: u32 = 8;
+pub(crate) const OP_GUARD_MEASURE: u32 = 9;
+pub(crate) const OP_GUARD_SPEED: u32 = 10;
 /// A kernel the host runs itself between dispatches (broadphase, particle
 /// contact): no block of its own is ever executed.
 pub(crate) const OP_HOST: u32 = 0xff;
@@ -36,6 +38,8 @@ pub(crate) const FLAG_FORCE: u32 = 2;
 pub(crate) const FLAG_FIRST: u32 = 4;
 pub(crate) const FLAG_TETHER: u32 = 8;
 pub(crate) const FLAG_UNREAD: u32 = 16;
+pub(crate) const FLAG_ORIENTATION: u32 = 32;
+pub(crate) const FLAG_RATIO: u32 = 64;
 
 pub(crate) const IO_LOAD_X: u32 = 1;
 pub(crate) const IO_LOAD_V: u32 = 2;

@@ -7,6 +7,7 @@
 //!   projection                   cpu/src/project.rs    shaders/project.wgsl    project.rs
 //!   friction                     cpu/src/friction.rs   shaders/friction.wgsl   friction.rs
 //!   residual                     cpu/src/residual.rs   shaders/residual.wgsl   residual.rs
+//!   guards                       core/src/guards.rs    shaders/guard.wgsl      guard.rs
 //! schedule.rs   the calls of a step and the dispatches that run them
 //! call.rs       the call block, op codes, flags, record io
 //! ```
@@ -17,6 +18,7 @@
 
 pub(crate) mod call;
 mod friction;
+mod guard;
 mod integrate;
 mod project;
 mod residual;
@@ -112,6 +114,7 @@ pub(crate) enum XpbdEntry {
     Residual,
     Reduce,
     Small,
+    Guard,
 }
 
 impl XpbdEntry {
@@ -125,6 +128,7 @@ impl XpbdEntry {
             XpbdEntry::Residual => 4,
             XpbdEntry::Reduce => 5,
             XpbdEntry::Small => 6,
+            XpbdEntry::Guard => 7,
         }
     }
 }
@@ -139,6 +143,7 @@ impl EntryPoint for XpbdEntry {
             XpbdEntry::Residual => "residual",
             XpbdEntry::Reduce => "reduce",
             XpbdEntry::Small => "step_small",
+            XpbdEntry::Guard => "guard",
         };
         (ShaderFile::Step, name)
     }

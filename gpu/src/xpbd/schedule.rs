@@ -30,9 +30,10 @@
 use hyperpbd_core::{Kernel, Plan};
 
 use super::call::{
-    Call, OP_HOST, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX, dispatch_block, records_io,
+    Call, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX,
+    dispatch_block, records_io,
 };
-use super::{Families, friction, integrate, project, residual};
+use super::{Families, friction, guard, integrate, project, residual};
 use crate::Precision;
 
 /// How the dispatches of a step are formed.
@@ -101,6 +102,8 @@ pub(crate) enum Run {
     Reduce,
     /// `step_small`: one workgroup, every call of the range.
     Small,
+    /// `guard`: one guard call (guard.wgsl).
+    Guard,
     /// A kernel the host runs between dispatches (broadphase, particle
     /// contact).
     Host(Kernel),
@@ -118,6 +121,7 @@ impl Run {
             Run::Residual => E::Residual,
             Run::Reduce => E::Reduce,
             Run::Small => E::Small,
+            Run::Guard => E::Guard,
             Run::Host(_) => return None,
         })
     }
@@ -322,6 +326,8 @@ fn kernel_call(
             project::project(plan, families, (family, color), call, (first, last))
         }
         Kernel::Friction { family } => friction::friction(plan, families, family, call),
+        Kernel::GuardMeasure { family } => guard::measure(plan, families, family, call),
+        Kernel::GuardSpeed => guard::speed(plan, call),
         Kernel::Broadphase | Kernel::Collide | Kernel::Minimise => Call {
             op: OP_HOST,
             call,
@@ -340,6 +346,7 @@ fn single(call: &Call, index: usize) -> Dispatch {
             OP_HOST => Run::Host(call.kernel.unwrap_or(Kernel::Broadphase)),
             OP_PROJECT_SIMPLEX => Run::Simplex,
             OP_PROJECT_ORIENTED => Run::Oriented,
+            OP_GUARD_MEASURE | OP_GUARD_SPEED => Run::Guard,
             _ => Run::Distance,
         }
     };

@@ -1,0 +1,304 @@
+//! State guards: read-only checks of every completed substep.
+//!
+//! ```text
+//! "guards": {"orientation": true, "min_measure_ratio": r, "max_speed": v}
+//!
+//! measure ratio   J = V(x) / V_rest   per element of every family with a
+//!                 rest shape (rest_measures), V the signed full-dimensional
+//!                 measure det([x1−x0 … xN−x0])/N!
+//! orientation     J > 0 is required          (inverted or collapsed: J ≤ 0)
+//! measure ratio   J ≥ r is required          (0 < r ≤ 1)
+//! speed           |v_i|² ≤ v² is required   per dynamic particle, the sum
+//!                 Σ_a v_a² in axis order; the report names |v_i|
+//! ```
+//! The plan runs the checks as kernels at the end of each substep:
+//! [`crate::Kernel::GuardMeasure`] per guarded family (its elements in the
+//! family's compiled slot order; per element orientation first, then the
+//! ratio), then [`crate::Kernel::GuardSpeed`] (particles in index order).
+//! The first violation in that order rejects the step: the backend rolls
+//! it back and returns [`crate::StepError::GuardRejected`]. Both backends
+//! evaluate the same arithmetic through [`measure_violation`] and
+//! [`speed_violation`] (the GPU's guard kernel mirrors them in WGSL).
+
+use serde::{Deserialize, Serialize};
+
+use crate::geometry::{Scratch, oriented_volume};
+use crate::{Family, FamilyKind, Plan};
+
+/// The `guards` key of a scene: which checks every completed substep
+/// must pass (each optional).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Guards {
+    /// Reject an element whose signed measure changed sign (J ≤ 0).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub orientation: bool,
+    /// Reject an element with J below this ratio, 0 < r ≤ 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_measure_ratio: Option<f64>,
+    /// Reject a dynamic particle faster than this (> 0, length/time).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_speed: Option<f64>,
+}
+
+impl Guards {
+    /// True when some element check is on.
+    pub fn checks_measures(&self) -> bool {
+        self.orientation || self.min_measure_ratio.is_some()
+    }
+}
+
+/// The `adaptive` key of a scene: a step rejected by a guard is retried
+/// over the same interval with 2, 4, … 2^k times the substeps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Adaptive {
+    /// k ≥ 1: the most subdivisions of a rejected step.
+    pub max_subdivisions: u32,
+}
+
+/// Largest `adaptive.max_subdivisions` (2^16 times the substeps).
+pub const MAX_SUBDIVISIONS: u32 = 16;
+
+/// Which guard rejected a substep.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum GuardKind {
+    /// `orientation`: J ≤ 0.
+    Orientation,
+    /// `min_measure_ratio`: J < r.
+    MinMeasureRatio,
+    /// `max_speed`: |v| > v.
+    MaxSpeed,
+}
+
+impl GuardKind {
+    /// The JSON key of the guard.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            GuardKind::Orientation => "orientation",
+            GuardKind::MinMeasureRatio => "min_measure_ratio",
+            GuardKind::MaxSpeed => "max_speed",
+        }
+    }
+}
+
+/// What a guard rejected: an element of a family or a particle.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum GuardSubject {
+    /// Element `element` (authored order) of plan family `family`.
+    Element {
+        /// Index of the family in the plan.
+        family: usize,
+        /// `constraints[2]`.
+        family_label: String,
+        /// Element index in the authored order.
+        element: usize,
+    },
+    /// Particle `particle`.
+    Particle(usize),
+}
+
+impl std::fmt::Display for GuardSubject {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            GuardSubject::Element {
+                family_label,
+                element,
+                ..
+            } => write!(f, "{family_label} element {element}"),
+            GuardSubject::Particle(i) => write!(f, "particle {i}"),
+        }
+    }
+}
+
+/// A completed substep that a guard rejected.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GuardRejection {
+    /// The guard.
+    pub guard: GuardKind,
+    /// The element or particle.
+    pub subject: GuardSubject,
+    /// J (orientation, ratio) or |v| (speed).
+    pub value: f64,
+    /// The bound it broke: 0 (orientation), r, or v.
+    pub limit: f64,
+    /// The substep of the attempt (0-based) it happened in.
+    pub substep: u32,
+}
+
+impl std::fmt::Display for GuardRejection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (name, relation) = match self.guard {
+            GuardKind::Orientation => ("measure ratio", "<="),
+            GuardKind::MinMeasureRatio => ("measure ratio", "<"),
+            GuardKind::MaxSpeed => ("speed", ">"),
+        };
+        write!(
+            f,
+            "guard {} rejected substep {}: {} has {name} {} {relation} {}",
+            self.guard.as_str(),
+            self.substep,
+            self.subject,
+            self.value,
+            self.limit
+        )
+    }
+}
+
+/// One attempt of a step: its substeps and, when a guard rejected it,
+/// why.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Attempt {
+    /// Substeps the attempt ran (the plan's times 2^subdivision).
+    pub substeps: u32,
+    /// The rejection, for a failed attempt.
+    pub rejection: Option<GuardRejection>,
+}
+
+/// The signed rest measure of each (colour-ordered) element of `family`
+/// when its elements are full-dimensional simplices with a rest shape —
+/// the families the measure guards check; `None` for the others. A new
+/// simplex family with a rest shape plugs in with one arm here.
+pub fn rest_measures(family: &Family) -> Option<&[f64]> {
+    match family.kind {
+        FamilyKind::OrientedMeasure => Some(&family.rest),
+        _ => None,
+    }
+}
+
+/// The plan's families the measure guards check, in plan order (none
+/// without an element guard).
+pub fn guarded_families(plan_families: &[Family], guards: &Guards) -> Vec<usize> {
+    if !guards.checks_measures() {
+        return Vec::new();
+    }
+    (0..plan_families.len())
+        .filter(|&f| rest_measures(&plan_families[f]).is_some_and(|r| !r.is_empty()))
+        .collect()
+}
+
+/// The first element (slot order) of family `family` of `plan` that
+/// breaks a measure guard at positions `x`, as (slot, guard, J, limit).
+pub fn measure_violation(
+    plan: &Plan,
+    family: usize,
+    x: &[f64],
+) -> Option<(usize, GuardKind, f64, f64)> {
+    let guards = plan.guards.as_ref()?;
+    let mut ratios = ElementRatios::new(plan, family)?;
+    (0..ratios.family.len()).find_map(|slot| {
+        let j = ratios.ratio(slot, x);
+        element_verdict(guards, j).map(|(kind, limit)| (slot, kind, j, limit))
+    })
+}
+
+/// J of element `slot` (compiled order) of family `family` at positions
+/// `x` (NaN for a family without a rest shape or a slot past its end).
+pub fn element_ratio_at(plan: &Plan, family: usize, slot: usize, x: &[f64]) -> f64 {
+    ElementRatios::new(plan, family)
+        .filter(|r| slot < r.family.len())
+        .map_or(f64::NAN, |mut r| r.ratio(slot, x))
+}
+
+/// J of the elements of one family with a rest shape, with the scratch
+/// of the measure (the value alone: bit for bit the measure the
+/// projection and the GPU's guard kernel compute).
+struct ElementRatios<'a> {
+    dim: usize,
+    family: &'a Family,
+    rest: &'a [f64],
+    points: Vec<f64>,
+    scratch: Scratch,
+}
+
+impl<'a> ElementRatios<'a> {
+    fn new(plan: &'a Plan, family: usize) -> Option<Self> {
+        let fam = plan.families.get(family)?;
+        let values = fam.arity * plan.dim;
+        Some(ElementRatios {
+            dim: plan.dim,
+            family: fam,
+            rest: rest_measures(fam)?,
+            points: vec![0.0; values],
+            scratch: Scratch::new(),
+        })
+    }
+
+    /// J = V(x_e) / V_rest of element `slot` at positions `x`.
+    fn ratio(&mut self, slot: usize, x: &[f64]) -> f64 {
+        let (dim, arity) = (self.dim, self.family.arity);
+        let element = &self.family.elements[slot * arity..(slot + 1) * arity];
+        for (j, &i) in element.iter().enumerate() {
+            let i = i as usize;
+            self.points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
+        }
+        oriented_volume(&self.points, dim, &mut self.scratch) / self.rest[slot]
+    }
+}
+
+/// The guard an element of ratio `j` breaks (orientation first), with its
+/// limit.
+pub fn element_verdict(guards: &Guards, j: f64) -> Option<(GuardKind, f64)> {
+    if guards.orientation && (j <= 0.0 || j.is_nan()) {
+        return Some((GuardKind::Orientation, 0.0));
+    }
+    match guards.min_measure_ratio {
+        Some(r) if j < r || j.is_nan() => Some((GuardKind::MinMeasureRatio, r)),
+        _ => None,
+    }
+}
+
+/// |v_i|² as the speed guard sums it: Σ_a v_a² in axis order.
+pub fn squared_speed(v: &[f64]) -> f64 {
+    v.iter().fold(0.0, |s, &a| s + a * a)
+}
+
+/// The first dynamic particle of `plan` faster than the speed guard at
+/// velocities `v`, as (particle, |v|, limit).
+pub fn speed_violation(plan: &Plan, v: &[f64]) -> Option<(usize, f64, f64)> {
+    let limit = plan.guards.as_ref()?.max_speed?;
+    let bound = limit * limit;
+    let dim = plan.dim;
+    (0..plan.particle_count()).find_map(|i| {
+        if plan.inverse_mass[i] == 0.0 {
+            return None;
+        }
+        let s2 = squared_speed(&v[i * dim..(i + 1) * dim]);
+        (s2 > bound || s2.is_nan()).then(|| (i, s2.sqrt(), limit))
+    })
+}
+
+/// The rejection of `substep` for the measure violation `found` of
+/// family `family` (slot → authored element).
+pub fn measure_rejection(
+    plan: &Plan,
+    family: usize,
+    found: (usize, GuardKind, f64, f64),
+    substep: u32,
+) -> GuardRejection {
+    let (slot, guard, value, limit) = found;
+    let fam = &plan.families[family];
+    GuardRejection {
+        guard,
+        subject: GuardSubject::Element {
+            family,
+            family_label: fam.label.clone(),
+            element: fam.source.get(slot).map_or(slot, |&s| s as usize),
+        },
+        value,
+        limit,
+        substep,
+    }
+}
+
+/// The rejection of `substep` for the speed violation `found`.
+pub fn speed_rejection(found: (usize, f64, f64), substep: u32) -> GuardRejection {
+    let (particle, value, limit) = found;
+    GuardRejection {
+        guard: GuardKind::MaxSpeed,
+        subject: GuardSubject::Particle(particle),
+        value,
+        limit,
+        substep,
+    }
+}

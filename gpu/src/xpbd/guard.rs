@@ -1,0 +1,62 @@
+//! Dispatch side of the guards (`shaders/guard.wgsl` ↔
+//! `hyperpbd_core::guards`, which the CPU runs): their call blocks.
+//!
+//! ```text
+//! guard measure   one invocation per slot of a guarded family:
+//!                 J = V(x)/V_rest; orientation J ≤ 0, ratio J < r → fail
+//! guard speed     one invocation per particle (dynamic only):
+//!                 Σ_a v_a² > v² → fail
+//! block           alpha_tilde = r, factor = v² (host f64, then the
+//!                 kernels' precision); FLAG_ORIENTATION, FLAG_RATIO
+//! ```
+//! A failure is the step's status word (call, smallest slot / particle),
+//! read back with the step's one status readback; the host then names
+//! the value from the state at the failure (`backend/guard.rs`).
+
+use hyperpbd_core::{Kernel, Plan};
+
+use super::Families;
+use super::call::{Call, FLAG_ORIENTATION, FLAG_RATIO, OP_GUARD_MEASURE, OP_GUARD_SPEED};
+
+/// The measure guards over family `family`.
+pub(crate) fn measure(plan: &Plan, families: &Families, family: usize, call: u32) -> Call {
+    let fam = &plan.families[family];
+    let guards = plan.guards.clone().unwrap_or_default();
+    let mut flags = 0;
+    if guards.orientation {
+        flags |= FLAG_ORIENTATION;
+    }
+    if guards.min_measure_ratio.is_some() {
+        flags |= FLAG_RATIO;
+    }
+    Call {
+        op: OP_GUARD_MEASURE,
+        count: fam.len() as u32,
+        family: family as u32,
+        elem_base: families.elem_base[family],
+        slot_base: families.slot_base[family],
+        arity: fam.arity as u32,
+        call,
+        flags,
+        alpha_tilde: guards.min_measure_ratio.unwrap_or(0.0),
+        kernel: Some(Kernel::GuardMeasure { family }),
+        ..Call::default()
+    }
+}
+
+/// The speed guard over every particle.
+pub(crate) fn speed(plan: &Plan, call: u32) -> Call {
+    let limit = plan
+        .guards
+        .as_ref()
+        .and_then(|g| g.max_speed)
+        .unwrap_or(0.0);
+    Call {
+        op: OP_GUARD_SPEED,
+        count: plan.particle_count() as u32,
+        call,
+        factor: limit * limit,
+        kernel: Some(Kernel::GuardSpeed),
+        ..Call::default()
+    }
+}

@@ -1,0 +1,61 @@
+// Guards: read-only checks of a completed substep (core/src/guards.rs,
+// the same arithmetic in the same order). One invocation per element of
+// a guarded family (OP_GUARD_MEASURE) or per particle (OP_GUARD_SPEED);
+// a violation records the call and the smallest slot / particle in the
+// status word (`fail`), so the first violation in the CPU's order wins.
+//
+//   J = V(x) / V_rest,  V = det([x1−x0 … xN−x0])/N!    (oriented_measure)
+//   orientation (FLAG_ORIENTATION)   J ≤ 0 (or NaN)  → violation
+//   ratio       (FLAG_RATIO)         J < r (or NaN)  → violation
+//   speed       Σ_a v_a² in axis order > v²          → violation
+//
+// Guard call blocks: `alpha_tilde` holds r, `factor` holds v² (computed
+// on the host); nothing is written but the status word.
+
+const OP_GUARD_MEASURE: u32 = 9u;
+const OP_GUARD_SPEED: u32 = 10u;
+const FLAG_ORIENTATION: u32 = 32u;
+const FLAG_RATIO: u32 = 64u;
+
+fn guard_element(c: u32, e: u32) {
+    var pts: array<real, POINTS>;
+    var grad: array<real, POINTS>;
+    gather(c, e, &pts);
+    let j = oriented_measure(&pts, &grad) / rest[calls[c].slot_base + e];
+    let flags = calls[c].flags;
+    let inverted = (flags & FLAG_ORIENTATION) != 0u && !(j > 0.0);
+    let below = (flags & FLAG_RATIO) != 0u && !(j >= calls[c].alpha_tilde);
+    if (inverted || below) {
+        fail(c, e);
+    }
+}
+
+fn guard_particle(c: u32, i: u32) {
+    var rv = load_v(i);
+    var rx = load_x(i);
+    if (inverse_mass_of(&rx) == 0.0) {
+        return;
+    }
+    var s2: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        let va = lane(&rv, a);
+        s2 = kept(s2 + kept(va * va, c), c);
+    }
+    if (!(s2 <= calls[c].factor)) {
+        fail(c, i);
+    }
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn guard(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let t = linear_index(gid, groups);
+    let c = here.first_call;
+    if (t >= here.count || failed_before(c)) {
+        return;
+    }
+    if (calls[c].op == OP_GUARD_MEASURE) {
+        guard_element(c, t);
+    } else {
+        guard_particle(c, t);
+    }
+}
