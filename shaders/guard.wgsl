@@ -1,8 +1,9 @@
 // Guards: read-only checks of a completed substep (core/src/guards.rs,
 // the same arithmetic in the same order). One invocation per element of
 // a guarded family (OP_GUARD_MEASURE) or per particle (OP_GUARD_SPEED);
-// a violation records the call and the smallest slot / particle in the
-// status word (`fail`), so the first violation in the CPU's order wins.
+// a violation is noted (`fail`) and put in the status block once per
+// invocation (`record_failure`: smallest call, then smallest slot /
+// particle), so the first violation in the CPU's order wins.
 //
 //   J = V(x) / V_rest,  V = det([x1−x0 … xN−x0])/N!    (oriented_measure)
 //   orientation (FLAG_ORIENTATION)   J ≤ 0 (or NaN)  → violation
@@ -17,20 +18,20 @@ const OP_GUARD_SPEED: u32 = 10u;
 const FLAG_ORIENTATION: u32 = 32u;
 const FLAG_RATIO: u32 = 64u;
 
-fn guard_element(c: u32, e: u32) {
+fn guard_element(e: u32) {
     var pts: array<real, POINTS>;
     var grad: array<real, POINTS>;
-    gather(c, e, &pts);
-    let j = oriented_measure(&pts, &grad) / rest[calls[c].slot_base + e];
-    let flags = calls[c].flags;
+    gather(e, &pts);
+    let j = oriented_measure(&pts, &grad) / rest[call.slot_base + e];
+    let flags = call.flags;
     let inverted = (flags & FLAG_ORIENTATION) != 0u && !(j > 0.0);
-    let below = (flags & FLAG_RATIO) != 0u && !(j >= calls[c].alpha_tilde);
+    let below = (flags & FLAG_RATIO) != 0u && !(j >= call.alpha_tilde);
     if (inverted || below) {
-        fail(c, e);
+        fail(e);
     }
 }
 
-fn guard_particle(c: u32, i: u32) {
+fn guard_particle(i: u32) {
     var rv = load_v(i);
     var rx = load_x(i);
     if (inverse_mass_of(&rx) == 0.0) {
@@ -39,23 +40,24 @@ fn guard_particle(c: u32, i: u32) {
     var s2: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
         let va = lane(&rv, a);
-        s2 = kept(s2 + kept(va * va, c), c);
+        s2 = kept(s2 + kept(va * va));
     }
-    if (!(s2 <= calls[c].factor)) {
-        fail(c, i);
+    if (!(s2 <= call.factor)) {
+        fail(i);
     }
 }
 
 @compute @workgroup_size(WORKGROUP)
 fn guard(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
-    let c = here.first_call;
-    if (t >= here.count || failed_before(c)) {
+    if (t >= here.count) {
         return;
     }
-    if (calls[c].op == OP_GUARD_MEASURE) {
-        guard_element(c, t);
+    call = calls[here.first_call];
+    if (call.op == OP_GUARD_MEASURE) {
+        guard_element(t);
     } else {
-        guard_particle(c, t);
+        guard_particle(t);
     }
+    record_failure();
 }

@@ -510,6 +510,21 @@ impl GpuBackend {
         Ok(found)
     }
 
+    /// Rolls back and reruns the step exactly (one dispatch per call)
+    /// through call `call`, leaving the state that call saw.
+    fn rerun_through(&mut self, call: u32) -> Result<(), GpuError> {
+        self.rollback()?;
+        self.reset_status();
+        let prefix: Vec<Placed> = self
+            .exact
+            .iter()
+            .copied()
+            .filter(|d| d.dispatch.first_call <= call)
+            .collect();
+        let encoder = self.record(|_| {}, &prefix, 1, false);
+        self.submit_and_wait(encoder)
+    }
+
     /// Runs `kernel` alone `repeats` times in one compute pass and one
     /// submit, the CPU's way (`Predict` resets the multipliers).
     fn run_alone(&mut self, kernel: Kernel, repeats: u32) -> Result<(), BackendError> {

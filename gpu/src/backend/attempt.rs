@@ -106,6 +106,17 @@ impl GpuBackend {
     /// The rejection of a step whose status names a guard call, with the
     /// state rolled back; `None` when the failing call is no guard.
     pub(super) fn guard_error(&mut self, failed: (u32, u32)) -> Option<BackendError> {
+        let kernel = self.schedule.kernel_of(failed.0)?;
+        if !matches!(kernel, Kernel::GuardMeasure { .. } | Kernel::GuardSpeed) {
+            return None;
+        }
+        // The calls after a failing one still run (the step is refused
+        // anyway), so the state the step left lies past the rejected
+        // substep: rerun the step exactly through the guard call, then
+        // name the value from that state, as the CPU does.
+        if let Err(e) = self.rerun_through(failed.0) {
+            return Some(self.roll_back_after(e.into()));
+        }
         let found = self.guard_rejection(failed)?;
         Some(self.roll_back_after(found.unwrap_or_else(BackendError::from)))
     }
