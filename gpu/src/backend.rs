@@ -480,51 +480,6 @@ impl GpuBackend {
         encoder
     }
 
-    /// The error of a step whose status names `failed` (call, index), with
-    /// the state rolled back. The fused schedule finds the failing call by
-    /// rerunning the step exactly; a rollback or rerun that fails keeps the
-    /// step's error as its source.
-    fn diagnosed_error(&mut self, failed: (u32, u32)) -> BackendError {
-        if let Some(rejected) = self.guard_error(failed) {
-            return rejected;
-        }
-        let diagnosed = if self.schedule.mode == StepMode::Fused {
-            self.diagnose(failed)
-        } else {
-            self.rollback().map(|()| failed)
-        };
-        match diagnosed {
-            Ok((call, index)) => self.step_error(call, index),
-            Err(e) => self.step_error(failed.0, failed.1).after_rollback(Err(e)),
-        }
-    }
-
-    fn diagnose(&mut self, fallback: (u32, u32)) -> Result<(u32, u32), GpuError> {
-        self.rollback()?;
-        self.reset_status();
-        let encoder = self.record(|_| {}, &self.exact, 1, false);
-        self.submit_and_wait(encoder)?;
-        let block = self.read_mapped(&self.buffers.report_staging, 16)?;
-        let found = self.failure(&block).unwrap_or(fallback);
-        self.rollback()?;
-        Ok(found)
-    }
-
-    /// Rolls back and reruns the step exactly (one dispatch per call)
-    /// through call `call`, leaving the state that call saw.
-    fn rerun_through(&mut self, call: u32) -> Result<(), GpuError> {
-        self.rollback()?;
-        self.reset_status();
-        let prefix: Vec<Placed> = self
-            .exact
-            .iter()
-            .copied()
-            .filter(|d| d.dispatch.first_call <= call)
-            .collect();
-        let encoder = self.record(|_| {}, &prefix, 1, false);
-        self.submit_and_wait(encoder)
-    }
-
     /// Runs `kernel` alone `repeats` times in one compute pass and one
     /// submit, the CPU's way (`Predict` resets the multipliers).
     fn run_alone(&mut self, kernel: Kernel, repeats: u32) -> Result<(), BackendError> {
