@@ -82,3 +82,28 @@ pub struct MinimisationReport {
     /// How it ended.
     pub status: MinimisationStatus,
 }
+
+impl MinimisationReport {
+    /// Records the residual at Newton iteration `iteration` (the first
+    /// one recorded is the initial residual) and, when it ends the
+    /// minimisation, sets the status and returns true:
+    ///
+    /// ```text
+    /// residual ≤ tolerance          → Converged
+    /// iteration = max_iterations    → BudgetExhausted
+    /// ```
+    pub fn record_residual(&mut self, residual: f64, iteration: u32, max_iterations: u32) -> bool {
+        self.initial_residual.get_or_insert(residual);
+        self.final_residual = Some(residual);
+        self.iterations = iteration;
+        if residual <= self.criterion.tolerance() {
+            self.status = MinimisationStatus::Converged;
+            return true;
+        }
+        if iteration == max_iterations {
+            self.status = MinimisationStatus::BudgetExhausted;
+            return true;
+        }
+        false
+    }
+}

@@ -312,17 +312,7 @@ pub(crate) fn minimise(
             return report;
         }
         let residual = residual_on(workers, plan, gradient, ip.convergence, terms);
-        if report.initial_residual.is_none() {
-            report.initial_residual = Some(residual);
-        }
-        report.final_residual = Some(residual);
-        report.iterations = iteration;
-        if residual <= ip.convergence.tolerance() {
-            report.status = MinimisationStatus::Converged;
-            break;
-        }
-        if iteration == ip.max_iterations {
-            report.status = MinimisationStatus::BudgetExhausted;
+        if report.record_residual(residual, iteration, ip.max_iterations) {
             break;
         }
         iteration += 1;

@@ -420,17 +420,7 @@ impl GpuBarrierBackend {
                 });
                 return Ok(report);
             }
-            if report.initial_residual.is_none() {
-                report.initial_residual = Some(residual);
-            }
-            report.final_residual = Some(residual);
-            report.iterations = iteration;
-            if residual <= self.ip.convergence.tolerance() {
-                report.status = MinimisationStatus::Converged;
-                break;
-            }
-            if iteration == self.ip.max_iterations {
-                report.status = MinimisationStatus::BudgetExhausted;
+            if report.record_residual(residual, iteration, self.ip.max_iterations) {
                 break;
             }
             iteration += 1;

@@ -138,15 +138,7 @@ pub(crate) fn minimise(
         }
         let residual = residual(plan, particles, gradient, ip.convergence, terms, scratch);
         let r0 = *first_residual.get_or_insert(residual);
-        report.initial_residual.get_or_insert(residual);
-        report.final_residual = Some(residual);
-        report.iterations = iteration;
-        if residual <= ip.convergence.tolerance() {
-            report.status = MinimisationStatus::Converged;
-            break;
-        }
-        if iteration == ip.max_iterations {
-            report.status = MinimisationStatus::BudgetExhausted;
+        if report.record_residual(residual, iteration, ip.max_iterations) {
             break;
         }
         iteration += 1;
