@@ -3,10 +3,16 @@
 //! ```text
 //! "guards": {"orientation": true, "min_measure_ratio": r, "max_speed": v}
 //!
-//! measure ratio   J = V(x) / V_rest   per element of every family with a
-//!                 rest shape (rest_measures), V the signed full-dimensional
-//!                 measure det([x1−x0 … xN−x0])/N!
-//! orientation     J > 0 is required          (inverted or collapsed: J ≤ 0)
+//! measure ratio   J per element of every family with a rest shape
+//!                 (has_rest_shape):
+//!                 oriented measure   J = V(x) / V_rest, V the signed
+//!                                    full-dimensional measure det([x1−x0 … xN−x0])/N!
+//!                 stvk, neo_hookean  J = det F̂ (k = N, signed) or
+//!                                    √(det G / det G_0) (k < N, ≥ 0), the
+//!                                    material's own measure ratio
+//!                                    (material::measure_ratio)
+//! orientation     J > 0 is required          (inverted or collapsed: J ≤ 0;
+//!                 for k < N only a collapse, J = 0, breaks it)
 //! measure ratio   J ≥ r is required          (0 < r ≤ 1)
 //! speed           |v_i|² ≤ v² is required   per dynamic particle, the sum
 //!                 Σ_a v_a² in axis order; the report names |v_i|
@@ -23,6 +29,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{Scratch, oriented_volume};
+use crate::material::{LawRefusal, MaterialScratch, measure_ratio};
 use crate::{Family, FamilyKind, Plan};
 
 /// The `guards` key of a scene: which checks every completed substep
@@ -155,15 +162,15 @@ pub struct Attempt {
     pub rejection: Option<GuardRejection>,
 }
 
-/// The signed rest measure of each (colour-ordered) element of `family`
-/// when its elements are full-dimensional simplices with a rest shape —
-/// the families the measure guards check; `None` for the others. A new
-/// simplex family with a rest shape plugs in with one arm here.
-pub fn rest_measures(family: &Family) -> Option<&[f64]> {
-    match family.kind {
-        FamilyKind::OrientedMeasure => Some(&family.rest),
-        _ => None,
-    }
+/// True for the families whose elements are simplices with a rest shape
+/// — the families the measure guards check: the oriented measure and the
+/// material families. A new simplex family with a rest shape plugs in with
+/// one arm here and one in `ElementRatios::ratio`.
+pub fn has_rest_shape(family: &Family) -> bool {
+    matches!(
+        family.kind,
+        FamilyKind::OrientedMeasure | FamilyKind::Material { .. }
+    )
 }
 
 /// The plan's families the measure guards check, in plan order (none
@@ -173,7 +180,7 @@ pub fn guarded_families(plan_families: &[Family], guards: &Guards) -> Vec<usize>
         return Vec::new();
     }
     (0..plan_families.len())
-        .filter(|&f| rest_measures(&plan_families[f]).is_some_and(|r| !r.is_empty()))
+        .filter(|&f| has_rest_shape(&plan_families[f]) && !plan_families[f].is_empty())
         .collect()
 }
 
@@ -206,25 +213,27 @@ pub fn element_ratio_at(plan: &Plan, family: usize, slot: usize, x: &[f64]) -> f
 struct ElementRatios<'a> {
     dim: usize,
     family: &'a Family,
-    rest: &'a [f64],
     points: Vec<f64>,
     scratch: Scratch,
+    material_scratch: MaterialScratch,
 }
 
 impl<'a> ElementRatios<'a> {
     fn new(plan: &'a Plan, family: usize) -> Option<Self> {
         let fam = plan.families.get(family)?;
-        let values = fam.arity * plan.dim;
+        if !has_rest_shape(fam) {
+            return None;
+        }
         Some(ElementRatios {
             dim: plan.dim,
             family: fam,
-            rest: rest_measures(fam)?,
-            points: vec![0.0; values],
+            points: vec![0.0; fam.arity * plan.dim],
             scratch: Scratch::new(),
+            material_scratch: MaterialScratch::new(),
         })
     }
 
-    /// J = V(x_e) / V_rest of element `slot` at positions `x`.
+    /// J of element `slot` at positions `x` (see the module docs).
     fn ratio(&mut self, slot: usize, x: &[f64]) -> f64 {
         let (dim, arity) = (self.dim, self.family.arity);
         let element = &self.family.elements[slot * arity..(slot + 1) * arity];
@@ -232,7 +241,10 @@ impl<'a> ElementRatios<'a> {
             let i = i as usize;
             self.points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
         }
-        oriented_volume(&self.points, dim, &mut self.scratch) / self.rest[slot]
+        match self.family.kind.rest_view(slot) {
+            Some((_, rest)) => measure_ratio(&self.points, dim, rest, &mut self.material_scratch),
+            None => oriented_volume(&self.points, dim, &mut self.scratch) / self.family.rest[slot],
+        }
     }
 }
 
@@ -289,6 +301,38 @@ pub fn measure_rejection(
         limit,
         substep,
     }
+}
+
+/// A material projection's refusal inside `substep` (a Neo-Hookean
+/// element of family `family`, compiled slot `slot`, collapsed or
+/// inverted) as the measure guards' rejection, so that an adaptive step
+/// retries it; `None` when the plan has no element guard (the refusal
+/// stands as `StepError::MaterialRefused`).
+///
+/// ```text
+/// J ≤ 0 (or collapsed to rounding) with orientation on  →  orientation
+/// J < r with min_measure_ratio r                        →  min_measure_ratio
+/// ```
+/// The end-of-substep check would have rejected the same element had the
+/// projection been allowed to finish: a collapse or inversion is exactly
+/// what these guards exist to catch, and the law cannot evaluate past it.
+pub fn material_refusal_rejection(
+    plan: &Plan,
+    family: usize,
+    slot: usize,
+    refusal: &LawRefusal,
+    substep: u32,
+) -> Option<GuardRejection> {
+    let guards = plan.guards.as_ref()?;
+    let j = refusal.measure_ratio();
+    let (guard, limit) = element_verdict(guards, j)
+        .or_else(|| guards.orientation.then_some((GuardKind::Orientation, 0.0)))?;
+    Some(measure_rejection(
+        plan,
+        family,
+        (slot, guard, j, limit),
+        substep,
+    ))
 }
 
 /// The rejection of `substep` for the speed violation `found`.

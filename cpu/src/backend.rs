@@ -192,7 +192,14 @@ impl CpuBackend {
                 .map_err(|slot| {
                     let (substep, family_label) = (self.substep, fam.label.clone());
                     let element = fam.source[slot] as usize;
-                    match material::refusal(plan.dim, fam, slot, &self.x) {
+                    let refusal = material::refusal(plan.dim, fam, slot, &self.x);
+                    let rejection = refusal.as_ref().and_then(|r| {
+                        guards::material_refusal_rejection(plan, family, slot, r, substep)
+                    });
+                    if let Some(rejection) = rejection {
+                        return StepError::GuardRejected(rejection).into();
+                    }
+                    match refusal {
                         Some(refusal) => StepError::MaterialRefused {
                             stage: StageName::Project,
                             substep,

@@ -92,3 +92,14 @@ pub enum LawRefusal {
     #[error("the element is inverted (measure ratio J = {measure_ratio:e})")]
     Inverted { measure_ratio: f64 },
 }
+
+impl LawRefusal {
+    /// The element's measure ratio J when it was refused.
+    pub fn measure_ratio(&self) -> f64 {
+        match *self {
+            LawRefusal::Collapsed { measure_ratio } | LawRefusal::Inverted { measure_ratio } => {
+                measure_ratio
+            }
+        }
+    }
+}
