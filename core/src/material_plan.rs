@@ -79,6 +79,32 @@ pub(crate) fn compile(scene: &Scene) -> Result<MaterialFamilies, SceneError> {
     Ok(out)
 }
 
+/// The mass of particle `p` whose lumped mass (from the material families
+/// with density) is `lumped`: its authored `mass`, else `lumped`; `None`
+/// for a fixed particle. The plan's inverse masses are 1 / this.
+pub(crate) fn effective_mass(p: &crate::Particle, lumped: f64) -> Option<f64> {
+    match (p.fixed, p.mass) {
+        (false, Some(m)) => Some(m),
+        (false, None) => Some(lumped),
+        _ => None,
+    }
+}
+
+/// Every particle's mass in a valid `scene`: its authored `mass`, else the
+/// lumped mass of the material families with `density`; 0 for a fixed
+/// particle. (Metrics and reports that weigh particles use this, so a
+/// particle whose mass comes from a density is not left out.)
+pub fn particle_masses(scene: &Scene) -> Result<Vec<f64>, SceneError> {
+    scene.validate()?;
+    let lumped = compile(scene)?.lumped;
+    Ok(scene
+        .particles
+        .iter()
+        .zip(lumped)
+        .map(|(p, l)| effective_mass(p, l).unwrap_or(0.0))
+        .collect())
+}
+
 /// `family` (a compiled material family, rest values 0, compliance 1)
 /// with its rest frames and measures in its colour order.
 pub(crate) fn with_rest_shapes(mut family: Family, shapes: &RestShapes) -> Family {

@@ -304,11 +304,7 @@ impl Plan {
             .particles
             .iter()
             .zip(&materials.lumped)
-            .map(|(p, &lumped)| match (p.fixed, p.mass) {
-                (false, Some(m)) => 1.0 / m,
-                (false, None) => 1.0 / lumped,
-                _ => 0.0,
-            })
+            .map(|(p, &lumped)| material_plan::effective_mass(p, lumped).map_or(0.0, |m| 1.0 / m))
             .collect();
         let dynamic = |i: usize| inverse_mass[i] > 0.0;
         let gravity = scene.gravity.clone().unwrap_or_else(|| vec![0.0; dim]);

@@ -324,14 +324,16 @@ impl CaseId {
     }
 }
 
-/// Dynamic particles: (index, mass, gravity scale).
+/// Dynamic particles: (index, mass, gravity scale); the mass authored or
+/// lumped from a material family's density.
 fn dynamic(scene: &Scene) -> impl Iterator<Item = (usize, f64, f64)> + '_ {
+    let masses = hyperpbd::particle_masses(scene).unwrap_or_default();
     scene
         .particles
         .iter()
         .enumerate()
         .filter(|(_, p)| !p.fixed)
-        .filter_map(|(i, p)| p.mass.map(|m| (i, m, p.gravity_scale)))
+        .map(move |(i, p)| (i, masses.get(i).copied().unwrap_or(0.0), p.gravity_scale))
 }
 
 /// E = Σ m (½|v|² − s g·x) over dynamic particles.

@@ -2,7 +2,8 @@
 //!
 //! ```text
 //! max_violation    largest constraint violation of the last step's report
-//! kinetic_energy   ½ Σ m_i |v_i|² over the dynamic particles
+//! kinetic_energy   ½ Σ m_i |v_i|² over the dynamic particles (m_i authored,
+//!                  or lumped from a material family's density)
 //! height           mean over dynamic particles of u·x_i, u = −g/|g|
 //!                  (the up direction; axis 1 — axis 0 in 1D — without gravity)
 //! max_speed        max |v_i| over all particles
@@ -51,13 +52,15 @@ impl Metric {
 
     /// Its value for `state` of `scene` after the step that reported `report`.
     pub fn value(self, scene: &Scene, state: &State, report: Option<&StepReport>) -> f64 {
+        // Authored or lumped (density) masses; the scene ran, so it is valid.
+        let masses = crate::particle_masses(scene).unwrap_or_default();
         let dynamic = || {
             scene
                 .particles
                 .iter()
                 .enumerate()
                 .filter(|(_, p)| !p.fixed)
-                .map(|(i, p)| (i, p.mass.unwrap_or(0.0)))
+                .map(|(i, _)| (i, masses.get(i).copied().unwrap_or(0.0)))
         };
         let speed2 = |i: usize| state.velocity(i).iter().map(|v| v * v).sum::<f64>();
         match self {
