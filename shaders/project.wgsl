@@ -1,5 +1,5 @@
 // XPBD projection of one colour of one family: one invocation per element
-// (distance, tether, simplex measures), or per particle on its records in
+// (distance, tether, simplex measures, materials), or per particle on its records in
 // registers (hyperplane contact, run by step.wgsl's `particles`). Elements
 // of one colour share no dynamic particle, so invocations write disjoint
 // particles: no atomics, no dependence on scheduling.
@@ -102,8 +102,9 @@ fn project_distance_element(t: u32) {
     }
 }
 
-// Simplex measures (kind 1: squared k-measure, kind 2: oriented N-measure):
-// gather, evaluate C and ∇C, update.
+// Simplex measures (kind 1: squared k-measure, kind 2: oriented N-measure)
+// and the material energy constraint (kind 3, material.wgsl; a refused
+// element fails like a non-finite one): gather, evaluate C and ∇C, update.
 fn project_measure_element(t: u32, kind: u32) {
     let e = call.first + t;
     let s = call.slot_base + e;
@@ -112,12 +113,15 @@ fn project_measure_element(t: u32, kind: u32) {
     var grad: array<real, POINTS>;
     gather(e, &pts);
     var value: real;
+    var refused = false;
     if (kind == 1u) {
         value = simplex_squared_measure(&pts, arity - 1u, &grad);
-    } else {
+    } else if (kind == 2u) {
         value = oriented_measure(&pts, &grad);
+    } else {
+        value = material_constraint(e, &pts, &grad, &refused);
     }
-    if (!finite(value)) {
+    if (refused || !finite(value)) {
         fail(e);
         return;
     }
@@ -228,6 +232,16 @@ fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @buil
     if (t < here.count) {
         call = here.calls[0];
         project_measure_element(t, 2u);
+        record_failure();
+    }
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn project_material(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let t = linear_index(gid, groups);
+    if (t < here.count) {
+        call = here.calls[0];
+        project_measure_element(t, 3u);
         record_failure();
     }
 }

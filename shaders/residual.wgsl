@@ -7,11 +7,22 @@
 //
 //   equality:  |C(x)|          contact:  max(0, −C(x)),  active if λ > 0
 //   tether:    max(0, |x1 − x0| − rest)
+//   material:  C = √(2W) (+∞ for an element the law refuses)
 
 const CHUNK: u32 = 16u * WORKGROUP;
 
 var<workgroup> partial_max: array<real, WORKGROUP>;
 var<workgroup> partial_count: array<u32, WORKGROUP>;
+
+// +∞, made at run time (a constant overflow is a WGSL error): REAL_MAX
+// doubled, the condition true for every call (as kept() in step.wgsl).
+fn infinity() -> real {
+    var big = REAL_MAX;
+    if (call.call != NONE) {
+        big = big * 2.0;
+    }
+    return big;
+}
 
 // Violation of element e of the running residual call.
 fn violation(e: u32) -> real {
@@ -28,6 +39,10 @@ fn violation(e: u32) -> real {
         return abs(oriented_measure(&pts, &grad) - rest[s]);
     } else if (kind == 4u) {
         return max(distance(&pts, &grad) - rest[s], 0.0);
+    } else if (kind == 5u) {
+        var refused = false;
+        let c = material_constraint(e, &pts, &grad, &refused);
+        return select(c, infinity(), refused);
     }
     var nx: real = 0.0;
     for (var a = 0u; a < DIM; a++) {

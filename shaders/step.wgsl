@@ -63,8 +63,9 @@ struct Call {
     arity: u32,       // particles per element
     call: u32,        // index of the kernel call within the step (error reports)
     flags: u32,       // FLAG_*
-    kind: u32,        // residual: 0 distance, 1 simplex measure, 2 oriented, 3 contact, 4 tether
-    slot_map: u32,    // contact, friction: offset of the family's particle → slot map
+    kind: u32,        // residual: 0 distance, 1 simplex measure, 2 oriented, 3 contact, 4 tether, 5 material
+    slot_map: u32,    // contact, friction: offset of the family's particle → slot map;
+                      // material: offset of the family's rest data in `rest`
     chunk: u32,       // residual: first chunk of the family in `partials`
     io: u32,          // records this call reads and writes (IO_*), when run alone
     pad0: u32,
@@ -72,8 +73,8 @@ struct Call {
     pad2: u32,
     alpha_tilde: real, // α / h²
     h: real,           // substep length
-    friction: real,    // Coulomb μ of a contact family
-    factor: real,      // damping factor exp(−rate h)
+    friction: real,    // Coulomb μ of a contact family; Lamé μ of a material family
+    factor: real,      // damping factor exp(−rate h); Lamé λ of a material family
     // Vectors as records (lanes 0..DIM; a uniform block's arrays need
     // 16-byte elements): normal(a), gravity(a).
     normal: array<vec4<real>, VEC>,
@@ -104,12 +105,14 @@ const OP_VELOCITY: u32 = 5u;
 const OP_FRICTION: u32 = 6u;
 const OP_DAMPING: u32 = 7u;
 const OP_RESIDUAL: u32 = 8u;
+const OP_PROJECT_MATERIAL: u32 = 11u;
 
 const FLAG_GRAVITY: u32 = 1u;  // predict: s g term
 const FLAG_FORCE: u32 = 2u;    // predict: w f term
 const FLAG_FIRST: u32 = 4u;    // projection: first of its family this substep (λ = 0 before)
 const FLAG_TETHER: u32 = 8u;   // distance: one-sided (|x1 − x0| ≤ rest)
 const FLAG_UNREAD: u32 = 16u;  // projection: nothing reads this λ later (not stored)
+const FLAG_NEO_HOOKEAN: u32 = 128u; // material: the Neo-Hookean law (else StVK)
 
 const IO_LOAD_X: u32 = 1u;
 const IO_LOAD_V: u32 = 2u;

@@ -37,7 +37,7 @@ pub use coloring::greedy_colors;
 pub use error::{BackendError, GpuError, SceneError, StageName, StepError};
 pub use geometry::DEGENERATE_VOLUME_RATIO;
 pub use guards::{Adaptive, Attempt, GuardKind, GuardRejection, GuardSubject, Guards};
-pub use material_plan::{FamilyMass, particle_masses};
+pub use material_plan::{FamilyMass, element_refusal, particle_masses};
 pub use minimisation::{MinimisationReport, MinimisationStatus, Refusal};
 pub use plan::{Family, FamilyKind, Kernel, ParticleContacts, Plan, PredictTerms, SolverPlan};
 pub use precision::Precision;

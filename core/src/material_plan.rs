@@ -127,3 +127,31 @@ pub(crate) fn with_rest_shapes(mut family: Family, shapes: &RestShapes) -> Famil
     }
     family
 }
+
+/// Why slot `e` (colour order) of the material family `family` fails at
+/// positions `x`: the law's refusal of the element there, or `None` when
+/// it evaluates (a failure of it was a non-finite value or update) or the
+/// family is not a material family. Both backends name a failed material
+/// projection with this, at the positions the failing projection saw.
+pub fn element_refusal(
+    dim: usize,
+    family: &crate::Family,
+    e: usize,
+    x: &[f64],
+) -> Option<crate::material::LawRefusal> {
+    let (material, rest) = family.kind.rest_view(e)?;
+    let arity = family.arity;
+    let mut points = vec![0.0; arity * dim];
+    for (j, &i) in family
+        .elements
+        .get(e * arity..(e + 1) * arity)?
+        .iter()
+        .enumerate()
+    {
+        let i = i as usize;
+        points[j * dim..(j + 1) * dim].copy_from_slice(x.get(i * dim..(i + 1) * dim)?);
+    }
+    let mut grad = vec![0.0; arity * dim];
+    let mut scratch = crate::material::MaterialScratch::new();
+    crate::material::energy_constraint(material, &points, dim, rest, &mut grad, &mut scratch).err()
+}

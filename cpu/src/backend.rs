@@ -21,8 +21,7 @@ use crate::integrate::Failed;
 use crate::parallel::Workers;
 use crate::project::{Batch, Workspace, project};
 use crate::{
-    colours, coupled, friction, incremental_potential, integrate, material, project, residual,
-    threads,
+    colours, coupled, friction, incremental_potential, integrate, project, residual, threads,
 };
 use hyperpbd_core::broadphase::Aabbs;
 
@@ -192,7 +191,7 @@ impl CpuBackend {
                 .map_err(|slot| {
                     let (substep, family_label) = (self.substep, fam.label.clone());
                     let element = fam.source[slot] as usize;
-                    let refusal = material::refusal(plan.dim, fam, slot, &self.x);
+                    let refusal = hyperpbd_core::element_refusal(plan.dim, fam, slot, &self.x);
                     let rejection = refusal.as_ref().and_then(|r| {
                         guards::material_refusal_rejection(plan, family, slot, r, substep)
                     });

@@ -17,7 +17,8 @@
 //!
 //! **Refusal.** A Neo-Hookean element whose current iterate has J ≤ 0 is
 //! reported by `measure` as a failed slot, like a non-finite update, and
-//! the step rolls back. [`refusal`] then names the reason: it re-evaluates
+//! the step rolls back. `hyperpbd_core::element_refusal` (shared with the
+//! GPU backend) then names the reason: it re-evaluates
 //! the failed element at the positions the kernel left. Those are the
 //! positions the element was refused at, because the element failed
 //! before writing, the other elements of its colour write none of its
@@ -29,8 +30,8 @@
 //! load, the energy the law stores); a refused element counts as +∞ (its
 //! Neo-Hookean energy is unbounded as J → 0⁺).
 
+use hyperpbd_core::Family;
 use hyperpbd_core::material::{LawRefusal, MaterialScratch};
-use hyperpbd_core::{Family, FamilyKind};
 
 /// C of element `e` (colour-ordered slot) of the material family `family`
 /// at the gathered `points`; ∇C into `grad`. A family of another kind has
@@ -49,34 +50,6 @@ pub fn energy_constraint(
         }
         None => Ok(f64::NAN),
     }
-}
-
-/// Why slot `e` of `family` failed at positions `x` (see the module docs):
-/// the law's refusal, or `None` when the element evaluates (its failure
-/// was a non-finite value or update).
-pub fn refusal(dim: usize, family: &Family, e: usize, x: &[f64]) -> Option<LawRefusal> {
-    if !matches!(family.kind, FamilyKind::Material { .. }) {
-        return None;
-    }
-    let arity = family.arity;
-    let mut points = vec![0.0; arity * dim];
-    for (j, &i) in family.elements[e * arity..(e + 1) * arity]
-        .iter()
-        .enumerate()
-    {
-        let i = i as usize;
-        points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
-    }
-    let mut grad = vec![0.0; arity * dim];
-    energy_constraint(
-        family,
-        e,
-        &points,
-        dim,
-        &mut grad,
-        &mut MaterialScratch::new(),
-    )
-    .err()
 }
 
 /// The residual of one element: C, or +∞ for a refused element.

@@ -250,7 +250,7 @@ fn measure<D: Dim, X: Coordinates + ?Sized>(
                 simplex_squared_measure(&ws.points, dim, &mut ws.grad, &mut ws.scratch)
             }
             FamilyKind::Material { .. } => {
-                // A refusal fails the slot; `material::refusal` names it.
+                // A refusal fails the slot; `element_refusal` names it.
                 crate::material::energy_constraint(
                     f,
                     e,

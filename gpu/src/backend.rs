@@ -165,14 +165,15 @@ impl GpuBackend {
         if plan.incremental_potential().is_some() {
             return Err(crate::incremental_potential::incremental_potential_unsupported().into());
         }
+        let guarded = plan.guards.as_ref().is_some_and(|g| g.checks_measures());
         if let Some(f) = plan
             .families
             .iter()
-            .find(|f| matches!(f.kind, FamilyKind::Material { .. }))
+            .find(|f| guarded && matches!(f.kind, FamilyKind::Material { .. }))
         {
             return Err(GpuError::Unsupported {
                 what: format!(
-                    "{}: {} material families have no GPU kernel yet (use the CPU backend)",
+                    "{}: guards over {} material families run on the CPU only (use the CPU backend)",
                     f.label,
                     f.kind.name()
                 ),
@@ -245,7 +246,7 @@ impl GpuBackend {
             &plan.force,
         )?;
         let make = |label: &str, bytes: &[u8]| ctx.storage(label, bytes);
-        let slots = families.rest.len();
+        let slots = families.slots;
         let p = make("p", &resident.packing.positions(&state.positions))?;
         let gravity_scale = make("gravity_scale", &reals(&plan.gravity_scale))?;
         let elements = make("elements", bytemuck::cast_slice(&families.elements))?;

@@ -2,7 +2,7 @@
 //! precision) by prepending a small header.
 //!
 //! ```text
-//! module = header(DIM, real, WORKGROUP) + prelude.wgsl [+ measure.wgsl] + family.wgsl
+//! module = header(DIM, real, WORKGROUP) [+ ln] + prelude.wgsl [+ measure.wgsl, material.wgsl] + family.wgsl
 //! ```
 //! The header's `WORKGROUP` is [`ShaderFile::workgroup_size`]: entry points
 //! declare `@workgroup_size(WORKGROUP)` and the host sizes its dispatches
@@ -19,6 +19,7 @@ const PRELUDE: &str = include_str!("../../shaders/prelude.wgsl");
 const RECORD4: &str = include_str!("../../shaders/record4.wgsl");
 const RECORDS: &str = include_str!("../../shaders/records.wgsl");
 const MEASURE: &str = include_str!("../../shaders/measure.wgsl");
+const MATERIAL: &str = include_str!("../../shaders/material.wgsl");
 const STEP: &str = include_str!("../../shaders/step.wgsl");
 const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
 const PROJECT: &str = include_str!("../../shaders/project.wgsl");
@@ -42,7 +43,8 @@ pub enum ShaderFile {
     /// (predict, velocity, damping), `project.wgsl` (every constraint kind),
     /// `friction.wgsl` (dynamic Coulomb friction), `residual.wgsl`
     /// (constraint violation and its reduction), `guard.wgsl` (the
-    /// read-only guards) — after `measure.wgsl`.
+    /// read-only guards) — after `ln_f32.wgsl` / `ln_f64.wgsl`,
+    /// `measure.wgsl` and `material.wgsl` (the material energy constraint).
     Step,
     /// `scan.wgsl` (after `contact.wgsl`): exclusive prefix sum of the
     /// broadphase's hash-bucket counters.
@@ -94,6 +96,7 @@ impl ShaderFile {
                 "project_distance",
                 "project_simplex_measure",
                 "project_oriented_measure",
+                "project_material",
                 "residual",
                 "reduce",
                 "guard",
@@ -142,7 +145,7 @@ impl ShaderFile {
     fn body(self) -> &'static [&'static str] {
         match self {
             ShaderFile::Step => &[
-                PRELUDE, MEASURE, STEP, INTEGRATE, PROJECT, FRICTION, RESIDUAL, GUARD,
+                PRELUDE, MEASURE, MATERIAL, STEP, INTEGRATE, PROJECT, FRICTION, RESIDUAL, GUARD,
             ],
             ShaderFile::Scan => &[PRELUDE, CONTACT, SCAN],
             ShaderFile::Grid => &[PRELUDE, CONTACT, GRID],
@@ -176,7 +179,10 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
         workgroup = file.workgroup_size(),
         vec = crate::layout::record_words(dim),
     );
-    if matches!(file, ShaderFile::Barrier | ShaderFile::IncrementalPotential) {
+    if matches!(
+        file,
+        ShaderFile::Step | ShaderFile::Barrier | ShaderFile::IncrementalPotential
+    ) {
         source.push_str(match precision {
             Precision::F32 => LN_F32,
             Precision::F64 => LN_F64,

@@ -14,7 +14,9 @@
 //!           GpuError::Unsupported; never a silently shortened step
 //! ```
 
-use hyperpbd_core::{BackendError, GpuError};
+use hyperpbd_core::{
+    Backend, BackendError, FamilyKind, GpuError, Kernel, StageName, StepError, element_refusal,
+};
 
 use super::GpuBackend;
 use crate::xpbd::schedule::StepMode;
@@ -98,7 +100,9 @@ impl GpuBackend {
             self.rollback().map(|()| failed)
         };
         match diagnosed {
-            Ok((call, index)) => self.step_error(call, index),
+            Ok((call, index)) => self
+                .material_error(call, index)
+                .unwrap_or_else(|| self.step_error(call, index)),
             Err(e) => self.step_error(failed.0, failed.1).after_rollback(Err(e)),
         }
     }
@@ -112,6 +116,46 @@ impl GpuBackend {
         let found = self.failure(&block).unwrap_or(fallback);
         self.rollback()?;
         Ok(found)
+    }
+
+    /// The error of a failed material projection (call `call`, slot
+    /// `index`; the state rolled back): the law's refusal, named as the
+    /// CPU names it, from the positions that projection saw (the step
+    /// rerun exactly through it: the failing element wrote nothing and no
+    /// other element of its colour moves its particles). `None` for any
+    /// other call, or when the element evaluates there (a non-finite
+    /// value or update: the caller's `NonFiniteConstraint`).
+    fn material_error(&mut self, call: u32, index: u32) -> Option<BackendError> {
+        let Some(Kernel::Project { family, .. }) = self.schedule.kernel_of(call) else {
+            return None;
+        };
+        if !matches!(self.plan.families[family].kind, FamilyKind::Material { .. }) {
+            return None;
+        }
+        let seen = self
+            .rerun_through(call)
+            .map_err(BackendError::from)
+            .and_then(|()| self.read_state());
+        let rolled_back = self.rollback();
+        let positions = match seen {
+            Ok(state) => state.positions,
+            Err(e) => return Some(e.after_rollback(rolled_back)),
+        };
+        let f = &self.plan.families[family];
+        let refusal = element_refusal(self.plan.dim, f, index as usize, &positions)?;
+        let k = self.schedule.kernels_per_substep.max(1) as u32;
+        let error = BackendError::from(StepError::MaterialRefused {
+            stage: StageName::Project,
+            substep: call / k,
+            family,
+            family_label: f.label.clone(),
+            element: f
+                .source
+                .get(index as usize)
+                .map_or(index as usize, |&s| s as usize),
+            refusal,
+        });
+        Some(error.after_rollback(rolled_back))
     }
 
     /// Rolls back and reruns the step exactly (one dispatch per call)

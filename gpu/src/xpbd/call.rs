@@ -29,6 +29,7 @@ pub(crate) const OP_DAMPING: u32 = 7;
 pub(crate) const OP_RESIDUAL: u32 = 8;
 pub(crate) const OP_GUARD_MEASURE: u32 = 9;
 pub(crate) const OP_GUARD_SPEED: u32 = 10;
+pub(crate) const OP_PROJECT_MATERIAL: u32 = 11;
 /// A kernel the host runs itself between dispatches (broadphase, particle
 /// contact): no block of its own is ever executed.
 pub(crate) const OP_HOST: u32 = 0xff;
@@ -40,6 +41,7 @@ pub(crate) const FLAG_TETHER: u32 = 8;
 pub(crate) const FLAG_UNREAD: u32 = 16;
 pub(crate) const FLAG_ORIENTATION: u32 = 32;
 pub(crate) const FLAG_RATIO: u32 = 64;
+pub(crate) const FLAG_NEO_HOOKEAN: u32 = 128;
 
 pub(crate) const IO_LOAD_X: u32 = 1;
 pub(crate) const IO_LOAD_V: u32 = 2;

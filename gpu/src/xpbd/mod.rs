@@ -5,6 +5,7 @@
 //! kernel ↔ CPU golden ↔ WGSL ↔ dispatch side (call blocks)
 //!   predict, velocity, damping   cpu/src/integrate.rs  shaders/integrate.wgsl  integrate.rs
 //!   projection                   cpu/src/project.rs    shaders/project.wgsl    project.rs
+//!   material energy constraint   core/src/material     shaders/material.wgsl   material.rs
 //!   friction                     cpu/src/friction.rs   shaders/friction.wgsl   friction.rs
 //!   residual                     cpu/src/residual.rs   shaders/residual.wgsl   residual.rs
 //!   guards                       core/src/guards.rs    shaders/guard.wgsl      guard.rs
@@ -20,6 +21,7 @@ pub(crate) mod call;
 mod friction;
 mod guard;
 mod integrate;
+mod material;
 mod project;
 mod residual;
 pub(crate) mod schedule;
@@ -39,8 +41,14 @@ pub(crate) const NONE: u32 = u32::MAX;
 pub(crate) struct Families {
     /// Particle indices of every family, in family order.
     pub elements: Vec<u32>,
-    /// Rest values (hyperplane offsets in device coordinates).
+    /// Rest values (hyperplane offsets in device coordinates), one per
+    /// slot, then the material families' rest data (material.wgsl).
     pub rest: Vec<f64>,
+    /// Slots of every family (the multipliers; `rest` holds more).
+    pub slots: usize,
+    /// Offset of each material family's rest data in `rest` (0 for the
+    /// others).
+    pub material_base: Vec<u32>,
     /// Offset of each family's particle indices in `elements`.
     pub elem_base: Vec<u32>,
     /// Offset of each family's slots in `rest` and `lambda`.
@@ -63,6 +71,8 @@ impl Families {
             slot_base: Vec::new(),
             slot_map: Vec::new(),
             slot_maps: Vec::new(),
+            slots: 0,
+            material_base: Vec::new(),
         };
         for f in &plan.families {
             if f.arity == 2 && out.elements.len() % 2 == 1 {
@@ -100,6 +110,11 @@ impl Families {
                 }
             }
         }
+        out.slots = out.rest.len();
+        for f in &plan.families {
+            out.material_base.push(out.rest.len() as u32);
+            material::push_rest_data(f, &mut out.rest);
+        }
         Ok(out)
     }
 }
@@ -115,6 +130,7 @@ pub(crate) enum XpbdEntry {
     Reduce,
     Small,
     Guard,
+    Material,
 }
 
 impl XpbdEntry {
@@ -129,6 +145,7 @@ impl XpbdEntry {
             XpbdEntry::Reduce => 5,
             XpbdEntry::Small => 6,
             XpbdEntry::Guard => 7,
+            XpbdEntry::Material => 8,
         }
     }
 }
@@ -144,6 +161,7 @@ impl EntryPoint for XpbdEntry {
             XpbdEntry::Reduce => "reduce",
             XpbdEntry::Small => "step_small",
             XpbdEntry::Guard => "guard",
+            XpbdEntry::Material => "project_material",
         };
         (ShaderFile::Step, name)
     }

@@ -18,7 +18,7 @@ use hyperpbd_core::{FamilyKind, Kernel, Plan};
 use super::Families;
 use super::call::{
     Call, FLAG_FIRST, FLAG_TETHER, FLAG_UNREAD, OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE,
-    OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX,
+    OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX,
 };
 
 /// Projection of colour `color` of family `family`.
@@ -52,8 +52,10 @@ pub(crate) fn project(
         }
         FamilyKind::SimplexMeasure { .. } => c.op = OP_PROJECT_SIMPLEX,
         FamilyKind::OrientedMeasure => c.op = OP_PROJECT_ORIENTED,
-        // Refused when the backend loads (no GPU material kernel).
-        FamilyKind::Material { .. } => {}
+        FamilyKind::Material { .. } => {
+            c.op = OP_PROJECT_MATERIAL;
+            super::material::set_fields(f, families, family, &mut c);
+        }
         FamilyKind::HyperplaneContact { normal, friction } => {
             // friction and the report read a contact's λ: always stored.
             c.flags &= !FLAG_UNREAD;

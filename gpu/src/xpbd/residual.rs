@@ -29,7 +29,6 @@ fn kind_code(kind: &FamilyKind) -> u32 {
         FamilyKind::OrientedMeasure => 2,
         FamilyKind::HyperplaneContact { .. } => 3,
         FamilyKind::Tether => 4,
-        // Refused when the backend loads (no GPU material kernel).
         FamilyKind::Material { .. } => 5,
     }
 }
@@ -63,6 +62,7 @@ pub(crate) fn residual_calls(
         if let FamilyKind::HyperplaneContact { normal, .. } = &f.kind {
             call.normal = normal.clone();
         }
+        super::material::set_fields(f, families, family, &mut call);
         for first in (0..f.len() as u32).step_by(chunk as usize) {
             chunks.push([index, first]);
         }

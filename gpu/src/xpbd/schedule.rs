@@ -30,8 +30,8 @@
 use hyperpbd_core::{Kernel, Plan};
 
 use super::call::{
-    Call, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX,
-    dispatch_block, records_io,
+    Call, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST, OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED,
+    OP_PROJECT_SIMPLEX, dispatch_block, records_io,
 };
 use super::{Families, friction, guard, integrate, project, residual};
 use crate::Precision;
@@ -92,10 +92,11 @@ pub(crate) enum Run {
     /// [`SEGMENT`]).
     Particles(Segment),
     /// `project_distance` / `project_simplex_measure` /
-    /// `project_oriented_measure`: one colour.
+    /// `project_oriented_measure` / `project_material`: one colour.
     Distance,
     Simplex,
     Oriented,
+    Material,
     /// `residual`: one workgroup per chunk.
     Residual,
     /// `reduce`: one workgroup per family.
@@ -118,6 +119,7 @@ impl Run {
             Run::Distance => E::Distance,
             Run::Simplex => E::Simplex,
             Run::Oriented => E::Oriented,
+            Run::Material => E::Material,
             Run::Residual => E::Residual,
             Run::Reduce => E::Reduce,
             Run::Small => E::Small,
@@ -143,9 +145,11 @@ impl Dispatch {
     /// reads them from the block (particles, project_*).
     pub fn block(&self, calls: &[Call], dim: usize, precision: Precision) -> Vec<u8> {
         let own = match self.run {
-            Run::Particles(_) | Run::Distance | Run::Simplex | Run::Oriented => calls
-                .get(self.first_call as usize..self.end_call as usize)
-                .unwrap_or_default(),
+            Run::Particles(_) | Run::Distance | Run::Simplex | Run::Oriented | Run::Material => {
+                calls
+                    .get(self.first_call as usize..self.end_call as usize)
+                    .unwrap_or_default()
+            }
             _ => &[],
         };
         dispatch_block(
@@ -346,6 +350,7 @@ fn single(call: &Call, index: usize) -> Dispatch {
             OP_HOST => Run::Host(call.kernel.unwrap_or(Kernel::Broadphase)),
             OP_PROJECT_SIMPLEX => Run::Simplex,
             OP_PROJECT_ORIENTED => Run::Oriented,
+            OP_PROJECT_MATERIAL => Run::Material,
             OP_GUARD_MEASURE | OP_GUARD_SPEED => Run::Guard,
             _ => Run::Distance,
         }

@@ -1,0 +1,221 @@
+// Hyperelastic k-simplices (stvk, neo_hookean): the XPBD energy constraint
+// C = √(2W) of one element and its gradient — the arithmetic of
+// core/src/material (deformation.rs, stvk.rs, neo_hookean.rs, cholesky.rs,
+// energy.rs, energy_constraint.rs), in the same order; the projection is
+// project.wgsl's measure update, as cpu/src/project.rs runs it.
+//
+//   rest data   per element, at call.slot_map + e (k² + 1) in `rest`:
+//               R (k × k, row-major, upper triangular), then V_0
+//   D[a][j]  = x_{j+1}[a] − x_0[a]                     (N × k)
+//   F̂[a][j]  = Σ_{i=0..j} D[a][i] R[i][j]
+//   C[i][j]  = Σ_a F̂[a][i] F̂[a][j]
+//   stvk     E = ½(C − I); Ψ = μ tr(E²) + (λ/2)(tr E)²; S = 2μE + λ tr(E) I
+//   neo_h.   J = det F̂ (k = N) or Π L_jj, C = L Lᵀ (k < N); refused unless
+//            J > 0 and C = L Lᵀ succeeds; C⁻¹ = Yᵀ Y, Y = L⁻¹;
+//            Ψ = ½μ(tr C − k) − μ ln J + ½λ (ln J)²;  S = μ(I − C⁻¹) + λ ln J C⁻¹
+//   ∇W       P̂ = F̂ S;  ∇_{i+1}W[a] = V_0 Σ_{j≥i} P̂[a][j] R[i][j];  ∇_0 W = −Σ_i ∇_{i+1} W
+//   C        W = V_0 Ψ;  W ≤ 0 → C = 0, ∇C = 0;  else C = √(2W), ∇C = ∇W / C
+//
+// Call fields of a material call: slot_map = offset of the family's rest
+// data in `rest`, friction = Lamé μ, factor = Lamé λ, FLAG_NEO_HOOKEAN.
+// ln is ln_real (shaders/ln_f64.wgsl in f64: arithmetic only, the bits of
+// core::material::ln; the built-in log in f32).
+
+// Cholesky factor L of the symmetric n×n `a` into `l` (lower; strictly
+// upper part 0); false when a pivot is not > 0 (or NaN).
+fn material_cholesky(a: ptr<function, array<real, MAT>>, n: u32, l: ptr<function, array<real, MAT>>) -> bool {
+    for (var j = 0u; j < n; j++) {
+        var d = (*a)[j * n + j];
+        for (var m = 0u; m < j; m++) {
+            d -= (*l)[j * n + m] * (*l)[j * n + m];
+        }
+        if (!(d > 0.0)) {
+            return false;
+        }
+        let ljj = sqrt(d);
+        (*l)[j * n + j] = ljj;
+        for (var c = j + 1u; c < n; c++) {
+            (*l)[j * n + c] = 0.0;
+        }
+        for (var i = j + 1u; i < n; i++) {
+            var s = (*a)[i * n + j];
+            for (var m = 0u; m < j; m++) {
+                s -= (*l)[i * n + m] * (*l)[j * n + m];
+            }
+            (*l)[i * n + j] = s / ljj;
+        }
+    }
+    return true;
+}
+
+// C⁻¹ = Yᵀ Y, Y = L⁻¹ (L lower triangular, nonzero diagonal), into `inv`.
+fn material_inverse(l: ptr<function, array<real, MAT>>, n: u32, inv: ptr<function, array<real, MAT>>) {
+    var y: array<real, MAT>;
+    for (var j = 0u; j < n; j++) {
+        for (var i = 0u; i < j; i++) {
+            y[i * n + j] = 0.0;
+        }
+        y[j * n + j] = 1.0 / (*l)[j * n + j];
+        for (var i = j + 1u; i < n; i++) {
+            var s: real = 0.0;
+            for (var m = j; m < i; m++) {
+                s += (*l)[i * n + m] * y[m * n + j];
+            }
+            y[i * n + j] = -s / (*l)[i * n + i];
+        }
+    }
+    for (var i = 0u; i < n; i++) {
+        for (var j = 0u; j < n; j++) {
+            var s: real = 0.0;
+            for (var m = max(i, j); m < n; m++) {
+                s += y[m * n + i] * y[m * n + j];
+            }
+            (*inv)[i * n + j] = s;
+        }
+    }
+}
+
+// St. Venant–Kirchhoff: Ψ of C, S into `stress`.
+fn material_stvk(k: u32, c: ptr<function, array<real, MAT>>, stress: ptr<function, array<real, MAT>>) -> real {
+    let mu = call.friction;
+    let lambda_lame = call.factor;
+    var trace: real = 0.0;
+    var square: real = 0.0;
+    for (var i = 0u; i < k; i++) {
+        for (var j = 0u; j < k; j++) {
+            let delta = select(real(0.0), real(1.0), i == j);
+            let e = 0.5 * ((*c)[i * k + j] - delta);
+            square += e * e;
+            (*stress)[i * k + j] = 2.0 * mu * e;
+        }
+        trace += 0.5 * ((*c)[i * k + i] - 1.0);
+    }
+    for (var i = 0u; i < k; i++) {
+        (*stress)[i * k + i] += lambda_lame * trace;
+    }
+    return mu * square + 0.5 * lambda_lame * trace * trace;
+}
+
+// Compressible Neo-Hookean: Ψ of the element with F̂ `image` and C `c`,
+// S into `stress`; `refused` when J ≤ 0, NaN or C is not positive definite.
+fn material_neo_hookean(k: u32, image: ptr<function, array<real, MAT>>, c: ptr<function, array<real, MAT>>,
+                        stress: ptr<function, array<real, MAT>>, refused: ptr<function, bool>) -> real {
+    var factor: array<real, MAT>;
+    let factored = material_cholesky(c, k, &factor);
+    var ratio: real = 0.0;
+    if (k == DIM) {
+        var square: array<real, MAT>;
+        for (var t = 0u; t < k * k; t++) {
+            square[t] = (*image)[t];
+        }
+        ratio = determinant(&square, k);
+    } else if (factored) {
+        var product: real = 1.0;
+        for (var j = 0u; j < k; j++) {
+            product *= factor[j * k + j];
+        }
+        ratio = product;
+    }
+    if (!(ratio > 0.0) || !factored) {
+        *refused = true;
+        return 0.0;
+    }
+    let mu = call.friction;
+    let lambda_lame = call.factor;
+    var inv: array<real, MAT>;
+    material_inverse(&factor, k, &inv);
+    let log_ratio = ln_real(ratio);
+    var trace: real = 0.0;
+    for (var i = 0u; i < k; i++) {
+        trace += (*c)[i * k + i];
+    }
+    for (var i = 0u; i < k; i++) {
+        for (var j = 0u; j < k; j++) {
+            let delta = select(real(0.0), real(1.0), i == j);
+            let cinv = inv[i * k + j];
+            (*stress)[i * k + j] = mu * (delta - cinv) + lambda_lame * log_ratio * cinv;
+        }
+    }
+    return 0.5 * mu * (trace - real(k)) - mu * log_ratio + 0.5 * lambda_lame * log_ratio * log_ratio;
+}
+
+// C = √(2W) of element e of the running material call at the gathered
+// `pts`, ∇C into `grad`; `refused` when the law refuses the element.
+fn material_constraint(e: u32, pts: ptr<function, array<real, POINTS>>, grad: ptr<function, array<real, POINTS>>,
+                       refused: ptr<function, bool>) -> real {
+    let k = call.arity - 1u;
+    let base = call.slot_map + e * (k * k + 1u);
+    let v0 = rest[base + k * k];
+    var edges: array<real, MAT>;
+    var image: array<real, MAT>;
+    var c: array<real, MAT>;
+    for (var j = 0u; j < k; j++) {
+        for (var a = 0u; a < DIM; a++) {
+            edges[a * k + j] = (*pts)[(j + 1u) * DIM + a] - (*pts)[a];
+        }
+    }
+    for (var a = 0u; a < DIM; a++) {
+        for (var j = 0u; j < k; j++) {
+            var f: real = 0.0;
+            for (var i = 0u; i <= j; i++) {
+                f += edges[a * k + i] * rest[base + i * k + j];
+            }
+            image[a * k + j] = f;
+        }
+    }
+    for (var i = 0u; i < k; i++) {
+        for (var j = 0u; j < k; j++) {
+            var s: real = 0.0;
+            for (var a = 0u; a < DIM; a++) {
+                s += image[a * k + i] * image[a * k + j];
+            }
+            c[i * k + j] = s;
+        }
+    }
+    var stress: array<real, MAT>;
+    var psi: real;
+    if ((call.flags & FLAG_NEO_HOOKEAN) != 0u) {
+        psi = material_neo_hookean(k, &image, &c, &stress, refused);
+        if (*refused) {
+            return 0.0;
+        }
+    } else {
+        psi = material_stvk(k, &c, &stress);
+    }
+    // Pull-back: P̂ = F̂ S (into `edges`, no longer needed), then ∇W.
+    for (var a = 0u; a < DIM; a++) {
+        for (var j = 0u; j < k; j++) {
+            var p: real = 0.0;
+            for (var m = 0u; m < k; m++) {
+                p += image[a * k + m] * stress[m * k + j];
+            }
+            edges[a * k + j] = p;
+        }
+    }
+    for (var a = 0u; a < DIM; a++) {
+        var first: real = 0.0;
+        for (var i = 0u; i < k; i++) {
+            var h: real = 0.0;
+            for (var j = i; j < k; j++) {
+                h += edges[a * k + j] * rest[base + i * k + j];
+            }
+            let hv = v0 * h;
+            (*grad)[(i + 1u) * DIM + a] = hv;
+            first -= hv;
+        }
+        (*grad)[a] = first;
+    }
+    let energy = v0 * psi;
+    let count = (k + 1u) * DIM;
+    if (energy <= 0.0) {
+        for (var t = 0u; t < count; t++) {
+            (*grad)[t] = 0.0;
+        }
+        return 0.0;
+    }
+    let cval = sqrt(2.0 * energy);
+    for (var t = 0u; t < count; t++) {
+        (*grad)[t] = (*grad)[t] / cval;
+    }
+    return cval;
+}
