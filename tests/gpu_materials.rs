@@ -68,25 +68,17 @@ fn membrane() -> Scene {
     scene
 }
 
-/// Two neo_hookean triangles of the unit square, masses from density,
-/// dropped onto y = 0 with gravity.
+/// `common::materials::lumped_square` 0.2 m above y = 0 (μ = 0.2), under
+/// gravity, 4 substeps × 4 iterations of 1/60 s.
 fn lumped_square() -> Scene {
-    let mut scene = Scene::new(2, 1.0 / 60.0, 4, 4);
-    scene.gravity = Some(vec![0.0, -9.81]);
-    for p in [[0.0, 0.2], [1.0, 0.2], [1.0, 1.2], [0.0, 1.2]] {
-        let mut particle = Particle::new(p.to_vec(), 1.0);
-        particle.mass = None;
-        scene.particles.push(particle);
+    let mut scene = common::materials::lumped_square();
+    for p in &mut scene.particles {
+        p.position[1] += 0.2;
     }
-    scene.constraints.push(
-        ConstraintFamily::material(
-            ConstraintKind::NeoHookean,
-            300.0,
-            0.3,
-            vec![vec![0, 1, 2], vec![0, 2, 3]],
-        )
-        .with_density(3.0),
-    );
+    scene.dt = 1.0 / 60.0;
+    scene.substeps = 4;
+    scene.iterations = 4;
+    scene.gravity = Some(vec![0.0, -9.81]);
     let mut builder = hyperpbd::SceneBuilder::new(2);
     *builder.scene_mut() = scene;
     builder.hyperplane(vec![0.0, 1.0], 0.0, 0.2);

@@ -3,30 +3,17 @@
 //! Neo-Hookean refusal of a step with the state unchanged byte for byte,
 //! and the GPU backend's typed refusal of guards over a material scene.
 
+mod common;
+
 use hyperpbd::core::material::LawRefusal;
 use hyperpbd::{
-    Backend, BackendError, BackendKind, ConstraintFamily, ConstraintKind, GpuError, Particle, Plan,
+    Backend, BackendError, BackendKind, ConstraintFamily, ConstraintKind, GpuError, Plan,
     Precision, Scene, SceneError, State, StepError,
 };
 
-/// Two triangles of the unit square in 2D, no masses, one NH family.
+/// The unit square of two Neo-Hookean triangles, masses from density.
 fn square() -> Scene {
-    let mut scene = Scene::new(2, 0.01, 1, 1);
-    for p in [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]] {
-        let mut particle = Particle::new(p.to_vec(), 1.0);
-        particle.mass = None;
-        scene.particles.push(particle);
-    }
-    scene.constraints.push(
-        ConstraintFamily::material(
-            ConstraintKind::NeoHookean,
-            100.0,
-            0.3,
-            vec![vec![0, 1, 2], vec![0, 2, 3]],
-        )
-        .with_density(3.0),
-    );
-    scene
+    common::materials::lumped_square()
 }
 
 /// An edit of the base scene and the start of the error it must give.

@@ -2,32 +2,19 @@
 //! its mass — authored, or lumped from a material family's density (a
 //! particle without `mass` used to count as massless).
 
-use hyperpbd::sweep::Metric;
-use hyperpbd::{ConstraintFamily, ConstraintKind, Particle, Plan, Scene, State};
+mod common;
 
-/// Two triangles of the unit square (2D), one Neo-Hookean family with
-/// density 3: particles 0..3 have no mass (lumped), particle 4 has 2 kg and
-/// particle 5 is fixed.
+use hyperpbd::sweep::Metric;
+use hyperpbd::{Particle, Plan, Scene, State};
+
+/// `common::materials::lumped_square` (particles 0..3 without mass,
+/// lumped from density 3) plus particle 4 of 2 kg and a fixed particle 5.
 fn scene() -> Scene {
-    let mut scene = Scene::new(2, 0.01, 1, 1);
-    for p in [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]] {
-        let mut particle = Particle::new(p.to_vec(), 1.0);
-        particle.mass = None;
-        scene.particles.push(particle);
-    }
+    let mut scene = common::materials::lumped_square();
     scene.particles.push(Particle::new(vec![3.0, 0.0], 2.0));
     let mut fixed = Particle::new(vec![4.0, 0.0], 1.0);
     fixed.fixed = true;
     scene.particles.push(fixed);
-    scene.constraints.push(
-        ConstraintFamily::material(
-            ConstraintKind::NeoHookean,
-            100.0,
-            0.3,
-            vec![vec![0, 1, 2], vec![0, 2, 3]],
-        )
-        .with_density(3.0),
-    );
     scene.validate().expect("valid");
     scene
 }

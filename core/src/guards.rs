@@ -295,7 +295,7 @@ pub fn measure_rejection(
         subject: GuardSubject::Element {
             family,
             family_label: fam.label.clone(),
-            element: fam.source.get(slot).map_or(slot, |&s| s as usize),
+            element: fam.authored_element(slot),
         },
         value,
         limit,

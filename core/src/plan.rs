@@ -144,6 +144,12 @@ impl Family {
         self.rest.is_empty()
     }
 
+    /// The authored element index of (colour-ordered) slot `slot` (the
+    /// slot itself past the end, so an error can always name something).
+    pub fn authored_element(&self, slot: usize) -> usize {
+        self.source.get(slot).map_or(slot, |&s| s as usize)
+    }
+
     /// Number of colors.
     pub fn color_count(&self) -> usize {
         self.color_starts.len().saturating_sub(1)

@@ -426,10 +426,7 @@ impl GpuBackend {
                     substep,
                     family,
                     family_label: f.label.clone(),
-                    element: f
-                        .source
-                        .get(index as usize)
-                        .map_or(index as usize, |&s| s as usize),
+                    element: f.authored_element(index as usize),
                 }
                 .into()
             }

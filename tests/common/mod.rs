@@ -9,6 +9,7 @@ pub mod differential;
 pub mod exact;
 pub mod gpu;
 pub mod guarded;
+pub mod materials;
 
 /// A deterministic pseudo-random number generator (64-bit LCG), so test
 /// scenes are jittered the same way on every run.

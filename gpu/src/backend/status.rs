@@ -149,10 +149,7 @@ impl GpuBackend {
             substep: call / k,
             family,
             family_label: f.label.clone(),
-            element: f
-                .source
-                .get(index as usize)
-                .map_or(index as usize, |&s| s as usize),
+            element: f.authored_element(index as usize),
             refusal,
         });
         Some(error.after_rollback(rolled_back))
