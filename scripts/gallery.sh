@@ -26,6 +26,7 @@ scenes=(
     "chain2d|120|6|120|--color residual"
     "incline5d|90|5|90|--perspective --rotate 2,4 --rotate-speed 0.6 --azimuth 0 --elevation 15"
     "example|90|5|30|"
+    "jelly4d|120|6|120|--perspective --rotate 0,2 --rotate-speed 0.8"
 )
 
 wanted=("$@")
