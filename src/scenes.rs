@@ -6,11 +6,13 @@
 
 mod granular;
 mod peer_cloth;
+mod stretched_bar;
 
 pub use granular::{ballpit4d, column3d, pit3d, sandpile2d};
 use hyperpbd_core::builders::{BlockSpec, GridSpec};
 use hyperpbd_core::{Scene, SceneBuilder};
 pub use peer_cloth::peer_cloth;
+pub use stretched_bar::{BAR_POISSON, BAR_YOUNGS, bar_strains, stretched_bar};
 
 /// Names accepted by [`by_name`].
 pub const NAMES: &[&str] = &[

@@ -91,68 +91,15 @@ fn settle(scene: &Scene, steps: usize) -> State {
     backend.read_state().expect("state")
 }
 
-const YOUNGS: f64 = 100.0;
-const POISSON: f64 = 0.3;
+const YOUNGS: f64 = hyperpbd::scenes::BAR_YOUNGS;
+const POISSON: f64 = hyperpbd::scenes::BAR_POISSON;
 
-/// The settled bar of `law` in `dim` dimensions under traction `p`:
-/// (axial strain s − 1, lateral strain 1 − t).
+/// The settled bar of `law` in `dim` dimensions under traction `p`
+/// (`hyperpbd::scenes::stretched_bar`, 10 substeps × 4 iterations, 300
+/// frames): (axial strain s − 1, lateral strain 1 − t).
 fn stretched_bar(law: Law, dim: usize, p: f64) -> (f64, f64) {
-    let spacing = 0.5;
-    let mut cells = vec![2; dim];
-    cells[0] = 20;
-    let nodes: Vec<usize> = cells.iter().map(|c| c + 1).collect();
-    let count: usize = nodes.iter().product();
-    let mut scene = Scene::new(dim, 1.0 / 60.0, 10, 4);
-    scene.damping = Some(Damping { rate: 6.0 });
-    for i in 0..count {
-        let c = coords(i, &nodes);
-        let position: Vec<f64> = c.iter().map(|&ci| ci as f64 * spacing).collect();
-        let mut particle = Particle::new(position, 1.0);
-        particle.mass = None;
-        if c[0] == 0 || c[0] == cells[0] {
-            // Lumped share of the rest end face: half a cell per boundary axis.
-            let area: f64 = c[1..]
-                .iter()
-                .zip(&cells[1..])
-                .map(|(&ci, &n)| {
-                    if ci == 0 || ci == n {
-                        spacing / 2.0
-                    } else {
-                        spacing
-                    }
-                })
-                .product();
-            let sign = if c[0] == 0 { -1.0 } else { 1.0 };
-            let mut force = vec![0.0; dim];
-            force[0] = sign * p * area;
-            particle = particle.with_force(force);
-        }
-        scene.particles.push(particle);
-    }
-    scene.constraints.push(
-        ConstraintFamily::material(kind_of(law), YOUNGS, POISSON, kuhn_elements(&cells))
-            .with_density(1.0),
-    );
-    let state = settle(&scene, 300);
-    let x = |i: usize| state.position(i)[0];
-    let section = |i0: usize| {
-        let members: Vec<usize> = (0..count).filter(|&i| coords(i, &nodes)[0] == i0).collect();
-        members.iter().map(|&i| x(i)).sum::<f64>() / members.len() as f64
-    };
-    let axial = (section(15) - section(5)) / (10.0 * spacing) - 1.0;
-    // Lateral width at the middle section along axis 1.
-    let side = |c1: usize| {
-        let members: Vec<usize> = (0..count)
-            .filter(|&i| {
-                let c = coords(i, &nodes);
-                c[0] == 10 && c[1] == c1
-            })
-            .collect();
-        members.iter().map(|&i| state.position(i)[1]).sum::<f64>() / members.len() as f64
-    };
-    let width = cells[1] as f64 * spacing;
-    let lateral = 1.0 - (side(cells[1]) - side(0)) / width;
-    (axial, lateral)
+    let scene = hyperpbd::scenes::stretched_bar(law, dim, p, 10, 4);
+    hyperpbd::scenes::bar_strains(dim, &settle(&scene, 300))
 }
 
 #[test]

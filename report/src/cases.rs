@@ -14,6 +14,12 @@
 //!   damping     3D, v0 = (2, 0, 0) m/s, rate r = 1.5 /s, no gravity, 2 s:
 //!               x* = x0 + v0 (1 − e^(−r t)) / r
 //!   error       |x − x*| / |x* − x0|  (relative position error)
+//!   stretch     2D Neo-Hookean bar (scenes::stretched_bar: 20 × 2 Kuhn cells,
+//!               E = 100 Pa, ν = 0.3) under nominal traction P = 0.1 E,
+//!               settling 5 s under damping; s* the closed-form uniaxial
+//!               stretch (core::material::uniaxial_stretch_under_stress)
+//!               error |ε − ε*| / ε*, ε = s − 1 the axial strain between
+//!               the sections at 1/4 and 3/4 of the bar
 //!
 //! converged references (many particles; no closed form):
 //!   cloth       scenes::hanging_cloth(n) with link compliance 1e-5 m/N
@@ -38,6 +44,7 @@
 //! energy m g L (1 − cos θ0) for the pendulum, and max(KE_0, Σ m |g| ·
 //! extent) otherwise.
 
+use hyperpbd::core::material::{Law, Material, uniaxial_stretch_under_stress};
 use hyperpbd::{ConstraintFamily, ConstraintKind, Particle, Scene, SceneBuilder, State};
 use serde::Serialize;
 
@@ -49,6 +56,8 @@ const INCLINE_THETA_DEG: f64 = 30.0;
 const INCLINE_MU: f64 = 0.3;
 const DAMPING_V0: f64 = 2.0;
 const DAMPING_RATE: f64 = 1.5;
+/// Nominal traction of the stretch case: 0.1 E.
+const STRETCH_TRACTION: f64 = 0.1 * hyperpbd::scenes::BAR_YOUNGS;
 /// Link compliance of the sweep's cloth (m/N).
 pub const CLOTH_COMPLIANCE: f64 = 1e-5;
 
@@ -70,10 +79,12 @@ pub enum CaseId {
     Tesseract,
     /// Rope bridge (converged reference).
     Chain2d,
+    /// Uniaxial stretch of a Neo-Hookean bar (closed form).
+    Stretch,
 }
 
 /// Every case, in report order.
-pub const ALL: [CaseId; 7] = [
+pub const ALL: [CaseId; 8] = [
     CaseId::Pendulum,
     CaseId::FreeFall,
     CaseId::Incline,
@@ -81,6 +92,7 @@ pub const ALL: [CaseId; 7] = [
     CaseId::Cloth,
     CaseId::Tesseract,
     CaseId::Chain2d,
+    CaseId::Stretch,
 ];
 
 /// Where the right answer comes from.
@@ -113,6 +125,7 @@ impl CaseId {
             CaseId::Cloth => "cloth",
             CaseId::Tesseract => "tesseract",
             CaseId::Chain2d => "chain2d",
+            CaseId::Stretch => "stretch",
         }
     }
 
@@ -133,6 +146,9 @@ impl CaseId {
             ),
             CaseId::Tesseract => "soft tesseract on a plane (4D, 81 nodes, 0.5 s)".into(),
             CaseId::Chain2d => "rope bridge (2D, 21 particles, 1 s)".into(),
+            CaseId::Stretch => {
+                "uniaxial stretch (2D Neo-Hookean bar, 20 × 2 cells, P = 0.1 E, 5 s)".into()
+            }
         }
     }
 
@@ -146,6 +162,7 @@ impl CaseId {
             CaseId::Cloth | CaseId::Tesseract | CaseId::Chain2d => {
                 "max position error vs reference / extent"
             }
+            CaseId::Stretch => "relative axial strain error |ε − ε*| / ε*",
         }
     }
 
@@ -156,6 +173,7 @@ impl CaseId {
             CaseId::FreeFall => Answer::ClosedForm("x* = x0 + v0 t + ½ g t²"),
             CaseId::Incline => Answer::ClosedForm("x* = ½ g (sin θ − μ cos θ) t² · down-slope"),
             CaseId::Damping => Answer::ClosedForm("x* = x0 + v0 (1 − e^(−r t)) / r"),
+            CaseId::Stretch => Answer::ClosedForm("s* = uniaxial_stretch_under_stress(NH, 2D, P)"),
             CaseId::Cloth | CaseId::Tesseract | CaseId::Chain2d => Answer::Converged,
         }
     }
@@ -163,7 +181,10 @@ impl CaseId {
     /// True when the iteration count changes the result (several coupled
     /// constraints); single-particle cases are swept over substeps only.
     pub fn uses_iterations(self) -> bool {
-        matches!(self, CaseId::Cloth | CaseId::Tesseract | CaseId::Chain2d)
+        matches!(
+            self,
+            CaseId::Cloth | CaseId::Tesseract | CaseId::Chain2d | CaseId::Stretch
+        )
     }
 
     /// True when the exact dynamics conserve energy (no friction, damping
@@ -186,6 +207,7 @@ impl CaseId {
             CaseId::Damping => 120,
             CaseId::Cloth => 15,
             CaseId::Tesseract => 30,
+            CaseId::Stretch => 300,
         }
     }
 
@@ -237,6 +259,13 @@ impl CaseId {
             }
             CaseId::Tesseract => Ok(hyperpbd::scenes::tesseract()),
             CaseId::Chain2d => Ok(hyperpbd::scenes::chain2d()),
+            CaseId::Stretch => Ok(hyperpbd::scenes::stretched_bar(
+                Law::NeoHookean,
+                2,
+                STRETCH_TRACTION,
+                substeps,
+                iterations,
+            )),
         }
         .unwrap_or_else(|e| unreachable!("reference scenes are valid: {e}"));
         scene.dt = 1.0 / 60.0;
@@ -298,6 +327,24 @@ impl CaseId {
                 let diff = distance(x, &exact);
                 let travel = exact.iter().map(|e| e * e).sum::<f64>().sqrt();
                 Some(Ok(diff / travel))
+            }
+            CaseId::Stretch => {
+                let material = match Material::new(
+                    Law::NeoHookean,
+                    2,
+                    hyperpbd::scenes::BAR_YOUNGS,
+                    hyperpbd::scenes::BAR_POISSON,
+                ) {
+                    Ok(m) => m,
+                    Err(e) => return Some(Err(format!("no material: {e}"))),
+                };
+                let Some(exact) = uniaxial_stretch_under_stress(&material, 2, STRETCH_TRACTION)
+                else {
+                    return Some(Err("no closed-form stretch for this traction".into()));
+                };
+                let exact = exact.stretch - 1.0;
+                let (axial, _) = hyperpbd::scenes::bar_strains(2, &observed.final_state);
+                Some(Ok(((axial - exact) / exact).abs()))
             }
             _ => None,
         }

@@ -65,6 +65,7 @@ pub fn headline_sentence(report: &Report, case: CaseId) -> Option<String> {
         sci_short(report.target),
         match case {
             CaseId::Pendulum => "relative period error",
+            CaseId::Stretch => "relative axial strain error (vs the closed-form uniaxial stretch)",
             CaseId::Cloth | CaseId::Tesseract | CaseId::Chain2d => {
                 "relative position error (max particle distance to the converged reference / extent)"
             }

@@ -37,7 +37,7 @@ pub struct AccuracyArgs {
     #[arg(long)]
     reps: Option<usize>,
     /// Comma-separated cases of the sweep (pendulum, free_fall, incline,
-    /// damping, cloth, tesseract, chain2d); default all.
+    /// damping, cloth, tesseract, chain2d, stretch); default all.
     #[arg(long, value_delimiter = ',')]
     cases: Option<Vec<String>>,
     /// Comma-separated backends (cpu-f64, gpu-f32, gpu-f64); default all.

@@ -247,7 +247,8 @@ pub fn markdown(report: &Report, config: &Config) -> String {
         s,
         "## How it was measured\n\n\
          - Sweep: every case × backend × substeps {:?} × iterations {:?} (iterations only where several \
-           constraints couple: cloth, tesseract, chain2d). dt = 1/60 s per step throughout.\n\
+           constraints couple: cloth, tesseract, chain2d; the tesseract and the stretched bar at one \
+           iteration, their GPU points being slow). dt = 1/60 s per step throughout.\n\
          - Time: wall ms spent in `step()` per simulated second; one untimed warm-up step first; \
            each point repeated {} time(s) from the same initial state, median reported.\n\
          - Error: closed forms for the single-particle cases; for the others the max particle distance to a \

@@ -144,7 +144,12 @@ pub fn readme_section(report: &Report, out: &str) -> String {
     if let Some(line) = headline_sentence(report, CaseId::Cloth) {
         let _ = writeln!(s, "{line}\n");
     }
-    for case in [CaseId::Pendulum, CaseId::Tesseract, CaseId::Chain2d] {
+    for case in [
+        CaseId::Pendulum,
+        CaseId::Tesseract,
+        CaseId::Chain2d,
+        CaseId::Stretch,
+    ] {
         if let Some(line) = headline_sentence(report, case) {
             let _ = writeln!(s, "- {line}");
         }
