@@ -22,6 +22,7 @@ use hyperpbd_core::{
 };
 
 use crate::context::GpuContext;
+use crate::export::Exporter;
 use crate::kernel_set::{KernelSet, KernelSetSpec, ParamBlocks};
 use crate::layout::VectorLayout;
 use crate::origin::SceneOrigin;
@@ -34,6 +35,8 @@ use crate::{AdapterSummary, Precision};
 
 mod attempt;
 mod contact_step;
+mod device;
+use crate::context::DeviceSource;
 pub(crate) mod status;
 use contact_step::ContactStage;
 
@@ -81,6 +84,8 @@ pub struct GpuBackend {
     contacts: Option<ContactStage>,
     /// Backends of `plan.subdivided(j)`, j = 1, 2, … (adaptive; attempt.rs).
     subdivided: Vec<GpuBackend>,
+    /// The position export into a caller's buffer (built on first use).
+    exporter: Exporter,
 }
 
 impl GpuBackend {
@@ -99,7 +104,14 @@ impl GpuBackend {
         precision: Precision,
     ) -> Result<Self, BackendError> {
         let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
-        Self::load(adapter, plan, state, precision, origin, None)
+        Self::load(
+            DeviceSource::Own(adapter),
+            plan,
+            state,
+            precision,
+            origin,
+            None,
+        )
     }
 
     /// Loads `plan` with `state`, storing positions relative to `origin`
@@ -111,7 +123,14 @@ impl GpuBackend {
         precision: Precision,
         origin: SceneOrigin,
     ) -> Result<Self, BackendError> {
-        Self::load(adapter, plan, state, precision, origin, None)
+        Self::load(
+            DeviceSource::Own(adapter),
+            plan,
+            state,
+            precision,
+            origin,
+            None,
+        )
     }
 
     /// Loads `plan` with `state`, forming the step's dispatches as `mode`
@@ -133,11 +152,18 @@ impl GpuBackend {
             ));
         }
         let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
-        Self::load(adapter, plan, state, precision, origin, Some(mode))
+        Self::load(
+            DeviceSource::Own(adapter),
+            plan,
+            state,
+            precision,
+            origin,
+            Some(mode),
+        )
     }
 
     fn load(
-        adapter: &wgpu::Adapter,
+        device: DeviceSource<'_>,
         plan: Plan,
         state: &State,
         precision: Precision,
@@ -180,7 +206,7 @@ impl GpuBackend {
             }
             .into());
         }
-        let ctx = GpuContext::new(adapter, precision)?;
+        let ctx = device.context(precision)?;
         ctx.building(|| Self::build(ctx.clone(), plan, state, precision, origin, mode))
     }
 
@@ -351,6 +377,7 @@ impl GpuBackend {
             alone,
             contacts,
             subdivided: Vec::new(),
+            exporter: Exporter::default(),
         })
     }
 

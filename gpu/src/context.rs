@@ -59,6 +59,36 @@ impl GpuContext {
         })
     }
 
+    /// The caller's `device` and `queue`, created on `adapter`: the
+    /// features `precision` needs are checked (a typed
+    /// [`GpuError::MissingFeature`]); limits are checked by each kernel set
+    /// as it is built. The caller keeps its own uncaptured-error handler
+    /// and device-lost callback: none is installed here (errors while
+    /// building are still caught, by error scopes; see [`Self::building`]).
+    pub fn on_device(
+        adapter: &wgpu::Adapter,
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        precision: Precision,
+    ) -> Result<Self, GpuError> {
+        let summary = AdapterSummary::of(adapter);
+        let missing = crate::adapter::required_features(precision) - device.features();
+        if let Some(feature) = missing.iter().next() {
+            return Err(GpuError::MissingFeature {
+                adapter: format!("{} (the device given)", summary.name),
+                feature: format!("{feature:?}"),
+            });
+        }
+        Ok(GpuContext {
+            device,
+            queue,
+            summary,
+            errors: Arc::default(),
+            lost: Arc::default(),
+            waits: Arc::default(),
+        })
+    }
+
     /// A lost device, then any error the device reported since the last
     /// check.
     pub fn check(&self) -> Result<(), GpuError> {
@@ -194,5 +224,32 @@ impl GpuContext {
             .into());
         }
         built
+    }
+}
+
+/// Where a backend's device comes from: its own, made on an adapter, or
+/// the caller's.
+pub(crate) enum DeviceSource<'a> {
+    /// A new device on this adapter.
+    Own(&'a wgpu::Adapter),
+    /// The caller's device and queue, made on `adapter`.
+    Given {
+        adapter: &'a wgpu::Adapter,
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+    },
+}
+
+impl DeviceSource<'_> {
+    /// The device with the rules every backend follows.
+    pub(crate) fn context(self, precision: Precision) -> Result<GpuContext, GpuError> {
+        match self {
+            DeviceSource::Own(adapter) => GpuContext::new(adapter, precision),
+            DeviceSource::Given {
+                adapter,
+                device,
+                queue,
+            } => GpuContext::on_device(adapter, device, queue, precision),
+        }
     }
 }

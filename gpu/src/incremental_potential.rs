@@ -29,7 +29,8 @@ use crate::barrier::{
     BARRIER_BINDINGS, NONE, STATUS_WORDS, barrier_params, local_obstacles, obstacle_geometry,
     refuse_cut_loops, status_words,
 };
-use crate::context::GpuContext;
+use crate::context::{DeviceSource, GpuContext};
+use crate::export::{ExportParts, Exporter, PositionExport};
 use crate::kernel_set::{Binding, BlockWriter, EntryPoint, KernelSet, KernelSetSpec, ParamBlocks};
 use crate::layout::VectorLayout;
 use crate::params::{push_reals, read_reals, real_size};
@@ -119,6 +120,8 @@ pub struct GpuBarrierBackend {
     _rest: Vec<wgpu::Buffer>,
     substep: u32,
     reports: Vec<MinimisationReport>,
+    /// The position export into a caller's buffer (built on first use).
+    exporter: Exporter,
 }
 
 impl GpuBarrierBackend {
@@ -126,6 +129,34 @@ impl GpuBarrierBackend {
     /// `adapter`.
     pub fn with_adapter(
         adapter: &wgpu::Adapter,
+        plan: Plan,
+        state: &State,
+        precision: Precision,
+    ) -> Result<Self, BackendError> {
+        Self::load(DeviceSource::Own(adapter), plan, state, precision)
+    }
+
+    /// Loads an incremental-potential `plan` with `state` on the caller's
+    /// `device` and `queue` (created on `adapter`), as
+    /// [`crate::GpuBackend::with_device`] does for the XPBD path.
+    pub fn with_device(
+        adapter: &wgpu::Adapter,
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        plan: Plan,
+        state: &State,
+        precision: Precision,
+    ) -> Result<Self, BackendError> {
+        let source = DeviceSource::Given {
+            adapter,
+            device,
+            queue,
+        };
+        Self::load(source, plan, state, precision)
+    }
+
+    fn load(
+        device: DeviceSource<'_>,
         plan: Plan,
         state: &State,
         precision: Precision,
@@ -152,7 +183,7 @@ impl GpuBarrierBackend {
             }
             .into());
         }
-        let ctx = GpuContext::new(adapter, precision)?;
+        let ctx = device.context(precision)?;
         let kernels = KernelSet::new(
             &ctx.device,
             &KernelSetSpec {
@@ -295,6 +326,7 @@ impl GpuBarrierBackend {
             ],
             substep: 0,
             reports: Vec::new(),
+            exporter: Exporter::default(),
         };
         backend.ctx.check()?;
         Ok(backend)
@@ -558,5 +590,16 @@ impl Backend for GpuBarrierBackend {
 pub(crate) fn incremental_potential_unsupported() -> GpuError {
     GpuError::Unsupported {
         what: "the incremental_potential solver on GpuBackend (use GpuBarrierBackend)".into(),
+    }
+}
+
+impl PositionExport for GpuBarrierBackend {
+    fn export_parts(&self) -> ExportParts<'_> {
+        ExportParts::new(
+            &self.ctx,
+            &self.state,
+            &self.exporter,
+            self.plan.particle_count(),
+        )
     }
 }

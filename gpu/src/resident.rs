@@ -134,6 +134,18 @@ impl ResidentState {
         &self.packing.origin
     }
 
+    /// Where `count` particles' positions sit in `x`.
+    pub fn position_layout(&self, count: usize) -> crate::export::PositionLayout {
+        let p = &self.packing;
+        crate::export::PositionLayout {
+            dim: p.dim,
+            count,
+            stride: p.layout.reals_per_particle(p.dim),
+            precision: p.precision,
+            origin: p.origin.as_slice().to_vec(),
+        }
+    }
+
     /// Records the copies x → saved_x, v → saved_v.
     pub fn save(&self, encoder: &mut wgpu::CommandEncoder) {
         if self.bytes > 0 {

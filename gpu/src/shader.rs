@@ -34,6 +34,7 @@ const BARRIER: &str = include_str!("../../shaders/barrier.wgsl");
 const INCREMENTAL_POTENTIAL: &str = include_str!("../../shaders/incremental_potential.wgsl");
 const LN_F32: &str = include_str!("../../shaders/ln_f32.wgsl");
 const LN_F64: &str = include_str!("../../shaders/ln_f64.wgsl");
+const EXPORT: &str = include_str!("../../shaders/export_positions.wgsl");
 
 /// A kernel family: one WGSL file and its entry points.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -62,17 +63,21 @@ pub enum ShaderFile {
     /// incremental-potential substep (predict, gradient and residual,
     /// tree reduction, filtered Newton, velocity).
     IncrementalPotential,
+    /// `export_positions.wgsl` alone: positions out to a caller's vertex
+    /// buffer (world coordinates, f32, projected to 3 axes).
+    Export,
 }
 
 impl ShaderFile {
     /// Every kernel family.
-    pub const ALL: [ShaderFile; 6] = [
+    pub const ALL: [ShaderFile; 7] = [
         ShaderFile::Step,
         ShaderFile::Scan,
         ShaderFile::Grid,
         ShaderFile::Collide,
         ShaderFile::Barrier,
         ShaderFile::IncrementalPotential,
+        ShaderFile::Export,
     ];
 
     /// File name under `shaders/`.
@@ -84,6 +89,7 @@ impl ShaderFile {
             ShaderFile::Collide => "collide.wgsl",
             ShaderFile::Barrier => "barrier.wgsl",
             ShaderFile::IncrementalPotential => "incremental_potential.wgsl",
+            ShaderFile::Export => "export_positions.wgsl",
         }
     }
 
@@ -127,6 +133,7 @@ impl ShaderFile {
                 "ip_newton",
                 "ip_velocity",
             ],
+            ShaderFile::Export => &["export_positions"],
         }
     }
 
@@ -152,6 +159,7 @@ impl ShaderFile {
             ShaderFile::Collide => &[PRELUDE, CONTACT, COLLIDE],
             ShaderFile::Barrier => &[BARRIER],
             ShaderFile::IncrementalPotential => &[BARRIER, INCREMENTAL_POTENTIAL],
+            ShaderFile::Export => &[EXPORT],
         }
     }
 }
