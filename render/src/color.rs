@@ -27,7 +27,7 @@ pub(crate) const RESIDUAL_LOG_MIN: f64 = -6.0;
 pub(crate) const RESIDUAL_LOG_MAX: f64 = -1.0;
 
 /// Picture background.
-pub(crate) const BACKGROUND: [u8; 3] = [248, 247, 243];
+pub const BACKGROUND: [u8; 3] = [248, 247, 243];
 /// The excluded half-space of a hyperplane.
 pub(crate) const GROUND_FILL: [u8; 4] = [214, 208, 196, 255];
 /// A hyperplane's trace.

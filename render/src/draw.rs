@@ -23,6 +23,28 @@ use glam::DVec2;
 use hyperpbd_core::{Scene, State};
 use tiny_skia::{Color, FillRule, LineCap, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform};
 
+/// The affine world → pixel map of an orthographic view
+/// ([`Renderer::pixel_map`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PixelMap {
+    /// World axis drawn left to right.
+    pub horizontal: usize,
+    /// World axis drawn along the picture's rows (`ky` < 0: up).
+    pub vertical: usize,
+    /// Pixel x of world x[horizontal] = 0.
+    pub x0: f64,
+    /// Pixel y of world x[vertical] = 0.
+    pub y0: f64,
+    /// Pixels per unit along `horizontal`.
+    pub kx: f64,
+    /// Pixels per unit along `vertical` (negative: rows grow downwards).
+    pub ky: f64,
+    /// Disc radius in pixels per unit of particle radius.
+    pub scale: f64,
+    /// Smallest disc radius in pixels.
+    pub min_radius_px: f64,
+}
+
 /// Draws the snapshots of one run with one fixed framing.
 #[derive(Debug, Clone)]
 pub struct Renderer {
@@ -125,6 +147,42 @@ impl Renderer {
     /// The view.
     pub fn view(&self) -> &View {
         &self.camera.view
+    }
+
+    /// Where an orthographic, non-rotating view puts the world: pixel
+    /// coordinates of a particle at x are (x0 + kx · x[horizontal],
+    /// y0 + ky · x[vertical]), and its disc radius max(r · scale,
+    /// min_radius_px) — so another renderer (a wgpu pipeline drawing
+    /// straight from the GPU backend's buffers) can draw the same picture.
+    /// `None` for perspective or rotating views.
+    pub fn pixel_map(&self) -> Option<PixelMap> {
+        let view = &self.camera.view;
+        if view.is_perspective() || view.rotate.is_some() {
+            return None;
+        }
+        let mut y = vec![0.0; view.dim];
+        let mut at = |x: &[f64]| {
+            view.centred(x, &self.camera.centre, 0.0, &mut y);
+            self.camera.project(&y)
+        };
+        let zero = vec![0.0; view.dim];
+        let o = at(&zero);
+        let mut e = zero.clone();
+        e[view.horizontal] = 1.0;
+        let h = at(&e);
+        let mut e = zero;
+        e[view.vertical] = 1.0;
+        let v = at(&e);
+        Some(PixelMap {
+            horizontal: view.horizontal,
+            vertical: view.vertical,
+            x0: o.x,
+            y0: o.y,
+            kx: h.x - o.x,
+            ky: v.y - o.y,
+            scale: o.scale,
+            min_radius_px: view.min_radius_px,
+        })
     }
 
     /// The speed drawn red: the fastest particle of the framed snapshots,

@@ -29,8 +29,8 @@ mod framing;
 mod geometry;
 pub mod view;
 
-pub use color::{ColorBy, colormap};
-pub use draw::Renderer;
+pub use color::{BACKGROUND, ColorBy, colormap};
+pub use draw::{PixelMap, Renderer};
 pub use encode::{GifEncoder, Image};
 pub use error::RenderError;
 pub use view::{Options, View, parse_axes};
