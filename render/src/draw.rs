@@ -31,9 +31,9 @@ pub struct PixelMap {
     pub horizontal: usize,
     /// World axis drawn along the picture's rows (`ky` < 0: up).
     pub vertical: usize,
-    /// Pixel x of world x[horizontal] = 0.
+    /// Pixel x of world coordinate `x[horizontal]` = 0.
     pub x0: f64,
-    /// Pixel y of world x[vertical] = 0.
+    /// Pixel y of world coordinate `x[vertical]` = 0.
     pub y0: f64,
     /// Pixels per unit along `horizontal`.
     pub kx: f64,
@@ -150,9 +150,9 @@ impl Renderer {
     }
 
     /// Where an orthographic, non-rotating view puts the world: pixel
-    /// coordinates of a particle at x are (x0 + kx · x[horizontal],
-    /// y0 + ky · x[vertical]), and its disc radius max(r · scale,
-    /// min_radius_px) — so another renderer (a wgpu pipeline drawing
+    /// coordinates of a particle at x are `(x0 + kx · x[horizontal],
+    /// y0 + ky · x[vertical])`, and its disc radius `max(r · scale,
+    /// min_radius_px)` — so another renderer (a wgpu pipeline drawing
     /// straight from the GPU backend's buffers) can draw the same picture.
     /// `None` for perspective or rotating views.
     pub fn pixel_map(&self) -> Option<PixelMap> {
