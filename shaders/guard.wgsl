@@ -6,6 +6,8 @@
 // particle), so the first violation in the CPU's order wins.
 //
 //   J = V(x) / V_rest,  V = det([x1−x0 … xN−x0])/N!    (oriented_measure)
+//   J = det F̂ or √(det G / det G_0)   (material families, FLAG_MATERIAL:
+//                                       material.wgsl's measure ratio)
 //   orientation (FLAG_ORIENTATION)   J ≤ 0 (or NaN)  → violation
 //   ratio       (FLAG_RATIO)         J < r (or NaN)  → violation
 //   speed       Σ_a v_a² in axis order > v²          → violation
@@ -17,13 +19,19 @@ const OP_GUARD_MEASURE: u32 = 9u;
 const OP_GUARD_SPEED: u32 = 10u;
 const FLAG_ORIENTATION: u32 = 32u;
 const FLAG_RATIO: u32 = 64u;
+const FLAG_MATERIAL: u32 = 256u;
 
 fn guard_element(e: u32) {
     var pts: array<real, POINTS>;
     var grad: array<real, POINTS>;
     gather(e, &pts);
-    let j = oriented_measure(&pts, &grad) / rest[call.slot_base + e];
     let flags = call.flags;
+    var j: real;
+    if ((flags & FLAG_MATERIAL) != 0u) {
+        j = material_measure_ratio(e, &pts);
+    } else {
+        j = oriented_measure(&pts, &grad) / rest[call.slot_base + e];
+    }
     let inverted = (flags & FLAG_ORIENTATION) != 0u && !(j > 0.0);
     let below = (flags & FLAG_RATIO) != 0u && !(j >= call.alpha_tilde);
     if (inverted || below) {

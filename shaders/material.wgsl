@@ -96,12 +96,13 @@ fn material_stvk(k: u32, c: ptr<function, array<real, MAT>>, stress: ptr<functio
     return mu * square + 0.5 * lambda_lame * trace * trace;
 }
 
-// Compressible Neo-Hookean: Ψ of the element with F̂ `image` and C `c`,
-// S into `stress`; `refused` when J ≤ 0, NaN or C is not positive definite.
-fn material_neo_hookean(k: u32, image: ptr<function, array<real, MAT>>, c: ptr<function, array<real, MAT>>,
-                        stress: ptr<function, array<real, MAT>>, refused: ptr<function, bool>) -> real {
-    var factor: array<real, MAT>;
-    let factored = material_cholesky(c, k, &factor);
+// The measure ratio J of the element with F̂ `image` and C `c` (k = N: det
+// F̂ by elimination; k < N: Π L_jj of C = L Lᵀ, 0 if that fails), the
+// Cholesky factor into `factor`; `factored`: whether C = L Lᵀ succeeded
+// (core: deformation::ratio_and_factor).
+fn material_ratio(k: u32, image: ptr<function, array<real, MAT>>, c: ptr<function, array<real, MAT>>,
+                  factor: ptr<function, array<real, MAT>>, factored: ptr<function, bool>) -> real {
+    *factored = material_cholesky(c, k, factor);
     var ratio: real = 0.0;
     if (k == DIM) {
         var square: array<real, MAT>;
@@ -109,13 +110,23 @@ fn material_neo_hookean(k: u32, image: ptr<function, array<real, MAT>>, c: ptr<f
             square[t] = (*image)[t];
         }
         ratio = determinant(&square, k);
-    } else if (factored) {
+    } else if (*factored) {
         var product: real = 1.0;
         for (var j = 0u; j < k; j++) {
-            product *= factor[j * k + j];
+            product *= (*factor)[j * k + j];
         }
         ratio = product;
     }
+    return ratio;
+}
+
+// Compressible Neo-Hookean: Ψ of the element with F̂ `image` and C `c`,
+// S into `stress`; `refused` when J ≤ 0, NaN or C is not positive definite.
+fn material_neo_hookean(k: u32, image: ptr<function, array<real, MAT>>, c: ptr<function, array<real, MAT>>,
+                        stress: ptr<function, array<real, MAT>>, refused: ptr<function, bool>) -> real {
+    var factor: array<real, MAT>;
+    var factored = false;
+    let ratio = material_ratio(k, image, c, &factor, &factored);
     if (!(ratio > 0.0) || !factored) {
         *refused = true;
         return 0.0;
@@ -139,6 +150,49 @@ fn material_neo_hookean(k: u32, image: ptr<function, array<real, MAT>>, c: ptr<f
     return 0.5 * mu * (trace - real(k)) - mu * log_ratio + 0.5 * lambda_lame * log_ratio * log_ratio;
 }
 
+// D, F̂ = D R and C = F̂ᵀF̂ of element e of the running material call at
+// the gathered `pts` (core: deformation::deform).
+fn material_deform(e: u32, pts: ptr<function, array<real, POINTS>>, edges: ptr<function, array<real, MAT>>,
+                   image: ptr<function, array<real, MAT>>, c: ptr<function, array<real, MAT>>) {
+    let k = call.arity - 1u;
+    let base = call.slot_map + e * (k * k + 1u);
+    for (var j = 0u; j < k; j++) {
+        for (var a = 0u; a < DIM; a++) {
+            (*edges)[a * k + j] = (*pts)[(j + 1u) * DIM + a] - (*pts)[a];
+        }
+    }
+    for (var a = 0u; a < DIM; a++) {
+        for (var j = 0u; j < k; j++) {
+            var f: real = 0.0;
+            for (var i = 0u; i <= j; i++) {
+                f += (*edges)[a * k + i] * rest[base + i * k + j];
+            }
+            (*image)[a * k + j] = f;
+        }
+    }
+    for (var i = 0u; i < k; i++) {
+        for (var j = 0u; j < k; j++) {
+            var s: real = 0.0;
+            for (var a = 0u; a < DIM; a++) {
+                s += (*image)[a * k + i] * (*image)[a * k + j];
+            }
+            (*c)[i * k + j] = s;
+        }
+    }
+}
+
+// The measure ratio J of element e of the running material call at the
+// gathered `pts` (core: material::measure_ratio; the guards).
+fn material_measure_ratio(e: u32, pts: ptr<function, array<real, POINTS>>) -> real {
+    var edges: array<real, MAT>;
+    var image: array<real, MAT>;
+    var c: array<real, MAT>;
+    material_deform(e, pts, &edges, &image, &c);
+    var factor: array<real, MAT>;
+    var factored = false;
+    return material_ratio(call.arity - 1u, &image, &c, &factor, &factored);
+}
+
 // C = √(2W) of element e of the running material call at the gathered
 // `pts`, ∇C into `grad`; `refused` when the law refuses the element.
 fn material_constraint(e: u32, pts: ptr<function, array<real, POINTS>>, grad: ptr<function, array<real, POINTS>>,
@@ -149,29 +203,7 @@ fn material_constraint(e: u32, pts: ptr<function, array<real, POINTS>>, grad: pt
     var edges: array<real, MAT>;
     var image: array<real, MAT>;
     var c: array<real, MAT>;
-    for (var j = 0u; j < k; j++) {
-        for (var a = 0u; a < DIM; a++) {
-            edges[a * k + j] = (*pts)[(j + 1u) * DIM + a] - (*pts)[a];
-        }
-    }
-    for (var a = 0u; a < DIM; a++) {
-        for (var j = 0u; j < k; j++) {
-            var f: real = 0.0;
-            for (var i = 0u; i <= j; i++) {
-                f += edges[a * k + i] * rest[base + i * k + j];
-            }
-            image[a * k + j] = f;
-        }
-    }
-    for (var i = 0u; i < k; i++) {
-        for (var j = 0u; j < k; j++) {
-            var s: real = 0.0;
-            for (var a = 0u; a < DIM; a++) {
-                s += image[a * k + i] * image[a * k + j];
-            }
-            c[i * k + j] = s;
-        }
-    }
+    material_deform(e, pts, &edges, &image, &c);
     var stress: array<real, MAT>;
     var psi: real;
     if ((call.flags & FLAG_NEO_HOOKEAN) != 0u) {

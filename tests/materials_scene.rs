@@ -1,14 +1,13 @@
 //! The material families as scene input: typed errors naming field and
 //! index, lumped mass from density (and its plan report), the typed
-//! Neo-Hookean refusal of a step with the state unchanged byte for byte,
-//! and the GPU backend's typed refusal of guards over a material scene.
+//! Neo-Hookean refusal of a step with the state unchanged byte for byte.
 
 mod common;
 
 use hyperpbd::core::material::LawRefusal;
 use hyperpbd::{
-    Backend, BackendError, BackendKind, ConstraintFamily, ConstraintKind, GpuError, Plan,
-    Precision, Scene, SceneError, State, StepError,
+    Backend, BackendError, ConstraintFamily, ConstraintKind, Plan, Scene, SceneError, State,
+    StepError,
 };
 
 /// The unit square of two Neo-Hookean triangles, masses from density.
@@ -174,38 +173,4 @@ fn an_inverting_neo_hookean_step_is_refused_and_the_state_unchanged() {
     scene.constraints[0].kind = ConstraintKind::Stvk;
     let mut stvk = hyperpbd::cpu_backend(&scene).expect("loads");
     stvk.step().expect("StVK is defined for every deformation");
-}
-
-#[test]
-fn the_gpu_backend_refuses_guards_over_a_material_scene_with_a_typed_error() {
-    // The GPU runs material families (tests/gpu_materials.rs) but its guard
-    // kernel checks only the oriented measure: guards over a material
-    // family are the CPU's.
-    let mut scene = square();
-    scene.guards = Some(hyperpbd::Guards {
-        orientation: true,
-        ..hyperpbd::Guards::default()
-    });
-    let state = State::from_scene(&scene);
-    let plan = Plan::compile(&scene).expect("valid");
-    match hyperpbd::load(plan, &state, BackendKind::Gpu(Precision::F64)) {
-        Err(BackendError::Gpu(GpuError::Unsupported { what })) => {
-            assert!(
-                what.contains("constraints[0]") && what.contains("guards"),
-                "{what}"
-            );
-            eprintln!("gpu refusal: {what}");
-        }
-        Err(BackendError::Gpu(GpuError::NoAdapter { .. }))
-            if std::env::var("HYPERPBD_REQUIRE_GPU").is_err() =>
-        {
-            eprintln!("SKIPPED: no adapter");
-        }
-        Err(e) => panic!("expected GpuError::Unsupported, got {e}"),
-        Ok(_) => panic!("the GPU backend loaded guards over a material family"),
-    }
-    // auto falls back to the CPU (saying why on stderr).
-    let plan = Plan::compile(&scene).expect("valid");
-    let backend = hyperpbd::load(plan, &state, BackendKind::Auto).expect("auto loads");
-    assert_eq!(backend.name(), "cpu-f64");
 }

@@ -17,8 +17,8 @@
 
 use hyperpbd_core::adaptive::step_adaptive;
 use hyperpbd_core::{
-    Backend, BackendError, FamilyKind, GpuError, Kernel, Plan, StageName, State, StepError,
-    StepReport, check_forces, check_kernel, check_state,
+    Backend, BackendError, GpuError, Kernel, Plan, StageName, State, StepError, StepReport,
+    check_forces, check_kernel, check_state,
 };
 
 use crate::context::GpuContext;
@@ -190,21 +190,6 @@ impl GpuBackend {
         }
         if plan.incremental_potential().is_some() {
             return Err(crate::incremental_potential::incremental_potential_unsupported().into());
-        }
-        let guarded = plan.guards.as_ref().is_some_and(|g| g.checks_measures());
-        if let Some(f) = plan
-            .families
-            .iter()
-            .find(|f| guarded && matches!(f.kind, FamilyKind::Material { .. }))
-        {
-            return Err(GpuError::Unsupported {
-                what: format!(
-                    "{}: guards over {} material families run on the CPU only (use the CPU backend)",
-                    f.label,
-                    f.kind.name()
-                ),
-            }
-            .into());
         }
         let ctx = device.context(precision)?;
         ctx.building(|| Self::build(ctx.clone(), plan, state, precision, origin, mode))

@@ -3,7 +3,9 @@
 //!
 //! ```text
 //! guard measure   one invocation per slot of a guarded family:
-//!                 J = V(x)/V_rest; orientation J ≤ 0, ratio J < r → fail
+//!                 J = V(x)/V_rest (material families: their measure ratio,
+//!                 FLAG_MATERIAL, slot_map = their rest data); orientation
+//!                 J ≤ 0, ratio J < r → fail
 //! guard speed     one invocation per particle (dynamic only):
 //!                 Σ_a v_a² > v² → fail
 //! block           alpha_tilde = r, factor = v² (host f64, then the
@@ -13,10 +15,12 @@
 //! read back with the step's one status readback; the host then names
 //! the value from the state at the failure (`backend/guard.rs`).
 
-use hyperpbd_core::{Kernel, Plan};
+use hyperpbd_core::{FamilyKind, Kernel, Plan};
 
 use super::Families;
-use super::call::{Call, FLAG_ORIENTATION, FLAG_RATIO, OP_GUARD_MEASURE, OP_GUARD_SPEED};
+use super::call::{
+    Call, FLAG_MATERIAL, FLAG_ORIENTATION, FLAG_RATIO, OP_GUARD_MEASURE, OP_GUARD_SPEED,
+};
 
 /// The measure guards over family `family`.
 pub(crate) fn measure(plan: &Plan, families: &Families, family: usize, call: u32) -> Call {
@@ -29,6 +33,11 @@ pub(crate) fn measure(plan: &Plan, families: &Families, family: usize, call: u32
     if guards.min_measure_ratio.is_some() {
         flags |= FLAG_RATIO;
     }
+    // A material family's J is its own measure ratio, from its rest data.
+    let material = matches!(fam.kind, FamilyKind::Material { .. });
+    if material {
+        flags |= FLAG_MATERIAL;
+    }
     Call {
         op: OP_GUARD_MEASURE,
         count: fam.len() as u32,
@@ -39,6 +48,11 @@ pub(crate) fn measure(plan: &Plan, families: &Families, family: usize, call: u32
         call,
         flags,
         alpha_tilde: guards.min_measure_ratio.unwrap_or(0.0),
+        slot_map: if material {
+            families.material_base[family]
+        } else {
+            0
+        },
         kernel: Some(Kernel::GuardMeasure { family }),
         ..Call::default()
     }
