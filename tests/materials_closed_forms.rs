@@ -24,55 +24,11 @@
 mod common;
 
 use common::bound::check_bound;
-use hyperpbd::builders::kuhn_simplices;
+use hyperpbd::builders::{coords_of, kuhn_grid_elements};
 use hyperpbd::core::material::{Law, Material, uniaxial_stretch_under_stress};
 use hyperpbd::{
     Backend, ConstraintFamily, ConstraintKind, CpuBackend, Damping, Particle, Plan, Scene, State,
 };
-
-/// Node index of grid coordinates `c` in a grid of `nodes` per axis
-/// (axis 0 fastest).
-fn node(c: &[usize], nodes: &[usize]) -> usize {
-    c.iter()
-        .rev()
-        .zip(nodes.iter().rev())
-        .fold(0, |acc, (&ci, &n)| acc * n + ci)
-}
-
-/// Grid coordinates of node `i`.
-fn coords(mut i: usize, nodes: &[usize]) -> Vec<usize> {
-    nodes
-        .iter()
-        .map(|&n| {
-            let c = i % n;
-            i /= n;
-            c
-        })
-        .collect()
-}
-
-/// Kuhn simplices of a grid of `cells` (k = N elements).
-fn kuhn_elements(cells: &[usize]) -> Vec<Vec<usize>> {
-    let dim = cells.len();
-    let nodes: Vec<usize> = cells.iter().map(|c| c + 1).collect();
-    let cell_count: usize = cells.iter().product();
-    let mut elements = Vec::new();
-    for cell in 0..cell_count {
-        let corner = coords(cell, cells);
-        for simplex in kuhn_simplices(dim) {
-            elements.push(
-                simplex
-                    .iter()
-                    .map(|offset| {
-                        let c: Vec<usize> = corner.iter().zip(offset).map(|(a, b)| a + b).collect();
-                        node(&c, &nodes)
-                    })
-                    .collect(),
-            );
-        }
-    }
-    elements
-}
 
 fn kind_of(law: Law) -> ConstraintKind {
     match law {
@@ -153,7 +109,7 @@ fn patch_error(law: Law, cells: &[usize]) -> f64 {
     let mut rest = Vec::new();
     let mut interior = Vec::new();
     for i in 0..count {
-        let c = coords(i, &nodes);
+        let c = coords_of(i, &nodes);
         let reference: Vec<f64> = c.iter().map(|&ci| ci as f64).collect();
         let mapped = affine(&reference);
         let boundary = c.iter().zip(cells).any(|(&ci, &n)| ci == 0 || ci == n);
@@ -172,7 +128,7 @@ fn patch_error(law: Law, cells: &[usize]) -> f64 {
         rest.push(reference);
     }
     scene.constraints.push(
-        ConstraintFamily::material(kind_of(law), 1.0, 0.2, kuhn_elements(cells))
+        ConstraintFamily::material(kind_of(law), 1.0, 0.2, kuhn_grid_elements(cells, 0))
             .with_rest_positions(rest),
     );
     let state = settle(&scene, 300);

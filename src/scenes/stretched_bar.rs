@@ -16,7 +16,7 @@
 //!          at the middle section (x index 10)
 //! ```
 
-use hyperpbd_core::builders::kuhn_simplices;
+use hyperpbd_core::builders::{coords_of, kuhn_grid_elements};
 use hyperpbd_core::material::Law;
 use hyperpbd_core::{ConstraintFamily, ConstraintKind, Damping, Particle, Scene, State};
 
@@ -29,50 +29,11 @@ const CELLS: (usize, usize) = (20, 2);
 /// Cell edge (m).
 const SPACING: f64 = 0.5;
 
-/// Node index of grid coordinates `c` (axis 0 fastest).
-fn node(c: &[usize], nodes: &[usize]) -> usize {
-    c.iter()
-        .rev()
-        .zip(nodes.iter().rev())
-        .fold(0, |acc, (&ci, &n)| acc * n + ci)
-}
-
-/// Grid coordinates of node `i`.
-fn coords(mut i: usize, nodes: &[usize]) -> Vec<usize> {
-    nodes
-        .iter()
-        .map(|&n| {
-            let c = i % n;
-            i /= n;
-            c
-        })
-        .collect()
-}
-
 /// The bar's cells per axis in `dim` dimensions.
 fn cells(dim: usize) -> Vec<usize> {
     let mut cells = vec![CELLS.1; dim];
     cells[0] = CELLS.0;
     cells
-}
-
-/// Kuhn simplices of a grid of `cells` (k = N elements).
-fn kuhn_elements(cells: &[usize]) -> Vec<Vec<usize>> {
-    let nodes: Vec<usize> = cells.iter().map(|c| c + 1).collect();
-    let cell_count: usize = cells.iter().product();
-    let pattern = kuhn_simplices(cells.len());
-    let mut elements = Vec::with_capacity(cell_count * pattern.len());
-    for cell in 0..cell_count {
-        let corner = coords(cell, cells);
-        for simplex in &pattern {
-            let element = simplex.iter().map(|offset| {
-                let c: Vec<usize> = corner.iter().zip(offset).map(|(a, b)| a + b).collect();
-                node(&c, &nodes)
-            });
-            elements.push(element.collect());
-        }
-    }
-    elements
 }
 
 /// The bar of `law` in `dim` (2 or 3) dimensions under nominal traction
@@ -84,7 +45,7 @@ pub fn stretched_bar(law: Law, dim: usize, traction: f64, substeps: u32, iterati
     let mut scene = Scene::new(dim, 1.0 / 60.0, substeps, iterations);
     scene.damping = Some(Damping { rate: 6.0 });
     for i in 0..count {
-        let c = coords(i, &nodes);
+        let c = coords_of(i, &nodes);
         let position: Vec<f64> = c.iter().map(|&ci| ci as f64 * SPACING).collect();
         let mut particle = Particle::new(position, 1.0);
         particle.mass = None;
@@ -113,7 +74,7 @@ pub fn stretched_bar(law: Law, dim: usize, traction: f64, substeps: u32, iterati
         Law::NeoHookean => ConstraintKind::NeoHookean,
     };
     scene.constraints.push(
-        ConstraintFamily::material(kind, BAR_YOUNGS, BAR_POISSON, kuhn_elements(&cells))
+        ConstraintFamily::material(kind, BAR_YOUNGS, BAR_POISSON, kuhn_grid_elements(&cells, 0))
             .with_density(1.0),
     );
     scene
@@ -126,7 +87,9 @@ pub fn bar_strains(dim: usize, state: &State) -> (f64, f64) {
     let nodes: Vec<usize> = cells.iter().map(|c| c + 1).collect();
     let count: usize = nodes.iter().product();
     let mean = |filter: &dyn Fn(&[usize]) -> bool, axis: usize| {
-        let members: Vec<usize> = (0..count).filter(|&i| filter(&coords(i, &nodes))).collect();
+        let members: Vec<usize> = (0..count)
+            .filter(|&i| filter(&coords_of(i, &nodes)))
+            .collect();
         members
             .iter()
             .map(|&i| state.position(i)[axis])

@@ -84,7 +84,7 @@ impl Grid {
 }
 
 /// Node coordinates of linear index `i` (axis 0 fastest).
-pub(crate) fn coords_of(mut i: usize, counts: &[usize]) -> Vec<usize> {
+pub fn coords_of(mut i: usize, counts: &[usize]) -> Vec<usize> {
     counts
         .iter()
         .map(|&n| {

@@ -67,6 +67,36 @@ pub fn kuhn_simplices(n: usize) -> Vec<Vec<Vec<usize>>> {
         .collect()
 }
 
+/// The Kuhn simplices of a grid of `cells` per axis (k = N elements, N =
+/// `cells.len()`), as node indices (axis 0 fastest, node (0, …, 0) at
+/// `first`), cell by cell in index order, each cell's N! simplices in
+/// [`kuhn_simplices`] order.
+pub fn kuhn_grid_elements(cells: &[usize], first: usize) -> Vec<Vec<usize>> {
+    let grid = Grid {
+        first,
+        counts: cells.iter().map(|c| c + 1).collect(),
+        family: 0,
+    };
+    let pattern = kuhn_simplices(cells.len());
+    let cell_count: usize = cells.iter().product();
+    let mut elements: Vec<Vec<usize>> = Vec::with_capacity(cell_count * pattern.len());
+    for cell in 0..cell_count {
+        let corner = coords_of(cell, cells);
+        for simplex in &pattern {
+            elements.push(
+                simplex
+                    .iter()
+                    .map(|offset| {
+                        let c: Vec<usize> = corner.iter().zip(offset).map(|(a, b)| a + b).collect();
+                        grid.index(&c)
+                    })
+                    .collect(),
+            );
+        }
+    }
+    elements
+}
+
 impl SceneBuilder {
     /// Adds the block's nodes, its Kuhn oriented-measure family, and (with
     /// `edge_compliance`) the distance family of the simplices' edges, in
@@ -91,24 +121,7 @@ impl SceneBuilder {
             counts: nodes,
             family: 0,
         };
-        let pattern = kuhn_simplices(spec.cells.len());
-        let cell_count: usize = spec.cells.iter().product();
-        let mut elements: Vec<Vec<usize>> = Vec::with_capacity(cell_count * pattern.len());
-        for cell in 0..cell_count {
-            let corner = coords_of(cell, &spec.cells);
-            for simplex in &pattern {
-                elements.push(
-                    simplex
-                        .iter()
-                        .map(|offset| {
-                            let c: Vec<usize> =
-                                corner.iter().zip(offset).map(|(a, b)| a + b).collect();
-                            grid.index(&c)
-                        })
-                        .collect(),
-                );
-            }
-        }
+        let elements = kuhn_grid_elements(&spec.cells, first);
         let edges = spec.edge_compliance.map(|compliance| {
             let mut seen = std::collections::HashSet::new();
             let mut edges = Vec::new();

@@ -9,8 +9,8 @@ mod tether;
 mod triangle_grid;
 
 pub use chain::ChainSpec;
-pub use grid::{Grid, GridSpec};
-pub use kuhn::{BlockSpec, kuhn_simplices};
+pub use grid::{Grid, GridSpec, coords_of};
+pub use kuhn::{BlockSpec, kuhn_grid_elements, kuhn_simplices};
 pub use triangle_grid::triangle_grid;
 
 use crate::{ConstraintFamily, Damping, Obstacle, Particle, Scene};
