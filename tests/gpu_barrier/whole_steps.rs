@@ -553,3 +553,44 @@ fn f32_far_from_the_origin_keeps_the_accuracy_of_the_origin() {
         "origin shift; without it ulp(1e5)/2 = 3.9e-3 m per coordinate",
     );
 }
+
+/// The packed-gradient residual the GPU reports against the CPU's at the
+/// same iterate: the first minimisation of the first step, which both start
+/// from the same state, so only the order of the sum differs (a tree on the
+/// GPU, a loop on the CPU): |r_gpu − r_cpu| ≤ (n + 2) ε r for n particle
+/// terms, then a square root. (A reduction that rounds differently —
+/// a 1e-7 relative nudge of one pairwise sum — shows at once; the whole
+/// steps above may legitimately differ in their stopping points.)
+#[test]
+fn the_first_packed_residual_matches_the_golden_path_to_the_order_of_its_sum() {
+    let test = "the_first_packed_residual_matches_the_golden_path_to_the_order_of_its_sum";
+    let Some((adapter, _)) = adapter_or_skip(test, Precision::F64) else {
+        return;
+    };
+    for count in [2, 65, 200] {
+        let scene = drop_scene(count, 10.0, Convergence::PackedGradient { tolerance: 1e-9 });
+        let plan = Plan::compile(&scene).expect("valid");
+        let state = State::from_scene(&scene);
+        let mut cpu = CpuBackend::new(plan.clone(), &state).expect("cpu");
+        let mut gpu =
+            GpuBarrierBackend::with_adapter(&adapter, plan, &state, Precision::F64).expect("gpu");
+        let a = cpu.step().expect("cpu step");
+        let b = gpu.step().expect("gpu step");
+        let (Some(golden), Some(got)) = (
+            a.minimisation[0].initial_residual,
+            b.minimisation[0].initial_residual,
+        ) else {
+            panic!("{count} particles: no initial residual");
+        };
+        let n = scene.particles.len() as f64;
+        let bound = (n + 2.0) * f64::EPSILON * golden.abs();
+        let measured = (got - golden).abs();
+        print_bound(
+            format_args!("first packed residual f64, {count} particles (cpu {golden:e})"),
+            format_args!("{measured:.3e}"),
+            format!("{bound:.3e}"),
+            "(n + 2) ε r: the two summation orders",
+        );
+        assert!(measured <= bound, "{count}: {got:e} vs {golden:e}");
+    }
+}
