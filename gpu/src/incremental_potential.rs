@@ -22,7 +22,7 @@ use hyperpbd_core::adaptive::{Subdivided, step_adaptive};
 use hyperpbd_core::barrier::IncrementalPotentialPlan;
 use hyperpbd_core::{
     Backend, BackendError, Convergence, GpuError, Kernel, MinimisationReport, MinimisationStatus,
-    Plan, Refusal, State, StepError, StepReport, check_forces, check_kernel, check_state,
+    Plan, Refusal, State, StepError, StepReport, check_kernel, check_state,
 };
 
 use crate::barrier::{
@@ -561,15 +561,11 @@ impl Backend for GpuBarrierBackend {
     }
 
     fn write_state(&mut self, state: &State) -> Result<(), BackendError> {
-        check_state(&self.plan, state)?;
-        self.state.write(&self.ctx, state);
-        Ok(())
+        self.state.write(&self.ctx, &self.plan, state)
     }
 
     fn set_forces(&mut self, forces: &[f64]) -> Result<(), BackendError> {
-        check_forces(&self.plan, forces)?;
-        self.state.set_forces(&self.ctx, forces);
-        Ok(())
+        self.state.set_forces(&self.ctx, &self.plan, forces)
     }
 
     fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {

@@ -17,7 +17,7 @@
 
 use std::sync::mpsc;
 
-use hyperpbd_core::{GpuError, State};
+use hyperpbd_core::{BackendError, GpuError, Plan, State, check_forces, check_state};
 
 use crate::context::GpuContext;
 use crate::layout::VectorLayout;
@@ -165,8 +165,16 @@ impl ResidentState {
         ctx.submit_and_wait(encoder)
     }
 
-    /// Replaces x and v with `state` (already checked against the plan).
-    pub fn write(&mut self, ctx: &GpuContext, state: &State) {
+    /// Replaces x and v with `state`, checked against `plan` first (a bad
+    /// state is a typed error and changes nothing): `Backend::write_state`
+    /// of both GPU backends.
+    pub fn write(
+        &mut self,
+        ctx: &GpuContext,
+        plan: &Plan,
+        state: &State,
+    ) -> Result<(), BackendError> {
+        check_state(plan, state)?;
         self.forget_snapshot();
         if self.bytes > 0 {
             ctx.queue
@@ -174,14 +182,23 @@ impl ResidentState {
             ctx.queue
                 .write_buffer(&self.v, 0, &self.packing.vectors(&state.velocities));
         }
+        Ok(())
     }
 
-    /// Replaces the forces (already checked against the plan).
-    pub fn set_forces(&self, ctx: &GpuContext, forces: &[f64]) {
+    /// Replaces the forces, checked against `plan` first:
+    /// `Backend::set_forces` of both GPU backends.
+    pub fn set_forces(
+        &self,
+        ctx: &GpuContext,
+        plan: &Plan,
+        forces: &[f64],
+    ) -> Result<(), BackendError> {
+        check_forces(plan, forces)?;
         if self.bytes > 0 {
             ctx.queue
                 .write_buffer(&self.force, 0, &self.packing.vectors(forces));
         }
+        Ok(())
     }
 
     /// Asks the next step to copy the state out with its own submission.
