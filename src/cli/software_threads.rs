@@ -60,17 +60,6 @@ pub fn info_line() -> String {
 /// `hyperpbd plan`'s line: the GPU schedule the first adapter would run
 /// and its dispatches per step.
 pub fn dispatches_line(plan: &Plan) -> String {
-    if let Some(f) = plan
-        .families
-        .iter()
-        .find(|f| matches!(f.kind, hyperpbd::FamilyKind::Material { .. }))
-    {
-        return format!(
-            "gpu step: refused ({} is a {} material family: no GPU kernel yet; the CPU runs it)",
-            f.label,
-            f.kind.name()
-        );
-    }
     let (software, on) = match hyperpbd::gpu::request_adapter(Precision::F32) {
         Ok((_, summary)) => (summary.device_type == "Cpu", summary.name),
         Err(_) => (false, "a hardware GPU (no adapter here)".to_string()),
