@@ -30,13 +30,15 @@ use crate::barrier::{
     refuse_cut_loops, status_words,
 };
 use crate::context::{DeviceSource, GpuContext};
-use crate::export::{ExportParts, Exporter, PositionExport};
+use crate::export::Exporter;
 use crate::kernel_set::{Binding, BlockWriter, EntryPoint, KernelSet, KernelSetSpec, ParamBlocks};
 use crate::layout::VectorLayout;
 use crate::params::{push_reals, read_reals, real_size};
 use crate::resident::ResidentState;
 use crate::shader::{MAX_GPU_DIM, ShaderFile};
 use crate::{Precision, SceneOrigin};
+
+mod device;
 
 /// Armijo constant (same as the CPU's).
 const ARMIJO: f64 = 1e-4;
@@ -134,25 +136,6 @@ impl GpuBarrierBackend {
         precision: Precision,
     ) -> Result<Self, BackendError> {
         Self::load(DeviceSource::Own(adapter), plan, state, precision)
-    }
-
-    /// Loads an incremental-potential `plan` with `state` on the caller's
-    /// `device` and `queue` (created on `adapter`), as
-    /// [`crate::GpuBackend::with_device`] does for the XPBD path.
-    pub fn with_device(
-        adapter: &wgpu::Adapter,
-        device: wgpu::Device,
-        queue: wgpu::Queue,
-        plan: Plan,
-        state: &State,
-        precision: Precision,
-    ) -> Result<Self, BackendError> {
-        let source = DeviceSource::Given {
-            adapter,
-            device,
-            queue,
-        };
-        Self::load(source, plan, state, precision)
     }
 
     fn load(
@@ -586,16 +569,5 @@ impl Backend for GpuBarrierBackend {
 pub(crate) fn incremental_potential_unsupported() -> GpuError {
     GpuError::Unsupported {
         what: "the incremental_potential solver on GpuBackend (use GpuBarrierBackend)".into(),
-    }
-}
-
-impl PositionExport for GpuBarrierBackend {
-    fn export_parts(&self) -> ExportParts<'_> {
-        ExportParts::new(
-            &self.ctx,
-            &self.state,
-            &self.exporter,
-            self.plan.particle_count(),
-        )
     }
 }
