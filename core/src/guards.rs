@@ -30,7 +30,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::geometry::{Scratch, oriented_volume};
 use crate::material::{LawRefusal, MaterialScratch, measure_ratio};
-use crate::{Family, FamilyKind, Plan};
+use crate::{Family, FamilyKind, Plan, StageName, StepError};
 
 /// The `guards` key of a scene: which checks every completed substep
 /// must pass (each optional).
@@ -303,11 +303,11 @@ pub fn measure_rejection(
     }
 }
 
-/// A material projection's refusal inside `substep` (a Neo-Hookean
-/// element of family `family`, compiled slot `slot`, collapsed or
-/// inverted) as the measure guards' rejection, so that an adaptive step
-/// retries it; `None` when the plan has no element guard (the refusal
-/// stands as `StepError::MaterialRefused`).
+/// The step error of a material projection the law refused inside
+/// `substep` (a Neo-Hookean element of family `family`, compiled slot
+/// `slot`, collapsed or inverted) — one rule for both backends: under
+/// element guards it is the guards' rejection, so that an adaptive step
+/// retries it; without them it stays `StepError::MaterialRefused`.
 ///
 /// ```text
 /// J ≤ 0 (or collapsed to rounding) with orientation on  →  orientation
@@ -316,23 +316,31 @@ pub fn measure_rejection(
 /// The end-of-substep check would have rejected the same element had the
 /// projection been allowed to finish: a collapse or inversion is exactly
 /// what these guards exist to catch, and the law cannot evaluate past it.
-pub fn material_refusal_rejection(
+pub fn material_refusal_error(
     plan: &Plan,
     family: usize,
     slot: usize,
-    refusal: &LawRefusal,
+    refusal: LawRefusal,
     substep: u32,
-) -> Option<GuardRejection> {
-    let guards = plan.guards.as_ref()?;
+) -> StepError {
     let j = refusal.measure_ratio();
-    let (guard, limit) = element_verdict(guards, j)
-        .or_else(|| guards.orientation.then_some((GuardKind::Orientation, 0.0)))?;
-    Some(measure_rejection(
-        plan,
-        family,
-        (slot, guard, j, limit),
+    let verdict = plan.guards.as_ref().and_then(|guards| {
+        element_verdict(guards, j)
+            .or_else(|| guards.orientation.then_some((GuardKind::Orientation, 0.0)))
+    });
+    if let Some((guard, limit)) = verdict {
+        let found = (slot, guard, j, limit);
+        return StepError::GuardRejected(measure_rejection(plan, family, found, substep));
+    }
+    let fam = &plan.families[family];
+    StepError::MaterialRefused {
+        stage: StageName::Project,
         substep,
-    ))
+        family,
+        family_label: fam.label.clone(),
+        element: fam.authored_element(slot),
+        refusal,
+    }
 }
 
 /// The rejection of `substep` for the speed violation `found`.

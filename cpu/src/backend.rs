@@ -189,30 +189,17 @@ impl CpuBackend {
                     &mut self.workspace,
                 )
                 .map_err(|slot| {
-                    let (substep, family_label) = (self.substep, fam.label.clone());
-                    let element = fam.source[slot] as usize;
-                    let refusal = hyperpbd_core::element_refusal(plan.dim, fam, slot, &self.x);
-                    let rejection = refusal.as_ref().and_then(|r| {
-                        guards::material_refusal_rejection(plan, family, slot, r, substep)
-                    });
-                    if let Some(rejection) = rejection {
-                        return StepError::GuardRejected(rejection).into();
-                    }
-                    match refusal {
-                        Some(refusal) => StepError::MaterialRefused {
-                            stage: StageName::Project,
-                            substep,
-                            family,
-                            family_label,
-                            element,
-                            refusal,
-                        },
+                    let substep = self.substep;
+                    match hyperpbd_core::element_refusal(plan.dim, fam, slot, &self.x) {
+                        Some(refusal) => {
+                            guards::material_refusal_error(plan, family, slot, refusal, substep)
+                        }
                         None => StepError::NonFiniteConstraint {
                             stage: StageName::Project,
                             substep,
                             family,
-                            family_label,
-                            element,
+                            family_label: fam.label.clone(),
+                            element: fam.authored_element(slot),
                         },
                     }
                     .into()

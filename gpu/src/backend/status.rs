@@ -14,10 +14,8 @@
 //!           GpuError::Unsupported; never a silently shortened step
 //! ```
 
-use hyperpbd_core::guards::material_refusal_rejection;
-use hyperpbd_core::{
-    Backend, BackendError, FamilyKind, GpuError, Kernel, StageName, StepError, element_refusal,
-};
+use hyperpbd_core::guards::material_refusal_error;
+use hyperpbd_core::{Backend, BackendError, FamilyKind, GpuError, Kernel, element_refusal};
 
 use super::GpuBackend;
 use crate::xpbd::schedule::StepMode;
@@ -121,9 +119,11 @@ impl GpuBackend {
 
     /// The error of a failed material projection (call `call`, slot
     /// `index`; the state rolled back): the law's refusal — or, under
-    /// element guards, the guard's rejection — named as the CPU names it, from the positions that projection saw (the step
-    /// rerun exactly through it: the failing element wrote nothing and no
-    /// other element of its colour moves its particles). `None` for any
+    /// element guards, the guard's rejection — named as the CPU names it
+    /// (`guards::material_refusal_error`), from the positions that
+    /// projection saw (the step rerun exactly through it: the failing
+    /// element wrote nothing and no other element of its colour moves its
+    /// particles). `None` for any
     /// other call, or when the element evaluates there (a non-finite
     /// value or update: the caller's `NonFiniteConstraint`).
     fn material_error(&mut self, call: u32, index: u32) -> Option<BackendError> {
@@ -145,22 +145,8 @@ impl GpuBackend {
         let f = &self.plan.families[family];
         let refusal = element_refusal(self.plan.dim, f, index as usize, &positions)?;
         let k = self.schedule.kernels_per_substep.max(1) as u32;
-        let rejection =
-            material_refusal_rejection(&self.plan, family, index as usize, &refusal, call / k);
-        if let Some(rejection) = rejection {
-            return Some(
-                BackendError::from(StepError::GuardRejected(rejection)).after_rollback(rolled_back),
-            );
-        }
-        let error = BackendError::from(StepError::MaterialRefused {
-            stage: StageName::Project,
-            substep: call / k,
-            family,
-            family_label: f.label.clone(),
-            element: f.authored_element(index as usize),
-            refusal,
-        });
-        Some(error.after_rollback(rolled_back))
+        let error = material_refusal_error(&self.plan, family, index as usize, refusal, call / k);
+        Some(BackendError::from(error).after_rollback(rolled_back))
     }
 
     /// Rolls back and reruns the step exactly (one dispatch per call)
