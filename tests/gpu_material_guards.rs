@@ -10,21 +10,12 @@ mod common;
 use common::exact::bits;
 use common::gpu::load_or_skip;
 use hyperpbd::{
-    Adaptive, Backend, BackendKind, ConstraintFamily, ConstraintKind, CpuBackend, Guards, Plan,
-    Precision, Scene, State,
+    Backend, BackendKind, ConstraintKind, CpuBackend, Guards, Plan, Precision, Scene, State,
 };
 
 /// The 40 m/s drop of common::guarded, its simplices one `law` family.
 fn material_block(dim: usize, law: ConstraintKind, guards: Guards, adaptive: Option<u32>) -> Scene {
-    let mut scene = common::guarded::dropped_block(dim, 40.0, None, None);
-    let elements = scene.constraints[0].elements.clone();
-    scene.constraints = vec![ConstraintFamily::material(law, 2e5, 0.3, elements)];
-    scene.guards = Some(guards);
-    scene.adaptive = adaptive.map(|k| Adaptive {
-        max_subdivisions: k,
-    });
-    scene.validate().expect("valid material block");
-    scene
+    common::guarded::material_block(dim, 40.0, law, Some(guards), adaptive)
 }
 
 /// CPU and gpu-f64 backends of `scene` (`None`: the GPU test is skipped).

@@ -26,9 +26,7 @@ use hyperpbd::{
 /// The Kuhn block of common::guarded at 2 m/s, its simplices one `law`
 /// family, 4 substeps × 4 iterations, friction on the plane.
 fn soft_block(dim: usize, law: ConstraintKind) -> Scene {
-    let mut scene = common::guarded::dropped_block(dim, 2.0, None, None);
-    let elements = scene.constraints[0].elements.clone();
-    scene.constraints = vec![ConstraintFamily::material(law, 2e5, 0.3, elements)];
+    let mut scene = common::guarded::material_block(dim, 2.0, law, None, None);
     scene.substeps = 4;
     scene.iterations = 4;
     if let Obstacle::Hyperplane { friction, .. } = &mut scene.obstacles[0] {
@@ -133,14 +131,7 @@ fn jelly4d_matches_the_golden_path() {
 fn an_inverting_neo_hookean_step_is_refused_as_on_the_cpu() {
     // The 40 m/s drop of tests/materials_guards.rs, without guards: the
     // law refuses a collapsed element inside the one substep.
-    let mut scene = common::guarded::dropped_block(2, 40.0, None, None);
-    let elements = scene.constraints[0].elements.clone();
-    scene.constraints = vec![ConstraintFamily::material(
-        ConstraintKind::NeoHookean,
-        2e5,
-        0.3,
-        elements,
-    )];
+    let scene = common::guarded::material_block(2, 40.0, ConstraintKind::NeoHookean, None, None);
     let plan = Plan::compile(&scene).expect("plan");
     let state = State::from_scene(&scene);
     let mut cpu = CpuBackend::with_threads(plan.clone(), &state, 1).expect("cpu");

@@ -19,26 +19,18 @@ mod common;
 
 use common::guarded::{bits, orientation, rejection};
 use hyperpbd::{
-    Adaptive, Backend, BackendError, ConstraintFamily, ConstraintKind, CpuBackend, GuardKind,
-    GuardSubject, Guards, Particle, Plan, Scene, State, StepError,
+    Backend, BackendError, ConstraintFamily, ConstraintKind, CpuBackend, GuardKind, GuardSubject,
+    Guards, Particle, Plan, Scene, State, StepError,
 };
 
-/// The dropped block with its simplices as one `law` family.
+/// The 40 m/s drop with its simplices as one `law` family.
 fn material_block(
     dim: usize,
     law: ConstraintKind,
     guards: Option<Guards>,
     adaptive: Option<u32>,
 ) -> Scene {
-    let mut scene = common::guarded::dropped_block(dim, 40.0, None, None);
-    let elements = scene.constraints[0].elements.clone();
-    scene.constraints = vec![ConstraintFamily::material(law, 2e5, 0.3, elements)];
-    scene.guards = guards;
-    scene.adaptive = adaptive.map(|k| Adaptive {
-        max_subdivisions: k,
-    });
-    scene.validate().expect("valid material block");
-    scene
+    common::guarded::material_block(dim, 40.0, law, guards, adaptive)
 }
 
 fn cpu(scene: &Scene) -> CpuBackend {

@@ -104,14 +104,7 @@ impl GpuBackend {
         precision: Precision,
     ) -> Result<Self, BackendError> {
         let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
-        Self::load(
-            DeviceSource::Own(adapter),
-            plan,
-            state,
-            precision,
-            origin,
-            None,
-        )
+        Self::with_origin(adapter, plan, state, precision, origin)
     }
 
     /// Loads `plan` with `state`, storing positions relative to `origin`

@@ -9,8 +9,8 @@
 
 use hyperpbd::builders::BlockSpec;
 use hyperpbd::{
-    Adaptive, BackendError, GuardRejection, Guards, Scene, SceneBuilder, State, StepError,
-    StepReport,
+    Adaptive, BackendError, ConstraintFamily, ConstraintKind, GuardRejection, Guards, Scene,
+    SceneBuilder, State, StepError, StepReport,
 };
 
 /// The block of the module doc with `guards` and `adaptive` (k).
@@ -49,6 +49,27 @@ pub fn dropped_block(
         max_subdivisions: k,
     });
     scene.validate().expect("valid guarded block");
+    scene
+}
+
+/// The block of [`dropped_block`] at `speed`, its simplices one `law`
+/// material family instead (E = 2e5 Pa, ν = 0.3, rest shape = the initial
+/// positions; no edge springs), with `guards` and `adaptive` (k).
+pub fn material_block(
+    dim: usize,
+    speed: f64,
+    law: ConstraintKind,
+    guards: Option<Guards>,
+    adaptive: Option<u32>,
+) -> Scene {
+    let mut scene = dropped_block(dim, speed, None, None);
+    let elements = scene.constraints[0].elements.clone();
+    scene.constraints = vec![ConstraintFamily::material(law, 2e5, 0.3, elements)];
+    scene.guards = guards;
+    scene.adaptive = adaptive.map(|k| Adaptive {
+        max_subdivisions: k,
+    });
+    scene.validate().expect("valid material block");
     scene
 }
 
