@@ -137,6 +137,10 @@ impl Exporter {
             .words(&[layout.count as u32, layout.stride as u32, 0, 0, 0, 0, 0, 0])
             .reals(&reals)
             .finish();
+        // A parameter block per recorded export (128 bytes): a caller may
+        // record several exports with different projections before one
+        // submit, and a shared block rewritten by queue.write_buffer would
+        // give all of them the last one's.
         let params = ctx.buffer("export params", &block, wgpu::BufferUsages::UNIFORM)?;
         let group = kernels.bind(&ctx.device, 0, &[&state.x, &params, target], 0)?;
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
