@@ -11,7 +11,7 @@ fn friction_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record
     if (e == NONE) {
         return;
     }
-    let l = lambda[call.slot_base + e];
+    let l = lambda_at(call.slot_base + e);
     if (l <= 0.0) {
         return;
     }

@@ -30,7 +30,7 @@ fn guard_element(e: u32) {
     if ((flags & FLAG_MATERIAL) != 0u) {
         j = material_measure_ratio(e, &pts);
     } else {
-        j = oriented_measure(&pts, &grad) / rest[call.slot_base + e];
+        j = oriented_measure(&pts, &grad) / rest_at(call.slot_base + e);
     }
     let inverted = (flags & FLAG_ORIENTATION) != 0u && !(j > 0.0);
     let below = (flags & FLAG_RATIO) != 0u && !(j >= call.alpha_tilde);

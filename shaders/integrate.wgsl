@@ -23,7 +23,7 @@ fn predict_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>
     }
     var s: real = 0.0;
     if ((flags & FLAG_GRAVITY) != 0u) {
-        s = gravity_scale[i];
+        s = gravity_scale[particle(i)];
     }
     var ok = true;
     for (var a = 0u; a < DIM; a++) {

@@ -165,7 +165,7 @@ fn material_deform(e: u32, pts: ptr<function, array<real, POINTS>>, edges: ptr<f
         for (var j = 0u; j < k; j++) {
             var f: real = 0.0;
             for (var i = 0u; i <= j; i++) {
-                f += (*edges)[a * k + i] * rest[base + i * k + j];
+                f += (*edges)[a * k + i] * rest_at(base + i * k + j);
             }
             (*image)[a * k + j] = f;
         }
@@ -199,7 +199,7 @@ fn material_constraint(e: u32, pts: ptr<function, array<real, POINTS>>, grad: pt
                        refused: ptr<function, bool>) -> real {
     let k = call.arity - 1u;
     let base = call.slot_map + e * (k * k + 1u);
-    let v0 = rest[base + k * k];
+    let v0 = rest_at(base + k * k);
     var edges: array<real, MAT>;
     var image: array<real, MAT>;
     var c: array<real, MAT>;
@@ -229,7 +229,7 @@ fn material_constraint(e: u32, pts: ptr<function, array<real, POINTS>>, grad: pt
         for (var i = 0u; i < k; i++) {
             var h: real = 0.0;
             for (var j = i; j < k; j++) {
-                h += edges[a * k + j] * rest[base + i * k + j];
+                h += edges[a * k + j] * rest_at(base + i * k + j);
             }
             let hv = v0 * h;
             (*grad)[(i + 1u) * DIM + a] = hv;

@@ -48,6 +48,19 @@
 // (Records are passed by pointer: naga 30's SPIR-V writer fails on some
 // calls that pass arrays by value.)
 
+// BATCHES OF WORLDS (gpu/src/backend/batch.rs): a module may run WORLDS
+// worlds of one topology in each dispatch, world-major — world k's
+// particle i is record k·WORLD_PARTICLES + i. `world` is the world of the
+// running invocation (set by the runner that splits its index); with one
+// world (every module but a batch's step) both are 0 and fold away.
+override WORLD_PARTICLES: u32 = 0u;
+var<private> world: u32 = 0u;
+
+// Record index of particle i of the running world.
+fn particle(i: u32) -> u32 {
+    return world * WORLD_PARTICLES + i;
+}
+
 // Linear invocation index over a 2D grid of workgroups (more than 65535
 // workgroups are spread over y).
 fn linear_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {

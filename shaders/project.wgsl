@@ -34,20 +34,20 @@ fn lambda_before(s: u32) -> real {
     if ((call.flags & FLAG_FIRST) != 0u) {
         return 0.0;
     }
-    return lambda[s];
+    return lambda_at(s);
 }
 
 // An element that makes no response keeps λ (0 on the first projection).
 fn no_response(s: u32) {
     if ((call.flags & (FLAG_FIRST | FLAG_UNREAD)) == FLAG_FIRST) {
-        lambda[s] = 0.0;
+        store_lambda(s, 0.0);
     }
 }
 
 // λ after this projection.
 fn set_lambda(s: u32, value: real) {
     if ((call.flags & FLAG_UNREAD) == 0u) {
-        lambda[s] = value;
+        store_lambda(s, value);
     }
 }
 
@@ -78,7 +78,7 @@ fn project_distance_element(t: u32) {
     }
     let l = lambda_before(s);
     let alpha_tilde = call.alpha_tilde;
-    var dl = (-(len - rest[s]) - alpha_tilde * l) / (wsum + alpha_tilde);
+    var dl = (-(len - rest_at(s)) - alpha_tilde * l) / (wsum + alpha_tilde);
     if (!finite(dl)) {
         fail(e);
         return;
@@ -140,7 +140,7 @@ fn project_measure_element(t: u32, kind: u32) {
     }
     let l = lambda_before(s);
     let alpha_tilde = call.alpha_tilde;
-    let dl = (-(value - rest[s]) - alpha_tilde * l) / (wsum + alpha_tilde);
+    let dl = (-(value - rest_at(s)) - alpha_tilde * l) / (wsum + alpha_tilde);
     if (!finite(dl)) {
         fail(e);
         return;
@@ -172,7 +172,7 @@ fn contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>
     for (var a = 0u; a < DIM; a++) {
         nx += normal(a) * lane(rx, a);
     }
-    let cval = kept(nx) - rest[s];
+    let cval = kept(nx) - rest_at(s);
     let l = lambda_before(s);
     let alpha_tilde = call.alpha_tilde;
     let raw = (-cval - alpha_tilde * l) / (w + alpha_tilde);
@@ -182,7 +182,7 @@ fn contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>
     }
     let dl = max(l + raw, 0.0) - l;
     let l_new = l + dl;
-    lambda[s] = l_new;
+    store_lambda(s, l_new);
     for (var a = 0u; a < DIM; a++) {
         set_lane(rx, a, lane(rx, a) + w * normal(a) * dl);
     }
@@ -209,9 +209,11 @@ fn contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>
 @compute @workgroup_size(WORKGROUP)
 fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
-    if (t < here.count) {
+    if (t < here.count * WORLDS) {
+        let e = split_world(t, here.count);
         call = here.calls[0];
-        project_distance_element(t);
+        world_reals(here.first_call);
+        project_distance_element(e);
         record_failure();
     }
 }
@@ -219,9 +221,11 @@ fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
 @compute @workgroup_size(WORKGROUP)
 fn project_simplex_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
-    if (t < here.count) {
+    if (t < here.count * WORLDS) {
+        let e = split_world(t, here.count);
         call = here.calls[0];
-        project_measure_element(t, 1u);
+        world_reals(here.first_call);
+        project_measure_element(e, 1u);
         record_failure();
     }
 }
@@ -229,9 +233,11 @@ fn project_simplex_measure(@builtin(global_invocation_id) gid: vec3<u32>, @built
 @compute @workgroup_size(WORKGROUP)
 fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
-    if (t < here.count) {
+    if (t < here.count * WORLDS) {
+        let e = split_world(t, here.count);
         call = here.calls[0];
-        project_measure_element(t, 2u);
+        world_reals(here.first_call);
+        project_measure_element(e, 2u);
         record_failure();
     }
 }
@@ -239,9 +245,11 @@ fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @buil
 @compute @workgroup_size(WORKGROUP)
 fn project_material(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
-    if (t < here.count) {
+    if (t < here.count * WORLDS) {
+        let e = split_world(t, here.count);
         call = here.calls[0];
-        project_measure_element(t, 3u);
+        world_reals(here.first_call);
+        project_measure_element(e, 3u);
         record_failure();
     }
 }

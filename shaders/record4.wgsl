@@ -7,31 +7,31 @@
 alias Record = vec4<real>;
 
 fn load_x(i: u32) -> Record {
-    return x[i];
+    return x[particle(i)];
 }
 
 fn store_x(i: u32, r: Record) {
-    x[i] = r;
+    x[particle(i)] = r;
 }
 
 fn load_v(i: u32) -> Record {
-    return v[i];
+    return v[particle(i)];
 }
 
 fn store_v(i: u32, r: Record) {
-    v[i] = r;
+    v[particle(i)] = r;
 }
 
 fn load_p(i: u32) -> Record {
-    return p[i];
+    return p[particle(i)];
 }
 
 fn store_p(i: u32, r: Record) {
-    p[i] = r;
+    p[particle(i)] = r;
 }
 
 fn load_force(i: u32) -> Record {
-    return force[i];
+    return force[particle(i)];
 }
 
 fn lane(r: ptr<function, Record>, a: u32) -> real {

@@ -6,49 +6,49 @@ alias Record = array<vec4<real>, VEC>;
 fn load_x(i: u32) -> Record {
     var r: Record;
     for (var k = 0u; k < VEC; k++) {
-        r[k] = x[VEC * i + k];
+        r[k] = x[VEC * particle(i) + k];
     }
     return r;
 }
 
 fn store_x(i: u32, r: Record) {
     for (var k = 0u; k < VEC; k++) {
-        x[VEC * i + k] = r[k];
+        x[VEC * particle(i) + k] = r[k];
     }
 }
 
 fn load_v(i: u32) -> Record {
     var r: Record;
     for (var k = 0u; k < VEC; k++) {
-        r[k] = v[VEC * i + k];
+        r[k] = v[VEC * particle(i) + k];
     }
     return r;
 }
 
 fn store_v(i: u32, r: Record) {
     for (var k = 0u; k < VEC; k++) {
-        v[VEC * i + k] = r[k];
+        v[VEC * particle(i) + k] = r[k];
     }
 }
 
 fn load_p(i: u32) -> Record {
     var r: Record;
     for (var k = 0u; k < VEC; k++) {
-        r[k] = p[VEC * i + k];
+        r[k] = p[VEC * particle(i) + k];
     }
     return r;
 }
 
 fn store_p(i: u32, r: Record) {
     for (var k = 0u; k < VEC; k++) {
-        p[VEC * i + k] = r[k];
+        p[VEC * particle(i) + k] = r[k];
     }
 }
 
 fn load_force(i: u32) -> Record {
     var r: Record;
     for (var k = 0u; k < VEC; k++) {
-        r[k] = force[VEC * i + k];
+        r[k] = force[VEC * particle(i) + k];
     }
     return r;
 }

@@ -32,13 +32,13 @@ fn violation(e: u32) -> real {
     gather(e, &pts);
     let kind = call.kind;
     if (kind == 0u) {
-        return abs(distance(&pts, &grad) - rest[s]);
+        return abs(distance(&pts, &grad) - rest_at(s));
     } else if (kind == 1u) {
-        return abs(simplex_squared_measure(&pts, call.arity - 1u, &grad) - rest[s]);
+        return abs(simplex_squared_measure(&pts, call.arity - 1u, &grad) - rest_at(s));
     } else if (kind == 2u) {
-        return abs(oriented_measure(&pts, &grad) - rest[s]);
+        return abs(oriented_measure(&pts, &grad) - rest_at(s));
     } else if (kind == 4u) {
-        return max(distance(&pts, &grad) - rest[s], 0.0);
+        return max(distance(&pts, &grad) - rest_at(s), 0.0);
     } else if (kind == 5u) {
         var refused = false;
         let c = material_constraint(e, &pts, &grad, &refused);
@@ -48,7 +48,7 @@ fn violation(e: u32) -> real {
     for (var a = 0u; a < DIM; a++) {
         nx += normal(a) * pts[a];
     }
-    return max(rest[s] - nx, 0.0);
+    return max(rest_at(s) - nx, 0.0);
 }
 
 // Tree reduction of the workgroup's partial_max / partial_count into
@@ -72,7 +72,7 @@ fn residual_chunk(k: u32, start: u32, end: u32, lid: u32) {
     let contact = call.kind == 3u;
     for (var e = start + lid; e < end; e += WORKGROUP) {
         worst = max(worst, violation(e));
-        if (contact && lambda[call.slot_base + e] > 0.0) {
+        if (contact && lambda_at(call.slot_base + e) > 0.0) {
             contacts += 1u;
         }
     }
@@ -86,10 +86,11 @@ fn residual_chunk(k: u32, start: u32, end: u32, lid: u32) {
     workgroupBarrier();
 }
 
-// The chunks of residual call c into report[2 family], report[2 family + 1].
+// The chunks of residual call c into report[2 family], report[2 family + 1]
+// (of the running world: its partials and report follow world-major).
 fn reduce_family(c: u32, lid: u32) {
-    call = calls[c];
-    let first = call.chunk;
+    call = calls[world * WORLD_CALLS + c];
+    let first = world * WORLD_CHUNKS + call.chunk;
     let end = first + (call.count + CHUNK - 1u) / CHUNK;
     var worst: real = 0.0;
     var contacts = 0u;
@@ -101,8 +102,8 @@ fn reduce_family(c: u32, lid: u32) {
     partial_count[lid] = contacts;
     reduce_workgroup(lid);
     if (lid == 0u) {
-        report[2u * call.family] = partial_max[0];
-        report[2u * call.family + 1u] = real(partial_count[0]);
+        report[world * WORLD_REPORT + 2u * call.family] = partial_max[0];
+        report[world * WORLD_REPORT + 2u * call.family + 1u] = real(partial_count[0]);
     }
     workgroupBarrier();
 }
@@ -112,16 +113,19 @@ fn reduce_family(c: u32, lid: u32) {
 fn residual(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
             @builtin(local_invocation_index) lid: u32) {
     let k = wid.x + wid.y * groups.x;
-    if (k >= here.count) {
+    if (k >= here.count * WORLDS) {
         return;
     }
-    let entry = chunks[k];
-    call = calls[entry.x];
+    // Chunk k is chunk `local` of its world; partials are world-major, so
+    // its slot is k.
+    let local = split_world(k, here.count);
+    let entry = chunks[local];
+    call = calls[world * WORLD_CALLS + entry.x];
     residual_chunk(k, entry.y, min(entry.y + CHUNK, call.count), lid);
 }
 
-// One workgroup per residual call (family).
+// One workgroup per residual call (family) of each world.
 @compute @workgroup_size(WORKGROUP)
 fn reduce(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    reduce_family(here.first_call + wid.x, lid);
+    reduce_family(here.first_call + split_world(wid.x, here.end_call - here.first_call), lid);
 }

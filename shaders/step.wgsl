@@ -129,7 +129,8 @@ const NONE: u32 = 0xffffffffu;
 @group(0) @binding(7) var<storage, read_write> lambda: array<real>;
 // status[0]: first failing call (NONE: none), status[1]: smallest failing
 // slot or particle of that call, status[2]: nonzero when an invocation's
-// loops were cut short (`check_loops`).
+// loops were cut short (`check_loops`), status[3]: in a batch, the lowest
+// failing world (NONE: none).
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>, 4>;
 // Per family [max violation, active contacts].
 @group(0) @binding(9) var<storage, read_write> report: array<real>;
@@ -147,6 +148,62 @@ const NONE: u32 = 0xffffffffu;
 
 // The call running now.
 var<private> call: Call;
+
+// BATCHES OF WORLDS (gpu/src/backend/batch.rs; `world`, WORLD_PARTICLES
+// and `particle(i)` in prelude.wgsl): a dispatch runs its calls for
+// WORLDS worlds of one topology, invocation t = world · count + index.
+// Shared by all worlds: the call structure (ops, counts, colours,
+// elements, contact slot maps, chunks). Per world, world-major: particle
+// records and gravity scales (WORLD_PARTICLES each), `rest` (WORLD_REST:
+// rest values and material rest data), `lambda` (WORLD_SLOTS), residual
+// partials (WORLD_CHUNKS chunks) and `report` (WORLD_REPORT reals), and
+// the reals of every call block — compliance, friction, damping factor,
+// normal, gravity, Lamé parameters: `calls` holds WORLD_CALLS blocks per
+// world. With WORLDS = 1 every world term folds to 0 and the kernels are
+// the single-world ones.
+override WORLDS: u32 = 1u;
+override WORLD_REST: u32 = 0u;
+override WORLD_SLOTS: u32 = 0u;
+override WORLD_CALLS: u32 = 0u;
+override WORLD_CHUNKS: u32 = 0u;
+override WORLD_REPORT: u32 = 0u;
+
+// Sets `world` from a batch index t over `count` items per world; returns
+// the item's index within its world (t itself with one world).
+fn split_world(t: u32, count: u32) -> u32 {
+    if (WORLDS > 1u) {
+        world = t / count;
+        return t - world * count;
+    }
+    return t;
+}
+
+// The running call's reals as the running world has them (call block c of
+// its copy of the calls); nothing with one world.
+fn world_reals(c: u32) {
+    if (WORLDS > 1u) {
+        let k = world * WORLD_CALLS + c;
+        call.alpha_tilde = calls[k].alpha_tilde;
+        call.friction = calls[k].friction;
+        call.factor = calls[k].factor;
+        call.normal = calls[k].normal;
+        call.gravity = calls[k].gravity;
+    }
+}
+
+// Rest value (or material rest datum) s of the running world.
+fn rest_at(s: u32) -> real {
+    return rest[world * WORLD_REST + s];
+}
+
+// Multiplier of slot s of the running world.
+fn lambda_at(s: u32) -> real {
+    return lambda[world * WORLD_SLOTS + s];
+}
+
+fn store_lambda(s: u32, value: real) {
+    lambda[world * WORLD_SLOTS + s] = value;
+}
 
 // Coordinate a of the running call's normal and gravity.
 fn normal(a: u32) -> real {
@@ -175,6 +232,9 @@ fn record_failure() {
     if (failed_call != NONE) {
         if (atomicMin(&status[0], failed_call) >= failed_call) {
             atomicMin(&status[1], failed_index);
+        }
+        if (WORLDS > 1u) {
+            atomicMin(&status[3], world);
         }
         failed_call = NONE;
     }
@@ -285,16 +345,18 @@ fn run_slot(op: u32, k: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function
             rp: ptr<function, Record>) {
     if (op != NO_OP) {
         call = here.calls[k];
+        world_reals(here.first_call + k);
         run_op(op, i, rx, rv, rp);
     }
 }
 
 @compute @workgroup_size(WORKGROUP)
 fn particles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = linear_index(gid, groups);
-    if (i >= here.count) {
+    let t = linear_index(gid, groups);
+    if (t >= here.count * WORLDS) {
         return;
     }
+    let i = split_world(t, here.count);
     var rx: Record;
     var rv: Record;
     var rp: Record;

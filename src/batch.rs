@@ -13,13 +13,19 @@
 //!   world k's state == world k's scene stepped alone, bit for bit
 //!   all or nothing: if any world fails, every world is put back to its
 //!   state before the step and the error names the first failing world
+//! GpuBatch::step: every world in the same dispatches, one per kernel for
+//!   all worlds (the world part of the invocation index;
+//!   hyperpbd_gpu::GpuBatch); world k in f64 == world k alone, bit for
+//!   bit; all or nothing as above. Worlds must also compile the same
+//!   stages (see hyperpbd_gpu::GpuBatch for what a GPU batch refuses).
 //! ```
-//! One shared topology is what lets a GPU batch run all worlds in one
-//! dispatch per kernel (the world as part of the invocation index); that
-//! GPU batch is not built yet — the CPU batch is the reference it will be
-//! held to.
+//! The CPU batch is the reference the GPU batch is held to
+//! (tests/gpu_batch.rs).
 
-use crate::{Backend, BackendError, CpuBackend, Plan, Scene, SceneError, State, StepReport};
+use crate::gpu::WorldError;
+use crate::{
+    Backend, BackendError, CpuBackend, Plan, Precision, Scene, SceneError, State, StepReport,
+};
 use rayon::prelude::*;
 
 /// Why a batch cannot be built or stepped.
@@ -46,6 +52,12 @@ pub enum BatchError {
     #[error("worlds[{world}]: {source}")]
     Backend {
         world: usize,
+        #[source]
+        source: BackendError,
+    },
+    /// The GPU batch as a whole failed (no adapter, the device).
+    #[error("GPU batch: {source}")]
+    Device {
         #[source]
         source: BackendError,
     },
@@ -242,5 +254,77 @@ impl CpuBatch {
             .find_map(|(k, r)| r.err().map(|e| (k, e)))
             .ok_or(BatchError::Empty)?;
         Err(BatchError::Backend { world, source })
+    }
+}
+
+impl From<WorldError> for BatchError {
+    fn from(e: WorldError) -> Self {
+        match e.world {
+            Some(world) => BatchError::Backend {
+                world,
+                source: e.source,
+            },
+            None => BatchError::Device { source: e.source },
+        }
+    }
+}
+
+/// A batch on the GPU: every world in the same dispatches, one per kernel
+/// for all worlds (see the module docs).
+pub struct GpuBatch {
+    inner: crate::gpu::GpuBatch,
+}
+
+impl GpuBatch {
+    /// Loads every world of `batch` on an adapter for `precision`.
+    pub fn new(batch: &Batch, precision: Precision) -> Result<GpuBatch, BatchError> {
+        let (adapter, _) = crate::gpu::request_adapter(precision)
+            .map_err(|e| BatchError::Device { source: e.into() })?;
+        GpuBatch::on_adapter(&adapter, batch, precision)
+    }
+
+    /// Loads every world of `batch` on a device of `adapter`.
+    pub fn on_adapter(
+        adapter: &wgpu::Adapter,
+        batch: &Batch,
+        precision: Precision,
+    ) -> Result<GpuBatch, BatchError> {
+        let plans = batch.plans.clone();
+        let inner = crate::gpu::GpuBatch::new(adapter, plans, &batch.states, precision)?;
+        Ok(GpuBatch { inner })
+    }
+
+    /// Number of worlds.
+    pub fn len(&self) -> usize {
+        self.inner.len()
+    }
+
+    /// Whether the batch has no worlds (never).
+    pub fn is_empty(&self) -> bool {
+        self.inner.is_empty()
+    }
+
+    /// Compute dispatches per step, for all worlds together.
+    pub fn dispatches_per_step(&self) -> usize {
+        self.inner.dispatches_per_step()
+    }
+
+    /// The origin device positions are relative to (every world's; 0 in
+    /// f64).
+    pub fn origin(&self) -> &crate::gpu::SceneOrigin {
+        self.inner.origin()
+    }
+
+    /// One step of every world; their reports in world order. All or
+    /// nothing (see the module docs).
+    pub fn step(&mut self) -> Result<Vec<StepReport>, BatchError> {
+        Ok(self.inner.step()?)
+    }
+
+    /// Every world's state, in world order.
+    pub fn read_states(&mut self) -> Result<Vec<State>, BatchError> {
+        self.inner
+            .read_states()
+            .map_err(|source| BatchError::Device { source })
     }
 }

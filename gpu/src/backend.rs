@@ -34,10 +34,12 @@ use crate::xpbd::{BINDINGS, Families, NONE, Placed, XpbdEntry};
 use crate::{AdapterSummary, Precision};
 
 mod attempt;
+pub(crate) mod batch;
 mod contact_step;
 mod device;
 use crate::context::DeviceSource;
 pub(crate) mod status;
+use batch::{WorldArrays, Worlds};
 use contact_step::ContactStage;
 
 /// Compute dispatches of the contact stage in one step of `plan` (0
@@ -86,6 +88,8 @@ pub struct GpuBackend {
     subdivided: Vec<GpuBackend>,
     /// The position export into a caller's buffer (built on first use).
     exporter: Exporter,
+    /// Worlds every dispatch runs (1 but in a batch, batch.rs).
+    worlds: u32,
 }
 
 impl GpuBackend {
@@ -185,10 +189,12 @@ impl GpuBackend {
             return Err(crate::incremental_potential::incremental_potential_unsupported().into());
         }
         let ctx = device.context(precision)?;
-        ctx.building(|| Self::build(ctx.clone(), plan, state, precision, origin, mode))
+        ctx.building(|| Self::build(ctx.clone(), plan, state, precision, origin, mode, None))
     }
 
-    /// Creates every buffer, pipeline, bind group and dispatch block.
+    /// Creates every buffer, pipeline, bind group and dispatch block: of
+    /// `plan` with `state`, or of every world of `worlds` (a batch,
+    /// batch.rs; `plan` and `state` are world 0's).
     fn build(
         ctx: GpuContext,
         plan: Plan,
@@ -196,6 +202,7 @@ impl GpuBackend {
         precision: Precision,
         origin: SceneOrigin,
         mode: Option<StepMode>,
+        worlds: Option<Worlds<'_>>,
     ) -> Result<Self, BackendError> {
         let device = &ctx.device;
         let dim = plan.dim;
@@ -211,6 +218,10 @@ impl GpuBackend {
                     .into(),
             ));
         }
+        let world = match worlds {
+            Some(worlds) => WorldArrays::batch(worlds, &families, &schedule)?,
+            None => WorldArrays::one(&plan, state, &families, &schedule),
+        };
         // Pipelines for the entry points this plan's schedules use only
         // (lavapipe compiles each one: seconds for the measure kernels).
         let entries = schedule.entries();
@@ -222,12 +233,13 @@ impl GpuBackend {
                 precision,
                 groups: &[&BINDINGS, &[crate::kernel_set::Binding::UNIFORM_BLOCK]],
                 entries: &entries,
+                constants: &world.constants,
             },
         )?;
         // The call blocks first: the largest buffer of a long step, named
         // `params` in a BufferTooLarge refusal.
         let mut call_bytes = Vec::new();
-        for call in &schedule.calls {
+        for call in world.calls {
             call_bytes.extend(call.encode(dim, precision));
         }
         if call_bytes.is_empty() {
@@ -245,22 +257,26 @@ impl GpuBackend {
             VectorLayout::Record,
             precision,
             origin,
-            state,
-            &plan.inverse_mass,
-            &plan.force,
+            &world.state,
+            &world.inverse_mass,
+            &world.force,
         )?;
         let make = |label: &str, bytes: &[u8]| ctx.storage(label, bytes);
-        let slots = families.slots;
-        let p = make("p", &resident.packing.positions(&state.positions))?;
-        let gravity_scale = make("gravity_scale", &reals(&plan.gravity_scale))?;
+        let w = world.count as usize;
+        let slots = families.slots * w;
+        let p = make("p", &resident.packing.positions(&world.state.positions))?;
+        let gravity_scale = make("gravity_scale", &reals(&world.gravity_scale))?;
         let elements = make("elements", bytemuck::cast_slice(&families.elements))?;
-        let rest = make("rest", &reals(&families.rest))?;
+        let rest = make("rest", &reals(world.rest))?;
         let lambda = make("lambda", &reals(&vec![0.0; slots]))?;
-        let status = make("status", bytemuck::cast_slice(&[NONE, NONE, 0, 0]))?;
-        let report_len = 2 * plan.families.len();
+        let status = make("status", bytemuck::cast_slice(&[NONE, NONE, 0, NONE]))?;
+        let report_len = 2 * plan.families.len() * w;
         let report = make("report", &reals(&vec![0.0; report_len]))?;
         let contact_slot = make("contact_slot", bytemuck::cast_slice(&families.slot_maps))?;
-        let partials = make("partials", &reals(&vec![0.0; 2 * schedule.chunks.len()]))?;
+        let partials = make(
+            "partials",
+            &reals(&vec![0.0; 2 * schedule.chunks.len() * w]),
+        )?;
         let chunk_words: Vec<u32> = schedule.chunks.iter().flatten().copied().collect();
         let chunks = make("chunks", bytemuck::cast_slice(&chunk_words))?;
         let report_bytes = (report_len * real_size(precision)) as u64;
@@ -309,6 +325,8 @@ impl GpuBackend {
             0,
         )?;
         let blocks_group = kernels.bind(device, 1, &[&dispatch_buffer], block)?;
+        let worlds = world.count;
+        drop(world);
         let contacts = match plan.contacts {
             Some(_) => Some(ContactStage::new(
                 &ctx,
@@ -356,6 +374,7 @@ impl GpuBackend {
             contacts,
             subdivided: Vec::new(),
             exporter: Exporter::default(),
+            worlds,
         })
     }
 
@@ -406,7 +425,7 @@ impl GpuBackend {
 
     fn encode(&self, pass: &mut wgpu::ComputePass<'_>, d: &Placed) {
         if !self.encode_contact(pass, d) {
-            crate::xpbd::encode(&self.kernels, &self.blocks, pass, d);
+            crate::xpbd::encode(&self.kernels, &self.blocks, pass, d, self.worlds);
         }
     }
 

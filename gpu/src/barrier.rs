@@ -236,6 +236,7 @@ impl BarrierKernels {
                     BarrierEntry::Filter,
                     BarrierEntry::Ln,
                 ],
+                constants: &[],
             },
         )?;
         let (reals, arity) = obstacle_geometry(obstacles);

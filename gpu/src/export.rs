@@ -120,6 +120,7 @@ impl Exporter {
                         precision: layout.precision,
                         groups: &[&[Binding::READ, UNIFORM, Binding::WRITE]],
                         entries: &[ExportEntry],
+                        constants: &[],
                     },
                 )?;
                 self.kernels.get_or_init(|| built)

@@ -182,6 +182,7 @@ impl GpuBarrierBackend {
                     IpEntry::Newton,
                     IpEntry::Velocity,
                 ],
+                constants: &[],
             },
         )?;
         let n = plan.particle_count();

@@ -9,6 +9,7 @@
 //!     label, dim, precision,
 //!     groups:  [[Binding; …]; …]       bind group g, binding k = groups[g][k]
 //!     entries: [E; …]                  E: EntryPoint → (ShaderFile, "name")
+//!     constants: [(name, value); …]    overrides every pipeline of the set shares
 //! })
 //!   checks the storage bindings per stage against the device limit;
 //!   composes each ShaderFile once: shader::compose(file, dim, precision),
@@ -122,6 +123,9 @@ pub(crate) struct KernelSetSpec<'a, E> {
     pub groups: &'a [&'a [Binding]],
     /// Every entry point the set dispatches.
     pub entries: &'a [E],
+    /// `override` constants every pipeline of the set is specialised with,
+    /// besides its entry's own (a batch's world strides).
+    pub constants: &'a [(&'static str, f64)],
 }
 
 /// Layouts and pipelines of one kernel family.
@@ -197,7 +201,8 @@ impl<E: EntryPoint> KernelSet<E> {
                     message: format!("{}: no module for {file:?}", spec.label),
                 });
             };
-            let constants = entry.constants();
+            let mut constants = entry.constants();
+            constants.extend_from_slice(spec.constants);
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(name),
                 layout: Some(&pipeline_layout),

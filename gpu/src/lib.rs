@@ -32,6 +32,7 @@ mod xpbd;
 
 pub use adapter::*;
 pub use backend::GpuBackend;
+pub use backend::batch::{GpuBatch, WorldError};
 pub use broadphase::{GpuSweep, SweepStats};
 pub use collide::{CollideInput, GpuCollide};
 pub use export::{EXPORT_BYTES_PER_PARTICLE, PositionExport, PositionLayout};

@@ -136,7 +136,15 @@ impl GpuBackend {
             let (ctx, origin) = (self.ctx.clone(), self.origin().clone());
             let mode = Some(self.schedule.mode);
             let built = self.ctx.building(|| {
-                Self::build(ctx.clone(), plan, &blank, self.precision, origin, mode)
+                Self::build(
+                    ctx.clone(),
+                    plan,
+                    &blank,
+                    self.precision,
+                    origin,
+                    mode,
+                    None,
+                )
             })?;
             self.subdivided.push(built);
         }

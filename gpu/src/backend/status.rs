@@ -53,7 +53,7 @@ impl GpuBackend {
         self.ctx.queue.write_buffer(
             &self.buffers.status,
             0,
-            bytemuck::cast_slice(&[NONE, NONE, 0u32, 0u32]),
+            bytemuck::cast_slice(&[NONE, NONE, 0u32, NONE]),
         );
     }
 

@@ -143,6 +143,7 @@ impl ContactKernels {
                 precision,
                 groups: &[&BINDINGS, &[Binding::BLOCK]],
                 entries: &ContactEntry::ALL,
+                constants: &[],
             },
         )?;
         Ok(ContactKernels {

@@ -87,6 +87,30 @@ impl Call {
         )
     }
 
+    /// Whether `other` runs the same kernel on the same elements with the
+    /// same flags, its reals aside (the calls of two worlds of a batch).
+    pub fn same_shape(&self, other: &Call) -> bool {
+        let words = |c: &Call| {
+            [
+                c.op,
+                c.count,
+                c.first,
+                c.family,
+                c.elem_base,
+                c.slot_base,
+                c.arity,
+                c.call,
+                c.flags,
+                c.kind,
+                c.slot_map,
+                c.chunk,
+            ]
+        };
+        words(self) == words(other)
+            && self.kernel == other.kernel
+            && self.h.to_bits() == other.h.to_bits()
+    }
+
     /// The encoded block (`Call` of step.wgsl).
     pub fn encode(&self, dim: usize, precision: Precision) -> Vec<u8> {
         let vector = |v: &[f64]| {

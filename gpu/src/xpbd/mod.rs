@@ -208,13 +208,15 @@ pub(crate) struct Placed {
     pub offset: u32,
 }
 
-/// Records `d` into `pass` (group 0 set by the caller). Host kernels
-/// record nothing.
+/// Records `d` into `pass` for `worlds` worlds (group 0 set by the
+/// caller): each world's invocations or workgroups after the last's. Host
+/// kernels record nothing.
 pub(crate) fn encode(
     kernels: &KernelSet<XpbdEntry>,
     blocks: &wgpu::BindGroup,
     pass: &mut wgpu::ComputePass<'_>,
     d: &Placed,
+    worlds: u32,
 ) {
     let Some(entry) = d.dispatch.run.entry() else {
         return;
@@ -224,9 +226,10 @@ pub(crate) fn encode(
     }
     pass.set_bind_group(1, blocks, &[d.offset]);
     match entry {
-        XpbdEntry::Residual | XpbdEntry::Reduce | XpbdEntry::Small => {
-            kernels.dispatch_workgroups(pass, entry, d.dispatch.count)
+        XpbdEntry::Residual | XpbdEntry::Reduce => {
+            kernels.dispatch_workgroups(pass, entry, d.dispatch.count * worlds)
         }
-        _ => kernels.dispatch(pass, entry, d.dispatch.count),
+        XpbdEntry::Small => kernels.dispatch_workgroups(pass, entry, d.dispatch.count),
+        _ => kernels.dispatch(pass, entry, d.dispatch.count * worlds),
     }
 }

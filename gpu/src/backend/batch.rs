@@ -1,0 +1,465 @@
+//! Batches of worlds on the GPU: W worlds of one topology stepped by the
+//! same dispatches, the world part of the invocation index.
+//!
+//! ```text
+//! shared      the schedule (every call's op, count, colour, flags), the
+//!             elements, the contact slot maps, the residual chunks, the
+//!             dispatch blocks (world 0's): one pipeline set, one compute
+//!             pass, one submit per step for all W worlds
+//! per world   world-major: particle records x v p force (n each),
+//!             gravity scales, `rest` (rest values, hyperplane offsets,
+//!             material rest data), λ, residual partials and report, and
+//!             the reals of every call block (compliance, gravity, damping
+//!             factor, friction, normal, Lamé): `calls` = W copies
+//! kernels     invocation t = world · count + index (step.wgsl's
+//!             `split_world`); WORLDS, WORLD_* are override constants, so
+//!             a one-world backend compiles to the single-world kernels
+//! failure     any failing world fails the step: every world is rolled
+//!             back and the lowest failing world (status word 3) is named
+//!             by running it alone on a backend of its own plan — the
+//!             error of its own single run
+//! ```
+//! World k runs exactly its own single-world step: the same kernels on the
+//! same values in the same order, its parameters read from its own call
+//! blocks. So in f64 (origin 0) it is bit for bit world k run alone, and
+//! so the CPU golden path (tests/gpu_batch.rs). In f32 all worlds share
+//! one origin (the box of every world), within the single-world bound.
+//!
+//! Worlds must compile to the same schedule: the same stages with the
+//! same flags (a world without gravity, damping or friction where world 0
+//! has them is refused, naming the world and the call). Particle contact,
+//! guards, adaptive steps and the small schedule are refused in a batch.
+
+use std::borrow::Cow;
+
+use hyperpbd_core::{Backend, BackendError, GpuError, Plan, State, StepReport, check_state};
+
+use super::GpuBackend;
+use crate::context::DeviceSource;
+use crate::params::read_reals;
+use crate::xpbd::Families;
+use crate::xpbd::call::Call;
+use crate::xpbd::schedule::{Schedule, StepMode};
+use crate::{Precision, SceneOrigin};
+
+/// Every world's plan, initial state, rest values and call blocks
+/// (world 0's plan is the backend's own; [`lay_out`] makes the last two).
+#[derive(Clone, Copy)]
+pub(crate) struct Worlds<'a> {
+    pub plans: &'a [Plan],
+    pub states: &'a [State],
+    pub rest: &'a [f64],
+    pub calls: &'a [Call],
+}
+
+/// What a backend's buffers hold: world 0's arrays (borrowed) for one
+/// world, every world's, world-major, for a batch.
+pub(super) struct WorldArrays<'a> {
+    /// W.
+    pub count: u32,
+    pub state: Cow<'a, State>,
+    pub inverse_mass: Cow<'a, [f64]>,
+    pub force: Cow<'a, [f64]>,
+    pub gravity_scale: Cow<'a, [f64]>,
+    pub rest: &'a [f64],
+    pub calls: &'a [Call],
+    /// step.wgsl's world strides (none for one world).
+    pub constants: Vec<(&'static str, f64)>,
+}
+
+impl<'a> WorldArrays<'a> {
+    /// World 0 alone.
+    pub fn one(
+        plan: &'a Plan,
+        state: &'a State,
+        families: &'a Families,
+        schedule: &'a Schedule,
+    ) -> Self {
+        WorldArrays {
+            count: 1,
+            state: Cow::Borrowed(state),
+            inverse_mass: Cow::Borrowed(&plan.inverse_mass),
+            force: Cow::Borrowed(&plan.force),
+            gravity_scale: Cow::Borrowed(&plan.gravity_scale),
+            rest: &families.rest,
+            calls: &schedule.calls,
+            constants: Vec::new(),
+        }
+    }
+
+    /// Every world of `worlds`, world-major, for world 0's `families` and
+    /// `schedule`.
+    pub fn batch(
+        worlds: Worlds<'a>,
+        families: &Families,
+        schedule: &Schedule,
+    ) -> Result<Self, BackendError> {
+        let w = worlds.plans.len();
+        let first = &worlds.plans[0];
+        let n = first.particle_count();
+        let largest = schedule
+            .calls
+            .iter()
+            .map(|c| c.count as usize)
+            .max()
+            .unwrap_or(0);
+        if worlds.rest.len() != w * families.rest.len()
+            || worlds.calls.len() != w * schedule.calls.len()
+        {
+            return Err(GpuError::Other {
+                message: "a batch's worlds were laid out for another schedule".into(),
+            }
+            .into());
+        }
+        if w.saturating_mul(largest.max(n)) > (u32::MAX / 2) as usize {
+            return Err(GpuError::Unsupported {
+                what: format!("{w} worlds of {n} particles: over 2^31 invocations per dispatch"),
+            }
+            .into());
+        }
+        let concat = |part: fn(&Plan) -> &[f64]| -> Vec<f64> {
+            worlds
+                .plans
+                .iter()
+                .flat_map(|p| part(p).iter().copied())
+                .collect()
+        };
+        let state = State {
+            dim: first.dim,
+            positions: worlds
+                .states
+                .iter()
+                .flat_map(|s| s.positions.iter().copied())
+                .collect(),
+            velocities: worlds
+                .states
+                .iter()
+                .flat_map(|s| s.velocities.iter().copied())
+                .collect(),
+        };
+        let constants = vec![
+            ("WORLDS", w as f64),
+            ("WORLD_PARTICLES", n as f64),
+            ("WORLD_REST", families.rest.len() as f64),
+            ("WORLD_SLOTS", families.slots as f64),
+            ("WORLD_CALLS", schedule.calls.len() as f64),
+            ("WORLD_CHUNKS", schedule.chunks.len() as f64),
+            ("WORLD_REPORT", (2 * first.families.len()) as f64),
+        ];
+        Ok(WorldArrays {
+            count: w as u32,
+            state: Cow::Owned(state),
+            inverse_mass: Cow::Owned(concat(|p| &p.inverse_mass)),
+            force: Cow::Owned(concat(|p| &p.force)),
+            gravity_scale: Cow::Owned(concat(|p| &p.gravity_scale)),
+            rest: worlds.rest,
+            calls: worlds.calls,
+            constants,
+        })
+    }
+}
+
+/// Every world's rest values and call blocks, world after world, each
+/// laid out as world 0's (positions relative to `origin`; the fused
+/// schedule for kernels of `workgroup`, `software` as the adapter is):
+/// the first world whose particles, families or calls differ from world
+/// 0's is refused by name.
+fn lay_out(
+    plans: &[Plan],
+    origin: &SceneOrigin,
+    (workgroup, software): (u32, bool),
+) -> Result<(Vec<f64>, Vec<Call>), WorldError> {
+    let mut shared: Option<(Families, Schedule)> = None;
+    let (mut rest, mut calls) = (Vec::new(), Vec::new());
+    for (k, plan) in plans.iter().enumerate() {
+        let world = |source: BackendError| WorldError {
+            world: Some(k),
+            source,
+        };
+        let own = Families::new(plan, origin).map_err(|e| world(e.into()))?;
+        let steps = Schedule::new(plan, &own, workgroup, Some(StepMode::Fused), software);
+        if let Some((families, schedule)) = &shared {
+            if own.elements != families.elements
+                || own.slot_maps != families.slot_maps
+                || own.rest.len() != families.rest.len()
+                || plan.particle_count() != plans[0].particle_count()
+            {
+                return Err(world(differs("its particles and families")));
+            }
+            if steps.calls.len() != schedule.calls.len() {
+                return Err(world(differs("its stages")));
+            }
+            for (c, (a, b)) in steps.calls.iter().zip(&schedule.calls).enumerate() {
+                if !a.same_shape(b) {
+                    let what = match b.kernel {
+                        Some(kernel) => format!("call {c} ({kernel:?}): its stages and flags"),
+                        None => format!("call {c} (residual): its families"),
+                    };
+                    return Err(world(differs(&what)));
+                }
+            }
+        }
+        rest.extend_from_slice(&own.rest);
+        calls.extend_from_slice(&steps.calls);
+        if shared.is_none() {
+            shared = Some((own, steps));
+        }
+    }
+    Ok((rest, calls))
+}
+
+/// A world whose `what` differs from world 0's.
+fn differs(what: &str) -> BackendError {
+    GpuError::Unsupported {
+        what: format!(
+            "{what} differ from worlds[0]'s; a GPU batch runs one schedule for all worlds (the \
+             same stages with the same flags: gravity, forces, friction and damping on or off \
+             alike)"
+        ),
+    }
+    .into()
+}
+
+/// A GPU batch failure: the world it names (`None`: the batch as a
+/// whole, e.g. the device) and the error.
+#[derive(Debug, thiserror::Error)]
+#[error("{}{source}", world.map(|k| format!("worlds[{k}]: ")).unwrap_or_default())]
+pub struct WorldError {
+    /// The world (index into the batch's plans), `None` for the batch.
+    pub world: Option<usize>,
+    /// What went wrong.
+    #[source]
+    pub source: BackendError,
+}
+
+impl WorldError {
+    fn batch(source: impl Into<BackendError>) -> Self {
+        WorldError {
+            world: None,
+            source: source.into(),
+        }
+    }
+}
+
+/// W worlds of one topology on one GPU backend (see the module docs).
+pub struct GpuBatch {
+    backend: GpuBackend,
+    plans: Vec<Plan>,
+}
+
+impl GpuBatch {
+    /// Loads `plans[k]` with `states[k]` for every world k on a device of
+    /// `adapter` (the fused schedule).
+    pub fn new(
+        adapter: &wgpu::Adapter,
+        plans: Vec<Plan>,
+        states: &[State],
+        precision: Precision,
+    ) -> Result<Self, WorldError> {
+        if plans.is_empty() || plans.len() != states.len() {
+            return Err(WorldError::batch(BackendError::InvalidCall(format!(
+                "a GPU batch needs one state per plan and at least one world ({} plans, {} states)",
+                plans.len(),
+                states.len()
+            ))));
+        }
+        for (k, (plan, state)) in plans.iter().zip(states).enumerate() {
+            let world = |source: BackendError| WorldError {
+                world: Some(k),
+                source,
+            };
+            check_state(plan, state).map_err(&world)?;
+            refuse_in_batch(plan).map_err(|e| world(e.into()))?;
+        }
+        let dim = plans[0].dim;
+        let all: Vec<f64> = states
+            .iter()
+            .flat_map(|s| s.positions.iter().copied())
+            .collect();
+        let origin = SceneOrigin::for_state(dim, &all, precision);
+        let ctx = DeviceSource::Own(adapter)
+            .context(precision)
+            .map_err(WorldError::batch)?;
+        let software = ctx.summary.device_type == "Cpu";
+        let workgroup = crate::shader::ShaderFile::Step.workgroup_size();
+        let (rest, calls) = lay_out(&plans, &origin, (workgroup, software))?;
+        let worlds = Worlds {
+            plans: &plans,
+            states,
+            rest: &rest,
+            calls: &calls,
+        };
+        let backend = ctx
+            .building(|| {
+                GpuBackend::build(
+                    ctx.clone(),
+                    plans[0].clone(),
+                    &states[0],
+                    precision,
+                    origin,
+                    Some(StepMode::Fused),
+                    Some(worlds),
+                )
+            })
+            .map_err(WorldError::batch)?;
+        Ok(GpuBatch { backend, plans })
+    }
+
+    /// Number of worlds.
+    pub fn len(&self) -> usize {
+        self.plans.len()
+    }
+
+    /// Whether the batch has no worlds (never: [`GpuBatch::new`] refuses
+    /// that).
+    pub fn is_empty(&self) -> bool {
+        self.plans.is_empty()
+    }
+
+    /// World `k`'s plan.
+    pub fn plan(&self, k: usize) -> &Plan {
+        &self.plans[k]
+    }
+
+    /// Compute dispatches per step, for all worlds together.
+    pub fn dispatches_per_step(&self) -> usize {
+        self.backend.dispatches_per_step()
+    }
+
+    /// The origin device positions are relative to (every world's).
+    pub fn origin(&self) -> &SceneOrigin {
+        self.backend.origin()
+    }
+
+    /// One step of every world; their reports in world order. All or
+    /// nothing: when a world fails, every world is put back to its state
+    /// before the step and the error is the lowest failing world's, as its
+    /// own single run names it.
+    pub fn step(&mut self) -> Result<Vec<StepReport>, WorldError> {
+        let b = &mut self.backend;
+        b.state.forget_snapshot();
+        b.reset_status();
+        let encoder = b.record(|e| b.state.save(e), &b.fast, 1, true);
+        b.submit_and_wait(encoder).map_err(WorldError::batch)?;
+        let bytes = 16 + b.buffers.report_bytes;
+        let block = b
+            .read_mapped(&b.buffers.report_staging, bytes)
+            .map_err(WorldError::batch)?;
+        b.refuse_cut_loops(&block).map_err(WorldError::batch)?;
+        if b.failure(&block).is_some() {
+            let words: &[u32] = bytemuck::cast_slice(&block[..16]);
+            return Err(self.diagnose(words[3] as usize));
+        }
+        let values = read_reals(&block[16..], b.precision);
+        let per_world = values.len() / self.plans.len();
+        Ok(self
+            .plans
+            .iter()
+            .zip(values.chunks(per_world.max(1)))
+            .map(|(plan, report)| {
+                let (residuals, active_contacts) = crate::xpbd::read_report(plan, report);
+                StepReport {
+                    kernel_calls: plan.kernel_counts(),
+                    residuals,
+                    active_contacts,
+                    ..StepReport::default()
+                }
+            })
+            .collect())
+    }
+
+    /// Every world's state, in world order (world coordinates).
+    pub fn read_states(&mut self) -> Result<Vec<State>, BackendError> {
+        let all = self.backend.read_state()?;
+        let dim = all.dim;
+        let len = self.plans[0].particle_count() * dim;
+        Ok(all
+            .positions
+            .chunks(len.max(1))
+            .zip(all.velocities.chunks(len.max(1)))
+            .take(self.plans.len())
+            .map(|(x, v)| State {
+                dim,
+                positions: x.to_vec(),
+                velocities: v.to_vec(),
+            })
+            .collect())
+    }
+
+    /// The failed step's error: roll every world back, then run world
+    /// `world` (the lowest failing one) alone on a backend of its own plan
+    /// from its state, on this device, and take its error.
+    fn diagnose(&mut self, world: usize) -> WorldError {
+        let rolled_back = self.backend.rollback();
+        let alone = rolled_back
+            .map_err(BackendError::from)
+            .and_then(|()| self.read_states())
+            .and_then(|states| {
+                let (plan, state) = (self.plans.get(world), states.get(world));
+                let (Some(plan), Some(state)) = (plan, state) else {
+                    return Err(GpuError::Other {
+                        message: format!(
+                            "a batch step failed in world {world}, which is not in the batch"
+                        ),
+                    }
+                    .into());
+                };
+                let b = &self.backend;
+                let ctx = b.ctx.clone();
+                let origin = b.origin().clone();
+                let mut single = b.ctx.building(|| {
+                    GpuBackend::build(
+                        ctx.clone(),
+                        plan.clone(),
+                        state,
+                        b.precision,
+                        origin,
+                        Some(StepMode::Fused),
+                        None,
+                    )
+                })?;
+                match single.step() {
+                    Err(e) => Ok(e),
+                    Ok(_) => Err(GpuError::Other {
+                        message: format!(
+                            "a batch step failed in world {world}, which steps alone without error"
+                        ),
+                    }
+                    .into()),
+                }
+            });
+        match alone {
+            Ok(source) => WorldError {
+                world: Some(world),
+                source,
+            },
+            Err(source) => WorldError {
+                world: Some(world),
+                source,
+            },
+        }
+    }
+}
+
+/// What a batch does not run: particle contact (its broadphase is per
+/// scene), guards and adaptive steps (worlds would take different
+/// substeps), the incremental-potential solver.
+fn refuse_in_batch(plan: &Plan) -> Result<(), GpuError> {
+    let what = if plan.contacts.is_some() {
+        "collisions (particle contact)"
+    } else if plan.guards.is_some() {
+        "guards"
+    } else if plan.adaptive.is_some() {
+        "adaptive"
+    } else if plan.incremental_potential().is_some() {
+        "the incremental-potential solver"
+    } else {
+        return Ok(());
+    };
+    Err(GpuError::Unsupported {
+        what: format!(
+            "{what} in a GPU batch (worlds share one schedule of device dispatches; run these \
+             worlds on the CPU batch or one GPU backend each)"
+        ),
+    })
+}

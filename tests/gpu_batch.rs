@@ -1,0 +1,224 @@
+//! Batches of worlds on the GPU: every world in the same dispatches, and
+//! world k of a batch is world k run alone — bit for bit in f64 on
+//! lavapipe (common::exact), against the CPU golden path — for a 15-world
+//! sweep of chain2d (gravity × plane offset), a 12-world sweep of the
+//! ground cloth (compliance, friction, damping, plane normal) and the
+//! shards of the first; f32 within the single-world per-frame bound. A
+//! failing world puts every world back and is named as its own run names
+//! it; worlds a GPU batch cannot share a schedule with are refused by
+//! world.
+
+mod common;
+
+use common::exact::{check_f64, f64_rule};
+use common::gpu::adapter_or_skip;
+use hyperpbd::batch::{Batch, BatchError, GpuBatch};
+use hyperpbd::compare::DivergenceModel;
+use hyperpbd::compare_frame::FrameErrorModel;
+use hyperpbd::sweep::Sweep;
+use hyperpbd::{Backend, Precision, Scene, scenes};
+
+const CHAIN: &str = include_str!("../scenes/chain2d.json");
+
+/// The worlds of `axes` over the scene `text`.
+fn sweep(text: &str, axes: &[&str]) -> Vec<Scene> {
+    let axes = axes.iter().map(|a| a.parse().expect("axis")).collect();
+    let sweep = Sweep::new(text, axes).expect("sweep");
+    (0..sweep.world_count())
+        .map(|w| sweep.scene(w).expect("world"))
+        .collect()
+}
+
+/// 15 worlds of chain2d: 3 sideways gravities × 5 plane offsets (the
+/// highest plane cuts through the hanging chain).
+fn chains() -> Vec<Scene> {
+    sweep(CHAIN, &["gravity[0]=-3:3:3", "obstacles[0].offset=0:1.5:5"])
+}
+
+/// 12 worlds of a 12² ground cloth: compliance × friction × damping ×
+/// tilted planes — every per-world parameter of the call blocks.
+fn cloths() -> Vec<Scene> {
+    let text = serde_json::to_string(&scenes::cloth(12)).expect("json");
+    sweep(
+        &text,
+        &[
+            "constraints[0].compliance=0:1e-4:2",
+            "obstacles[0].friction=0.1:0.8:2",
+            "damping.rate=0.05:0.5:3",
+        ],
+    )
+}
+
+fn max_difference(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+/// Every world of `scenes`, batched on gpu-f64, against its own CPU run
+/// after `frames` frames (and the reports' residuals likewise).
+fn f64_worlds_are_their_own_runs(test: &str, scenes: &[Scene], frames: usize) {
+    let Some((adapter, summary)) = adapter_or_skip(test, Precision::F64) else {
+        return;
+    };
+    let batch = Batch::new(scenes).expect("one topology");
+    let mut gpu = GpuBatch::on_adapter(&adapter, &batch, Precision::F64).expect("gpu batch");
+    assert_eq!(gpu.len(), scenes.len());
+    let mut cpus: Vec<_> = scenes
+        .iter()
+        .map(|s| hyperpbd::cpu_backend(s).expect("cpu"))
+        .collect();
+    for frame in 0..frames {
+        let reports = gpu.step().expect("batch step");
+        for (k, cpu) in cpus.iter_mut().enumerate() {
+            let report = cpu.step().expect("cpu step");
+            for (a, b) in report.residuals.iter().zip(&reports[k].residuals) {
+                assert_eq!(
+                    a.max_violation.to_bits(),
+                    b.max_violation.to_bits(),
+                    "{test}: world {k}, frame {frame}, {}",
+                    a.label
+                );
+            }
+            assert_eq!(report.active_contacts, reports[k].active_contacts);
+        }
+    }
+    let states = gpu.read_states().expect("states");
+    let mut finals = Vec::new();
+    for (k, (cpu, state)) in cpus.iter_mut().zip(&states).enumerate() {
+        let golden = cpu.read_state().expect("state");
+        let dx = max_difference(&golden.positions, &state.positions);
+        let dv = max_difference(&golden.velocities, &state.velocities);
+        check_f64(&summary, &format!("{test} world {k} position"), dx, 1e-9);
+        check_f64(&summary, &format!("{test} world {k} velocity"), dv, 1e-9);
+        finals.push(state.positions.clone());
+    }
+    eprintln!("{test}: {} worlds, {}", scenes.len(), f64_rule(&summary));
+    // The parameters reach the physics: worlds end in different places.
+    assert!(finals.windows(2).any(|w| w[0] != w[1]));
+    assert_ne!(finals[0], finals[finals.len() - 1]);
+}
+
+#[test]
+fn every_chain_of_a_gpu_batch_is_its_own_cpu_run() {
+    f64_worlds_are_their_own_runs("gpu_batch chains", &chains(), 60);
+}
+
+#[test]
+fn every_cloth_of_a_gpu_batch_is_its_own_cpu_run() {
+    f64_worlds_are_their_own_runs("gpu_batch cloths", &cloths(), 30);
+}
+
+#[test]
+fn one_world_and_the_shards_of_a_sweep_are_the_whole_batch() {
+    let Some((adapter, _)) = adapter_or_skip("gpu_batch shards", Precision::F64) else {
+        return;
+    };
+    let scenes = chains();
+    let run = |worlds: &[Scene]| {
+        let batch = Batch::new(worlds).expect("batch");
+        let mut gpu = GpuBatch::on_adapter(&adapter, &batch, Precision::F64).expect("gpu batch");
+        for _ in 0..30 {
+            gpu.step().expect("step");
+        }
+        gpu.read_states().expect("states")
+    };
+    let whole = run(&scenes);
+    let mut shards = Vec::new();
+    for shard in scenes.chunks(4) {
+        shards.extend(run(shard));
+    }
+    shards.extend(run(&scenes[14..15]));
+    for (k, (a, b)) in whole.iter().zip(&shards).enumerate() {
+        assert_eq!(a.hash(), b.hash(), "world {k}");
+    }
+}
+
+#[test]
+fn f32_worlds_stay_within_the_single_world_frame_bound() {
+    let Some((adapter, _)) = adapter_or_skip("gpu_batch f32", Precision::F32) else {
+        return;
+    };
+    let scenes = chains();
+    let batch = Batch::new(&scenes).expect("batch");
+    let mut gpu = GpuBatch::on_adapter(&adapter, &batch, Precision::F32).expect("gpu batch");
+    let origin = gpu.origin().as_slice().to_vec();
+    let mut cpus: Vec<_> = scenes
+        .iter()
+        .map(|s| hyperpbd::cpu_backend(s).expect("cpu"))
+        .collect();
+    let mut models: Vec<_> = cpus
+        .iter()
+        .map(|c| FrameErrorModel::new(c.plan(), Precision::F32, &origin).expect("model"))
+        .collect();
+    let (mut worst_x, mut worst_v): (f64, f64) = (0.0, 0.0);
+    for _ in 0..30 {
+        // Each frame the golden path restarts from the batch's state (the
+        // per-frame model's rule, src/compare_frame.rs).
+        let starts = gpu.read_states().expect("states");
+        let reports = gpu.step().expect("batch step");
+        let ends = gpu.read_states().expect("states");
+        for (k, cpu) in cpus.iter_mut().enumerate() {
+            cpu.write_state(&starts[k]).expect("write");
+            let report = cpu.step().expect("cpu step");
+            let golden = cpu.read_state().expect("state");
+            let (bx, bv) = models[k]
+                .frame_bounds(&starts[k], (&report, &golden), (&reports[k], &ends[k]))
+                .expect("bounds");
+            let dx = max_difference(&golden.positions, &ends[k].positions);
+            let dv = max_difference(&golden.velocities, &ends[k].velocities);
+            assert!(
+                dx <= bx && dv <= bv,
+                "world {k}: {dx:e} > {bx:e} or {dv:e} > {bv:e}"
+            );
+            worst_x = worst_x.max(dx / bx);
+            worst_v = worst_v.max(dv / bv);
+        }
+    }
+    eprintln!(
+        "BOUND gpu_batch chains f32 (15 worlds, 30 frames): position measured/bound {worst_x:.3}, velocity {worst_v:.3}"
+    );
+}
+
+#[test]
+fn a_failing_world_puts_every_world_back_and_is_named_as_alone() {
+    let Some((adapter, _)) = adapter_or_skip("gpu_batch failure", Precision::F64) else {
+        return;
+    };
+    let mut scenes = chains();
+    // World 9's first link flies off at 1e300 m/s: its predict overflows.
+    scenes[9].particles[1].velocity = Some(vec![0.0, 1e300]);
+    let batch = Batch::new(&scenes).expect("batch");
+    let mut gpu = GpuBatch::on_adapter(&adapter, &batch, Precision::F64).expect("gpu batch");
+    let before = gpu.read_states().expect("states");
+    let e = gpu.step().expect_err("world 9 fails");
+    let BatchError::Backend { world, source } = &e else {
+        panic!("not a world's error: {e}");
+    };
+    assert_eq!(*world, 9, "{e}");
+    let mut single = hyperpbd::cpu_backend(&scenes[9]).expect("cpu");
+    let expected = single.step().expect_err("fails alone").to_string();
+    assert_eq!(source.to_string(), expected);
+    let after = gpu.read_states().expect("states");
+    for (k, (a, b)) in before.iter().zip(&after).enumerate() {
+        assert_eq!(a.hash(), b.hash(), "world {k} not put back");
+    }
+}
+
+#[test]
+fn worlds_that_cannot_share_a_schedule_are_refused_by_world() {
+    let Some((adapter, _)) = adapter_or_skip("gpu_batch refusal", Precision::F32) else {
+        return;
+    };
+    // World 2 without damping compiles no damping stage.
+    let mut scenes = cloths();
+    scenes[2].damping = None;
+    let batch = Batch::new(&scenes).expect("one topology");
+    let e = match GpuBatch::on_adapter(&adapter, &batch, Precision::F32) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("a world without damping was accepted"),
+    };
+    assert!(e.starts_with("worlds[2]: "), "{e}");
+    assert!(e.contains("one schedule"), "{e}");
+}
