@@ -6,16 +6,24 @@
 //! batch    CpuBatch on every core, one thread per world
 //! alone    the same worlds one after another, each its own CpuBackend
 //!          on one thread (what a loop over single runs costs)
+//! gpu      GpuBatch (gpu-f32): every world in the same dispatches, one
+//!          per kernel; against single-world GpuBackend runs of worlds 0
+//!          and W − 1 (their mean per step × W: every world runs the same
+//!          schedule, so W single runs cost W times one), and against the
+//!          CPU batch of the same W in this run
 //! ```
 //! `cargo bench --bench batch_worlds [-- chain|cloth]` (without `--bench`,
-//! as under `cargo test --all-targets`: a smoke run of 1 and 16 worlds). Both variants step
+//! as under `cargo test --all-targets`: a smoke run of 1 and 16 worlds). The CPU variants step
 //! the same frames; the final states are asserted bit-identical, so a fast
-//! wrong answer cannot pass. The GPU batch (one dispatch per kernel for all
-//! worlds) is not built yet; a single-world GPU run costs what
-//! `cargo bench --bench backends` reports per frame.
+//! wrong answer cannot pass (the GPU batch's worlds are held to their own
+//! runs by tests/gpu_batch.rs). lavapipe's threads are the environment's:
+//! run once with `LP_NUM_THREADS=0` (one thread: a dispatch costs ~1 µs)
+//! and once without (its default two threads: ~50 µs per dispatch, twice
+//! the lanes).
 
-use hyperpbd::batch::{Batch, CpuBatch};
-use hyperpbd::{Backend, CpuBackend, Plan, Scene, State, scenes};
+use hyperpbd::batch::{Batch, CpuBatch, GpuBatch};
+use hyperpbd::gpu::GpuBackend;
+use hyperpbd::{Backend, CpuBackend, Plan, Precision, Scene, State, scenes};
 use std::time::Instant;
 
 /// Steps timed per variant.
@@ -36,7 +44,10 @@ fn worlds(base: &Scene, count: usize) -> Vec<Scene> {
         .collect()
 }
 
-fn measure(name: &str, base: &Scene, counts: &[usize]) {
+/// The CPU rows of `base` at each of `counts` worlds; the CPU batch's
+/// worlds·steps per second for each.
+fn measure(name: &str, base: &Scene, counts: &[usize]) -> Vec<f64> {
+    let mut batch_rates = Vec::new();
     let threads = hyperpbd::default_threads().expect("threads");
     for &w in counts {
         let scenes = worlds(base, w);
@@ -87,6 +98,55 @@ fn measure(name: &str, base: &Scene, counts: &[usize]) {
             rate(batch_s),
             alone_s / batch_s
         );
+        batch_rates.push(rate(batch_s));
+    }
+    batch_rates
+}
+
+/// Seconds per step of `step`, after the warm-up.
+fn seconds_per_step(mut step: impl FnMut()) -> f64 {
+    for _ in 0..WARMUP {
+        step();
+    }
+    let start = Instant::now();
+    for _ in 0..STEPS {
+        step();
+    }
+    start.elapsed().as_secs_f64() / STEPS as f64
+}
+
+/// The GPU rows of `base` at each of `counts` worlds (`cpu`: the CPU
+/// batch's rates of the same counts, from [`measure`]).
+fn measure_gpu(name: &str, base: &Scene, counts: &[usize], cpu: &[f64]) {
+    let precision = Precision::F32;
+    let Ok((adapter, _)) = hyperpbd::gpu::request_adapter(precision) else {
+        println!("SKIPPED gpu rows of {name}: no adapter");
+        return;
+    };
+    for (&w, &cpu_rate) in counts.iter().zip(cpu) {
+        let scenes = worlds(base, w);
+        let batch = Batch::new(&scenes).expect("one topology");
+        let mut gpu = GpuBatch::on_adapter(&adapter, &batch, precision).expect("gpu batch");
+        let batch_step = seconds_per_step(|| drop(gpu.step().expect("step")));
+        let mut single = 0.0;
+        let probes: Vec<usize> = if w > 1 { vec![0, w - 1] } else { vec![0] };
+        for &k in &probes {
+            let plan = Plan::compile(&scenes[k]).expect("plan");
+            let state = State::from_scene(&scenes[k]);
+            let mut b = GpuBackend::with_adapter(&adapter, plan, &state, precision).expect("gpu");
+            single += seconds_per_step(|| drop(b.step().expect("step")));
+        }
+        let alone_step = single / probes.len() as f64 * w as f64;
+        let rate = |s: f64| w as f64 / s;
+        println!(
+            "| {name} | {w} | gpu-{precision}, {} dispatches | {:.3e} | {:.3e} | {:.1}× ({:.4} of W runs) | {:.2}× |",
+            gpu.dispatches_per_step(),
+            rate(alone_step),
+            rate(batch_step),
+            alone_step / batch_step,
+            batch_step / alone_step,
+            rate(batch_step) / cpu_rate,
+        );
     }
 }
 
@@ -104,13 +164,26 @@ fn main() {
         "| scene | worlds | alone (worlds·steps/s) | batch, {threads} threads | batch / alone |"
     );
     println!("|---|---:|---:|---:|---:|");
+    let chain_counts: &[usize] = if full { &[1, 16, 256, 4096] } else { &[1, 16] };
+    let cloth_counts: &[usize] = if full { &[1, 16, 256, 1024] } else { &[1, 16] };
+    let (mut chain_cpu, mut cloth_cpu) = (Vec::new(), Vec::new());
     if wanted("chain") {
-        let counts: &[usize] = if full { &[1, 16, 256, 4096] } else { &[1, 16] };
-        measure("chain2d", &scenes::chain2d(), counts);
+        chain_cpu = measure("chain2d", &scenes::chain2d(), chain_counts);
     }
     if wanted("cloth") {
-        let counts: &[usize] = if full { &[1, 16, 256, 1024] } else { &[1, 16] };
-        measure("cloth 16²", &scenes::cloth(16), counts);
+        cloth_cpu = measure("cloth 16²", &scenes::cloth(16), cloth_counts);
+    }
+    let lp = std::env::var("LP_NUM_THREADS").unwrap_or_else(|_| "unset".into());
+    println!();
+    println!(
+        "| scene | worlds | GPU batch (LP_NUM_THREADS={lp}) | alone (worlds·steps/s) | batch | batch / alone | GPU batch / CPU batch ({threads} threads) |"
+    );
+    println!("|---|---:|---|---:|---:|---:|---:|");
+    if wanted("chain") {
+        measure_gpu("chain2d", &scenes::chain2d(), chain_counts, &chain_cpu);
+    }
+    if wanted("cloth") {
+        measure_gpu("cloth 16²", &scenes::cloth(16), cloth_counts, &cloth_cpu);
     }
     if !full {
         println!("smoke run; `cargo bench --bench batch_worlds` for the table");

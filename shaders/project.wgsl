@@ -212,7 +212,7 @@ fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     if (t < here.count * WORLDS) {
         let e = split_world(t, here.count);
         call = here.calls[0];
-        world_reals(here.first_call);
+        world_reals(OP_PROJECT_DISTANCE, here.first_call);
         project_distance_element(e);
         record_failure();
     }
@@ -224,7 +224,7 @@ fn project_simplex_measure(@builtin(global_invocation_id) gid: vec3<u32>, @built
     if (t < here.count * WORLDS) {
         let e = split_world(t, here.count);
         call = here.calls[0];
-        world_reals(here.first_call);
+        world_reals(OP_PROJECT_SIMPLEX, here.first_call);
         project_measure_element(e, 1u);
         record_failure();
     }
@@ -236,7 +236,7 @@ fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @buil
     if (t < here.count * WORLDS) {
         let e = split_world(t, here.count);
         call = here.calls[0];
-        world_reals(here.first_call);
+        world_reals(OP_PROJECT_ORIENTED, here.first_call);
         project_measure_element(e, 2u);
         record_failure();
     }
@@ -248,7 +248,7 @@ fn project_material(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     if (t < here.count * WORLDS) {
         let e = split_world(t, here.count);
         call = here.calls[0];
-        world_reals(here.first_call);
+        world_reals(OP_PROJECT_MATERIAL, here.first_call);
         project_measure_element(e, 3u);
         record_failure();
     }

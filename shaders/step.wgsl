@@ -178,16 +178,39 @@ fn split_world(t: u32, count: u32) -> u32 {
     return t;
 }
 
-// The running call's reals as the running world has them (call block c of
-// its copy of the calls); nothing with one world.
-fn world_reals(c: u32) {
+// The reals the running call (op `op`) reads, as the running world has
+// them (call block c of its copy of the calls); nothing with one world.
+// `op` is a constant of the pipeline, so only its own fields are loaded
+// (each is a per-lane load on lavapipe).
+fn world_reals(op: u32, c: u32) {
     if (WORLDS > 1u) {
         let k = world * WORLD_CALLS + c;
-        call.alpha_tilde = calls[k].alpha_tilde;
-        call.friction = calls[k].friction;
-        call.factor = calls[k].factor;
-        call.normal = calls[k].normal;
-        call.gravity = calls[k].gravity;
+        switch (op) {
+            case OP_PREDICT: {
+                call.gravity = calls[k].gravity;
+            }
+            case OP_PROJECT_CONTACT: {
+                call.alpha_tilde = calls[k].alpha_tilde;
+                call.friction = calls[k].friction;
+                call.normal = calls[k].normal;
+            }
+            case OP_FRICTION: {
+                call.friction = calls[k].friction;
+                call.normal = calls[k].normal;
+            }
+            case OP_DAMPING: {
+                call.factor = calls[k].factor;
+            }
+            case OP_PROJECT_MATERIAL: {
+                call.alpha_tilde = calls[k].alpha_tilde;
+                call.friction = calls[k].friction;
+                call.factor = calls[k].factor;
+            }
+            case OP_VELOCITY: {}
+            default: {
+                call.alpha_tilde = calls[k].alpha_tilde;
+            }
+        }
     }
 }
 
@@ -345,7 +368,7 @@ fn run_slot(op: u32, k: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function
             rp: ptr<function, Record>) {
     if (op != NO_OP) {
         call = here.calls[k];
-        world_reals(here.first_call + k);
+        world_reals(op, here.first_call + k);
         run_op(op, i, rx, rv, rp);
     }
 }
