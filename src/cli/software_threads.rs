@@ -14,9 +14,28 @@ use hyperpbd::{BackendKind, Plan, Precision};
 /// Sets lavapipe's threads for `plan` before the process's first wgpu
 /// instance (the first call of the process decides).
 pub fn choose(plan: &Plan) {
+    choose_threads(&Threads::for_plan(plan));
+}
+
+/// Sets lavapipe's threads for a batch of `worlds` worlds of `plan` (its
+/// dispatches `worlds` times as large), as [`choose`] does, and says so
+/// on stderr on a software adapter.
+pub fn choose_for_batch(plan: &Plan, worlds: usize, precision: Precision) {
+    let mut threads = Threads::for_plan(plan);
+    threads.work *= worlds;
+    choose_threads(&threads);
+    if let Ok((_, summary)) = hyperpbd::gpu::request_adapter(precision)
+        && summary.device_type == "Cpu"
+    {
+        threads.environment = std::env::var(VARIABLE).ok();
+        eprintln!("notice: {} threads: {threads}", summary.name);
+    }
+}
+
+fn choose_threads(threads: &Threads) {
     static DECIDED: std::sync::Once = std::sync::Once::new();
     DECIDED.call_once(|| {
-        if let Some(value) = Threads::for_plan(plan).wanted() {
+        if let Some(value) = threads.wanted() {
             // SAFETY: `set_var` is unsound only while code outside Rust's
             // environment lock (a C library, a driver thread) reads the
             // environment. Every command reaches this before creating any

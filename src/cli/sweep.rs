@@ -9,14 +9,20 @@
 //!         "active_contacts", "threads"}}
 //! ```
 //! The file is written atomically: a failed world leaves no file. On the
-//! CPU the worlds run in parallel (`--threads`), one thread each.
+//! CPU the worlds run in parallel (`--threads`), one thread each. On
+//! `--backend gpu` / `gpu-f64` they run as GPU batches (every world of a
+//! batch in the same dispatches, world k bit for bit its own run in f64),
+//! or, where the worlds cannot share one GPU schedule (a world that
+//! compiles other stages, particle contact, guards), one GPU backend each,
+//! with a notice saying why.
 
 use super::error::{CliError, with_sources};
 use super::load::{load_backend, parse_backend};
 use super::output::{rows, write_file};
 use hyperpbd::atomic_file::AtomicFile;
+use hyperpbd::batch::{Batch, BatchError, GpuBatch};
 use hyperpbd::sweep::{Metric, Shard, Sweep, SweepAxis};
-use hyperpbd::{Backend, BackendKind, CpuBackend, Plan, State, StepReport};
+use hyperpbd::{Backend, BackendKind, CpuBackend, Plan, Precision, Scene, State, StepReport};
 use hyperpbd_render::chart::{Series, line_chart};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -142,8 +148,20 @@ pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
             }
         }
     } else {
-        for world in worlds.clone() {
-            let done = run(world, None)?;
+        let batched = match args.backend {
+            BackendKind::Gpu(precision) => {
+                run_batched(&sweep, worlds.clone(), args, precision, &bar)?
+            }
+            _ => None,
+        };
+        let finished = match batched {
+            Some(finished) => finished,
+            None => worlds
+                .clone()
+                .map(|w| run(w, None))
+                .collect::<Result<_, _>>()?,
+        };
+        for done in finished {
             writeln!(file, "{}", done.line).map_err(cannot_write)?;
             backend_name = done.backend;
             metrics.extend(done.metric);
@@ -175,6 +193,77 @@ pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
         );
     }
     Ok(())
+}
+
+/// Worlds per GPU batch of a sweep at most.
+const BATCH_WORLDS: usize = 4096;
+
+/// `worlds` as GPU batches of at most [`BATCH_WORLDS`] worlds, each frame
+/// one step of every world of a batch; `Ok(None)` after a notice when the
+/// worlds cannot share a GPU batch (then they run one backend each, with
+/// the same results).
+fn run_batched(
+    sweep: &Sweep,
+    worlds: std::ops::Range<usize>,
+    args: &SweepArgs,
+    precision: Precision,
+    bar: &ProgressBar,
+) -> Result<Option<Vec<Finished>>, CliError> {
+    let ids: Vec<usize> = worlds.collect();
+    let mut out = Vec::with_capacity(ids.len());
+    for group in ids.chunks(BATCH_WORLDS) {
+        let scenes = group
+            .iter()
+            .map(|&w| sweep.scene(w))
+            .collect::<Result<Vec<Scene>, _>>()
+            .map_err(|e| CliError::Input(e.to_string()))?;
+        let batch = Batch::new(&scenes).and_then(|b| {
+            super::software_threads::choose_for_batch(b.plan(0), b.len(), precision);
+            GpuBatch::new(&b, precision)
+        });
+        let mut gpu = match batch {
+            Ok(gpu) => gpu,
+            Err(e) => {
+                let why = match e {
+                    BatchError::Backend { world, source } => {
+                        format!("worlds[{}]: {source}", group[world])
+                    }
+                    other => other.to_string(),
+                };
+                eprintln!("sweep: the worlds run one GPU backend each: {why}");
+                return Ok(None);
+            }
+        };
+        let mut last: Vec<Option<StepReport>> = vec![None; group.len()];
+        for frame in 1..=args.frames {
+            let reports = gpu.step().map_err(|e| {
+                CliError::Simulation(match &e {
+                    BatchError::Backend { world, source } => format!(
+                        "worlds[{}] frame {frame}: {}",
+                        group[*world],
+                        with_sources(source)
+                    ),
+                    other => format!("frame {frame}: {}", with_sources(other)),
+                })
+            })?;
+            for (slot, report) in last.iter_mut().zip(reports) {
+                *slot = Some(report);
+            }
+            bar.inc(group.len() as u64);
+        }
+        let states = gpu
+            .read_states()
+            .map_err(|e| CliError::Simulation(with_sources(&e)))?;
+        for (k, state) in states.iter().enumerate() {
+            let report = last[k].as_ref();
+            out.push(Finished {
+                line: world_line(sweep, group[k], state, report).to_string(),
+                backend: format!("gpu-{precision}, {} worlds per batch", group.len()),
+                metric: args.plot.map(|m| m.value(&scenes[k], state, report)),
+            });
+        }
+    }
+    Ok(Some(out))
 }
 
 /// What one world left: its JSON line, the backend's name, the `--plot`

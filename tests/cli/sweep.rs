@@ -14,10 +14,20 @@ const CHAIN: &str = include_str!("../../scenes/chain2d.json");
 const AXES: [&str; 2] = ["gravity[0]=-1:1:3", "damping.rate=0:2:5"];
 
 fn sweep_cli(dir: &TempDir, scene: &str, out: &str, extra: &[&str]) -> std::process::Output {
+    sweep_axes(dir, scene, out, &AXES, extra)
+}
+
+fn sweep_axes(
+    dir: &TempDir,
+    scene: &str,
+    out: &str,
+    axes: &[&str],
+    extra: &[&str],
+) -> std::process::Output {
     let scene = dir.write("scene.json", scene);
     let out = dir.path(out);
     let mut args: Vec<std::ffi::OsString> = vec!["sweep".into(), scene.into()];
-    for axis in AXES {
+    for &axis in axes {
         args.extend(["--set".into(), axis.into()]);
     }
     args.extend(["--frames".into(), "12".into(), "--out".into(), out.into()]);
@@ -129,25 +139,52 @@ fn shards_concatenate_to_the_whole_sweep() {
     }
 }
 
-#[test]
-fn gpu_f64_sweep_equals_the_cpu_sweep() {
-    if adapter_or_skip("gpu_f64_sweep_equals_the_cpu_sweep", Precision::F64).is_none() {
-        return;
-    }
-    let dir = TempDir::new("sweep-gpu");
-    assert_success(&sweep_cli(&dir, CHAIN, "cpu.jsonl", &["--backend", "cpu"]));
-    assert_success(&sweep_cli(
+/// The gpu-f64 sweep of `axes` equals the CPU sweep line for line; what
+/// the GPU run printed on stderr.
+fn gpu_f64_equals_cpu(test: &str, axes: &[&str]) -> Option<String> {
+    adapter_or_skip(test, Precision::F64)?;
+    let dir = TempDir::new(test);
+    assert_success(&sweep_axes(
         &dir,
         CHAIN,
-        "gpu.jsonl",
-        &["--backend", "gpu-f64"],
+        "cpu.jsonl",
+        axes,
+        &["--backend", "cpu"],
     ));
+    let run = sweep_axes(&dir, CHAIN, "gpu.jsonl", axes, &["--backend", "gpu-f64"]);
+    assert_success(&run);
     let (cpu, gpu) = (lines(&dir, "cpu.jsonl"), lines(&dir, "gpu.jsonl"));
     for (c, g) in cpu.iter().zip(&gpu) {
         assert_eq!(c["positions"], g["positions"], "world {}", c["world"]);
         assert_eq!(c["velocities"], g["velocities"], "world {}", c["world"]);
+        for key in ["max_violation", "residuals", "active_contacts"] {
+            assert_eq!(c["report"][key], g["report"][key], "world {}", c["world"]);
+        }
     }
     assert_eq!(gpu.len(), 15);
+    Some(String::from_utf8_lossy(&run.stderr).into_owned())
+}
+
+#[test]
+fn gpu_f64_sweep_equals_the_cpu_sweep() {
+    // damping.rate = 0 compiles no damping stage: that world cannot share
+    // the others' GPU schedule, so every world runs one backend each.
+    let Some(stderr) = gpu_f64_equals_cpu("sweep-gpu", &AXES) else {
+        return;
+    };
+    assert!(
+        stderr.contains("run one GPU backend each: worlds[1]"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn a_gpu_sweep_runs_its_worlds_as_one_batch() {
+    let axes = ["gravity[0]=-3:3:3", "obstacles[0].offset=0:1.5:5"];
+    let Some(stderr) = gpu_f64_equals_cpu("sweep-gpu-batch", &axes) else {
+        return;
+    };
+    assert!(!stderr.contains("one GPU backend each"), "{stderr}");
 }
 
 #[test]
