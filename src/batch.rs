@@ -321,6 +321,22 @@ impl GpuBatch {
         Ok(self.inner.step()?)
     }
 
+    /// Replaces world `world`'s state (checked first: a bad state changes
+    /// nothing).
+    pub fn write_state(&mut self, world: usize, state: &State) -> Result<(), BatchError> {
+        self.inner
+            .write_state(world, state)
+            .map_err(|source| BatchError::Backend { world, source })
+    }
+
+    /// Replaces world `world`'s external forces from the next step on
+    /// (only where its plan has a force term, as `Backend::set_forces`).
+    pub fn set_forces(&mut self, world: usize, forces: &[f64]) -> Result<(), BatchError> {
+        self.inner
+            .set_forces(world, forces)
+            .map_err(|source| BatchError::Backend { world, source })
+    }
+
     /// Every world's state, in world order.
     pub fn read_states(&mut self) -> Result<Vec<State>, BatchError> {
         self.inner

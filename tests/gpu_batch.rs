@@ -182,6 +182,72 @@ fn f32_worlds_stay_within_the_single_world_frame_bound() {
 }
 
 #[test]
+fn a_world_written_or_pushed_mid_run_is_its_own_run_so_treated() {
+    let Some((adapter, summary)) = adapter_or_skip("gpu_batch write", Precision::F64) else {
+        return;
+    };
+    // A force on the chain's middle bead (every world has one: 0.5 to 2 N).
+    let scenes = sweep(
+        CHAIN,
+        &[
+            "particles[10].force[0]=0.5:2:3",
+            "obstacles[0].offset=0:1.5:5",
+        ],
+    );
+    let batch = Batch::new(&scenes).expect("batch");
+    let mut gpu = GpuBatch::on_adapter(&adapter, &batch, Precision::F64).expect("gpu batch");
+    let mut cpus: Vec<_> = scenes
+        .iter()
+        .map(|s| hyperpbd::cpu_backend(s).expect("cpu"))
+        .collect();
+    let step_all = |gpu: &mut GpuBatch, cpus: &mut Vec<hyperpbd::CpuBackend>| {
+        for _ in 0..10 {
+            gpu.step().expect("batch step");
+            for cpu in cpus.iter_mut() {
+                cpu.step().expect("cpu step");
+            }
+        }
+    };
+    step_all(&mut gpu, &mut cpus);
+    // World 3 restarts from world 7's state; world 5's force turns.
+    let moved = cpus[7].read_state().expect("state");
+    gpu.write_state(3, &moved).expect("write");
+    cpus[3].write_state(&moved).expect("write");
+    let mut forces = vec![0.0; 21 * 2];
+    forces[2 * 10 + 1] = -3.0;
+    gpu.set_forces(5, &forces).expect("forces");
+    cpus[5].set_forces(&forces).expect("forces");
+    // Bad input is refused and changes nothing.
+    let before = gpu.read_states().expect("states");
+    assert!(gpu.set_forces(2, &forces[1..]).is_err());
+    let e = gpu
+        .write_state(15, &moved)
+        .expect_err("no world 15")
+        .to_string();
+    assert!(e.starts_with("worlds[15]: "), "{e}");
+    assert_eq!(gpu.read_states().expect("states"), before);
+    step_all(&mut gpu, &mut cpus);
+    let states = gpu.read_states().expect("states");
+    for (k, (cpu, state)) in cpus.iter_mut().zip(&states).enumerate() {
+        let golden = cpu.read_state().expect("state");
+        let dx = max_difference(&golden.positions, &state.positions);
+        let dv = max_difference(&golden.velocities, &state.velocities);
+        check_f64(
+            &summary,
+            &format!("gpu_batch write world {k} position"),
+            dx,
+            1e-9,
+        );
+        check_f64(
+            &summary,
+            &format!("gpu_batch write world {k} velocity"),
+            dv,
+            1e-9,
+        );
+    }
+}
+
+#[test]
 fn a_failing_world_puts_every_world_back_and_is_named_as_alone() {
     let Some((adapter, _)) = adapter_or_skip("gpu_batch failure", Precision::F64) else {
         return;

@@ -43,9 +43,23 @@ pub(crate) struct Packing {
 impl Packing {
     /// World positions as the device stores them.
     pub fn positions(&self, positions: &[f64]) -> Vec<u8> {
+        self.positions_from(0, positions)
+    }
+
+    /// World positions of the particles from `first` on (a batch's world)
+    /// as the device stores them.
+    pub fn positions_from(&self, first: usize, positions: &[f64]) -> Vec<u8> {
         let local = self.origin.to_local(positions);
-        let lane = (self.layout == VectorLayout::Record).then_some(&self.inverse_mass[..]);
+        let count = positions.len() / self.dim.max(1);
+        let lane = (self.layout == VectorLayout::Record)
+            .then(|| self.inverse_mass.get(first..first + count))
+            .flatten();
         self.bytes_of(&self.layout.pack(self.dim, &local, lane))
+    }
+
+    /// Bytes of one particle's vector.
+    fn particle_bytes(&self) -> u64 {
+        (self.layout.reals_per_particle(self.dim) * real_size(self.precision)) as u64
     }
 
     /// Velocities or forces as the device stores them.
@@ -174,13 +188,26 @@ impl ResidentState {
         plan: &Plan,
         state: &State,
     ) -> Result<(), BackendError> {
+        self.write_from(ctx, plan, 0, state)
+    }
+
+    /// [`ResidentState::write`] of the particles from `first` on (a
+    /// batch's world: `plan` is that world's).
+    pub fn write_from(
+        &mut self,
+        ctx: &GpuContext,
+        plan: &Plan,
+        first: usize,
+        state: &State,
+    ) -> Result<(), BackendError> {
         check_state(plan, state)?;
         self.forget_snapshot();
         if self.bytes > 0 {
+            let at = first as u64 * self.packing.particle_bytes();
+            let x = self.packing.positions_from(first, &state.positions);
+            ctx.queue.write_buffer(&self.x, at, &x);
             ctx.queue
-                .write_buffer(&self.x, 0, &self.packing.positions(&state.positions));
-            ctx.queue
-                .write_buffer(&self.v, 0, &self.packing.vectors(&state.velocities));
+                .write_buffer(&self.v, at, &self.packing.vectors(&state.velocities));
         }
         Ok(())
     }
@@ -193,10 +220,23 @@ impl ResidentState {
         plan: &Plan,
         forces: &[f64],
     ) -> Result<(), BackendError> {
+        self.set_forces_from(ctx, plan, 0, forces)
+    }
+
+    /// [`ResidentState::set_forces`] of the particles from `first` on (a
+    /// batch's world: `plan` is that world's).
+    pub fn set_forces_from(
+        &self,
+        ctx: &GpuContext,
+        plan: &Plan,
+        first: usize,
+        forces: &[f64],
+    ) -> Result<(), BackendError> {
         check_forces(plan, forces)?;
         if self.bytes > 0 {
+            let at = first as u64 * self.packing.particle_bytes();
             ctx.queue
-                .write_buffer(&self.force, 0, &self.packing.vectors(forces));
+                .write_buffer(&self.force, at, &self.packing.vectors(forces));
         }
         Ok(())
     }

@@ -386,6 +386,27 @@ impl GpuBatch {
             .collect())
     }
 
+    /// Replaces world `world`'s x and v with `state` (checked against its
+    /// plan first: a bad state is a typed error and changes nothing).
+    pub fn write_state(&mut self, world: usize, state: &State) -> Result<(), BackendError> {
+        let plan = world_plan(&self.plans, world)?;
+        let first = world * plan.particle_count();
+        self.backend
+            .state
+            .write_from(&self.backend.ctx, plan, first, state)
+    }
+
+    /// Replaces world `world`'s external forces (flat, `dim` per particle;
+    /// checked against its plan first), as `Backend::set_forces` does for
+    /// one world: they act from the next step on.
+    pub fn set_forces(&mut self, world: usize, forces: &[f64]) -> Result<(), BackendError> {
+        let plan = world_plan(&self.plans, world)?;
+        let first = world * plan.particle_count();
+        self.backend
+            .state
+            .set_forces_from(&self.backend.ctx, plan, first, forces)
+    }
+
     /// The failed step's error: roll every world back, then run world
     /// `world` (the lowest failing one) alone on a backend of its own plan
     /// from its state, on this device, and take its error.
@@ -439,6 +460,16 @@ impl GpuBatch {
             },
         }
     }
+}
+
+/// World `world`'s plan, or a typed error past the last world.
+fn world_plan(plans: &[Plan], world: usize) -> Result<&Plan, BackendError> {
+    plans.get(world).ok_or_else(|| {
+        BackendError::InvalidCall(format!(
+            "world {world}: the batch has {} worlds",
+            plans.len()
+        ))
+    })
 }
 
 /// What a batch does not run: particle contact (its broadphase is per
