@@ -32,6 +32,8 @@
 mod elements;
 mod particles;
 mod setup;
+#[cfg(test)]
+mod tests;
 
 use crate::incremental_potential::{ARMIJO, MAX_HALVINGS};
 use crate::parallel::Workers;
