@@ -62,12 +62,18 @@ fn backend(scene: &Scene, threads: usize) -> CpuBackend {
 /// Panics on a refused step; minimisations that end at their Newton budget
 /// or at the rounding floor (both keep a feasible iterate) are counted and
 /// printed.
-fn run(
+fn run(scene: &Scene, steps: usize, threads: usize, each: impl FnMut(&State)) -> (State, u32, u32) {
+    let (state, newton, cg, _) = run_counting(scene, steps, threads, each);
+    (state, newton, cg)
+}
+
+/// [`run`], also returning how many minimisations ended at their Newton budget.
+fn run_counting(
     scene: &Scene,
     steps: usize,
     threads: usize,
     mut each: impl FnMut(&State),
-) -> (State, u32, u32) {
+) -> (State, u32, u32, usize) {
     let mut cpu = backend(scene, threads);
     let (mut newton, mut cg, mut exhausted, mut floor) = (0, 0, 0, 0);
     for step in 0..steps {
@@ -91,7 +97,7 @@ fn run(
     println!(
         "{steps} steps: {exhausted} minimisations at their Newton budget, {floor} at the rounding floor"
     );
-    (cpu.read_state().expect("state"), newton, cg)
+    (cpu.read_state().expect("state"), newton, cg, exhausted)
 }
 
 /// Two balls (radius 0.1 m, 1 kg) 1 m apart closing at 10 m/s each.
@@ -145,13 +151,25 @@ fn head_on_balls_never_overlap_and_bounce_apart() {
 
 /// A 12-link chain (0.1 m links, compliance 1e-8 m/N) from a fixed top,
 /// beads alternating 1 kg and 1e-6 kg, released horizontal: one
-/// minimisation per 1/60 s frame.
+/// minimisation per 1/60 s frame. Its free end is a light bead.
 fn alternating_chain() -> Scene {
+    chain_ending(1e-6)
+}
+
+/// The alternating chain with its masses swapped (1e-6 kg first): its free
+/// end is a heavy bead.
+fn alternating_chain_heavy_end() -> Scene {
+    chain_ending(1.0)
+}
+
+/// The alternating chain whose last (12th) bead weighs `end` kg.
+fn chain_ending(end: f64) -> Scene {
+    let other = if end == 1.0 { 1e-6 } else { 1.0 };
     let mut scene = Scene::new(2, 1.0 / 60.0, 1, 1);
     scene.gravity = Some(vec![0.0, -G]);
     scene.particles.push(particle(vec![0.0, 0.0], None, 0.0));
     for k in 1..=12 {
-        let mass = if k % 2 == 1 { 1.0 } else { 1e-6 };
+        let mass = if k % 2 == 0 { end } else { other };
         scene
             .particles
             .push(particle(vec![0.1 * k as f64, 0.0], Some(mass), 0.0));
@@ -202,6 +220,36 @@ fn alternating_chain_holds_its_links() {
         "it swings on its links, it does not fall",
     );
     assert!(lowest >= -1.2 - 1e-3);
+}
+
+/// Where the chain's Newton budget goes (docs/implicit.md §11): the same
+/// chain with a heavy free end reaches its criterion in every frame, so
+/// the minimisations that end at the budget are the light free end's (a
+/// 1e-6 kg bead whose only link carries its own weight, 1e-5 N).
+#[test]
+fn the_chain_spends_its_newton_budget_only_on_a_light_free_end() {
+    let (_, _, _, light_end) = run_counting(&alternating_chain(), 120, 1, |_| {});
+    let (end, newton, _, heavy_end) = run_counting(&alternating_chain_heavy_end(), 120, 1, |_| {});
+    print_bound(
+        "implicit chain 1:1e6, light free end: minimisations at the Newton budget (50) of 120",
+        light_end,
+        "reported",
+        "the free light bead's link (docs/implicit.md §11)",
+    );
+    println!("heavy free end: Newton ≤ {newton}");
+    check_bound(
+        "implicit chain 1:1e6, heavy free end: minimisations at the Newton budget (50) of 120",
+        heavy_end as f64,
+        0.0,
+        "every light bead between two heavy ones: Newton converges",
+    );
+    let scene = alternating_chain_heavy_end();
+    check_bound(
+        "implicit chain 1:1e6, heavy free end: link residual after 2 s (m)",
+        link_residual(&scene, &end),
+        1e-3,
+        "issue 16's target",
+    );
 }
 
 /// A 1 kg ball (radius 0.05 m) resting on a plane inclined by 20°, at the
