@@ -331,16 +331,15 @@ impl Elements {
         )
     }
 
-    /// out (arity × N) = K_e⁺ p_e (`diagonal`: the diagonal of K_e⁺ instead)
+    /// out (arity × N) = K_e⁺ p_e (`p` = None: the diagonal of K_e⁺ instead)
     /// from element e's record.
     fn curvature_of(
         &self,
         e: usize,
         terms: &Terms<'_>,
         record: &[f64],
-        p: &[f64],
+        p: Option<&[f64]>,
         out: &mut [f64],
-        diagonal: bool,
         buffers: &mut MaterialBuffers,
     ) {
         let dim = terms.plan.dim;
@@ -362,10 +361,9 @@ impl Elements {
                     value: 0.0,
                     curvature,
                 };
-                if diagonal {
-                    spring.diagonal(aux, dim, &mut out[..arity * dim]);
-                } else {
-                    spring.apply(aux, dim, &p[..arity * dim], &mut out[..arity * dim]);
+                match p {
+                    None => spring.diagonal(aux, dim, &mut out[..arity * dim]),
+                    Some(p) => spring.apply(aux, dim, &p[..arity * dim], &mut out[..arity * dim]),
                 }
             }
             Kind::Material {
@@ -382,17 +380,17 @@ impl Elements {
                     dim,
                     p,
                     out,
-                    diagonal,
                     buffers,
                 );
             }
             Kind::Ball => {
                 let normal = &aux[dim..2 * dim];
-                if diagonal {
-                    radial.diagonal(normal, &mut out[..dim]);
-                    out.copy_within(..dim, dim);
-                } else {
-                    radial.apply(normal, &p[..2 * dim], &mut out[..2 * dim]);
+                match p {
+                    None => {
+                        radial.diagonal(normal, &mut out[..dim]);
+                        out.copy_within(..dim, dim);
+                    }
+                    Some(p) => radial.apply(normal, &p[..2 * dim], &mut out[..2 * dim]),
                 }
             }
             Kind::Friction { lag } => {
@@ -402,11 +400,15 @@ impl Elements {
                     across: record[2],
                 };
                 let slip_direction = &aux[..dim];
-                if diagonal {
-                    tangent.diagonal(normal, slip_direction, &mut out[..dim]);
-                    out.copy_within(..dim, dim);
-                } else {
-                    tangent.apply_pair(normal, slip_direction, &p[..2 * dim], &mut out[..2 * dim]);
+                match p {
+                    None => {
+                        tangent.diagonal(normal, slip_direction, &mut out[..dim]);
+                        out.copy_within(..dim, dim);
+                    }
+                    Some(p) => {
+                        let p = &p[..2 * dim];
+                        tangent.apply_pair(normal, slip_direction, p, &mut out[..2 * dim]);
+                    }
                 }
             }
         }
@@ -436,7 +438,8 @@ impl Elements {
                         this.gather_points(e, p, dim, &mut points);
                     }
                     let slot = &mut out[(e - r.start) * width..(e - r.start + 1) * width];
-                    this.curvature_of(e, terms, record, &points, slot, diagonal, &mut buffers);
+                    let p = (!diagonal).then_some(&points[..]);
+                    this.curvature_of(e, terms, record, p, slot, &mut buffers);
                 }
                 Ok(())
             },

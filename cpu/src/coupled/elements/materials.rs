@@ -105,34 +105,25 @@ pub fn projected_frame_hessian(
     evaluated.is_ok() && project_psd(&mut out[..size * size], size, psd).finite
 }
 
-/// out = K_e⁺ p (or, with `diagonal`, the diagonal of K_e⁺) for the
+/// out = K_e⁺ p (or, for `p` = None, the diagonal of K_e⁺) for the
 /// element's H_F⁺ `frame_hessian`, both in the element's vertex layout.
-#[allow(clippy::too_many_arguments)]
 pub fn curvature(
     family: &Family,
     element: usize,
     frame_hessian: &[f64],
     dim: usize,
-    p: &[f64],
+    p: Option<&[f64]>,
     out: &mut [f64],
-    diagonal: bool,
     b: &mut MaterialBuffers,
 ) {
     let Some((_, rest)) = family.kind.rest_view(element) else {
         return;
     };
     let n = family.arity * dim;
-    if diagonal {
-        material_curvature_diagonal(frame_hessian, rest, dim, &mut out[..n], &mut b.hessian);
-    } else {
-        apply_material_curvature(
-            frame_hessian,
-            rest,
-            dim,
-            &p[..n],
-            &mut out[..n],
-            &mut b.hessian,
-        );
+    let out = &mut out[..n];
+    match p {
+        None => material_curvature_diagonal(frame_hessian, rest, dim, out, &mut b.hessian),
+        Some(p) => apply_material_curvature(frame_hessian, rest, dim, &p[..n], out, &mut b.hessian),
     }
 }
 
