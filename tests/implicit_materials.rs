@@ -14,9 +14,9 @@ mod common;
 use common::bound::{check_bound, print_bound};
 use hyperpbd::builders::{coords_of, kuhn_grid_elements};
 use hyperpbd::{
-    Backend, BackendError, ConstraintFamily, ConstraintKind, Convergence, CpuBackend, Damping,
-    IncrementalPotentialSettings, MinimisationStatus, Particle, Plan, Refusal, Scene, Solver,
-    State, StepError,
+    Backend, BackendError, ConstraintFamily, ConstraintKind, Convergence, Damping,
+    IncrementalPotentialSettings, MinimisationStatus, Particle, Refusal, Scene, Solver, State,
+    StepError,
 };
 
 const G: f64 = 9.81;
@@ -72,20 +72,10 @@ fn hanging_block(law: ConstraintKind, implicit_solver: bool) -> Scene {
     scene
 }
 
-fn backend(scene: &Scene, threads: usize) -> CpuBackend {
-    let plan = Plan::compile(scene).expect("scene compiles");
-    let cpu = CpuBackend::with_threads(plan, &State::from_scene(scene), threads).expect("loads");
-    if threads > 1 {
-        cpu.with_max_chunk(1)
-    } else {
-        cpu
-    }
-}
-
 /// Steps `steps` frames; panics on a refused minimisation; returns the
 /// state, the Newton iterations of the last frame and its status.
 fn settle(scene: &Scene, steps: usize, threads: usize) -> (State, u32, String) {
-    let mut cpu = backend(scene, threads);
+    let mut cpu = common::cpu_backend(scene, threads);
     let mut last = (0, String::new());
     for step in 0..steps {
         let report = cpu.step().unwrap_or_else(|e| panic!("step {step}: {e}"));
@@ -170,7 +160,7 @@ fn an_inverting_prediction_is_a_rejected_trial_not_a_nan() {
     let scene = crushed_triangle(200.0);
     let predicted = 1.0 - 200.0 / 60.0;
     assert!(predicted < 0.0, "the prediction inverts the triangle");
-    let mut cpu = backend(&scene, 1);
+    let mut cpu = common::cpu_backend(&scene, 1);
     let mut lowest = f64::INFINITY;
     for step in 0..30 {
         let report = cpu.step().unwrap_or_else(|e| panic!("step {step}: {e}"));
@@ -204,7 +194,7 @@ fn an_element_inverted_at_the_start_is_refused_by_name_and_the_state_kept() {
     scene.particles[2].position = vec![0.0, -1.0];
     let rest = vec![vec![0.0, 0.0], vec![1.0, 0.0], vec![0.0, 1.0]];
     scene.constraints[0] = scene.constraints[0].clone().with_rest_positions(rest);
-    let mut cpu = backend(&scene, 1);
+    let mut cpu = common::cpu_backend(&scene, 1);
     let before = cpu.read_state().expect("state");
     let error = cpu.step().expect_err("an inverted start is refused");
     match &error {
@@ -224,16 +214,9 @@ fn an_element_inverted_at_the_start_is_refused_by_name_and_the_state_kept() {
     }
     println!("{error}");
     let after = cpu.read_state().expect("state");
-    let bits = |s: &State| -> Vec<u64> {
-        s.positions
-            .iter()
-            .chain(&s.velocities)
-            .map(|v| v.to_bits())
-            .collect()
-    };
     assert_eq!(
-        bits(&before),
-        bits(&after),
+        common::differing_values(&before, &after),
+        0,
         "the state is kept byte for byte"
     );
 }
@@ -252,19 +235,11 @@ fn material_scenes_are_byte_identical_for_any_thread_count() {
     for (name, scene, steps) in scenes {
         let (one, _, _) = settle(&scene, steps, 1);
         let (two, _, _) = settle(&scene, steps, 2);
-        let differing = one
-            .positions
-            .iter()
-            .chain(&one.velocities)
-            .zip(two.positions.iter().chain(&two.velocities))
-            .filter(|(a, b)| a.to_bits() != b.to_bits())
-            .count();
-        print_bound(
+        common::check_byte_identical(
             format_args!("implicit {name}: values differing, 1 vs 2 threads (chunks of 1)"),
-            differing,
-            0,
+            &one,
+            &two,
             "fixed-order gathers, block-tree sums",
         );
-        assert_eq!(differing, 0, "{name}");
     }
 }

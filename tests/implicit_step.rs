@@ -16,9 +16,8 @@ use hyperpbd::core::implicit::closed_forms::{
     backward_euler_slide, barrier_gap_under_load, incline_acceleration, stacked_ball_heights,
 };
 use hyperpbd::{
-    Backend, Collisions, ConstraintFamily, ConstraintKind, Convergence, CpuBackend,
-    IncrementalPotentialSettings, MinimisationStatus, Obstacle, Particle, Plan, Scene, Solver,
-    State,
+    Backend, Collisions, ConstraintFamily, ConstraintKind, Convergence,
+    IncrementalPotentialSettings, MinimisationStatus, Obstacle, Particle, Scene, Solver, State,
 };
 use hyperpbd_render::chart::{Series, line_chart};
 
@@ -51,16 +50,6 @@ fn particle(position: Vec<f64>, mass: Option<f64>, radius: f64) -> Particle {
     p
 }
 
-fn backend(scene: &Scene, threads: usize) -> CpuBackend {
-    let plan = Plan::compile(scene).expect("scene compiles");
-    let cpu = CpuBackend::with_threads(plan, &State::from_scene(scene), threads).expect("loads");
-    if threads > 1 {
-        cpu.with_max_chunk(1)
-    } else {
-        cpu
-    }
-}
-
 /// Steps `scene` `steps` times, calling `each` with the state after every
 /// step; returns the final state and the largest Newton and CG counts.
 /// Panics on a refused step; minimisations that end at their Newton budget
@@ -78,7 +67,7 @@ fn run_counting(
     threads: usize,
     mut each: impl FnMut(&State),
 ) -> (State, u32, u32, usize) {
-    let mut cpu = backend(scene, threads);
+    let mut cpu = common::cpu_backend(scene, threads);
     let (mut newton, mut cg, mut exhausted, mut floor) = (0, 0, 0, 0);
     for step in 0..steps {
         let report = cpu.step().unwrap_or_else(|e| panic!("step {step}: {e:?}"));
@@ -405,27 +394,14 @@ fn every_scene_is_byte_identical_for_any_thread_count() {
         ("stack", stack().0, 30),
     ];
     for (name, scene, steps) in scenes {
-        let bits = |s: &State| -> Vec<u64> {
-            s.positions
-                .iter()
-                .chain(&s.velocities)
-                .map(|v| v.to_bits())
-                .collect()
-        };
         let (one, _, _) = run(&scene, steps, 1, |_| {});
         let (two, _, _) = run(&scene, steps, 2, |_| {});
-        let differing = bits(&one)
-            .iter()
-            .zip(bits(&two))
-            .filter(|(a, b)| **a != *b)
-            .count();
-        print_bound(
+        common::check_byte_identical(
             format_args!("implicit {name}: values differing, 1 vs 2 threads (chunks of 1)"),
-            differing,
-            0,
+            &one,
+            &two,
             "fixed-order gathers, block-tree sums",
         );
-        assert_eq!(differing, 0, "{name}");
     }
 }
 
