@@ -4,6 +4,9 @@
 //! rest, and byte identity of every scene for any thread count. Each
 //! measured value is printed beside its bound:
 //! `cargo test --release --test implicit_step -- --nocapture | grep '^BOUND'`.
+//! The energy of each scene against time is checked here and drawn into
+//! docs/figures/implicit_energy_*.png by `scripts/implicit_figures.sh`
+//! (which sets `HYPERPBD_WRITE_FIGURES=1`).
 
 mod common;
 
@@ -13,10 +16,10 @@ use hyperpbd::core::implicit::closed_forms::{
     backward_euler_slide, barrier_gap_under_load, incline_acceleration, stacked_ball_heights,
 };
 use hyperpbd::{
-    Backend, Collisions, ConstraintFamily, ConstraintKind, Convergence, CpuBackend,
-    IncrementalPotentialSettings, MinimisationStatus, Obstacle, Particle, Plan, Scene, Solver,
-    State,
+    Backend, Collisions, ConstraintFamily, ConstraintKind, Convergence,
+    IncrementalPotentialSettings, MinimisationStatus, Obstacle, Particle, Scene, Solver, State,
 };
+use hyperpbd_render::chart::{Series, line_chart};
 
 const G: f64 = 9.81;
 
@@ -47,28 +50,24 @@ fn particle(position: Vec<f64>, mass: Option<f64>, radius: f64) -> Particle {
     p
 }
 
-fn backend(scene: &Scene, threads: usize) -> CpuBackend {
-    let plan = Plan::compile(scene).expect("scene compiles");
-    let cpu = CpuBackend::with_threads(plan, &State::from_scene(scene), threads).expect("loads");
-    if threads > 1 {
-        cpu.with_max_chunk(1)
-    } else {
-        cpu
-    }
-}
-
 /// Steps `scene` `steps` times, calling `each` with the state after every
 /// step; returns the final state and the largest Newton and CG counts.
 /// Panics on a refused step; minimisations that end at their Newton budget
 /// or at the rounding floor (both keep a feasible iterate) are counted and
 /// printed.
-fn run(
+fn run(scene: &Scene, steps: usize, threads: usize, each: impl FnMut(&State)) -> (State, u32, u32) {
+    let (state, newton, cg, _) = run_counting(scene, steps, threads, each);
+    (state, newton, cg)
+}
+
+/// [`run`], also returning how many minimisations ended at their Newton budget.
+fn run_counting(
     scene: &Scene,
     steps: usize,
     threads: usize,
     mut each: impl FnMut(&State),
-) -> (State, u32, u32) {
-    let mut cpu = backend(scene, threads);
+) -> (State, u32, u32, usize) {
+    let mut cpu = common::cpu_backend(scene, threads);
     let (mut newton, mut cg, mut exhausted, mut floor) = (0, 0, 0, 0);
     for step in 0..steps {
         let report = cpu.step().unwrap_or_else(|e| panic!("step {step}: {e:?}"));
@@ -91,7 +90,7 @@ fn run(
     println!(
         "{steps} steps: {exhausted} minimisations at their Newton budget, {floor} at the rounding floor"
     );
-    (cpu.read_state().expect("state"), newton, cg)
+    (cpu.read_state().expect("state"), newton, cg, exhausted)
 }
 
 /// Two balls (radius 0.1 m, 1 kg) 1 m apart closing at 10 m/s each.
@@ -145,13 +144,25 @@ fn head_on_balls_never_overlap_and_bounce_apart() {
 
 /// A 12-link chain (0.1 m links, compliance 1e-8 m/N) from a fixed top,
 /// beads alternating 1 kg and 1e-6 kg, released horizontal: one
-/// minimisation per 1/60 s frame.
+/// minimisation per 1/60 s frame. Its free end is a light bead.
 fn alternating_chain() -> Scene {
+    chain_ending(1e-6)
+}
+
+/// The alternating chain with its masses swapped (1e-6 kg first): its free
+/// end is a heavy bead.
+fn alternating_chain_heavy_end() -> Scene {
+    chain_ending(1.0)
+}
+
+/// The alternating chain whose last (12th) bead weighs `end` kg.
+fn chain_ending(end: f64) -> Scene {
+    let other = if end == 1.0 { 1e-6 } else { 1.0 };
     let mut scene = Scene::new(2, 1.0 / 60.0, 1, 1);
     scene.gravity = Some(vec![0.0, -G]);
     scene.particles.push(particle(vec![0.0, 0.0], None, 0.0));
     for k in 1..=12 {
-        let mass = if k % 2 == 1 { 1.0 } else { 1e-6 };
+        let mass = if k % 2 == 0 { end } else { other };
         scene
             .particles
             .push(particle(vec![0.1 * k as f64, 0.0], Some(mass), 0.0));
@@ -202,6 +213,36 @@ fn alternating_chain_holds_its_links() {
         "it swings on its links, it does not fall",
     );
     assert!(lowest >= -1.2 - 1e-3);
+}
+
+/// Where the chain's Newton budget goes (docs/implicit.md §11): the same
+/// chain with a heavy free end reaches its criterion in every frame, so
+/// the minimisations that end at the budget are the light free end's (a
+/// 1e-6 kg bead whose only link carries its own weight, 1e-5 N).
+#[test]
+fn the_chain_spends_its_newton_budget_only_on_a_light_free_end() {
+    let (_, _, _, light_end) = run_counting(&alternating_chain(), 120, 1, |_| {});
+    let (end, newton, _, heavy_end) = run_counting(&alternating_chain_heavy_end(), 120, 1, |_| {});
+    print_bound(
+        "implicit chain 1:1e6, light free end: minimisations at the Newton budget (50) of 120",
+        light_end,
+        "reported",
+        "the free light bead's link (docs/implicit.md §11)",
+    );
+    println!("heavy free end: Newton ≤ {newton}");
+    check_bound(
+        "implicit chain 1:1e6, heavy free end: minimisations at the Newton budget (50) of 120",
+        heavy_end as f64,
+        0.0,
+        "every light bead between two heavy ones: Newton converges",
+    );
+    let scene = alternating_chain_heavy_end();
+    check_bound(
+        "implicit chain 1:1e6, heavy free end: link residual after 2 s (m)",
+        link_residual(&scene, &end),
+        1e-3,
+        "issue 16's target",
+    );
 }
 
 /// A 1 kg ball (radius 0.05 m) resting on a plane inclined by 20°, at the
@@ -353,26 +394,155 @@ fn every_scene_is_byte_identical_for_any_thread_count() {
         ("stack", stack().0, 30),
     ];
     for (name, scene, steps) in scenes {
-        let bits = |s: &State| -> Vec<u64> {
-            s.positions
-                .iter()
-                .chain(&s.velocities)
-                .map(|v| v.to_bits())
-                .collect()
-        };
         let (one, _, _) = run(&scene, steps, 1, |_| {});
         let (two, _, _) = run(&scene, steps, 2, |_| {});
-        let differing = bits(&one)
-            .iter()
-            .zip(bits(&two))
-            .filter(|(a, b)| **a != *b)
-            .count();
-        print_bound(
+        common::check_byte_identical(
             format_args!("implicit {name}: values differing, 1 vs 2 threads (chunks of 1)"),
-            differing,
-            0,
+            &one,
+            &two,
             "fixed-order gathers, block-tree sums",
         );
-        assert_eq!(differing, 0, "{name}");
+    }
+}
+
+/// E = Σ ½ m|v|² − Σ m g·x + Σ_springs C²/(2α) + Σ_planes b(d) + Σ_pairs b(d)
+/// of a state of one of the scenes above: (kinetic, potential).
+fn energy(scene: &Scene, s: &State) -> (f64, f64) {
+    let dim = scene.dim;
+    let Solver::IncrementalPotential(settings) = &scene.solver else {
+        unreachable!("implicit scenes")
+    };
+    let law = BarrierLaw {
+        stiffness: settings.barrier_stiffness,
+        activation_distance: settings.activation_distance,
+    };
+    let gravity = scene.gravity.clone().unwrap_or_else(|| vec![0.0; dim]);
+    let (mut kinetic, mut potential) = (0.0, 0.0);
+    let x = |i: usize| &s.positions[i * dim..(i + 1) * dim];
+    let distance = |a: &[f64], b: &[f64]| -> f64 {
+        a.iter()
+            .zip(b)
+            .map(|(p, q)| (p - q) * (p - q))
+            .sum::<f64>()
+            .sqrt()
+    };
+    for (i, p) in scene.particles.iter().enumerate() {
+        let Some(m) = p.mass.filter(|_| !p.fixed) else {
+            continue;
+        };
+        let v = &s.velocities[i * dim..(i + 1) * dim];
+        kinetic += 0.5 * m * v.iter().map(|c| c * c).sum::<f64>();
+        potential -= m * gravity.iter().zip(x(i)).map(|(g, c)| g * c).sum::<f64>();
+        for obstacle in &scene.obstacles {
+            if let Obstacle::Hyperplane { normal, offset, .. } = obstacle {
+                let d =
+                    normal.iter().zip(x(i)).map(|(n, c)| n * c).sum::<f64>() - offset - p.radius;
+                potential += law.evaluate(d).0;
+            }
+        }
+        if scene.collisions.is_some() {
+            for (j, q) in scene.particles.iter().enumerate().skip(i + 1) {
+                potential += law.evaluate(distance(x(i), x(j)) - p.radius - q.radius).0;
+            }
+        }
+    }
+    for family in &scene.constraints {
+        for element in &family.elements {
+            let c = distance(x(element[0]), x(element[1])) - 0.1;
+            potential += c * c / (2.0 * family.compliance);
+        }
+    }
+    (kinetic, potential)
+}
+
+/// The energy of `scene` over `steps` frames (dt each): kinetic, potential
+/// and total against time, drawn into docs/figures/implicit_energy_`file`.png
+/// when `HYPERPBD_WRITE_FIGURES` is set; returns the largest rise of the
+/// total from one frame to the next.
+fn energy_history(name: &str, file: &str, scene: &Scene, steps: usize) -> f64 {
+    let mut series: [Vec<(f64, f64)>; 3] = Default::default();
+    let mut push = |t: f64, s: &State| {
+        let (k, u) = energy(scene, s);
+        for (line, value) in series.iter_mut().zip([k, u, k + u]) {
+            line.push((t, value));
+        }
+    };
+    push(0.0, &State::from_scene(scene));
+    let mut frame = 0;
+    run(scene, steps, 1, |s| {
+        frame += 1;
+        push(frame as f64 * scene.dt, s);
+    });
+    let rise = series[2]
+        .windows(2)
+        .map(|w| w[1].1 - w[0].1)
+        .fold(0.0, f64::max);
+    println!(
+        "{name}: total energy {:e} J → {:e} J",
+        series[2][0].1,
+        series[2][series[2].len() - 1].1
+    );
+    if std::env::var_os("HYPERPBD_WRITE_FIGURES").is_some() {
+        let [kinetic, potential, total] = series;
+        let lines = [
+            ("kinetic", kinetic),
+            ("potential", potential),
+            ("total", total),
+        ]
+        .map(|(label, points)| Series {
+            name: label.to_string(),
+            points,
+        });
+        let png = line_chart(
+            &format!("implicit step: {name}"),
+            "time (s)",
+            "energy (J)",
+            &lines,
+            false,
+        )
+        .expect("chart");
+        let path = format!(
+            "{}/docs/figures/implicit_energy_{file}.png",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        std::fs::write(&path, png).expect("figure written");
+        println!("wrote {path}");
+    }
+    rise
+}
+
+/// Backward Euler dissipates (docs/implicit.md §8: with M(v_1 − v_0) =
+/// −h∇U(x_1) and U convex along the step, ΔE ≤ −½ (v_1 − v_0)ᵀM(v_1 − v_0)),
+/// lagged friction only takes energy: the total energy of each scene never
+/// rises from one frame to the next by more than the bound, and each
+/// history is drawn for docs/implicit.md.
+#[test]
+fn energy_never_rises_in_any_evidence_scene() {
+    let scenes = [
+        ("alternating 1:1e6 chain", "chain", alternating_chain(), 120),
+        ("ten stacked balls", "stack", stack().0, 120),
+        ("head-on balls at 10 m/s", "head_on", head_on(), 60),
+        (
+            "incline 20°, μ = 0.5 (sticks)",
+            "incline_stick",
+            incline(0.5).0,
+            60,
+        ),
+        (
+            "incline 20°, μ = 0.2 (slides)",
+            "incline_slide",
+            incline(0.2).0,
+            60,
+        ),
+    ];
+    for (name, file, scene, steps) in scenes {
+        let rise = energy_history(name, file, &scene, steps);
+        check_bound(
+            &format!("implicit {name}: largest rise of the total energy in one frame (J)"),
+            rise,
+            1e-10,
+            "dissipative; what the minimiser's stop leaves (10 kg at 1e-4 m/s² over ~1e-8 m \
+             per frame at rest ≈ 1e-11 J) and the rounding of ~100 J (1e-14 J)",
+        );
     }
 }

@@ -61,6 +61,21 @@ pub enum Refusal {
         "Newton iteration {iteration}: CG found curvature {curvature:e} at its first iteration"
     )]
     CurvatureBreakdown { iteration: u32, curvature: f64 },
+    /// A material element is outside its law's domain at the step's start
+    /// (coupled step; a Neo-Hookean J ≤ 0): its energy is +∞ there, so no
+    /// iterate can be evaluated. Inside a line search the same refusal is
+    /// only a rejected trial.
+    #[error("{family_label} element {element}: {refusal} at the step's start")]
+    Material {
+        /// Index of the family in the plan.
+        family: usize,
+        /// `constraints[f]`.
+        family_label: String,
+        /// Element index in the authored order.
+        element: usize,
+        /// Which refusal, with the element's measure ratio J.
+        refusal: crate::material::LawRefusal,
+    },
 }
 
 /// The result of one minimisation (one substep of the barrier path).

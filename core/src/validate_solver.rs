@@ -4,8 +4,9 @@
 //! xpbd:                   no simplex_mesh obstacle (XPBD has no simplex contact)
 //! incremental_potential:  κ > 0, d^ > 0, tolerance > 0, max_iterations ≥ 1;
 //!                         cg_iterations ≥ 1, friction_slip_velocity > 0 (when given);
-//!                         constraint families with compliance α > 0 (springs
-//!                         C²/(2α); α = 0 is no energy), no damping, hyperplanes
+//!                         geometric constraint families with compliance α > 0
+//!                         (springs C²/(2α); α = 0 is no energy; material families
+//!                         carry their law's energy), no damping, hyperplanes
 //!                         without compliance;
 //!                         every free particle starts at d > 0 from every obstacle
 //! simplex_mesh:           arity 2…4 (≤ dim + 1), one arity per mesh, indices in
@@ -76,14 +77,11 @@ impl Scene {
             why: why.into(),
         };
         for (f, family) in self.constraints.iter().enumerate() {
-            if family.kind.law().is_some() {
-                return Err(unsupported(
-                    format!("constraints[{f}].type"),
-                    "material families (stvk, neo_hookean) run on the xpbd solver; their \
-                     energies are not yet terms of the coupled incremental potential",
-                ));
-            }
-            if family.compliance == 0.0 && !family.elements.is_empty() {
+            // A material family's energy is its law's (compliance is not read).
+            if family.kind.law().is_none()
+                && family.compliance == 0.0
+                && !family.elements.is_empty()
+            {
                 return Err(unsupported(
                     format!("constraints[{f}].compliance"),
                     "a constraint is the spring C²/(2α) of the incremental potential, and α = 0 \

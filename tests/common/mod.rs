@@ -25,3 +25,46 @@ impl Lcg {
         ((self.0 >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
     }
 }
+
+/// How many positions and velocities of `a` and `b` differ in their bits
+/// (byte-identity tests: thread counts, rollbacks).
+pub fn differing_values(a: &hyperpbd::State, b: &hyperpbd::State) -> usize {
+    let values = |s: &hyperpbd::State| -> Vec<u64> {
+        s.positions
+            .iter()
+            .chain(&s.velocities)
+            .map(|v| v.to_bits())
+            .collect()
+    };
+    values(a)
+        .iter()
+        .zip(values(b))
+        .filter(|(x, y)| **x != *y)
+        .count()
+}
+
+/// Prints the `BOUND` line of [`differing_values`] of `a` and `b` (bound 0,
+/// rationale `why`) and asserts they are byte-identical.
+pub fn check_byte_identical(
+    name: impl std::fmt::Display,
+    a: &hyperpbd::State,
+    b: &hyperpbd::State,
+    why: &str,
+) {
+    let differing = differing_values(a, b);
+    bound::print_bound(&name, differing, 0, why);
+    assert_eq!(differing, 0, "{name}: {why}");
+}
+
+/// `scene` on the CPU with `threads` threads; with more than one, every
+/// chunk is one item long (the finest split a thread-count test can ask).
+pub fn cpu_backend(scene: &hyperpbd::Scene, threads: usize) -> hyperpbd::CpuBackend {
+    let plan = hyperpbd::Plan::compile(scene).expect("scene compiles");
+    let state = hyperpbd::State::from_scene(scene);
+    let cpu = hyperpbd::CpuBackend::with_threads(plan, &state, threads).expect("loads");
+    if threads > 1 {
+        cpu.with_max_chunk(1)
+    } else {
+        cpu
+    }
+}

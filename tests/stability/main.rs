@@ -249,5 +249,6 @@ mod chains;
 mod degenerate;
 mod dimensions;
 mod far_offset;
+mod implicit;
 mod large_steps;
 mod on_planes;

@@ -37,6 +37,7 @@ pub mod certified_filter;
 pub mod closed_forms;
 mod friction;
 mod material_hessian;
+mod material_rounding;
 mod pcg;
 mod psd;
 mod radial;
@@ -53,6 +54,7 @@ pub use material_hessian::{
     MaterialHessianScratch, apply_material_curvature, material_curvature_diagonal,
     material_hessian_block, material_term,
 };
+pub use material_rounding::material_energy_rounding;
 pub use pcg::{PcgReport, PcgSettings, PcgStatus, PcgWorkspace, pcg};
 pub use psd::{PsdProjection, PsdScratch, project_psd};
 pub use radial::RadialCurvature;

@@ -3,7 +3,8 @@
 //!
 //! ```text
 //! coupled  ⇔  constraint families ∨ collisions ∨ a hyperplane with μ > 0 ∨ an explicit warm_start
-//! springs  = Plan::families (every family is a spring C²/(2α) under this solver, α > 0)
+//! springs  = Plan::families (a geometric family is a spring C²/(2α), α > 0; a material
+//!            family its law's energy V_0 Ψ)
 //! pairs    = ball–ball barriers from the broadphase (collisions), friction μ_c = collisions.friction
 //! planes   = μ_p per compiled plane (BarrierObstacles order), simplices carry none
 //! ```

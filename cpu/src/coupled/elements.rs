@@ -1,12 +1,13 @@
-//! The coupling elements of the coupled implicit step: springs, ball–ball
-//! barriers and lagged pair friction, evaluated element by element and
-//! gathered per particle in one fixed order.
+//! The coupling elements of the coupled implicit step: springs, materials,
+//! ball–ball barriers and lagged pair friction, evaluated element by
+//! element and gathered per particle in one fixed order.
 //!
 //! ```text
-//! elements  springs (Plan::families, family then colour order), ball pairs (pair order),
-//!           pair-friction lags (pair order at x^t)
+//! elements  springs and materials (Plan::families, family then colour order), ball pairs
+//!           (pair order), pair-friction lags (pair order at x^t)
 //! record e  [E_e, c_0, c_1, ∇E_e (S values), aux_e (S values)],   S = max arity · N
 //!           spring:    c = (along, across) radial | (1/α, ·) Gauss–Newton;  aux = ∇C
+//!           material:  c, aux unused; H_F⁺ in `frames` (materials.rs), one block per material
 //!           ball:      c = (along, across) of K⁺;                            aux = ∇d = (−n, n)
 //!           friction:  c = (along, across) of the tangent K;                 aux = (û, ·)
 //! gather    particle k: Σ over its slots (element order, then the slot within the element)
@@ -18,6 +19,8 @@
 // Index loops mirror the math line by line.
 #![allow(clippy::needless_range_loop)]
 
+mod materials;
+
 use crate::parallel::Workers;
 use hyperpbd_core::barrier::BarrierLaw;
 use hyperpbd_core::broadphase::Pair;
@@ -27,6 +30,7 @@ use hyperpbd_core::implicit::{
     pair_friction,
 };
 use hyperpbd_core::{ConstraintKind, FamilyKind, Plan};
+use materials::MaterialBuffers;
 
 /// Elements per chunk of the element passes.
 pub const ELEMENT_GRAIN: usize = 256;
@@ -47,6 +51,13 @@ pub struct PairLag {
 enum Kind {
     /// Element `element` of family `family`.
     Spring { family: u32, element: u32 },
+    /// Element `element` of the material family `family`, its H_F⁺ block
+    /// the `block`-th of `frames`.
+    Material {
+        family: u32,
+        element: u32,
+        block: u32,
+    },
     /// A ball–ball barrier.
     Ball,
     /// Pair friction of lag `lag`.
@@ -70,6 +81,18 @@ pub struct Elements {
     pub records: Vec<f64>,
     /// Product / diagonal values per slot (`arity_max · N` per element).
     slots: Vec<f64>,
+    /// Element index of each material block.
+    materials: Vec<u32>,
+    /// H_F⁺ per material block, `frame_stride` values each.
+    frames: Vec<f64>,
+    frame_stride: usize,
+}
+
+/// Buffers of one chunk of element evaluations.
+#[derive(Debug, Default)]
+struct Buffers {
+    geometry: Scratch,
+    material: MaterialBuffers,
 }
 
 impl Elements {
@@ -96,6 +119,8 @@ impl Elements {
         self.kinds.clear();
         self.particles.clear();
         self.arity.clear();
+        self.materials.clear();
+        self.frame_stride = materials::frame_stride(&plan.families, plan.dim);
         let width = self.arity_max;
         let mut push = |kind: Kind, members: &[u32]| {
             self.kinds.push(kind);
@@ -104,14 +129,25 @@ impl Elements {
             self.particles
                 .extend(std::iter::repeat_n(0, width - members.len()));
         };
+        let mut next = 0u32;
         for (f, family) in plan.families.iter().enumerate() {
+            let material = family.kind.rest_view(0).is_some();
             for e in 0..family.len() {
                 let members = &family.elements[e * family.arity..(e + 1) * family.arity];
-                let kind = Kind::Spring {
-                    family: f as u32,
-                    element: e as u32,
+                let (family, element) = (f as u32, e as u32);
+                let kind = if material {
+                    let block = self.materials.len() as u32;
+                    self.materials.push(next);
+                    Kind::Material {
+                        family,
+                        element,
+                        block,
+                    }
+                } else {
+                    Kind::Spring { family, element }
                 };
                 push(kind, members);
+                next += 1;
             }
         }
         for pair in balls {
@@ -173,7 +209,7 @@ impl Elements {
             stride,
             [&mut records],
             |r, [out]| {
-                let mut scratch = Scratch::new();
+                let mut scratch = Buffers::default();
                 let mut points = vec![0.0; this.arity_max * dim];
                 for e in r.clone() {
                     let record = &mut out[(e - r.start) * stride..(e - r.start + 1) * stride];
@@ -197,7 +233,7 @@ impl Elements {
         x: &[f64],
         points: &mut [f64],
         record: &mut [f64],
-        scratch: &mut Scratch,
+        scratch: &mut Buffers,
     ) -> f64 {
         self.evaluate_one(e, terms, x, points, record, scratch);
         record[0]
@@ -211,7 +247,7 @@ impl Elements {
         x: &[f64],
         points: &mut [f64],
         record: &mut [f64],
-        scratch: &mut Scratch,
+        scratch: &mut Buffers,
     ) {
         let dim = terms.plan.dim;
         let arity = self.gather_points(e, x, dim, points);
@@ -231,13 +267,25 @@ impl Elements {
                     dim,
                     &mut aux[..arity * dim],
                     &mut gradient[..arity * dim],
-                    scratch,
+                    &mut scratch.geometry,
                 );
                 head[0] = spring.energy;
                 (head[1], head[2]) = match spring.curvature {
                     SpringCurvature::Radial(k) => (k.along, k.across),
                     SpringCurvature::GaussNewton { weight } => (weight, 0.0),
                 };
+            }
+            Kind::Material {
+                family, element, ..
+            } => {
+                head[0] = materials::energy(
+                    &terms.plan.families[family as usize],
+                    element as usize,
+                    points,
+                    dim,
+                    &mut gradient[..arity * dim],
+                    &mut scratch.material,
+                );
             }
             Kind::Ball => {
                 let (i, j) = self.pair(e);
@@ -283,16 +331,16 @@ impl Elements {
         )
     }
 
-    /// out (arity × N) = K_e⁺ p_e (`diagonal`: the diagonal of K_e⁺ instead)
+    /// out (arity × N) = K_e⁺ p_e (`p` = None: the diagonal of K_e⁺ instead)
     /// from element e's record.
     fn curvature_of(
         &self,
         e: usize,
         terms: &Terms<'_>,
         record: &[f64],
-        p: &[f64],
+        p: Option<&[f64]>,
         out: &mut [f64],
-        diagonal: bool,
+        buffers: &mut MaterialBuffers,
     ) {
         let dim = terms.plan.dim;
         let arity = self.arity[e] as usize;
@@ -313,19 +361,36 @@ impl Elements {
                     value: 0.0,
                     curvature,
                 };
-                if diagonal {
-                    spring.diagonal(aux, dim, &mut out[..arity * dim]);
-                } else {
-                    spring.apply(aux, dim, &p[..arity * dim], &mut out[..arity * dim]);
+                match p {
+                    None => spring.diagonal(aux, dim, &mut out[..arity * dim]),
+                    Some(p) => spring.apply(aux, dim, &p[..arity * dim], &mut out[..arity * dim]),
                 }
+            }
+            Kind::Material {
+                family,
+                element,
+                block,
+            } => {
+                let stride = self.frame_stride;
+                let start = block as usize * stride;
+                materials::curvature(
+                    &terms.plan.families[family as usize],
+                    element as usize,
+                    &self.frames[start..start + stride],
+                    dim,
+                    p,
+                    out,
+                    buffers,
+                );
             }
             Kind::Ball => {
                 let normal = &aux[dim..2 * dim];
-                if diagonal {
-                    radial.diagonal(normal, &mut out[..dim]);
-                    out.copy_within(..dim, dim);
-                } else {
-                    radial.apply(normal, &p[..2 * dim], &mut out[..2 * dim]);
+                match p {
+                    None => {
+                        radial.diagonal(normal, &mut out[..dim]);
+                        out.copy_within(..dim, dim);
+                    }
+                    Some(p) => radial.apply(normal, &p[..2 * dim], &mut out[..2 * dim]),
                 }
             }
             Kind::Friction { lag } => {
@@ -335,11 +400,15 @@ impl Elements {
                     across: record[2],
                 };
                 let slip_direction = &aux[..dim];
-                if diagonal {
-                    tangent.diagonal(normal, slip_direction, &mut out[..dim]);
-                    out.copy_within(..dim, dim);
-                } else {
-                    tangent.apply_pair(normal, slip_direction, &p[..2 * dim], &mut out[..2 * dim]);
+                match p {
+                    None => {
+                        tangent.diagonal(normal, slip_direction, &mut out[..dim]);
+                        out.copy_within(..dim, dim);
+                    }
+                    Some(p) => {
+                        let p = &p[..2 * dim];
+                        tangent.apply_pair(normal, slip_direction, p, &mut out[..2 * dim]);
+                    }
                 }
             }
         }
@@ -362,13 +431,15 @@ impl Elements {
             [&mut slots],
             |r, [out]| {
                 let mut points = vec![0.0; width];
+                let mut buffers = MaterialBuffers::default();
                 for e in r.clone() {
                     let record = &this.records[e * stride..(e + 1) * stride];
                     if !diagonal {
                         this.gather_points(e, p, dim, &mut points);
                     }
                     let slot = &mut out[(e - r.start) * width..(e - r.start + 1) * width];
-                    this.curvature_of(e, terms, record, &points, slot, diagonal);
+                    let p = (!diagonal).then_some(&points[..]);
+                    this.curvature_of(e, terms, record, p, slot, &mut buffers);
                 }
                 Ok(())
             },
@@ -405,7 +476,7 @@ impl Elements {
         changes.clear();
         changes.resize(self.len(), 0.0);
         let _ = workers.try_for_spans(self.len(), ELEMENT_GRAIN, 1, [changes], |r, [out]| {
-            let mut scratch = Scratch::new();
+            let mut scratch = Buffers::default();
             let mut points = vec![0.0; self.arity_max * dim];
             let mut record = vec![0.0; stride];
             for e in r.clone() {
@@ -425,7 +496,8 @@ impl Elements {
         let stride = self.record_len(dim);
         let gamma = (dim as f64 + 4.0) * f64::EPSILON;
         let (mut energy, mut force) = (0.0, 0.0);
-        let mut points = vec![0.0; 2 * dim];
+        let mut points = vec![0.0; self.arity_max * dim];
+        let mut buffers = MaterialBuffers::default();
         for e in 0..self.len() {
             energy += self.records[e * stride].abs();
             if let Kind::Spring { family, element } = self.kinds[e] {
@@ -436,6 +508,15 @@ impl Elements {
                 let c = (2.0 * self.records[e * stride] * alpha).sqrt();
                 let rest = family.rest[element as usize].abs();
                 force += c / alpha * gamma * (c + rest);
+            }
+            if let Kind::Material {
+                family, element, ..
+            } = self.kinds[e]
+            {
+                let arity = self.gather_points(e, x, dim, &mut points);
+                let family = &terms.plan.families[family as usize];
+                let points = &points[..arity * dim];
+                force += materials::rounding(family, element as usize, points, dim, &mut buffers);
             }
             if self.kinds[e] == Kind::Ball {
                 let (i, j) = self.pair(e);
@@ -464,10 +545,9 @@ fn constraint_kind(kind: &FamilyKind) -> ConstraintKind {
         FamilyKind::OrientedMeasure | FamilyKind::HyperplaneContact { .. } => {
             ConstraintKind::OrientedMeasure
         }
-        // Scene validation refuses material families under this solver
-        // (core/src/validate_solver.rs), so no plan reaching here has one.
+        // Material families are `Kind::Material` elements, never springs.
         FamilyKind::Material { .. } => {
-            unreachable!("material families are refused by the incremental_potential solver")
+            unreachable!("a material family is no spring (Elements::rebuild)")
         }
     }
 }

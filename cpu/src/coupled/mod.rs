@@ -32,6 +32,8 @@
 mod elements;
 mod particles;
 mod setup;
+#[cfg(test)]
+mod tests;
 
 use crate::incremental_potential::{ARMIJO, MAX_HALVINGS};
 use crate::parallel::Workers;
@@ -128,11 +130,17 @@ pub(crate) fn minimise(
     let mut first_residual = None;
     loop {
         // 5: gradient and residual.
-        let evaluated = elements
-            .evaluate(workers, &terms_at, x)
-            .map_err(|e| elements.first_particle(e))
-            .and_then(|()| particles.gradient(workers, &context, elements, x, gradient));
-        if let Err(particle) = evaluated {
+        if let Err(e) = elements.evaluate(workers, &terms_at, x) {
+            if iteration == 0 && x[..] != start[..] {
+                // 3: a warm start the law refuses (F = +∞ there) falls back to x^t,
+                // which P_0 (swept from x^t) covers.
+                x.copy_from_slice(&start);
+                continue;
+            }
+            report.status = MinimisationStatus::Refused(element_refusal(plan, elements, e, x));
+            break;
+        }
+        if let Err(particle) = particles.gradient(workers, &context, elements, x, gradient) {
             report.status = MinimisationStatus::Refused(Refusal::NonFinite { particle });
             break;
         }
@@ -143,6 +151,10 @@ pub(crate) fn minimise(
         }
         iteration += 1;
         // 6–7: the Newton direction by preconditioned CG.
+        if let Err(e) = elements.curvatures(workers, &terms_at, x) {
+            report.status = MinimisationStatus::Refused(element_refusal(plan, elements, e, x));
+            break;
+        }
         elements.fill_slots(workers, &terms_at, &[], true);
         particles.inverse_diagonal(workers, &context, elements, inverse_diagonal);
         for c in 0..count * dim {
@@ -195,8 +207,7 @@ pub(crate) fn minimise(
         // 10–11: Armijo on the difference form of F's change.
         if let Err(e) = elements.evaluate(workers, &terms_at, x) {
             report.iterations = iteration;
-            let particle = elements.first_particle(e);
-            report.status = MinimisationStatus::Refused(Refusal::NonFinite { particle });
+            report.status = MinimisationStatus::Refused(element_refusal(plan, elements, e, x));
             break;
         }
         let slope = tree_dot(gradient, direction, dim, terms, scratch);
@@ -250,6 +261,22 @@ pub(crate) fn minimise(
         }
     }
     report
+}
+
+/// Why element e could not be evaluated at `x`: its law's refusal
+/// (material elements), else a non-finite value at its first particle.
+fn element_refusal(plan: &Plan, elements: &Elements, e: usize, x: &[f64]) -> Refusal {
+    match elements.material_refusal(e, plan, x) {
+        Some((family, element, refusal)) => Refusal::Material {
+            family,
+            family_label: plan.families[family].label.clone(),
+            element,
+            refusal,
+        },
+        None => Refusal::NonFinite {
+            particle: elements.first_particle(e),
+        },
+    }
 }
 
 /// The CG stop ‖r‖₂ ≤ f · r_k · s (step 7): the forcing f = min(¼, √(r_k/r_0))

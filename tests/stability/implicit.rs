@@ -1,0 +1,403 @@
+//! The stability cases that make sense on the coupled implicit step
+//! (`incremental_potential` with constraint families, collisions, plane
+//! friction or an explicit warm start; docs/implicit.md §11), on the CPU
+//! golden path only: the GPU refuses the coupled step with
+//! `GpuError::Unsupported` (tests/implicit_refusals.rs). Rigid links
+//! (compliance 0) are no energy there, so each chain's links are stiff
+//! springs instead; everything else is the XPBD case's scene.
+//!
+//! Not run on this path, and why:
+//! - `rigid_cloth_100_iterations`: its subject is XPBD's iteration count
+//!   over rigid (α = 0) springs, refused under this solver;
+//! - `oriented_near_degenerate`, `oriented_inverted`: their subject is
+//!   XPBD's measure projection (Δλ through a vanishing |∇C|); here a
+//!   measure family is a Gauss–Newton spring (docs/implicit.md §2), and
+//!   inversion is the materials' business (`implicit_material_drop`);
+//! - `oriented_zero_rest_refused`: a validation refusal independent of the
+//!   solver;
+//! - `fast_impact_xpbd`: XPBD's contact projection; the barrier path's
+//!   impact is `implicit_material_drop` here and the head-on balls of
+//!   tests/implicit_step.rs;
+//! - `nine_dimensions`: the GPU's dimension limit (the CPU step is generic,
+//!   `implicit_eight_dimensions` runs it in R^8);
+//! - `far_offset_1e3`: `implicit_far_offset_1e5` is the harder one.
+//!
+//! Energy: the suite's E (kinetic and gravity) cannot rise unless stored
+//! elastic or barrier energy is released (backward Euler with lagged
+//! friction dissipates), so a case that starts unstressed and outside
+//! every barrier's activation distance is held to the suite's rounding
+//! bound with nothing released.
+
+use super::*;
+use hyperpbd::{Collisions, Convergence, IncrementalPotentialSettings, Solver, WarmStart};
+
+/// The implicit solver: barrier κ, d^, the acceleration criterion
+/// `tolerance` (m/s²), 50 Newton iterations.
+fn implicit(stiffness: f64, activation: f64, tolerance: f64) -> Solver {
+    Solver::IncrementalPotential(IncrementalPotentialSettings {
+        barrier_stiffness: stiffness,
+        activation_distance: activation,
+        convergence: Convergence::MaxAccelerationResidual { tolerance },
+        max_iterations: 50,
+        cg_iterations: None,
+        warm_start: None,
+        friction_slip_velocity: None,
+    })
+}
+
+/// Loads `scene` on the CPU.
+fn cpu(case: &str, scene: &Scene) -> (Box<dyn Backend>, State) {
+    start(case, BackendKind::Cpu, scene).expect("the CPU always runs")
+}
+
+/// `mass_ratio_chain` on this path: 10 links of 0.1 m from a fixed point,
+/// 1 kg particles and a 1e6 kg weight at the end, links of compliance
+/// 1e-12 m/N (the weight's 9.8e6 N stretches the top link by 9.8e-6 m),
+/// one minimisation per 1/60 s, 2 s, hanging and released horizontally.
+/// Newton moves the weight and the light links together: no tethers.
+#[test]
+fn implicit_mass_ratio_chain() {
+    for (case, direction) in [
+        ("implicit_mass_ratio_chain (hanging)", vec![0.0, -1.0]),
+        ("implicit_mass_ratio_chain (swinging)", vec![1.0, 0.0]),
+    ] {
+        let mut b = SceneBuilder::new(2).dt(1.0 / 60.0).gravity_along(1, 9.81);
+        let grid = b.chain(&ChainSpec {
+            start: vec![0.0, 0.0],
+            direction,
+            count: 11,
+            spacing: 0.1,
+            mass: 1.0,
+            compliance: 1e-12,
+            fix_first: true,
+        });
+        b.scene_mut().particles[grid.first + 10].mass = Some(1e6);
+        b.scene_mut().solver = implicit(1e3, 1e-3, 1e-2);
+        let scene = b.build().expect("valid");
+        let (mut backend, initial) = cpu(case, &scene);
+        let m = run(case, backend.as_mut(), &initial, 120);
+        let kind = BackendKind::Cpu;
+        check_energy(
+            case,
+            kind,
+            &m,
+            0.0,
+            "dissipative: starts at rest, unstretched",
+        );
+        check_residual(
+            case,
+            kind,
+            "max |C| (m)",
+            m.residual,
+            1e-3,
+            "1% of the 0.1 m link, no tethers (XPBD: 3.5 m)",
+        );
+    }
+}
+
+/// `swinging_chain` of large_steps.rs on this path: a 10-link chain (0.1
+/// kg, links of compliance 1e-8 m/N) released horizontally above a ground
+/// plane with μ = 0.3, one minimisation per step of `dt`.
+fn swinging_chain(dt: f64, offset: f64) -> Scene {
+    let mut b = SceneBuilder::new(3).dt(dt).gravity_along(1, 9.81);
+    b.chain(&ChainSpec {
+        start: vec![offset, 0.5 + offset, offset],
+        direction: vec![1.0, 0.0, 0.2],
+        count: 11,
+        spacing: 0.1,
+        mass: 0.1,
+        compliance: 1e-8,
+        fix_first: true,
+    });
+    b.hyperplane(vec![0.0, 1.0, 0.0], offset, 0.3);
+    b.scene_mut().solver = implicit(1e3, 1e-3, 1e-2);
+    b.build().expect("valid")
+}
+
+/// Runs the swinging `scene` `steps` steps and checks the suite's energy
+/// (dissipative: it starts at rest, unstretched, above d^) and links
+/// within 1 % of their 0.1 m.
+fn chain_case(case: &str, scene: &Scene, steps: usize) -> Measured {
+    let (mut backend, initial) = cpu(case, scene);
+    let m = run(case, backend.as_mut(), &initial, steps);
+    let kind = BackendKind::Cpu;
+    check_energy(case, kind, &m, 0.0, "dissipative: starts at rest");
+    check_residual(
+        case,
+        kind,
+        "max |C| (m)",
+        m.residual,
+        1e-3,
+        "1% of the 0.1 m link",
+    );
+    m
+}
+
+/// dt = 1 s in ONE minimisation per step, 30 s: the chain falls onto the
+/// ground and comes to rest (XPBD needs 200 substeps for 1 % of a link).
+#[test]
+fn implicit_dt_one_second() {
+    let case = "implicit_dt_one_second";
+    let m = chain_case(case, &swinging_chain(1.0, 0.0), 30);
+    let kind = BackendKind::Cpu;
+    let lowest = (0..11)
+        .map(|i| m.last.position(i)[1])
+        .fold(f64::INFINITY, f64::min);
+    check_residual(
+        case,
+        kind,
+        "penetration −min y (m)",
+        -lowest,
+        0.0,
+        "the certified filter: d > 0",
+    );
+}
+
+/// dt = 1 µs, 1000 steps: h² = 1e-12 s², so the objective's gradient is
+/// 1e-12 × the forces; the acceleration criterion does not see h.
+#[test]
+fn implicit_dt_one_microsecond() {
+    chain_case(
+        "implicit_dt_one_microsecond",
+        &swinging_chain(1e-6, 0.0),
+        1000,
+    );
+}
+
+/// The swinging chain of `implicit_dt_one_second` at dt 1/60 s, every
+/// coordinate (and the plane) moved by 1e5 m, 2 s: a link's length then
+/// rounds by ~ε·1e5 = 2e-11 m, a force of 2e-3 N on 0.1 kg.
+#[test]
+fn implicit_far_offset_1e5() {
+    chain_case(
+        "implicit_far_offset_1e5",
+        &swinging_chain(1.0 / 60.0, 1e5),
+        120,
+    );
+}
+
+/// R^8: five balls (radius 0.1 m, 1 kg) in a column 0.05 m apart, each
+/// offset along a different axis, falling onto the plane x_1 = 0 with
+/// μ = 0.3 and ball friction 0.2, 2 s: ball pairs, plane barriers and
+/// both frictions in eight dimensions.
+#[test]
+fn implicit_eight_dimensions() {
+    let case = "implicit_eight_dimensions";
+    let dim = 8;
+    let mut b = SceneBuilder::new(dim).dt(1.0 / 60.0).gravity_along(1, 9.81);
+    for k in 0..5 {
+        let mut x = vec![0.0; dim];
+        x[1] = 0.3 + 0.25 * k as f64;
+        x[(k + 2) % dim] = 0.03 * k as f64;
+        b.particle(Particle::new(x, 1.0).with_radius(0.1));
+    }
+    let mut up = vec![0.0; dim];
+    up[1] = 1.0;
+    b.hyperplane(up, 0.0, 0.3);
+    b.scene_mut().collisions = Some(Collisions {
+        friction: 0.2,
+        margin: 0.0,
+    });
+    b.scene_mut().solver = implicit(1e4, 1e-2, 1e-3);
+    let scene = b.build().expect("valid");
+    let (mut backend, initial) = cpu(case, &scene);
+    let mut closest = f64::INFINITY;
+    let mut m: Option<Measured> = None;
+    for _ in 0..120 {
+        let measured = run(case, backend.as_mut(), &initial, 1);
+        let s = &measured.last;
+        for i in 0..5 {
+            closest = closest.min(s.position(i)[1] - 0.1);
+            for j in i + 1..5 {
+                let d: f64 = (0..dim)
+                    .map(|a| (s.position(i)[a] - s.position(j)[a]).powi(2))
+                    .sum();
+                closest = closest.min(d.sqrt() - 0.2);
+            }
+        }
+        let gain = measured.energy_gain;
+        m = Some(match m {
+            None => measured,
+            Some(previous) => Measured {
+                energy_gain: gain.max(previous.energy_gain),
+                energy_scale: measured.energy_scale.max(previous.energy_scale),
+                ..measured
+            },
+        });
+    }
+    let m = m.expect("steps ran");
+    let kind = BackendKind::Cpu;
+    check_energy(case, kind, &m, 0.0, "dissipative: starts at rest, apart");
+    check_residual(
+        case,
+        kind,
+        "−(smallest ball or plane gap) (m)",
+        -closest,
+        0.0,
+        "the certified filter over planes and ball pairs: d > 0",
+    );
+}
+
+/// `on_hyperplane` on this path: a particle exactly on a plane (d = 0) is
+/// outside the barrier's domain, so the scene is refused by validation,
+/// naming the particle and the obstacle.
+#[test]
+fn implicit_on_hyperplane_is_refused() {
+    let mut b = SceneBuilder::new(3).dt(1.0 / 60.0).gravity_along(1, 9.81);
+    b.hyperplane(vec![0.0, 1.0, 0.0], 0.0, 0.5);
+    b.particle(Particle::new(vec![5.0, 0.0, 0.2], 1.0));
+    b.scene_mut().solver = implicit(1e3, 1e-3, 1e-2);
+    let error = b.build().expect_err("d = 0 is infeasible for a barrier");
+    let refused = matches!(
+        &error,
+        SceneError::BarrierInfeasible { path, obstacle: 0, .. } if path == "particles[0].position"
+    );
+    report(
+        "implicit_on_hyperplane",
+        BackendKind::Cpu,
+        "refused (typed)",
+        "d (m)",
+        0.0,
+        &format!("{error}"),
+    );
+    assert!(refused, "{error:?}");
+}
+
+/// `coincident_distance` on this path: two springs (rest 0.5 m,
+/// compliance 1e-3 m/N) whose particles start coincident, pair A at rest
+/// (ℓ = 0: no direction, no force — it stays violated by exactly 0.5 m
+/// and falls as one), pair B with one particle at 1 m/s (the prediction
+/// gives a direction and the spring restores its length), 1 s.
+#[test]
+fn implicit_coincident_distance() {
+    let case = "implicit_coincident_distance";
+    let mut b = SceneBuilder::new(3).dt(1.0 / 60.0).gravity_along(1, 9.81);
+    b.particle(Particle::new(vec![0.0, 1.0, 0.0], 1.0));
+    b.particle(Particle::new(vec![0.0, 1.0, 0.0], 1.0));
+    b.particle(Particle::new(vec![2.0, 1.0, 0.0], 1.0));
+    b.particle(Particle::new(vec![2.0, 1.0, 0.0], 1.0).with_velocity(vec![1.0, 0.0, 0.0]));
+    for pair in [[0, 1], [2, 3]] {
+        let mut f = ConstraintFamily::new(ConstraintKind::Distance, 1e-3, vec![pair.to_vec()]);
+        f.rest = Some(vec![0.5]);
+        b.family(f);
+    }
+    b.scene_mut().solver = implicit(1e3, 1e-3, 1e-3);
+    let scene = b.build().expect("coincident particles are valid input");
+    let (mut backend, initial) = cpu(case, &scene);
+    let m = run(case, backend.as_mut(), &initial, 60);
+    let kind = BackendKind::Cpu;
+    // Both springs start at C = −0.5 m: U_el(0) = 2 · 0.5² / (2 · 1e-3).
+    check_energy(
+        case,
+        kind,
+        &m,
+        250.0,
+        "may release the springs' stored 250 J",
+    );
+    let length = |i: usize, j: usize| -> f64 {
+        (0..3)
+            .map(|a| (m.last.position(i)[a] - m.last.position(j)[a]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    check_residual(
+        case,
+        kind,
+        "pair A |ℓ| after 1 s (m)",
+        length(0, 1),
+        0.0,
+        "no direction at ℓ = 0: no invented force",
+    );
+    check_residual(
+        case,
+        kind,
+        "pair B |ℓ − 0.5| after 1 s (m)",
+        (length(2, 3) - 0.5).abs(),
+        0.01,
+        "restored (a 1e-3 m/N spring, dissipated by backward Euler)",
+    );
+}
+
+/// A 2D Neo-Hookean block (tests/common/guarded.rs: 3 × 3 cells of 0.1 m,
+/// E = 2e5 Pa, 0.1 kg nodes) thrown at 10 m/s onto a plane from 0.2 m
+/// under gravity, one minimisation per 1/30 s (the first prediction is
+/// 0.13 m below the plane), 2 s: trials that would invert an element or
+/// cross the plane are rejected, and it comes to rest on the plane.
+#[test]
+fn implicit_material_drop() {
+    let case = "implicit_material_drop";
+    let mut scene =
+        common::guarded::material_block(2, 10.0, ConstraintKind::NeoHookean, None, None);
+    // (The guard tests' block has gravity +9.81 along y; this one falls.)
+    scene.gravity = Some(vec![0.0, -9.81]);
+    scene.solver = implicit(1e4, 1e-3, 1e-2);
+    let (mut backend, initial) = cpu(case, &scene);
+    let m = run(case, backend.as_mut(), &initial, 60);
+    let kind = BackendKind::Cpu;
+    check_energy(
+        case,
+        kind,
+        &m,
+        0.0,
+        "dissipative: starts unstressed, above d^",
+    );
+    let lowest = (0..scene.particles.len())
+        .map(|i| m.last.position(i)[1])
+        .fold(f64::INFINITY, f64::min);
+    check_residual(
+        case,
+        kind,
+        "penetration −min y (m)",
+        -lowest,
+        0.0,
+        "the certified filter: d > 0",
+    );
+    let speed = m.last.velocities.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+    check_residual(
+        case,
+        kind,
+        "max |v| after 2 s (m/s)",
+        speed,
+        1e-3,
+        "at rest on the plane",
+    );
+}
+
+/// The coupled step with nothing to couple (an explicit warm start makes
+/// it run): an empty scene steps, and one free particle falls exactly as
+/// backward Euler says, x_n = x_0 − g h² n(n + 1)/2.
+#[test]
+fn implicit_empty_and_one_particle() {
+    let case = "implicit_one_particle";
+    let solver = |warm_start| {
+        let Solver::IncrementalPotential(mut s) = implicit(1e3, 1e-3, 1e-9) else {
+            unreachable!()
+        };
+        s.warm_start = Some(warm_start);
+        Solver::IncrementalPotential(s)
+    };
+    let mut empty = Scene::new(3, 1.0 / 60.0, 1, 1);
+    empty.solver = solver(WarmStart::Inertial);
+    let (mut backend, initial) = cpu("implicit_empty_scene", &empty);
+    run("implicit_empty_scene", backend.as_mut(), &initial, 10);
+    for warm_start in [WarmStart::Inertial, WarmStart::Previous] {
+        let mut scene = Scene::new(3, 1.0 / 60.0, 1, 1);
+        scene.gravity = Some(vec![0.0, -9.81, 0.0]);
+        scene
+            .particles
+            .push(Particle::new(vec![0.0, 10.0, 0.0], 2.0));
+        scene.solver = solver(warm_start);
+        let (mut backend, initial) = cpu(case, &scene);
+        let m = run(case, backend.as_mut(), &initial, 60);
+        let h: f64 = 1.0 / 60.0;
+        let exact = 10.0 - 9.81 * h * h * 60.0 * 61.0 / 2.0;
+        check_residual(
+            case,
+            BackendKind::Cpu,
+            &format!("|y − backward Euler| after 60 steps, {warm_start:?} (m)"),
+            (m.last.position(0)[1] - exact).abs(),
+            1e-12,
+            "one free particle: one Newton step per step, exact to rounding",
+        );
+    }
+}
