@@ -210,7 +210,7 @@ fn contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>
 fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
     if (t < here.count) {
-        call = here.calls[0];
+        take_call(0u, FLAGS);
         project_distance_element(t);
         record_failure();
     }
@@ -220,7 +220,7 @@ fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
 fn project_simplex_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
     if (t < here.count) {
-        call = here.calls[0];
+        take_call(0u, FLAGS);
         project_measure_element(t, 1u);
         record_failure();
     }
@@ -230,7 +230,7 @@ fn project_simplex_measure(@builtin(global_invocation_id) gid: vec3<u32>, @built
 fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
     if (t < here.count) {
-        call = here.calls[0];
+        take_call(0u, FLAGS);
         project_measure_element(t, 2u);
         record_failure();
     }
@@ -240,7 +240,7 @@ fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @buil
 fn project_material(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
     if (t < here.count) {
-        call = here.calls[0];
+        take_call(0u, FLAGS);
         project_measure_element(t, 3u);
         record_failure();
     }
