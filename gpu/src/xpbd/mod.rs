@@ -248,3 +248,33 @@ pub(crate) fn encode(
         _ => kernels.dispatch(pass, entry, d.dispatch.count),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::call::{FLAG_FIRST, FLAG_UNREAD, OP_PREDICT, OP_PROJECT_CONTACT};
+    use super::*;
+
+    #[test]
+    fn flags_are_constants_of_their_pipelines() {
+        let mut segment = schedule::Segment {
+            ops: [255; schedule::SEGMENT],
+            flags: [0; schedule::SEGMENT],
+            io: 7,
+        };
+        segment.ops[..2].copy_from_slice(&[OP_PROJECT_CONTACT as u8, OP_PREDICT as u8]);
+        segment.flags[0] = FLAG_FIRST as u16;
+        let constants = XpbdEntry::Particles(segment).constants();
+        assert!(constants.contains(&("OP0", f64::from(OP_PROJECT_CONTACT))));
+        assert!(constants.contains(&("FL0", f64::from(FLAG_FIRST))));
+        assert!(constants.contains(&("FL1", 0.0)));
+        assert!(constants.contains(&("IO", 7.0)));
+        let step = FLAG_FIRST | FLAG_UNREAD;
+        assert_eq!(
+            XpbdEntry::Distance(step).constants(),
+            vec![("FLAGS", f64::from(step))]
+        );
+        // The step's colour and the run-alone one are two pipelines.
+        assert_ne!(XpbdEntry::Distance(step), XpbdEntry::Distance(0));
+        assert!(XpbdEntry::Small.constants().is_empty());
+    }
+}
