@@ -7,11 +7,20 @@
 // Same arithmetic, in the same order, as cpu/src/friction.rs.
 
 fn friction_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
-    let e = contact_slot[call.slot_map + i];
+    // Slot and λ as the contact of this family just left them on this
+    // particle (project.wgsl), else from memory: on lavapipe a load some
+    // lane takes costs ~10× one every lane skips (docs/performance.md).
+    var e = contact_e;
+    var l = contact_l;
+    if (contact_family != call.family || contact_particle_index != i) {
+        e = contact_slot[call.slot_map + i];
+        if (e != NONE) {
+            l = lambda_at(call.slot_base + e);
+        }
+    }
     if (e == NONE) {
         return;
     }
-    let l = lambda_at(call.slot_base + e);
     if (l <= 0.0) {
         return;
     }

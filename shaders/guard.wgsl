@@ -61,8 +61,8 @@ fn guard(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     if (t >= here.count) {
         return;
     }
-    call = calls[here.first_call];
-    if (call.op == OP_GUARD_MEASURE) {
+    take_call(0u, FLAGS);
+    if (OP0 == OP_GUARD_MEASURE) {
         guard_element(t);
     } else {
         guard_particle(t);

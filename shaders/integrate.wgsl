@@ -21,8 +21,10 @@ fn predict_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>
     if ((flags & FLAG_FORCE) != 0u) {
         f = load_force(i);
     }
-    var s: real = 0.0;
-    if ((flags & FLAG_GRAVITY) != 0u) {
+    // s g: with every dynamic particle's scale 1 (FLAG_UNIT_SCALE) the
+    // load is skipped; 1 · g is g exactly.
+    var s: real = 1.0;
+    if ((flags & (FLAG_GRAVITY | FLAG_UNIT_SCALE)) == FLAG_GRAVITY) {
         s = gravity_scale[particle(i)];
     }
     var ok = true;

@@ -160,9 +160,21 @@ fn project_measure_element(t: u32, kind: u32) {
     }
 }
 
+// The last hyperplane contact this invocation projected: family, particle,
+// slot (NONE: none) and the λ it stored — what friction of that family
+// on that particle would load next (friction.wgsl). NONE family: none
+// (or it failed and stored nothing).
+var<private> contact_family: u32 = NONE;
+var<private> contact_particle_index: u32;
+var<private> contact_e: u32;
+var<private> contact_l: real;
+
 // A hyperplane contact of particle i (its records in registers).
 fn contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
     let e = contact_slot[call.slot_map + i];
+    contact_family = call.family;
+    contact_particle_index = i;
+    contact_e = e;
     if (e == NONE) {
         return;
     }
@@ -177,12 +189,14 @@ fn contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>
     let alpha_tilde = call.alpha_tilde;
     let raw = (-cval - alpha_tilde * l) / (w + alpha_tilde);
     if (!finite(raw)) {
+        contact_family = NONE;
         fail(e);
         return;
     }
     let dl = max(l + raw, 0.0) - l;
     let l_new = l + dl;
     store_lambda(s, l_new);
+    contact_l = l_new;
     for (var a = 0u; a < DIM; a++) {
         set_lane(rx, a, lane(rx, a) + w * normal(a) * dl);
     }
@@ -211,7 +225,7 @@ fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     let t = linear_index(gid, groups);
     if (t < here.count * WORLDS) {
         let e = split_world(t, here.count);
-        call = here.calls[0];
+        take_call(0u, FLAGS);
         world_reals(OP_PROJECT_DISTANCE, here.first_call);
         project_distance_element(e);
         record_failure();
@@ -223,7 +237,7 @@ fn project_simplex_measure(@builtin(global_invocation_id) gid: vec3<u32>, @built
     let t = linear_index(gid, groups);
     if (t < here.count * WORLDS) {
         let e = split_world(t, here.count);
-        call = here.calls[0];
+        take_call(0u, FLAGS);
         world_reals(OP_PROJECT_SIMPLEX, here.first_call);
         project_measure_element(e, 1u);
         record_failure();
@@ -235,7 +249,7 @@ fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @buil
     let t = linear_index(gid, groups);
     if (t < here.count * WORLDS) {
         let e = split_world(t, here.count);
-        call = here.calls[0];
+        take_call(0u, FLAGS);
         world_reals(OP_PROJECT_ORIENTED, here.first_call);
         project_measure_element(e, 2u);
         record_failure();
@@ -247,7 +261,7 @@ fn project_material(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     let t = linear_index(gid, groups);
     if (t < here.count * WORLDS) {
         let e = split_world(t, here.count);
-        call = here.calls[0];
+        take_call(0u, FLAGS);
         world_reals(OP_PROJECT_MATERIAL, here.first_call);
         project_measure_element(e, 3u);
         record_failure();

@@ -27,7 +27,8 @@
 //
 // THE CALL RUNNING NOW is the private `call`, copied in before each call
 // runs: from the dispatch's uniform block (`here.calls`, the calls of a
-// `particles` or `project_*` dispatch) or, for the runners that loop over
+// `particles`, `project_*` or `guard` dispatch; flags from the pipeline,
+// `take_call`) or, for the runners that loop over
 // calls the host cannot list in one block (step_small, residual), from
 // the storage array `calls`. Kernels read their parameters from `call`
 // only. A uniform block is read once per SIMD batch of invocations on
@@ -113,6 +114,7 @@ const FLAG_FIRST: u32 = 4u;    // projection: first of its family this substep (
 const FLAG_TETHER: u32 = 8u;   // distance: one-sided (|x1 − x0| ≤ rest)
 const FLAG_UNREAD: u32 = 16u;  // projection: nothing reads this λ later (not stored)
 const FLAG_NEO_HOOKEAN: u32 = 128u; // material: the Neo-Hookean law (else StVK)
+const FLAG_UNIT_SCALE: u32 = 512u; // predict: every dynamic particle's gravity scale is 1
 
 const IO_LOAD_X: u32 = 1u;
 const IO_LOAD_V: u32 = 2u;
@@ -347,11 +349,16 @@ fn store_records(io: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, R
     }
 }
 
-// THE OPS OF A `particles` PIPELINE are fixed when it is created
-// (pipeline-overridable constants: OP0..OP7 the ops of calls first_call +
-// 0..7, NO_OP for none; IO the records loaded and stored), so a pipeline
-// runs exactly its calls: no run-time branch on the op, which a SIMD
-// implementation such as lavapipe would execute for every op under masks.
+// THE OPS AND FLAGS OF A PIPELINE read from a uniform block are fixed
+// when it is created (pipeline-overridable constants): for `particles`,
+// OP0..OP7 the ops of calls first_call + 0..7 (NO_OP for none), FL0..FL7
+// their FLAG_*, IO the records loaded and stored; for `project_*` and
+// `guard`, FLAGS the flags of their one call (and OP0 the guard's op).
+// The runner copies them into the private `call`, so the kernels keep
+// reading `call.flags`, now a constant: the code a flag switches off (λ
+// loads and stores, the force and gravity-scale loads, the other law)
+// is removed, where a SIMD implementation such as lavapipe would run it
+// for every batch under a mask.
 const NO_OP: u32 = 255u;
 override OP0: u32 = NO_OP;
 override OP1: u32 = NO_OP;
@@ -361,13 +368,28 @@ override OP4: u32 = NO_OP;
 override OP5: u32 = NO_OP;
 override OP6: u32 = NO_OP;
 override OP7: u32 = NO_OP;
+override FL0: u32 = 0u;
+override FL1: u32 = 0u;
+override FL2: u32 = 0u;
+override FL3: u32 = 0u;
+override FL4: u32 = 0u;
+override FL5: u32 = 0u;
+override FL6: u32 = 0u;
+override FL7: u32 = 0u;
+override FLAGS: u32 = 0u;
 override IO: u32 = 0u;
 
-// Call k of a fixed run, with op `op`.
-fn run_slot(op: u32, k: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
-            rp: ptr<function, Record>) {
+// Makes the dispatch's call k the running call, its flags `flags`.
+fn take_call(k: u32, flags: u32) {
+    call = here.calls[k];
+    call.flags = flags;
+}
+
+// Call k of a fixed run, with op `op` and flags `flags`.
+fn run_slot(op: u32, flags: u32, k: u32, i: u32, rx: ptr<function, Record>,
+            rv: ptr<function, Record>, rp: ptr<function, Record>) {
     if (op != NO_OP) {
-        call = here.calls[k];
+        take_call(k, flags);
         world_reals(op, here.first_call + k);
         run_op(op, i, rx, rv, rp);
     }
@@ -384,14 +406,14 @@ fn particles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     var rv: Record;
     var rp: Record;
     load_records(IO, i, &rx, &rv, &rp);
-    run_slot(OP0, 0u, i, &rx, &rv, &rp);
-    run_slot(OP1, 1u, i, &rx, &rv, &rp);
-    run_slot(OP2, 2u, i, &rx, &rv, &rp);
-    run_slot(OP3, 3u, i, &rx, &rv, &rp);
-    run_slot(OP4, 4u, i, &rx, &rv, &rp);
-    run_slot(OP5, 5u, i, &rx, &rv, &rp);
-    run_slot(OP6, 6u, i, &rx, &rv, &rp);
-    run_slot(OP7, 7u, i, &rx, &rv, &rp);
+    run_slot(OP0, FL0, 0u, i, &rx, &rv, &rp);
+    run_slot(OP1, FL1, 1u, i, &rx, &rv, &rp);
+    run_slot(OP2, FL2, 2u, i, &rx, &rv, &rp);
+    run_slot(OP3, FL3, 3u, i, &rx, &rv, &rp);
+    run_slot(OP4, FL4, 4u, i, &rx, &rv, &rp);
+    run_slot(OP5, FL5, 5u, i, &rx, &rv, &rp);
+    run_slot(OP6, FL6, 6u, i, &rx, &rv, &rp);
+    run_slot(OP7, FL7, 7u, i, &rx, &rv, &rp);
     store_records(IO, i, &rx, &rv, &rp);
     record_failure();
     check_loops();

@@ -403,6 +403,12 @@ impl GpuBackend {
         self.schedule.dispatches_per_step() + self.contact_dispatches_per_step()
     }
 
+    /// Compute pipelines of the XPBD kernels: one per entry point and set
+    /// of its constants (ops, flags, io) the plan's schedules use.
+    pub fn pipeline_count(&self) -> usize {
+        self.kernels.pipeline_count()
+    }
+
     /// Destroys the device, as a driver reset or a removed GPU would:
     /// every later call answers [`GpuError::DeviceLost`]. For
     /// fault-injection tests of that path.

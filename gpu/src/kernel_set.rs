@@ -274,6 +274,11 @@ impl<E: EntryPoint> KernelSet<E> {
         }))
     }
 
+    /// Pipelines built (one per entry and constants).
+    pub fn pipeline_count(&self) -> usize {
+        self.pipelines.len()
+    }
+
     fn find(&self, entry: E) -> Option<&(E, wgpu::ComputePipeline, u32)> {
         self.pipelines.iter().find(|(e, _, _)| *e == entry)
     }

@@ -43,6 +43,7 @@ pub(crate) const FLAG_ORIENTATION: u32 = 32;
 pub(crate) const FLAG_RATIO: u32 = 64;
 pub(crate) const FLAG_NEO_HOOKEAN: u32 = 128;
 pub(crate) const FLAG_MATERIAL: u32 = 256;
+pub(crate) const FLAG_UNIT_SCALE: u32 = 512;
 
 pub(crate) const IO_LOAD_X: u32 = 1;
 pub(crate) const IO_LOAD_V: u32 = 2;

@@ -3,6 +3,7 @@
 //!
 //! ```text
 //! predict   p = x;  for dynamic i: v += h (s g + w f);  x += h v
+//!           (FLAG_UNIT_SCALE: every dynamic s is 1, not loaded)
 //! velocity  for dynamic i: v = (x − p) / h
 //! damping   for dynamic i: v *= exp(−rate h)      (the plan's factor)
 //! ```
@@ -12,7 +13,9 @@
 
 use hyperpbd_core::{Kernel, Plan};
 
-use super::call::{Call, FLAG_FORCE, FLAG_GRAVITY, OP_DAMPING, OP_PREDICT, OP_VELOCITY};
+use super::call::{
+    Call, FLAG_FORCE, FLAG_GRAVITY, FLAG_UNIT_SCALE, OP_DAMPING, OP_PREDICT, OP_VELOCITY,
+};
 
 /// Prediction of every particle.
 pub(crate) fn predict(plan: &Plan, call: u32) -> Call {
@@ -22,6 +25,11 @@ pub(crate) fn predict(plan: &Plan, call: u32) -> Call {
     }
     if plan.predict.force {
         flags |= FLAG_FORCE;
+    }
+    // Every dynamic particle's scale is 1: the kernel skips the load.
+    let dynamic = plan.gravity_scale.iter().zip(&plan.inverse_mass);
+    if dynamic.filter(|(_, w)| **w != 0.0).all(|(s, _)| *s == 1.0) {
+        flags |= FLAG_UNIT_SCALE;
     }
     Call {
         op: OP_PREDICT,

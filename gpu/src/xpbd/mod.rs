@@ -119,18 +119,24 @@ impl Families {
     }
 }
 
-/// Entry points of the step module (`particles` once per run shape).
+/// Entry points of the step module, keyed by the values of their
+/// pipeline-overridable constants: `particles` once per run shape (ops,
+/// flags, io), a `project_*` once per FLAG_* set of its calls, `guard`
+/// once per (op, FLAG_*). The flags of a call are then constants of its
+/// pipeline and the code they switch off is removed when the pipeline is
+/// created — lavapipe runs every branch of a kernel under a mask, memory
+/// accesses included (docs/performance.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum XpbdEntry {
     Particles(schedule::Segment),
-    Distance,
-    Simplex,
-    Oriented,
+    Distance(u32),
+    Simplex(u32),
+    Oriented(u32),
     Residual,
     Reduce,
     Small,
-    Guard,
-    Material,
+    Guard(u32, u32),
+    Material(u32),
 }
 
 impl XpbdEntry {
@@ -138,14 +144,14 @@ impl XpbdEntry {
     pub fn rank(self) -> usize {
         match self {
             XpbdEntry::Particles(_) => 0,
-            XpbdEntry::Distance => 1,
-            XpbdEntry::Simplex => 2,
-            XpbdEntry::Oriented => 3,
+            XpbdEntry::Distance(_) => 1,
+            XpbdEntry::Simplex(_) => 2,
+            XpbdEntry::Oriented(_) => 3,
             XpbdEntry::Residual => 4,
             XpbdEntry::Reduce => 5,
             XpbdEntry::Small => 6,
-            XpbdEntry::Guard => 7,
-            XpbdEntry::Material => 8,
+            XpbdEntry::Guard(..) => 7,
+            XpbdEntry::Material(_) => 8,
         }
     }
 }
@@ -154,31 +160,43 @@ impl EntryPoint for XpbdEntry {
     fn source(self) -> (ShaderFile, &'static str) {
         let name = match self {
             XpbdEntry::Particles(_) => "particles",
-            XpbdEntry::Distance => "project_distance",
-            XpbdEntry::Simplex => "project_simplex_measure",
-            XpbdEntry::Oriented => "project_oriented_measure",
+            XpbdEntry::Distance(_) => "project_distance",
+            XpbdEntry::Simplex(_) => "project_simplex_measure",
+            XpbdEntry::Oriented(_) => "project_oriented_measure",
             XpbdEntry::Residual => "residual",
             XpbdEntry::Reduce => "reduce",
             XpbdEntry::Small => "step_small",
-            XpbdEntry::Guard => "guard",
-            XpbdEntry::Material => "project_material",
+            XpbdEntry::Guard(..) => "guard",
+            XpbdEntry::Material(_) => "project_material",
         };
         (ShaderFile::Step, name)
     }
 
+    /// OP0..OP7, FL0..FL7 and IO of a `particles` run; FLAGS of a
+    /// `project_*` colour; OP0 and FLAGS of a guard (step.wgsl).
     fn constants(self) -> Vec<(&'static str, f64)> {
-        let XpbdEntry::Particles(segment) = self else {
-            return Vec::new();
-        };
-        const SLOTS: [&str; schedule::SEGMENT] =
+        const OPS: [&str; schedule::SEGMENT] =
             ["OP0", "OP1", "OP2", "OP3", "OP4", "OP5", "OP6", "OP7"];
-        let mut out: Vec<(&'static str, f64)> = SLOTS
-            .iter()
-            .zip(segment.ops)
-            .map(|(&name, op)| (name, f64::from(op)))
-            .collect();
-        out.push(("IO", f64::from(segment.io)));
-        out
+        const FLAGS: [&str; schedule::SEGMENT] =
+            ["FL0", "FL1", "FL2", "FL3", "FL4", "FL5", "FL6", "FL7"];
+        let flags = |flags: u32| ("FLAGS", f64::from(flags));
+        match self {
+            XpbdEntry::Particles(segment) => {
+                let ops = OPS
+                    .iter()
+                    .zip(segment.ops)
+                    .map(|(&k, op)| (k, f64::from(op)));
+                let flags = (FLAGS.iter().zip(segment.flags)).map(|(&k, f)| (k, f64::from(f)));
+                let io = std::iter::once(("IO", f64::from(segment.io)));
+                ops.chain(flags).chain(io).collect()
+            }
+            XpbdEntry::Distance(f)
+            | XpbdEntry::Simplex(f)
+            | XpbdEntry::Oriented(f)
+            | XpbdEntry::Material(f) => vec![flags(f)],
+            XpbdEntry::Guard(op, f) => vec![("OP0", f64::from(op)), flags(f)],
+            XpbdEntry::Residual | XpbdEntry::Reduce | XpbdEntry::Small => Vec::new(),
+        }
     }
 }
 
@@ -231,5 +249,35 @@ pub(crate) fn encode(
         }
         XpbdEntry::Small => kernels.dispatch_workgroups(pass, entry, d.dispatch.count),
         _ => kernels.dispatch(pass, entry, d.dispatch.count * worlds),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::call::{FLAG_FIRST, FLAG_UNREAD, OP_PREDICT, OP_PROJECT_CONTACT};
+    use super::*;
+
+    #[test]
+    fn flags_are_constants_of_their_pipelines() {
+        let mut segment = schedule::Segment {
+            ops: [255; schedule::SEGMENT],
+            flags: [0; schedule::SEGMENT],
+            io: 7,
+        };
+        segment.ops[..2].copy_from_slice(&[OP_PROJECT_CONTACT as u8, OP_PREDICT as u8]);
+        segment.flags[0] = FLAG_FIRST as u16;
+        let constants = XpbdEntry::Particles(segment).constants();
+        assert!(constants.contains(&("OP0", f64::from(OP_PROJECT_CONTACT))));
+        assert!(constants.contains(&("FL0", f64::from(FLAG_FIRST))));
+        assert!(constants.contains(&("FL1", 0.0)));
+        assert!(constants.contains(&("IO", 7.0)));
+        let step = FLAG_FIRST | FLAG_UNREAD;
+        assert_eq!(
+            XpbdEntry::Distance(step).constants(),
+            vec![("FLAGS", f64::from(step))]
+        );
+        // The step's colour and the run-alone one are two pipelines.
+        assert_ne!(XpbdEntry::Distance(step), XpbdEntry::Distance(0));
+        assert!(XpbdEntry::Small.constants().is_empty());
     }
 }

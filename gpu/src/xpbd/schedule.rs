@@ -62,12 +62,14 @@ impl StepMode {
 /// step.wgsl).
 pub(crate) const SEGMENT: usize = 8;
 
-/// The ops and record io of a `particles` pipeline (its overridable
-/// constants).
+/// The ops, flags and record io of a `particles` pipeline (its
+/// overridable constants).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub(crate) struct Segment {
     /// Op of call first + k; NO_OP (255) past the run.
     pub ops: [u8; SEGMENT],
+    /// FLAG_* of call first + k (0 past the run).
+    pub flags: [u16; SEGMENT],
     /// IO_* of the run.
     pub io: u8,
 }
@@ -75,11 +77,14 @@ pub(crate) struct Segment {
 impl Segment {
     fn of(calls: &[Call]) -> Segment {
         let mut ops = [255u8; SEGMENT];
-        for (slot, call) in ops.iter_mut().zip(calls) {
-            *slot = call.op as u8;
+        let mut flags = [0u16; SEGMENT];
+        for ((op, flag), call) in ops.iter_mut().zip(&mut flags).zip(calls) {
+            *op = call.op as u8;
+            *flag = call.flags as u16;
         }
         Segment {
             ops,
+            flags,
             io: records_io(calls) as u8,
         }
     }
@@ -92,19 +97,20 @@ pub(crate) enum Run {
     /// [`SEGMENT`]).
     Particles(Segment),
     /// `project_distance` / `project_simplex_measure` /
-    /// `project_oriented_measure` / `project_material`: one colour.
-    Distance,
-    Simplex,
-    Oriented,
-    Material,
+    /// `project_oriented_measure` / `project_material`: one colour, with
+    /// the call's FLAG_* (pipeline constant FLAGS).
+    Distance(u32),
+    Simplex(u32),
+    Oriented(u32),
+    Material(u32),
     /// `residual`: one workgroup per chunk.
     Residual,
     /// `reduce`: one workgroup per family.
     Reduce,
     /// `step_small`: one workgroup, every call of the range.
     Small,
-    /// `guard`: one guard call (guard.wgsl).
-    Guard,
+    /// `guard`: one guard call (guard.wgsl), its op and FLAG_*.
+    Guard(u32, u32),
     /// A kernel the host runs between dispatches (broadphase, particle
     /// contact).
     Host(Kernel),
@@ -116,14 +122,14 @@ impl Run {
         use super::XpbdEntry as E;
         Some(match self {
             Run::Particles(segment) => E::Particles(segment),
-            Run::Distance => E::Distance,
-            Run::Simplex => E::Simplex,
-            Run::Oriented => E::Oriented,
-            Run::Material => E::Material,
+            Run::Distance(flags) => E::Distance(flags),
+            Run::Simplex(flags) => E::Simplex(flags),
+            Run::Oriented(flags) => E::Oriented(flags),
+            Run::Material(flags) => E::Material(flags),
             Run::Residual => E::Residual,
             Run::Reduce => E::Reduce,
             Run::Small => E::Small,
-            Run::Guard => E::Guard,
+            Run::Guard(op, flags) => E::Guard(op, flags),
             Run::Host(_) => return None,
         })
     }
@@ -142,14 +148,17 @@ pub(crate) struct Dispatch {
 impl Dispatch {
     /// The uniform `Dispatch` block of step.wgsl (`calls`: every call
     /// block of the schedule): with copies of its calls when its runner
-    /// reads them from the block (particles, project_*).
+    /// reads them from the block (particles, project_*, guard).
     pub fn block(&self, calls: &[Call], dim: usize, precision: Precision) -> Vec<u8> {
         let own = match self.run {
-            Run::Particles(_) | Run::Distance | Run::Simplex | Run::Oriented | Run::Material => {
-                calls
-                    .get(self.first_call as usize..self.end_call as usize)
-                    .unwrap_or_default()
-            }
+            Run::Particles(_)
+            | Run::Distance(_)
+            | Run::Simplex(_)
+            | Run::Oriented(_)
+            | Run::Material(_)
+            | Run::Guard(..) => calls
+                .get(self.first_call as usize..self.end_call as usize)
+                .unwrap_or_default(),
             _ => &[],
         };
         dispatch_block(
@@ -281,12 +290,18 @@ impl Schedule {
             .count()
     }
 
-    /// The entry points the exact, chosen and run-alone dispatches use.
+    /// The entry points the exact, chosen and run-alone dispatches use
+    /// (one pipeline each: the flags of a run-alone call differ from its
+    /// step copies', which may skip λ).
     pub fn entries(&self) -> Vec<super::XpbdEntry> {
+        let alone: Vec<Dispatch> = (self.run_base..self.calls.len())
+            .map(|index| single(&self.calls[index], index))
+            .collect();
         let mut used: Vec<super::XpbdEntry> = self
             .exact
             .iter()
             .chain(&self.fast)
+            .chain(&alone)
             .filter(|d| d.count > 0 || d.run == Run::Small)
             .filter_map(|d| d.run.entry())
             .collect();
@@ -348,11 +363,11 @@ fn single(call: &Call, index: usize) -> Dispatch {
     } else {
         match call.op {
             OP_HOST => Run::Host(call.kernel.unwrap_or(Kernel::Broadphase)),
-            OP_PROJECT_SIMPLEX => Run::Simplex,
-            OP_PROJECT_ORIENTED => Run::Oriented,
-            OP_PROJECT_MATERIAL => Run::Material,
-            OP_GUARD_MEASURE | OP_GUARD_SPEED => Run::Guard,
-            _ => Run::Distance,
+            OP_PROJECT_SIMPLEX => Run::Simplex(call.flags),
+            OP_PROJECT_ORIENTED => Run::Oriented(call.flags),
+            OP_PROJECT_MATERIAL => Run::Material(call.flags),
+            OP_GUARD_MEASURE | OP_GUARD_SPEED => Run::Guard(call.op, call.flags),
+            _ => Run::Distance(call.flags),
         }
     };
     Dispatch {
