@@ -447,6 +447,24 @@ pub fn projection_error(
     }
 }
 
+/// The vertices of element `slot` of `family` at `x` into `points`; their
+/// particle indices.
+fn gather<'a>(
+    family: &'a Family,
+    slot: usize,
+    x: &[f64],
+    dim: usize,
+    points: &mut [f64],
+) -> &'a [u32] {
+    let arity = family.arity;
+    let ids = &family.elements[slot * arity..(slot + 1) * arity];
+    for (j, &i) in ids.iter().enumerate() {
+        let i = i as usize;
+        points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
+    }
+    ids
+}
+
 /// Per particle, the summed |δΔx| of projecting colour `color` of material
 /// family `family` at positions `x` with multipliers `lambda` ± `lambda_error`
 /// (updated in place to the errors after the projection); `inverse_mass`
@@ -465,14 +483,9 @@ pub fn color_error(
     out: &mut [f64],
 ) {
     let mut scratch = MaterialScratch::new();
-    let arity = family.arity;
-    let mut points = vec![0.0; arity * dim];
+    let mut points = vec![0.0; family.arity * dim];
     for slot in family.color(color) {
-        let ids = &family.elements[slot * arity..(slot + 1) * arity];
-        for (j, &i) in ids.iter().enumerate() {
-            let i = i as usize;
-            points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
-        }
+        let ids = gather(family, slot, x, dim, &mut points);
         let Some((material, rest)) = family.kind.rest_view(slot) else {
             continue;
         };
@@ -499,15 +512,10 @@ pub fn color_error(
 /// evaluation of it may be off.
 pub fn residual_error(family: &Family, x: &[f64], dim: usize, rounding: Rounding) -> (f64, f64) {
     let mut scratch = MaterialScratch::new();
-    let arity = family.arity;
-    let mut points = vec![0.0; arity * dim];
+    let mut points = vec![0.0; family.arity * dim];
     let (mut worst, mut error) = (0.0f64, 0.0f64);
     for slot in 0..family.len() {
-        let ids = &family.elements[slot * arity..(slot + 1) * arity];
-        for (j, &i) in ids.iter().enumerate() {
-            let i = i as usize;
-            points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
-        }
+        gather(family, slot, x, dim, &mut points);
         let Some((material, rest)) = family.kind.rest_view(slot) else {
             continue;
         };

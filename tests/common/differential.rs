@@ -201,7 +201,7 @@ impl Rows {
 /// Runs `scene` `frames` frames on the GPU at `precision`, each frame also
 /// on the CPU from the GPU's previous state, asserting every bound after
 /// every frame; on lavapipe in f64 also against the CPU run from the start,
-/// bit for bit. Prints the final rows.
+/// bit for bit. Prints the final rows; returns the GPU's last state.
 pub fn differential(
     adapter: &wgpu::Adapter,
     summary: &AdapterSummary,
@@ -209,7 +209,7 @@ pub fn differential(
     scene: &Scene,
     frames: u64,
     precision: Precision,
-) {
+) -> State {
     let plan = Plan::compile(scene).expect("scene compiles");
     let state = State::from_scene(scene);
     let mut shadow = CpuBackend::new(plan.clone(), &state).expect("CPU backend");
@@ -223,6 +223,7 @@ pub fn differential(
     let counts = plan.kernel_counts();
     let mut rows = Rows::default();
     let mut contacts = (0, 0, 0);
+    let mut last = state.clone();
     for frame in 1..=frames {
         let start = gpu.read_state().expect("GPU read_state");
         shadow.write_state(&start).expect("CPU write_state");
@@ -243,6 +244,7 @@ pub fn differential(
         let sc = shadow.read_state().expect("CPU read_state");
         let sg = gpu.read_state().expect("GPU read_state");
         assert_eq!(sc.len(), sg.len());
+        last.clone_from(&sg);
         if exact {
             let report = golden.step().expect("CPU step");
             let from_start = golden.read_state().expect("CPU read_state");
@@ -351,6 +353,7 @@ pub fn differential(
             precision,
         );
     }
+    last
 }
 
 /// Runs one scene at both precisions with one adapter per precision.

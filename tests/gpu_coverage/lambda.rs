@@ -82,6 +82,20 @@ fn violated(dim: usize) -> Scene {
     valid(scene)
 }
 
+/// The f64 adapter of `test` if it promises bit identity (this file
+/// asserts nothing else); `None` after saying why not.
+fn identity_adapter(test: &str) -> Option<(wgpu::Adapter, hyperpbd_gpu::AdapterSummary)> {
+    let (adapter, summary) = adapter_or_skip(test, Precision::F64)?;
+    if !f64_identical(&summary) {
+        println!(
+            "NOT CHECKED: {test} asserts f64 bit identity, which {} does not promise",
+            summary.name
+        );
+        return None;
+    }
+    Some((adapter, summary))
+}
+
 /// Projects every (family, color) of `scene` 4 times in a row after one
 /// prediction, CPU and GPU (f64) from the same state, asserting bit
 /// identity after every call and that every family saw λ ≠ 0; returns the
@@ -139,19 +153,11 @@ fn project_repeatedly(
 
 #[test]
 fn repeated_projections_with_nonzero_multipliers_match_bit_for_bit() {
-    let Some((adapter, summary)) = adapter_or_skip(
-        "repeated_projections_with_nonzero_multipliers_match_bit_for_bit",
-        Precision::F64,
-    ) else {
+    let Some((adapter, summary)) =
+        identity_adapter("repeated_projections_with_nonzero_multipliers_match_bit_for_bit")
+    else {
         return;
     };
-    if !f64_identical(&summary) {
-        println!(
-            "NOT CHECKED: repeated projections assert f64 bit identity, which {} does not promise",
-            summary.name
-        );
-        return;
-    }
     for dim in [2, 3, 4] {
         let calls = project_repeatedly(&adapter, &summary, &format!("R^{dim}"), &violated(dim));
         println!("LAMBDA | R^{dim} | {calls} projection calls with λ ≠ 0 | f64 bit-identical");
@@ -188,19 +194,11 @@ fn repeated_material_projections_with_nonzero_multipliers_match_bit_for_bit() {
     // The material energy constraint's α~λ term (α = 1, α~ = 1/h²) reached
     // directly: tests/gpu_materials.rs compares whole steps only, where a
     // mistake in α~λ could hide behind the first iteration's λ = 0.
-    let Some((adapter, summary)) = adapter_or_skip(
+    let Some((adapter, summary)) = identity_adapter(
         "repeated_material_projections_with_nonzero_multipliers_match_bit_for_bit",
-        Precision::F64,
     ) else {
         return;
     };
-    if !f64_identical(&summary) {
-        println!(
-            "NOT CHECKED: repeated material projections assert f64 bit identity, which {} does not promise",
-            summary.name
-        );
-        return;
-    }
     for dim in [2, 3, 4] {
         for (law, name) in [
             (ConstraintKind::Stvk, "stvk"),
