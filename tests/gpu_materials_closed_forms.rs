@@ -17,11 +17,12 @@
 //!                    not asserted (below)
 //! ```
 //! Why the f32 patch stops short: the patch is soft (E = 1 Pa, 1 kg nodes,
-//! h = 0.01 s), so one projection moves a node δ off the affine map by
-//! about w h² K δ ≈ 4e-5 δ (K ≈ 0.4 N/m per element); once that is below
-//! half an ulp of the coordinate (≈ 6e-8) the addition rounds it away, and
-//! the f32 state freezes (velocities exactly 0) at δ ≈ 1e-3 (2D) … 8e-3
-//! (4D). A stiffer patch does not help: at E = 1000 Pa (2D stvk, measured)
+//! h = 0.01 s), so a projection pulls a node δ off the affine map back by
+//! about w h² K δ ≈ 4e-5 δ (K ≈ 0.4 N/m per element), while each of its
+//! per-element moves (~1e-6 at the map, where every element is stressed)
+//! rounds by up to half an ulp of the coordinate (≈ 6e-8); for δ ≲ 1e-3 the
+//! roundings win and the f32 state freezes (velocities exactly 0) at
+//! δ ≈ 1e-3 (2D) … 8e-3 (4D). A stiffer patch does not help: at E = 1000 Pa (2D stvk, measured)
 //! the f32 run follows the golden path (1.011e-3 against 1.010e-3), but the
 //! golden path itself then settles 1.0e-3 off the map (XPBD's
 //! finite-iteration offset with 3 iterations grows with the stiffness).
@@ -147,7 +148,7 @@ fn patch_test_on_the_gpu_returns_to_the_affine_map() {
                 format_args!("{name} gpu-f32 interior error / element size"),
                 format_args!("{:e}", patch_error(&state, &interior)),
                 "1e-4 NOT MET, not asserted",
-                "f32 stagnation: a projection moves a node by ~ w h² K δ ≈ 4e-5 δ, under half an ulp for δ ≲ 1e-3",
+                "f32 stagnation: the pull back w h² K δ ≈ 4e-5 δ per projection loses to half-ulp roundings of the moves for δ ≲ 1e-3",
             );
         }
     }
