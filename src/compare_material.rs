@@ -413,9 +413,13 @@ pub fn projection_error(
     let phi_range = q_range
         .add(alpha_lambda.mul(psi_range))
         .widen(gamma(5.0, u));
-    let step_range = Range(-a_range.1, -a_range.0)
+    let mut step_range = Range(-a_range.1, -a_range.0)
         .mul(q_range)
         .widen(gamma(5.0, u));
+    if g_lo == 0.0 {
+        // ∇C̃ may round to 0: the device then leaves λ as it is (Δλ̃ = 0).
+        step_range = Range(step_range.0.min(0.0), step_range.1.max(0.0));
+    }
     let position = w
         .iter()
         .zip(&law.gradient)
