@@ -25,8 +25,15 @@
 //!      stick in one run and slide in the other, a jump of max(|Δt|, μ w λ).
 //!      J_k is the largest such jump of substep k, from the golden path run
 //!      kernel by kernel (Δt before each contact projection, λ after it).
+//! M_k  material families: the largest per-particle sum, over the substep's
+//!      projections of material elements, of the bound on the error of the
+//!      increment w ∇C Δλ (`compare_material.rs`: the law's rounding δW, δ∇W
+//!      at the element's state, through C = √(2W), ∇C = ∇W / C and the
+//!      update, λ's error carried across the substep's iterations). This is
+//!      the element's conditioning: near rest W is known to δW only, so C
+//!      and ∇C are, relatively, far worse than one rounding.
 //! per substep k = 1 … S, from e_x = e_v = 0 (both runs start from the same state):
-//!      r_k  = u X c + u h V + J_k                  fresh position error
+//!      r_k  = u X c + u h V + J_k + M_k            fresh position error
 //!      q    = u V c_v + 4 u h A                    fresh velocity error (and h, g, s, w, f in f32)
 //!      e_x ← e_x + h (e_v + q) + r_k               x = p + h v + corrections
 //!      e_v ← e_v + q + r_k / h                     v = (x − p) / h
@@ -38,7 +45,8 @@
 //! particle's error to a convex combination of its own and its partners'
 //! (distance, contact), sticking friction keeps the substep start's. That
 //! holds for the stable scenes compared; measures add their conditioning
-//! (tests/gpu_kernels.rs checks them alone). It is a worst case: roundings
+//! (tests/gpu_kernels.rs checks them alone), material elements add theirs
+//! through M_k (their rounding, not the propagation of incoming errors). It is a worst case: roundings
 //! of the same sign every time, every coordinate at X. Particle contact also
 //! switches on and off at C = 0, which no rounding model bounds: granular
 //! scenes are compared on invariants (tests/gpu_granular.rs).
@@ -49,6 +57,7 @@ use hyperpbd_core::{
 use hyperpbd_cpu::CpuBackend;
 
 use crate::compare::DivergenceModel;
+use crate::compare_material::{Rounding, color_error};
 
 /// The per-frame rounding model of one XPBD plan at one precision.
 pub struct FrameErrorModel {
@@ -62,6 +71,8 @@ pub struct FrameErrorModel {
     pub acceleration: f64,
     /// Device origin o (zero in f64): X is measured from it.
     origin: Vec<f64>,
+    /// The compared precision's rounding (material elements).
+    rounding: Rounding,
     /// The golden path run kernel by kernel, for the multipliers of every
     /// substep (J_k).
     probe: CpuBackend,
@@ -151,6 +162,7 @@ impl FrameErrorModel {
                 + if plan.damping.is_some() { 2.0 } else { 0.0 },
             acceleration,
             origin: origin.to_vec(),
+            rounding: Rounding::of(precision),
             probe: CpuBackend::new(plan.clone(), &empty)?,
         })
     }
@@ -182,17 +194,40 @@ impl FrameErrorModel {
         let fresh = u * scale * self.position_roundings + u * h * speed;
         let flip_rounding = (2.0 * plan.dim as f64 + 8.0) * u * scale;
         let (mut ex, mut ev) = (0.0f64, 0.0f64);
+        let particles = plan.particle_count();
         for _ in 0..plan.substeps {
             // The error of any position within this substep, before J.
             let error = ex + h * (ev + q) + fresh;
             let substep_start = self.probe.read_state()?.positions;
             let mut jump: f64 = 0.0;
+            // M_k per particle; δλ per material slot (λ = 0 at the start).
+            let mut material = vec![0.0; particles];
+            let mut lambda_error: Vec<Vec<f64>> =
+                plan.families.iter().map(|f| vec![0.0; f.len()]).collect();
             for &kernel in &plan.substep_kernels {
                 let Kernel::Project { family, color } = kernel else {
                     self.probe.run_kernel(kernel)?;
                     continue;
                 };
                 let f = &plan.families[family];
+                if let FamilyKind::Material { .. } = f.kind {
+                    let x = self.probe.read_state()?.positions;
+                    let lambda = self.probe.multipliers(family).unwrap_or(&[]).to_vec();
+                    color_error(
+                        f,
+                        color,
+                        &x,
+                        plan.dim,
+                        &plan.inverse_mass,
+                        &lambda,
+                        &mut lambda_error[family],
+                        f.compliance / (h * h),
+                        self.rounding,
+                        &mut material,
+                    );
+                    self.probe.run_kernel(kernel)?;
+                    continue;
+                }
                 let FamilyKind::HyperplaneContact { normal, friction } = &f.kind else {
                     self.probe.run_kernel(kernel)?;
                     continue;
@@ -227,7 +262,7 @@ impl FrameErrorModel {
                     }
                 }
             }
-            let r = fresh + jump;
+            let r = fresh + jump + material.iter().fold(0.0, |m: f64, &e| m.max(e));
             ex += h * (ev + q) + r;
             ev += q + r / h;
         }
@@ -257,7 +292,7 @@ impl DivergenceModel for FrameErrorModel {
 
     fn describe(&self) -> String {
         format!(
-            "per-frame bound: double sum over the frame's substeps of u {:e} x (X x {} roundings/substep + h V) + static-friction jumps",
+            "per-frame bound: double sum over the frame's substeps of u {:e} x (X x {} roundings/substep + h V) + static-friction jumps + material elements' conditioning",
             self.unit_roundoff, self.position_roundings
         )
     }

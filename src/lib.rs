@@ -20,6 +20,7 @@ pub mod batch;
 pub mod compare;
 pub mod compare_barrier;
 pub mod compare_frame;
+pub mod compare_material;
 mod load;
 pub mod scenes;
 pub mod sweep;

@@ -17,9 +17,10 @@
 //!
 //! ```text
 //! position   FrameErrorModel: double sum over the frame's S substeps of the
-//!            fresh error u X c + u h V + J_k (u = ε/2, X the largest
+//!            fresh error u X c + u h V + J_k + M_k (u = ε/2, X the largest
 //!            |device coordinate|, c the roundings landing on a coordinate per
-//!            substep, J_k the static-friction jump allowance μ w λ)
+//!            substep, J_k the static-friction jump allowance μ w λ, M_k the
+//!            material elements' conditioning, docs/materials.md §7)
 //! velocity   the same model's velocity sum (e_v ← e_v + q + r_k / h)
 //! residual   per family, |r_gpu − r_cpu| where r = max_e |C_e| (max(0, −C)
 //!            for contacts). max is 1-Lipschitz, so it is at most
@@ -30,7 +31,11 @@
 //!            state for measures; r_C the roundings of evaluating C and M
 //!            its magnitude scale: distance (2N + 4)·2X; contact (2N + 3)·
 //!            (X + rest); measures (4N + 8k + 20)·Π|e_j|²/(k!)² or Π|e_j|/N!
-//!            (Hadamard: an elimination determinant rounds relative to it).
+//!            (Hadamard: an elimination determinant rounds relative to it);
+//!            materials |r(x_gpu) − r_cpu| + max_e δC_e(x_gpu): r evaluated in
+//!            f64 at the GPU's state plus the device's evaluation error of
+//!            C = √(2W) (hyperpbd::compare_material; C is a cone at rest,
+//!            so no Lipschitz constant at one state bounds it)
 //! contacts   active contacts (λ > 0 in the last substep): equal in f64
 //!            (bound 0). In f32 a contact whose λ is within rounding of 0 may
 //!            flip; the largest difference over the frames is printed with
@@ -123,11 +128,32 @@ fn residual_bound(
             let (g, m) = measure_scales(plan, family, cpu);
             g * n.sqrt() * position_bound + eps * (12.0 * n + 20.0) * m
         }
-        // No f32 model of the material kernel's rounding yet (see
-        // `differential`: f32 material rows are measured, not asserted;
-        // in f64 on lavapipe the residuals are equal, asserted exactly).
-        FamilyKind::Material { .. } => f64::NAN,
+        // Evaluated, not propagated: C = √(2W) is a cone at rest, so no
+        // Lipschitz constant at one state bounds it nearby; the exact
+        // residual at the GPU's state is the golden path's function there.
+        FamilyKind::Material { .. } => unreachable!("material_residual_bound"),
     }
+}
+
+/// Bound on |r_gpu − r_cpu| of material family `family`: |r(x_gpu) −
+/// r_cpu| (r evaluated in f64 at the GPU's state, the position rows bound
+/// how far that state is) + max_e δC_e at the GPU's state, the device's
+/// evaluation error of C = √(2W) (`compare_material::constraint_error`).
+fn material_residual_bound(
+    plan: &Plan,
+    family: usize,
+    gpu: &State,
+    cpu_residual: f64,
+    precision: Precision,
+) -> f64 {
+    let rounding = hyperpbd::compare_material::Rounding::of(precision);
+    let (at_gpu, error) = hyperpbd::compare_material::residual_error(
+        &plan.families[family],
+        &gpu.positions,
+        plan.dim,
+        rounding,
+    );
+    (at_gpu - cpu_residual).abs() + error
 }
 
 pub fn print_row(
@@ -175,7 +201,7 @@ impl Rows {
 /// Runs `scene` `frames` frames on the GPU at `precision`, each frame also
 /// on the CPU from the GPU's previous state, asserting every bound after
 /// every frame; on lavapipe in f64 also against the CPU run from the start,
-/// bit for bit. Prints the final rows.
+/// bit for bit. Prints the final rows; returns the GPU's last state.
 pub fn differential(
     adapter: &wgpu::Adapter,
     summary: &AdapterSummary,
@@ -183,7 +209,7 @@ pub fn differential(
     scene: &Scene,
     frames: u64,
     precision: Precision,
-) {
+) -> State {
     let plan = Plan::compile(scene).expect("scene compiles");
     let state = State::from_scene(scene);
     let mut shadow = CpuBackend::new(plan.clone(), &state).expect("CPU backend");
@@ -193,20 +219,11 @@ pub fn differential(
     let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
     let mut model = FrameErrorModel::new(&plan, precision, origin.as_slice()).expect("frame model");
     let exact = precision == Precision::F64 && f64_identical(summary);
-    // The per-frame model counts one rounding per element update; a
-    // material element's update carries the conditioning of its law (C =
-    // √(2W) and ∇C = ∇W / C round at the noise level of W near rest), which
-    // no model here bounds yet. f32 runs of material scenes are measured
-    // and printed ("not derived"), not asserted; f64 stays exact.
-    let material = plan
-        .families
-        .iter()
-        .any(|f| matches!(f.kind, FamilyKind::Material { .. }));
-    let asserted = exact || !material;
     let eps = precision.epsilon();
     let counts = plan.kernel_counts();
     let mut rows = Rows::default();
     let mut contacts = (0, 0, 0);
+    let mut last = state.clone();
     for frame in 1..=frames {
         let start = gpu.read_state().expect("GPU read_state");
         shadow.write_state(&start).expect("CPU write_state");
@@ -227,6 +244,7 @@ pub fn differential(
         let sc = shadow.read_state().expect("CPU read_state");
         let sg = gpu.read_state().expect("GPU read_state");
         assert_eq!(sc.len(), sg.len());
+        last.clone_from(&sg);
         if exact {
             let report = golden.step().expect("CPU step");
             let from_start = golden.read_state().expect("CPU read_state");
@@ -249,7 +267,7 @@ pub fn differential(
             .expect("frame bounds");
         let d = Divergence::new(frame, &sc, &sg, bounds);
         assert!(
-            !asserted || d.within(),
+            d.within(),
             "{name} {precision} frame {frame}: position {:e} (bound {:e}), velocity {:e} (bound {:e}) \
              in one frame from the GPU's previous state",
             d.position,
@@ -266,10 +284,13 @@ pub fn differential(
             let measured = (a.max_violation - b.max_violation).abs();
             let bound = match plan.families.get(family) {
                 Some(f) if exact && matches!(f.kind, FamilyKind::Material { .. }) => 0.0,
+                Some(f) if matches!(f.kind, FamilyKind::Material { .. }) => {
+                    material_residual_bound(&plan, family, &sg, a.max_violation, precision)
+                }
                 _ => residual_bound(&plan, family, &sc, d.position_bound, eps, scale),
             };
             assert!(
-                !asserted || measured <= bound,
+                measured <= bound,
                 "{name} {precision} frame {frame}: residual of {} differs by {measured:e} \
                  (cpu {:e}, gpu {:e}) > bound {bound:e}",
                 a.label,
@@ -300,10 +321,6 @@ pub fn differential(
     let show_bound = |bound: f64| {
         if exact {
             "exact".to_string()
-        } else if !asserted && bound.is_nan() {
-            "- (not derived for materials)".to_string()
-        } else if !asserted {
-            format!("{bound:.3e} (XPBD model; not derived for materials, not asserted)")
         } else {
             format!("{bound:.3e}")
         }
@@ -336,6 +353,7 @@ pub fn differential(
             precision,
         );
     }
+    last
 }
 
 /// Runs one scene at both precisions with one adapter per precision.

@@ -9,7 +9,9 @@
 //! ```
 //! (`tests/gpu_kernels.rs` projects each color once after the reset λ = 0,
 //! where α~λ vanishes.) Kernel level, both backends from the same state;
-//! f64 on lavapipe bit for bit after every call (`common::exact`). This
+//! f64 on lavapipe bit for bit after every call (`common::exact`); the
+//! material families (stvk, neo_hookean) on a compressed Kuhn block in 2, 3
+//! and 4 D likewise. This
 //! test asserts identity only: on an adapter that does not promise it, it
 //! says so and checks nothing (the whole-step tests keep their bounds
 //! there).
@@ -80,65 +82,136 @@ fn violated(dim: usize) -> Scene {
     valid(scene)
 }
 
-#[test]
-fn repeated_projections_with_nonzero_multipliers_match_bit_for_bit() {
-    let Some((adapter, summary)) = adapter_or_skip(
-        "repeated_projections_with_nonzero_multipliers_match_bit_for_bit",
-        Precision::F64,
-    ) else {
-        return;
-    };
+/// The f64 adapter of `test` if it promises bit identity (this file
+/// asserts nothing else); `None` after saying why not.
+fn identity_adapter(test: &str) -> Option<(wgpu::Adapter, hyperpbd_gpu::AdapterSummary)> {
+    let (adapter, summary) = adapter_or_skip(test, Precision::F64)?;
     if !f64_identical(&summary) {
         println!(
-            "NOT CHECKED: repeated projections assert f64 bit identity, which {} does not promise",
+            "NOT CHECKED: {test} asserts f64 bit identity, which {} does not promise",
             summary.name
         );
-        return;
+        return None;
     }
-    for dim in [2, 3, 4] {
-        let scene = violated(dim);
-        let plan = Plan::compile(&scene).expect("compiles");
-        let state = State::from_scene(&scene);
-        let mut cpu = CpuBackend::new(plan.clone(), &state).expect("cpu");
-        let mut gpu =
-            GpuBackend::with_adapter(&adapter, plan.clone(), &state, Precision::F64).expect("gpu");
-        let mut calls = 0;
-        let mut nonzero = vec![false; plan.families.len()];
-        for (f, family) in plan.families.iter().enumerate() {
-            for color in 0..family.color_count() {
-                // Same start on both: the GPU's state; Predict resets λ.
-                let start = gpu.read_state().expect("gpu state");
-                cpu.write_state(&start).expect("cpu write_state");
-                cpu.run_kernel(Kernel::Predict).expect("cpu predict");
-                gpu.run_kernel(Kernel::Predict).expect("gpu predict");
-                for repeat in 0..4 {
-                    let kernel = Kernel::Project { family: f, color };
-                    cpu.run_kernel(kernel).expect("cpu project");
-                    gpu.run_kernel(kernel).expect("gpu project");
-                    calls += 1;
-                    let name = format!("R^{dim} {} color {color} call {repeat}", family.label);
-                    assert_identical_if_claimed(
-                        &summary,
-                        &name,
-                        &cpu.read_state().expect("cpu"),
-                        &gpu.read_state().expect("gpu"),
-                    );
-                    if repeat == 0 {
-                        let lambda = cpu.multipliers(f).expect("family");
-                        nonzero[f] |= family.color(color).any(|slot| lambda[slot] != 0.0);
-                    }
+    Some((adapter, summary))
+}
+
+/// Projects every (family, color) of `scene` 4 times in a row after one
+/// prediction, CPU and GPU (f64) from the same state, asserting bit
+/// identity after every call and that every family saw λ ≠ 0; returns the
+/// number of projection calls.
+fn project_repeatedly(
+    adapter: &wgpu::Adapter,
+    summary: &hyperpbd_gpu::AdapterSummary,
+    label: &str,
+    scene: &Scene,
+) -> usize {
+    let plan = Plan::compile(scene).expect("compiles");
+    let state = State::from_scene(scene);
+    let mut cpu = CpuBackend::new(plan.clone(), &state).expect("cpu");
+    let mut gpu =
+        GpuBackend::with_adapter(adapter, plan.clone(), &state, Precision::F64).expect("gpu");
+    let mut calls = 0;
+    let mut nonzero = vec![false; plan.families.len()];
+    for (f, family) in plan.families.iter().enumerate() {
+        for color in 0..family.color_count() {
+            // Same start on both: the GPU's state; Predict resets λ.
+            let start = gpu.read_state().expect("gpu state");
+            cpu.write_state(&start).expect("cpu write_state");
+            cpu.run_kernel(Kernel::Predict).expect("cpu predict");
+            gpu.run_kernel(Kernel::Predict).expect("gpu predict");
+            for repeat in 0..4 {
+                let kernel = Kernel::Project { family: f, color };
+                cpu.run_kernel(kernel).expect("cpu project");
+                gpu.run_kernel(kernel).expect("gpu project");
+                calls += 1;
+                let name = format!("{label} {} color {color} call {repeat}", family.label);
+                assert_identical_if_claimed(
+                    summary,
+                    &name,
+                    &cpu.read_state().expect("cpu"),
+                    &gpu.read_state().expect("gpu"),
+                );
+                if repeat == 0 {
+                    let lambda = cpu.multipliers(f).expect("family");
+                    nonzero[f] |= family.color(color).any(|slot| lambda[slot] != 0.0);
                 }
             }
         }
-        // The repeated calls did see λ ≠ 0 in every family (else α~λ and
-        // the clamps would still be untested).
-        for (f, family) in plan.families.iter().enumerate() {
-            assert!(
-                nonzero[f],
-                "R^{dim} {}: every multiplier stayed 0",
-                family.label
-            );
-        }
+    }
+    // The repeated calls did see λ ≠ 0 in every family (else α~λ and
+    // the clamps would still be untested).
+    for (f, family) in plan.families.iter().enumerate() {
+        assert!(
+            nonzero[f],
+            "{label} {}: every multiplier stayed 0",
+            family.label
+        );
+    }
+    calls
+}
+
+#[test]
+fn repeated_projections_with_nonzero_multipliers_match_bit_for_bit() {
+    let Some((adapter, summary)) =
+        identity_adapter("repeated_projections_with_nonzero_multipliers_match_bit_for_bit")
+    else {
+        return;
+    };
+    for dim in [2, 3, 4] {
+        let calls = project_repeatedly(&adapter, &summary, &format!("R^{dim}"), &violated(dim));
         println!("LAMBDA | R^{dim} | {calls} projection calls with λ ≠ 0 | f64 bit-identical");
+    }
+}
+
+/// The Kuhn block of `common::guarded::material_block` (E = 2e5 Pa,
+/// ν = 0.3) whose authored rest shape is the initial one scaled by 1.08
+/// about the block's first node: every element starts compressed 8 %
+/// (J ≈ 0.93^N > 0, so Neo-Hookean evaluates), C = √(2W) far from 0; the
+/// plane (never touched) removed, so the material is the only family.
+fn compressed_material_block(dim: usize, law: ConstraintKind) -> Scene {
+    let mut scene = common::guarded::material_block(dim, 0.0, law, None, None);
+    scene.obstacles.clear();
+    let anchor = scene.particles[0].position.clone();
+    let rest: Vec<Vec<f64>> = scene
+        .particles
+        .iter()
+        .map(|p| {
+            p.position
+                .iter()
+                .zip(&anchor)
+                .map(|(x, o)| o + 1.08 * (x - o))
+                .collect()
+        })
+        .collect();
+    let family = scene.constraints.remove(0).with_rest_positions(rest);
+    scene.constraints.push(family);
+    valid(scene)
+}
+
+#[test]
+fn repeated_material_projections_with_nonzero_multipliers_match_bit_for_bit() {
+    // The material energy constraint's α~λ term (α = 1, α~ = 1/h²) reached
+    // directly: tests/gpu_materials.rs compares whole steps only, where a
+    // mistake in α~λ could hide behind the first iteration's λ = 0.
+    let Some((adapter, summary)) = identity_adapter(
+        "repeated_material_projections_with_nonzero_multipliers_match_bit_for_bit",
+    ) else {
+        return;
+    };
+    for dim in [2, 3, 4] {
+        for (law, name) in [
+            (ConstraintKind::Stvk, "stvk"),
+            (ConstraintKind::NeoHookean, "neo_hookean"),
+        ] {
+            let label = format!("R^{dim} {name} block");
+            let calls = project_repeatedly(
+                &adapter,
+                &summary,
+                &label,
+                &compressed_material_block(dim, law),
+            );
+            println!("LAMBDA | {label} | {calls} projection calls with λ ≠ 0 | f64 bit-identical");
+        }
     }
 }
