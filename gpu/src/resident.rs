@@ -51,9 +51,8 @@ impl Packing {
     pub fn positions_from(&self, first: usize, positions: &[f64]) -> Vec<u8> {
         let local = self.origin.to_local(positions);
         let count = positions.len() / self.dim.max(1);
-        let lane = (self.layout == VectorLayout::Record)
-            .then(|| self.inverse_mass.get(first..first + count))
-            .flatten();
+        let lane =
+            (self.layout == VectorLayout::Record).then(|| &self.inverse_mass[first..first + count]);
         self.bytes_of(&self.layout.pack(self.dim, &local, lane))
     }
 

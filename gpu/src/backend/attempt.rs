@@ -31,6 +31,19 @@ impl GpuBackend {
         if self.contacts.is_some() {
             return self.step_with_contacts();
         }
+        let block = self.submit_step()?;
+        if let Some(failed) = self.failure(&block) {
+            return Err(self.diagnosed_error(failed));
+        }
+        let report = read_reals(&block[16..], self.precision);
+        Ok(crate::xpbd::step_report(&self.plan, &report))
+    }
+
+    /// One submission of the step's dispatches (the chosen schedule, every
+    /// world of a batch): the state saved first, a snapshot copied out when
+    /// one was asked for, one wait; the status block and the report as
+    /// read back. A step whose loops were cut is refused, rolled back.
+    pub(super) fn submit_step(&mut self) -> Result<Vec<u8>, BackendError> {
         self.reset_status();
         let mut encoder = self.record(|e| self.state.save(e), &self.fast, 1, true);
         let snapshot = self.state.record_snapshot(&mut encoder);
@@ -42,17 +55,7 @@ impl GpuBackend {
         let block =
             self.read_mapped(&self.buffers.report_staging, 16 + self.buffers.report_bytes)?;
         self.refuse_cut_loops(&block)?;
-        if let Some(failed) = self.failure(&block) {
-            return Err(self.diagnosed_error(failed));
-        }
-        let report = read_reals(&block[16..], self.precision);
-        let (residuals, active_contacts) = crate::xpbd::read_report(&self.plan, &report);
-        Ok(StepReport {
-            kernel_calls: self.plan.kernel_counts(),
-            residuals,
-            active_contacts,
-            ..StepReport::default()
-        })
+        Ok(block)
     }
 
     /// The rejection named by a status word whose failing call `call` is

@@ -336,35 +336,18 @@ impl GpuBatch {
     /// before the step and the error is the lowest failing world's, as its
     /// own single run names it.
     pub fn step(&mut self) -> Result<Vec<StepReport>, WorldError> {
-        let b = &mut self.backend;
-        b.state.forget_snapshot();
-        b.reset_status();
-        let encoder = b.record(|e| b.state.save(e), &b.fast, 1, true);
-        b.submit_and_wait(encoder).map_err(WorldError::batch)?;
-        let bytes = 16 + b.buffers.report_bytes;
-        let block = b
-            .read_mapped(&b.buffers.report_staging, bytes)
-            .map_err(WorldError::batch)?;
-        b.refuse_cut_loops(&block).map_err(WorldError::batch)?;
-        if b.failure(&block).is_some() {
+        let block = self.backend.submit_step().map_err(WorldError::batch)?;
+        if self.backend.failure(&block).is_some() {
             let words: &[u32] = bytemuck::cast_slice(&block[..16]);
             return Err(self.diagnose(words[3] as usize));
         }
-        let values = read_reals(&block[16..], b.precision);
+        let values = read_reals(&block[16..], self.backend.precision);
         let per_world = values.len() / self.plans.len();
         Ok(self
             .plans
             .iter()
             .zip(values.chunks(per_world.max(1)))
-            .map(|(plan, report)| {
-                let (residuals, active_contacts) = crate::xpbd::read_report(plan, report);
-                StepReport {
-                    kernel_calls: plan.kernel_counts(),
-                    residuals,
-                    active_contacts,
-                    ..StepReport::default()
-                }
-            })
+            .map(|(plan, report)| crate::xpbd::step_report(plan, report))
             .collect())
     }
 

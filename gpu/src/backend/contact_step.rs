@@ -263,17 +263,13 @@ impl GpuBackend {
             return Err(self.diagnosed_error(failed));
         }
         let report = crate::params::read_reals(&block[16..], self.precision);
-        let (mut residuals, active_contacts) = crate::xpbd::read_report(&self.plan, &report);
-        residuals.push(hyperpbd_core::FamilyResidual {
+        let mut step = crate::xpbd::step_report(&self.plan, &report);
+        step.residuals.push(hyperpbd_core::FamilyResidual {
             label: "collisions".into(),
             max_violation: outcome.deepest,
         });
-        Ok(StepReport {
-            kernel_calls: self.plan.kernel_counts(),
-            residuals,
-            active_contacts: active_contacts + outcome.active as usize,
-            ..StepReport::default()
-        })
+        step.active_contacts += outcome.active as usize;
+        Ok(step)
     }
 
     /// `run_kernel` of Broadphase or Collide: the kernel of the first

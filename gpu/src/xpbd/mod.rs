@@ -31,7 +31,7 @@ use hyperpbd_core::{FamilyKind, GpuError, Plan};
 use crate::SceneOrigin;
 use crate::kernel_set::{Binding, EntryPoint, KernelSet};
 use crate::shader::ShaderFile;
-pub(crate) use residual::read_report;
+pub(crate) use residual::step_report;
 use schedule::Dispatch;
 
 /// No slot (a fixed particle in a hyperplane family's slot map).

@@ -10,7 +10,7 @@
 //! Two dispatches per step whatever the number of families; maxima and
 //! integer counts are exact, so the result is independent of the order.
 
-use hyperpbd_core::{FamilyKind, FamilyResidual, Plan};
+use hyperpbd_core::{FamilyKind, FamilyResidual, Plan, StepReport};
 
 use super::Families;
 use super::call::{Call, OP_RESIDUAL};
@@ -71,9 +71,21 @@ pub(crate) fn residual_calls(
     (calls, chunks)
 }
 
+/// The step report of `plan` from its report values (`2 × families`):
+/// the kernel calls, the per-family residuals and the active contacts.
+pub(crate) fn step_report(plan: &Plan, report: &[f64]) -> StepReport {
+    let (residuals, active_contacts) = read_report(plan, report);
+    StepReport {
+        kernel_calls: plan.kernel_counts(),
+        residuals,
+        active_contacts,
+        ..StepReport::default()
+    }
+}
+
 /// The per-family residuals and the active contact count from the report
 /// (`2 × families` values).
-pub(crate) fn read_report(plan: &Plan, report: &[f64]) -> (Vec<FamilyResidual>, usize) {
+fn read_report(plan: &Plan, report: &[f64]) -> (Vec<FamilyResidual>, usize) {
     let mut residuals = Vec::with_capacity(plan.families.len());
     let mut active_contacts = 0;
     for (family, f) in plan.families.iter().enumerate() {
