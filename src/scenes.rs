@@ -49,6 +49,23 @@ pub fn by_name(name: &str) -> Option<Scene> {
     }
 }
 
+/// A built-in scene from its builder (every built-in scene is valid).
+fn built(b: SceneBuilder) -> Scene {
+    b.build()
+        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+}
+
+/// The settings the 4D drops share: 1/60 s frames of 20 substeps and 2
+/// iterations, gravity 9.81 m/s² along −x_3, damping 0.2 /s.
+fn drop_in_4d() -> SceneBuilder {
+    SceneBuilder::new(4)
+        .dt(1.0 / 60.0)
+        .substeps(20)
+        .iterations(2)
+        .gravity_along(3, 9.81)
+        .damping(0.2)
+}
+
 /// The demo: an `n × n` cloth (1 m square, rigid edges and shear springs)
 /// dropped from 0.5 m onto a ground plane with friction 0.4, light damping.
 pub fn cloth(n: usize) -> Scene {
@@ -70,8 +87,7 @@ pub fn cloth(n: usize) -> Scene {
         p.radius = 0.25 * spacing;
     }
     b.hyperplane(vec![0.0, 1.0, 0.0], 0.0, 0.4);
-    b.build()
-        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+    built(b)
 }
 
 /// An `n × n` 1 m cloth (edges + shear diagonals, rigid) hanging from the
@@ -87,8 +103,7 @@ pub fn hanging_cloth(n: usize) -> Scene {
     let grid = b.grid(&GridSpec::cloth(n, n, spacing, 1.0));
     b.fix(grid.index(&[0, n - 1]));
     b.fix(grid.index(&[n - 1, n - 1]));
-    b.build()
-        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+    built(b)
 }
 
 /// A soft tesseract in R^4: a 2×2×2×2-cell Kuhn block (81 nodes, 384
@@ -96,12 +111,7 @@ pub fn hanging_cloth(n: usize) -> Scene {
 /// compliant springs for shear) dropped onto the hyperplane x_3 = 0 with
 /// friction.
 pub fn tesseract() -> Scene {
-    let mut b = SceneBuilder::new(4)
-        .dt(1.0 / 60.0)
-        .substeps(20)
-        .iterations(2)
-        .gravity_along(3, 9.81)
-        .damping(0.2);
+    let mut b = drop_in_4d();
     b.soft_block(&BlockSpec {
         cells: vec![2, 2, 2, 2],
         origin: vec![-0.5, -0.5, -0.5, 0.3],
@@ -111,8 +121,7 @@ pub fn tesseract() -> Scene {
         edge_compliance: Some(1e-5),
     });
     b.hyperplane(vec![0.0, 0.0, 0.0, 1.0], 0.0, 0.5);
-    b.build()
-        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+    built(b)
 }
 
 /// A soft 4D jelly: a tesseract 0.5 m across (3⁴ nodes, 2⁴ cells of
@@ -120,12 +129,7 @@ pub fn tesseract() -> Scene {
 /// material (E = 20 kPa, ν = 0.25, ρ = 400 kg/m⁴; lumped masses from the
 /// density) dropped from 0.3 m onto a floor with friction 0.5.
 pub fn jelly4d() -> Scene {
-    let mut b = SceneBuilder::new(4)
-        .dt(1.0 / 60.0)
-        .substeps(20)
-        .iterations(2)
-        .gravity_along(3, 9.81)
-        .damping(0.2);
+    let mut b = drop_in_4d();
     let (nodes, spacing) = (3usize, 0.25);
     for i in 0..nodes.pow(4) {
         let position: Vec<f64> = (0..4)
@@ -164,8 +168,7 @@ pub fn jelly4d() -> Scene {
         .with_density(400.0),
     );
     b.hyperplane(vec![0.0, 0.0, 0.0, 1.0], 0.0, 0.5);
-    b.build()
-        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+    built(b)
 }
 
 /// A 2D rope bridge: 21 particles on a parabola between two fixed ends
@@ -199,8 +202,7 @@ pub fn chain2d() -> Scene {
         links,
     ));
     b.hyperplane(vec![0.0, 1.0], 0.0, 0.3);
-    b.build()
-        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+    built(b)
 }
 
 /// Four particles on a 20° incline in R^5 with μ = 0.2 < tan 20° ≈ 0.364:
@@ -219,8 +221,7 @@ pub fn incline5d() -> Scene {
         x[2 + (k % 3)] = k as f64;
         b.particle(hyperpbd_core::Particle::new(x, 1.0));
     }
-    b.build()
-        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+    built(b)
 }
 
 /// The incremental-potential (barrier) path in R^4: a 4 × 4 block of
@@ -259,6 +260,5 @@ pub fn barrier4d() -> Scene {
         warm_start: None,
         friction_slip_velocity: None,
     });
-    b.build()
-        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+    built(b)
 }

@@ -68,8 +68,7 @@ pub fn column3d(side: usize, height: usize) -> Scene {
         friction: 0.5,
         margin: 0.01,
     });
-    b.build()
-        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+    super::built(b)
 }
 
 /// 3D granular pit: `side × height × side` balls (r = 0.05 m) dropped
@@ -98,8 +97,7 @@ pub fn pit3d(side: usize, height: usize) -> Scene {
         friction: 0.5,
         margin: 0.01,
     });
-    b.build()
-        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+    super::built(b)
 }
 
 /// 4D ball pit: 6 × 6 × 6 × 4 balls of two radii dropped into a pit
@@ -128,8 +126,7 @@ pub fn ballpit4d() -> Scene {
         friction: 0.2,
         margin: 0.02,
     });
-    b.build()
-        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+    super::built(b)
 }
 
 /// 2D sand pile: a 16 × 48 column of grains (r = 0.02 m) collapsing on a
@@ -147,6 +144,5 @@ pub fn sandpile2d() -> Scene {
         friction: 0.6,
         margin: 0.004,
     });
-    b.build()
-        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+    super::built(b)
 }

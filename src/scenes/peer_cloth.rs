@@ -63,6 +63,5 @@ pub fn peer_cloth(n: usize) -> Scene {
             .collect();
         b.family(ConstraintFamily::new(ConstraintKind::Distance, 0.0, edges));
     }
-    b.build()
-        .unwrap_or_else(|e| unreachable!("built-in scene is valid: {e}"))
+    super::built(b)
 }
