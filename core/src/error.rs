@@ -272,7 +272,7 @@ pub enum StepError {
     },
     /// A guard rejected a completed substep (`guards` in the scene).
     #[error("step rejected: {0}; state rolled back")]
-    GuardRejected(crate::GuardRejection),
+    GuardRejected(crate::guard_rules::GuardRejection),
 }
 
 impl StepError {

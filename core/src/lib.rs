@@ -14,9 +14,12 @@ pub mod broadphase;
 pub mod builders;
 mod coloring;
 mod error;
+mod family;
 pub mod geometry;
+mod guard_rules;
 pub mod guards;
 pub mod implicit;
+mod incremental_potential_plan;
 mod json;
 pub mod material;
 mod material_plan;
@@ -35,11 +38,13 @@ pub use backend::{Backend, FamilyResidual, StepReport, check_forces, check_kerne
 pub use builders::SceneBuilder;
 pub use coloring::greedy_colors;
 pub use error::{BackendError, GpuError, SceneError, StageName, StepError};
+pub use family::{Family, FamilyKind};
 pub use geometry::DEGENERATE_VOLUME_RATIO;
 pub use guards::{Adaptive, Attempt, GuardKind, GuardRejection, GuardSubject, Guards};
+pub use incremental_potential_plan::IncrementalPotentialPlan;
 pub use material_plan::{FamilyMass, element_refusal, particle_masses};
 pub use minimisation::{MinimisationReport, MinimisationStatus, Refusal};
-pub use plan::{Family, FamilyKind, Kernel, ParticleContacts, Plan, PredictTerms, SolverPlan};
+pub use plan::{Kernel, ParticleContacts, Plan, PredictTerms, SolverPlan};
 pub use precision::Precision;
 pub use scene::{
     Collisions, ConstraintFamily, ConstraintKind, Damping, MAX_DIM, Obstacle, ObstacleDocument,

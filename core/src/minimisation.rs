@@ -99,6 +99,19 @@ pub struct MinimisationReport {
 }
 
 impl MinimisationReport {
+    /// The report before the first Newton iteration: nothing evaluated,
+    /// nothing run, `Converged` until an iteration says otherwise.
+    pub fn before_first_iteration(criterion: Convergence) -> Self {
+        Self {
+            criterion,
+            initial_residual: None,
+            final_residual: None,
+            iterations: 0,
+            cg_iterations: Vec::new(),
+            status: MinimisationStatus::Converged,
+        }
+    }
+
     /// Records the residual at Newton iteration `iteration` (the first
     /// one recorded is the initial residual) and, when it ends the
     /// minimisation, sets the status and returns true:

@@ -8,7 +8,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::Solver;
-use crate::guards::{Adaptive, Guards};
+use crate::guard_rules::{Adaptive, Guards};
 
 /// Largest dimension a scene may have (`Scene::validate` refuses more).
 /// Far beyond any practical scene; it keeps the per-dimension allocations

@@ -44,7 +44,7 @@ use crate::residual::RESIDUAL_GRAIN;
 use hyperpbd_core::broadphase::{
     Aabbs, BoxGrid, Pair, contact_lists_into, sweep_axis, sweep_pairs, swept_boxes,
 };
-use hyperpbd_core::geometry::deepest_overlap;
+use hyperpbd_core::geometry::{deepest_overlap, separation};
 use hyperpbd_core::{FamilyResidual, Plan};
 
 /// Pairs per chunk of the pair pass.
@@ -239,12 +239,7 @@ fn pair_corrections<D: Dim>(
     let first = range.start;
     for (e, &[i, j]) in pass.pairs[range].iter().enumerate() {
         let (i, j) = (i as usize, j as usize);
-        let mut len2 = 0.0;
-        for a in 0..n {
-            d[a] = x[j * n + a] - x[i * n + a];
-            len2 += d[a] * d[a];
-        }
-        let len = len2.sqrt();
+        let len = separation(x, i, j, n, d);
         if !len.is_finite() {
             return Err(first + e);
         }

@@ -29,10 +29,11 @@
 
 use crate::parallel::Workers;
 use hyperpbd_core::barrier::{
-    BarrierLaw, BarrierObstacles, IncrementalPotentialPlan, ParticleBarrier,
-    evaluate_particle_barrier, filter_fraction,
+    BarrierLaw, BarrierObstacles, ParticleBarrier, evaluate_particle_barrier, filter_fraction,
 };
-use hyperpbd_core::{Convergence, MinimisationReport, MinimisationStatus, Plan, Refusal};
+use hyperpbd_core::{
+    Convergence, IncrementalPotentialPlan, MinimisationReport, MinimisationStatus, Plan, Refusal,
+};
 
 /// Armijo sufficient-decrease constant.
 pub const ARMIJO: f64 = 1e-4;
@@ -244,14 +245,7 @@ pub(crate) fn minimise(
                 .push(m * plan.gravity_scale[i] * plan.gravity[a] + force[i * n + a]);
         }
     }
-    let mut report = MinimisationReport {
-        criterion: ip.convergence,
-        initial_residual: None,
-        final_residual: None,
-        iterations: 0,
-        cg_iterations: Vec::new(),
-        status: MinimisationStatus::Converged,
-    };
+    let mut report = MinimisationReport::before_first_iteration(ip.convergence);
     let start = &*x;
     let infeasible = workers.try_for_chunks(count, PARTICLE_GRAIN, |r| {
         let mut normal = vec![0.0; n];

@@ -51,15 +51,3 @@ pub fn energy_constraint(
         None => Ok(f64::NAN),
     }
 }
-
-/// The residual of one element: C, or +∞ for a refused element.
-pub fn violation(
-    family: &Family,
-    e: usize,
-    points: &[f64],
-    dim: usize,
-    grad: &mut [f64],
-    scratch: &mut MaterialScratch,
-) -> f64 {
-    energy_constraint(family, e, points, dim, grad, scratch).unwrap_or(f64::INFINITY)
-}

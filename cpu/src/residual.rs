@@ -77,8 +77,11 @@ fn violation<D: Dim>(
             FamilyKind::HyperplaneContact { normal, .. } => {
                 (family.rest[e] - crate::project::dot(normal, points)).max(0.0)
             }
+            // C, or +∞ for a refused element (its Neo-Hookean energy is
+            // unbounded as J → 0⁺).
             FamilyKind::Material { .. } => {
-                crate::material::violation(family, e, points, dim, grad, material)
+                crate::material::energy_constraint(family, e, points, dim, grad, material)
+                    .unwrap_or(f64::INFINITY)
             }
         };
         worst = worst.max(violation);

@@ -18,8 +18,8 @@
 //! ```
 //! The residual's sqrt (packed criterion) is taken on the host in f64.
 
+use hyperpbd_core::IncrementalPotentialPlan;
 use hyperpbd_core::adaptive::{Subdivided, step_adaptive};
-use hyperpbd_core::barrier::IncrementalPotentialPlan;
 use hyperpbd_core::{
     Backend, BackendError, Convergence, GpuError, Kernel, MinimisationReport, MinimisationStatus,
     Plan, Refusal, State, StepError, StepReport, check_kernel, check_state,
@@ -395,14 +395,7 @@ impl GpuBarrierBackend {
 
     /// One minimisation on the resident state (CPU: `minimise`).
     fn minimise(&mut self) -> Result<MinimisationReport, BackendError> {
-        let mut report = MinimisationReport {
-            criterion: self.ip.convergence,
-            initial_residual: None,
-            final_residual: None,
-            iterations: 0,
-            cg_iterations: Vec::new(),
-            status: MinimisationStatus::Converged,
-        };
+        let mut report = MinimisationReport::before_first_iteration(self.ip.convergence);
         self.reset_status();
         self.run(IpEntry::Predict)?;
         let mut iteration = 0;

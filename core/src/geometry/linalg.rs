@@ -84,6 +84,18 @@ pub fn unit_vector(n: &[f64]) -> Vec<f64> {
     scaled.iter().map(|x| x / length).collect()
 }
 
+/// d = x_j − x_i for points `i` and `j` of the `n`-wide array `x` into
+/// `d[..n]`; returns |d| = √(Σ_a d_a²), the squares summed in axis order.
+#[inline]
+pub fn separation(x: &[f64], i: usize, j: usize, n: usize, d: &mut [f64]) -> f64 {
+    let mut length2 = 0.0;
+    for a in 0..n {
+        d[a] = x[j * n + a] - x[i * n + a];
+        length2 += d[a] * d[a];
+    }
+    length2.sqrt()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -20,7 +20,7 @@ mod symmetric_eigen;
 pub use closest_point::{ClosestPoint, MAX_SIMPLEX_ORDER, closest_point_on_simplex};
 pub use distance::distance;
 pub(crate) use edges::{edge_matrix, gram, scatter_edge_gradient};
-pub use linalg::{adjugate, determinant, unit_vector};
+pub use linalg::{adjugate, determinant, separation, unit_vector};
 pub use oriented_measure::{oriented_measure, oriented_volume};
 pub use overlap::deepest_overlap;
 pub use simplex_measure::simplex_squared_measure;

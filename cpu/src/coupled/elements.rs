@@ -31,6 +31,7 @@ use hyperpbd_core::implicit::{
 };
 use hyperpbd_core::{ConstraintKind, FamilyKind, Plan};
 use materials::MaterialBuffers;
+use std::ops::Range;
 
 /// Elements per chunk of the element passes.
 pub const ELEMENT_GRAIN: usize = 256;
@@ -199,16 +200,12 @@ impl Elements {
     ) -> Result<(), usize> {
         let dim = terms.plan.dim;
         let stride = self.record_len(dim);
-        let mut records = std::mem::take(&mut self.records);
-        records.clear();
-        records.resize(self.len() * stride, 0.0);
-        let this = &*self;
-        let result = workers.try_for_spans(
-            this.len(),
-            ELEMENT_GRAIN,
+        self.fill_blocks(
+            |e| &mut e.records,
+            workers,
+            self.len(),
             stride,
-            [&mut records],
-            |r, [out]| {
+            |this, r, out| {
                 let mut scratch = Buffers::default();
                 let mut points = vec![0.0; this.arity_max * dim];
                 for e in r.clone() {
@@ -220,23 +217,29 @@ impl Elements {
                 }
                 Ok(())
             },
-        );
-        self.records = records;
-        result
+        )
     }
 
-    /// Energy of element e at `x` (+∞ for a ball pair at d ≤ 0).
-    fn energy(
-        &self,
-        e: usize,
-        terms: &Terms<'_>,
-        x: &[f64],
-        points: &mut [f64],
-        record: &mut [f64],
-        scratch: &mut Buffers,
-    ) -> f64 {
-        self.evaluate_one(e, terms, x, points, record, scratch);
-        record[0]
+    /// Refills the array `blocks` picks with `len` zero blocks of `stride`
+    /// reals and has `fill(self, items, their blocks)` write them, chunk by
+    /// chunk on `workers`; the first item `fill` reports.
+    fn fill_blocks(
+        &mut self,
+        blocks: fn(&mut Self) -> &mut Vec<f64>,
+        workers: &Workers,
+        len: usize,
+        stride: usize,
+        fill: impl Fn(&Self, Range<usize>, &mut [f64]) -> Result<(), usize> + Sync,
+    ) -> Result<(), usize> {
+        let mut out = std::mem::take(blocks(self));
+        out.clear();
+        out.resize(len * stride, 0.0);
+        let this = &*self;
+        let result = workers.try_for_spans(len, ELEMENT_GRAIN, stride, [&mut out], |r, [o]| {
+            fill(this, r, o)
+        });
+        *blocks(self) = out;
+        result
     }
 
     /// One element's record at `x`.
@@ -420,16 +423,12 @@ impl Elements {
         let dim = terms.plan.dim;
         let width = self.arity_max * dim;
         let stride = self.record_len(dim);
-        let mut slots = std::mem::take(&mut self.slots);
-        slots.clear();
-        slots.resize(self.len() * width, 0.0);
-        let this = &*self;
-        let _ = workers.try_for_spans(
-            this.len(),
-            ELEMENT_GRAIN,
+        let _ = self.fill_blocks(
+            |e| &mut e.slots,
+            workers,
+            self.len(),
             width,
-            [&mut slots],
-            |r, [out]| {
+            |this, r, out| {
                 let mut points = vec![0.0; width];
                 let mut buffers = MaterialBuffers::default();
                 for e in r.clone() {
@@ -444,7 +443,6 @@ impl Elements {
                 Ok(())
             },
         );
-        self.slots = slots;
     }
 
     /// Adds particle k's gathered values from `source` (records' gradients
@@ -480,8 +478,10 @@ impl Elements {
             let mut points = vec![0.0; self.arity_max * dim];
             let mut record = vec![0.0; stride];
             for e in r.clone() {
-                let at_y = self.energy(e, terms, y, &mut points, &mut record, &mut scratch);
-                out[e - r.start] = at_y - self.records[e * stride];
+                // record[0]: the element's energy at y (+∞ for a ball pair
+                // at d ≤ 0).
+                self.evaluate_one(e, terms, y, &mut points, &mut record, &mut scratch);
+                out[e - r.start] = record[0] - self.records[e * stride];
             }
             Ok(())
         });

@@ -38,7 +38,7 @@ mod tests;
 use crate::incremental_potential::{ARMIJO, MAX_HALVINGS};
 use crate::parallel::Workers;
 use elements::{Elements, Terms};
-use hyperpbd_core::barrier::IncrementalPotentialPlan;
+use hyperpbd_core::IncrementalPotentialPlan;
 use hyperpbd_core::implicit::{
     CoupledPlan, PcgSettings, PcgStatus, PcgWorkspace, block_tree_max, block_tree_sum, pcg,
     tree_dot,
@@ -77,14 +77,7 @@ pub(crate) fn minimise(
     ws: &mut Workspace,
 ) -> MinimisationReport {
     let (dim, h, count) = (plan.dim, plan.h, plan.particle_count());
-    let mut report = MinimisationReport {
-        criterion: ip.convergence,
-        initial_residual: None,
-        final_residual: None,
-        iterations: 0,
-        cg_iterations: Vec::new(),
-        status: MinimisationStatus::Converged,
-    };
+    let mut report = MinimisationReport::before_first_iteration(ip.convergence);
     let Workspace {
         particles,
         elements,

@@ -18,11 +18,9 @@
 use super::elements::Elements;
 use crate::incremental_potential::PARTICLE_GRAIN;
 use crate::parallel::Workers;
-use hyperpbd_core::Plan;
-use hyperpbd_core::barrier::{
-    IncrementalPotentialPlan, ParticleBarrier, evaluate_particle_barrier,
-};
+use hyperpbd_core::barrier::{ParticleBarrier, evaluate_particle_barrier};
 use hyperpbd_core::implicit::obstacle_friction;
+use hyperpbd_core::{IncrementalPotentialPlan, Plan};
 
 /// A frozen friction lag of one particle against plane `plane` (at x^t).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -190,32 +188,22 @@ impl Particles {
         p: &[f64],
         out: &mut [f64],
     ) {
-        let (dim, h2, count) = (c.plan.dim, c.plan.h * c.plan.h, c.plan.particle_count());
+        let dim = c.plan.dim;
         let stride = Self::stride(dim);
-        let _ = workers.try_for_spans(count, PARTICLE_GRAIN, dim, [out], |r, [o]| {
-            let mut own = vec![0.0; dim];
-            for i in r.clone() {
-                let oi = &mut o[(i - r.start) * dim..(i - r.start + 1) * dim];
-                oi.fill(0.0);
-                if self.mass[i] == 0.0 {
-                    continue;
+        // own_i = B_i p_i, the particle's own block times its p.
+        let own = |i: usize, own: &mut [f64]| {
+            let block = &self.terms[i * stride..i * stride + dim * dim];
+            let pi = &p[i * dim..(i + 1) * dim];
+            for a in 0..dim {
+                let mut s = 0.0;
+                for b in 0..dim {
+                    s += block[a * dim + b] * pi[b];
                 }
-                let block = &self.terms[i * stride..i * stride + dim * dim];
-                let pi = &p[i * dim..(i + 1) * dim];
-                for a in 0..dim {
-                    let mut s = 0.0;
-                    for b in 0..dim {
-                        s += block[a * dim + b] * pi[b];
-                    }
-                    own[a] = s;
-                }
-                elements.gather(i, dim, false, &mut own);
-                for a in 0..dim {
-                    oi[a] = self.mass[i] * pi[a] + h2 * own[a];
-                }
+                own[a] = s;
             }
-            Ok(())
-        });
+        };
+        let combine = |i: usize, a: usize, h2_sum: f64| self.mass[i] * p[i * dim + a] + h2_sum;
+        self.per_free_particle(workers, c, elements, out, own, combine);
     }
 
     /// P⁻¹ = 1/(m + h² diag) per free coordinate (0 for fixed particles)
@@ -227,22 +215,43 @@ impl Particles {
         elements: &Elements,
         out: &mut [f64],
     ) {
-        let (dim, h2, count) = (c.plan.dim, c.plan.h * c.plan.h, c.plan.particle_count());
+        let dim = c.plan.dim;
         let stride = Self::stride(dim);
+        // own_i = diag(B_i), the particle's own block's diagonal.
+        let own = |i: usize, own: &mut [f64]| {
+            for a in 0..dim {
+                own[a] = self.terms[i * stride + a * dim + a];
+            }
+        };
+        let combine = |i: usize, _: usize, h2_sum: f64| 1.0 / (self.mass[i] + h2_sum);
+        self.per_free_particle(workers, c, elements, out, own, combine);
+    }
+
+    /// out_ia = combine(i, a, h² s_a) per free particle i (fixed rows 0),
+    /// where s = the particle's own term (written by `own`) plus its
+    /// elements' slots.
+    fn per_free_particle(
+        &self,
+        workers: &Workers,
+        c: &Context<'_>,
+        elements: &Elements,
+        out: &mut [f64],
+        own: impl Fn(usize, &mut [f64]) + Sync,
+        combine: impl Fn(usize, usize, f64) -> f64 + Sync,
+    ) {
+        let (dim, h2, count) = (c.plan.dim, c.plan.h * c.plan.h, c.plan.particle_count());
         let _ = workers.try_for_spans(count, PARTICLE_GRAIN, dim, [out], |r, [o]| {
-            let mut own = vec![0.0; dim];
+            let mut sum = vec![0.0; dim];
             for i in r.clone() {
                 let oi = &mut o[(i - r.start) * dim..(i - r.start + 1) * dim];
                 oi.fill(0.0);
                 if self.mass[i] == 0.0 {
                     continue;
                 }
+                own(i, &mut sum);
+                elements.gather(i, dim, false, &mut sum);
                 for a in 0..dim {
-                    own[a] = self.terms[i * stride + a * dim + a];
-                }
-                elements.gather(i, dim, false, &mut own);
-                for a in 0..dim {
-                    oi[a] = 1.0 / (self.mass[i] + h2 * own[a]);
+                    oi[a] = combine(i, a, h2 * sum[a]);
                 }
             }
             Ok(())

@@ -19,8 +19,9 @@ use super::particles::{Particles, PlaneLag};
 use crate::collide::{Contacts, broadphase_on};
 use crate::incremental_potential::PARTICLE_GRAIN;
 use crate::parallel::Workers;
-use hyperpbd_core::barrier::IncrementalPotentialPlan;
+use hyperpbd_core::IncrementalPotentialPlan;
 use hyperpbd_core::broadphase::{Aabbs, Pair};
+use hyperpbd_core::geometry::separation;
 use hyperpbd_core::implicit::certified_filter::{fraction, obstacle_time, pair_time};
 use hyperpbd_core::implicit::{CoupledPlan, normal_force};
 use hyperpbd_core::{Plan, Refusal, WarmStart};
@@ -140,12 +141,7 @@ impl Setup {
         self.pair_lags.clear();
         for &[i, j] in &self.pairs {
             let (i, j) = (i as usize, j as usize);
-            let mut length = 0.0;
-            for a in 0..dim {
-                normal[a] = start[j * dim + a] - start[i * dim + a];
-                length += normal[a] * normal[a];
-            }
-            let length = length.sqrt();
+            let length = separation(&start, i, j, dim, &mut normal);
             let d = length - plan.radius[i] - plan.radius[j];
             if d.is_nan() || d <= 0.0 {
                 return Err(Refusal::OverlappingStart {

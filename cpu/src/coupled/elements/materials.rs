@@ -15,7 +15,7 @@
 //! PSD with the translations in its null space; it equals the exact
 //! Hessian whenever that is PSD. No finite difference is taken anywhere.
 
-use super::{ELEMENT_GRAIN, Elements, Kind, Terms};
+use super::{Elements, Kind, Terms};
 use crate::parallel::Workers;
 use hyperpbd_core::implicit::{
     MaterialHessianScratch, PsdScratch, apply_material_curvature, material_curvature_diagonal,
@@ -156,16 +156,13 @@ impl Elements {
     ) -> Result<(), usize> {
         let dim = terms.plan.dim;
         let stride = self.frame_stride;
-        let mut frames = std::mem::take(&mut self.frames);
-        frames.clear();
-        frames.resize(self.materials.len() * stride, 0.0);
-        let this = &*self;
-        let result = workers.try_for_spans(
-            this.materials.len(),
-            ELEMENT_GRAIN,
+        let len = self.materials.len();
+        self.fill_blocks(
+            |e| &mut e.frames,
+            workers,
+            len,
             stride,
-            [&mut frames],
-            |r, [out]| {
+            |this, r, out| {
                 let mut buffers = MaterialBuffers::default();
                 let mut points = vec![0.0; this.arity_max * dim];
                 for m in r.clone() {
@@ -192,9 +189,7 @@ impl Elements {
                 }
                 Ok(())
             },
-        );
-        self.frames = frames;
-        result
+        )
     }
 
     /// The law's refusal of element e at `x` with its family's index and
