@@ -42,15 +42,6 @@ pub(crate) mod status;
 use batch::{WorldArrays, Worlds};
 use contact_step::ContactStage;
 
-/// Compute dispatches of the contact stage in one step of `plan` (0
-/// without particle contact).
-pub(crate) fn contact_dispatches_per_step(plan: &Plan) -> usize {
-    match plan.contacts {
-        Some(_) => ContactStage::dispatches_per_step(plan),
-        None => 0,
-    }
-}
-
 /// The device buffers besides the resident state.
 struct Buffers {
     lambda: wgpu::Buffer,

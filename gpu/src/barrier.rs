@@ -46,9 +46,9 @@
 use hyperpbd_core::GpuError;
 use hyperpbd_core::barrier::{BarrierLaw, BarrierObstacles, FILTER_SAFETY};
 
-use crate::backend::status::obstacle_loops_cut_short;
 use crate::context::GpuContext;
 use crate::kernel_set::{Binding, BlockWriter, EntryPoint, KernelSet, KernelSetSpec};
+use crate::loop_budget::obstacle_loops_cut_short;
 use crate::params::{push_reals, read_reals, real_size};
 use crate::shader::{MAX_GPU_DIM, ShaderFile};
 use crate::{Precision, SceneOrigin};

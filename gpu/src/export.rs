@@ -19,28 +19,10 @@ use std::sync::OnceLock;
 
 use hyperpbd_core::GpuError;
 
-use crate::Precision;
 use crate::context::GpuContext;
 use crate::kernel_set::{Binding, BlockWriter, EntryPoint, KernelSet, KernelSetSpec};
-use crate::resident::ResidentState;
+use crate::resident::{PositionLayout, ResidentState};
 use crate::shader::ShaderFile;
-
-/// How a backend's resident positions sit in its position buffer.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PositionLayout {
-    /// Spatial dimension N.
-    pub dim: usize,
-    /// Particles in the buffer.
-    pub count: usize,
-    /// Reals per particle (coordinate a of particle i is real
-    /// `stride · i + a`; the other reals of a record are padding or the
-    /// inverse mass).
-    pub stride: usize,
-    /// The reals' type: f32 or f64.
-    pub precision: Precision,
-    /// The scene origin o: world position = stored position + o.
-    pub origin: Vec<f64>,
-}
 
 /// Bytes per exported particle in the caller's buffer (Float32x3).
 pub const EXPORT_BYTES_PER_PARTICLE: u64 = 12;

@@ -148,9 +148,9 @@ impl ResidentState {
     }
 
     /// Where `count` particles' positions sit in `x`.
-    pub fn position_layout(&self, count: usize) -> crate::export::PositionLayout {
+    pub fn position_layout(&self, count: usize) -> PositionLayout {
         let p = &self.packing;
-        crate::export::PositionLayout {
+        PositionLayout {
             dim: p.dim,
             count,
             stride: p.layout.reals_per_particle(p.dim),
@@ -336,4 +336,21 @@ impl ResidentState {
             velocities: self.packing.unpack(vs),
         })
     }
+}
+
+/// How a backend's resident positions sit in its position buffer.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PositionLayout {
+    /// Spatial dimension N.
+    pub dim: usize,
+    /// Particles in the buffer.
+    pub count: usize,
+    /// Reals per particle (coordinate a of particle i is real
+    /// `stride · i + a`; the other reals of a record are padding or the
+    /// inverse mass).
+    pub stride: usize,
+    /// The reals' type: f32 or f64.
+    pub precision: Precision,
+    /// The scene origin o: world position = stored position + o.
+    pub origin: Vec<f64>,
 }

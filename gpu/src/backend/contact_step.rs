@@ -110,20 +110,6 @@ impl ContactStage {
         }
     }
 
-    /// Compute dispatches of the stage in one step of `plan`.
-    pub(super) fn dispatches_per_step(plan: &Plan) -> usize {
-        let per_substep: usize = plan
-            .substep_kernels
-            .iter()
-            .map(|k| match k {
-                Kernel::Broadphase => 8,
-                Kernel::Collide => 2,
-                _ => 0,
-            })
-            .sum();
-        per_substep * plan.substeps as usize + 2
-    }
-
     /// Whether a list did not fit (the lists are grown then: rerun), or
     /// the outcome's typed error.
     fn regrow(&mut self, outcome: &Outcome) -> Result<bool, GpuError> {
@@ -164,7 +150,7 @@ impl GpuBackend {
 
     /// The contact stage's dispatches per step (0 without one).
     pub(super) fn contact_dispatches_per_step(&self) -> usize {
-        super::contact_dispatches_per_step(&self.plan)
+        crate::contact::contact_dispatches_per_step(&self.plan)
     }
 
     /// Records a Host dispatch's contact kernels (their own bind groups) at

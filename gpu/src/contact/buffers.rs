@@ -69,7 +69,7 @@ impl Outcome {
     /// the adapter cut short.
     pub(crate) fn trusted(&self) -> Result<(), GpuError> {
         match self.cut_short {
-            Some(i) => Err(crate::backend::status::loops_cut_short(Some(i))),
+            Some(i) => Err(crate::loop_budget::loops_cut_short(Some(i))),
             None => Ok(()),
         }
     }

@@ -27,7 +27,7 @@ mod buffers;
 
 pub(crate) use buffers::{Block, Bound, ContactBuffers, Outcome, Particles};
 
-use hyperpbd_core::GpuError;
+use hyperpbd_core::{GpuError, Kernel, Plan};
 
 use crate::Precision;
 use crate::kernel_set::{Binding, EntryPoint, KernelSet, KernelSetSpec};
@@ -56,6 +56,25 @@ pub(crate) enum ContactEntry {
     Collide,
     Report,
     ReportFinal,
+}
+
+/// Compute dispatches of the contact stage in one step of `plan`: 8 per
+/// broadphase and 2 per collide kernel of a substep, and 2 per step (0
+/// without particle contact).
+pub(crate) fn contact_dispatches_per_step(plan: &Plan) -> usize {
+    if plan.contacts.is_none() {
+        return 0;
+    }
+    let per_substep: usize = plan
+        .substep_kernels
+        .iter()
+        .map(|k| match k {
+            Kernel::Broadphase => 8,
+            Kernel::Collide => 2,
+            _ => 0,
+        })
+        .sum();
+    per_substep * plan.substeps as usize + 2
 }
 
 impl ContactEntry {

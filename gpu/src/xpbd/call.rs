@@ -18,6 +18,10 @@ use hyperpbd_core::Kernel;
 use crate::Precision;
 use crate::kernel_set::BlockWriter;
 
+/// Per-particle calls in one `particles` dispatch at most (OP0..OP7 of
+/// step.wgsl).
+pub(crate) const SEGMENT: usize = 8;
+
 pub(crate) const OP_PREDICT: u32 = 0;
 pub(crate) const OP_PROJECT_DISTANCE: u32 = 1;
 pub(crate) const OP_PROJECT_SIMPLEX: u32 = 2;
@@ -160,10 +164,10 @@ pub(crate) fn dispatch_block(
     let start = 4 * crate::params::real_size(precision);
     let mut out = BlockWriter::new(precision).words(&header).finish();
     out.resize(start, 0);
-    for call in calls.iter().take(super::schedule::SEGMENT) {
+    for call in calls.iter().take(SEGMENT) {
         out.extend(call.encode(dim, precision));
     }
-    out.resize(start + super::schedule::SEGMENT * call_size, 0);
+    out.resize(start + SEGMENT * call_size, 0);
     out
 }
 

@@ -175,9 +175,8 @@ impl EntryPoint for XpbdEntry {
     /// OP0..OP7, FL0..FL7 and IO of a `particles` run; FLAGS of a
     /// `project_*` colour; OP0 and FLAGS of a guard (step.wgsl).
     fn constants(self) -> Vec<(&'static str, f64)> {
-        const OPS: [&str; schedule::SEGMENT] =
-            ["OP0", "OP1", "OP2", "OP3", "OP4", "OP5", "OP6", "OP7"];
-        const FLAGS: [&str; schedule::SEGMENT] =
+        const OPS: [&str; call::SEGMENT] = ["OP0", "OP1", "OP2", "OP3", "OP4", "OP5", "OP6", "OP7"];
+        const FLAGS: [&str; call::SEGMENT] =
             ["FL0", "FL1", "FL2", "FL3", "FL4", "FL5", "FL6", "FL7"];
         let flags = |flags: u32| ("FLAGS", f64::from(flags));
         match self {
@@ -260,8 +259,8 @@ mod tests {
     #[test]
     fn flags_are_constants_of_their_pipelines() {
         let mut segment = schedule::Segment {
-            ops: [255; schedule::SEGMENT],
-            flags: [0; schedule::SEGMENT],
+            ops: [255; call::SEGMENT],
+            flags: [0; call::SEGMENT],
             io: 7,
         };
         segment.ops[..2].copy_from_slice(&[OP_PROJECT_CONTACT as u8, OP_PREDICT as u8]);

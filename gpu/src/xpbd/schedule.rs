@@ -31,7 +31,7 @@ use hyperpbd_core::{Kernel, Plan};
 
 use super::call::{
     Call, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST, OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED,
-    OP_PROJECT_SIMPLEX, dispatch_block, records_io,
+    OP_PROJECT_SIMPLEX, SEGMENT, dispatch_block, records_io,
 };
 use super::{Families, friction, guard, integrate, project, residual};
 use crate::Precision;
@@ -57,10 +57,6 @@ impl StepMode {
         }
     }
 }
-
-/// Per-particle calls in one `particles` dispatch at most (OP0..OP7 of
-/// step.wgsl).
-pub(crate) const SEGMENT: usize = 8;
 
 /// The ops, flags and record io of a `particles` pipeline (its
 /// overridable constants).
@@ -467,7 +463,7 @@ pub fn dispatches_per_step(plan: &Plan, software: bool) -> Option<(StepMode, usi
     let workgroup = crate::shader::ShaderFile::Step.workgroup_size();
     let chosen = Schedule::new(plan, &families, workgroup, None, software);
     let exact = Schedule::new(plan, &families, workgroup, Some(StepMode::Exact), software);
-    let contact = crate::backend::contact_dispatches_per_step(plan);
+    let contact = crate::contact::contact_dispatches_per_step(plan);
     Some((
         chosen.mode,
         chosen.dispatches_per_step() + contact,
