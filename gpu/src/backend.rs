@@ -107,8 +107,8 @@ impl GpuBackend {
         state: &State,
         precision: Precision,
     ) -> Result<Self, BackendError> {
-        let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
-        Self::with_origin(adapter, plan, state, precision, origin)
+        let own = DeviceSource::Own(adapter);
+        Self::load(own, plan, state, precision, None, None)
     }
 
     /// Loads `plan` with `state`, storing positions relative to `origin`
@@ -120,14 +120,8 @@ impl GpuBackend {
         precision: Precision,
         origin: SceneOrigin,
     ) -> Result<Self, BackendError> {
-        Self::load(
-            DeviceSource::Own(adapter),
-            plan,
-            state,
-            precision,
-            origin,
-            None,
-        )
+        let own = DeviceSource::Own(adapter);
+        Self::load(own, plan, state, precision, Some(origin), None)
     }
 
     /// Loads `plan` with `state`, forming the step's dispatches as `mode`
@@ -148,25 +142,24 @@ impl GpuBackend {
                     .into(),
             ));
         }
-        let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
-        Self::load(
-            DeviceSource::Own(adapter),
-            plan,
-            state,
-            precision,
-            origin,
-            Some(mode),
-        )
+        let own = DeviceSource::Own(adapter);
+        Self::load(own, plan, state, precision, None, Some(mode))
     }
 
+    /// Loads `plan` with `state` on `device`: positions relative to
+    /// `origin` (`None`: [`SceneOrigin::for_state`]), the step's
+    /// dispatches formed as `mode` says (`None`: as the plan's size
+    /// suggests).
     fn load(
         device: DeviceSource<'_>,
         plan: Plan,
         state: &State,
         precision: Precision,
-        origin: SceneOrigin,
+        origin: Option<SceneOrigin>,
         mode: Option<StepMode>,
     ) -> Result<Self, BackendError> {
+        let origin =
+            origin.unwrap_or_else(|| SceneOrigin::for_state(plan.dim, &state.positions, precision));
         check_state(&plan, state)?;
         if origin.as_slice().len() != plan.dim {
             return Err(BackendError::InvalidCall(format!(

@@ -6,9 +6,9 @@
 use hyperpbd_core::{BackendError, Plan, State};
 
 use super::GpuBackend;
+use crate::Precision;
 use crate::context::DeviceSource;
 use crate::export::{ExportParts, PositionExport};
-use crate::{Precision, SceneOrigin};
 
 impl GpuBackend {
     /// Loads `plan` with `state` on the caller's `device` and `queue`
@@ -25,13 +25,12 @@ impl GpuBackend {
         state: &State,
         precision: Precision,
     ) -> Result<Self, BackendError> {
-        let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
         let source = DeviceSource::Given {
             adapter,
             device,
             queue,
         };
-        Self::load(source, plan, state, precision, origin, None)
+        Self::load(source, plan, state, precision, None, None)
     }
 }
 
