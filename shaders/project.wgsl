@@ -220,50 +220,49 @@ fn contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>
     }
 }
 
-@compute @workgroup_size(WORKGROUP)
-fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+// Invocation (gid, groups) of a per-element projection dispatch of op
+// `op` (a constant of each entry point below): element e of its world's
+// call, then the failure it noted, if any.
+fn project_elements(gid: vec3<u32>, groups: vec3<u32>, op: u32) {
     let t = linear_index(gid, groups);
     if (t < here.count * WORLDS) {
         let e = split_world(t, here.count);
         take_call(0u, FLAGS);
-        world_reals(OP_PROJECT_DISTANCE, here.first_call);
-        project_distance_element(e);
+        world_reals(op, here.first_call);
+        switch (op) {
+            case OP_PROJECT_DISTANCE: {
+                project_distance_element(e);
+            }
+            case OP_PROJECT_SIMPLEX: {
+                project_measure_element(e, 1u);
+            }
+            case OP_PROJECT_ORIENTED: {
+                project_measure_element(e, 2u);
+            }
+            case OP_PROJECT_MATERIAL, default: {
+                project_measure_element(e, 3u);
+            }
+        }
         record_failure();
     }
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    project_elements(gid, groups, OP_PROJECT_DISTANCE);
 }
 
 @compute @workgroup_size(WORKGROUP)
 fn project_simplex_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let t = linear_index(gid, groups);
-    if (t < here.count * WORLDS) {
-        let e = split_world(t, here.count);
-        take_call(0u, FLAGS);
-        world_reals(OP_PROJECT_SIMPLEX, here.first_call);
-        project_measure_element(e, 1u);
-        record_failure();
-    }
+    project_elements(gid, groups, OP_PROJECT_SIMPLEX);
 }
 
 @compute @workgroup_size(WORKGROUP)
 fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let t = linear_index(gid, groups);
-    if (t < here.count * WORLDS) {
-        let e = split_world(t, here.count);
-        take_call(0u, FLAGS);
-        world_reals(OP_PROJECT_ORIENTED, here.first_call);
-        project_measure_element(e, 2u);
-        record_failure();
-    }
+    project_elements(gid, groups, OP_PROJECT_ORIENTED);
 }
 
 @compute @workgroup_size(WORKGROUP)
 fn project_material(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let t = linear_index(gid, groups);
-    if (t < here.count * WORLDS) {
-        let e = split_world(t, here.count);
-        take_call(0u, FLAGS);
-        world_reals(OP_PROJECT_MATERIAL, here.first_call);
-        project_measure_element(e, 3u);
-        record_failure();
-    }
+    project_elements(gid, groups, OP_PROJECT_MATERIAL);
 }

@@ -296,12 +296,12 @@ impl GpuBatch {
 
     /// Number of worlds.
     pub fn len(&self) -> usize {
-        self.inner.len()
+        self.inner.plans().len()
     }
 
     /// Whether the batch has no worlds (never).
     pub fn is_empty(&self) -> bool {
-        self.inner.is_empty()
+        self.inner.plans().is_empty()
     }
 
     /// Compute dispatches per step, for all worlds together.

@@ -15,12 +15,11 @@
 //! algorithm of the CPU golden path, kernel for kernel, in the same order
 //! per particle and per colour.
 
-use hyperpbd_core::adaptive::step_adaptive;
 use hyperpbd_core::{
-    Backend, BackendError, GpuError, Kernel, Plan, StageName, State, StepError, StepReport,
-    check_kernel, check_state,
+    BackendError, GpuError, Kernel, Plan, StageName, State, StepError, check_kernel, check_state,
 };
 
+use crate::Precision;
 use crate::context::GpuContext;
 use crate::export::Exporter;
 use crate::kernel_set::{KernelSet, KernelSetSpec, ParamBlocks};
@@ -28,15 +27,14 @@ use crate::layout::VectorLayout;
 use crate::origin::SceneOrigin;
 use crate::params::{push_reals, real_size};
 use crate::resident::ResidentState;
+use crate::resident_backend::resident_backend;
 use crate::shader::ShaderFile;
 use crate::xpbd::schedule::{Dispatch, Schedule, StepMode};
 use crate::xpbd::{BINDINGS, Families, NONE, Placed, XpbdEntry};
-use crate::{AdapterSummary, Precision};
 
 mod attempt;
 pub(crate) mod batch;
 mod contact_step;
-mod device;
 use crate::context::DeviceSource;
 pub(crate) mod status;
 use batch::{WorldArrays, Worlds};
@@ -84,24 +82,6 @@ pub struct GpuBackend {
 }
 
 impl GpuBackend {
-    /// Finds an adapter for `precision`, creates a device and loads `plan`
-    /// with `state`.
-    pub fn new(plan: Plan, state: &State, precision: Precision) -> Result<Self, BackendError> {
-        let (adapter, _) = crate::request_adapter(precision)?;
-        Self::with_adapter(&adapter, plan, state, precision)
-    }
-
-    /// Loads `plan` with `state` on a device of `adapter`.
-    pub fn with_adapter(
-        adapter: &wgpu::Adapter,
-        plan: Plan,
-        state: &State,
-        precision: Precision,
-    ) -> Result<Self, BackendError> {
-        let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
-        Self::with_origin(adapter, plan, state, precision, origin)
-    }
-
     /// Loads `plan` with `state`, storing positions relative to `origin`
     /// (see [`SceneOrigin`]; [`GpuBackend::with_adapter`] picks it).
     pub fn with_origin(
@@ -111,14 +91,8 @@ impl GpuBackend {
         precision: Precision,
         origin: SceneOrigin,
     ) -> Result<Self, BackendError> {
-        Self::load(
-            DeviceSource::Own(adapter),
-            plan,
-            state,
-            precision,
-            origin,
-            None,
-        )
+        let own = DeviceSource::Own(adapter);
+        Self::load(own, plan, state, precision, Some(origin), None)
     }
 
     /// Loads `plan` with `state`, forming the step's dispatches as `mode`
@@ -139,25 +113,24 @@ impl GpuBackend {
                     .into(),
             ));
         }
-        let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
-        Self::load(
-            DeviceSource::Own(adapter),
-            plan,
-            state,
-            precision,
-            origin,
-            Some(mode),
-        )
+        let own = DeviceSource::Own(adapter);
+        Self::load(own, plan, state, precision, None, Some(mode))
     }
 
+    /// Loads `plan` with `state` on `device`: positions relative to
+    /// `origin` (`None`: [`SceneOrigin::for_state`]), the step's
+    /// dispatches formed as `mode` says (`None`: as the plan's size
+    /// suggests).
     fn load(
         device: DeviceSource<'_>,
         plan: Plan,
         state: &State,
         precision: Precision,
-        origin: SceneOrigin,
+        origin: Option<SceneOrigin>,
         mode: Option<StepMode>,
     ) -> Result<Self, BackendError> {
+        let origin =
+            origin.unwrap_or_else(|| SceneOrigin::for_state(plan.dim, &state.positions, precision));
         check_state(&plan, state)?;
         if origin.as_slice().len() != plan.dim {
             return Err(BackendError::InvalidCall(format!(
@@ -369,11 +342,6 @@ impl GpuBackend {
         })
     }
 
-    /// The adapter this backend runs on.
-    pub fn adapter(&self) -> &AdapterSummary {
-        &self.ctx.summary
-    }
-
     /// The precision of the kernels.
     pub fn precision(&self) -> Precision {
         self.precision
@@ -551,36 +519,14 @@ impl GpuBackend {
     }
 }
 
-impl Backend for GpuBackend {
-    fn name(&self) -> String {
-        format!("gpu-{}", self.precision)
-    }
+resident_backend! {
+    GpuBackend, load(None, None) {
+        fn prefetch_state(&mut self) {
+            self.state.prefetch();
+        }
 
-    fn plan(&self) -> &Plan {
-        &self.plan
-    }
-
-    fn step(&mut self) -> Result<StepReport, BackendError> {
-        step_adaptive(self.plan.substeps, self.plan.adaptive, self)
-    }
-
-    fn read_state(&mut self) -> Result<State, BackendError> {
-        Ok(self.state.read(&self.ctx)?)
-    }
-
-    fn prefetch_state(&mut self) {
-        self.state.prefetch();
-    }
-
-    fn write_state(&mut self, state: &State) -> Result<(), BackendError> {
-        self.state.write(&self.ctx, &self.plan, state)
-    }
-
-    fn set_forces(&mut self, forces: &[f64]) -> Result<(), BackendError> {
-        self.state.set_forces(&self.ctx, &self.plan, forces)
-    }
-
-    fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
-        self.run_alone(kernel, 1)
+        fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
+            self.run_alone(kernel, 1)
+        }
     }
 }

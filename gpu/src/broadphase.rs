@@ -18,7 +18,7 @@ use hyperpbd_core::GpuError;
 use hyperpbd_core::broadphase::{Aabbs, Pair};
 
 use crate::Precision;
-use crate::contact::{Block, Bound, ContactBuffers, ContactKernels, Particles};
+use crate::contact::{Block, Bound, ContactBuffers, ContactKernels, ContactPhase, Particles};
 use crate::context::GpuContext;
 
 /// Statistics of the last sweep.
@@ -225,7 +225,8 @@ impl GpuSweep {
             });
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            buffers.encode_broadphase(&self.kernels, &mut pass, axis as usize);
+            let (kernels, block) = (&self.kernels, axis as usize);
+            buffers.encode(kernels, &mut pass, ContactPhase::Broadphase, block);
         }
         buffers.copy_outcome(&mut encoder);
         buffers.copy_lists(&mut encoder, &staging);

@@ -15,7 +15,7 @@ use hyperpbd_core::GpuError;
 use hyperpbd_core::broadphase::Pair;
 
 use crate::Precision;
-use crate::contact::{Block, Bound, ContactBuffers, ContactKernels, Particles};
+use crate::contact::{Block, Bound, ContactBuffers, ContactKernels, ContactPhase, Particles};
 use crate::context::GpuContext;
 use crate::layout::VectorLayout;
 use crate::params::{push_reals, read_reals, real_size};
@@ -153,7 +153,7 @@ impl GpuCollide {
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             for iteration in 0..iterations as usize {
-                buffers.encode_collide(&self.kernels, &mut pass, iteration);
+                buffers.encode(&self.kernels, &mut pass, ContactPhase::Collide, iteration);
             }
         }
         buffers.copy_outcome(&mut encoder);

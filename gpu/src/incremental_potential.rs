@@ -19,7 +19,7 @@
 //! The residual's sqrt (packed criterion) is taken on the host in f64.
 
 use hyperpbd_core::IncrementalPotentialPlan;
-use hyperpbd_core::adaptive::{Subdivided, step_adaptive};
+use hyperpbd_core::adaptive::Subdivided;
 use hyperpbd_core::{
     Backend, BackendError, Convergence, GpuError, Kernel, MinimisationReport, MinimisationStatus,
     Plan, Refusal, State, StepError, StepReport, check_kernel, check_state,
@@ -35,10 +35,9 @@ use crate::kernel_set::{Binding, BlockWriter, EntryPoint, KernelSet, KernelSetSp
 use crate::layout::VectorLayout;
 use crate::params::{push_reals, read_reals, real_size};
 use crate::resident::ResidentState;
+use crate::resident_backend::resident_backend;
 use crate::shader::{MAX_GPU_DIM, ShaderFile};
 use crate::{Precision, SceneOrigin};
-
-mod device;
 
 /// Armijo constant (same as the CPU's).
 const ARMIJO: f64 = 1e-4;
@@ -127,17 +126,7 @@ pub struct GpuBarrierBackend {
 }
 
 impl GpuBarrierBackend {
-    /// Loads an incremental-potential `plan` with `state` on a device of
-    /// `adapter`.
-    pub fn with_adapter(
-        adapter: &wgpu::Adapter,
-        plan: Plan,
-        state: &State,
-        precision: Precision,
-    ) -> Result<Self, BackendError> {
-        Self::load(DeviceSource::Own(adapter), plan, state, precision)
-    }
-
+    /// Loads `plan` with `state` on `device`.
     fn load(
         device: DeviceSource<'_>,
         plan: Plan,
@@ -314,17 +303,6 @@ impl GpuBarrierBackend {
         };
         backend.ctx.check()?;
         Ok(backend)
-    }
-
-    /// Finds an adapter for `precision` and loads `plan` with `state`.
-    pub fn new(plan: Plan, state: &State, precision: Precision) -> Result<Self, BackendError> {
-        let (adapter, _) = crate::request_adapter(precision)?;
-        Self::with_adapter(&adapter, plan, state, precision)
-    }
-
-    /// The adapter this backend runs on.
-    pub fn adapter(&self) -> &crate::AdapterSummary {
-        &self.ctx.summary
     }
 
     /// Records `entry` over `invocations` with parameter block `block`.
@@ -520,41 +498,22 @@ impl Subdivided for GpuBarrierBackend {
     }
 }
 
-impl Backend for GpuBarrierBackend {
-    fn name(&self) -> String {
-        format!("gpu-{}", self.precision)
-    }
-
-    fn plan(&self) -> &Plan {
-        &self.plan
-    }
-
-    fn step(&mut self) -> Result<StepReport, BackendError> {
-        step_adaptive(self.plan.substeps, self.plan.adaptive, self)
-    }
-
-    fn read_state(&mut self) -> Result<State, BackendError> {
-        Ok(self.state.read(&self.ctx)?)
-    }
-
-    fn write_state(&mut self, state: &State) -> Result<(), BackendError> {
-        self.state.write(&self.ctx, &self.plan, state)
-    }
-
-    fn set_forces(&mut self, forces: &[f64]) -> Result<(), BackendError> {
-        self.state.set_forces(&self.ctx, &self.plan, forces)
-    }
-
-    fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
-        check_kernel(&self.plan, kernel)?;
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        self.state.save(&mut encoder);
-        self.ctx.submit_and_wait(encoder)?;
-        match self.run_minimise() {
-            // Results the device could not finish (loops cut short, a lost
-            // device) are not kept: the state goes back to the call's start.
-            Err(e @ BackendError::Gpu(_)) => Err(e.after_rollback(self.state.rollback(&self.ctx))),
-            other => other,
+resident_backend! {
+    GpuBarrierBackend, load() {
+        fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
+            check_kernel(&self.plan, kernel)?;
+            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+            self.state.save(&mut encoder);
+            self.ctx.submit_and_wait(encoder)?;
+            match self.run_minimise() {
+                // Results the device could not finish (loops cut short, a
+                // lost device) are not kept: the state goes back to the
+                // call's start.
+                Err(e @ BackendError::Gpu(_)) => {
+                    Err(e.after_rollback(self.state.rollback(&self.ctx)))
+                }
+                other => other,
+            }
         }
     }
 }

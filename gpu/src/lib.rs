@@ -27,6 +27,7 @@ pub mod origin;
 mod params;
 mod readback;
 mod resident;
+mod resident_backend;
 pub mod shader;
 pub mod software_threads;
 mod xpbd;

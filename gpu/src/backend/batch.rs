@@ -305,20 +305,10 @@ impl GpuBatch {
         Ok(GpuBatch { backend, plans })
     }
 
-    /// Number of worlds.
-    pub fn len(&self) -> usize {
-        self.plans.len()
-    }
-
-    /// Whether the batch has no worlds (never: [`GpuBatch::new`] refuses
-    /// that).
-    pub fn is_empty(&self) -> bool {
-        self.plans.is_empty()
-    }
-
-    /// World `k`'s plan.
-    pub fn plan(&self, k: usize) -> &Plan {
-        &self.plans[k]
+    /// The worlds' plans, in world order (at least one: [`GpuBatch::new`]
+    /// refuses none).
+    pub fn plans(&self) -> &[Plan] {
+        &self.plans
     }
 
     /// Compute dispatches per step, for all worlds together.

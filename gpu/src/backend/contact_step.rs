@@ -25,8 +25,8 @@ use hyperpbd_core::{BackendError, GpuError, Kernel, Plan, StepReport};
 use super::GpuBackend;
 use crate::Precision;
 use crate::contact::{
-    BOXES_FROM_STATE, Block, Bound, ContactBuffers, ContactKernels, Outcome, Particles,
-    SKIP_FIXED_PAIRS,
+    BOXES_FROM_STATE, Block, Bound, ContactBuffers, ContactKernels, ContactPhase, Outcome,
+    Particles, SKIP_FIXED_PAIRS,
 };
 use crate::context::GpuContext;
 use crate::xpbd::Placed;
@@ -103,11 +103,12 @@ impl ContactStage {
         let Some(block) = self.buffers.block_of(call) else {
             return;
         };
-        match kernel {
-            Kernel::Broadphase => self.buffers.encode_broadphase(&self.kernels, pass, block),
-            Kernel::Collide => self.buffers.encode_collide(&self.kernels, pass, block),
-            _ => {}
-        }
+        let phase = match kernel {
+            Kernel::Broadphase => ContactPhase::Broadphase,
+            Kernel::Collide => ContactPhase::Collide,
+            _ => return,
+        };
+        self.buffers.encode(&self.kernels, pass, phase, block);
     }
 
     /// Whether a list did not fit (the lists are grown then: rerun), or
@@ -215,9 +216,10 @@ impl GpuBackend {
             for d in &self.fast {
                 self.encode(&mut pass, d);
             }
+            let (phase, block) = (ContactPhase::Report, stage.report_block);
             stage
                 .buffers
-                .encode_report(&stage.kernels, &mut pass, stage.report_block);
+                .encode(&stage.kernels, &mut pass, phase, block);
         }
         let staging = &self.buffers.report_staging;
         encoder.copy_buffer_to_buffer(&self.buffers.status, 0, staging, 0, 16);

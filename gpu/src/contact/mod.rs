@@ -113,6 +113,18 @@ impl EntryPoint for ContactEntry {
     }
 }
 
+/// What one recording of the set does (the module doc's rows).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum ContactPhase {
+    /// Boxes, grid, bins, scan, lists (8 dispatches).
+    Broadphase,
+    /// One contact iteration: snapshot, collide (2 dispatches).
+    Collide,
+    /// The report of the last lists on the current positions: deepest
+    /// overlap and active pairs (2 dispatches).
+    Report,
+}
+
 /// Group 0 (contact.wgsl): the prelude's x v p force, then status props
 /// boxes cands snapshot scratch counters ranges words lists.
 const BINDINGS: [Binding; 14] = [
@@ -186,59 +198,42 @@ impl ContactBuffers {
         Some(n)
     }
 
-    /// Records the broadphase (parameter block `block`) into `pass`; the
-    /// caller restores its own bind groups afterwards.
-    pub(crate) fn encode_broadphase(
+    /// Records `phase` (parameter block `block`) into `pass`, nothing
+    /// without particles; the caller restores its own bind groups
+    /// afterwards.
+    pub(crate) fn encode(
         &self,
         kernels: &ContactKernels,
         pass: &mut wgpu::ComputePass<'_>,
+        phase: ContactPhase,
         block: usize,
     ) {
         let Some(n) = self.bind(pass, block) else {
             return;
         };
         let set = &kernels.set;
-        let scan = self.scan_blocks() as u32;
         use ContactEntry::*;
-        set.dispatch(pass, BoxesAndBounds, BOUND_THREADS);
-        set.dispatch_workgroups(pass, GridFrame, 1);
-        set.dispatch(pass, BinCount, n);
-        set.dispatch_workgroups(pass, ScanReduce, scan);
-        set.dispatch_workgroups(pass, ScanTop, 1);
-        set.dispatch_workgroups(pass, ScanApply, scan);
-        set.dispatch(pass, BinFill, n);
-        set.dispatch(pass, Neighbours, n);
-    }
-
-    /// Records one contact iteration (parameter block `block`).
-    pub(crate) fn encode_collide(
-        &self,
-        kernels: &ContactKernels,
-        pass: &mut wgpu::ComputePass<'_>,
-        block: usize,
-    ) {
-        let Some(n) = self.bind(pass, block) else {
-            return;
-        };
-        kernels.set.dispatch(pass, ContactEntry::Snapshot, n);
-        kernels.set.dispatch(pass, ContactEntry::Collide, n);
-    }
-
-    /// Records the report of the last lists on the current positions:
-    /// deepest overlap and active pairs (parameter block `block`).
-    pub(crate) fn encode_report(
-        &self,
-        kernels: &ContactKernels,
-        pass: &mut wgpu::ComputePass<'_>,
-        block: usize,
-    ) {
-        let Some(n) = self.bind(pass, block) else {
-            return;
-        };
-        kernels.set.dispatch(pass, ContactEntry::Report, n);
-        kernels
-            .set
-            .dispatch_workgroups(pass, ContactEntry::ReportFinal, 1);
+        match phase {
+            ContactPhase::Broadphase => {
+                let scan = self.scan_blocks() as u32;
+                set.dispatch(pass, BoxesAndBounds, BOUND_THREADS);
+                set.dispatch_workgroups(pass, GridFrame, 1);
+                set.dispatch(pass, BinCount, n);
+                set.dispatch_workgroups(pass, ScanReduce, scan);
+                set.dispatch_workgroups(pass, ScanTop, 1);
+                set.dispatch_workgroups(pass, ScanApply, scan);
+                set.dispatch(pass, BinFill, n);
+                set.dispatch(pass, Neighbours, n);
+            }
+            ContactPhase::Collide => {
+                set.dispatch(pass, Snapshot, n);
+                set.dispatch(pass, Collide, n);
+            }
+            ContactPhase::Report => {
+                set.dispatch(pass, Report, n);
+                set.dispatch_workgroups(pass, ReportFinal, 1);
+            }
+        }
     }
 }
 

@@ -40,12 +40,6 @@ pub(crate) fn measure(plan: &Plan, families: &Families, family: usize, call: u32
     }
     Call {
         op: OP_GUARD_MEASURE,
-        count: fam.len() as u32,
-        family: family as u32,
-        elem_base: families.elem_base[family],
-        slot_base: families.slot_base[family],
-        arity: fam.arity as u32,
-        call,
         flags,
         alpha_tilde: guards.min_measure_ratio.unwrap_or(0.0),
         slot_map: if material {
@@ -54,7 +48,7 @@ pub(crate) fn measure(plan: &Plan, families: &Families, family: usize, call: u32
             0
         },
         kernel: Some(Kernel::GuardMeasure { family }),
-        ..Call::default()
+        ..families.family_call(plan, family, call)
     }
 }
 

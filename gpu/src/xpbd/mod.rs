@@ -31,6 +31,7 @@ use hyperpbd_core::{FamilyKind, GpuError, Plan};
 use crate::SceneOrigin;
 use crate::kernel_set::{Binding, EntryPoint, KernelSet};
 use crate::shader::ShaderFile;
+use call::Call;
 pub(crate) use residual::step_report;
 use schedule::Dispatch;
 
@@ -116,6 +117,22 @@ impl Families {
             material::push_rest_data(f, &mut out.rest);
         }
         Ok(out)
+    }
+
+    /// A call over every element of family `family` of `plan` (`call`: its
+    /// index in the step): the family's element and slot offsets and
+    /// arity, the other fields zero.
+    pub fn family_call(&self, plan: &Plan, family: usize, call: u32) -> Call {
+        let f = &plan.families[family];
+        Call {
+            count: f.len() as u32,
+            family: family as u32,
+            elem_base: self.elem_base[family],
+            slot_base: self.slot_base[family],
+            arity: f.arity as u32,
+            call,
+            ..Call::default()
+        }
     }
 }
 

@@ -34,15 +34,10 @@ pub(crate) fn project(
     let mut c = Call {
         count: range.len() as u32,
         first: range.start as u32,
-        family: family as u32,
-        elem_base: families.elem_base[family],
-        slot_base: families.slot_base[family],
-        arity: f.arity as u32,
-        call,
         flags: if first { FLAG_FIRST } else { 0 } | if last { FLAG_UNREAD } else { 0 },
         alpha_tilde: f.compliance / (plan.h * plan.h),
         kernel: Some(Kernel::Project { family, color }),
-        ..Call::default()
+        ..families.family_call(plan, family, call)
     };
     match &f.kind {
         FamilyKind::Distance => c.op = OP_PROJECT_DISTANCE,

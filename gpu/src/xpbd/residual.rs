@@ -49,15 +49,9 @@ pub(crate) fn residual_calls(
         let index = first_call + family as u32;
         let mut call = Call {
             op: OP_RESIDUAL,
-            count: f.len() as u32,
-            family: family as u32,
-            elem_base: families.elem_base[family],
-            slot_base: families.slot_base[family],
-            arity: f.arity as u32,
-            call: index,
             kind: kind_code(&f.kind),
             chunk: chunks.len() as u32,
-            ..Call::default()
+            ..families.family_call(plan, family, index)
         };
         if let FamilyKind::HyperplaneContact { normal, .. } = &f.kind {
             call.normal = normal.clone();

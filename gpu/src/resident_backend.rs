@@ -1,0 +1,137 @@
+//! What the two GPU backends ([`crate::GpuBackend`], the XPBD step, and
+//! [`crate::GpuBarrierBackend`], the incremental-potential step) do the
+//! same way, because both keep the whole state on the device in the same
+//! fields and build themselves on a device source the same way:
+//!
+//! ```text
+//! fields       plan: Plan, precision: Precision, ctx: GpuContext,
+//!              state: ResidentState, exporter: Exporter
+//! load         T::load(DeviceSource, plan, state, precision, extra…): the
+//!              type's loader, its own further arguments given per type
+//! new          on a device of its own, on an adapter found for precision
+//! with_adapter on a device of its own, on the given adapter
+//! with_device  on the caller's device and queue (DeviceSource::Given)
+//! adapter      the summary of the adapter it runs on
+//! export       PositionExport: the resident positions into a caller's
+//!              vertex buffer, one dispatch recorded into the caller's
+//!              encoder (crate::export)
+//! Backend      name "gpu-<precision>", plan, step = step_adaptive over the
+//!              type's Subdivided attempts, read/write state and set forces
+//!              through the ResidentState; the rest given per type
+//! ```
+//! The orphan rule keeps a blanket `impl Backend` out of this crate, so one
+//! macro writes these items for each backend.
+
+/// Writes, for the resident GPU backend `$backend` (fields as the module
+/// doc says) loaded by `Self::$load(source, plan, state, precision,
+/// $extra…)`: `new`, `with_adapter`, `with_device`, `adapter`,
+/// [`crate::PositionExport`], and [`hyperpbd_core::Backend`] with the
+/// shared methods and `$own`, the type's own ones (`run_kernel`,
+/// optionally `prefetch_state`).
+macro_rules! resident_backend {
+    ($backend:ty, $load:ident($($extra:expr),*) { $($own:tt)* }) => {
+        impl $backend {
+            /// Finds an adapter for `precision`, creates a device and loads
+            /// `plan` with `state`.
+            pub fn new(
+                plan: ::hyperpbd_core::Plan,
+                state: &::hyperpbd_core::State,
+                precision: $crate::Precision,
+            ) -> Result<Self, ::hyperpbd_core::BackendError> {
+                let (adapter, _) = $crate::request_adapter(precision)?;
+                Self::with_adapter(&adapter, plan, state, precision)
+            }
+
+            /// Loads `plan` with `state` on a device of `adapter`.
+            pub fn with_adapter(
+                adapter: &wgpu::Adapter,
+                plan: ::hyperpbd_core::Plan,
+                state: &::hyperpbd_core::State,
+                precision: $crate::Precision,
+            ) -> Result<Self, ::hyperpbd_core::BackendError> {
+                let source = $crate::context::DeviceSource::Own(adapter);
+                Self::$load(source, plan, state, precision $(, $extra)*)
+            }
+
+            /// Loads `plan` with `state` on the caller's `device` and
+            /// `queue` (created on `adapter` with the features `precision`
+            /// needs: [`crate::required_features`]), so the simulation
+            /// lives in the caller's application:
+            /// [`crate::PositionExport::encode_positions`] then fills a
+            /// vertex buffer of the caller's without a host round trip. The
+            /// caller's error handler and device-lost callback stay in place.
+            pub fn with_device(
+                adapter: &wgpu::Adapter,
+                device: wgpu::Device,
+                queue: wgpu::Queue,
+                plan: ::hyperpbd_core::Plan,
+                state: &::hyperpbd_core::State,
+                precision: $crate::Precision,
+            ) -> Result<Self, ::hyperpbd_core::BackendError> {
+                let source = $crate::context::DeviceSource::Given {
+                    adapter,
+                    device,
+                    queue,
+                };
+                Self::$load(source, plan, state, precision $(, $extra)*)
+            }
+
+            /// The adapter this backend runs on.
+            pub fn adapter(&self) -> &$crate::AdapterSummary {
+                &self.ctx.summary
+            }
+        }
+
+        impl $crate::PositionExport for $backend {
+            fn export_parts(&self) -> $crate::export::ExportParts<'_> {
+                $crate::export::ExportParts::new(
+                    &self.ctx,
+                    &self.state,
+                    &self.exporter,
+                    self.plan.particle_count(),
+                )
+            }
+        }
+
+        impl ::hyperpbd_core::Backend for $backend {
+            fn name(&self) -> String {
+                format!("gpu-{}", self.precision)
+            }
+
+            fn plan(&self) -> &::hyperpbd_core::Plan {
+                &self.plan
+            }
+
+            fn step(
+                &mut self,
+            ) -> Result<::hyperpbd_core::StepReport, ::hyperpbd_core::BackendError> {
+                ::hyperpbd_core::adaptive::step_adaptive(
+                    self.plan.substeps,
+                    self.plan.adaptive,
+                    self,
+                )
+            }
+
+            fn read_state(
+                &mut self,
+            ) -> Result<::hyperpbd_core::State, ::hyperpbd_core::BackendError> {
+                Ok(self.state.read(&self.ctx)?)
+            }
+
+            fn write_state(
+                &mut self,
+                state: &::hyperpbd_core::State,
+            ) -> Result<(), ::hyperpbd_core::BackendError> {
+                self.state.write(&self.ctx, &self.plan, state)
+            }
+
+            fn set_forces(&mut self, forces: &[f64]) -> Result<(), ::hyperpbd_core::BackendError> {
+                self.state.set_forces(&self.ctx, &self.plan, forces)
+            }
+
+            $($own)*
+        }
+    };
+}
+
+pub(crate) use resident_backend;
