@@ -12,7 +12,7 @@
 //! [`step_adaptive`] from [`crate::Backend::step`]; the report of the
 //! accepted attempt carries every attempt ([`crate::StepReport::attempts`]).
 
-use crate::guards::Attempt;
+use crate::guard_rules::Attempt;
 use crate::{Adaptive, BackendError, StepError, StepReport};
 
 /// One attempt of a step with 2^`subdivision` times the plan's substeps.

@@ -24,7 +24,7 @@
 use crate::IncrementalPotentialPlan;
 use crate::coloring::greedy_colors;
 use crate::geometry::{Scratch, constraint_value, unit_vector};
-use crate::guards::{Adaptive, Guards, guarded_families};
+use crate::guard_rules::{Adaptive, Guards, guarded_families};
 use crate::material_plan::{self, FamilyMass};
 use crate::{ConstraintKind, Family, FamilyKind, Obstacle, Scene, SceneError, Solver, StageName};
 

@@ -9,7 +9,7 @@
 //!                            needs `guards` (only a guard rejection is retried)
 //! ```
 
-use crate::guards::MAX_SUBDIVISIONS;
+use crate::guard_rules::MAX_SUBDIVISIONS;
 use crate::{Scene, SceneError, Solver};
 
 impl Scene {
