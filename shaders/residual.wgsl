@@ -2,8 +2,11 @@
 // the active contacts (λ > 0). Elements are split into chunks of CHUNK; one
 // workgroup per chunk strides over it and reduces in workgroup memory into
 // `partials`, then one workgroup per family reduces its chunks into
-// `report`. Maximum and integer counts are exact, so the result does not
-// depend on the reduction order.
+// `report`. When every family has at most WORKGROUP elements,
+// `residual_lanes` instead runs one lane per (family, world) over the
+// family's elements in order, in one dispatch without barriers. Maximum and
+// integer counts are exact, so the result does not depend on the reduction
+// order: both ways give the same report bit for bit.
 //
 //   equality:  |C(x)|          contact:  max(0, −C(x)),  active if λ > 0
 //   tether:    max(0, |x1 − x0| − rest)
@@ -51,6 +54,15 @@ fn violation(e: u32) -> real {
     return max(rest_at(s) - nx, 0.0);
 }
 
+// Element e of the running residual call into the running maximum and
+// (for a contact family) the count of active contacts.
+fn take_element(e: u32, contact: bool, worst: ptr<function, real>, contacts: ptr<function, u32>) {
+    *worst = max(*worst, violation(e));
+    if (contact && lambda_at(call.slot_base + e) > 0.0) {
+        *contacts += 1u;
+    }
+}
+
 // Tree reduction of the workgroup's partial_max / partial_count into
 // element 0 (every invocation of the workgroup calls it).
 fn reduce_workgroup(lid: u32) {
@@ -71,10 +83,7 @@ fn residual_chunk(k: u32, start: u32, end: u32, lid: u32) {
     var contacts = 0u;
     let contact = call.kind == 3u;
     for (var e = start + lid; e < end; e += WORKGROUP) {
-        worst = max(worst, violation(e));
-        if (contact && lambda_at(call.slot_base + e) > 0.0) {
-            contacts += 1u;
-        }
+        take_element(e, contact, &worst, &contacts);
     }
     partial_max[lid] = worst;
     partial_count[lid] = contacts;
@@ -128,4 +137,26 @@ fn residual(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) grou
 @compute @workgroup_size(WORKGROUP)
 fn reduce(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     reduce_family(here.first_call + split_world(wid.x, here.end_call - here.first_call), lid);
+}
+
+// One lane per (family, world) when every family has at most WORKGROUP
+// elements: lane t = family · WORLDS + world, so the lanes of a SIMD group
+// share a family (and its kind); the family's elements in order, its
+// report entries written directly.
+@compute @workgroup_size(WORKGROUP)
+fn residual_lanes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let t = linear_index(gid, groups);
+    if (t >= here.count * WORLDS) {
+        return;
+    }
+    world = t % WORLDS;
+    call = calls[world * WORLD_CALLS + here.first_call + t / WORLDS];
+    var worst: real = 0.0;
+    var contacts = 0u;
+    let contact = call.kind == 3u;
+    for (var e = 0u; e < call.count; e++) {
+        take_element(e, contact, &worst, &contacts);
+    }
+    report[world * WORLD_REPORT + 2u * call.family] = worst;
+    report[world * WORLD_REPORT + 2u * call.family + 1u] = real(contacts);
 }

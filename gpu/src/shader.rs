@@ -105,6 +105,7 @@ impl ShaderFile {
                 "project_material",
                 "residual",
                 "reduce",
+                "residual_lanes",
                 "guard",
             ],
             ShaderFile::Scan => &["scan_reduce", "scan_top", "scan_apply"],

@@ -154,6 +154,7 @@ pub(crate) enum XpbdEntry {
     Small,
     Guard(u32, u32),
     Material(u32),
+    ResidualLanes,
 }
 
 impl XpbdEntry {
@@ -169,6 +170,7 @@ impl XpbdEntry {
             XpbdEntry::Small => 6,
             XpbdEntry::Guard(..) => 7,
             XpbdEntry::Material(_) => 8,
+            XpbdEntry::ResidualLanes => 9,
         }
     }
 }
@@ -185,6 +187,7 @@ impl EntryPoint for XpbdEntry {
             XpbdEntry::Small => "step_small",
             XpbdEntry::Guard(..) => "guard",
             XpbdEntry::Material(_) => "project_material",
+            XpbdEntry::ResidualLanes => "residual_lanes",
         };
         (ShaderFile::Step, name)
     }
@@ -211,7 +214,10 @@ impl EntryPoint for XpbdEntry {
             | XpbdEntry::Oriented(f)
             | XpbdEntry::Material(f) => vec![flags(f)],
             XpbdEntry::Guard(op, f) => vec![("OP0", f64::from(op)), flags(f)],
-            XpbdEntry::Residual | XpbdEntry::Reduce | XpbdEntry::Small => Vec::new(),
+            XpbdEntry::Residual
+            | XpbdEntry::Reduce
+            | XpbdEntry::ResidualLanes
+            | XpbdEntry::Small => Vec::new(),
         }
     }
 }

@@ -103,6 +103,9 @@ pub(crate) enum Run {
     Residual,
     /// `reduce`: one workgroup per family.
     Reduce,
+    /// `residual_lanes`: one invocation per (family, world), when every
+    /// family fits one workgroup.
+    ResidualLanes,
     /// `step_small`: one workgroup, every call of the range.
     Small,
     /// `guard`: one guard call (guard.wgsl), its op and FLAG_*.
@@ -124,6 +127,7 @@ impl Run {
             Run::Material(flags) => E::Material(flags),
             Run::Residual => E::Residual,
             Run::Reduce => E::Reduce,
+            Run::ResidualLanes => E::ResidualLanes,
             Run::Small => E::Small,
             Run::Guard(op, flags) => E::Guard(op, flags),
             Run::Host(_) => return None,
@@ -132,7 +136,8 @@ impl Run {
 }
 
 /// One dispatch: calls `first_call..end_call`, `count` invocations (or
-/// workgroups for Residual / Reduce / Small).
+/// workgroups for Residual / Reduce / Small; residual calls for
+/// ResidualLanes, each run for every world).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct Dispatch {
     pub run: Run,
@@ -235,12 +240,16 @@ impl Schedule {
                 false,
             ));
         }
-        let residual_range = (step_end as u32, run_base as u32);
+        let residual = Residual {
+            calls: (step_end as u32, run_base as u32),
+            chunks: chunks.len() as u32,
+            lanes: plan.families.iter().all(|f| f.len() <= workgroup as usize),
+        };
         let mode = mode.unwrap_or_else(|| choose(plan, &calls[..step_end], workgroup, software));
-        let exact = exact(&calls[..step_end], residual_range, chunks.len() as u32);
+        let exact = exact(&calls[..step_end], residual);
         let fast = match mode {
             StepMode::Exact => exact.clone(),
-            StepMode::Fused => fused(&calls[..step_end], residual_range, chunks.len() as u32),
+            StepMode::Fused => fused(&calls[..step_end], residual),
             StepMode::Small => {
                 let mut small = vec![Dispatch {
                     run: Run::Small,
@@ -248,7 +257,7 @@ impl Schedule {
                     end_call: step_end as u32,
                     count: 1,
                 }];
-                small.extend(residual_pair(residual_range, chunks.len() as u32));
+                small.extend(residual.dispatches());
                 small
             }
         };
@@ -374,31 +383,50 @@ fn single(call: &Call, index: usize) -> Dispatch {
     }
 }
 
-/// Residual over every chunk, then the per-family reduction.
-fn residual_pair((first, end): (u32, u32), chunks: u32) -> [Dispatch; 2] {
-    [
-        Dispatch {
-            run: Run::Residual,
-            first_call: first,
-            end_call: end,
-            count: chunks,
-        },
-        Dispatch {
-            run: Run::Reduce,
-            first_call: first,
-            end_call: end,
-            count: end - first,
-        },
-    ]
+/// The step's residual calls and how they run.
+#[derive(Debug, Clone, Copy)]
+struct Residual {
+    /// Its calls, `first..end` (one per family).
+    calls: (u32, u32),
+    /// Chunks of the chunk table.
+    chunks: u32,
+    /// Every family has at most one workgroup of elements: one lane per
+    /// (family, world) runs the family's elements in order, in one
+    /// dispatch without workgroup barriers (lavapipe runs a barrier as a
+    /// coroutine switch of every lane). Maxima and integer counts are
+    /// exact, so both ways give the same report bit for bit.
+    lanes: bool,
 }
 
-fn exact(step: &[Call], residual: (u32, u32), chunks: u32) -> Vec<Dispatch> {
+impl Residual {
+    /// `residual_lanes`; or `residual` over every chunk, then the
+    /// per-family reduction.
+    fn dispatches(self) -> Vec<Dispatch> {
+        let (first_call, end_call) = self.calls;
+        let families = end_call - first_call;
+        let dispatch = |run, count| Dispatch {
+            run,
+            first_call,
+            end_call,
+            count,
+        };
+        if self.lanes {
+            return vec![dispatch(Run::ResidualLanes, families)];
+        }
+        vec![
+            dispatch(Run::Residual, self.chunks),
+            dispatch(Run::Reduce, families),
+        ]
+    }
+}
+
+fn exact(step: &[Call], residual: Residual) -> Vec<Dispatch> {
     let mut out: Vec<Dispatch> = step.iter().enumerate().map(|(i, c)| single(c, i)).collect();
-    out.extend(residual_pair(residual, chunks));
+    out.extend(residual.dispatches());
     out
 }
 
-fn fused(step: &[Call], residual: (u32, u32), chunks: u32) -> Vec<Dispatch> {
+fn fused(step: &[Call], residual: Residual) -> Vec<Dispatch> {
     let mut out = Vec::new();
     let mut i = 0;
     while i < step.len() {
@@ -419,7 +447,7 @@ fn fused(step: &[Call], residual: (u32, u32), chunks: u32) -> Vec<Dispatch> {
             i += 1;
         }
     }
-    out.extend(residual_pair(residual, chunks));
+    out.extend(residual.dispatches());
     out
 }
 
