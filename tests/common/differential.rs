@@ -17,10 +17,15 @@
 //!
 //! ```text
 //! position   FrameErrorModel: double sum over the frame's S substeps of the
-//!            fresh error u X c + u h V + J_k + M_k (u = ε/2, X the largest
-//!            |device coordinate|, c the roundings landing on a coordinate per
-//!            substep, J_k the static-friction jump allowance μ w λ, M_k the
-//!            material elements' conditioning, docs/materials.md §7)
+//!            fresh error. Plans with a family coupling particles: u X c +
+//!            u h V + J_k + M_k (u = ε/2, X the largest |device coordinate|,
+//!            c the roundings landing on a coordinate per substep, J_k the
+//!            static-friction jump allowance μ w λ, M_k the material
+//!            elements' conditioning, docs/materials.md §7). Independent
+//!            particles: σ (u max_i b(X_i) c_i,k + u h V) + J_k (X_i particle
+//!            i's largest |device coordinate| on the moved axes, b its
+//!            binade, c_i,k the roundings landing on it in substep k, σ the
+//!            Euclidean factor where a plane mixes axes)
 //! velocity   the same model's velocity sum (e_v ← e_v + q + r_k / h)
 //! residual   per family, |r_gpu − r_cpu| where r = max_e |C_e| (max(0, −C)
 //!            for contacts). max is 1-Lipschitz, so it is at most
