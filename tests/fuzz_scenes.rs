@@ -570,8 +570,8 @@ fn apply(text: &mut Vec<u8>, m: &Mutation) {
 
 /// Loads `text` and checks the answer; for scenes that load, also compiles
 /// and steps them (small dimensions only: a huge `dim` with no vectors is a
-/// known Plan::compile allocation panic, see tests/validation.rs; and small
-/// substep × iteration counts only, so every case is quick).
+/// known Plan::compile allocation panic, see tests/validation/known_gaps.rs;
+/// and small substep × iteration counts only, so every case is quick).
 fn check_document(text: &str) -> Result<(), TestCaseError> {
     match Scene::from_json_str(text) {
         Ok(scene) => {
