@@ -2,7 +2,7 @@
 """Regenerates the CPU/GPU bounds tables from the tests' own BOUND lines.
 
     scripts/bounds-table.py            runs tests/gpu_differential.rs and
-                                       tests/gpu_kernels.rs (lavapipe) and rewrites the
+                                       tests/gpu_kernels/ (lavapipe) and rewrites the
                                        tables between the markers
                                        <!-- bounds:begin … --> / <!-- bounds:end --> in
                                        README.md, <!-- bounds-all:begin … --> and
@@ -42,7 +42,7 @@ def bound_lines(text: str) -> list[list[str]]:
 
 def kernel_table(text: str) -> str:
     """`KERNEL | case | kernel metric | measured | bound | precision` lines
-    (tests/gpu_kernels.rs) as one row per (case, kernel metric)."""
+    (tests/gpu_kernels/) as one row per (case, kernel metric)."""
     rows: dict[tuple[str, str], dict[str, tuple[str, str]]] = {}
     for line in text.splitlines():
         if not line.startswith("KERNEL | "):

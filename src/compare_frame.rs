@@ -106,7 +106,7 @@
 //! ∞-norm up to 1.5 even at rest length, and a compressed link scales
 //! their tangential difference by ℓ₀/|d|). The uniform count passes both
 //! with slack (0.55 of it in that frame), not by derivation;
-//! tests/gpu_kernels.rs holds each kernel alone to its full conditioning. Particle contact also switches on and off at C = 0,
+//! tests/gpu_kernels/ holds each kernel alone to its full conditioning. Particle contact also switches on and off at C = 0,
 //! which no rounding model bounds: granular scenes are compared on
 //! invariants (tests/gpu_granular.rs).
 //!

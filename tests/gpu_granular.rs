@@ -3,7 +3,7 @@
 //! on the GPU kernels, everything else the plain step's kernels).
 //!
 //! f64: the pair lists are equal (same boxes, exact sweep), every kernel is
-//! bit-identical to the CPU (tests/gpu_collide.rs, tests/gpu_kernels.rs),
+//! bit-identical to the CPU (tests/gpu_collide.rs, tests/gpu_kernels/),
 //! so whole steps must be bit-identical: bound 0.
 //!
 //! f32: granular flows are chaotic (a grain's path branches at every

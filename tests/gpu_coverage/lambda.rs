@@ -7,7 +7,7 @@
 //! contact  λ' = max(λ + Δλ, 0),  tether  λ' = min(λ + Δλ, 0)
 //! static friction  |Δt| ≤ μ w λ'
 //! ```
-//! (`tests/gpu_kernels.rs` projects each color once after the reset λ = 0,
+//! (`tests/gpu_kernels/` projects each color once after the reset λ = 0,
 //! where α~λ vanishes.) Kernel level, both backends from the same state;
 //! f64 on lavapipe bit for bit after every call (`common::exact`); the
 //! material families (stvk, neo_hookean) on a compressed Kuhn block in 2, 3
