@@ -36,7 +36,12 @@ fn grid_equals_exhaustive_in_every_dimension_and_size() {
             }
         }
     }
-    println!("BOUND | cpu grid == exhaustive | {compared} pairs compared | exact | same f64 test");
+    common::bound::print_bound(
+        "cpu grid == exhaustive",
+        format_args!("{compared} pairs compared"),
+        "exact",
+        "same f64 test",
+    );
     assert!(compared > 10_000, "the cases must produce many pairs");
 }
 

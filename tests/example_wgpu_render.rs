@@ -78,8 +78,11 @@ fn the_wgpu_picture_matches_the_cpu_renderers_silhouette() {
     }
     let iou = both as f64 / either.max(1) as f64;
     let bound = ((r - 1.0) / (r + 1.0)).powi(2);
-    println!(
-        "BOUND | wgpu_render vs CPU renderer | silhouette IoU | {iou:.4} | >= {bound:.4} | discs of {r:.2} px, {either} px covered, {gpu_only} px only on the GPU"
+    common::bound::print_bound(
+        "wgpu_render vs CPU renderer, silhouette IoU",
+        format_args!("{iou:.4}"),
+        format_args!(">= {bound:.4}"),
+        format_args!("discs of {r:.2} px, {either} px covered, {gpu_only} px only on the GPU"),
     );
     assert!(either > 0, "nothing drawn");
     assert!(iou >= bound, "IoU {iou} < {bound}");

@@ -138,9 +138,11 @@ fn barrier_steps_over_large_meshes_match_the_cpu_or_are_refused() {
                         "{label}: a mesh the kernels fit in the budget was refused: {e}"
                     );
                     assert_unchanged(&label, &before, &gpu.read_state().expect("read"));
-                    println!(
-                        "BOUND | loop budget, {label} on {} | typed error, state unchanged | — | never a silently cut step",
-                        summary.name
+                    common::bound::print_bound(
+                        format_args!("loop budget, {label} on {}", summary.name),
+                        "typed error, state unchanged",
+                        "—",
+                        "never a silently cut step",
                     );
                     tripped += usize::from(triangles > OVER_THE_BUDGET);
                     break;

@@ -176,8 +176,11 @@ fn f32_worlds_stay_within_the_single_world_frame_bound() {
             worst_v = worst_v.max(dv / bv);
         }
     }
-    eprintln!(
-        "BOUND gpu_batch chains f32 (15 worlds, 30 frames): position measured/bound {worst_x:.3}, velocity {worst_v:.3}"
+    common::bound::print_bound(
+        "gpu_batch chains f32 (15 worlds, 30 frames), worst measured/bound",
+        format_args!("position {worst_x:.3}, velocity {worst_v:.3}"),
+        "1 (each frame, each world)",
+        "the single-world per-frame model (DivergenceModel::frame_bounds)",
     );
 }
 

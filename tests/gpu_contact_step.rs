@@ -21,6 +21,8 @@
 
 mod common;
 
+use common::bound::print_bound;
+
 use common::gpu::adapter_or_skip;
 use hyperpbd::{
     Backend, BackendError, Collisions, CpuBackend, Kernel, Particle, Plan, Scene, SceneBuilder,
@@ -119,8 +121,11 @@ fn f64_contact_steps_equal_the_cpu_bit_for_bit_in_both_schedules() {
             }
         }
     }
-    println!(
-        "BOUND | gpu f64 contact step == cpu (5 scenes, fused and exact) | {frames_compared} frames, 0 differing bits | 0 | same pairs, same list order, same operations"
+    print_bound(
+        "gpu f64 contact step == cpu (5 scenes, fused and exact)",
+        format_args!("{frames_compared} frames, 0 differing bits"),
+        0,
+        "same pairs, same list order, same operations",
     );
 }
 
@@ -162,8 +167,11 @@ fn lists_that_outgrow_their_slots_are_grown_and_the_step_rerun() {
             assert_reports_equal("dense cluster after regrowth", &rc, &rg);
             assert!(bits(&sc.positions) == bits(&sg.positions));
             assert!(bits(&sc.velocities) == bits(&sg.velocities));
-            println!(
-                "BOUND | gpu f64 list regrowth inside a step (dense cluster 2d, 1 frame) | longest list {longest}, slots 32 → {slots}, 0 differing bits | 0 | rerun from the saved state"
+            print_bound(
+                "gpu f64 list regrowth inside a step (dense cluster 2d, 1 frame)",
+                format_args!("longest list {longest}, slots 32 → {slots}, 0 differing bits"),
+                0,
+                "rerun from the saved state",
             );
         } else {
             // The rounding bound of tests/gpu_granular.rs: the contact
@@ -182,8 +190,13 @@ fn lists_that_outgrow_their_slots_are_grown_and_the_step_rerun() {
                 * (8.0 * plan.dim as f64 + 40.0)
                 * f64::from(plan.iterations)
                 * f64::from(plan.substeps);
-            println!(
-                "BOUND | gpu f32 list regrowth inside a step (dense cluster 2d, 1 frame) position | {err:e} | {bound:e} | ε·X·(8N+40)·iterations·substeps; longest list {longest}, slots 32 → {slots}"
+            print_bound(
+                "gpu f32 list regrowth inside a step (dense cluster 2d, 1 frame) position",
+                format_args!("{err:e}"),
+                format_args!("{bound:e}"),
+                format_args!(
+                    "ε·X·(8N+40)·iterations·substeps; longest list {longest}, slots 32 → {slots}"
+                ),
             );
             assert!(err <= bound, "f32 regrowth: {err:e} > {bound:e}");
         }
@@ -318,9 +331,11 @@ fn loops_the_adapter_cuts_short_are_an_error_never_a_short_list() {
         }
         Err(e) => {
             assert!(e.to_string().contains("65 535"), "unexpected error: {e}");
-            println!(
-                "BOUND | loop budget of {} | typed error: {e} | — | never a short list",
-                summary.name
+            print_bound(
+                format_args!("loop budget of {}", summary.name),
+                format_args!("typed error: {e}"),
+                "—",
+                "never a short list",
             );
         }
     }
@@ -394,9 +409,14 @@ fn a_step_whose_loops_the_adapter_cuts_short_is_refused_and_rolled_back() {
                 gpu.contact_list_slots() >= Some(n - 1),
                 "the lists were grown before the cut was found"
             );
-            println!(
-                "BOUND | step loop budget of {} ({n} mutually overlapping balls) | typed error, state unchanged: {e} | — | never a silently short list",
-                summary.name
+            print_bound(
+                format_args!(
+                    "step loop budget of {} ({n} mutually overlapping balls)",
+                    summary.name
+                ),
+                format_args!("typed error, state unchanged: {e}"),
+                "—",
+                "never a silently short list",
             );
         }
     }
@@ -424,8 +444,11 @@ fn a_contact_step_waits_for_the_device_the_same_times_whatever_its_substeps() {
         let per_step = (gpu.host_waits() - before) / steps;
         assert_eq!((gpu.host_waits() - before) % steps, 0, "uneven steps");
         waits.push(per_step);
-        println!(
-            "BOUND | host waits per contact step (pit3d 8x6, {substeps} substeps) | {per_step} | 3 | one wait, the status/report read, the contact outcome read; none per substep"
+        print_bound(
+            format_args!("host waits per contact step (pit3d 8x6, {substeps} substeps)"),
+            per_step,
+            3,
+            "one wait, the status/report read, the contact outcome read; none per substep",
         );
     }
     assert_eq!(waits[0], waits[1], "a substep added a round trip");

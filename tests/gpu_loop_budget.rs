@@ -98,9 +98,11 @@ fn a_step_longer_than_the_loop_budget_is_refused_never_cut() {
                         "{label}: v moved"
                     );
                     refused += 1;
-                    println!(
-                        "BOUND | loop budget, {label} on {} | typed error, state unchanged | — | never a silently cut step",
-                        summary.name
+                    common::bound::print_bound(
+                        format_args!("loop budget, {label} on {}", summary.name),
+                        "typed error, state unchanged",
+                        "—",
+                        "never a silently cut step",
                     );
                 }
             }

@@ -64,9 +64,11 @@ fn material_ln_equals_the_f64_shader_ln_bit_for_bit() {
             eprintln!("ln({v:e}): GPU {g:e}, CPU {:e}", ln(v));
         }
     }
-    println!(
-        "BOUND | material ln: CPU vs f64 shader, {} values | {differing} differing | 0 | same operations in the same order, correctly rounded on both sides",
-        values.len()
+    common::bound::print_bound(
+        format_args!("material ln: CPU vs f64 shader, {} values", values.len()),
+        format_args!("{differing} differing"),
+        0,
+        "same operations in the same order, correctly rounded on both sides",
     );
     assert_eq!(differing, 0);
 }

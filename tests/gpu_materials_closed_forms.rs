@@ -82,8 +82,11 @@ fn on_gpu(
         if precision == Precision::F64 {
             let golden_state = golden_state.get_or_insert_with(|| golden(scene));
             if assert_identical_if_claimed(&summary, &label, golden_state, &state) {
-                println!(
-                    "BOUND | {label} settled state vs golden path | 0 | exact | f64 on llvmpipe: bit-identical"
+                common::bound::print_bound(
+                    format_args!("{label} settled state vs golden path"),
+                    0,
+                    "exact",
+                    "f64 on llvmpipe: bit-identical",
                 );
                 continue;
             }

@@ -31,13 +31,7 @@ use hyperpbd::geometry::determinant;
 const EPS: f64 = f64::EPSILON;
 const LAWS: [Law; 2] = [Law::StVenantKirchhoff, Law::NeoHookean];
 
-fn bound(name: &str, measured: f64, limit: f64, why: &str) {
-    println!("BOUND | {name} | {measured:.3e} | {limit:.3e} | {why}");
-    assert!(
-        measured <= limit,
-        "{name}: {measured:e} > {limit:e} ({why})"
-    );
-}
+use common::bound::check_bound as bound;
 
 /// A rotation of R^n (row-major, det +1) from Gram–Schmidt of a random
 /// matrix.

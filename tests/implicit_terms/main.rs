@@ -54,13 +54,7 @@ use num_rational::BigRational;
 const EPS: f64 = f64::EPSILON;
 const DIMS: [usize; 5] = [1, 2, 3, 4, 8];
 
-fn bound(name: &str, measured: f64, limit: f64, why: &str) {
-    println!("BOUND | {name} | {measured:.3e} | {limit:.3e} | {why}");
-    assert!(
-        measured <= limit,
-        "{name}: {measured:e} > {limit:e} ({why})"
-    );
-}
+use common::bound::check_bound as bound;
 
 fn max_abs(v: &[f64]) -> f64 {
     v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
