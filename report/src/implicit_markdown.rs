@@ -191,16 +191,13 @@ pub fn implicit_section(report: &Report, section: &ImplicitSection) -> String {
 /// The README's implicit lines (between the markers); `out` is the
 /// output directory relative to the README.
 pub fn readme_implicit(section: &ImplicitSection, out: &str) -> String {
-    let mut s = String::new();
+    let mut s = format!(
+        "- The implicit path (coupled Newton–PCG, cpu-f64 only) against its Newton and CG budgets \
+         ([{out}/{MARKDOWN}#{ANCHOR}]({out}/{MARKDOWN}#{ANCHOR})):\n"
+    );
     for r in &section.cases {
         if let Some(line) = case_summary(r) {
-            let _ = writeln!(
-                s,
-                "- Implicit path (coupled Newton–PCG, cpu-f64; [{out}/{MARKDOWN}#{ANCHOR}]({out}/{MARKDOWN}#{ANCHOR})), \
-                 {} — error {}: {line}.",
-                r.case.name(),
-                r.metric,
-            );
+            let _ = writeln!(s, "  - {} (error: {}): {line}.", r.case.name(), r.metric);
         }
     }
     s

@@ -182,7 +182,7 @@ fn readme_section_is_replaced_in_place_and_idempotently() {
         "the README must give the headline answer"
     );
     assert!(
-        text.contains("- Implicit path (coupled Newton–PCG"),
+        text.contains("- The implicit path (coupled Newton–PCG"),
         "the README must give the implicit rows' summary"
     );
     // Writing again leaves exactly one section.
