@@ -145,13 +145,16 @@ pub struct ImplicitSection {
     pub wall_seconds: f64,
 }
 
+/// What the first rep records: the budgets used, and a call per frame.
+type Observer<'a> = (&'a mut Budgets, &'a mut dyn FnMut(&State));
+
 /// One run of `frames` steps from `initial`, each `step()` timed alone;
 /// `observe` sees the state after every step when `first`.
 fn run_once(
     backend: &mut dyn hyperpbd::Backend,
     initial: &State,
     frames: u64,
-    mut observe: Option<(&mut Budgets, &mut dyn FnMut(&State))>,
+    mut observe: Option<Observer<'_>>,
 ) -> Result<(f64, State), String> {
     backend.write_state(initial).map_err(|e| e.to_string())?;
     let mut elapsed = 0.0;

@@ -222,7 +222,7 @@ fn incline(newton: u32, cg: Option<u32>) -> Scene {
 
 /// Mass of bead k (1 ≤ k ≤ 12): 1 kg for odd k, 1e-6 kg for even k.
 fn bead_mass(k: usize) -> f64 {
-    if k % 2 == 0 { 1e-6 } else { 1.0 }
+    if k.is_multiple_of(2) { 1e-6 } else { 1.0 }
 }
 
 /// tests/implicit_step.rs's alternating chain with a light free end,

@@ -38,10 +38,13 @@ pub fn undominated(candidates: impl IntoIterator<Item = (usize, f64, f64)>) -> V
 /// Indices of the frontier points among `points` of `backend`, fastest
 /// first. Points without a finite error are never on it.
 pub fn frontier(points: &[Point], backend: BackendKind) -> Vec<usize> {
-    undominated(points.iter().enumerate().filter_map(|(i, p)| {
-        (p.backend == backend && !p.frozen)
-            .then(|| (i, p.ms_per_sim_second, p.error.unwrap_or(f64::NAN)))
-    }))
+    undominated(
+        points
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.backend == backend && !p.frozen)
+            .map(|(i, p)| (i, p.ms_per_sim_second, p.error.unwrap_or(f64::NAN))),
+    )
 }
 
 /// Marks `frontier` on every point, backend by backend.
