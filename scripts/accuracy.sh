@@ -1,12 +1,15 @@
 #!/usr/bin/env bash
 # Regenerates the accuracy report from measurements on this machine:
 #   docs/accuracy.md, docs/effects.md, docs/figures/{accuracy_pareto,
-#   accuracy_cloth,scaling}.png, docs/figures/{accuracy,effects}.json, and the
+#   accuracy_cloth,scaling}.png, docs/figures/{accuracy,effects,implicit}.json, and the
 #   README section "What accuracy costs".
 #
 #   scripts/accuracy.sh                 # the full report (tens of minutes on 2 cores)
 #   scripts/accuracy.sh --only-effects  # only docs/effects.md, figures/effects.json
 #                                       # and the README's effect lines (minutes)
+#   scripts/accuracy.sh --only-implicit # only the implicit rows (Newton × CG budgets):
+#                                       # figures/implicit.json, their section of
+#                                       # docs/accuracy.md and README lines (a minute)
 #   scripts/accuracy.sh --reps 5        # extra options go to `hyperpbd-report`
 #
 # For a smoke test that leaves docs/ alone (under two minutes):

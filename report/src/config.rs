@@ -62,6 +62,16 @@ pub struct Config {
     pub effects_only: bool,
     /// Seconds one timing rep should last (scaling and effects).
     pub time_target: f64,
+    /// Newton budgets (`max_iterations`) of the implicit rows.
+    pub newton_budgets: Vec<u32>,
+    /// CG budgets (`cg_iterations`, None: the default) of the implicit rows.
+    pub cg_budgets: Vec<Option<u32>>,
+    /// Run the implicit rows (implicit_budgets.rs).
+    pub implicit: bool,
+    /// Measure only the implicit rows: writes OUT/figures/implicit.json,
+    /// splices their section into OUT/accuracy.md and (with a README) their
+    /// lines into the README; everything else is left as it is.
+    pub implicit_only: bool,
     /// Run the sweep.
     pub sweep: bool,
     /// Run the scaling section.
@@ -106,6 +116,10 @@ impl Config {
             effects_ball_steps: 60,
             effects_only: false,
             time_target: 0.25,
+            newton_budgets: vec![1, 2, 4, 8, 16, 32, 64],
+            cg_budgets: vec![Some(2), Some(8), Some(32), None],
+            implicit: true,
+            implicit_only: false,
             sweep: true,
             scaling: true,
             effects: true,
@@ -136,6 +150,8 @@ impl Config {
             effects_balls: (4, 6),
             effects_ball_steps: 20,
             time_target: 0.05,
+            newton_budgets: vec![1, 4, 16],
+            cg_budgets: vec![Some(2), None],
             ..Config::full(out)
         }
     }

@@ -18,11 +18,19 @@
 //! effects   ms per step as effects are added one at a time, with controls
 //!           showing that an authored-but-inert effect compiles away effects.rs
 //!           (collisions and the barrier solver on balls: granular_effects.rs)
+//! implicit  the coupled Newton–PCG step (cpu-f64) on the incline and the
+//!           1:1e6 chain (swinging, hanging): error and time against the
+//!           Newton budget × the CG budget, iterations used, how the
+//!           minimisations ended      implicit_budgets.rs (scenes and
+//!           answers: implicit_cases.rs, markdown: implicit_markdown.rs)
 //! output    OUT/accuracy.md, OUT/effects.md, OUT/figures/{accuracy_pareto,
-//!           accuracy_cloth,scaling}.png, OUT/figures/{accuracy,effects}.json;
+//!           accuracy_cloth,scaling}.png, OUT/figures/{accuracy,effects,
+//!           implicit}.json;
 //!           optionally the README section between the accuracy markers
 //!           (effects-only runs: effects.md, effects.json and the README's
-//!           effect lines only)             write.rs (outputs.rs: the files)
+//!           effect lines only; implicit-only runs: figures/implicit.json
+//!           and the implicit section spliced into accuracy.md and the
+//!           README)                          write.rs (outputs.rs: the files)
 //!           accuracy.md markdown.rs, effects.md effects_markdown.rs,
 //!           the README splice readme.rs, shared wording format.rs and
 //!           headlines.rs
@@ -38,6 +46,9 @@ pub mod effects_markdown;
 pub mod format;
 pub mod granular_effects;
 pub mod headlines;
+pub mod implicit_budgets;
+pub mod implicit_cases;
+pub mod implicit_markdown;
 pub mod machine;
 pub mod markdown;
 pub mod measured;
@@ -74,6 +85,16 @@ pub fn run(config: &Config) -> Result<Report, AccuracyError> {
             "substeps and iterations must be ≥ 1".into(),
         ));
     }
+    if config.newton_budgets.is_empty()
+        || config.cg_budgets.is_empty()
+        || config.newton_budgets.contains(&0)
+        || config.cg_budgets.contains(&Some(0))
+    {
+        return Err(AccuracyError::Config(
+            "Newton and CG budgets must be non-empty and ≥ 1".into(),
+        ));
+    }
+    let others = !config.effects_only && !config.implicit_only;
     let start = Instant::now();
     let mut machine = Machine::probe();
     let mut progress = Progress {
@@ -99,7 +120,7 @@ pub fn run(config: &Config) -> Result<Report, AccuracyError> {
     }
 
     let mut results = Vec::new();
-    if config.sweep && !config.effects_only {
+    if config.sweep && others {
         for &case in &config.cases {
             results.push(sweep::run_case(case, config, &mut progress).map_err(AccuracyError::Run)?);
         }
@@ -127,16 +148,18 @@ pub fn run(config: &Config) -> Result<Report, AccuracyError> {
             });
         }
     }
-    let (scaling_points, fits) = if config.scaling && !config.effects_only {
+    let (scaling_points, fits) = if config.scaling && others {
         scaling::run(config, &mut progress)
     } else {
         (Vec::new(), Vec::new())
     };
-    let effect_rows = if config.effects || config.effects_only {
+    let effect_rows = if (config.effects && others) || config.effects_only {
         effects::run(config, &mut progress).map_err(AccuracyError::Run)?
     } else {
         Vec::new()
     };
+    let implicit = ((config.implicit && others) || config.implicit_only)
+        .then(|| implicit_budgets::run(config, &mut progress));
     machine.load_end = machine::load_average();
     let mut report = Report {
         mode: if config.quick { "quick" } else { "full" }.into(),
@@ -152,6 +175,7 @@ pub fn run(config: &Config) -> Result<Report, AccuracyError> {
         effects_ball_steps: config.effects_ball_steps,
         effect_reps: effects::reps(config),
         effects: effect_rows,
+        implicit,
         notices: progress.notes,
         files: Vec::new(),
         wall_seconds: 0.0,

@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! cargo run --release -p hyperpbd-report -- --quick        smoke test → target/accuracy/
-//! scripts/accuracy.sh [--only-effects]                     docs/ and README.md
+//! scripts/accuracy.sh [--only-effects | --only-implicit]   docs/ and README.md
 //! ```
 //! Exit codes as the `hyperpbd` command: 2 bad options, 3 a failed run,
 //! 4 an output that could not be written.
@@ -60,6 +60,14 @@ pub struct AccuracyArgs {
     /// lines; DIR/accuracy.md and the other figures are left as they are.
     #[arg(long, conflicts_with_all = ["no_effects", "no_scaling", "cases", "substeps", "iterations"])]
     only_effects: bool,
+    /// Skip the implicit rows (error against the Newton and CG budgets).
+    #[arg(long)]
+    no_implicit: bool,
+    /// Measure only the implicit rows: writes DIR/figures/implicit.json and
+    /// splices their section into DIR/accuracy.md (and, with --readme,
+    /// their lines into the README); everything else is left as it is.
+    #[arg(long, conflicts_with_all = ["only_effects", "no_implicit", "no_effects", "no_scaling", "cases", "substeps", "iterations", "backends"])]
+    only_implicit: bool,
 }
 
 fn accuracy(args: &AccuracyArgs) -> Result<(), AccuracyError> {
@@ -117,6 +125,8 @@ fn accuracy(args: &AccuracyArgs) -> Result<(), AccuracyError> {
     config.scaling = !args.no_scaling;
     config.effects = !args.no_effects;
     config.effects_only = args.only_effects;
+    config.implicit = !args.no_implicit;
+    config.implicit_only = args.only_implicit;
     if let Some(readme) = &config.readme
         && !readme.is_file()
     {

@@ -6,6 +6,7 @@ use crate::cases::CaseId;
 use crate::config::Config;
 use crate::format::{cell, load_average, ms, noise_note, sci, sci_short, table_head};
 use crate::headlines::{headline_cell, headline_for, headline_sentence};
+use crate::implicit_markdown::{IMPLICIT_BEGIN, IMPLICIT_END, implicit_section};
 use crate::measured::Report;
 use crate::outputs::{CLOTH, EFFECTS_MARKDOWN, JSON, PARETO, SCALING};
 use hyperpbd::BackendKind;
@@ -161,6 +162,14 @@ pub fn markdown(report: &Report, config: &Config) -> String {
             }
             s.push('\n');
         }
+    }
+
+    if let Some(section) = &report.implicit {
+        let _ = writeln!(
+            s,
+            "{IMPLICIT_BEGIN}\n{}{IMPLICIT_END}\n",
+            implicit_section(report, section)
+        );
     }
 
     if !report.scaling.is_empty() {

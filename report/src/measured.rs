@@ -3,6 +3,7 @@
 
 use crate::cases::CaseId;
 use crate::effects::EffectRow;
+use crate::implicit_budgets::ImplicitSection;
 use crate::machine::Machine;
 use crate::scaling::{Fit, ScalingPoint};
 use crate::sweep::CaseResult;
@@ -55,6 +56,9 @@ pub struct Report {
     pub effect_reps: usize,
     /// The effect-cost table.
     pub effects: Vec<EffectRow>,
+    /// The implicit path against its Newton and CG budgets (None when not
+    /// run).
+    pub implicit: Option<ImplicitSection>,
     /// Skips and other notices.
     pub notices: Vec<String>,
     /// Files written, relative to the output directory.

@@ -10,6 +10,7 @@
 //! OUT/figures/accuracy.json        every number above (serde of Report)
 //! OUT/effects.md                   the effect-cost tables
 //! OUT/figures/effects.json         their numbers
+//! OUT/figures/implicit.json        the implicit rows (Newton × CG budgets)
 //! ```
 
 use crate::measured::AccuracyError;
@@ -32,6 +33,9 @@ pub const EFFECTS_MARKDOWN: &str = "effects.md";
 pub const EFFECTS_JSON_NAME: &str = "effects.json";
 /// Their numbers.
 pub const EFFECTS_JSON: &str = "figures/effects.json";
+
+/// The implicit rows' numbers.
+pub const IMPLICIT_JSON: &str = "figures/implicit.json";
 
 /// Writes `bytes` to `path` atomically, creating its directory first.
 pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), AccuracyError> {

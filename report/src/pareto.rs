@@ -14,33 +14,37 @@
 use crate::point::Point;
 use hyperpbd::BackendKind;
 
-/// Indices of the frontier points among `points` of `backend`, fastest
-/// first. Points without a finite error are never on it.
-pub fn frontier(points: &[Point], backend: BackendKind) -> Vec<usize> {
-    let mut order: Vec<usize> = (0..points.len())
-        .filter(|&i| {
-            points[i].backend == backend
-                && !points[i].frozen
-                && points[i].error.is_some_and(f64::is_finite)
-                && points[i].ms_per_sim_second.is_finite()
-        })
+/// The undominated candidates among `(index, time, error)`, fastest
+/// first: sorted by time (ties: smaller error first), a candidate is kept
+/// iff its error is below every error kept before it. Candidates with a
+/// non-finite time or error are never kept.
+pub fn undominated(candidates: impl IntoIterator<Item = (usize, f64, f64)>) -> Vec<usize> {
+    let mut order: Vec<(usize, f64, f64)> = candidates
+        .into_iter()
+        .filter(|&(_, t, e)| t.is_finite() && e.is_finite())
         .collect();
-    let error = |i: usize| points[i].error.unwrap_or(f64::INFINITY);
-    order.sort_by(|&a, &b| {
-        points[a]
-            .ms_per_sim_second
-            .total_cmp(&points[b].ms_per_sim_second)
-            .then(error(a).total_cmp(&error(b)))
-    });
+    order.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.2.total_cmp(&b.2)));
     let mut best = f64::INFINITY;
     let mut kept = Vec::new();
-    for i in order {
-        if error(i) < best {
-            best = error(i);
+    for (i, _, e) in order {
+        if e < best {
+            best = e;
             kept.push(i);
         }
     }
     kept
+}
+
+/// Indices of the frontier points among `points` of `backend`, fastest
+/// first. Points without a finite error are never on it.
+pub fn frontier(points: &[Point], backend: BackendKind) -> Vec<usize> {
+    undominated(
+        points
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.backend == backend && !p.frozen)
+            .map(|(i, p)| (i, p.ms_per_sim_second, p.error.unwrap_or(f64::NAN))),
+    )
 }
 
 /// Marks `frontier` on every point, backend by backend.

@@ -4,17 +4,19 @@
 //! ```text
 //! README_BEGIN … README_END     the section: cloth figure, headline sentences,
 //!                               scaling exponents, effect lines, noise note
+//!   IMPLICIT_BEGIN … IMPLICIT_END the implicit rows' lines, inside it
 //!   EFFECTS_BEGIN … EFFECTS_END the effect lines, inside the section
 //! splice   replace the text between a pair of markers (markers kept); where
 //!          the markers are missing, insert the block (markers included):
 //!          the section at the end under "## What accuracy costs", the
-//!          effect lines just before README_END
+//!          effect and implicit lines just before README_END
 //! ```
 
 use crate::cases::CaseId;
 use crate::effects::{self, EffectRow};
 use crate::format::{ms, noise_note};
 use crate::headlines::headline_sentence;
+use crate::implicit_markdown::{IMPLICIT_BEGIN, IMPLICIT_END, readme_implicit};
 use crate::measured::{AccuracyError, Report};
 use crate::outputs::{CLOTH, EFFECTS_MARKDOWN, MARKDOWN, SCALING, write_file};
 use hyperpbd::BackendKind;
@@ -180,6 +182,13 @@ pub fn readme_section(report: &Report, out: &str) -> String {
             "\n![time per step against particle count]({figures}/scaling.png)"
         );
     }
+    if let Some(section) = &report.implicit {
+        let _ = write!(
+            s,
+            "\n{IMPLICIT_BEGIN}\n{}{IMPLICIT_END}\n",
+            readme_implicit(section, out)
+        );
+    }
     if !report.effects.is_empty() {
         let _ = write!(
             s,
@@ -234,16 +243,24 @@ pub fn update_section(path: &Path, body: &str) -> Result<(), AccuracyError> {
     })
 }
 
+/// Replaces the README lines between `markers` (or inserts them just
+/// before the section's end marker; appended when that is absent too).
+fn update_lines(path: &Path, markers: (&str, &str), body: &str) -> Result<(), AccuracyError> {
+    update(path, markers, body, |text, block| {
+        match text.find(README_END) {
+            Some(e) => format!("{}\n{block}\n{}", &text[..e], &text[e..]),
+            None => format!("{}\n{block}\n", text.trim_end()),
+        }
+    })
+}
+
 /// Replaces the README's effect lines (or inserts them just before the
 /// section's end marker; appended when that is absent too).
 pub fn update_effects(path: &Path, body: &str) -> Result<(), AccuracyError> {
-    update(
-        path,
-        (EFFECTS_BEGIN, EFFECTS_END),
-        body,
-        |text, block| match text.find(README_END) {
-            Some(e) => format!("{}\n{block}\n{}", &text[..e], &text[e..]),
-            None => format!("{}\n{block}\n", text.trim_end()),
-        },
-    )
+    update_lines(path, (EFFECTS_BEGIN, EFFECTS_END), body)
+}
+
+/// Replaces the README's implicit lines (inserted like the effect lines).
+pub fn update_implicit(path: &Path, body: &str) -> Result<(), AccuracyError> {
+    update_lines(path, (IMPLICIT_BEGIN, IMPLICIT_END), body)
 }

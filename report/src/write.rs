@@ -6,19 +6,29 @@
 //!                accuracy.md, README section
 //! effects only   effects.md, effects.json and the README's effect lines;
 //!                accuracy.md and the other figures are left as they are
+//! implicit only  implicit.json; the implicit section spliced into
+//!                accuracy.md between its markers (inserted before the
+//!                first later section when absent) and the README's
+//!                implicit lines; nothing else is touched
+//! full run       also implicit.json beside accuracy.json
 //! ```
 
 use crate::cases::CaseId;
 use crate::config::Config;
 use crate::effects_markdown::effects_markdown;
 use crate::format::footer;
+use crate::implicit_markdown::{IMPLICIT_BEGIN, IMPLICIT_END, implicit_section, readme_implicit};
 use crate::markdown::markdown;
 use crate::measured::{AccuracyError, Report};
 use crate::outputs::{
-    CLOTH, EFFECTS_JSON, EFFECTS_MARKDOWN, JSON, MARKDOWN, PARETO, SCALING, write_file,
+    CLOTH, EFFECTS_JSON, EFFECTS_MARKDOWN, IMPLICIT_JSON, JSON, MARKDOWN, PARETO, SCALING,
+    write_file,
 };
 use crate::plot;
-use crate::readme::{readme_effects, readme_section, relative, update_effects, update_section};
+use crate::readme::{
+    readme_effects, readme_section, relative, splice, update_effects, update_implicit,
+    update_section,
+};
 use std::path::Path;
 
 /// Writes OUT/effects.md and OUT/figures/effects.json.
@@ -45,6 +55,71 @@ fn write_effects(report: &mut Report, out: &Path) -> Result<(), AccuracyError> {
     Ok(())
 }
 
+/// Writes OUT/figures/implicit.json (when the implicit rows ran).
+fn write_implicit_json(report: &mut Report, out: &Path) -> Result<(), AccuracyError> {
+    let Some(section) = &report.implicit else {
+        return Ok(());
+    };
+    let json = serde_json::json!({
+        "mode": report.mode,
+        "machine": report.machine,
+        "implicit": section,
+    });
+    let json = serde_json::to_string_pretty(&json)
+        .map_err(|e| AccuracyError::Output(format!("cannot serialise the implicit rows: {e}")))?;
+    write_file(&out.join(IMPLICIT_JSON), (json + "\n").as_bytes())?;
+    report.files.push(IMPLICIT_JSON.into());
+    Ok(())
+}
+
+/// Sections of accuracy.md that follow the implicit one, in order: an
+/// implicit section without markers goes before the first of them.
+const LATER_SECTIONS: [&str; 4] = [
+    "\n## Scaling",
+    "\n## What each effect costs",
+    "\n## Notices",
+    "\n## How it was measured",
+];
+
+/// An implicit-only run: implicit.json, the section spliced into
+/// OUT/accuracy.md (created when missing) and the README's lines.
+fn write_implicit_only(report: &mut Report, config: &Config) -> Result<(), AccuracyError> {
+    let out = &config.out;
+    report.files.clear();
+    write_implicit_json(report, out)?;
+    let Some(section) = &report.implicit else {
+        return Ok(());
+    };
+    let path = out.join(MARKDOWN);
+    let text = match std::fs::read_to_string(&path) {
+        Ok(text) => text,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => "# What accuracy costs\n".into(),
+        Err(e) => {
+            return Err(AccuracyError::Output(format!(
+                "cannot read {}: {e}",
+                path.display()
+            )));
+        }
+    };
+    let body = implicit_section(report, section);
+    let text = splice(
+        &text,
+        (IMPLICIT_BEGIN, IMPLICIT_END),
+        &body,
+        |text, block| match LATER_SECTIONS.iter().find_map(|h| text.find(h)) {
+            Some(at) => format!("{}\n{block}\n{}", &text[..at], &text[at..]),
+            None => format!("{}\n\n{block}\n", text.trim_end()),
+        },
+    );
+    write_file(&path, text.as_bytes())?;
+    report.files.push(MARKDOWN.into());
+    if let Some(readme) = &config.readme {
+        let dir = readme.parent().unwrap_or(Path::new("."));
+        update_implicit(readme, &readme_implicit(section, &relative(dir, out)))?;
+    }
+    Ok(())
+}
+
 /// Writes every file of the report into `config.out` (and the README);
 /// an effects-only run writes only the effect files and README lines.
 pub fn write(report: &mut Report, config: &Config) -> Result<(), AccuracyError> {
@@ -58,6 +133,9 @@ pub fn write(report: &mut Report, config: &Config) -> Result<(), AccuracyError> 
             update_effects(readme, &readme_effects(report, &out_rel))?;
         }
         return Ok(());
+    }
+    if config.implicit_only {
+        return write_implicit_only(report, config);
     }
     let foot = footer(report);
     let draw = |e: String| AccuracyError::Output(e);
@@ -86,6 +164,7 @@ pub fn write(report: &mut Report, config: &Config) -> Result<(), AccuracyError> 
     if !report.effects.is_empty() {
         write_effects(report, out)?;
     }
+    write_implicit_json(report, out)?;
     report.files.push(JSON.into());
     report.files.push(MARKDOWN.into());
     let json = serde_json::to_string_pretty(&*report)

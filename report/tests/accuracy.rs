@@ -57,6 +57,8 @@ fn report() -> &'static (Report, Config) {
         config.effects_balls = (2, 3);
         config.effects_ball_steps = 3;
         config.time_target = 0.002;
+        config.newton_budgets = vec![1, 2];
+        config.cg_budgets = vec![None];
         let report = run(&config).unwrap_or_else(|e| panic!("accuracy run failed: {e}"));
         (report, config)
     })
@@ -128,6 +130,12 @@ fn markdown_names_machine_adapter_and_headlines() {
     assert!(md.contains("figures/accuracy_pareto.png"));
     assert!(md.contains("## Scaling") && md.contains("## What each effect costs"));
     assert!(
+        md.contains("## Implicit path: error against the Newton and CG budgets")
+            && md.contains("### implicit hanging"),
+        "accuracy.md must carry the implicit rows"
+    );
+    assert!(report.files.iter().any(|f| f == "figures/implicit.json"));
+    assert!(
         md.contains("[effects.md](effects.md)"),
         "accuracy.md must link the effect tables"
     );
@@ -172,6 +180,10 @@ fn readme_section_is_replaced_in_place_and_idempotently() {
     assert!(
         text.contains("To reach 1e-3"),
         "the README must give the headline answer"
+    );
+    assert!(
+        text.contains("- The implicit path (coupled Newton–PCG"),
+        "the README must give the implicit rows' summary"
     );
     // Writing again leaves exactly one section.
     let mut again = report.clone();
