@@ -2,7 +2,10 @@
 //! on the sources themselves:
 //!
 //! - no non-test source file over 600 lines;
-//! - no import cycle between the files of a crate.
+//! - no import cycle between the files of a crate;
+//! - every XPBD kernel's three faces share its name: `cpu/src/K.rs` (the
+//!   golden path), `shaders/K.wgsl` (the kernel) and `gpu/src/…/K.rs` (its
+//!   dispatch).
 //!
 //! A file's imports are the `crate::…` and `super::…` paths in its code
 //! (comments and its `#[cfg(test)] mod tests` left out), each resolved to
@@ -350,6 +353,44 @@ fn no_import_cycle_between_files() {
         }
     }
     assert!(found.is_empty(), "files that import each other: {found:?}");
+}
+
+/// The kernels of the XPBD step (core's `Kernel`: predict, velocity and
+/// damping are `integrate`; projections `project` and `material`; friction;
+/// the residual; the guards; particle contact's `collide`).
+const XPBD_KERNELS: &[&str] = &[
+    "integrate",
+    "project",
+    "material",
+    "friction",
+    "residual",
+    "guard",
+    "collide",
+];
+
+#[test]
+fn every_xpbd_kernel_has_its_three_faces_under_one_name() {
+    let root = workspace();
+    let mut gpu_files = Vec::new();
+    rust_files(&root.join("gpu/src"), &mut gpu_files);
+    let mut missing = Vec::new();
+    for kernel in XPBD_KERNELS {
+        let cpu = root.join(format!("cpu/src/{kernel}.rs"));
+        let shader = root.join(format!("shaders/{kernel}.wgsl"));
+        let gpu = gpu_files
+            .iter()
+            .any(|f| f.file_stem().is_some_and(|s| s == *kernel));
+        for (face, present) in [
+            (cpu.display().to_string(), cpu.is_file()),
+            (shader.display().to_string(), shader.is_file()),
+            (format!("gpu/src/…/{kernel}.rs"), gpu),
+        ] {
+            if !present {
+                missing.push(face);
+            }
+        }
+    }
+    assert!(missing.is_empty(), "kernel faces missing: {missing:?}");
 }
 
 /// The checker sees a cycle where there is one: two files importing each

@@ -21,7 +21,7 @@ use crate::integrate::Failed;
 use crate::parallel::Workers;
 use crate::project::{Batch, Workspace, project};
 use crate::{
-    colours, coupled, friction, incremental_potential, integrate, project, residual, threads,
+    colours, coupled, friction, guard, incremental_potential, integrate, project, residual, threads,
 };
 use hyperpbd_core::broadphase::Aabbs;
 
@@ -278,15 +278,10 @@ impl CpuBackend {
                 self.minimisation.push(report);
                 refused.map_or(Ok(()), |e| Err(e.into()))
             }
-            Kernel::GuardMeasure { family } => guards::measure_violation(plan, family, &self.x)
-                .map_or(Ok(()), |found| {
-                    let rejection = guards::measure_rejection(plan, family, found, self.substep);
-                    Err(StepError::GuardRejected(rejection).into())
-                }),
-            Kernel::GuardSpeed => guards::speed_violation(plan, &self.v).map_or(Ok(()), |found| {
-                let rejection = guards::speed_rejection(found, self.substep);
-                Err(StepError::GuardRejected(rejection).into())
-            }),
+            Kernel::GuardMeasure { family } => {
+                Ok(guard::measure(plan, family, &self.x, self.substep)?)
+            }
+            Kernel::GuardSpeed => Ok(guard::speed(plan, &self.v, self.substep)?),
         }
     }
 

@@ -15,6 +15,7 @@ mod colours;
 mod coupled;
 mod dim;
 mod friction;
+mod guard;
 pub mod incremental_potential;
 mod integrate;
 mod material;
