@@ -2,9 +2,10 @@
 // the active contacts (λ > 0). Elements are split into chunks of CHUNK; one
 // workgroup per chunk strides over it and reduces in workgroup memory into
 // `partials`, then one workgroup per family reduces its chunks into
-// `report`. When every family has at most WORKGROUP elements,
-// `residual_lanes` instead runs one lane per (family, world) over the
-// family's elements in order, in one dispatch without barriers. Maximum and
+// `report`. When every family has at most WORKGROUP elements of a kind
+// with O(N) loops (distance, tether, plane contact), `residual_lanes`
+// instead runs one lane per (family, world) over the family's elements in
+// order, in one dispatch without barriers. Maximum and
 // integer counts are exact, so the result does not depend on the reduction
 // order: both ways give the same report bit for bit.
 //
@@ -140,9 +141,12 @@ fn reduce(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index
 }
 
 // One lane per (family, world) when every family has at most WORKGROUP
-// elements: lane t = family · WORLDS + world, so the lanes of a SIMD group
-// share a family (and its kind); the family's elements in order, its
-// report entries written directly.
+// elements of a kind with O(N) loops per element (distance, tether, plane
+// contact: gpu/src/xpbd/schedule.rs): lane t = family · WORLDS + world, so
+// the lanes of a SIMD group share a family (and its kind); the family's
+// elements in order, its report entries written directly. ≤ 64 elements
+// of ~4N loop trips stay far inside llvmpipe's loop budget (65 535 per 8
+// lanes); the probe at the end would report a cut step all the same.
 @compute @workgroup_size(WORKGROUP)
 fn residual_lanes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
@@ -159,4 +163,5 @@ fn residual_lanes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     }
     report[world * WORLD_REPORT + 2u * call.family] = worst;
     report[world * WORLD_REPORT + 2u * call.family + 1u] = real(contacts);
+    check_loops();
 }

@@ -7,8 +7,10 @@
 //!            any family: max violation and active contacts → partials
 //! reduce     one workgroup per family: its chunks → report[2f], report[2f+1]
 //! ```
-//! Two dispatches per step whatever the number of families; maxima and
-//! integer counts are exact, so the result is independent of the order.
+//! Two dispatches per step whatever the number of families — or ONE,
+//! `residual_lanes` (a lane per family and world), when every family fits a
+//! lane (schedule.rs `fits_a_lane`); maxima and integer counts are exact,
+//! so the result is independent of the order.
 
 use hyperpbd_core::{FamilyKind, FamilyResidual, Plan, StepReport};
 

@@ -27,7 +27,7 @@
 //! the contact kernels (gpu/src/contact) are dispatches of their own at the
 //! Broadphase and Collide calls, between the fused runs.
 
-use hyperpbd_core::{Kernel, Plan};
+use hyperpbd_core::{Family, FamilyKind, Kernel, Plan};
 
 use super::call::{
     Call, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST, OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED,
@@ -243,7 +243,7 @@ impl Schedule {
         let residual = Residual {
             calls: (step_end as u32, run_base as u32),
             chunks: chunks.len() as u32,
-            lanes: plan.families.iter().all(|f| f.len() <= workgroup as usize),
+            lanes: plan.families.iter().all(|f| fits_a_lane(f, workgroup)),
         };
         let mode = mode.unwrap_or_else(|| choose(plan, &calls[..step_end], workgroup, software));
         let exact = exact(&calls[..step_end], residual);
@@ -390,12 +390,25 @@ struct Residual {
     calls: (u32, u32),
     /// Chunks of the chunk table.
     chunks: u32,
-    /// Every family has at most one workgroup of elements: one lane per
+    /// Every family fits a lane ([`fits_a_lane`]): one lane per
     /// (family, world) runs the family's elements in order, in one
     /// dispatch without workgroup barriers (lavapipe runs a barrier as a
     /// coroutine switch of every lane). Maxima and integer counts are
     /// exact, so both ways give the same report bit for bit.
     lanes: bool,
+}
+
+/// Whether one lane may run family `f`'s residual alone: at most a
+/// workgroup of elements, each with O(N) loop trips (distance, tether,
+/// plane contact) — a measure or material element loops O(N³) times, and
+/// 64 of them in one lane could pass llvmpipe's loop budget (65 535 trips
+/// per 8 lanes) in high dimension.
+fn fits_a_lane(f: &Family, workgroup: u32) -> bool {
+    f.len() <= workgroup as usize
+        && matches!(
+            f.kind,
+            FamilyKind::Distance | FamilyKind::Tether | FamilyKind::HyperplaneContact { .. }
+        )
 }
 
 impl Residual {
@@ -497,4 +510,54 @@ pub fn dispatches_per_step(plan: &Plan, software: bool) -> Option<(StepMode, usi
         chosen.dispatches_per_step() + contact,
         exact.dispatches_per_step() + contact,
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::SceneOrigin;
+    use hyperpbd_core::{ConstraintFamily, ConstraintKind, Particle, SceneBuilder};
+
+    /// The residual dispatches of the fused schedule of a 2D chain of
+    /// `links` links over a ground plane, with `triangle` an oriented
+    /// measure family of one triangle.
+    fn residual_runs(links: usize, triangle: bool) -> Vec<Run> {
+        let mut b = SceneBuilder::new(2).gravity_along(1, 9.81);
+        for i in 0..=links {
+            b.particle(Particle::new(vec![i as f64, 1.0], 1.0));
+        }
+        let edges = (1..=links).map(|i| vec![i - 1, i]).collect();
+        b.family(ConstraintFamily::new(ConstraintKind::Distance, 0.0, edges));
+        if triangle {
+            let elements = vec![vec![0, 1, links + 1]];
+            b.particle(Particle::new(vec![0.0, 2.0], 1.0));
+            b.family(ConstraintFamily::new(
+                ConstraintKind::OrientedMeasure,
+                0.0,
+                elements,
+            ));
+        }
+        b.hyperplane(vec![0.0, 1.0], 0.0, 0.0);
+        let plan = Plan::compile(&b.build().expect("valid scene")).expect("plan");
+        let families = Families::new(&plan, &SceneOrigin::zero(2)).expect("families");
+        let schedule = Schedule::new(&plan, &families, 64, Some(StepMode::Fused), true);
+        schedule
+            .fast
+            .iter()
+            .map(|d| d.run)
+            .filter(|r| matches!(r, Run::Residual | Run::Reduce | Run::ResidualLanes))
+            .collect()
+    }
+
+    #[test]
+    fn small_distance_and_contact_families_run_the_residual_in_lanes() {
+        assert_eq!(residual_runs(20, false), [Run::ResidualLanes]);
+        // 64 links and 65 particles: the contact family has 65 elements.
+        assert_eq!(residual_runs(64, false), [Run::Residual, Run::Reduce]);
+    }
+
+    #[test]
+    fn a_measure_family_keeps_the_chunked_residual() {
+        assert_eq!(residual_runs(3, true), [Run::Residual, Run::Reduce]);
+    }
 }
