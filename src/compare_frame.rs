@@ -41,7 +41,8 @@
 //!      the element's conditioning: near rest W is known to δW only, so C
 //!      and ∇C are, relatively, far worse than one rounding.
 //! per substep k = 1 … S, from e_x = e_v = 0 (both runs start from the same state):
-//!      r_k  = u X c + u h V + J_k + M_k            fresh position error
+//!      r_k  = u X c + 2 u h V + J_k + M_k          fresh position error
+//!           (2 u h V: the product h v and, in f32, h itself rounded)
 //!      e_x ← e_x + h (e_v + q) + r_k               x = p + h v + corrections
 //!      e_v ← e_v + q + r_k / h                     v = (x − p) / h
 //!
@@ -63,6 +64,14 @@
 //!        or after the kernel, or golden C ≤ E_hi + √N (4N + 6) u X (E_hi
 //!        the error with the uniform count; C's own rounding (2N + 3) u
 //!        (|n·x| + |r|)). While C ≥ 0 in a run, Δλ = 0 and x += w n·0 is exact
+//! δC_i,k C's own rounding where such a contact acts: the correction is
+//!        w n Δλ with Δλ = (−C − α~λ)/(w + α~), so C's error reaches the
+//!        particle scaled by w/(w + α~) ≤ 1. In device coordinates C = n·x' −
+//!        r' (x' = x − o, r' = r − n·o rounded once on the host): the dot
+//!        product rounds by ≤ γ_N Σ_a |n_a x'_a| (γ_N = N u / (1 − N u)), r'
+//!        by u |r'|, the difference by u |C|, so δC ≤ (N + 2) u (1 + 2N u)
+//!        (Σ_a |n_a x'_a| + |r'| + E_hi) per acting contact (E_hi: how far
+//!        the other run's x' may be)
 //! σ      √(moved axes) when a hyperplane contact is present, else 1: a
 //!        projection or stick maps a particle's error by I − n nᵀ, which is
 //!        non-expansive in the Euclidean norm of the particle's error, not
@@ -71,10 +80,12 @@
 //! J_k    largest max(|Δt|, μ w λ) of a frictional contact whose golden
 //!        margin | |Δt| − μ w λ | is within E_t + μ E + σ (2N + 8) u X:
 //!        Δt is the tangential part of x − p, off by E_t = h (e_v + q) + r_k
-//!        (x − p = h v + the substep's own roundings: no partner moves it);
+//!        (x − p = h v + the substep's own roundings: no partner moves it)
+//!        with one hyperplane family, by E_t = E with more (an earlier
+//!        plane's correction carries its normal error into x − p);
 //!        w λ is the normal correction, off by ≤ E
 //! per substep k = 1 … S, from e_x = e_v = 0:
-//!        r_k = σ (u max_i b(X_i) c_i,k + u h V)      (particles are independent:
+//!        r_k = σ (max_i (u b(X_i) c_i,k + δC_i,k) + 2 u h V)   (particles are independent:
 //!                                                     the largest error grows by
 //!                                                     the largest fresh one)
 //!        E   = e_x + h (e_v + σ q) + r_k
@@ -321,7 +332,7 @@ impl FrameErrorModel {
         let (h, u) = (plan.h, self.unit_roundoff);
         let scale = self.device_scale(states);
         let q = u * speed * self.velocity_roundings + 4.0 * u * h * self.acceleration;
-        let fresh = u * scale * self.position_roundings + u * h * speed;
+        let fresh = u * scale * self.position_roundings + 2.0 * u * h * speed;
         let flip_rounding = (2.0 * plan.dim as f64 + 8.0) * u * scale;
         let (mut ex, mut ev) = (0.0f64, 0.0f64);
         let particles = plan.particle_count();
@@ -392,6 +403,35 @@ impl FrameErrorModel {
     }
 }
 
+/// What the contacts of a substep add to each particle's fresh error: the
+/// roundings `counts` (at the particle's binade) and C's own rounding
+/// `c_rounding` (absolute, module docs δC).
+struct Tally<'a> {
+    counts: Vec<f64>,
+    c_rounding: Vec<f64>,
+    /// Unit roundoff u.
+    unit_roundoff: f64,
+    /// Device origin o.
+    origin: &'a [f64],
+    /// E_hi: what the other run's error may add to Σ |n_a x'_a|.
+    error_reach: f64,
+}
+
+impl Tally<'_> {
+    /// (N + 2) u (1 + 2N u) (Σ_a |n_a x'_a| + |r'| + E_hi): the rounding of
+    /// C = n·x' − r' in device coordinates (module docs δC).
+    fn c_rounding_of(&self, x: &[f64], normal: &[f64], rest: f64) -> f64 {
+        let o = |a: usize| self.origin.get(a).copied().unwrap_or(0.0);
+        let nx: f64 = (0..x.len())
+            .map(|a| (normal[a] * (x[a] - o(a))).abs())
+            .sum();
+        let no: f64 = (0..x.len()).map(|a| normal[a] * o(a)).sum();
+        let terms = nx + (rest - no).abs() + self.error_reach;
+        let (n, u) = (x.len() as f64, self.unit_roundoff);
+        (n + 2.0) * u * (1.0 + 2.0 * n * u) * terms
+    }
+}
+
 /// One color of a hyperplane contact family, as the probe ran it.
 struct Contact<'a> {
     plan: &'a Plan,
@@ -402,10 +442,10 @@ struct Contact<'a> {
 }
 
 impl Contact<'_> {
-    /// Adds the kernel's roundings to `counts` for every contact that may
+    /// Adds the kernel's roundings to `tally` for every contact that may
     /// act in either run: golden λ > 0 before or after, or C = n·x − r within
     /// `reach` (the error and C's rounding) of 0.
-    fn count(&self, before: &[f64], l0: &[f64], l1: &[f64], reach: f64, counts: &mut [f64]) {
+    fn count(&self, before: &[f64], l0: &[f64], l1: &[f64], reach: f64, tally: &mut Tally) {
         let n = self.plan.dim;
         let per = if self.friction > 0.0 { 2.0 } else { 1.0 };
         for slot in self.f.color(self.color) {
@@ -421,7 +461,8 @@ impl Contact<'_> {
                 || c.is_nan()
                 || c <= reach;
             if acting {
-                counts[i] += per;
+                tally.counts[i] += per;
+                tally.c_rounding[i] += tally.c_rounding_of(x, self.normal, rest);
             }
         }
     }

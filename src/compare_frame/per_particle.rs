@@ -4,7 +4,7 @@
 
 use hyperpbd_core::{Backend, BackendError, FamilyKind, Kernel, State};
 
-use super::{Contact, Decision, FrameErrorModel};
+use super::{Contact, Decision, FrameErrorModel, Tally};
 
 /// b(x) = 2^⌊log₂ x⌋ for x ≥ `tiny` (exact: the exponent bits of x), else
 /// `tiny`: ½ ulp(y) ≤ u b(x) for every |y| ≤ x.
@@ -62,8 +62,11 @@ impl FrameErrorModel {
         let q = spread * (u * speed * self.velocity_roundings + 4.0 * u * h * self.acceleration);
         // The uniform count (every particle at X with every contact acting):
         // a margin for what is read before this substep's count is known.
-        let worst = spread * (u * scale * self.position_roundings + u * h * speed);
+        let worst = spread * (u * scale * self.position_roundings + 2.0 * u * h * speed);
         let flip_rounding = spread * (2.0 * n as f64 + 8.0) * u * scale;
+        let planes = (plan.families.iter())
+            .filter(|f| matches!(f.kind, FamilyKind::HyperplaneContact { .. }))
+            .count();
         let mut frame_mags = vec![0.0; plan.particle_count()];
         for s in states {
             self.magnitudes(&s.positions, &axes, &mut frame_mags);
@@ -74,11 +77,17 @@ impl FrameErrorModel {
             let substep_start = self.probe.read_state()?.positions;
             let mut mags = frame_mags.clone();
             // Predict lands one rounding on every dynamic particle.
-            let mut counts: Vec<f64> = plan
-                .inverse_mass
-                .iter()
-                .map(|w| if *w > 0.0 { 1.0 } else { 0.0 })
-                .collect();
+            let mut tally = Tally {
+                counts: plan
+                    .inverse_mass
+                    .iter()
+                    .map(|w| if *w > 0.0 { 1.0 } else { 0.0 })
+                    .collect(),
+                c_rounding: vec![0.0; plan.particle_count()],
+                unit_roundoff: u,
+                origin: &self.origin,
+                error_reach: error_hi,
+            };
             let mut decisions: Vec<Decision> = Vec::new();
             for &kernel in &plan.substep_kernels {
                 let contact = match kernel {
@@ -105,7 +114,7 @@ impl FrameErrorModel {
                     // (2N + 3) u (|n·x| + |r|), both ≤ √N X near C = 0.
                     let reach = error_hi + root_n * (4.0 * n as f64 + 6.0) * u * scale;
                     let lambda = self.probe.multipliers(family).unwrap_or(&[]);
-                    contact.count(&before, &lambda_before, lambda, reach, &mut counts);
+                    contact.count(&before, &lambda_before, lambda, reach, &mut tally);
                     contact.between(
                         &before,
                         &axes,
@@ -124,15 +133,15 @@ impl FrameErrorModel {
             let tiny = self.tiny;
             let margin = |m: f64| binade(m + error_hi, tiny);
             let r = spread
-                * (u * mags
-                    .iter()
-                    .zip(&counts)
-                    .map(|(m, c)| margin(*m) * c)
+                * ((mags.iter().zip(&tally.counts).zip(&tally.c_rounding))
+                    .map(|((m, c), dc)| u * margin(*m) * c + dc)
                     .fold(0.0, f64::max)
-                    + u * h * speed);
+                    + 2.0 * u * h * speed);
             let error = ex + h * (ev + q) + r;
-            // x − p of an independent particle: h v + this substep's roundings.
-            let error_t = h * (ev + q) + r;
+            // x − p of an independent particle: h v + this substep's
+            // roundings, with one plane; with more, an earlier plane's
+            // correction carries its normal error into x − p.
+            let error_t = if planes > 1 { error } else { h * (ev + q) + r };
             let jump = decisions
                 .iter()
                 .filter(|(t, stick, mu)| (t - stick).abs() <= error_t + mu * error + flip_rounding)
