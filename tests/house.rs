@@ -109,10 +109,16 @@ fn paths_from(code: &str, keyword: &str) -> Vec<Vec<String>> {
                     .map_or(bytes.len(), |e| j + e);
                 let group: String = bytes[j + 1..end].iter().collect();
                 for item in group.split(',') {
-                    let head: String = item.trim().chars().take_while(|&c| is_ident(c)).collect();
-                    if !head.is_empty() {
+                    // `a::b::C` (or `a::b::C as D`): every segment of the item.
+                    let item = item.trim().split(" as ").next().unwrap_or("");
+                    let segments: Vec<String> = item
+                        .split("::")
+                        .map(|s| s.trim().chars().take_while(|&c| is_ident(c)).collect())
+                        .take_while(|s: &String| !s.is_empty())
+                        .collect();
+                    if !segments.is_empty() {
                         let mut p = path.clone();
-                        p.push(head);
+                        p.extend(segments);
                         out.push(p);
                     }
                 }
@@ -190,13 +196,21 @@ impl Crate {
                         .filter(|s| !matches!(*s, "crate" | "self"))
                         .map(str::to_string),
                 );
-                for name in names.trim_matches(|c| c == '{' || c == '}').split(',') {
+                for item in names.trim_matches(|c| c == '{' || c == '}').split(',') {
                     // `a::B` inside a group re-exports B from `prefix::a`.
-                    let name = name.trim().rsplit("::").next().unwrap_or("");
+                    let (path, alias) = match item.split_once(" as ") {
+                        Some((path, alias)) => (path, Some(alias)),
+                        None => (item, None),
+                    };
+                    let mut segments: Vec<&str> = path.trim().split("::").collect();
+                    let last = segments.pop().unwrap_or("");
+                    let name = alias.unwrap_or(last);
                     if !name.is_empty() {
+                        let mut source = from.clone();
+                        source.extend(segments.iter().map(|s| s.trim().to_string()));
                         crate_
                             .reexports
-                            .insert((module.clone(), name.to_string()), from.clone());
+                            .insert((module.clone(), name.trim().to_string()), source);
                     }
                 }
             }
@@ -407,10 +421,14 @@ fn the_cycle_check_finds_a_planted_cycle() {
     .unwrap();
     std::fs::write(
         dir.join("a.rs"),
-        "use crate::inner::b::{Other, more};\npub struct Thing;\n",
+        "use crate::{inner::Renamed, more};\npub struct Thing;\n",
     )
     .unwrap();
-    std::fs::write(dir.join("inner/mod.rs"), "pub mod b;\n").unwrap();
+    std::fs::write(
+        dir.join("inner/mod.rs"),
+        "pub mod b;\npub use b::Other as Renamed;\n",
+    )
+    .unwrap();
     std::fs::write(
         dir.join("inner/b.rs"),
         "// crate::a::Thing in a comment is no import\nuse crate::Thing;\npub struct Other;\n",

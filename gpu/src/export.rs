@@ -21,7 +21,10 @@ use hyperpbd_core::GpuError;
 
 use crate::context::GpuContext;
 use crate::kernel_set::{Binding, BlockWriter, EntryPoint, KernelSet, KernelSetSpec};
-use crate::resident::{PositionLayout, ResidentState};
+/// Where the positions sit (it lives with the resident state it
+/// describes; re-exported here, where `position_layout` hands it out).
+pub use crate::resident::PositionLayout;
+use crate::resident::ResidentState;
 use crate::shader::ShaderFile;
 
 /// Bytes per exported particle in the caller's buffer (Float32x3).
