@@ -56,6 +56,17 @@ pub fn cell(text: &str) -> String {
     text.replace('|', "\\|")
 }
 
+/// A point's error cell: the error (with its note in brackets), the note
+/// alone, or "–".
+pub fn error_cell(error: Option<f64>, note: Option<&str>) -> String {
+    match (error, note) {
+        (Some(e), Some(n)) => format!("{} ({})", sci(e), cell(n)),
+        (Some(e), None) => sci(e),
+        (None, Some(n)) => cell(n),
+        (None, None) => "–".into(),
+    }
+}
+
 pub fn ms_signed(x: f64) -> String {
     if x >= 0.0 {
         format!("+{}", ms(x))

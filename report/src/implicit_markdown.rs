@@ -10,7 +10,7 @@
 //!           it, and the best error at a Newton budget of 1
 //! ```
 
-use crate::format::{cell, load_average, ms, sci};
+use crate::format::{cell, error_cell, load_average, ms, sci};
 use crate::implicit_budgets::{ImplicitPoint, ImplicitResult, ImplicitSection};
 use crate::measured::Report;
 use crate::outputs::{IMPLICIT_JSON, MARKDOWN};
@@ -116,12 +116,7 @@ fn table(s: &mut String, r: &ImplicitResult) {
             ms(p.ms_min),
             ms(p.ms_max),
             p.reps,
-            match (p.error, &p.note) {
-                (Some(e), Some(n)) => format!("{} ({})", sci(e), cell(n)),
-                (Some(e), None) => sci(e),
-                (None, Some(n)) => cell(n),
-                (None, None) => "–".into(),
-            },
+            error_cell(p.error, p.note.as_deref()),
             p.second.map_or("–".into(), sci),
             b.newton_mean,
             b.newton_max,

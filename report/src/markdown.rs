@@ -4,7 +4,7 @@
 
 use crate::cases::CaseId;
 use crate::config::Config;
-use crate::format::{cell, load_average, ms, noise_note, sci, sci_short, table_head};
+use crate::format::{cell, error_cell, load_average, ms, noise_note, sci, sci_short, table_head};
 use crate::headlines::{headline_cell, headline_for, headline_sentence};
 use crate::implicit_markdown::{IMPLICIT_BEGIN, IMPLICIT_END, implicit_section};
 use crate::measured::Report;
@@ -149,12 +149,7 @@ pub fn markdown(report: &Report, config: &Config) -> String {
                     ms(p.ms_min),
                     ms(p.ms_max),
                     p.reps,
-                    match (p.error, &p.note) {
-                        (Some(e), Some(n)) => format!("{} ({})", sci(e), cell(n)),
-                        (Some(e), None) => sci(e),
-                        (None, Some(n)) => cell(n),
-                        (None, None) => "–".into(),
-                    },
+                    error_cell(p.error, p.note.as_deref()),
                     sci(p.residual),
                     p.energy_drift.map_or("–".into(), |d| format!("{d:+.2e}")),
                     if p.frontier { "★" } else { "" }
