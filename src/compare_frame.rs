@@ -156,8 +156,8 @@ pub struct FrameErrorModel {
     /// A family couples particles (or particle contact is on): the
     /// uniform count (module docs).
     coupled: bool,
-    /// A hyperplane contact family is present.
-    contacts: bool,
+    /// Hyperplane contact families in the plan.
+    planes: usize,
     /// Smallest normal magnitude of the precision (½ ulp below it is u times it).
     tiny: f64,
     /// Device origin o (zero in f64): X is measured from it.
@@ -285,10 +285,11 @@ impl FrameErrorModel {
             acceleration,
             plan_axes,
             coupled,
-            contacts: plan
+            planes: plan
                 .families
                 .iter()
-                .any(|f| matches!(f.kind, FamilyKind::HyperplaneContact { .. })),
+                .filter(|f| matches!(f.kind, FamilyKind::HyperplaneContact { .. }))
+                .count(),
             tiny: match precision {
                 Precision::F32 => f64::from(f32::MIN_POSITIVE),
                 _ => f64::MIN_POSITIVE,

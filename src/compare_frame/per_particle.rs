@@ -54,7 +54,7 @@ impl FrameErrorModel {
         // moved axes: a fresh error vector of m coordinates, each ≤ ρ, is
         // ≤ √m ρ long.
         let moved = axes.iter().filter(|a| **a).count() as f64;
-        let spread = if self.contacts && moved > 1.0 {
+        let spread = if self.planes > 0 && moved > 1.0 {
             moved.sqrt()
         } else {
             1.0
@@ -64,9 +64,6 @@ impl FrameErrorModel {
         // a margin for what is read before this substep's count is known.
         let worst = spread * (u * scale * self.position_roundings + 2.0 * u * h * speed);
         let flip_rounding = spread * (2.0 * n as f64 + 8.0) * u * scale;
-        let planes = (plan.families.iter())
-            .filter(|f| matches!(f.kind, FamilyKind::HyperplaneContact { .. }))
-            .count();
         let mut frame_mags = vec![0.0; plan.particle_count()];
         for s in states {
             self.magnitudes(&s.positions, &axes, &mut frame_mags);
@@ -141,7 +138,11 @@ impl FrameErrorModel {
             // x − p of an independent particle: h v + this substep's
             // roundings, with one plane; with more, an earlier plane's
             // correction carries its normal error into x − p.
-            let error_t = if planes > 1 { error } else { h * (ev + q) + r };
+            let error_t = if self.planes > 1 {
+                error
+            } else {
+                h * (ev + q) + r
+            };
             let jump = decisions
                 .iter()
                 .filter(|(t, stick, mu)| (t - stick).abs() <= error_t + mu * error + flip_rounding)
