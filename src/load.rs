@@ -18,7 +18,7 @@ use std::str::FromStr;
 
 use hyperpbd_core::{Backend, BackendError, Plan, Precision, SolverPlan, State};
 use hyperpbd_cpu::CpuBackend;
-use hyperpbd_gpu::{GpuBackend, GpuBarrierBackend};
+use hyperpbd_gpu::{GpuBackend, GpuBarrierBackend, GpuCoupledBackend};
 
 /// Which backend runs a plan.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -125,6 +125,9 @@ pub fn load_on_adapter(
 ) -> Result<Box<dyn Backend>, BackendError> {
     Ok(match plan.solver {
         SolverPlan::Xpbd => Box::new(GpuBackend::with_adapter(adapter, plan, state, precision)?),
+        SolverPlan::IncrementalPotential(ref ip) if ip.coupled.is_some() => Box::new(
+            GpuCoupledBackend::with_adapter(adapter, plan, state, precision)?,
+        ),
         SolverPlan::IncrementalPotential(_) => Box::new(GpuBarrierBackend::with_adapter(
             adapter, plan, state, precision,
         )?),

@@ -1,5 +1,5 @@
 //! The coupled implicit step's typed refusals (issue 16): α = 0 at load,
-//! the GPU barrier backend and `hyperpbd run --backend gpu` on a coupled
+//! what the GPU does not run yet and `hyperpbd run --backend gpu` on a coupled
 //! scene, a refused step that leaves the state byte for byte, and the new
 //! solver keys in JSON.
 
@@ -102,24 +102,41 @@ fn a_refused_step_leaves_the_state_byte_for_byte() {
     assert_eq!(bits(&before), bits(&after));
 }
 
+/// What the GPU's coupled step does not run yet (f32; pair friction) is a
+/// typed refusal saying why and which backend runs it; without pair
+/// friction the factory loads the scene on gpu-f64 (`GpuCoupledBackend`).
 #[test]
-fn the_gpu_barrier_backend_refuses_a_coupled_scene() {
+fn the_gpu_refuses_what_its_coupled_step_does_not_run_yet() {
     let scene = Scene::from_json_str(&coupled_json(1e-8, 0.3)).expect("parses");
-    for precision in [Precision::F32, Precision::F64] {
-        let plan = Plan::compile(&scene).expect("compiles");
+    let mut frictionless = scene.clone();
+    if let Some(c) = frictionless.collisions.as_mut() {
+        c.friction = 0.0;
+    }
+    for (precision, scene, why) in [
+        (Precision::F32, &scene, "f32"),
+        (Precision::F64, &scene, "collisions.friction"),
+        (Precision::F64, &frictionless, ""),
+    ] {
+        let plan = Plan::compile(scene).expect("compiles");
         let loaded = common::gpu::load_or_skip(
-            "the_gpu_barrier_backend_refuses_a_coupled_scene",
+            "the_gpu_refuses_what_its_coupled_step_does_not_run_yet",
             BackendKind::Gpu(precision),
             plan,
-            &State::from_scene(&scene),
+            &State::from_scene(scene),
         );
         match loaded {
             Ok(None) => return,
-            Ok(Some(_)) => panic!("{precision}: a coupled scene loaded on the GPU"),
+            Ok(Some(_)) => assert!(
+                why.is_empty(),
+                "{precision}: loaded, expected a refusal ({why})"
+            ),
             Err(err) => {
                 println!("{precision}: {err}");
+                assert!(!why.is_empty(), "{precision}: {err}");
                 assert!(
-                    matches!(&err, BackendError::Gpu(GpuError::Unsupported { what }) if what.contains("coupled implicit step")),
+                    matches!(&err, BackendError::Gpu(GpuError::Unsupported { what })
+                        if what.contains("coupled implicit step") && what.contains(why)
+                            && what.contains("--backend cpu")),
                     "{err:?}"
                 );
             }
@@ -128,10 +145,10 @@ fn the_gpu_barrier_backend_refuses_a_coupled_scene() {
 }
 
 #[test]
-fn run_with_the_gpu_backend_says_the_coupled_step_is_cpu_only() {
+fn run_with_the_f32_gpu_backend_says_which_backends_run_the_coupled_step() {
     if !common::gpu::gpu_required() && hyperpbd_gpu::request_adapter(Precision::F32).is_err() {
         eprintln!(
-            "SKIPPED: no adapter (run_with_the_gpu_backend_says_the_coupled_step_is_cpu_only)"
+            "SKIPPED: no adapter (run_with_the_f32_gpu_backend_says_which_backends_run_the_coupled_step)"
         );
         return;
     }
@@ -155,6 +172,7 @@ fn run_with_the_gpu_backend_says_the_coupled_step_is_cpu_only() {
     assert!(!out.status.success());
     assert!(stderr.contains("coupled implicit step"), "{stderr}");
     assert!(stderr.contains("--backend cpu"), "{stderr}");
+    assert!(stderr.contains("--backend gpu-f64"), "{stderr}");
     let cpu = Command::new(env!("CARGO_BIN_EXE_hyperpbd"))
         .args([
             "run",

@@ -72,10 +72,10 @@ fn with_default_overrides(module: &naga::Module, info: &ModuleInfo) -> (naga::Mo
 }
 
 #[test]
-fn there_are_seven_kernel_files_and_eight_dimensions() {
-    assert_eq!(ShaderFile::ALL.len(), 7);
+fn there_are_eight_kernel_files_and_eight_dimensions() {
+    assert_eq!(ShaderFile::ALL.len(), 8);
     assert_eq!(MAX_GPU_DIM, 8);
-    assert_eq!(cases().len(), 7 * 8 * 2);
+    assert_eq!(cases().len(), 8 * 8 * 2);
 }
 
 #[test]

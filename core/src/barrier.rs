@@ -49,7 +49,9 @@ pub struct BarrierLaw {
 }
 
 impl BarrierLaw {
-    /// (b, b', b'') at distance d.
+    /// (b, b', b'') at distance d. The ln is [`crate::material::ln`], the
+    /// arithmetic one `shaders/ln_f64.wgsl` computes bit for bit, so an f64
+    /// kernel reproduces every barrier value (lavapipe's f64 `log` is wrong).
     pub fn evaluate(&self, d: f64) -> (f64, f64, f64) {
         let dh = self.activation_distance;
         if d <= 0.0 {
@@ -59,7 +61,7 @@ impl BarrierLaw {
             return (0.0, 0.0, 0.0);
         }
         let k = self.stiffness;
-        let ln = libm::log(d / dh);
+        let ln = crate::material::ln(d / dh);
         let e = d - dh;
         let b = -k * e * e * ln;
         let b1 = -k * (2.0 * e * ln + e * e / d);

@@ -173,6 +173,38 @@ pub(crate) fn status_words(bytes: &[u8]) -> [u32; STATUS_WORDS] {
     words
 }
 
+/// The refusal for a free particle that a kernel found at d ≤ 0, with the
+/// obstacle and distance the golden path computes at `position`; where f64
+/// finds it feasible (the f32 floor), the nearest obstacle and its f64
+/// distance, both measured, rather than an invented 0.
+pub(crate) fn infeasible_start(
+    plan: &hyperpbd_core::Plan,
+    obstacles: &BarrierObstacles,
+    position: &[f64],
+    particle: usize,
+) -> hyperpbd_core::Refusal {
+    let mut normal = vec![0.0; plan.dim];
+    let mut nearest = (0, f64::INFINITY);
+    for o in 0..obstacles.len() {
+        let distance = obstacles.distance(o, position, plan.radius[particle], &mut normal);
+        if distance.is_nan() || distance <= 0.0 {
+            return hyperpbd_core::Refusal::InfeasibleStart {
+                particle,
+                obstacle: obstacles.source(o) as usize,
+                distance,
+            };
+        }
+        if distance < nearest.1 {
+            nearest = (o, distance);
+        }
+    }
+    hyperpbd_core::Refusal::InfeasibleStart {
+        particle,
+        obstacle: obstacles.source(nearest.0) as usize,
+        distance: nearest.1,
+    }
+}
+
 /// The `BarrierParams` block of `shaders/barrier.wgsl`.
 pub(crate) fn barrier_params(
     precision: Precision,

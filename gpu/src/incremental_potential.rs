@@ -26,8 +26,8 @@ use hyperpbd_core::{
 };
 
 use crate::barrier::{
-    BARRIER_BINDINGS, NONE, STATUS_WORDS, barrier_params, local_obstacles, obstacle_geometry,
-    refuse_cut_loops, status_words,
+    BARRIER_BINDINGS, NONE, STATUS_WORDS, barrier_params, infeasible_start, local_obstacles,
+    obstacle_geometry, refuse_cut_loops, status_words,
 };
 use crate::context::{DeviceSource, GpuContext};
 use crate::export::Exporter;
@@ -143,7 +143,8 @@ impl GpuBarrierBackend {
             return Err(GpuError::Unsupported {
                 what: "the coupled implicit step (constraint springs, ball–ball barriers, \
                        lagged friction or an explicit warm_start under incremental_potential; \
-                       docs/implicit.md §7): it runs on the CPU golden path only (--backend cpu)"
+                       docs/implicit.md §7) on GpuBarrierBackend: GpuCoupledBackend runs it \
+                       (hyperpbd::load picks it)"
                     .into(),
             }
             .into());
@@ -422,40 +423,16 @@ impl GpuBarrierBackend {
         Ok(report)
     }
 
-    /// The refusal for an infeasible start of `particle`, with the obstacle
-    /// and distance computed by the golden path on the device's positions.
+    /// The refusal for an infeasible start of `particle`
+    /// ([`infeasible_start`] on the device's positions).
     fn infeasible(&mut self, particle: u32) -> Result<Refusal, BackendError> {
         let state = self.read_state()?;
-        let i = particle as usize;
-        let mut normal = vec![0.0; self.plan.dim];
-        let obstacles = &self.ip.obstacles;
-        for o in 0..obstacles.len() {
-            let distance =
-                obstacles.distance(o, state.position(i), self.plan.radius[i], &mut normal);
-            if distance.is_nan() || distance <= 0.0 {
-                return Ok(Refusal::InfeasibleStart {
-                    particle: i,
-                    obstacle: obstacles.source(o) as usize,
-                    distance,
-                });
-            }
-        }
-        // Feasible in f64 but not as the kernel computes it (the f32
-        // floor): name the nearest obstacle and its f64 distance, both
-        // measured, rather than an invented 0.
-        let mut nearest = (0, f64::INFINITY);
-        for o in 0..obstacles.len() {
-            let distance =
-                obstacles.distance(o, state.position(i), self.plan.radius[i], &mut normal);
-            if distance < nearest.1 {
-                nearest = (o, distance);
-            }
-        }
-        Ok(Refusal::InfeasibleStart {
-            particle: i,
-            obstacle: obstacles.source(nearest.0) as usize,
-            distance: nearest.1,
-        })
+        Ok(infeasible_start(
+            &self.plan,
+            &self.ip.obstacles,
+            state.position(particle as usize),
+            particle as usize,
+        ))
     }
 
     fn run_minimise(&mut self) -> Result<(), BackendError> {

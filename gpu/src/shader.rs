@@ -32,6 +32,8 @@ const GRID: &str = include_str!("../../shaders/grid.wgsl");
 const COLLIDE: &str = include_str!("../../shaders/collide.wgsl");
 const BARRIER: &str = include_str!("../../shaders/barrier.wgsl");
 const INCREMENTAL_POTENTIAL: &str = include_str!("../../shaders/incremental_potential.wgsl");
+const COUPLED: &str = include_str!("../../shaders/coupled.wgsl");
+const COUPLED_SOLVE: &str = include_str!("../../shaders/coupled_solve.wgsl");
 const LN_F32: &str = include_str!("../../shaders/ln_f32.wgsl");
 const LN_F64: &str = include_str!("../../shaders/ln_f64.wgsl");
 const EXPORT: &str = include_str!("../../shaders/export_positions.wgsl");
@@ -63,6 +65,11 @@ pub enum ShaderFile {
     /// incremental-potential substep (predict, gradient and residual,
     /// tree reduction, filtered Newton, velocity).
     IncrementalPotential,
+    /// `coupled.wgsl` (element and particle passes) and `coupled_solve.wgsl`
+    /// (PCG vectors, line search, certified filter, updates, block-tree
+    /// reductions) after `measure.wgsl` and `barrier.wgsl`: the coupled
+    /// implicit step.
+    Coupled,
     /// `export_positions.wgsl` alone: positions out to a caller's vertex
     /// buffer (world coordinates, f32, projected to 3 axes).
     Export,
@@ -70,13 +77,14 @@ pub enum ShaderFile {
 
 impl ShaderFile {
     /// Every kernel family.
-    pub const ALL: [ShaderFile; 7] = [
+    pub const ALL: [ShaderFile; 8] = [
         ShaderFile::Step,
         ShaderFile::Scan,
         ShaderFile::Grid,
         ShaderFile::Collide,
         ShaderFile::Barrier,
         ShaderFile::IncrementalPotential,
+        ShaderFile::Coupled,
         ShaderFile::Export,
     ];
 
@@ -89,6 +97,7 @@ impl ShaderFile {
             ShaderFile::Collide => "collide.wgsl",
             ShaderFile::Barrier => "barrier.wgsl",
             ShaderFile::IncrementalPotential => "incremental_potential.wgsl",
+            ShaderFile::Coupled => "coupled.wgsl",
             ShaderFile::Export => "export_positions.wgsl",
         }
     }
@@ -134,6 +143,31 @@ impl ShaderFile {
                 "ip_newton",
                 "ip_velocity",
             ],
+            ShaderFile::Coupled => &[
+                "evaluate",
+                "filter_fraction",
+                "ln_check",
+                "cp_elements",
+                "cp_element_changes",
+                "cp_slots",
+                "cp_start",
+                "cp_gradient",
+                "cp_inverse_diagonal",
+                "cp_product",
+                "cp_cg_start",
+                "cp_cg_advance",
+                "cp_cg_turn",
+                "cp_slope",
+                "cp_trial",
+                "cp_particle_changes",
+                "cp_filter_particles",
+                "cp_filter_pairs",
+                "cp_warm_start",
+                "cp_restart",
+                "cp_accept",
+                "cp_finish",
+                "cp_reduce",
+            ],
             ShaderFile::Export => &["export_positions"],
         }
     }
@@ -160,6 +194,7 @@ impl ShaderFile {
             ShaderFile::Collide => &[PRELUDE, CONTACT, COLLIDE],
             ShaderFile::Barrier => &[BARRIER],
             ShaderFile::IncrementalPotential => &[BARRIER, INCREMENTAL_POTENTIAL],
+            ShaderFile::Coupled => &[MEASURE, BARRIER, COUPLED, COUPLED_SOLVE],
             ShaderFile::Export => &[EXPORT],
         }
     }
@@ -190,7 +225,10 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
     );
     if matches!(
         file,
-        ShaderFile::Step | ShaderFile::Barrier | ShaderFile::IncrementalPotential
+        ShaderFile::Step
+            | ShaderFile::Barrier
+            | ShaderFile::IncrementalPotential
+            | ShaderFile::Coupled
     ) {
         source.push_str(match precision {
             Precision::F32 => LN_F32,

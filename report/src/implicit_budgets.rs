@@ -22,9 +22,11 @@
 //!                         why, and no error)
 //! frontier  per case: pareto::undominated on (ms / sim s, error)
 //! ```
-//! Only the CPU runs this step: the GPU backend refuses a coupled scene at
-//! load (`GpuError::Unsupported`); [`gpu_refusals`] asks each configured GPU
-//! backend and the report prints what it said.
+//! The sweep runs on cpu-f64. gpu-f64 runs the same step bit for bit on
+//! lavapipe (`GpuCoupledBackend`, tests/gpu_coupled.rs), so its errors are
+//! the CPU's; gpu-f32 refuses it at load (`GpuError::Unsupported`).
+//! [`gpu_refusals`] asks each configured GPU backend to load the incline
+//! and the report prints what it said.
 
 use crate::config::Config;
 use crate::implicit_cases::link_residual;
@@ -271,8 +273,8 @@ pub fn mark_frontier(points: &mut [ImplicitPoint]) {
 }
 
 /// What loading the incline scene on each configured GPU backend says
-/// (the GPU refuses the coupled step today); backends without an adapter
-/// are not asked.
+/// (gpu-f32 refuses the coupled step; gpu-f64 runs it); backends without
+/// an adapter are not asked.
 pub fn gpu_refusals(config: &Config, progress: &Progress) -> Vec<(BackendKind, String)> {
     let scene = ImplicitCase::Incline.scene(1, None);
     let state = State::from_scene(&scene);
@@ -285,7 +287,12 @@ pub fn gpu_refusals(config: &Config, progress: &Progress) -> Vec<(BackendKind, S
             let plan = Plan::compile(&scene).ok()?;
             Some(match load(b, plan, &state) {
                 Err(e) => (b, format!("refused: {e}")),
-                Ok(_) => (b, "loads the coupled scene, but is not swept here".into()),
+                Ok(_) => (
+                    b,
+                    "runs the coupled step (bit-identical to cpu-f64 on lavapipe: \
+                     tests/gpu_coupled.rs), not swept here"
+                        .into(),
+                ),
             })
         })
         .collect()

@@ -77,8 +77,9 @@ pub fn case_summary(r: &ImplicitResult) -> Option<String> {
 
 fn gpu_sentence(section: &ImplicitSection) -> String {
     if section.gpu.is_empty() {
-        return "no GPU backend was asked here (none configured or no adapter); the GPU backend \
-                refuses a coupled scene at load today (`GpuError::Unsupported`)"
+        return "no GPU backend was asked here (none configured or no adapter); gpu-f64 runs \
+                the coupled step (`GpuCoupledBackend`), gpu-f32 refuses it at load \
+                (`GpuError::Unsupported`)"
             .into();
     }
     let mut said: Vec<(Vec<&str>, &str)> = Vec::new();
@@ -143,7 +144,7 @@ pub fn implicit_section(report: &Report, section: &ImplicitSection) -> String {
     let _ = writeln!(
         s,
         "The coupled incremental-potential step (docs/implicit.md §7: Newton on the incremental potential, \
-         each direction by Jacobi-preconditioned CG, a certified line search) on **cpu-f64 only**: {}. \
+         each direction by Jacobi-preconditioned CG, a certified line search), swept on **cpu-f64**: {}. \
          Swept: the Newton budget `max_iterations` ∈ {{{}}} × the CG budget per Newton direction \
          `cg_iterations` ∈ {{{}}} (none: the default, {DEFAULT_CG_ITERATIONS}), one minimisation per \
          1/60 s frame. A minimisation ends *converged* (the acceleration residual met its tolerance), \

@@ -9,6 +9,7 @@ pub mod differential;
 pub mod exact;
 pub mod gpu;
 pub mod guarded;
+pub mod implicit_scenes;
 pub mod materials;
 
 /// A deterministic pseudo-random number generator (64-bit LCG), so test

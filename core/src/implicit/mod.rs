@@ -35,6 +35,7 @@
 mod ball_barrier;
 pub mod certified_filter;
 pub mod closed_forms;
+mod element_lists;
 mod friction;
 mod material_hessian;
 mod material_rounding;
@@ -42,10 +43,12 @@ mod pcg;
 mod psd;
 mod radial;
 mod reduction;
+pub mod resolution;
 mod springs;
 mod step_plan;
 
 pub use ball_barrier::{BallPair, ball_pair_barrier};
+pub use element_lists::ElementLists;
 pub use friction::{
     FrictionRegime, FrictionTerm, TangentCurvature, mollifier, normal_force, obstacle_friction,
     pair_friction,
@@ -55,7 +58,9 @@ pub use material_hessian::{
     material_hessian_block, material_term,
 };
 pub use material_rounding::material_energy_rounding;
-pub use pcg::{PcgReport, PcgSettings, PcgStatus, PcgWorkspace, pcg};
+pub use pcg::{
+    PcgReport, PcgSettings, PcgStatus, PcgVectors, PcgWorkspace, newton_cg_tolerance, pcg, pcg_on,
+};
 pub use psd::{PsdProjection, PsdScratch, project_psd};
 pub use radial::RadialCurvature;
 pub use reduction::{REDUCTION_BLOCK, block_tree_max, block_tree_sum, tree_dot};

@@ -26,6 +26,7 @@
 //! the preconditioned condition number κ_H.
 
 use super::reduction::tree_dot;
+use crate::Convergence;
 
 /// Stopping rule and budget.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -79,50 +80,33 @@ pub struct PcgWorkspace {
 }
 
 impl PcgWorkspace {
-    /// Empty workspace; vectors grow on first use.
+    /// Empty workspace.
     pub fn new() -> Self {
         PcgWorkspace::default()
     }
 }
 
-/// Solves H d = `rhs` into `solution` (same length; overwritten, starts at
-/// 0). `product(p, out)` writes H p into `out`; `inverse_diagonal` is P⁻¹
-/// (0 marks a frozen coordinate); `dim` groups coordinates per particle
-/// for the reduction terms.
-pub fn pcg<F: FnMut(&[f64], &mut [f64])>(
-    mut product: F,
-    inverse_diagonal: &[f64],
-    rhs: &[f64],
-    dim: usize,
-    settings: PcgSettings,
-    solution: &mut [f64],
-    ws: &mut PcgWorkspace,
-) -> PcgReport {
-    let n = rhs.len();
-    let PcgWorkspace {
-        r,
-        z,
-        p,
-        q,
-        terms,
-        scratch,
-    } = ws;
-    for v in [&mut *r, &mut *z, &mut *p, &mut *q] {
-        v.clear();
-        v.resize(n, 0.0);
-    }
-    solution[..n].fill(0.0);
-    for c in 0..n {
-        r[c] = if inverse_diagonal[c] == 0.0 {
-            0.0
-        } else {
-            rhs[c]
-        };
-        z[c] = inverse_diagonal[c] * r[c];
-        p[c] = z[c];
-    }
-    let initial = tree_dot(r, r, dim, terms, scratch).sqrt();
-    let mut rho = tree_dot(r, z, dim, terms, scratch);
+/// The vector half of PCG: where d, r, z, p, q live and how they are
+/// updated and reduced. [`pcg_on`] runs the scalar recurrence over it, so
+/// the host slices of [`pcg`] and a GPU's buffers share one control flow
+/// (every "·" on the block tree, every update elementwise, as in the
+/// module docs).
+pub trait PcgVectors {
+    /// d = 0, r = b on free coordinates (0 where P⁻¹ = 0), z = P⁻¹ r,
+    /// p = z; returns (r·r, r·z).
+    fn start(&mut self) -> (f64, f64);
+    /// q = H p (0 where P⁻¹ = 0); returns p·q.
+    fn curvature(&mut self) -> f64;
+    /// d += a p, r −= a q, z = P⁻¹ r; returns (r·r, r·z).
+    fn advance(&mut self, a: f64) -> (f64, f64);
+    /// p = z + β p.
+    fn turn(&mut self, beta: f64);
+}
+
+/// PCG's scalar recurrence over `vectors` (module docs).
+pub fn pcg_on(vectors: &mut impl PcgVectors, settings: PcgSettings) -> PcgReport {
+    let (rr, mut rho) = vectors.start();
+    let initial = rr.sqrt();
     let mut report = PcgReport {
         status: PcgStatus::Converged,
         iterations: 0,
@@ -140,14 +124,8 @@ pub fn pcg<F: FnMut(&[f64], &mut [f64])>(
         return report;
     }
     for iteration in 1..=settings.max_iterations {
-        product(p, q);
-        for c in 0..n {
-            if inverse_diagonal[c] == 0.0 {
-                q[c] = 0.0;
-            }
-        }
+        let curvature = vectors.curvature();
         report.iterations = iteration;
-        let curvature = tree_dot(p, q, dim, terms, scratch);
         if !curvature.is_finite() {
             report.status = PcgStatus::NonFinite;
             return report;
@@ -156,12 +134,8 @@ pub fn pcg<F: FnMut(&[f64], &mut [f64])>(
             report.status = PcgStatus::NonPositiveCurvature { curvature };
             return report;
         }
-        let a = rho / curvature;
-        for c in 0..n {
-            solution[c] += a * p[c];
-            r[c] -= a * q[c];
-        }
-        let residual = tree_dot(r, r, dim, terms, scratch).sqrt();
+        let (rr, next) = vectors.advance(rho / curvature);
+        let residual = rr.sqrt();
         report.final_residual = residual;
         if !residual.is_finite() {
             report.status = PcgStatus::NonFinite;
@@ -171,16 +145,132 @@ pub fn pcg<F: FnMut(&[f64], &mut [f64])>(
             report.status = PcgStatus::Converged;
             return report;
         }
-        for c in 0..n {
-            z[c] = inverse_diagonal[c] * r[c];
-        }
-        let next = tree_dot(r, z, dim, terms, scratch);
-        let beta = next / rho;
-        for c in 0..n {
-            p[c] = z[c] + beta * p[c];
-        }
+        vectors.turn(next / rho);
         rho = next;
     }
     report.status = PcgStatus::BudgetExhausted;
     report
+}
+
+/// [`PcgVectors`] on host slices, the product a callback.
+struct HostVectors<'a, F> {
+    product: F,
+    inverse_diagonal: &'a [f64],
+    rhs: &'a [f64],
+    dim: usize,
+    solution: &'a mut [f64],
+    ws: &'a mut PcgWorkspace,
+}
+
+impl<F: FnMut(&[f64], &mut [f64])> PcgVectors for HostVectors<'_, F> {
+    fn start(&mut self) -> (f64, f64) {
+        let n = self.rhs.len();
+        let ws = &mut *self.ws;
+        for v in [&mut ws.r, &mut ws.z, &mut ws.p, &mut ws.q] {
+            v.clear();
+            v.resize(n, 0.0);
+        }
+        self.solution[..n].fill(0.0);
+        for c in 0..n {
+            ws.r[c] = if self.inverse_diagonal[c] == 0.0 {
+                0.0
+            } else {
+                self.rhs[c]
+            };
+            ws.z[c] = self.inverse_diagonal[c] * ws.r[c];
+            ws.p[c] = ws.z[c];
+        }
+        (
+            tree_dot(&ws.r, &ws.r, self.dim, &mut ws.terms, &mut ws.scratch),
+            tree_dot(&ws.r, &ws.z, self.dim, &mut ws.terms, &mut ws.scratch),
+        )
+    }
+
+    fn curvature(&mut self) -> f64 {
+        let ws = &mut *self.ws;
+        (self.product)(&ws.p, &mut ws.q);
+        for c in 0..ws.q.len() {
+            if self.inverse_diagonal[c] == 0.0 {
+                ws.q[c] = 0.0;
+            }
+        }
+        tree_dot(&ws.p, &ws.q, self.dim, &mut ws.terms, &mut ws.scratch)
+    }
+
+    fn advance(&mut self, a: f64) -> (f64, f64) {
+        let ws = &mut *self.ws;
+        for c in 0..ws.r.len() {
+            self.solution[c] += a * ws.p[c];
+            ws.r[c] -= a * ws.q[c];
+        }
+        for c in 0..ws.r.len() {
+            ws.z[c] = self.inverse_diagonal[c] * ws.r[c];
+        }
+        (
+            tree_dot(&ws.r, &ws.r, self.dim, &mut ws.terms, &mut ws.scratch),
+            tree_dot(&ws.r, &ws.z, self.dim, &mut ws.terms, &mut ws.scratch),
+        )
+    }
+
+    fn turn(&mut self, beta: f64) {
+        let ws = &mut *self.ws;
+        for c in 0..ws.p.len() {
+            ws.p[c] = ws.z[c] + beta * ws.p[c];
+        }
+    }
+}
+
+/// Solves H d = `rhs` from d = 0 by PCG with the diagonal preconditioner
+/// `inverse_diagonal` (0 freezes a coordinate) over host slices;
+/// `product(p, out)` writes H p. `dim` is the per-particle width of the
+/// dot products' terms. The iterate is left in `solution`.
+pub fn pcg<F: FnMut(&[f64], &mut [f64])>(
+    product: F,
+    inverse_diagonal: &[f64],
+    rhs: &[f64],
+    dim: usize,
+    settings: PcgSettings,
+    solution: &mut [f64],
+    ws: &mut PcgWorkspace,
+) -> PcgReport {
+    let mut vectors = HostVectors {
+        product,
+        inverse_diagonal,
+        rhs,
+        dim,
+        solution,
+        ws,
+    };
+    pcg_on(&mut vectors, settings)
+}
+
+/// The Newton step's CG stop ‖r‖₂ ≤ f · r_k · s (docs/implicit.md §7 step
+/// 7, §11): the forcing f = min(¼, √(r_k/r_0)) relative to the Newton
+/// residual r_k **in the authored criterion's units**, s converting them
+/// to the ‖·‖₂ of gradient units: 1 for the packed gradient, min_i m_i h²
+/// over the free particles (`mass` 0: fixed) for the acceleration residual
+/// (a particle's acceleration error is |r_i|/(m_i h²) ≤ ‖r‖₂/(m_min h²)).
+/// A tolerance relative to ‖g‖₂ instead lets the heaviest particles set
+/// it: on the 1:10⁶ chain the light beads' directions were then useless
+/// and Newton stalled at its budget (`tests/implicit_step.rs`).
+pub fn newton_cg_tolerance(
+    criterion: Convergence,
+    residual: f64,
+    first: f64,
+    mass: &[f64],
+    h: f64,
+) -> f64 {
+    let forcing = (residual / first).sqrt().min(0.25);
+    let scale = match criterion {
+        Convergence::PackedGradient { .. } => 1.0,
+        Convergence::MaxAccelerationResidual { .. } => {
+            let lightest = mass
+                .iter()
+                .copied()
+                .filter(|&m| m > 0.0)
+                .fold(f64::INFINITY, f64::min);
+            lightest * h * h
+        }
+    };
+    forcing * residual * scale
 }

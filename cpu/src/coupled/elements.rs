@@ -25,9 +25,10 @@ use crate::parallel::Workers;
 use hyperpbd_core::barrier::BarrierLaw;
 use hyperpbd_core::broadphase::Pair;
 use hyperpbd_core::geometry::Scratch;
+use hyperpbd_core::implicit::resolution::{ball_rounding, spring_rounding};
 use hyperpbd_core::implicit::{
-    RadialCurvature, Spring, SpringCurvature, TangentCurvature, ball_pair_barrier, evaluate_spring,
-    pair_friction,
+    ElementLists, RadialCurvature, Spring, SpringCurvature, TangentCurvature, ball_pair_barrier,
+    evaluate_spring, pair_friction,
 };
 use hyperpbd_core::{ConstraintKind, FamilyKind, Plan};
 use materials::MaterialBuffers;
@@ -69,15 +70,8 @@ enum Kind {
 #[derive(Debug, Default)]
 pub struct Elements {
     kinds: Vec<Kind>,
-    /// Particles of element e: `particles[e * arity_max..]`, `arity[e]` of them.
-    particles: Vec<u32>,
-    arity: Vec<u32>,
-    /// Largest arity (≥ 2).
-    arity_max: usize,
-    /// Particle k's slots are `entries[offsets[k]..offsets[k + 1]]`, each
-    /// `e * arity_max + local`.
-    offsets: Vec<u32>,
-    entries: Vec<u32>,
+    /// Members and per-particle gather lists (core's `ElementLists`).
+    lists: ElementLists,
     /// One record per element (see the module docs).
     pub records: Vec<f64>,
     /// Product / diagonal values per slot (`arity_max · N` per element).
@@ -104,32 +98,22 @@ impl Elements {
 
     /// The first particle of element e (for a report).
     pub fn first_particle(&self, e: usize) -> usize {
-        self.particles[e * self.arity_max] as usize
+        self.lists.members(e)[0] as usize
     }
 
     /// Values per record.
     fn record_len(&self, dim: usize) -> usize {
-        3 + 2 * self.arity_max * dim
+        3 + 2 * self.lists.arity_max * dim
     }
 
     /// Rebuilds the list: every spring of `plan`, the ball pairs `balls`
     /// (with `collisions`) and the friction lags `lags`.
     pub fn rebuild(&mut self, plan: &Plan, balls: &[Pair], lags: &[PairLag]) {
-        let n = plan.particle_count();
-        self.arity_max = plan.families.iter().map(|f| f.arity).fold(2, usize::max);
+        let arity_max = plan.families.iter().map(|f| f.arity).fold(2, usize::max);
         self.kinds.clear();
-        self.particles.clear();
-        self.arity.clear();
+        self.lists.clear(arity_max);
         self.materials.clear();
         self.frame_stride = materials::frame_stride(&plan.families, plan.dim);
-        let width = self.arity_max;
-        let mut push = |kind: Kind, members: &[u32]| {
-            self.kinds.push(kind);
-            self.arity.push(members.len() as u32);
-            self.particles.extend_from_slice(members);
-            self.particles
-                .extend(std::iter::repeat_n(0, width - members.len()));
-        };
         let mut next = 0u32;
         for (f, family) in plan.families.iter().enumerate() {
             let material = family.kind.rest_view(0).is_some();
@@ -147,47 +131,30 @@ impl Elements {
                 } else {
                     Kind::Spring { family, element }
                 };
-                push(kind, members);
+                self.kinds.push(kind);
+                self.lists.push(members);
                 next += 1;
             }
         }
         for pair in balls {
-            push(Kind::Ball, pair);
+            self.kinds.push(Kind::Ball);
+            self.lists.push(pair);
         }
         for (l, lag) in lags.iter().enumerate() {
-            push(Kind::Friction { lag: l as u32 }, &lag.pair);
+            self.kinds.push(Kind::Friction { lag: l as u32 });
+            self.lists.push(&lag.pair);
         }
-        // Gather lists: counting sort by particle, slots in ascending order.
-        self.offsets.clear();
-        self.offsets.resize(n + 1, 0);
-        for e in 0..self.kinds.len() {
-            for j in 0..self.arity[e] as usize {
-                self.offsets[self.particles[e * width + j] as usize + 1] += 1;
-            }
-        }
-        for k in 0..n {
-            self.offsets[k + 1] += self.offsets[k];
-        }
-        self.entries.clear();
-        self.entries.resize(self.offsets[n] as usize, 0);
-        let mut fill = self.offsets[..n].to_vec();
-        for e in 0..self.kinds.len() {
-            for j in 0..self.arity[e] as usize {
-                let k = self.particles[e * width + j] as usize;
-                self.entries[fill[k] as usize] = (e * width + j) as u32;
-                fill[k] += 1;
-            }
-        }
+        self.lists.build_gather(plan.particle_count());
     }
 
     /// The points of element e at `x` into `points` (arity × N).
     fn gather_points(&self, e: usize, x: &[f64], dim: usize, points: &mut [f64]) -> usize {
-        let arity = self.arity[e] as usize;
-        for j in 0..arity {
-            let i = self.particles[e * self.arity_max + j] as usize;
+        let members = self.lists.members(e);
+        for (j, &i) in members.iter().enumerate() {
+            let i = i as usize;
             points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
         }
-        arity
+        members.len()
     }
 
     /// Evaluates every element at `x` into [`Elements::records`]; the
@@ -207,7 +174,7 @@ impl Elements {
             stride,
             |this, r, out| {
                 let mut scratch = Buffers::default();
-                let mut points = vec![0.0; this.arity_max * dim];
+                let mut points = vec![0.0; this.lists.arity_max * dim];
                 for e in r.clone() {
                     let record = &mut out[(e - r.start) * stride..(e - r.start + 1) * stride];
                     this.evaluate_one(e, terms, x, &mut points, record, &mut scratch);
@@ -254,7 +221,7 @@ impl Elements {
     ) {
         let dim = terms.plan.dim;
         let arity = self.gather_points(e, x, dim, points);
-        let width = self.arity_max * dim;
+        let width = self.lists.arity_max * dim;
         let (head, rest) = record.split_at_mut(3);
         let (gradient, aux) = rest.split_at_mut(width);
         let points = &points[..arity * dim];
@@ -327,11 +294,8 @@ impl Elements {
 
     /// (i, j) of a two-particle element.
     fn pair(&self, e: usize) -> (usize, usize) {
-        let base = e * self.arity_max;
-        (
-            self.particles[base] as usize,
-            self.particles[base + 1] as usize,
-        )
+        let members = self.lists.members(e);
+        (members[0] as usize, members[1] as usize)
     }
 
     /// out (arity × N) = K_e⁺ p_e (`p` = None: the diagonal of K_e⁺ instead)
@@ -346,8 +310,8 @@ impl Elements {
         buffers: &mut MaterialBuffers,
     ) {
         let dim = terms.plan.dim;
-        let arity = self.arity[e] as usize;
-        let width = self.arity_max * dim;
+        let arity = self.lists.arity[e] as usize;
+        let width = self.lists.arity_max * dim;
         let aux = &record[3 + width..3 + width + arity * dim];
         let radial = RadialCurvature {
             along: record[1],
@@ -421,7 +385,7 @@ impl Elements {
     /// buffer, element by element.
     pub fn fill_slots(&mut self, workers: &Workers, terms: &Terms<'_>, p: &[f64], diagonal: bool) {
         let dim = terms.plan.dim;
-        let width = self.arity_max * dim;
+        let width = self.lists.arity_max * dim;
         let stride = self.record_len(dim);
         let _ = self.fill_blocks(
             |e| &mut e.slots,
@@ -448,13 +412,11 @@ impl Elements {
     /// Adds particle k's gathered values from `source` (records' gradients
     /// with `gradient`, else the slots) into `out` (length N).
     pub fn gather(&self, k: usize, dim: usize, gradient: bool, out: &mut [f64]) {
-        let width = self.arity_max * dim;
+        let arity_max = self.lists.arity_max;
+        let width = arity_max * dim;
         let stride = 3 + 2 * width;
-        for &slot in &self.entries[self.offsets[k] as usize..self.offsets[k + 1] as usize] {
-            let (e, local) = (
-                slot as usize / self.arity_max,
-                slot as usize % self.arity_max,
-            );
+        for &slot in self.lists.slots_of(k) {
+            let (e, local) = (slot as usize / arity_max, slot as usize % arity_max);
             let values = if gradient {
                 &self.records[e * stride + 3 + local * dim..e * stride + 3 + (local + 1) * dim]
             } else {
@@ -475,7 +437,7 @@ impl Elements {
         changes.resize(self.len(), 0.0);
         let _ = workers.try_for_spans(self.len(), ELEMENT_GRAIN, 1, [changes], |r, [out]| {
             let mut scratch = Buffers::default();
-            let mut points = vec![0.0; self.arity_max * dim];
+            let mut points = vec![0.0; self.lists.arity_max * dim];
             let mut record = vec![0.0; stride];
             for e in r.clone() {
                 // record[0]: the element's energy at y (+∞ for a ball pair
@@ -494,41 +456,37 @@ impl Elements {
     pub fn energy_scale(&self, terms: &Terms<'_>, x: &[f64]) -> (f64, f64) {
         let dim = terms.plan.dim;
         let stride = self.record_len(dim);
-        let gamma = (dim as f64 + 4.0) * f64::EPSILON;
         let (mut energy, mut force) = (0.0, 0.0);
-        let mut points = vec![0.0; self.arity_max * dim];
+        let mut points = vec![0.0; self.lists.arity_max * dim];
         let mut buffers = MaterialBuffers::default();
         for e in 0..self.len() {
             energy += self.records[e * stride].abs();
-            if let Kind::Spring { family, element } = self.kinds[e] {
-                // |∂E/∂C| δC with |∂E/∂C| = |C|/α = √(2E/α) and δC = γ (|C| + |rest|):
-                // C = value − rest cancels, its rounding is relative to the value.
-                let family = &terms.plan.families[family as usize];
-                let alpha = family.compliance;
-                let c = (2.0 * self.records[e * stride] * alpha).sqrt();
-                let rest = family.rest[element as usize].abs();
-                force += c / alpha * gamma * (c + rest);
-            }
-            if let Kind::Material {
-                family, element, ..
-            } = self.kinds[e]
-            {
-                let arity = self.gather_points(e, x, dim, &mut points);
-                let family = &terms.plan.families[family as usize];
-                let points = &points[..arity * dim];
-                force += materials::rounding(family, element as usize, points, dim, &mut buffers);
-            }
-            if self.kinds[e] == Kind::Ball {
-                let (i, j) = self.pair(e);
-                self.gather_points(e, x, dim, &mut points);
-                let mut length = 0.0;
-                for a in 0..dim {
-                    let d = points[dim + a] - points[a];
-                    length += d * d;
+            match self.kinds[e] {
+                Kind::Spring { family, element } => {
+                    let family = &terms.plan.families[family as usize];
+                    force += spring_rounding(
+                        self.records[e * stride],
+                        family.compliance,
+                        family.rest[element as usize],
+                        dim,
+                    );
                 }
-                let (ri, rj) = (terms.plan.radius[i], terms.plan.radius[j]);
-                let slope = terms.law.evaluate(length.sqrt() - ri - rj).1;
-                force += slope.abs() * gamma * (length.sqrt() + ri + rj);
+                Kind::Material {
+                    family, element, ..
+                } => {
+                    let arity = self.gather_points(e, x, dim, &mut points);
+                    let family = &terms.plan.families[family as usize];
+                    let points = &points[..arity * dim];
+                    force +=
+                        materials::rounding(family, element as usize, points, dim, &mut buffers);
+                }
+                Kind::Ball => {
+                    let (i, j) = self.pair(e);
+                    self.gather_points(e, x, dim, &mut points);
+                    let radii = (terms.plan.radius[i], terms.plan.radius[j]);
+                    force += ball_rounding(terms.law, &points[..2 * dim], radii, dim);
+                }
+                Kind::Friction { .. } => {}
             }
         }
         (energy, force)

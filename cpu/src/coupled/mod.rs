@@ -39,9 +39,10 @@ use crate::incremental_potential::{ARMIJO, MAX_HALVINGS};
 use crate::parallel::Workers;
 use elements::{Elements, Terms};
 use hyperpbd_core::IncrementalPotentialPlan;
+use hyperpbd_core::implicit::resolution::{change_resolution, particle_sums};
 use hyperpbd_core::implicit::{
-    CoupledPlan, PcgSettings, PcgStatus, PcgWorkspace, block_tree_max, block_tree_sum, pcg,
-    tree_dot,
+    CoupledPlan, PcgSettings, PcgStatus, PcgWorkspace, block_tree_max, block_tree_sum,
+    newton_cg_tolerance, pcg, tree_dot,
 };
 use hyperpbd_core::{Convergence, MinimisationReport, MinimisationStatus, Plan, Refusal};
 use particles::{Context, Particles};
@@ -156,7 +157,13 @@ pub(crate) fn minimise(
         let settings = PcgSettings {
             max_iterations: coupled.cg_iterations,
             relative_tolerance: 0.0,
-            absolute_tolerance: cg_tolerance(plan, particles, ip.convergence, residual, r0),
+            absolute_tolerance: newton_cg_tolerance(
+                ip.convergence,
+                residual,
+                r0,
+                &particles.mass,
+                plan.h,
+            ),
         };
         let cg = pcg(
             |p, out| {
@@ -272,37 +279,6 @@ fn element_refusal(plan: &Plan, elements: &Elements, e: usize, x: &[f64]) -> Ref
     }
 }
 
-/// The CG stop ‖r‖₂ ≤ f · r_k · s (step 7): the forcing f = min(¼, √(r_k/r_0))
-/// relative to the Newton residual r_k **in the authored criterion's
-/// units**, s converting them to the ‖·‖₂ of gradient units: 1 for the packed
-/// gradient, min_i m_i h² for the acceleration residual (a particle's
-/// acceleration error is |r_i|/(m_i h²) ≤ ‖r‖₂/(m_min h²)). A tolerance
-/// relative to ‖g‖₂ instead lets the heaviest particles set it: on the
-/// 1:10⁶ chain the light beads' directions were then useless and Newton
-/// stalled at its budget (`tests/implicit_step.rs`).
-fn cg_tolerance(
-    plan: &Plan,
-    particles: &Particles,
-    criterion: Convergence,
-    residual: f64,
-    first: f64,
-) -> f64 {
-    let forcing = (residual / first).sqrt().min(0.25);
-    let scale = match criterion {
-        Convergence::PackedGradient { .. } => 1.0,
-        Convergence::MaxAccelerationResidual { .. } => {
-            let lightest = particles
-                .mass
-                .iter()
-                .copied()
-                .filter(|&m| m > 0.0)
-                .fold(f64::INFINITY, f64::min);
-            lightest * plan.h * plan.h
-        }
-    };
-    forcing * residual * scale
-}
-
 /// The authored residual over the free particles on the block tree:
 /// per-particle terms |g_i|² (packed) or |g_i| / (m_i h²) (acceleration),
 /// 0 for fixed particles.
@@ -364,9 +340,8 @@ fn change(
     }
 }
 
-/// The rounding bound of [`change`] over the full step Δ (§7 step 11):
-/// (N + 4) ε/2 (Σ_i m_i Σ|Δ|(|x − x~| + |Δ|) + h² Σ|load·Δ| + 2h² Σ|E|)
-/// + 2h² Σ_b |b'| δd.
+/// The rounding bound of [`change`] over the full step Δ (§7 step 11,
+/// core's `implicit::resolution`).
 fn resolution(
     plan: &Plan,
     particles: &Particles,
@@ -375,29 +350,16 @@ fn resolution(
     x: &[f64],
     direction: &[f64],
 ) -> f64 {
-    let (dim, h2) = (plan.dim, plan.h * plan.h);
-    let stride = Particles::stride(dim);
-    let (mut inertia, mut work, mut energy, mut force) = (0.0, 0.0, 0.0, 0.0);
-    for i in 0..plan.particle_count() {
-        if particles.mass[i] == 0.0 {
-            continue;
-        }
-        let mut own = 0.0;
-        for a in 0..dim {
-            let k = i * dim + a;
-            let s = direction[k].abs();
-            own += s * ((x[k] - particles.prediction[k]).abs() + s);
-            work += (particles.load[k] * direction[k]).abs();
-        }
-        inertia += particles.mass[i] * own;
-        energy += particles.terms[i * stride + dim * dim].abs();
-        force += particles.terms[i * stride + dim * dim + 1];
-    }
+    let sums = particle_sums(
+        plan.dim,
+        &particles.mass,
+        x,
+        &particles.prediction,
+        &particles.load,
+        direction,
+        &particles.terms,
+        Particles::stride(plan.dim),
+    );
     let (element_energy, element_force) = elements.energy_scale(terms, x);
-    let epsilon = f64::EPSILON;
-    (dim as f64 + 4.0)
-        * 0.5
-        * epsilon
-        * (inertia + h2 * work + 2.0 * h2 * (energy + element_energy))
-        + 2.0 * h2 * (force + element_force)
+    change_resolution(plan.dim, plan.h, sums, element_energy, element_force)
 }

@@ -164,7 +164,7 @@ impl Elements {
             stride,
             |this, r, out| {
                 let mut buffers = MaterialBuffers::default();
-                let mut points = vec![0.0; this.arity_max * dim];
+                let mut points = vec![0.0; this.lists.arity_max * dim];
                 for m in r.clone() {
                     let e = this.materials[m] as usize;
                     let Kind::Material {
@@ -207,7 +207,7 @@ impl Elements {
             return None;
         };
         let dim = plan.dim;
-        let mut points = vec![0.0; self.arity_max * dim];
+        let mut points = vec![0.0; self.lists.arity_max * dim];
         let arity = self.gather_points(e, x, dim, &mut points);
         let f = &plan.families[family as usize];
         let points = &points[..arity * dim];

@@ -1,0 +1,130 @@
+//! The coupled step's kernel set: its entry points in
+//! `shaders/coupled.wgsl` and `shaders/coupled_solve.wgsl`, their bindings,
+//! and the vector regions they share with the host.
+
+use crate::barrier::BARRIER_BINDINGS;
+use crate::kernel_set::{Binding, EntryPoint};
+use crate::shader::ShaderFile;
+
+/// Entry points of `shaders/coupled.wgsl`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Entry {
+    Elements,
+    ElementChanges,
+    Slots,
+    Start,
+    Gradient,
+    InverseDiagonal,
+    Product,
+    CgStart,
+    CgAdvance,
+    CgTurn,
+    Slope,
+    Trial,
+    ParticleChanges,
+    FilterParticles,
+    FilterPairs,
+    WarmStart,
+    Restart,
+    Accept,
+    Finish,
+    Reduce,
+}
+
+impl Entry {
+    pub const ALL: [Entry; 20] = [
+        Entry::Elements,
+        Entry::ElementChanges,
+        Entry::Slots,
+        Entry::Start,
+        Entry::Gradient,
+        Entry::InverseDiagonal,
+        Entry::Product,
+        Entry::CgStart,
+        Entry::CgAdvance,
+        Entry::CgTurn,
+        Entry::Slope,
+        Entry::Trial,
+        Entry::ParticleChanges,
+        Entry::FilterParticles,
+        Entry::FilterPairs,
+        Entry::WarmStart,
+        Entry::Restart,
+        Entry::Accept,
+        Entry::Finish,
+        Entry::Reduce,
+    ];
+}
+
+impl EntryPoint for Entry {
+    fn source(self) -> (ShaderFile, &'static str) {
+        let name = match self {
+            Entry::Elements => "cp_elements",
+            Entry::ElementChanges => "cp_element_changes",
+            Entry::Slots => "cp_slots",
+            Entry::Start => "cp_start",
+            Entry::Gradient => "cp_gradient",
+            Entry::InverseDiagonal => "cp_inverse_diagonal",
+            Entry::Product => "cp_product",
+            Entry::CgStart => "cp_cg_start",
+            Entry::CgAdvance => "cp_cg_advance",
+            Entry::CgTurn => "cp_cg_turn",
+            Entry::Slope => "cp_slope",
+            Entry::Trial => "cp_trial",
+            Entry::ParticleChanges => "cp_particle_changes",
+            Entry::FilterParticles => "cp_filter_particles",
+            Entry::FilterPairs => "cp_filter_pairs",
+            Entry::WarmStart => "cp_warm_start",
+            Entry::Restart => "cp_restart",
+            Entry::Accept => "cp_accept",
+            Entry::Finish => "cp_finish",
+            Entry::Reduce => "cp_reduce",
+        };
+        (ShaderFile::Coupled, name)
+    }
+}
+
+/// Group-0 bindings: barrier.wgsl's 0..=10, then v force mass
+/// gravity_scale gravity plane_mu lag_force element_words element_reals
+/// gather records slots vectors terms tree params.
+pub(crate) const BINDINGS: [Binding; 27] = [
+    BARRIER_BINDINGS[0],
+    BARRIER_BINDINGS[1],
+    BARRIER_BINDINGS[2],
+    BARRIER_BINDINGS[3],
+    BARRIER_BINDINGS[4],
+    BARRIER_BINDINGS[5],
+    BARRIER_BINDINGS[6],
+    BARRIER_BINDINGS[7],
+    BARRIER_BINDINGS[8],
+    BARRIER_BINDINGS[9],
+    BARRIER_BINDINGS[10],
+    Binding::WRITE,
+    Binding::READ,
+    Binding::READ,
+    Binding::READ,
+    Binding::READ,
+    Binding::READ,
+    Binding::WRITE,
+    Binding::READ,
+    Binding::READ,
+    Binding::READ,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::READ,
+];
+
+/// Vector regions of `coupled.wgsl` (R_*).
+pub(crate) mod region {
+    pub const DIRECTION: usize = 1;
+    pub const TRIAL: usize = 3;
+    pub const X: usize = 8;
+    pub const START: usize = 9;
+    pub const PREDICTION: usize = 10;
+    pub const LOAD: usize = 11;
+    /// Regions in all.
+    pub const COUNT: usize = 12;
+}

@@ -1,0 +1,356 @@
+//! `GpuCoupledBackend`: the coupled implicit step (docs/implicit.md §7) on
+//! the GPU, the golden path's schedule (`cpu/src/coupled/`) kernel for
+//! kernel: every per-element and per-particle pass, every vector update of
+//! PCG and the line search, and every sum on the block tree run in
+//! `shaders/coupled.wgsl`; the host runs the Newton loop's decisions on the
+//! few reduced scalars it reads back, through the same core functions as
+//! the CPU (`pcg_on`, `MinimisationReport`, `change_resolution`).
+//!
+//! ```text
+//! per substep:  cp_start (x^t, x~, load, lags, d ≤ 0) → pairs at x^t (collisions) → warm start
+//!               loop { x_k → point; cp_elements; cp_gradient; Σ|max → residual (one read)
+//!                      cp_slots(diag), cp_inverse_diagonal; PCG (two reads per iteration)
+//!                      pairs over [x_k, x_k + Δ]; filter (min, one read); cp_elements at x_k;
+//!                      slope (one read); trials (one read each); accept }
+//!               cp_finish: x = x_k, v = (x − x^t)/h
+//! pairs         the broadphase over the swept boxes runs on the host over x_k and Δ read
+//!               back (only with `collisions`); the element list is re-uploaded when the
+//!               pair set changes
+//! refused       f32 (the certified filter's and the floor's rounding counts are f64's so
+//!               far), material families, simplex-mesh obstacles, pair friction
+//! ```
+//! In f64 on lavapipe every state is bit-identical to the CPU golden path
+//! (`tests/gpu_coupled.rs`).
+
+mod device;
+mod entries;
+mod newton;
+
+use hyperpbd_core::adaptive::Subdivided;
+use hyperpbd_core::broadphase::{Aabbs, Pair, grid_pairs};
+use hyperpbd_core::implicit::CoupledPlan;
+use hyperpbd_core::{
+    BackendError, Convergence, FamilyKind, GpuError, IncrementalPotentialPlan, Kernel,
+    MinimisationReport, Plan, State, StepReport, check_kernel, check_state,
+};
+
+use crate::barrier::{barrier_params, local_obstacles, obstacle_geometry};
+use crate::context::{DeviceSource, GpuContext};
+use crate::export::Exporter;
+use crate::kernel_set::{Binding, KernelSet, KernelSetSpec};
+use crate::layout::VectorLayout;
+use crate::params::{push_reals, real_size};
+use crate::resident::ResidentState;
+use crate::resident_backend::resident_backend;
+use crate::shader::MAX_GPU_DIM;
+use crate::{Precision, SceneOrigin};
+use device::{Device, ElementUpload, Reduction};
+use entries::Entry;
+
+/// The GPU backend of the coupled implicit step.
+pub struct GpuCoupledBackend {
+    plan: Plan,
+    ip: IncrementalPotentialPlan,
+    coupled: CoupledPlan,
+    precision: Precision,
+    ctx: GpuContext,
+    device: Device,
+    state: ResidentState,
+    /// The uploaded element list and its pair set.
+    elements: ElementUpload,
+    pairs: Vec<Pair>,
+    /// m_i (0 for fixed particles).
+    mass: Vec<f64>,
+    substep: u32,
+    reports: Vec<MinimisationReport>,
+    exporter: Exporter,
+}
+
+/// Why the GPU does not run `plan`'s coupled step (yet), if it does not.
+fn unsupported(plan: &Plan, ip: &IncrementalPotentialPlan, precision: Precision) -> Option<String> {
+    let coupled = ip.coupled.as_ref()?;
+    let not_yet = |what: String| {
+        Some(format!(
+            "{what} in the coupled implicit step on the GPU (not built yet): use --backend cpu"
+        ))
+    };
+    if precision == Precision::F32 {
+        return Some(
+            "the coupled implicit step in f32 (its certified filter and rounding floor are \
+             counted for f64 only so far): use --backend gpu-f64 or --backend cpu"
+                .into(),
+        );
+    }
+    if plan.dim > MAX_GPU_DIM {
+        return Some(format!(
+            "dimension {} (the GPU kernels support 1..={MAX_GPU_DIM})",
+            plan.dim
+        ));
+    }
+    if let Some(f) = plan
+        .families
+        .iter()
+        .find(|f| matches!(f.kind, FamilyKind::Material { .. }))
+    {
+        return not_yet(format!("the material family {}", f.label));
+    }
+    if ip.obstacles.simplex_count() > 0 {
+        return not_yet("simplex-mesh obstacles".into());
+    }
+    if coupled.pair_friction > 0.0 {
+        return not_yet("collisions.friction > 0".into());
+    }
+    None
+}
+
+impl GpuCoupledBackend {
+    /// Loads `plan` (an incremental-potential plan with a coupled step)
+    /// with `state` on `device`.
+    fn load(
+        device: DeviceSource<'_>,
+        plan: Plan,
+        state: &State,
+        precision: Precision,
+    ) -> Result<Self, BackendError> {
+        check_state(&plan, state)?;
+        let (Some(ip), Some(coupled)) = (
+            plan.incremental_potential().cloned(),
+            plan.incremental_potential()
+                .and_then(|ip| ip.coupled.clone()),
+        ) else {
+            return Err(BackendError::InvalidCall(
+                "GpuCoupledBackend runs incremental_potential scenes with a coupled step only"
+                    .into(),
+            ));
+        };
+        if let Some(what) = unsupported(&plan, &ip, precision) {
+            return Err(GpuError::Unsupported { what }.into());
+        }
+        let (n, dim) = (plan.particle_count(), plan.dim);
+        let ctx = device.context(precision)?;
+        let kernels = KernelSet::new(
+            &ctx.device,
+            &KernelSetSpec {
+                label: "hyperpbd coupled step",
+                dim,
+                precision,
+                groups: &[&entries::BINDINGS, &[Binding::BLOCK]],
+                entries: &Entry::ALL,
+                constants: &[],
+            },
+        )?;
+        let reals = |values: &[f64]| {
+            let mut b = Vec::new();
+            push_reals(&mut b, values, precision);
+            b
+        };
+        let make = |label: &str, bytes: &[u8]| ctx.storage(label, bytes);
+        let zeros = |len: usize| vec![0u8; len.max(1) * real_size(precision)];
+        let origin = SceneOrigin::for_state(dim, &state.positions, precision);
+        let obstacles = local_obstacles(&ip.obstacles, &origin);
+        let resident = ResidentState::new(
+            &ctx,
+            VectorLayout::Dense,
+            precision,
+            origin,
+            state,
+            &plan.inverse_mass,
+            &plan.force,
+        )?;
+        let mass: Vec<f64> = plan
+            .inverse_mass
+            .iter()
+            .map(|&w| if w > 0.0 { 1.0 / w } else { 0.0 })
+            .collect();
+        let (geometry, arity) = obstacle_geometry(&obstacles);
+        let planes = obstacles.plane_count();
+        let fixed = vec![
+            make("radius", &reals(&plan.radius))?,
+            make("geometry", &reals(&geometry))?,
+            make("arity", bytemuck::cast_slice(&arity))?,
+            make("delta", &zeros(1))?,
+            make("energy", &zeros(1))?,
+            make("gradient", &zeros(1))?,
+            make("hessian", &zeros(1))?,
+            make("scalar", &zeros(1))?,
+            make(
+                "barrier params",
+                &barrier_params(precision, n, &obstacles, &ip.law),
+            )?,
+            make("mass", &reals(&mass))?,
+            make("gravity_scale", &reals(&plan.gravity_scale))?,
+            make("gravity", &reals(&plan.gravity))?,
+            make("plane_mu", &reals(&coupled.plane_friction))?,
+            make("lag_force", &zeros(n * planes))?,
+        ];
+        let mut device = Device::new(&ctx, kernels, precision, (n, dim), fixed)?;
+        device.params.criterion = match ip.convergence {
+            Convergence::PackedGradient { .. } => 0,
+            Convergence::MaxAccelerationResidual { .. } => 1,
+        };
+        device.params.h = plan.h;
+        device.params.slip = coupled.slip_velocity * plan.h;
+        let mut backend = GpuCoupledBackend {
+            plan,
+            ip,
+            coupled: *coupled,
+            precision,
+            ctx,
+            device,
+            state: resident,
+            elements: ElementUpload::default(),
+            pairs: Vec::new(),
+            mass,
+            substep: 0,
+            reports: Vec::new(),
+            exporter: Exporter::default(),
+        };
+        backend.upload_elements(Vec::new(), true)?;
+        backend.ctx.check()?;
+        Ok(backend)
+    }
+
+    /// The element list of the plan's springs and the ball pairs `pairs`
+    /// (cpu/src/coupled/elements.rs `rebuild`), uploaded when the pair set
+    /// changed (or `force`).
+    fn upload_elements(&mut self, pairs: Vec<Pair>, force: bool) -> Result<(), GpuError> {
+        if !force && pairs == self.pairs {
+            return Ok(());
+        }
+        let plan = &self.plan;
+        let arity_max = plan.families.iter().map(|f| f.arity).fold(2, usize::max);
+        let up = &mut self.elements;
+        up.lists.clear(arity_max);
+        up.codes.clear();
+        up.reals.clear();
+        for family in &plan.families {
+            let code = match family.kind {
+                FamilyKind::Distance => 0,
+                FamilyKind::Tether => 1,
+                FamilyKind::SimplexMeasure { .. } => 2,
+                _ => 3,
+            };
+            for e in 0..family.len() {
+                up.lists
+                    .push(&family.elements[e * family.arity..(e + 1) * family.arity]);
+                up.codes.push(code);
+                up.reals.extend([family.compliance, family.rest[e]]);
+            }
+        }
+        up.first_ball = up.lists.len();
+        for pair in &pairs {
+            up.lists.push(pair);
+            up.codes.push(4);
+            up.reals.extend([0.0, 0.0]);
+        }
+        up.lists.build_gather(plan.particle_count());
+        self.device
+            .upload(&self.ctx, &self.state, up, pairs.len())?;
+        self.pairs = pairs;
+        Ok(())
+    }
+
+    /// The ball pairs over the boxes swept from `from` to `to` (radius +
+    /// d^/2), pairs of two fixed particles left out (cpu/src/collide.rs).
+    fn sweep(&self, from: &[f64], to: &[f64]) -> Vec<Pair> {
+        if !self.coupled.collisions {
+            return Vec::new();
+        }
+        let margin = 0.5 * self.ip.law.activation_distance;
+        let boxes = Aabbs::swept_particles(self.plan.dim, from, to, &self.plan.radius, margin);
+        let w = &self.plan.inverse_mass;
+        let mut pairs = grid_pairs(&boxes);
+        pairs.retain(|&[i, j]| w[i as usize] + w[j as usize] > 0.0);
+        pairs
+    }
+
+    fn encoder(&self) -> wgpu::CommandEncoder {
+        self.ctx.device.create_command_encoder(&Default::default())
+    }
+
+    /// Writes the params and a clear status block, then records `entries`
+    /// (each over its items) and `reductions`, and reads them back.
+    fn run(
+        &self,
+        entries: &[(Entry, usize)],
+        reductions: &[Reduction],
+    ) -> Result<(Vec<f64>, [u32; 5]), GpuError> {
+        self.device.write_params(&self.ctx);
+        self.device.reset_status(&self.ctx);
+        let mut encoder = self.encoder();
+        self.record(&mut encoder, entries);
+        let results: Vec<_> = reductions
+            .iter()
+            .map(|&r| self.device.reduce(&mut encoder, r))
+            .collect();
+        self.device.read(&self.ctx, encoder, &results)
+    }
+
+    /// Records `entries`, each over its item count.
+    fn record(&self, encoder: &mut wgpu::CommandEncoder, entries: &[(Entry, usize)]) {
+        for &(entry, items) in entries {
+            self.device.pass(encoder, entry, items);
+        }
+    }
+
+    /// Copies vector region `from` into the point buffer (own submission).
+    fn point(&self, from: usize) -> Result<(), GpuError> {
+        let mut encoder = self.encoder();
+        self.device.load_point(&mut encoder, &self.state, from);
+        self.ctx.submit(encoder).map(|_| ())
+    }
+
+    /// Element and particle item counts.
+    fn counts(&self) -> (usize, usize) {
+        (self.plan.particle_count(), self.elements.lists.len())
+    }
+}
+
+/// The coupled path runs no guards (validation refuses them there), so
+/// its one attempt is the step itself.
+impl Subdivided for GpuCoupledBackend {
+    fn attempt(&mut self, subdivision: u32) -> Result<StepReport, BackendError> {
+        if subdivision > 0 {
+            return Err(BackendError::InvalidCall(
+                "the incremental-potential path has no adaptive steps".into(),
+            ));
+        }
+        let mut encoder = self.encoder();
+        self.state.save(&mut encoder);
+        self.ctx.submit_and_wait(encoder)?;
+        self.reports.clear();
+        for substep in 0..self.plan.substeps {
+            self.substep = substep;
+            for k in 0..self.plan.substep_kernels.len() {
+                if self.plan.substep_kernels[k] != Kernel::Minimise {
+                    continue;
+                }
+                if let Err(e) = self.run_minimise() {
+                    return Err(e.after_rollback(self.state.rollback(&self.ctx)));
+                }
+            }
+        }
+        Ok(StepReport {
+            kernel_calls: self.plan.kernel_counts(),
+            minimisation: std::mem::take(&mut self.reports),
+            ..StepReport::default()
+        })
+    }
+}
+
+resident_backend! {
+    GpuCoupledBackend, load() {
+        fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
+            check_kernel(&self.plan, kernel)?;
+            let mut encoder = self.encoder();
+            self.state.save(&mut encoder);
+            self.ctx.submit_and_wait(encoder)?;
+            match self.run_minimise() {
+                Err(e @ BackendError::Gpu(_)) => {
+                    Err(e.after_rollback(self.state.rollback(&self.ctx)))
+                }
+                other => other,
+            }
+        }
+    }
+}

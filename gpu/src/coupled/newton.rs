@@ -1,0 +1,436 @@
+//! The Newton loop of the coupled step on the device (docs/implicit.md §7,
+//! cpu/src/coupled/mod.rs `minimise`, decision for decision): the start
+//! and warm start, the gradient pass and residual, PCG over the device's
+//! vectors (`pcg_on`), the pairs and the certified filter, Armijo trials,
+//! the rounding floor.
+
+use hyperpbd_core::barrier::BarrierObstacles;
+use hyperpbd_core::geometry::separation;
+use hyperpbd_core::implicit::resolution::{
+    ball_rounding, change_resolution, particle_sums, spring_rounding,
+};
+use hyperpbd_core::implicit::{
+    PcgSettings, PcgStatus, PcgVectors, certified_filter, newton_cg_tolerance, pcg_on,
+};
+use hyperpbd_core::{
+    Backend, BackendError, Convergence, GpuError, MinimisationReport, MinimisationStatus, Refusal,
+    StepError, WarmStart,
+};
+
+use super::GpuCoupledBackend;
+use super::device::Reduction;
+use super::entries::{Entry, region};
+use crate::barrier::{NONE, infeasible_start};
+
+/// Armijo constant and trial halvings (the CPU's).
+const ARMIJO: f64 = 1e-4;
+const MAX_HALVINGS: u32 = 60;
+/// Status words of coupled.wgsl.
+const MOVED: usize = 0;
+const NON_FINITE_PARTICLE: usize = 1;
+const INFEASIBLE: usize = 2;
+const NON_FINITE_ELEMENT: usize = 3;
+
+/// PCG's vectors on the device: every update and product in coupled.wgsl,
+/// the scalars read back per reduction; p = z + βp is recorded ahead of
+/// the next product (one read per half-iteration).
+struct DeviceVectors<'a> {
+    backend: &'a mut GpuCoupledBackend,
+    turn_pending: bool,
+    failed: Option<GpuError>,
+}
+
+impl DeviceVectors<'_> {
+    fn reduce(&mut self, entries: &[(Entry, usize)], reductions: &[Reduction]) -> Vec<f64> {
+        if self.failed.is_some() {
+            return vec![f64::NAN; reductions.len()];
+        }
+        match self.backend.run(entries, reductions) {
+            Ok((values, _)) => values,
+            Err(e) => {
+                self.failed = Some(e);
+                vec![f64::NAN; reductions.len()]
+            }
+        }
+    }
+}
+
+impl PcgVectors for DeviceVectors<'_> {
+    fn start(&mut self) -> (f64, f64) {
+        let (n, _) = self.backend.counts();
+        let v = self.reduce(&[(Entry::CgStart, n)], &[Reduction::SumA, Reduction::SumB]);
+        (v[0], v[1])
+    }
+
+    fn curvature(&mut self) -> f64 {
+        let (n, e) = self.backend.counts();
+        self.backend.device.params.diagonal = 0;
+        let turn = if std::mem::take(&mut self.turn_pending) {
+            n
+        } else {
+            0
+        };
+        let entries = [
+            (Entry::CgTurn, turn),
+            (Entry::Slots, e),
+            (Entry::Product, n),
+        ];
+        self.reduce(&entries, &[Reduction::SumA])[0]
+    }
+
+    fn advance(&mut self, a: f64) -> (f64, f64) {
+        let (n, _) = self.backend.counts();
+        self.backend.device.params.step = a;
+        let v = self.reduce(
+            &[(Entry::CgAdvance, n)],
+            &[Reduction::SumA, Reduction::SumB],
+        );
+        (v[0], v[1])
+    }
+
+    fn turn(&mut self, beta: f64) {
+        self.backend.device.params.beta = beta;
+        self.turn_pending = true;
+    }
+}
+
+/// How a Newton iteration's gradient pass ended.
+enum Evaluated {
+    /// The residual in the authored criterion.
+    Residual(f64),
+    /// An element's record is not finite (its index).
+    Element(usize),
+    /// A particle's gradient or energy is not finite.
+    Particle(usize),
+}
+
+impl GpuCoupledBackend {
+    /// The certified fraction of R_DIRECTION from R_X over every plane of
+    /// every free particle and every ball pair (setup.rs `filter`).
+    fn filter(&mut self) -> Result<f64, GpuError> {
+        let (n, _) = self.counts();
+        let pairs = self.pairs.len();
+        let (values, _) = self.run(
+            &[(Entry::FilterParticles, n), (Entry::FilterPairs, pairs)],
+            &[Reduction::MinT],
+        )?;
+        Ok(certified_filter::fraction(values[0]))
+    }
+
+    /// Elements and gradient at R_X; the residual (cpu `residual`).
+    fn gradient(&mut self) -> Result<Evaluated, GpuError> {
+        let (n, e) = self.counts();
+        self.point(region::X)?;
+        let reduction = match self.ip.convergence {
+            Convergence::PackedGradient { .. } => Reduction::SumA,
+            Convergence::MaxAccelerationResidual { .. } => Reduction::MaxA,
+        };
+        let (values, status) =
+            self.run(&[(Entry::Elements, e), (Entry::Gradient, n)], &[reduction])?;
+        if status[NON_FINITE_ELEMENT] != NONE {
+            return Ok(Evaluated::Element(status[NON_FINITE_ELEMENT] as usize));
+        }
+        if status[NON_FINITE_PARTICLE] != NONE {
+            return Ok(Evaluated::Particle(status[NON_FINITE_PARTICLE] as usize));
+        }
+        Ok(Evaluated::Residual(match reduction {
+            Reduction::SumA => values[0].sqrt(),
+            _ => values[0],
+        }))
+    }
+
+    /// The rounding floor of F's change over R_DIRECTION from R_X
+    /// (core's `implicit::resolution`, on the device's values read back).
+    fn resolution(&self) -> Result<f64, GpuError> {
+        let dim = self.plan.dim;
+        let v = self.device.read_regions(
+            &self.ctx,
+            &[
+                region::X,
+                region::DIRECTION,
+                region::PREDICTION,
+                region::LOAD,
+            ],
+        )?;
+        let (terms, records) = self.device.read_terms_and_records(&self.ctx)?;
+        let sums = particle_sums(
+            dim,
+            &self.mass,
+            &v[0],
+            &v[2],
+            &v[3],
+            &v[1],
+            &terms,
+            dim * dim + 2,
+        );
+        let (mut energy, mut force) = (0.0, 0.0);
+        let up = &self.elements;
+        let stride = self.device.record_len;
+        let mut points = vec![0.0; 2 * dim];
+        for e in 0..up.lists.len() {
+            let value = records[e * stride];
+            energy += value.abs();
+            if e < up.first_ball {
+                force += spring_rounding(value, up.reals[2 * e], up.reals[2 * e + 1], dim);
+            } else {
+                let members = up.lists.members(e);
+                for (j, &i) in members.iter().enumerate() {
+                    let i = i as usize;
+                    points[j * dim..(j + 1) * dim].copy_from_slice(&v[0][i * dim..(i + 1) * dim]);
+                }
+                let radii = (
+                    self.plan.radius[members[0] as usize],
+                    self.plan.radius[members[1] as usize],
+                );
+                force += ball_rounding(&self.ip.law, &points, radii, dim);
+            }
+        }
+        Ok(change_resolution(dim, self.plan.h, sums, energy, force))
+    }
+
+    /// Steps 1–4: x^t, x~, the lags and d ≤ 0 at x^t, the pairs at x^t,
+    /// the warm start and its pairs. A refusal, if the start is refused.
+    fn start(&mut self) -> Result<Option<Refusal>, BackendError> {
+        let (n, _) = self.counts();
+        let (_, status) = self.run(&[(Entry::Start, n)], &[])?;
+        if status[INFEASIBLE] != NONE {
+            let particle = status[INFEASIBLE] as usize;
+            let state = self.read_state()?;
+            let obstacles: &BarrierObstacles = &self.ip.obstacles;
+            return Ok(Some(infeasible_start(
+                &self.plan,
+                obstacles,
+                state.position(particle),
+                particle,
+            )));
+        }
+        let dim = self.plan.dim;
+        let mut start = Vec::new();
+        if self.coupled.collisions {
+            start = self
+                .device
+                .read_regions(&self.ctx, &[region::START])?
+                .remove(0);
+            let pairs = self.sweep(&start, &start);
+            let mut normal = vec![0.0; dim];
+            for &[i, j] in &pairs {
+                let (i, j) = (i as usize, j as usize);
+                let length = separation(&start, i, j, dim, &mut normal);
+                let d = length - self.plan.radius[i] - self.plan.radius[j];
+                if d.is_nan() || d <= 0.0 {
+                    return Ok(Some(Refusal::OverlappingStart {
+                        first: i,
+                        second: j,
+                        distance: d,
+                    }));
+                }
+            }
+            self.upload_elements(pairs, false)?;
+        }
+        if self.coupled.warm_start == WarmStart::Previous {
+            return Ok(None);
+        }
+        if self.coupled.collisions {
+            let prediction = self
+                .device
+                .read_regions(&self.ctx, &[region::PREDICTION])?
+                .remove(0);
+            let pairs = self.sweep(&start, &prediction);
+            self.upload_elements(pairs, false)?;
+        }
+        let tau = self.filter()?;
+        self.device.params.step = tau;
+        self.run(&[(Entry::WarmStart, n)], &[])?;
+        Ok(None)
+    }
+
+    /// Why element e could not be evaluated (no material here: a
+    /// non-finite value at its first particle).
+    fn element_refusal(&self, e: usize) -> Refusal {
+        Refusal::NonFinite {
+            particle: self.elements.lists.members(e)[0] as usize,
+        }
+    }
+
+    /// One coupled minimisation (cpu/src/coupled/mod.rs `minimise`).
+    fn minimise(&mut self) -> Result<MinimisationReport, BackendError> {
+        let mut report = MinimisationReport::before_first_iteration(self.ip.convergence);
+        if let Some(refusal) = self.start()? {
+            report.status = MinimisationStatus::Refused(refusal);
+            return Ok(report);
+        }
+        let (n, _) = self.counts();
+        let mut iteration = 0;
+        let mut first_residual = None;
+        let mut fell_back = false;
+        loop {
+            // 5: gradient and residual.
+            let residual = match self.gradient()? {
+                Evaluated::Residual(r) => r,
+                Evaluated::Element(e) => {
+                    if iteration == 0 && !fell_back && self.warm_start_moved()? {
+                        // 3: a warm start the elements refuse falls back to x^t.
+                        fell_back = true;
+                        self.run(&[(Entry::Restart, n)], &[])?;
+                        continue;
+                    }
+                    report.status = MinimisationStatus::Refused(self.element_refusal(e));
+                    break;
+                }
+                Evaluated::Particle(particle) => {
+                    report.status = MinimisationStatus::Refused(Refusal::NonFinite { particle });
+                    break;
+                }
+            };
+            let r0 = *first_residual.get_or_insert(residual);
+            if report.record_residual(residual, iteration, self.ip.max_iterations) {
+                break;
+            }
+            iteration += 1;
+            // 6–7: the Newton direction by preconditioned CG.
+            let (_, e) = self.counts();
+            self.device.params.diagonal = 1;
+            self.run(&[(Entry::Slots, e), (Entry::InverseDiagonal, n)], &[])?;
+            let settings = PcgSettings {
+                max_iterations: self.coupled.cg_iterations,
+                relative_tolerance: 0.0,
+                absolute_tolerance: newton_cg_tolerance(
+                    self.ip.convergence,
+                    residual,
+                    r0,
+                    &self.mass,
+                    self.plan.h,
+                ),
+            };
+            let mut vectors = DeviceVectors {
+                backend: self,
+                turn_pending: false,
+                failed: None,
+            };
+            let cg = pcg_on(&mut vectors, settings);
+            if let Some(e) = vectors.failed {
+                return Err(e.into());
+            }
+            report.cg_iterations.push(cg.iterations);
+            match cg.status {
+                PcgStatus::NonPositiveCurvature { curvature } if cg.iterations <= 1 => {
+                    report.iterations = iteration;
+                    report.status = MinimisationStatus::Refused(Refusal::CurvatureBreakdown {
+                        iteration,
+                        curvature,
+                    });
+                    break;
+                }
+                PcgStatus::NonFinite if cg.iterations <= 1 => {
+                    report.iterations = iteration;
+                    report.status = MinimisationStatus::Refused(Refusal::CurvatureBreakdown {
+                        iteration,
+                        curvature: f64::NAN,
+                    });
+                    break;
+                }
+                _ => {}
+            }
+            // 8–9: the pairs any trial can reach, and the certified fraction.
+            if self.coupled.collisions {
+                let v = self
+                    .device
+                    .read_regions(&self.ctx, &[region::X, region::DIRECTION])?;
+                let reach: Vec<f64> = v[0].iter().zip(&v[1]).map(|(x, d)| x + d).collect();
+                let pairs = self.sweep(&v[0], &reach);
+                self.upload_elements(pairs, false)?;
+            }
+            let fraction = self.filter()?;
+            // 10–11: Armijo on the difference form of F's change.
+            let (_, e) = self.counts();
+            self.point(region::X)?;
+            let (values, status) = self.run(
+                &[(Entry::Elements, e), (Entry::Slope, n)],
+                &[Reduction::SumA],
+            )?;
+            if status[NON_FINITE_ELEMENT] != NONE {
+                report.iterations = iteration;
+                let refusal = self.element_refusal(status[NON_FINITE_ELEMENT] as usize);
+                report.status = MinimisationStatus::Refused(refusal);
+                break;
+            }
+            let slope = values[0];
+            let moved = status[MOVED] != 0;
+            if !moved || !slope.is_finite() {
+                report.iterations = iteration;
+                report.status = if slope.is_finite() {
+                    MinimisationStatus::RoundingFloor
+                } else {
+                    MinimisationStatus::Refused(Refusal::NonFinite { particle: 0 })
+                };
+                break;
+            }
+            let mut t = fraction;
+            let mut accepted = false;
+            for _ in 0..=MAX_HALVINGS {
+                if self.trial_accepted(t, slope)? {
+                    accepted = true;
+                    break;
+                }
+                t *= 0.5;
+            }
+            if !accepted {
+                report.iterations = iteration;
+                let resolution = self.resolution()?;
+                report.status = if -0.5 * slope <= resolution {
+                    MinimisationStatus::RoundingFloor
+                } else {
+                    MinimisationStatus::Refused(Refusal::NoDescent { residual })
+                };
+                break;
+            }
+            self.run(&[(Entry::Accept, n)], &[])?;
+        }
+        if !matches!(report.status, MinimisationStatus::Refused(_)) {
+            self.run(&[(Entry::Finish, n)], &[])?;
+        }
+        Ok(report)
+    }
+
+    /// Whether x_0 differs from x^t (read back: only when the warm start
+    /// is refused).
+    fn warm_start_moved(&self) -> Result<bool, GpuError> {
+        let v = self
+            .device
+            .read_regions(&self.ctx, &[region::X, region::START])?;
+        Ok(v[0] != v[1])
+    }
+
+    /// Trial x + tΔ: F's change (particles + h² elements, +∞ when not
+    /// finite) against Armijo, and whether the trial differs from x.
+    fn trial_accepted(&mut self, t: f64, slope: f64) -> Result<bool, GpuError> {
+        let (n, e) = self.counts();
+        self.device.params.step = t;
+        self.device.write_params(&self.ctx);
+        self.device.reset_status(&self.ctx);
+        let mut encoder = self.encoder();
+        self.device.pass(&mut encoder, Entry::Trial, n);
+        self.device
+            .load_point(&mut encoder, &self.state, region::TRIAL);
+        self.device.pass(&mut encoder, Entry::ParticleChanges, n);
+        self.device.pass(&mut encoder, Entry::ElementChanges, e);
+        let own = self.device.reduce(&mut encoder, Reduction::SumA);
+        let coupled = self.device.reduce(&mut encoder, Reduction::SumE);
+        let (values, status) = self.device.read(&self.ctx, encoder, &[own, coupled])?;
+        let h2 = self.plan.h * self.plan.h;
+        let total = values[0] + h2 * values[1];
+        let change = if total.is_finite() {
+            total
+        } else {
+            f64::INFINITY
+        };
+        Ok(change <= ARMIJO * t * slope && status[MOVED] != 0)
+    }
+
+    pub(super) fn run_minimise(&mut self) -> Result<(), BackendError> {
+        let report = self.minimise()?;
+        let refused = StepError::refused(self.substep, &report);
+        self.reports.push(report);
+        refused.map_or(Ok(()), |e| Err(e.into()))
+    }
+}

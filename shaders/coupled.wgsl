@@ -1,0 +1,639 @@
+// The coupled implicit step (docs/implicit.md §7; golden: cpu/src/coupled/),
+// composed after measure.wgsl (distance, simplex measures) and barrier.wgsl
+// (its bindings 0..=10, obstacle_distance, barrier_law with ln_real,
+// check_loops); coupled_solve.wgsl follows. Same arithmetic, in the same
+// order, as the f64 golden path.
+//
+//   point  binding 0 (`x`): where the evaluation passes look (x_k or a trial)
+//   vectors[R·n·DIM + k]: the step's vectors by region R (R_* below)
+//   element e  [energy, c0, c1, ∇E (W), aux (W)],  W = A·DIM, A = arity_max
+//     spring  c = (along, across) radial (distance, tether) | (1/α, 0) Gauss–Newton;  aux = ∇C
+//     ball    c = (along, across) of K⁺ = b'' n nᵀ;                              aux = ∇d = (−n, n)
+//   gather  particle k adds its slots (element order, member order): no atomics
+//   tree    per-item terms written at a channel's offset, reduced by cp_reduce:
+//           blocks of 64 halved in place (s[t] ⊕= s[t + stride], 32 … 1), the
+//           block tree of core/src/implicit/reduction.rs, level after level
+//   ∞       WGSL has no infinity literal: REAL_MAX stands for +∞ (energies
+//           at d ≤ 0, times with no approach); the host reads it back as ∞
+//   status  [0] a coordinate moved / a trial differs from x (flag)
+//           [1] first particle with a non-finite gradient or energy
+//           [2] first particle starting at d ≤ 0 from an obstacle
+//           [3] first element with a non-finite record
+//           [4] first particle whose loops llvmpipe cut short (check_loops)
+
+struct CoupledParams {
+    elements: u32,   // E
+    arity_max: u32,  // A
+    criterion: u32,  // 0 packed gradient, 1 max acceleration residual
+    diagonal: u32,   // cp_slots: 1 the diagonal of K⁺, 0 K⁺ p
+    first_ball: u32, // elements from here on are ball pairs
+    channel_a: u32,  // tree offsets of the channels
+    channel_b: u32,
+    channel_e: u32,
+    channel_t: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+    h: real,
+    h2: real,
+    slip: real,      // ε = ε_v h
+    step: real,      // τ (warm start), a (CG), t (trial)
+    beta: real,      // β (CG)
+    epsilon: real,   // the filter's ε
+}
+
+struct Level {
+    src: u32,
+    dst: u32,
+    len: u32,
+    op: u32, // 0 sum, 1 max (pad 0), 2 min (pad REAL_MAX)
+}
+
+@group(0) @binding(11) var<storage, read_write> v: array<real>;
+@group(0) @binding(12) var<storage, read> force: array<real>;
+@group(0) @binding(13) var<storage, read> mass: array<real>;
+@group(0) @binding(14) var<storage, read> gravity_scale: array<real>;
+@group(0) @binding(15) var<storage, read> gravity: array<real>;
+@group(0) @binding(16) var<storage, read> plane_mu: array<real>;
+@group(0) @binding(17) var<storage, read_write> lag_force: array<real>;
+// [codes (E) | arities (E) | members (E·A)]: codes 0 distance, 1 tether,
+// 2 simplex measure, 3 oriented measure, 4 ball pair
+@group(0) @binding(18) var<storage, read> element_words: array<u32>;
+// [compliance, rest] per element (springs)
+@group(0) @binding(19) var<storage, read> element_reals: array<real>;
+// [offsets (n + 1) | slots]
+@group(0) @binding(20) var<storage, read> gather: array<u32>;
+@group(0) @binding(21) var<storage, read_write> records: array<real>;
+@group(0) @binding(22) var<storage, read_write> slots: array<real>;
+@group(0) @binding(23) var<storage, read_write> vectors: array<real>;
+// per particle: B_i (DIM²), its energy, its force rounding
+@group(0) @binding(24) var<storage, read_write> terms: array<real>;
+@group(0) @binding(25) var<storage, read_write> tree: array<real>;
+@group(0) @binding(26) var<storage, read> cp: CoupledParams;
+@group(1) @binding(0) var<storage, read> level: Level;
+
+const R_GRADIENT: u32 = 0u;
+const R_DIRECTION: u32 = 1u;
+const R_INVERSE: u32 = 2u;
+const R_TRIAL: u32 = 3u;
+const R_R: u32 = 4u;
+const R_Z: u32 = 5u;
+const R_P: u32 = 6u;
+const R_Q: u32 = 7u;
+const R_X: u32 = 8u;
+const R_START: u32 = 9u;
+const R_PREDICTION: u32 = 10u;
+const R_LOAD: u32 = 11u;
+
+const TERMS: u32 = DIM * DIM + 2u;
+const BALL: u32 = 4u;
+
+var<workgroup> block: array<real, WORKGROUP>;
+
+fn at(region: u32, k: u32) -> u32 {
+    return region * bp.count * DIM + k;
+}
+
+fn record_len() -> u32 {
+    return 3u + 2u * cp.arity_max * DIM;
+}
+
+fn code_of(e: u32) -> u32 {
+    return element_words[e];
+}
+
+fn arity_of(e: u32) -> u32 {
+    return element_words[cp.elements + e];
+}
+
+fn member(e: u32, j: u32) -> u32 {
+    return element_words[2u * cp.elements + e * cp.arity_max + j];
+}
+
+fn finite(value: real) -> bool {
+    return abs(value) <= REAL_MAX;
+}
+
+// ---------------------------------------------------------------- elements
+
+struct Element {
+    energy: real,
+    c0: real,
+    c1: real,
+    count: u32,
+    gradient: array<real, POINTS>,
+    aux: array<real, POINTS>,
+}
+
+// The radial K⁺ of φ' = first, φ'' = second at length ℓ (radial.rs):
+// (max(φ'', 0), max(φ'/ℓ, 0)), zero when ℓ = 0.
+fn radial(first: real, second: real, length: real, out: ptr<function, Element>) {
+    (*out).c0 = 0.0;
+    (*out).c1 = 0.0;
+    if (length > 0.0) {
+        (*out).c0 = max(second, 0.0);
+        (*out).c1 = max(first / length, 0.0);
+    }
+}
+
+// Element e at the point buffer (springs.rs, ball_barrier.rs).
+fn evaluate_element(e: u32) -> Element {
+    var out: Element;
+    let code = code_of(e);
+    let arity = arity_of(e);
+    var pts: array<real, POINTS>;
+    for (var j = 0u; j < DIM + 1u; j++) {
+        if (j < arity) {
+            let i = member(e, j);
+            for (var a = 0u; a < DIM; a++) {
+                pts[j * DIM + a] = x[i * DIM + a];
+            }
+        }
+    }
+    // Local arrays: naga's SPIR-V back end cannot pass a pointer to a
+    // struct member to a function.
+    var aux: array<real, POINTS>;
+    for (var c = 0u; c < POINTS; c++) {
+        out.gradient[c] = 0.0;
+        aux[c] = 0.0;
+    }
+    out.count = arity * DIM;
+    out.c0 = 0.0;
+    out.c1 = 0.0;
+    if (code == BALL) {
+        let length = distance(&pts, &aux);
+        out.aux = aux;
+        let d = length - radius[member(e, 0u)] - radius[member(e, 1u)];
+        if (d >= bp.activation) {
+            out.energy = 0.0;
+            return out;
+        }
+        if (!(d > 0.0)) {
+            out.energy = REAL_MAX;
+            return out;
+        }
+        let law = barrier_law(d);
+        for (var c = 0u; c < 2u * DIM; c++) {
+            out.gradient[c] = law.y * out.aux[c];
+        }
+        out.energy = law.x;
+        radial(law.y, law.z, length, &out);
+        return out;
+    }
+    let compliance = element_reals[e * 2u];
+    let rest = element_reals[e * 2u + 1u];
+    var value: real;
+    if (code == 2u) {
+        value = simplex_squared_measure(&pts, arity - 1u, &aux);
+    } else if (code == 3u) {
+        value = oriented_measure(&pts, &aux);
+    } else {
+        value = distance(&pts, &aux);
+    }
+    out.aux = aux;
+    let c = value - rest;
+    if (code == 1u && c <= 0.0) {
+        out.energy = 0.0;
+        return out;
+    }
+    let f = c / compliance;
+    for (var k = 0u; k < POINTS; k++) {
+        if (k < out.count) {
+            out.gradient[k] = f * out.aux[k];
+        }
+    }
+    out.energy = c * c / (2.0 * compliance);
+    if (code <= 1u) {
+        radial(f, 1.0 / compliance, value, &out);
+    } else {
+        out.c0 = 1.0 / compliance;
+    }
+    return out;
+}
+
+// Records at the point buffer; the first element whose record is not
+// finite into status[3].
+@compute @workgroup_size(WORKGROUP)
+fn cp_elements(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let e = linear_index(gid, groups);
+    if (e >= cp.elements) {
+        return;
+    }
+    let value = evaluate_element(e);
+    let base = e * record_len();
+    let width = cp.arity_max * DIM;
+    records[base] = value.energy;
+    records[base + 1u] = value.c0;
+    records[base + 2u] = value.c1;
+    var ok = finite(value.energy) && value.energy < REAL_MAX && finite(value.c0) && finite(value.c1);
+    for (var k = 0u; k < POINTS; k++) {
+        if (k < width) {
+            records[base + 3u + k] = value.gradient[k];
+            records[base + 3u + width + k] = value.aux[k];
+            ok = ok && finite(value.gradient[k]) && finite(value.aux[k]);
+        }
+    }
+    if (!ok) {
+        atomicMin(&status[3], e);
+    }
+}
+
+// E_e(point) − E_e(records) into channel E.
+@compute @workgroup_size(WORKGROUP)
+fn cp_element_changes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let e = linear_index(gid, groups);
+    if (e >= cp.elements) {
+        return;
+    }
+    let value = evaluate_element(e);
+    var change = REAL_MAX;
+    if (value.energy < REAL_MAX) {
+        change = value.energy - records[e * record_len()];
+    }
+    tree[cp.channel_e + e] = change;
+}
+
+// K⁺ p_e (p from R_P) or the diagonal of K⁺ into element e's slots.
+@compute @workgroup_size(WORKGROUP)
+fn cp_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let e = linear_index(gid, groups);
+    if (e >= cp.elements) {
+        return;
+    }
+    let code = code_of(e);
+    let arity = arity_of(e);
+    let base = e * record_len();
+    let width = cp.arity_max * DIM;
+    let aux = base + 3u + width;
+    let slot = e * width;
+    var p: array<real, POINTS>;
+    for (var j = 0u; j < DIM + 1u; j++) {
+        if (j < arity) {
+            let i = member(e, j);
+            for (var a = 0u; a < DIM; a++) {
+                p[j * DIM + a] = vectors[at(R_P, i * DIM + a)];
+            }
+        }
+    }
+    let along = records[base + 1u];
+    let across = records[base + 2u];
+    if (code == 2u || code == 3u) {
+        // Gauss–Newton: weight ∇C ∇Cᵀ.
+        let count = arity * DIM;
+        if (cp.diagonal == 1u) {
+            for (var k = 0u; k < POINTS; k++) {
+                if (k < count) {
+                    slots[slot + k] = along * records[aux + k] * records[aux + k];
+                }
+            }
+            return;
+        }
+        var s: real = 0.0;
+        for (var k = 0u; k < POINTS; k++) {
+            if (k < count) {
+                s += records[aux + k] * p[k];
+            }
+        }
+        let scale = along * s;
+        for (var k = 0u; k < POINTS; k++) {
+            if (k < count) {
+                slots[slot + k] = scale * records[aux + k];
+            }
+        }
+        return;
+    }
+    // Radial: normal n = aux[DIM..2DIM] (radial.rs).
+    if (cp.diagonal == 1u) {
+        for (var a = 0u; a < DIM; a++) {
+            let n = records[aux + DIM + a];
+            let nn = n * n;
+            let d = along * nn + across * (1.0 - nn);
+            slots[slot + a] = d;
+            slots[slot + DIM + a] = d;
+        }
+        return;
+    }
+    var s: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        s += records[aux + DIM + a] * (p[DIM + a] - p[a]);
+    }
+    for (var a = 0u; a < DIM; a++) {
+        let w = p[DIM + a] - p[a];
+        let r = s * records[aux + DIM + a];
+        let y = along * r + across * (w - r);
+        slots[slot + a] = -y;
+        slots[slot + DIM + a] = y;
+    }
+}
+
+// ------------------------------------------------------ particle terms
+
+// The element values of particle i's slots (records' gradients with
+// `from_records`, else the slots) added to `sum`.
+fn gather_into(i: u32, from_records: bool, sum: ptr<function, array<real, DIM>>) {
+    let width = cp.arity_max * DIM;
+    let first = gather[i];
+    let last = gather[i + 1u];
+    for (var k = first; k < last; k++) {
+        let s = gather[bp.count + 1u + k];
+        let e = s / cp.arity_max;
+        let j = s % cp.arity_max;
+        for (var a = 0u; a < DIM; a++) {
+            if (from_records) {
+                (*sum)[a] += records[e * record_len() + 3u + j * DIM + a];
+            } else {
+                (*sum)[a] += slots[e * width + j * DIM + a];
+            }
+        }
+    }
+}
+
+// Mollifier f₀, f₁' of the slip y with slip length ε (friction.rs).
+fn mollifier(y: real, epsilon: real) -> vec2<real> {
+    if (y < epsilon) {
+        let q = y / epsilon;
+        let f0 = -y * q * q / 3.0 + y * q + epsilon / 3.0;
+        let f1_prime = (2.0 - 2.0 * q) / epsilon;
+        return vec2<real>(f0, f1_prime);
+    }
+    return vec2<real>(y, 0.0);
+}
+
+struct Own {
+    energy: real,
+    force: real,
+    infeasible: bool,
+    gradient: array<real, DIM>,
+    block: array<real, MAT>,
+}
+
+// Obstacle barriers and lagged plane friction of particle i at `p`
+// (particles.rs obstacle_terms): energy; with `derivatives`, gradient,
+// PSD block and Σ|b'|.
+fn obstacle_terms(i: u32, p: ptr<function, array<real, DIM>>, derivatives: bool) -> Own {
+    var own: Own;
+    own.energy = 0.0;
+    own.force = 0.0;
+    own.infeasible = false;
+    for (var a = 0u; a < DIM; a++) {
+        own.gradient[a] = 0.0;
+    }
+    for (var k = 0u; k < MAT; k++) {
+        own.block[k] = 0.0;
+    }
+    var n: array<real, DIM>;
+    for (var o = 0u; o < bp.planes + bp.simplices; o++) {
+        let d = obstacle_distance(o, p, radius[i], &n);
+        if (d >= bp.activation) {
+            continue;
+        }
+        if (!(d > 0.0)) {
+            own.infeasible = true;
+            continue;
+        }
+        let law = barrier_law(d);
+        own.energy += law.x;
+        own.force += abs(law.y);
+        if (derivatives) {
+            for (var a = 0u; a < DIM; a++) {
+                own.gradient[a] += law.y * n[a];
+                for (var c = 0u; c < DIM; c++) {
+                    own.block[a * DIM + c] += law.z * n[a] * n[c];
+                }
+            }
+        }
+    }
+    for (var o = 0u; o < bp.planes; o++) {
+        let limit = lag_force[i * bp.planes + o];
+        if (!(limit > 0.0)) {
+            continue;
+        }
+        // w = x − x^t, u = (I − n nᵀ) w, y = |u| (friction.rs tangent_term).
+        var s: real = 0.0;
+        for (var a = 0u; a < DIM; a++) {
+            s += geometry[o * DIM + a] * ((*p)[a] - vectors[at(R_START, i * DIM + a)]);
+        }
+        var u: array<real, DIM>;
+        var y2: real = 0.0;
+        for (var a = 0u; a < DIM; a++) {
+            let w = (*p)[a] - vectors[at(R_START, i * DIM + a)];
+            u[a] = w - s * geometry[o * DIM + a];
+            y2 += u[a] * u[a];
+        }
+        let y = sqrt(y2);
+        let m = mollifier(y, cp.slip);
+        var g: real;
+        if (y < cp.slip) {
+            g = (2.0 - y / cp.slip) / cp.slip;
+        } else {
+            g = 1.0 / y;
+        }
+        let scale = limit * g;
+        own.energy += limit * m.x;
+        if (derivatives) {
+            var inverse: real = 0.0;
+            if (y > 0.0) {
+                inverse = 1.0 / y;
+            }
+            let along = limit * m.y;
+            for (var a = 0u; a < DIM; a++) {
+                own.gradient[a] += scale * u[a];
+            }
+            // The lag's block first, then added (TangentCurvature::block,
+            // then b += lag_block): one sum per entry, so no compiler can
+            // fold the block's old value into the block's two terms.
+            var lag: array<real, MAT>;
+            for (var a = 0u; a < DIM; a++) {
+                for (var b = 0u; b < DIM; b++) {
+                    var identity: real = 0.0;
+                    if (a == b) {
+                        identity = 1.0;
+                    }
+                    lag[a * DIM + b] = scale * (identity - geometry[o * DIM + a] * geometry[o * DIM + b])
+                        + (along - scale) * (u[a] * inverse) * (u[b] * inverse);
+                }
+            }
+            for (var k = 0u; k < MAT; k++) {
+                own.block[k] += lag[k];
+            }
+        }
+    }
+    return own;
+}
+
+fn load_point(i: u32) -> array<real, DIM> {
+    var p: array<real, DIM>;
+    for (var a = 0u; a < DIM; a++) {
+        p[a] = x[i * DIM + a];
+    }
+    return p;
+}
+
+// x^t, x~, the load, x_0 = x^t and x~ − x^t from the point buffer (the
+// state at the substep's start); the friction lags and d ≤ 0 at x^t.
+@compute @workgroup_size(WORKGROUP)
+fn cp_start(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(gid, groups);
+    if (i >= bp.count) {
+        return;
+    }
+    let m = mass[i];
+    for (var a = 0u; a < DIM; a++) {
+        let k = i * DIM + a;
+        var predicted = x[k];
+        if (m > 0.0) {
+            predicted = x[k] + cp.h * v[k];
+        }
+        vectors[at(R_START, k)] = x[k];
+        vectors[at(R_X, k)] = x[k];
+        vectors[at(R_PREDICTION, k)] = predicted;
+        vectors[at(R_DIRECTION, k)] = predicted - x[k];
+        vectors[at(R_LOAD, k)] = m * gravity_scale[i] * gravity[a] + force[k];
+    }
+    var p = load_point(i);
+    var n: array<real, DIM>;
+    for (var o = 0u; o < bp.planes + bp.simplices; o++) {
+        if (o < bp.planes) {
+            lag_force[i * bp.planes + o] = 0.0;
+        }
+        if (!(m > 0.0)) {
+            continue;
+        }
+        let d = obstacle_distance(o, &p, radius[i], &n);
+        if (!(d > 0.0)) {
+            atomicMin(&status[2], i);
+            continue;
+        }
+        var normal_force: real = 0.0;
+        if (d < bp.activation) {
+            normal_force = -barrier_law(d).y;
+        }
+        if (o < bp.planes && normal_force > 0.0 && plane_mu[o] > 0.0) {
+            lag_force[i * bp.planes + o] = plane_mu[o] * normal_force;
+        }
+    }
+    check_loops(i);
+}
+
+// g = m (x − x~) − h² load + h² (own + Σ slots) at the point buffer into
+// R_GRADIENT, B_i and the energy terms, the residual term into channel A.
+@compute @workgroup_size(WORKGROUP)
+fn cp_gradient(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(gid, groups);
+    if (i >= bp.count) {
+        return;
+    }
+    let m = mass[i];
+    for (var k = 0u; k < TERMS; k++) {
+        terms[i * TERMS + k] = 0.0;
+    }
+    if (m == 0.0) {
+        for (var a = 0u; a < DIM; a++) {
+            vectors[at(R_GRADIENT, i * DIM + a)] = 0.0;
+        }
+        tree[cp.channel_a + i] = 0.0;
+        check_loops(i);
+        return;
+    }
+    var p = load_point(i);
+    let own = obstacle_terms(i, &p, true);
+    for (var k = 0u; k < MAT; k++) {
+        terms[i * TERMS + k] = own.block[k];
+    }
+    var energy = own.energy;
+    if (own.infeasible) {
+        energy = REAL_MAX;
+    }
+    var largest: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        largest = max(largest, abs(p[a]));
+    }
+    let gamma = (real(DIM) + 4.0) * cp.epsilon;
+    terms[i * TERMS + MAT] = energy;
+    terms[i * TERMS + MAT + 1u] = own.force * gamma * (largest + bp.scale + radius[i]);
+    var sum: array<real, DIM>;
+    for (var a = 0u; a < DIM; a++) {
+        sum[a] = own.gradient[a];
+    }
+    gather_into(i, true, &sum);
+    var ok = finite(energy) && energy < REAL_MAX;
+    var squared: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        let k = i * DIM + a;
+        let g = m * (p[a] - vectors[at(R_PREDICTION, k)]) - cp.h2 * vectors[at(R_LOAD, k)] + cp.h2 * sum[a];
+        vectors[at(R_GRADIENT, k)] = g;
+        ok = ok && finite(g);
+        squared += g * g;
+    }
+    if (!ok) {
+        atomicMin(&status[1], i);
+    }
+    if (cp.criterion == 0u) {
+        tree[cp.channel_a + i] = squared;
+    } else {
+        tree[cp.channel_a + i] = sqrt(squared) / (m * cp.h2);
+    }
+    check_loops(i);
+}
+
+// P⁻¹ = 1/(m + h² (diag B_i + Σ slots)) into R_INVERSE (0: fixed).
+@compute @workgroup_size(WORKGROUP)
+fn cp_inverse_diagonal(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(gid, groups);
+    if (i >= bp.count) {
+        return;
+    }
+    let m = mass[i];
+    var sum: array<real, DIM>;
+    for (var a = 0u; a < DIM; a++) {
+        sum[a] = terms[i * TERMS + a * DIM + a];
+    }
+    if (m != 0.0) {
+        gather_into(i, false, &sum);
+    }
+    for (var a = 0u; a < DIM; a++) {
+        var value: real = 0.0;
+        if (m != 0.0) {
+            value = 1.0 / (m + cp.h2 * sum[a]);
+        }
+        vectors[at(R_INVERSE, i * DIM + a)] = value;
+    }
+    check_loops(i);
+}
+
+// q = m p + h² (B_i p_i + Σ slots) (0 where P⁻¹ = 0) into R_Q; p·q per
+// particle into channel A.
+@compute @workgroup_size(WORKGROUP)
+fn cp_product(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(gid, groups);
+    if (i >= bp.count) {
+        return;
+    }
+    let m = mass[i];
+    var sum: array<real, DIM>;
+    for (var a = 0u; a < DIM; a++) {
+        var s: real = 0.0;
+        for (var b = 0u; b < DIM; b++) {
+            s += terms[i * TERMS + a * DIM + b] * vectors[at(R_P, i * DIM + b)];
+        }
+        sum[a] = s;
+    }
+    if (m != 0.0) {
+        gather_into(i, false, &sum);
+    }
+    var dot: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        let k = i * DIM + a;
+        var q: real = 0.0;
+        if (m != 0.0) {
+            q = m * vectors[at(R_P, k)] + cp.h2 * sum[a];
+        }
+        if (vectors[at(R_INVERSE, k)] == 0.0) {
+            q = 0.0;
+        }
+        vectors[at(R_Q, k)] = q;
+        dot += vectors[at(R_P, k)] * q;
+    }
+    tree[cp.channel_a + i] = dot;
+    check_loops(i);
+}
