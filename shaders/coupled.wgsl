@@ -9,6 +9,7 @@
 //   element e  [energy, c0, c1, ∇E (W), aux (W)],  W = A·DIM, A = arity_max
 //     spring  c = (along, across) radial (distance, tether) | (1/α, 0) Gauss–Newton;  aux = ∇C
 //     ball    c = (along, across) of K⁺ = b'' n nᵀ;                              aux = ∇d = (−n, n)
+//     lag     c = (along, across) of the tangent K (friction.rs);                aux = (û, 0)
 //   gather  particle k adds its slots (element order, member order): no atomics
 //   tree    per-item terms written at a channel's offset, reduced by cp_reduce:
 //           blocks of 64 halved in place (s[t] ⊕= s[t + stride], 32 … 1), the
@@ -31,7 +32,7 @@ struct CoupledParams {
     channel_b: u32,
     channel_e: u32,
     channel_t: u32,
-    pad0: u32,
+    pairs: u32,      // ball pairs (elements first_ball ..)
     pad1: u32,
     pad2: u32,
     h: real,
@@ -57,9 +58,9 @@ struct Level {
 @group(0) @binding(16) var<storage, read> plane_mu: array<real>;
 @group(0) @binding(17) var<storage, read_write> lag_force: array<real>;
 // [codes (E) | arities (E) | members (E·A)]: codes 0 distance, 1 tether,
-// 2 simplex measure, 3 oriented measure, 4 ball pair
+// 2 simplex measure, 3 oriented measure, 4 ball pair, 5 pair friction lag
 @group(0) @binding(18) var<storage, read> element_words: array<u32>;
-// [compliance, rest] per element (springs)
+// DIM + 1 per element: [compliance, rest] (springs), [F_max, n] (friction lags)
 @group(0) @binding(19) var<storage, read> element_reals: array<real>;
 // [offsets (n + 1) | slots]
 @group(0) @binding(20) var<storage, read> gather: array<u32>;
@@ -87,6 +88,9 @@ const R_LOAD: u32 = 11u;
 
 const TERMS: u32 = DIM * DIM + 2u;
 const BALL: u32 = 4u;
+const LAG: u32 = 5u;
+// Reals per element in element_reals.
+const ELEMENT_REALS: u32 = DIM + 1u;
 
 var<workgroup> block: array<real, WORKGROUP>;
 
@@ -136,7 +140,66 @@ fn radial(first: real, second: real, length: real, out: ptr<function, Element>) 
     }
 }
 
-// Element e at the point buffer (springs.rs, ball_barrier.rs).
+// The lagged friction of slip w against the unit normal n with F_max =
+// `limit` (friction.rs tangent_term): u = (I − n nᵀ) w, y = |u|,
+// energy F f₀(y), gradient F g(y) u, K along û F f₁'(y), across F g(y).
+struct Tangent {
+    energy: real,
+    along: real,
+    across: real,
+    gradient: array<real, DIM>,
+    direction: array<real, DIM>, // û (0 at y = 0)
+}
+
+fn tangent(n: array<real, DIM>, limit: real, w: array<real, DIM>) -> Tangent {
+    var out: Tangent;
+    var s: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        s += n[a] * w[a];
+    }
+    var y2: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        let u = w[a] - s * n[a];
+        out.direction[a] = u;
+        y2 += u * u;
+    }
+    let y = sqrt(y2);
+    let m = mollifier(y, cp.slip);
+    var g: real;
+    if (y < cp.slip) {
+        g = (2.0 - y / cp.slip) / cp.slip;
+    } else {
+        g = 1.0 / y;
+    }
+    let scale = limit * g;
+    for (var a = 0u; a < DIM; a++) {
+        out.gradient[a] = scale * out.direction[a];
+    }
+    var inverse: real = 0.0;
+    if (y > 0.0) {
+        inverse = 1.0 / y;
+    }
+    for (var a = 0u; a < DIM; a++) {
+        out.direction[a] *= inverse;
+    }
+    out.energy = limit * m.x;
+    out.along = limit * m.y;
+    out.across = scale;
+    return out;
+}
+
+// Mollifier f₀, f₁' of the slip y with slip length ε (friction.rs).
+fn mollifier(y: real, epsilon: real) -> vec2<real> {
+    if (y < epsilon) {
+        let q = y / epsilon;
+        let f0 = -y * q * q / 3.0 + y * q + epsilon / 3.0;
+        let f1_prime = (2.0 - 2.0 * q) / epsilon;
+        return vec2<real>(f0, f1_prime);
+    }
+    return vec2<real>(y, 0.0);
+}
+
+// Element e at the point buffer (springs.rs, ball_barrier.rs, friction.rs).
 fn evaluate_element(e: u32) -> Element {
     var out: Element;
     let code = code_of(e);
@@ -180,8 +243,30 @@ fn evaluate_element(e: u32) -> Element {
         radial(law.y, law.z, length, &out);
         return out;
     }
-    let compliance = element_reals[e * 2u];
-    let rest = element_reals[e * 2u + 1u];
+    if (code == LAG) {
+        // w = (x_j − x_j^t) − (x_i − x_i^t); ∇_j = F g u, ∇_i = −∇_j.
+        let i = member(e, 0u);
+        let j = member(e, 1u);
+        var n: array<real, DIM>;
+        var w: array<real, DIM>;
+        for (var a = 0u; a < DIM; a++) {
+            n[a] = element_reals[e * ELEMENT_REALS + 1u + a];
+            w[a] = (pts[DIM + a] - vectors[at(R_START, j * DIM + a)])
+                - (pts[a] - vectors[at(R_START, i * DIM + a)]);
+        }
+        let t = tangent(n, element_reals[e * ELEMENT_REALS], w);
+        for (var a = 0u; a < DIM; a++) {
+            out.gradient[DIM + a] = t.gradient[a];
+            out.gradient[a] = -t.gradient[a];
+            out.aux[a] = t.direction[a];
+        }
+        out.energy = t.energy;
+        out.c0 = t.along;
+        out.c1 = t.across;
+        return out;
+    }
+    let compliance = element_reals[e * ELEMENT_REALS];
+    let rest = element_reals[e * ELEMENT_REALS + 1u];
     var value: real;
     if (code == 2u) {
         value = simplex_squared_measure(&pts, arity - 1u, &aux);
@@ -302,6 +387,38 @@ fn cp_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
         }
         return;
     }
+    if (code == LAG) {
+        // Tangent K of the lag (friction.rs apply_pair, diagonal): n the
+        // lag's normal, û = aux[0..DIM].
+        let base_n = e * ELEMENT_REALS + 1u;
+        if (cp.diagonal == 1u) {
+            for (var a = 0u; a < DIM; a++) {
+                let n = element_reals[base_n + a];
+                let u = records[aux + a];
+                let d = across * (1.0 - n * n) + (along - across) * u * u;
+                slots[slot + a] = d;
+                slots[slot + DIM + a] = d;
+            }
+            return;
+        }
+        var v: array<real, DIM>;
+        var s_n: real = 0.0;
+        var s_u: real = 0.0;
+        for (var a = 0u; a < DIM; a++) {
+            v[a] = p[DIM + a] - p[a];
+        }
+        for (var a = 0u; a < DIM; a++) {
+            s_n += element_reals[base_n + a] * v[a];
+            s_u += records[aux + a] * v[a];
+        }
+        let extra = (along - across) * s_u;
+        for (var a = 0u; a < DIM; a++) {
+            let y = across * (v[a] - s_n * element_reals[base_n + a]) + extra * records[aux + a];
+            slots[slot + DIM + a] = y;
+            slots[slot + a] = -y;
+        }
+        return;
+    }
     // Radial: normal n = aux[DIM..2DIM] (radial.rs).
     if (cp.diagonal == 1u) {
         for (var a = 0u; a < DIM; a++) {
@@ -346,17 +463,6 @@ fn gather_into(i: u32, from_records: bool, sum: ptr<function, array<real, DIM>>)
             }
         }
     }
-}
-
-// Mollifier f₀, f₁' of the slip y with slip length ε (friction.rs).
-fn mollifier(y: real, epsilon: real) -> vec2<real> {
-    if (y < epsilon) {
-        let q = y / epsilon;
-        let f0 = -y * q * q / 3.0 + y * q + epsilon / 3.0;
-        let f1_prime = (2.0 - 2.0 * q) / epsilon;
-        return vec2<real>(f0, f1_prime);
-    }
-    return vec2<real>(y, 0.0);
 }
 
 struct Own {
@@ -408,36 +514,17 @@ fn obstacle_terms(i: u32, p: ptr<function, array<real, DIM>>, derivatives: bool)
         if (!(limit > 0.0)) {
             continue;
         }
-        // w = x − x^t, u = (I − n nᵀ) w, y = |u| (friction.rs tangent_term).
-        var s: real = 0.0;
+        var n: array<real, DIM>;
+        var w: array<real, DIM>;
         for (var a = 0u; a < DIM; a++) {
-            s += geometry[o * DIM + a] * ((*p)[a] - vectors[at(R_START, i * DIM + a)]);
+            n[a] = geometry[o * DIM + a];
+            w[a] = (*p)[a] - vectors[at(R_START, i * DIM + a)];
         }
-        var u: array<real, DIM>;
-        var y2: real = 0.0;
-        for (var a = 0u; a < DIM; a++) {
-            let w = (*p)[a] - vectors[at(R_START, i * DIM + a)];
-            u[a] = w - s * geometry[o * DIM + a];
-            y2 += u[a] * u[a];
-        }
-        let y = sqrt(y2);
-        let m = mollifier(y, cp.slip);
-        var g: real;
-        if (y < cp.slip) {
-            g = (2.0 - y / cp.slip) / cp.slip;
-        } else {
-            g = 1.0 / y;
-        }
-        let scale = limit * g;
-        own.energy += limit * m.x;
+        let t = tangent(n, limit, w);
+        own.energy += t.energy;
         if (derivatives) {
-            var inverse: real = 0.0;
-            if (y > 0.0) {
-                inverse = 1.0 / y;
-            }
-            let along = limit * m.y;
             for (var a = 0u; a < DIM; a++) {
-                own.gradient[a] += scale * u[a];
+                own.gradient[a] += t.gradient[a];
             }
             // The lag's block first, then added (TangentCurvature::block,
             // then b += lag_block): one sum per entry, so no compiler can
@@ -449,8 +536,8 @@ fn obstacle_terms(i: u32, p: ptr<function, array<real, DIM>>, derivatives: bool)
                     if (a == b) {
                         identity = 1.0;
                     }
-                    lag[a * DIM + b] = scale * (identity - geometry[o * DIM + a] * geometry[o * DIM + b])
-                        + (along - scale) * (u[a] * inverse) * (u[b] * inverse);
+                    lag[a * DIM + b] = t.across * (identity - n[a] * n[b])
+                        + (t.along - t.across) * t.direction[a] * t.direction[b];
                 }
             }
             for (var k = 0u; k < MAT; k++) {

@@ -221,10 +221,10 @@ fn cp_filter_particles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(n
 @compute @workgroup_size(WORKGROUP)
 fn cp_filter_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let b = linear_index(gid, groups);
-    let e = cp.first_ball + b;
-    if (e >= cp.elements) {
+    if (b >= cp.pairs) {
         return;
     }
+    let e = cp.first_ball + b;
     let i = member(e, 0u);
     let j = member(e, 1u);
     var pts: array<real, POINTS>;

@@ -131,6 +131,43 @@ fn stack_of_ten_balls_is_the_golden_path() {
     differential("stack of 10", &scene, 30, lowest_gap);
 }
 
+/// Two balls passing off-centre (0.05 m apart across the line of
+/// approach) with ball-pair friction μ = 0.5, and the stack of ten with
+/// pair friction and a sideways push: the lagged pair friction's
+/// sticking and sliding branches.
+#[test]
+fn pair_friction_is_the_golden_path() {
+    let mut glancing = head_on();
+    glancing.particles[1].position[1] = 0.05;
+    glancing.collisions = Some(Collisions {
+        friction: 0.5,
+        margin: 0.0,
+    });
+    let gap = |s: &State| {
+        let d = (s.positions[2] - s.positions[0]).hypot(s.positions[3] - s.positions[1]) - 0.2;
+        (-d, 0.0)
+    };
+    differential("glancing balls with pair friction", &glancing, 30, gap);
+    let (mut stack, _) = stack();
+    stack.collisions = Some(Collisions {
+        friction: 0.5,
+        margin: 0.0,
+    });
+    for (k, p) in stack.particles.iter_mut().enumerate() {
+        p.velocity = Some(vec![0.05 * k as f64, 0.0]);
+    }
+    let lowest_gap = |s: &State| {
+        let y = |k: usize| s.positions[2 * k + 1];
+        (-(y(0) - 0.1), 0.0)
+    };
+    differential(
+        "stack of 10 pushed sideways, pair friction",
+        &stack,
+        20,
+        lowest_gap,
+    );
+}
+
 /// A 3D tethered triangle of springs falling onto a plane with friction,
 /// with a signed-volume spring, a "previous" warm start and the packed
 /// gradient criterion: every other branch the evidence scenes miss.
@@ -216,12 +253,12 @@ fn unsupported_coupled_scenes_are_typed_refusals() {
         }
     };
     assert!(refusal(&head_on(), Precision::F32).contains("f32"));
-    let mut frictional = head_on();
-    frictional.collisions = Some(Collisions {
-        friction: 0.3,
-        margin: 0.0,
+    let mut meshed = head_on();
+    meshed.obstacles.push(Obstacle::SimplexMesh {
+        vertices: vec![vec![-1.0, -1.0], vec![1.0, -1.0]],
+        simplices: vec![vec![0, 1]],
     });
-    assert!(refusal(&frictional, Precision::F64).contains("collisions.friction"));
+    assert!(refusal(&meshed, Precision::F64).contains("simplex-mesh obstacles"));
 }
 
 /// A refused minimisation (two balls starting overlapped) rolls the GPU

@@ -1,5 +1,5 @@
 //! The coupled implicit step's typed refusals (issue 16): α = 0 at load,
-//! what the GPU does not run yet and `hyperpbd run --backend gpu` on a coupled
+//! what the GPU does not run yet, `hyperpbd run --backend gpu` on a coupled
 //! scene, a refused step that leaves the state byte for byte, and the new
 //! solver keys in JSON.
 
@@ -102,20 +102,22 @@ fn a_refused_step_leaves_the_state_byte_for_byte() {
     assert_eq!(bits(&before), bits(&after));
 }
 
-/// What the GPU's coupled step does not run yet (f32; pair friction) is a
-/// typed refusal saying why and which backend runs it; without pair
-/// friction the factory loads the scene on gpu-f64 (`GpuCoupledBackend`).
+/// What the GPU's coupled step does not run yet (f32; simplex-mesh
+/// obstacles) is a typed refusal saying why and which backend runs it;
+/// the scene itself (springs, a frictional plane, ball pairs with
+/// friction) loads on gpu-f64 through the factory (`GpuCoupledBackend`).
 #[test]
 fn the_gpu_refuses_what_its_coupled_step_does_not_run_yet() {
     let scene = Scene::from_json_str(&coupled_json(1e-8, 0.3)).expect("parses");
-    let mut frictionless = scene.clone();
-    if let Some(c) = frictionless.collisions.as_mut() {
-        c.friction = 0.0;
-    }
+    let mut meshed = scene.clone();
+    meshed.obstacles.push(hyperpbd::Obstacle::SimplexMesh {
+        vertices: vec![vec![-1.0, -1.0], vec![1.0, -1.0]],
+        simplices: vec![vec![0, 1]],
+    });
     for (precision, scene, why) in [
         (Precision::F32, &scene, "f32"),
-        (Precision::F64, &scene, "collisions.friction"),
-        (Precision::F64, &frictionless, ""),
+        (Precision::F64, &meshed, "simplex-mesh obstacles"),
+        (Precision::F64, &scene, ""),
     ] {
         let plan = Plan::compile(scene).expect("compiles");
         let loaded = common::gpu::load_or_skip(

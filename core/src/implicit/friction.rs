@@ -36,7 +36,10 @@
 //! diagonal: across (1 − n_a²) + (along − across) û_a²
 //! ```
 
+use crate::Refusal;
 use crate::barrier::BarrierLaw;
+use crate::broadphase::Pair;
+use crate::geometry::separation;
 
 /// Slip regime of one evaluation (a statement about the slip alone).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -250,4 +253,51 @@ impl TangentCurvature {
             }
         }
     }
+}
+
+/// A frozen friction lag of one ball pair (at x^t).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairLag {
+    /// The pair (i < j).
+    pub pair: Pair,
+    /// n = (x_j − x_i)/|x_j − x_i| at x^t.
+    pub normal: Vec<f64>,
+    /// F_max = μ λ.
+    pub force_limit: f64,
+}
+
+/// The lags of the ball pairs `pairs` at x^t = `x` (docs/implicit.md §7
+/// step 2): every pair with 0 < d < d^ when μ = `friction` > 0, in pair
+/// order; the first pair at d ≤ 0 is `Refusal::OverlappingStart`.
+pub fn pair_lags(
+    law: &BarrierLaw,
+    friction: f64,
+    x: &[f64],
+    radius: &[f64],
+    dim: usize,
+    pairs: &[Pair],
+) -> Result<Vec<PairLag>, Refusal> {
+    let mut lags = Vec::new();
+    let mut normal = vec![0.0; dim];
+    for &[i, j] in pairs {
+        let (i, j) = (i as usize, j as usize);
+        let length = separation(x, i, j, dim, &mut normal);
+        let d = length - radius[i] - radius[j];
+        if d.is_nan() || d <= 0.0 {
+            return Err(Refusal::OverlappingStart {
+                first: i,
+                second: j,
+                distance: d,
+            });
+        }
+        let force = normal_force(law, d);
+        if friction > 0.0 && force > 0.0 {
+            lags.push(PairLag {
+                pair: [i as u32, j as u32],
+                normal: normal.iter().map(|c| c / length).collect(),
+                force_limit: friction * force,
+            });
+        }
+    }
+    Ok(lags)
 }

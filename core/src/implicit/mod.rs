@@ -50,8 +50,8 @@ mod step_plan;
 pub use ball_barrier::{BallPair, ball_pair_barrier};
 pub use element_lists::ElementLists;
 pub use friction::{
-    FrictionRegime, FrictionTerm, TangentCurvature, mollifier, normal_force, obstacle_friction,
-    pair_friction,
+    FrictionRegime, FrictionTerm, PairLag, TangentCurvature, mollifier, normal_force,
+    obstacle_friction, pair_friction, pair_lags,
 };
 pub use material_hessian::{
     MaterialHessianScratch, apply_material_curvature, material_curvature_diagonal,

@@ -27,8 +27,8 @@ use hyperpbd_core::broadphase::Pair;
 use hyperpbd_core::geometry::Scratch;
 use hyperpbd_core::implicit::resolution::{ball_rounding, spring_rounding};
 use hyperpbd_core::implicit::{
-    ElementLists, RadialCurvature, Spring, SpringCurvature, TangentCurvature, ball_pair_barrier,
-    evaluate_spring, pair_friction,
+    ElementLists, PairLag, RadialCurvature, Spring, SpringCurvature, TangentCurvature,
+    ball_pair_barrier, evaluate_spring, pair_friction,
 };
 use hyperpbd_core::{ConstraintKind, FamilyKind, Plan};
 use materials::MaterialBuffers;
@@ -36,17 +36,6 @@ use std::ops::Range;
 
 /// Elements per chunk of the element passes.
 pub const ELEMENT_GRAIN: usize = 256;
-
-/// A frozen friction lag of one ball pair (at x^t).
-#[derive(Debug, Clone, PartialEq)]
-pub struct PairLag {
-    /// The pair (i < j).
-    pub pair: Pair,
-    /// n = (x_j − x_i)/|x_j − x_i| at x^t.
-    pub normal: Vec<f64>,
-    /// F_max = μ λ.
-    pub force_limit: f64,
-}
 
 /// What one element is.
 #[derive(Debug, Clone, Copy, PartialEq)]

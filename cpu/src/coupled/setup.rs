@@ -14,16 +14,14 @@
 // Index loops mirror the math line by line.
 #![allow(clippy::needless_range_loop)]
 
-use super::elements::PairLag;
 use super::particles::{Particles, PlaneLag};
 use crate::collide::{Contacts, broadphase_on};
 use crate::incremental_potential::PARTICLE_GRAIN;
 use crate::parallel::Workers;
 use hyperpbd_core::IncrementalPotentialPlan;
 use hyperpbd_core::broadphase::{Aabbs, Pair};
-use hyperpbd_core::geometry::separation;
 use hyperpbd_core::implicit::certified_filter::{fraction, obstacle_time, pair_time};
-use hyperpbd_core::implicit::{CoupledPlan, normal_force};
+use hyperpbd_core::implicit::{CoupledPlan, PairLag, normal_force, pair_lags};
 use hyperpbd_core::{Plan, Refusal, WarmStart};
 
 /// Pair sets, lags and broadphase scratch of one step.
@@ -138,27 +136,8 @@ impl Setup {
         }
         let start = particles.start.clone();
         self.sweep_pairs(workers, plan, ip, &start, &start);
-        self.pair_lags.clear();
-        for &[i, j] in &self.pairs {
-            let (i, j) = (i as usize, j as usize);
-            let length = separation(&start, i, j, dim, &mut normal);
-            let d = length - plan.radius[i] - plan.radius[j];
-            if d.is_nan() || d <= 0.0 {
-                return Err(Refusal::OverlappingStart {
-                    first: i,
-                    second: j,
-                    distance: d,
-                });
-            }
-            let force = normal_force(&ip.law, d);
-            if coupled.pair_friction > 0.0 && force > 0.0 {
-                self.pair_lags.push(PairLag {
-                    pair: [i as u32, j as u32],
-                    normal: normal.iter().map(|c| c / length).collect(),
-                    force_limit: coupled.pair_friction * force,
-                });
-            }
-        }
+        let friction = coupled.pair_friction;
+        self.pair_lags = pair_lags(&ip.law, friction, &start, &plan.radius, dim, &self.pairs)?;
         Ok(())
     }
 

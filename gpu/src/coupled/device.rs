@@ -105,6 +105,7 @@ pub(super) struct Params {
     pub diagonal: u32,
     pub first_ball: u32,
     pub channels: [u32; 4],
+    pub pairs: u32,
     pub h: f64,
     pub slip: f64,
     pub step: f64,
@@ -126,7 +127,7 @@ impl Params {
                 self.first_ball,
             ])
             .words(&self.channels)
-            .words(&[0, 0, 0])
+            .words(&[self.pairs, 0, 0])
             .reals(&[
                 self.h,
                 self.h * self.h,
@@ -143,9 +144,11 @@ impl Params {
 #[derive(Debug, Default)]
 pub(super) struct ElementUpload {
     pub lists: ElementLists,
-    /// 0 distance, 1 tether, 2 simplex measure, 3 oriented measure, 4 ball.
+    /// 0 distance, 1 tether, 2 simplex measure, 3 oriented measure, 4 ball,
+    /// 5 pair friction lag.
     pub codes: Vec<u32>,
-    /// [compliance, rest] per element.
+    /// N + 1 per element: [compliance, rest, 0…] (springs), 0s (balls),
+    /// [F_max, n] (friction lags).
     pub reals: Vec<f64>,
     /// Index of the first ball element.
     pub first_ball: usize,
@@ -325,7 +328,7 @@ impl Device {
             let words = |label: &str, len: usize| ctx.storage(label, &vec![0u8; len.max(1) * 4]);
             let reals = |label: &str, len: usize| ctx.storage(label, &vec![0u8; len.max(1) * r]);
             self.element_words = words("element words", capacity.0 * (2 + lists.arity_max))?;
-            self.element_reals = reals("element reals", capacity.0 * 2)?;
+            self.element_reals = reals("element reals", capacity.0 * (dim + 1))?;
             self.gather = words("gather", count + 1 + capacity.0 * lists.arity_max)?;
             self.records = reals("records", capacity.0 * self.record_len)?;
             self.slots = reals("slots", capacity.0 * width)?;
@@ -352,6 +355,7 @@ impl Device {
         self.params.elements = len as u32;
         self.params.arity_max = lists.arity_max as u32;
         self.params.first_ball = elements.first_ball as u32;
+        self.params.pairs = pairs as u32;
         self.write_levels(ctx, [count, count, count, len, count + pairs]);
         Ok(())
     }

@@ -14,10 +14,10 @@
 //!                      slope (one read); trials (one read each); accept }
 //!               cp_finish: x = x_k, v = (x − x^t)/h
 //! pairs         the broadphase over the swept boxes runs on the host over x_k and Δ read
-//!               back (only with `collisions`); the element list is re-uploaded when the
-//!               pair set changes
+//!               back (only with `collisions`); the element list (springs, balls, pair
+//!               friction lags frozen at x^t) is re-uploaded when the pair set changes
 //! refused       f32 (the certified filter's and the floor's rounding counts are f64's so
-//!               far), material families, simplex-mesh obstacles, pair friction
+//!               far), material families, simplex-mesh obstacles
 //! ```
 //! In f64 on lavapipe every state is bit-identical to the CPU golden path
 //! (`tests/gpu_coupled.rs`).
@@ -28,7 +28,7 @@ mod newton;
 
 use hyperpbd_core::adaptive::Subdivided;
 use hyperpbd_core::broadphase::{Aabbs, Pair, grid_pairs};
-use hyperpbd_core::implicit::CoupledPlan;
+use hyperpbd_core::implicit::{CoupledPlan, PairLag};
 use hyperpbd_core::{
     BackendError, Convergence, FamilyKind, GpuError, IncrementalPotentialPlan, Kernel,
     MinimisationReport, Plan, State, StepReport, check_kernel, check_state,
@@ -56,9 +56,10 @@ pub struct GpuCoupledBackend {
     ctx: GpuContext,
     device: Device,
     state: ResidentState,
-    /// The uploaded element list and its pair set.
+    /// The uploaded element list, its pair set and pair friction lags.
     elements: ElementUpload,
     pairs: Vec<Pair>,
+    lags: Vec<PairLag>,
     /// m_i (0 for fixed particles).
     mass: Vec<f64>,
     substep: u32,
@@ -68,7 +69,7 @@ pub struct GpuCoupledBackend {
 
 /// Why the GPU does not run `plan`'s coupled step (yet), if it does not.
 fn unsupported(plan: &Plan, ip: &IncrementalPotentialPlan, precision: Precision) -> Option<String> {
-    let coupled = ip.coupled.as_ref()?;
+    ip.coupled.as_ref()?;
     let not_yet = |what: String| {
         Some(format!(
             "{what} in the coupled implicit step on the GPU (not built yet): use --backend cpu"
@@ -96,9 +97,6 @@ fn unsupported(plan: &Plan, ip: &IncrementalPotentialPlan, precision: Precision)
     }
     if ip.obstacles.simplex_count() > 0 {
         return not_yet("simplex-mesh obstacles".into());
-    }
-    if coupled.pair_friction > 0.0 {
-        return not_yet("collisions.friction > 0".into());
     }
     None
 }
@@ -200,29 +198,43 @@ impl GpuCoupledBackend {
             state: resident,
             elements: ElementUpload::default(),
             pairs: Vec::new(),
+            lags: Vec::new(),
             mass,
             substep: 0,
             reports: Vec::new(),
             exporter: Exporter::default(),
         };
-        backend.upload_elements(Vec::new(), true)?;
+        backend.upload_elements(Vec::new(), Vec::new(), true)?;
         backend.ctx.check()?;
         Ok(backend)
     }
 
-    /// The element list of the plan's springs and the ball pairs `pairs`
-    /// (cpu/src/coupled/elements.rs `rebuild`), uploaded when the pair set
-    /// changed (or `force`).
-    fn upload_elements(&mut self, pairs: Vec<Pair>, force: bool) -> Result<(), GpuError> {
-        if !force && pairs == self.pairs {
+    /// The element list of the plan's springs, the ball pairs `pairs` and
+    /// the pair friction lags `lags` (cpu/src/coupled/elements.rs
+    /// `rebuild`), uploaded when either changed (or `force`).
+    fn upload_elements(
+        &mut self,
+        pairs: Vec<Pair>,
+        lags: Vec<PairLag>,
+        force: bool,
+    ) -> Result<(), GpuError> {
+        if !force && pairs == self.pairs && lags == self.lags {
             return Ok(());
         }
         let plan = &self.plan;
+        let width = plan.dim + 1;
         let arity_max = plan.families.iter().map(|f| f.arity).fold(2, usize::max);
         let up = &mut self.elements;
         up.lists.clear(arity_max);
         up.codes.clear();
         up.reals.clear();
+        let mut push = |members: &[u32], code: u32, reals: &[f64]| {
+            up.lists.push(members);
+            up.codes.push(code);
+            up.reals.extend(reals);
+            up.reals
+                .extend(std::iter::repeat_n(0.0, width - reals.len()));
+        };
         for family in &plan.families {
             let code = match family.kind {
                 FamilyKind::Distance => 0,
@@ -231,22 +243,25 @@ impl GpuCoupledBackend {
                 _ => 3,
             };
             for e in 0..family.len() {
-                up.lists
-                    .push(&family.elements[e * family.arity..(e + 1) * family.arity]);
-                up.codes.push(code);
-                up.reals.extend([family.compliance, family.rest[e]]);
+                let members = &family.elements[e * family.arity..(e + 1) * family.arity];
+                push(members, code, &[family.compliance, family.rest[e]]);
             }
         }
-        up.first_ball = up.lists.len();
+        let first_ball = plan.families.iter().map(|f| f.len()).sum();
         for pair in &pairs {
-            up.lists.push(pair);
-            up.codes.push(4);
-            up.reals.extend([0.0, 0.0]);
+            push(pair, 4, &[]);
         }
+        for lag in &lags {
+            let mut reals = vec![lag.force_limit];
+            reals.extend(&lag.normal);
+            push(&lag.pair, 5, &reals);
+        }
+        up.first_ball = first_ball;
         up.lists.build_gather(plan.particle_count());
         self.device
             .upload(&self.ctx, &self.state, up, pairs.len())?;
         self.pairs = pairs;
+        self.lags = lags;
         Ok(())
     }
 

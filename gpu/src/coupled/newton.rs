@@ -5,12 +5,11 @@
 //! the rounding floor.
 
 use hyperpbd_core::barrier::BarrierObstacles;
-use hyperpbd_core::geometry::separation;
 use hyperpbd_core::implicit::resolution::{
     ball_rounding, change_resolution, particle_sums, spring_rounding,
 };
 use hyperpbd_core::implicit::{
-    PcgSettings, PcgStatus, PcgVectors, certified_filter, newton_cg_tolerance, pcg_on,
+    PcgSettings, PcgStatus, PcgVectors, certified_filter, newton_cg_tolerance, pair_lags, pcg_on,
 };
 use hyperpbd_core::{
     Backend, BackendError, Convergence, GpuError, MinimisationReport, MinimisationStatus, Refusal,
@@ -171,8 +170,9 @@ impl GpuCoupledBackend {
             let value = records[e * stride];
             energy += value.abs();
             if e < up.first_ball {
-                force += spring_rounding(value, up.reals[2 * e], up.reals[2 * e + 1], dim);
-            } else {
+                let reals = &up.reals[e * (dim + 1)..];
+                force += spring_rounding(value, reals[0], reals[1], dim);
+            } else if e < up.first_ball + self.pairs.len() {
                 let members = up.lists.members(e);
                 for (j, &i) in members.iter().enumerate() {
                     let i = i as usize;
@@ -212,20 +212,13 @@ impl GpuCoupledBackend {
                 .read_regions(&self.ctx, &[region::START])?
                 .remove(0);
             let pairs = self.sweep(&start, &start);
-            let mut normal = vec![0.0; dim];
-            for &[i, j] in &pairs {
-                let (i, j) = (i as usize, j as usize);
-                let length = separation(&start, i, j, dim, &mut normal);
-                let d = length - self.plan.radius[i] - self.plan.radius[j];
-                if d.is_nan() || d <= 0.0 {
-                    return Ok(Some(Refusal::OverlappingStart {
-                        first: i,
-                        second: j,
-                        distance: d,
-                    }));
-                }
-            }
-            self.upload_elements(pairs, false)?;
+            let (law, friction) = (&self.ip.law, self.coupled.pair_friction);
+            let radius = &self.plan.radius;
+            let lags = match pair_lags(law, friction, &start, radius, dim, &pairs) {
+                Ok(lags) => lags,
+                Err(refusal) => return Ok(Some(refusal)),
+            };
+            self.upload_elements(pairs, lags, false)?;
         }
         if self.coupled.warm_start == WarmStart::Previous {
             return Ok(None);
@@ -236,7 +229,7 @@ impl GpuCoupledBackend {
                 .read_regions(&self.ctx, &[region::PREDICTION])?
                 .remove(0);
             let pairs = self.sweep(&start, &prediction);
-            self.upload_elements(pairs, false)?;
+            self.upload_elements(pairs, self.lags.clone(), false)?;
         }
         let tau = self.filter()?;
         self.device.params.step = tau;
@@ -338,7 +331,7 @@ impl GpuCoupledBackend {
                     .read_regions(&self.ctx, &[region::X, region::DIRECTION])?;
                 let reach: Vec<f64> = v[0].iter().zip(&v[1]).map(|(x, d)| x + d).collect();
                 let pairs = self.sweep(&v[0], &reach);
-                self.upload_elements(pairs, false)?;
+                self.upload_elements(pairs, self.lags.clone(), false)?;
             }
             let fraction = self.filter()?;
             // 10–11: Armijo on the difference form of F's change.
