@@ -156,7 +156,20 @@ fn obstacle_distance(o: u32, p: ptr<function, array<real, DIM>>, r: real, n: ptr
         }
         return dot - geometry[bp.planes * DIM + o] - r;
     }
-    let s = o - bp.planes;
+    let best_squared = simplex_offset(o - bp.planes, p, n);
+    let distance = sqrt(best_squared);
+    if (distance > 0.0) {
+        for (var a = 0u; a < DIM; a++) {
+            (*n)[a] /= distance;
+        }
+    }
+    return distance - r;
+}
+
+// |p − q|² for q the closest point of simplex s to p (every face's affine
+// projection with all barycentrics ≥ 0, smallest |p − q|², first on a
+// tie), the offset p − q into `w` (geometry::closest_point_on_simplex).
+fn simplex_offset(s: u32, p: ptr<function, array<real, DIM>>, w: ptr<function, array<real, DIM>>) -> real {
     let count = arity[s];
     var best_squared: real = REAL_MAX;
     var found = false;
@@ -239,17 +252,11 @@ fn obstacle_distance(o: u32, p: ptr<function, array<real, DIM>>, r: real, n: ptr
             found = true;
             best_squared = squared;
             for (var a = 0u; a < DIM; a++) {
-                (*n)[a] = rr[a];
+                (*w)[a] = rr[a];
             }
         }
     }
-    let distance = sqrt(best_squared);
-    if (distance > 0.0) {
-        for (var a = 0u; a < DIM; a++) {
-            (*n)[a] /= distance;
-        }
-    }
-    return distance - r;
+    return best_squared;
 }
 
 // (b, b', b'') of the clamped-log law at d (0 < d < d^).

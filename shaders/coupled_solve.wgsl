@@ -192,8 +192,44 @@ fn plane_time(o: u32, i: u32, p: ptr<function, array<real, DIM>>, step: ptr<func
     return certified_time(d0 - rounding, closing + gamma * closing_size);
 }
 
-// Certified time of every obstacle of particle i (free particles; planes
-// only on this path) from R_X along R_DIRECTION into channel T.
+// certified_filter.rs simplex_time for simplex s: the support bound of
+// the offset w = x − q̂ the closest-point search returns.
+fn simplex_time(s: u32, i: u32, p: ptr<function, array<real, DIM>>, step: ptr<function, array<real, DIM>>) -> real {
+    var w: array<real, DIM>;
+    _ = simplex_offset(s, p, &w);
+    var w_squared: real = 0.0;
+    var step_squared: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        w_squared += w[a] * w[a];
+        step_squared += (*step)[a] * (*step)[a];
+    }
+    let w_length = sqrt(w_squared);
+    if (!(w_length > 0.0)) {
+        return 0.0;
+    }
+    var support = REAL_MAX;
+    var size: real = 0.0;
+    for (var v = 0u; v < 4u; v++) {
+        if (v < arity[s]) {
+            var s_v: real = 0.0;
+            var a_v: real = 0.0;
+            for (var a = 0u; a < DIM; a++) {
+                let term = w[a] * ((*p)[a] - vertex(s, v, a));
+                s_v += term;
+                a_v += abs(term);
+            }
+            support = min(support, s_v);
+            size = max(size, a_v);
+        }
+    }
+    let gamma = (real(DIM) + 4.0) * cp.epsilon;
+    let d0 = support / w_length - radius[i];
+    let rounding = gamma * (size / w_length + radius[i]) + trial_rounding(p, step);
+    return certified_time(d0 - rounding, sqrt(step_squared) * (1.0 + gamma));
+}
+
+// Certified time of every obstacle of particle i (free particles; planes,
+// then simplices) from R_X along R_DIRECTION into channel T.
 @compute @workgroup_size(WORKGROUP)
 fn cp_filter_particles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
@@ -210,6 +246,9 @@ fn cp_filter_particles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(n
         }
         for (var o = 0u; o < bp.planes; o++) {
             t = min(t, plane_time(o, i, &p, &step));
+        }
+        for (var s = 0u; s < bp.simplices; s++) {
+            t = min(t, simplex_time(s, i, &p, &step));
         }
     }
     tree[cp.channel_t + i] = t;

@@ -168,6 +168,41 @@ fn pair_friction_is_the_golden_path() {
     );
 }
 
+/// A chain of three balls on distance springs dropped into a V of two
+/// segments (a simplex mesh) with ball pairs: the barrier's closest-point
+/// distance and the certified filter's support bound on the GPU.
+#[test]
+fn simplex_mesh_obstacles_are_the_golden_path() {
+    let mut scene = Scene::new(2, 1.0 / 60.0, 2, 1);
+    scene.gravity = Some(vec![0.0, -9.81]);
+    for k in 0..3 {
+        let mut p = particle(vec![-0.25 + 0.25 * k as f64, 0.3], Some(1.0), 0.05);
+        p.velocity = Some(vec![0.5, -1.0]);
+        scene.particles.push(p);
+    }
+    scene.constraints.push(ConstraintFamily::new(
+        ConstraintKind::Distance,
+        1e-4,
+        vec![vec![0, 1], vec![1, 2]],
+    ));
+    scene.obstacles.push(Obstacle::SimplexMesh {
+        vertices: vec![vec![-1.0, 0.5], vec![0.0, -0.2], vec![1.0, 0.5]],
+        simplices: vec![vec![0, 1], vec![1, 2]],
+    });
+    scene.collisions = Some(Collisions {
+        friction: 0.0,
+        margin: 0.0,
+    });
+    scene.solver = Solver::IncrementalPotential(settings(1e4, 0.02, 1e-3, 40));
+    let below = |s: &State| {
+        let lowest = (0..3)
+            .map(|k| s.positions[2 * k + 1])
+            .fold(f64::INFINITY, f64::min);
+        (-(lowest + 0.3), 0.0)
+    };
+    differential("three balls in a V of segments", &scene, 40, below);
+}
+
 /// A 3D tethered triangle of springs falling onto a plane with friction,
 /// with a signed-volume spring, a "previous" warm start and the packed
 /// gradient criterion: every other branch the evidence scenes miss.
@@ -253,12 +288,15 @@ fn unsupported_coupled_scenes_are_typed_refusals() {
         }
     };
     assert!(refusal(&head_on(), Precision::F32).contains("f32"));
-    let mut meshed = head_on();
-    meshed.obstacles.push(Obstacle::SimplexMesh {
-        vertices: vec![vec![-1.0, -1.0], vec![1.0, -1.0]],
-        simplices: vec![vec![0, 1]],
-    });
-    assert!(refusal(&meshed, Precision::F64).contains("simplex-mesh obstacles"));
+    let mut material = head_on();
+    material
+        .particles
+        .push(particle(vec![0.0, 1.0], Some(1.0), 0.0));
+    material.constraints.push(
+        ConstraintFamily::material(ConstraintKind::NeoHookean, 1e4, 0.3, vec![vec![0, 1, 2]])
+            .with_density(1000.0),
+    );
+    assert!(refusal(&material, Precision::F64).contains("material family"));
 }
 
 /// A refused minimisation (two balls starting overlapped) rolls the GPU

@@ -102,21 +102,29 @@ fn a_refused_step_leaves_the_state_byte_for_byte() {
     assert_eq!(bits(&before), bits(&after));
 }
 
-/// What the GPU's coupled step does not run yet (f32; simplex-mesh
-/// obstacles) is a typed refusal saying why and which backend runs it;
+/// What the GPU's coupled step does not run yet (f32; material families)
+/// is a typed refusal saying why and which backend runs it;
 /// the scene itself (springs, a frictional plane, ball pairs with
 /// friction) loads on gpu-f64 through the factory (`GpuCoupledBackend`).
 #[test]
 fn the_gpu_refuses_what_its_coupled_step_does_not_run_yet() {
     let scene = Scene::from_json_str(&coupled_json(1e-8, 0.3)).expect("parses");
-    let mut meshed = scene.clone();
-    meshed.obstacles.push(hyperpbd::Obstacle::SimplexMesh {
-        vertices: vec![vec![-1.0, -1.0], vec![1.0, -1.0]],
-        simplices: vec![vec![0, 1]],
-    });
+    let mut material = scene.clone();
+    material
+        .particles
+        .push(hyperpbd::Particle::new(vec![0.1, 1.0], 1.0));
+    material.constraints.push(
+        hyperpbd::ConstraintFamily::material(
+            hyperpbd::ConstraintKind::NeoHookean,
+            1e4,
+            0.3,
+            vec![vec![0, 1, 2]],
+        )
+        .with_density(1000.0),
+    );
     for (precision, scene, why) in [
         (Precision::F32, &scene, "f32"),
-        (Precision::F64, &meshed, "simplex-mesh obstacles"),
+        (Precision::F64, &material, "material family"),
         (Precision::F64, &scene, ""),
     ] {
         let plan = Plan::compile(scene).expect("compiles");

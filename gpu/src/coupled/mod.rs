@@ -17,7 +17,7 @@
 //!               back (only with `collisions`); the element list (springs, balls, pair
 //!               friction lags frozen at x^t) is re-uploaded when the pair set changes
 //! refused       f32 (the certified filter's and the floor's rounding counts are f64's so
-//!               far), material families, simplex-mesh obstacles
+//!               far), material families
 //! ```
 //! In f64 on lavapipe every state is bit-identical to the CPU golden path
 //! (`tests/gpu_coupled.rs`).
@@ -94,9 +94,6 @@ fn unsupported(plan: &Plan, ip: &IncrementalPotentialPlan, precision: Precision)
         .find(|f| matches!(f.kind, FamilyKind::Material { .. }))
     {
         return not_yet(format!("the material family {}", f.label));
-    }
-    if ip.obstacles.simplex_count() > 0 {
-        return not_yet("simplex-mesh obstacles".into());
     }
     None
 }
