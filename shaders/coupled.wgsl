@@ -33,7 +33,7 @@ struct CoupledParams {
     channel_e: u32,
     channel_t: u32,
     pairs: u32,      // ball pairs (elements first_ball ..)
-    pad1: u32,
+    mode: u32,       // cp_set_x: 0 warm start, 1 x^t, 2 the trial
     pad2: u32,
     h: real,
     h2: real,

@@ -7,9 +7,11 @@
 
 // ------------------------------------------------------------ CG vectors
 
-// d = 0, r = −g (0 where P⁻¹ = 0), z = P⁻¹ r, p = z; r·r into A, r·z into B.
+// PCG's residual by cp.mode: 0 the start d = 0, r = −g (0 where P⁻¹ = 0),
+// p = z; 1 an advance d += a p, r −= a q (a = cp.step). Then z = P⁻¹ r;
+// r·r into A, r·z into B.
 @compute @workgroup_size(WORKGROUP)
-fn cp_cg_start(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+fn cp_cg_residual(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
     if (i >= bp.count) {
         return;
@@ -20,37 +22,21 @@ fn cp_cg_start(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
         let k = i * DIM + a;
         let inverse = vectors[at(R_INVERSE, k)];
         var r: real = 0.0;
-        if (inverse != 0.0) {
-            r = -vectors[at(R_GRADIENT, k)];
+        if (cp.mode == 0u) {
+            if (inverse != 0.0) {
+                r = -vectors[at(R_GRADIENT, k)];
+            }
+            vectors[at(R_DIRECTION, k)] = 0.0;
+        } else {
+            vectors[at(R_DIRECTION, k)] += cp.step * vectors[at(R_P, k)];
+            r = vectors[at(R_R, k)] - cp.step * vectors[at(R_Q, k)];
         }
         let z = inverse * r;
-        vectors[at(R_DIRECTION, k)] = 0.0;
         vectors[at(R_R, k)] = r;
         vectors[at(R_Z, k)] = z;
-        vectors[at(R_P, k)] = z;
-        rr += r * r;
-        rz += r * z;
-    }
-    tree[cp.channel_a + i] = rr;
-    tree[cp.channel_b + i] = rz;
-}
-
-// d += a p, r −= a q, z = P⁻¹ r (a = cp.step); r·r into A, r·z into B.
-@compute @workgroup_size(WORKGROUP)
-fn cp_cg_advance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = linear_index(gid, groups);
-    if (i >= bp.count) {
-        return;
-    }
-    var rr: real = 0.0;
-    var rz: real = 0.0;
-    for (var a = 0u; a < DIM; a++) {
-        let k = i * DIM + a;
-        vectors[at(R_DIRECTION, k)] += cp.step * vectors[at(R_P, k)];
-        let r = vectors[at(R_R, k)] - cp.step * vectors[at(R_Q, k)];
-        let z = vectors[at(R_INVERSE, k)] * r;
-        vectors[at(R_R, k)] = r;
-        vectors[at(R_Z, k)] = z;
+        if (cp.mode == 0u) {
+            vectors[at(R_P, k)] = z;
+        }
         rr += r * r;
         rz += r * z;
     }
@@ -302,42 +288,24 @@ fn cp_filter_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
 
 // ------------------------------------------------------ updates of x, v
 
-// R_X = x^t + τ (x~ − x^t) (τ = cp.step; the direction holds x~ − x^t).
+// A new iterate R_X by cp.mode: 0 the warm start x^t + τ (x~ − x^t)
+// (τ = cp.step; the direction holds x~ − x^t), 1 x^t itself (a warm start
+// the elements refuse), 2 an accepted trial R_TRIAL.
 @compute @workgroup_size(WORKGROUP)
-fn cp_warm_start(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+fn cp_set_x(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
     if (i >= bp.count) {
         return;
     }
     for (var a = 0u; a < DIM; a++) {
         let k = i * DIM + a;
-        vectors[at(R_X, k)] = vectors[at(R_START, k)] + cp.step * vectors[at(R_DIRECTION, k)];
-    }
-}
-
-// R_X = x^t (a warm start the elements refuse falls back to x^t).
-@compute @workgroup_size(WORKGROUP)
-fn cp_restart(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = linear_index(gid, groups);
-    if (i >= bp.count) {
-        return;
-    }
-    for (var a = 0u; a < DIM; a++) {
-        let k = i * DIM + a;
-        vectors[at(R_X, k)] = vectors[at(R_START, k)];
-    }
-}
-
-// R_X = R_TRIAL (an accepted trial).
-@compute @workgroup_size(WORKGROUP)
-fn cp_accept(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = linear_index(gid, groups);
-    if (i >= bp.count) {
-        return;
-    }
-    for (var a = 0u; a < DIM; a++) {
-        let k = i * DIM + a;
-        vectors[at(R_X, k)] = vectors[at(R_TRIAL, k)];
+        var value = vectors[at(R_TRIAL, k)];
+        if (cp.mode == 0u) {
+            value = vectors[at(R_START, k)] + cp.step * vectors[at(R_DIRECTION, k)];
+        } else if (cp.mode == 1u) {
+            value = vectors[at(R_START, k)];
+        }
+        vectors[at(R_X, k)] = value;
     }
 }
 

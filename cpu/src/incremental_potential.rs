@@ -35,10 +35,7 @@ use hyperpbd_core::{
     Convergence, IncrementalPotentialPlan, MinimisationReport, MinimisationStatus, Plan, Refusal,
 };
 
-/// Armijo sufficient-decrease constant.
-pub const ARMIJO: f64 = 1e-4;
-/// Halvings of the line search before a particle gives up this iteration.
-pub const MAX_HALVINGS: u32 = 60;
+pub use hyperpbd_core::implicit::line_search::{ARMIJO, MAX_HALVINGS};
 
 /// Sum by a fixed pairwise tree: at stride s = 1, 2, 4, …, element i
 /// (i a multiple of 2s) adds element i + s. Overwrites `values`.

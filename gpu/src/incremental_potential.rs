@@ -19,10 +19,9 @@
 //! The residual's sqrt (packed criterion) is taken on the host in f64.
 
 use hyperpbd_core::IncrementalPotentialPlan;
-use hyperpbd_core::adaptive::Subdivided;
 use hyperpbd_core::{
     Backend, BackendError, Convergence, GpuError, Kernel, MinimisationReport, MinimisationStatus,
-    Plan, Refusal, State, StepError, StepReport, check_kernel, check_state,
+    Plan, Refusal, State, check_state,
 };
 
 use crate::barrier::{
@@ -35,7 +34,7 @@ use crate::kernel_set::{Binding, BlockWriter, EntryPoint, KernelSet, KernelSetSp
 use crate::layout::VectorLayout;
 use crate::params::{push_reals, read_reals, real_size};
 use crate::resident::ResidentState;
-use crate::resident_backend::resident_backend;
+use crate::resident_backend::{minimising_backend, resident_backend};
 use crate::shader::{MAX_GPU_DIM, ShaderFile};
 use crate::{Precision, SceneOrigin};
 
@@ -434,63 +433,14 @@ impl GpuBarrierBackend {
             particle as usize,
         ))
     }
-
-    fn run_minimise(&mut self) -> Result<(), BackendError> {
-        let report = self.minimise()?;
-        let refused = StepError::refused(self.substep, &report);
-        self.reports.push(report);
-        refused.map_or(Ok(()), |e| Err(e.into()))
-    }
 }
 
-/// The barrier path runs no guards (validation refuses them there), so
-/// its one attempt is the step itself.
-impl Subdivided for GpuBarrierBackend {
-    fn attempt(&mut self, subdivision: u32) -> Result<StepReport, BackendError> {
-        if subdivision > 0 {
-            return Err(BackendError::InvalidCall(
-                "the incremental-potential path has no adaptive steps".into(),
-            ));
-        }
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        self.state.save(&mut encoder);
-        self.ctx.submit_and_wait(encoder)?;
-        self.reports.clear();
-        for substep in 0..self.plan.substeps {
-            self.substep = substep;
-            for k in 0..self.plan.substep_kernels.len() {
-                if self.plan.substep_kernels[k] != Kernel::Minimise {
-                    continue;
-                }
-                if let Err(e) = self.run_minimise() {
-                    return Err(e.after_rollback(self.state.rollback(&self.ctx)));
-                }
-            }
-        }
-        Ok(StepReport {
-            kernel_calls: self.plan.kernel_counts(),
-            minimisation: std::mem::take(&mut self.reports),
-            ..StepReport::default()
-        })
-    }
-}
+minimising_backend!(GpuBarrierBackend);
 
 resident_backend! {
     GpuBarrierBackend, load() {
         fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
-            check_kernel(&self.plan, kernel)?;
-            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-            self.state.save(&mut encoder);
-            self.ctx.submit_and_wait(encoder)?;
-            match self.run_minimise() {
-                // Results the device could not finish (loops cut short, a
-                // lost device) are not kept: the state goes back to the
-                // call's start.
-                Err(e @ BackendError::Gpu(_)) => {
-                    Err(e.after_rollback(self.state.rollback(&self.ctx)))
-                }
-                other => other,
-            }
+            self.minimise_kernel(kernel)
         }
     }
 }

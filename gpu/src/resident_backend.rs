@@ -135,3 +135,85 @@ macro_rules! resident_backend {
 }
 
 pub(crate) use resident_backend;
+
+/// Writes, for an incremental-potential GPU backend `$backend` (fields
+/// plan, ctx, state, substep: u32, reports: Vec<MinimisationReport>; a
+/// method `minimise(&mut self) -> Result<MinimisationReport,
+/// BackendError>` for one minimisation on the resident state), what the
+/// barrier and coupled backends do the same way:
+///
+/// ```text
+/// run_minimise      one minimisation, its report kept, a refusal as StepError
+/// minimise_kernel   Backend::run_kernel's body: save, run_minimise; results the
+///                   device could not finish (GpuError) are rolled back
+/// Subdivided        one attempt = every Minimise kernel of every substep, the
+///                   state restored byte for byte on any error (no adaptive steps)
+/// ```
+macro_rules! minimising_backend {
+    ($backend:ty) => {
+        impl $backend {
+            fn run_minimise(&mut self) -> Result<(), ::hyperpbd_core::BackendError> {
+                let report = self.minimise()?;
+                let refused = ::hyperpbd_core::StepError::refused(self.substep, &report);
+                self.reports.push(report);
+                refused.map_or(Ok(()), |e| Err(e.into()))
+            }
+
+            fn minimise_kernel(
+                &mut self,
+                kernel: ::hyperpbd_core::Kernel,
+            ) -> Result<(), ::hyperpbd_core::BackendError> {
+                ::hyperpbd_core::check_kernel(&self.plan, kernel)?;
+                let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+                self.state.save(&mut encoder);
+                self.ctx.submit_and_wait(encoder)?;
+                match self.run_minimise() {
+                    // Results the device could not finish (loops cut short, a
+                    // lost device) are not kept: the state goes back to the
+                    // call's start.
+                    Err(e @ ::hyperpbd_core::BackendError::Gpu(_)) => {
+                        Err(e.after_rollback(self.state.rollback(&self.ctx)))
+                    }
+                    other => other,
+                }
+            }
+        }
+
+        /// The incremental-potential path runs no guards (validation refuses
+        /// them there), so its one attempt is the step itself.
+        impl ::hyperpbd_core::adaptive::Subdivided for $backend {
+            fn attempt(
+                &mut self,
+                subdivision: u32,
+            ) -> Result<::hyperpbd_core::StepReport, ::hyperpbd_core::BackendError> {
+                if subdivision > 0 {
+                    return Err(::hyperpbd_core::BackendError::InvalidCall(
+                        "the incremental-potential path has no adaptive steps".into(),
+                    ));
+                }
+                let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+                self.state.save(&mut encoder);
+                self.ctx.submit_and_wait(encoder)?;
+                self.reports.clear();
+                for substep in 0..self.plan.substeps {
+                    self.substep = substep;
+                    for k in 0..self.plan.substep_kernels.len() {
+                        if self.plan.substep_kernels[k] != ::hyperpbd_core::Kernel::Minimise {
+                            continue;
+                        }
+                        if let Err(e) = self.run_minimise() {
+                            return Err(e.after_rollback(self.state.rollback(&self.ctx)));
+                        }
+                    }
+                }
+                Ok(::hyperpbd_core::StepReport {
+                    kernel_calls: self.plan.kernel_counts(),
+                    minimisation: std::mem::take(&mut self.reports),
+                    ..::hyperpbd_core::StepReport::default()
+                })
+            }
+        }
+    };
+}
+
+pub(crate) use minimising_backend;

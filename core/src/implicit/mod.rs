@@ -37,6 +37,7 @@ pub mod certified_filter;
 pub mod closed_forms;
 mod element_lists;
 mod friction;
+pub mod line_search;
 mod material_hessian;
 mod material_rounding;
 mod pcg;

@@ -26,7 +26,7 @@
 //! the preconditioned condition number κ_H.
 
 use super::reduction::tree_dot;
-use crate::Convergence;
+use crate::{Convergence, Refusal};
 
 /// Stopping rule and budget.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -66,6 +66,29 @@ pub struct PcgReport {
     pub initial_residual: f64,
     /// ‖b − H d‖ as updated by the recurrence at the end.
     pub final_residual: f64,
+}
+
+impl PcgReport {
+    /// The Newton step's refusal for a CG that broke down at its first
+    /// iteration (docs/implicit.md §7 step 7: pᵀHp ≤ 0 or non-finite,
+    /// reported as `CurvatureBreakdown` of Newton iteration `iteration`);
+    /// `None` otherwise (a later breakdown keeps the iterate so far).
+    pub fn breakdown(&self, iteration: u32) -> Option<Refusal> {
+        if self.iterations > 1 {
+            return None;
+        }
+        match self.status {
+            PcgStatus::NonPositiveCurvature { curvature } => Some(Refusal::CurvatureBreakdown {
+                iteration,
+                curvature,
+            }),
+            PcgStatus::NonFinite => Some(Refusal::CurvatureBreakdown {
+                iteration,
+                curvature: f64::NAN,
+            }),
+            _ => None,
+        }
+    }
 }
 
 /// Vectors of the solve, reused between solves.

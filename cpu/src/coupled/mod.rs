@@ -35,17 +35,18 @@ mod setup;
 #[cfg(test)]
 mod tests;
 
-use crate::incremental_potential::{ARMIJO, MAX_HALVINGS};
 use crate::parallel::Workers;
 use elements::{Elements, Terms};
 use hyperpbd_core::IncrementalPotentialPlan;
+use hyperpbd_core::implicit::line_search::armijo;
 use hyperpbd_core::implicit::resolution::{change_resolution, particle_sums};
 use hyperpbd_core::implicit::{
-    CoupledPlan, PcgSettings, PcgStatus, PcgWorkspace, block_tree_max, block_tree_sum,
-    newton_cg_tolerance, pcg, tree_dot,
+    CoupledPlan, PcgSettings, PcgWorkspace, block_tree_max, block_tree_sum, newton_cg_tolerance,
+    pcg, tree_dot,
 };
 use hyperpbd_core::{Convergence, MinimisationReport, MinimisationStatus, Plan, Refusal};
 use particles::{Context, Particles};
+use std::convert::Infallible;
 
 /// Scratch of the coupled step, reused between steps.
 #[derive(Debug, Default)]
@@ -178,24 +179,10 @@ pub(crate) fn minimise(
             pcg_workspace,
         );
         report.cg_iterations.push(cg.iterations);
-        match cg.status {
-            PcgStatus::NonPositiveCurvature { curvature } if cg.iterations <= 1 => {
-                report.iterations = iteration;
-                report.status = MinimisationStatus::Refused(Refusal::CurvatureBreakdown {
-                    iteration,
-                    curvature,
-                });
-                break;
-            }
-            PcgStatus::NonFinite if cg.iterations <= 1 => {
-                report.iterations = iteration;
-                report.status = MinimisationStatus::Refused(Refusal::CurvatureBreakdown {
-                    iteration,
-                    curvature: f64::NAN,
-                });
-                break;
-            }
-            _ => {}
+        if let Some(refusal) = cg.breakdown(iteration) {
+            report.iterations = iteration;
+            report.status = MinimisationStatus::Refused(refusal);
+            break;
         }
         // 8–9: the pairs any trial can reach, and the certified fraction.
         for c in 0..count * dim {
@@ -221,22 +208,16 @@ pub(crate) fn minimise(
             };
             break;
         }
-        let mut t = fraction;
-        let mut accepted = false;
-        for _ in 0..=MAX_HALVINGS {
+        let Ok(accepted) = armijo::<Infallible>(fraction, slope, |t| {
             for c in 0..count * dim {
                 trial[c] = x[c] + t * direction[c];
             }
             let change = change(
                 workers, &context, &terms_at, particles, elements, x, trial, changes, scratch,
             );
-            if change <= ARMIJO * t * slope && trial[..] != x[..] {
-                accepted = true;
-                break;
-            }
-            t *= 0.5;
-        }
-        if !accepted {
+            Ok((change, trial[..] != x[..]))
+        });
+        if accepted.is_none() {
             report.iterations = iteration;
             let resolution = resolution(plan, particles, elements, &terms_at, x, direction);
             report.status = if -0.5 * slope <= resolution {

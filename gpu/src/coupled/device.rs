@@ -106,6 +106,8 @@ pub(super) struct Params {
     pub first_ball: u32,
     pub channels: [u32; 4],
     pub pairs: u32,
+    /// cp_set_x: 0 the warm start, 1 x^t, 2 the trial.
+    pub mode: u32,
     pub h: f64,
     pub slip: f64,
     pub step: f64,
@@ -127,7 +129,7 @@ impl Params {
                 self.first_ball,
             ])
             .words(&self.channels)
-            .words(&[self.pairs, 0, 0])
+            .words(&[self.pairs, self.mode, 0])
             .reals(&[
                 self.h,
                 self.h * self.h,

@@ -26,12 +26,11 @@ mod device;
 mod entries;
 mod newton;
 
-use hyperpbd_core::adaptive::Subdivided;
 use hyperpbd_core::broadphase::{Aabbs, Pair, grid_pairs};
 use hyperpbd_core::implicit::{CoupledPlan, PairLag};
 use hyperpbd_core::{
     BackendError, Convergence, FamilyKind, GpuError, IncrementalPotentialPlan, Kernel,
-    MinimisationReport, Plan, State, StepReport, check_kernel, check_state,
+    MinimisationReport, Plan, State, check_state,
 };
 
 use crate::barrier::{barrier_params, local_obstacles, obstacle_geometry};
@@ -41,7 +40,7 @@ use crate::kernel_set::{Binding, KernelSet, KernelSetSpec};
 use crate::layout::VectorLayout;
 use crate::params::{push_reals, real_size};
 use crate::resident::ResidentState;
-use crate::resident_backend::resident_backend;
+use crate::resident_backend::{minimising_backend, resident_backend};
 use crate::shader::MAX_GPU_DIM;
 use crate::{Precision, SceneOrigin};
 use device::{Device, ElementUpload, Reduction};
@@ -276,6 +275,11 @@ impl GpuCoupledBackend {
         pairs
     }
 
+    /// Host waits (round trips) since the backend was created.
+    pub fn host_waits(&self) -> u64 {
+        self.ctx.host_waits()
+    }
+
     fn encoder(&self) -> wgpu::CommandEncoder {
         self.ctx.device.create_command_encoder(&Default::default())
     }
@@ -318,51 +322,12 @@ impl GpuCoupledBackend {
     }
 }
 
-/// The coupled path runs no guards (validation refuses them there), so
-/// its one attempt is the step itself.
-impl Subdivided for GpuCoupledBackend {
-    fn attempt(&mut self, subdivision: u32) -> Result<StepReport, BackendError> {
-        if subdivision > 0 {
-            return Err(BackendError::InvalidCall(
-                "the incremental-potential path has no adaptive steps".into(),
-            ));
-        }
-        let mut encoder = self.encoder();
-        self.state.save(&mut encoder);
-        self.ctx.submit_and_wait(encoder)?;
-        self.reports.clear();
-        for substep in 0..self.plan.substeps {
-            self.substep = substep;
-            for k in 0..self.plan.substep_kernels.len() {
-                if self.plan.substep_kernels[k] != Kernel::Minimise {
-                    continue;
-                }
-                if let Err(e) = self.run_minimise() {
-                    return Err(e.after_rollback(self.state.rollback(&self.ctx)));
-                }
-            }
-        }
-        Ok(StepReport {
-            kernel_calls: self.plan.kernel_counts(),
-            minimisation: std::mem::take(&mut self.reports),
-            ..StepReport::default()
-        })
-    }
-}
+minimising_backend!(GpuCoupledBackend);
 
 resident_backend! {
     GpuCoupledBackend, load() {
         fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
-            check_kernel(&self.plan, kernel)?;
-            let mut encoder = self.encoder();
-            self.state.save(&mut encoder);
-            self.ctx.submit_and_wait(encoder)?;
-            match self.run_minimise() {
-                Err(e @ BackendError::Gpu(_)) => {
-                    Err(e.after_rollback(self.state.rollback(&self.ctx)))
-                }
-                other => other,
-            }
+            self.minimise_kernel(kernel)
         }
     }
 }

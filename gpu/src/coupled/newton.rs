@@ -5,15 +5,16 @@
 //! the rounding floor.
 
 use hyperpbd_core::barrier::BarrierObstacles;
+use hyperpbd_core::implicit::line_search::armijo;
 use hyperpbd_core::implicit::resolution::{
     ball_rounding, change_resolution, particle_sums, spring_rounding,
 };
 use hyperpbd_core::implicit::{
-    PcgSettings, PcgStatus, PcgVectors, certified_filter, newton_cg_tolerance, pair_lags, pcg_on,
+    PcgSettings, PcgVectors, certified_filter, newton_cg_tolerance, pair_lags, pcg_on,
 };
 use hyperpbd_core::{
     Backend, BackendError, Convergence, GpuError, MinimisationReport, MinimisationStatus, Refusal,
-    StepError, WarmStart,
+    WarmStart,
 };
 
 use super::GpuCoupledBackend;
@@ -21,9 +22,6 @@ use super::device::Reduction;
 use super::entries::{Entry, region};
 use crate::barrier::{NONE, infeasible_start};
 
-/// Armijo constant and trial halvings (the CPU's).
-const ARMIJO: f64 = 1e-4;
-const MAX_HALVINGS: u32 = 60;
 /// Status words of coupled.wgsl.
 const MOVED: usize = 0;
 const NON_FINITE_PARTICLE: usize = 1;
@@ -57,7 +55,11 @@ impl DeviceVectors<'_> {
 impl PcgVectors for DeviceVectors<'_> {
     fn start(&mut self) -> (f64, f64) {
         let (n, _) = self.backend.counts();
-        let v = self.reduce(&[(Entry::CgStart, n)], &[Reduction::SumA, Reduction::SumB]);
+        self.backend.device.params.mode = 0;
+        let v = self.reduce(
+            &[(Entry::CgResidual, n)],
+            &[Reduction::SumA, Reduction::SumB],
+        );
         (v[0], v[1])
     }
 
@@ -80,8 +82,9 @@ impl PcgVectors for DeviceVectors<'_> {
     fn advance(&mut self, a: f64) -> (f64, f64) {
         let (n, _) = self.backend.counts();
         self.backend.device.params.step = a;
+        self.backend.device.params.mode = 1;
         let v = self.reduce(
-            &[(Entry::CgAdvance, n)],
+            &[(Entry::CgResidual, n)],
             &[Reduction::SumA, Reduction::SumB],
         );
         (v[0], v[1])
@@ -233,7 +236,8 @@ impl GpuCoupledBackend {
         }
         let tau = self.filter()?;
         self.device.params.step = tau;
-        self.run(&[(Entry::WarmStart, n)], &[])?;
+        self.device.params.mode = 0;
+        self.run(&[(Entry::SetX, n)], &[])?;
         Ok(None)
     }
 
@@ -246,7 +250,7 @@ impl GpuCoupledBackend {
     }
 
     /// One coupled minimisation (cpu/src/coupled/mod.rs `minimise`).
-    fn minimise(&mut self) -> Result<MinimisationReport, BackendError> {
+    pub(super) fn minimise(&mut self) -> Result<MinimisationReport, BackendError> {
         let mut report = MinimisationReport::before_first_iteration(self.ip.convergence);
         if let Some(refusal) = self.start()? {
             report.status = MinimisationStatus::Refused(refusal);
@@ -264,7 +268,8 @@ impl GpuCoupledBackend {
                     if iteration == 0 && !fell_back && self.warm_start_moved()? {
                         // 3: a warm start the elements refuse falls back to x^t.
                         fell_back = true;
-                        self.run(&[(Entry::Restart, n)], &[])?;
+                        self.device.params.mode = 1;
+                        self.run(&[(Entry::SetX, n)], &[])?;
                         continue;
                     }
                     report.status = MinimisationStatus::Refused(self.element_refusal(e));
@@ -305,24 +310,10 @@ impl GpuCoupledBackend {
                 return Err(e.into());
             }
             report.cg_iterations.push(cg.iterations);
-            match cg.status {
-                PcgStatus::NonPositiveCurvature { curvature } if cg.iterations <= 1 => {
-                    report.iterations = iteration;
-                    report.status = MinimisationStatus::Refused(Refusal::CurvatureBreakdown {
-                        iteration,
-                        curvature,
-                    });
-                    break;
-                }
-                PcgStatus::NonFinite if cg.iterations <= 1 => {
-                    report.iterations = iteration;
-                    report.status = MinimisationStatus::Refused(Refusal::CurvatureBreakdown {
-                        iteration,
-                        curvature: f64::NAN,
-                    });
-                    break;
-                }
-                _ => {}
+            if let Some(refusal) = cg.breakdown(iteration) {
+                report.iterations = iteration;
+                report.status = MinimisationStatus::Refused(refusal);
+                break;
             }
             // 8–9: the pairs any trial can reach, and the certified fraction.
             if self.coupled.collisions {
@@ -358,16 +349,8 @@ impl GpuCoupledBackend {
                 };
                 break;
             }
-            let mut t = fraction;
-            let mut accepted = false;
-            for _ in 0..=MAX_HALVINGS {
-                if self.trial_accepted(t, slope)? {
-                    accepted = true;
-                    break;
-                }
-                t *= 0.5;
-            }
-            if !accepted {
+            let accepted = armijo(fraction, slope, |t| self.trial(t))?;
+            if accepted.is_none() {
                 report.iterations = iteration;
                 let resolution = self.resolution()?;
                 report.status = if -0.5 * slope <= resolution {
@@ -377,7 +360,8 @@ impl GpuCoupledBackend {
                 };
                 break;
             }
-            self.run(&[(Entry::Accept, n)], &[])?;
+            self.device.params.mode = 2;
+            self.run(&[(Entry::SetX, n)], &[])?;
         }
         if !matches!(report.status, MinimisationStatus::Refused(_)) {
             self.run(&[(Entry::Finish, n)], &[])?;
@@ -394,9 +378,9 @@ impl GpuCoupledBackend {
         Ok(v[0] != v[1])
     }
 
-    /// Trial x + tΔ: F's change (particles + h² elements, +∞ when not
-    /// finite) against Armijo, and whether the trial differs from x.
-    fn trial_accepted(&mut self, t: f64, slope: f64) -> Result<bool, GpuError> {
+    /// Trial x + tΔ into R_TRIAL: F's change there (particles + h²
+    /// elements, +∞ when not finite) and whether it differs from x.
+    fn trial(&mut self, t: f64) -> Result<(f64, bool), GpuError> {
         let (n, e) = self.counts();
         self.device.params.step = t;
         self.device.write_params(&self.ctx);
@@ -417,13 +401,6 @@ impl GpuCoupledBackend {
         } else {
             f64::INFINITY
         };
-        Ok(change <= ARMIJO * t * slope && status[MOVED] != 0)
-    }
-
-    pub(super) fn run_minimise(&mut self) -> Result<(), BackendError> {
-        let report = self.minimise()?;
-        let refused = StepError::refused(self.substep, &report);
-        self.reports.push(report);
-        refused.map_or(Ok(()), |e| Err(e.into()))
+        Ok((change, status[MOVED] != 0))
     }
 }
