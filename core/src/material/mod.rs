@@ -125,6 +125,27 @@ pub struct RestView<'a> {
     pub measure: f64,
 }
 
+/// One material element as the law's functions read it: its material,
+/// its k + 1 gathered vertices (`points[j * dim + a]`) and its rest data.
+#[derive(Debug, Clone, Copy)]
+pub struct MaterialElement<'a> {
+    /// The law and its Lamé parameters.
+    pub material: &'a Material,
+    /// x_0 … x_k, `dim` coordinates each.
+    pub points: &'a [f64],
+    /// N.
+    pub dim: usize,
+    /// R and V_0.
+    pub rest: RestView<'a>,
+}
+
+impl MaterialElement<'_> {
+    /// k: the element is a k-simplex (k + 1 points).
+    pub fn order(&self) -> usize {
+        self.points.len() / self.dim - 1
+    }
+}
+
 /// Reusable buffers so that evaluation allocates nothing per element.
 #[derive(Debug, Default, Clone)]
 pub struct MaterialScratch {
