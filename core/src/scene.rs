@@ -283,7 +283,8 @@ impl ConstraintFamily {
 /// Read through [`ObstacleDocument`], a plain struct, rather than as an
 /// internally tagged enum: serde buffers a tagged enum before it knows the
 /// variant, which would cut the error path at `obstacles[i]` instead of
-/// naming the field.
+/// naming the field. The document also holds the defaults (an omitted
+/// offset, friction or compliance is 0).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case", try_from = "ObstacleDocument")]
 pub enum Obstacle {
@@ -292,13 +293,10 @@ pub enum Obstacle {
         /// Outward normal; normalized on load (need not be unit here).
         normal: Vec<f64>,
         /// Offset along the normalized normal.
-        #[serde(default)]
         offset: f64,
         /// Coulomb friction coefficient μ ≥ 0 (static and dynamic).
-        #[serde(default)]
         friction: f64,
         /// Contact compliance α ≥ 0.
-        #[serde(default)]
         compliance: f64,
     },
     /// A static mesh of k-simplices (segments, triangles, tetrahedra:
