@@ -40,19 +40,10 @@ fn ln_real(x0: f64) -> f64 {
     }
     let s = (m - 1.0) / (m + 1.0);
     let s2 = s * s;
-    var poly: f64 = 1.0 / 25.0;
-    poly = poly * s2 + 1.0 / 23.0;
-    poly = poly * s2 + 1.0 / 21.0;
-    poly = poly * s2 + 1.0 / 19.0;
-    poly = poly * s2 + 1.0 / 17.0;
-    poly = poly * s2 + 1.0 / 15.0;
-    poly = poly * s2 + 1.0 / 13.0;
-    poly = poly * s2 + 1.0 / 11.0;
-    poly = poly * s2 + 1.0 / 9.0;
-    poly = poly * s2 + 1.0 / 7.0;
-    poly = poly * s2 + 1.0 / 5.0;
-    poly = poly * s2 + 1.0 / 3.0;
-    poly = poly * s2 + 1.0;
+    // poly = Σ_{k=0}^{12} s2^k/(2k + 1), Horner from 1/25 down to 1: the next
+    // line becomes `var poly: f64 = c_0;` and `poly = poly * s2 + c_k;` from
+    // material::ln's ATANH_SERIES when the module is composed (shader.rs).
+    // ATANH_SERIES
     return e * LN2_HI + (e * LN2_LO + 2.0 * s * poly);
 }
 

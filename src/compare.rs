@@ -44,18 +44,31 @@ use hyperpbd_core::{BackendError, Plan, Precision, State, StepReport};
 /// incremental potential, driven by both runs' residuals) serve one
 /// comparison loop.
 pub trait DivergenceModel {
-    /// The (position, velocity) bounds of one frame run from `start` by the
-    /// golden path and by the other run; `golden` and `other` are their
-    /// (report, state) after it.
-    fn frame_bounds(
-        &mut self,
-        start: &State,
-        golden: (&StepReport, &State),
-        other: (&StepReport, &State),
-    ) -> Result<(f64, f64), BackendError>;
+    /// The (position, velocity) bounds of one frame run by the golden path
+    /// and by the other run.
+    fn frame_bounds(&mut self, frame: Frame<'_>) -> Result<(f64, f64), BackendError>;
 
     /// What the bound is, in one line (printed by `hyperpbd compare`).
     fn describe(&self) -> String;
+}
+
+/// One frame of a comparison: the state both runs start from, and the
+/// golden path's and the other run's (report, state) after it.
+#[derive(Debug, Clone, Copy)]
+pub struct Frame<'a> {
+    /// The other run's state of the previous frame.
+    pub start: &'a State,
+    /// The golden path's report and state.
+    pub golden: (&'a StepReport, &'a State),
+    /// The other run's report and state.
+    pub other: (&'a StepReport, &'a State),
+}
+
+impl<'a> Frame<'a> {
+    /// The start and both end states.
+    pub fn states(&self) -> [&'a State; 3] {
+        [self.start, self.golden.1, self.other.1]
+    }
 }
 
 /// The rounding model of one plan at one precision.

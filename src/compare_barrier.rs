@@ -26,11 +26,9 @@
 //! restarted every frame from the other run's previous state) the sums
 //! start at 0 every frame and run over that frame's substeps.
 
-use hyperpbd_core::{
-    BackendError, Convergence, MinimisationReport, Plan, Precision, State, StepReport,
-};
+use hyperpbd_core::{BackendError, Convergence, MinimisationReport, Plan, Precision};
 
-use crate::compare::DivergenceModel;
+use crate::compare::{DivergenceModel, Frame};
 
 /// Divergence model of one incremental-potential plan at one precision,
 /// advanced step by step with both backends' reports.
@@ -109,18 +107,18 @@ impl BarrierErrorModel {
 }
 
 impl DivergenceModel for BarrierErrorModel {
-    fn frame_bounds(
-        &mut self,
-        start: &State,
-        golden: (&StepReport, &State),
-        other: (&StepReport, &State),
-    ) -> Result<(f64, f64), BackendError> {
-        let scale = [start, golden.1, other.1]
+    fn frame_bounds(&mut self, frame: Frame<'_>) -> Result<(f64, f64), BackendError> {
+        let scale = frame
+            .states()
             .iter()
             .map(|s| crate::compare::coordinate_scale(s))
             .fold(0.0, f64::max);
         self.restart();
-        self.advance(&golden.0.minimisation, &other.0.minimisation, scale);
+        self.advance(
+            &frame.golden.0.minimisation,
+            &frame.other.0.minimisation,
+            scale,
+        );
         Ok((self.position_bound(), self.velocity_bound()))
     }
 

@@ -128,12 +128,10 @@
 //! contact that starts acting within the substep resets the normal part of
 //! the incoming position error, which moves the velocity by that part / h.
 
-use hyperpbd_core::{
-    Backend, BackendError, Family, FamilyKind, Kernel, Plan, Precision, State, StepReport,
-};
+use hyperpbd_core::{Backend, BackendError, Family, FamilyKind, Kernel, Plan, Precision, State};
 use hyperpbd_cpu::CpuBackend;
 
-use crate::compare::DivergenceModel;
+use crate::compare::{DivergenceModel, Frame};
 use crate::compare_material::{Rounding, color_error};
 
 mod per_particle;
@@ -534,13 +532,8 @@ pub fn speed(states: &[&State]) -> f64 {
 }
 
 impl DivergenceModel for FrameErrorModel {
-    fn frame_bounds(
-        &mut self,
-        start: &State,
-        golden: (&StepReport, &State),
-        other: (&StepReport, &State),
-    ) -> Result<(f64, f64), BackendError> {
-        let states = [start, golden.1, other.1];
+    fn frame_bounds(&mut self, frame: Frame<'_>) -> Result<(f64, f64), BackendError> {
+        let states = frame.states();
         self.bounds(&states, speed(&states))
     }
 

@@ -42,7 +42,7 @@
 //! and its propagation cost is the XPBD model's (`compare_frame.rs`).
 
 use hyperpbd_core::material::{
-    Law, LawRefusal, Material, MaterialScratch, RestView, deformation_measures, element_energy,
+    Law, LawRefusal, MaterialElement, MaterialScratch, deformation_measures, element_energy,
 };
 use hyperpbd_core::{Family, Precision};
 
@@ -149,21 +149,18 @@ struct Stress {
     stress_error: f64,
 }
 
-/// The law bounds of the module docs for one element (`points`: its k + 1
-/// vertices, `points[j * dim + a]`).
+/// The law bounds of the module docs for one element.
 pub fn law_rounding(
-    material: &Material,
-    points: &[f64],
-    dim: usize,
-    rest: RestView<'_>,
+    element: MaterialElement<'_>,
     rounding: Rounding,
     scratch: &mut MaterialScratch,
 ) -> Result<LawRounding, LawRefusal> {
+    let (points, dim, rest) = (element.points, element.dim, element.rest);
     let u = rounding.unit;
-    let k = points.len() / dim - 1;
+    let k = element.order();
     let kf = k as f64;
     let mut grad = vec![0.0; points.len()];
-    let energy = element_energy(material, points, dim, rest, &mut grad, scratch)?;
+    let energy = element_energy(element, &mut grad, scratch)?;
     let m = deformation_measures(points, dim, rest, scratch);
     let mut image = vec![0.0; dim * k];
     let mut magnitude = 0.0;
@@ -188,8 +185,8 @@ pub fn law_rounding(
         .sqrt();
     let d_f = gamma(kf + 2.0, u) * f_bar;
     let d_c = 2.0 * d_f * f_norm + d_f * d_f + gamma(dim as f64, u) * (f_norm + d_f).powi(2);
-    let (mu, lambda) = (material.lame.mu, material.lame.lambda);
-    let law = match material.law {
+    let (mu, lambda) = (element.material.lame.mu, element.material.lame.lambda);
+    let law = match element.material.law {
         Law::StVenantKirchhoff => {
             let e = &m.green_strain;
             let e_norm = frobenius(e);
@@ -490,11 +487,11 @@ pub fn color_error(
     let mut points = vec![0.0; family.arity * dim];
     for slot in family.color(color) {
         let ids = gather(family, slot, x, dim, &mut points);
-        let Some((material, rest)) = family.kind.rest_view(slot) else {
+        let Some(element) = family.kind.material_element(slot, &points, dim) else {
             continue;
         };
         let w: Vec<f64> = ids.iter().map(|&i| inverse_mass[i as usize]).collect();
-        let Ok(law) = law_rounding(material, &points, dim, rest, rounding, &mut scratch) else {
+        let Ok(law) = law_rounding(element, rounding, &mut scratch) else {
             // The golden path refused this element: the frame fails before
             // any comparison, so no bound is needed; say so loudly.
             out.iter_mut().for_each(|e| *e = f64::INFINITY);
@@ -520,10 +517,10 @@ pub fn residual_error(family: &Family, x: &[f64], dim: usize, rounding: Rounding
     let (mut worst, mut error) = (0.0f64, 0.0f64);
     for slot in 0..family.len() {
         gather(family, slot, x, dim, &mut points);
-        let Some((material, rest)) = family.kind.rest_view(slot) else {
+        let Some(element) = family.kind.material_element(slot, &points, dim) else {
             continue;
         };
-        match law_rounding(material, &points, dim, rest, rounding, &mut scratch) {
+        match law_rounding(element, rounding, &mut scratch) {
             Ok(law) => {
                 worst = worst.max((2.0 * law.energy.max(0.0)).sqrt());
                 error = error.max(constraint_error(&law, rounding.unit));

@@ -9,7 +9,7 @@
 mod common;
 
 use common::gpu::adapter_or_skip;
-use hyperpbd::compare::{Divergence, DivergenceModel};
+use hyperpbd::compare::{Divergence, DivergenceModel, Frame};
 use hyperpbd::compare_barrier::BarrierErrorModel;
 use hyperpbd::compare_frame::FrameErrorModel;
 use hyperpbd::{Backend, BackendKind, Plan, Precision, Scene, SolverPlan, State, scenes};
@@ -54,7 +54,11 @@ fn within_the_model(plan: &Plan, golden: &mut dyn Backend, other: &mut dyn Backe
             other.read_state().expect("gpu"),
         );
         let bounds = model
-            .frame_bounds(&start, (&a, &x), (&b, &y))
+            .frame_bounds(Frame {
+                start: &start,
+                golden: (&a, &x),
+                other: (&b, &y),
+            })
             .expect("bounds");
         let d = Divergence::new(step, &x, &y, bounds);
         assert!(d.within(), "{name}: {d:?}");

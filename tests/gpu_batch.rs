@@ -13,7 +13,7 @@ mod common;
 use common::exact::{check_f64, f64_rule};
 use common::gpu::adapter_or_skip;
 use hyperpbd::batch::{Batch, BatchError, GpuBatch};
-use hyperpbd::compare::DivergenceModel;
+use hyperpbd::compare::{DivergenceModel, Frame};
 use hyperpbd::compare_frame::FrameErrorModel;
 use hyperpbd::sweep::Sweep;
 use hyperpbd::{Backend, Precision, Scene, scenes};
@@ -164,7 +164,11 @@ fn f32_worlds_stay_within_the_single_world_frame_bound() {
             let report = cpu.step().expect("cpu step");
             let golden = cpu.read_state().expect("state");
             let (bx, bv) = models[k]
-                .frame_bounds(&starts[k], (&report, &golden), (&reports[k], &ends[k]))
+                .frame_bounds(Frame {
+                    start: &starts[k],
+                    golden: (&report, &golden),
+                    other: (&reports[k], &ends[k]),
+                })
                 .expect("bounds");
             let dx = max_difference(&golden.positions, &ends[k].positions);
             let dv = max_difference(&golden.velocities, &ends[k].velocities);

@@ -23,8 +23,8 @@ mod common;
 
 use common::Lcg;
 use hyperpbd::core::material::{
-    Law, LawRefusal, Material, MaterialScratch, RestView, deformation_measures, element_energy,
-    energy_constraint, ln, measure_ratio, rest_element, uniaxial_state,
+    Law, LawRefusal, Material, MaterialElement, MaterialScratch, RestView, deformation_measures,
+    element_energy, energy_constraint, ln, measure_ratio, rest_element, uniaxial_state,
 };
 use hyperpbd::geometry::determinant;
 
@@ -107,6 +107,21 @@ impl Rest {
     }
 }
 
+/// The element of `material` at `points` with rest data `rest`.
+fn at<'a>(
+    material: &'a Material,
+    points: &'a [f64],
+    dim: usize,
+    rest: RestView<'a>,
+) -> MaterialElement<'a> {
+    MaterialElement {
+        material,
+        points,
+        dim,
+        rest,
+    }
+}
+
 /// `rest` under x ↦ A x + b + per-vertex jitter, A = I + `amount`·noise,
 /// with J ∈ [0.3, 3] (redrawn otherwise).
 fn deform(rest: &[f64], dim: usize, amount: f64, rng: &mut Lcg) -> Vec<f64> {
@@ -184,24 +199,25 @@ fn energy_and_constraint_gradients_match_central_differences() {
                     let x = deform(&rest, dim, 0.3, &mut rng);
                     let mut scratch = MaterialScratch::new();
                     let mut g = vec![0.0; x.len()];
-                    let w = element_energy(&material, &x, dim, view, &mut g, &mut scratch)
+                    let w = element_energy(at(&material, &x, dim, view), &mut g, &mut scratch)
                         .expect("energy");
                     assert!(w > 0.0, "{law} N = {dim} k = {k}: W = {w}");
                     let energy = |y: &[f64]| {
                         let mut s = MaterialScratch::new();
                         let mut gy = vec![0.0; y.len()];
-                        element_energy(&material, y, dim, view, &mut gy, &mut s).expect("energy")
+                        element_energy(at(&material, y, dim, view), &mut gy, &mut s)
+                            .expect("energy")
                     };
                     let delta_w = energy_rounding(&material, &x, dim, view, &g);
                     worst_w = worst_w.max(fd_worst(&energy, &x, &g, h, delta_w));
 
                     let mut gc = vec![0.0; x.len()];
-                    let c = energy_constraint(&material, &x, dim, view, &mut gc, &mut scratch)
+                    let c = energy_constraint(at(&material, &x, dim, view), &mut gc, &mut scratch)
                         .expect("constraint");
                     let constraint = |y: &[f64]| {
                         let mut s = MaterialScratch::new();
                         let mut gy = vec![0.0; y.len()];
-                        energy_constraint(&material, y, dim, view, &mut gy, &mut s)
+                        energy_constraint(at(&material, y, dim, view), &mut gy, &mut s)
                             .expect("constraint")
                     };
                     // δC = δW / C (first order in δW) plus the rounding of √.
@@ -256,7 +272,8 @@ fn rigid_motions_carry_no_energy_and_no_force() {
                 }
                 let mut g = vec![0.0; x.len()];
                 let mut s = MaterialScratch::new();
-                let w = element_energy(&material, &x, dim, view, &mut g, &mut s).expect("rigid");
+                let w =
+                    element_energy(at(&material, &x, dim, view), &mut g, &mut s).expect("rigid");
                 // Strain rounding η: x, D, F̂ = D R and C = F̂ᵀF̂ each round
                 // relative to |x|∞ ≤ 4 and |R| ≈ 1/ℓ ≈ 1 over sums of
                 // N + k terms. NH cancels to first order in η
@@ -305,7 +322,7 @@ fn gradients_sum_to_zero_and_constraint_vanishes_at_rest() {
                 let x = deform(&rest, dim, 0.4, &mut rng);
                 let mut g = vec![0.0; x.len()];
                 let mut s = MaterialScratch::new();
-                element_energy(&material, &x, dim, view, &mut g, &mut s).expect("energy");
+                element_energy(at(&material, &x, dim, view), &mut g, &mut s).expect("energy");
                 for a in 0..dim {
                     let sum: f64 = (0..=k).map(|j| g[j * dim + a]).sum();
                     let size: f64 = (0..=k).map(|j| g[j * dim + a].abs()).sum();
@@ -314,9 +331,9 @@ fn gradients_sum_to_zero_and_constraint_vanishes_at_rest() {
                 }
                 // At the rest shape itself: C = 0, ∇C = 0 (no response).
                 let mut gc = vec![1.0; rest.len()];
-                let c =
-                    energy_constraint(&material, &rest, dim, view, &mut gc, &mut s).expect("rest");
-                let w = element_energy(&material, &rest, dim, view, &mut g, &mut s).expect("w");
+                let c = energy_constraint(at(&material, &rest, dim, view), &mut gc, &mut s)
+                    .expect("rest");
+                let w = element_energy(at(&material, &rest, dim, view), &mut g, &mut s).expect("w");
                 if w <= 0.0 {
                     assert_eq!(c, 0.0);
                     assert!(gc.iter().all(|&v| v == 0.0), "{law} N = {dim} k = {k}");
@@ -358,8 +375,8 @@ fn measure_ratio_flips_sign_on_inversion_and_neo_hookean_refuses() {
             let stvk = Material::new(Law::StVenantKirchhoff, k, 1.0, 0.1).expect("stvk");
             let nh = Material::new(Law::NeoHookean, k, 1.0, 0.1).expect("nh");
             let mut g = vec![0.0; x.len()];
-            let refusal = element_energy(&nh, &mirrored, dim, view, &mut g, &mut s);
-            let stvk_w = element_energy(&stvk, &mirrored, dim, view, &mut g, &mut s);
+            let refusal = element_energy(at(&nh, &mirrored, dim, view), &mut g, &mut s);
+            let stvk_w = element_energy(at(&stvk, &mirrored, dim, view), &mut g, &mut s);
             approx::assert_relative_eq!(jm.abs(), j.abs(), max_relative = 64.0 * EPS);
             if k == dim {
                 assert!(j > 0.0 && jm < 0.0, "N = {dim}: J = {j}, mirrored {jm}");
@@ -369,7 +386,7 @@ fn measure_ratio_flips_sign_on_inversion_and_neo_hookean_refuses() {
                 );
                 assert!(stvk_w.is_ok_and(|w| w.is_finite() && w > 0.0));
                 // The constraint refuses alike.
-                assert!(energy_constraint(&nh, &mirrored, dim, view, &mut g, &mut s).is_err());
+                assert!(energy_constraint(at(&nh, &mirrored, dim, view), &mut g, &mut s).is_err());
             } else {
                 // Embedded: J is the unsigned intrinsic ratio, no orientation.
                 assert!(j > 0.0 && jm > 0.0);
@@ -382,10 +399,10 @@ fn measure_ratio_flips_sign_on_inversion_and_neo_hookean_refuses() {
             }
             assert_eq!(measure_ratio(&collapsed, dim, view, &mut s), 0.0);
             assert!(matches!(
-                element_energy(&nh, &collapsed, dim, view, &mut g, &mut s),
+                element_energy(at(&nh, &collapsed, dim, view), &mut g, &mut s),
                 Err(LawRefusal::Collapsed { .. })
             ));
-            let w = element_energy(&stvk, &collapsed, dim, view, &mut g, &mut s).expect("stvk");
+            let w = element_energy(at(&stvk, &collapsed, dim, view), &mut g, &mut s).expect("stvk");
             assert!(w.is_finite() && g.iter().all(|v| v.is_finite()));
         }
     }
@@ -479,10 +496,7 @@ fn uniaxial_closed_forms_match_the_elements_virtual_work() {
                 let view = element.view();
                 let mut g = vec![0.0; x.len()];
                 element_energy(
-                    &material,
-                    &x,
-                    dim,
-                    view,
+                    at(&material, &x, dim, view),
                     &mut g,
                     &mut MaterialScratch::new(),
                 )

@@ -1,7 +1,7 @@
 //! A compiled constraint family: what its elements project and their
 //! colour-ordered data, as the plan holds it and the kernels read it.
 
-use crate::material::{Law, Material, RestView};
+use crate::material::{Law, Material, MaterialElement, RestView};
 
 /// What one family projects.
 #[derive(Debug, Clone, PartialEq)]
@@ -75,6 +75,23 @@ impl FamilyKind {
                 measure: *measures.get(e)?,
             },
         ))
+    }
+
+    /// Element `e` of a material family at its gathered `points`; `None`
+    /// for other kinds.
+    pub fn material_element<'a>(
+        &'a self,
+        e: usize,
+        points: &'a [f64],
+        dim: usize,
+    ) -> Option<MaterialElement<'a>> {
+        let (material, rest) = self.rest_view(e)?;
+        Some(MaterialElement {
+            material,
+            points,
+            dim,
+            rest,
+        })
     }
 
     /// True for contact families (inequality C ≥ 0 whose active elements

@@ -153,5 +153,11 @@ pub fn element_refusal(
     }
     let mut grad = vec![0.0; arity * dim];
     let mut scratch = crate::material::MaterialScratch::new();
-    crate::material::energy_constraint(material, &points, dim, rest, &mut grad, &mut scratch).err()
+    let element = crate::material::MaterialElement {
+        material,
+        points: &points,
+        dim,
+        rest,
+    };
+    crate::material::energy_constraint(element, &mut grad, &mut scratch).err()
 }

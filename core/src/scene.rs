@@ -10,6 +10,20 @@ use serde::{Deserialize, Serialize};
 use crate::Solver;
 use crate::guard_rules::{Adaptive, Guards};
 
+/// Builder setters: `fn name(mut self, field: T) -> Self` that store
+/// `value` (the argument, or `Some` of it) in `self.field`.
+macro_rules! setters {
+    ($($(#[$doc:meta])* $name:ident($field:ident: $ty:ty) = $value:expr;)*) => {
+        $(
+            $(#[$doc])*
+            pub fn $name(mut self, $field: $ty) -> Self {
+                self.$field = $value;
+                self
+            }
+        )*
+    };
+}
+
 /// Largest dimension a scene may have (`Scene::validate` refuses more).
 /// Far beyond any practical scene; it keeps the per-dimension allocations
 /// of a plan bounded, so a typo such as `"dim": 4611686018427387904` is an
@@ -131,28 +145,15 @@ impl Particle {
         }
     }
 
-    /// Sets the velocity.
-    pub fn with_velocity(mut self, velocity: Vec<f64>) -> Self {
-        self.velocity = Some(velocity);
-        self
-    }
-
-    /// Sets the radius.
-    pub fn with_radius(mut self, radius: f64) -> Self {
-        self.radius = radius;
-        self
-    }
-
-    /// Sets the constant external force.
-    pub fn with_force(mut self, force: Vec<f64>) -> Self {
-        self.force = Some(force);
-        self
-    }
-
-    /// Sets the gravity scale.
-    pub fn with_gravity_scale(mut self, scale: f64) -> Self {
-        self.gravity_scale = scale;
-        self
+    setters! {
+        /// Sets the velocity.
+        with_velocity(velocity: Vec<f64>) = Some(velocity);
+        /// Sets the radius.
+        with_radius(radius: f64) = radius;
+        /// Sets the constant external force.
+        with_force(force: Vec<f64>) = Some(force);
+        /// Sets the gravity scale.
+        with_gravity_scale(gravity_scale: f64) = gravity_scale;
     }
 }
 
@@ -269,16 +270,11 @@ impl ConstraintFamily {
         }
     }
 
-    /// Sets the rest shape (one position per scene particle).
-    pub fn with_rest_positions(mut self, positions: Vec<Vec<f64>>) -> Self {
-        self.rest_positions = Some(positions);
-        self
-    }
-
-    /// Sets the density (lumped mass for particles without `mass`).
-    pub fn with_density(mut self, density: f64) -> Self {
-        self.density = Some(density);
-        self
+    setters! {
+        /// Sets the rest shape (one position per scene particle).
+        with_rest_positions(rest_positions: Vec<Vec<f64>>) = Some(rest_positions);
+        /// Sets the density (lumped mass for particles without `mass`).
+        with_density(density: f64) = Some(density);
     }
 }
 
@@ -287,7 +283,8 @@ impl ConstraintFamily {
 /// Read through [`ObstacleDocument`], a plain struct, rather than as an
 /// internally tagged enum: serde buffers a tagged enum before it knows the
 /// variant, which would cut the error path at `obstacles[i]` instead of
-/// naming the field.
+/// naming the field. The document also holds the defaults (an omitted
+/// offset, friction or compliance is 0).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case", try_from = "ObstacleDocument")]
 pub enum Obstacle {
@@ -296,13 +293,10 @@ pub enum Obstacle {
         /// Outward normal; normalized on load (need not be unit here).
         normal: Vec<f64>,
         /// Offset along the normalized normal.
-        #[serde(default)]
         offset: f64,
         /// Coulomb friction coefficient μ ≥ 0 (static and dynamic).
-        #[serde(default)]
         friction: f64,
         /// Contact compliance α ≥ 0.
-        #[serde(default)]
         compliance: f64,
     },
     /// A static mesh of k-simplices (segments, triangles, tetrahedra:

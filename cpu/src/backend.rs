@@ -17,7 +17,7 @@ use hyperpbd_core::{
 };
 
 use crate::collide::{self, Contacts};
-use crate::integrate::Failed;
+use crate::integrate::{Failed, Motion};
 use crate::parallel::Workers;
 use crate::project::{Batch, Workspace, project};
 use crate::{
@@ -163,14 +163,9 @@ impl CpuBackend {
         let plan = &self.plan;
         let workers = &self.workers;
         match kernel {
-            Kernel::Predict => {
-                let (x, v, p, force) = (&mut self.x, &mut self.v, &mut self.p, &self.force);
-                let ((), predicted) = workers.join(
-                    || reset(workers, &mut self.lambda),
-                    || integrate::predict(workers, plan, x, v, p, force),
-                );
-                predicted.map_err(|i| self.particle_error(StageName::Predict, i))
-            }
+            Kernel::Predict => self
+                .predicting(integrate::predict)
+                .map_err(|i| self.particle_error(StageName::Predict, i)),
             Kernel::Project { family, color } => {
                 let fam = &plan.families[family];
                 let batch = Batch {
@@ -447,15 +442,29 @@ impl CpuBackend {
         Ok(())
     }
 
-    /// The end of this substep and the prediction of the next, fused.
-    fn velocity_then_predict(&mut self) -> Result<(), BackendError> {
+    /// `pass` (a prediction) over the particles' [`Motion`], the
+    /// multipliers reset to 0 beside it (the substep begins with both).
+    fn predicting<T: Send>(
+        &mut self,
+        pass: impl FnOnce(&Workers, &Plan, Motion<'_>) -> T + Send,
+    ) -> T {
         let (workers, plan) = (&self.workers, &self.plan);
-        let (x, v, p, force) = (&mut self.x, &mut self.v, &mut self.p, &self.force);
+        let motion = Motion {
+            x: &mut self.x,
+            v: &mut self.v,
+            p: &mut self.p,
+            force: &self.force,
+        };
         let ((), result) = workers.join(
             || reset(workers, &mut self.lambda),
-            || integrate::velocity_then_predict(workers, plan, x, v, p, force),
+            || pass(workers, plan, motion),
         );
-        match result {
+        result
+    }
+
+    /// The end of this substep and the prediction of the next, fused.
+    fn velocity_then_predict(&mut self) -> Result<(), BackendError> {
+        match self.predicting(integrate::velocity_then_predict) {
             Ok(()) => Ok(()),
             Err(Failed::Velocity(i)) => Err(self.particle_error(StageName::Velocity, i)),
             Err(Failed::Predict(i)) => {

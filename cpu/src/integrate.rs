@@ -22,15 +22,19 @@ use std::ops::Range;
 /// this many a stage runs on the calling thread).
 pub const PARTICLE_GRAIN: usize = 2048;
 
+/// The particle arrays the prediction updates: positions `x`, velocities
+/// `v`, the substep's start positions `p` (written), external forces.
+#[derive(Debug)]
+pub struct Motion<'a> {
+    pub x: &'a mut [f64],
+    pub v: &'a mut [f64],
+    pub p: &'a mut [f64],
+    pub force: &'a [f64],
+}
+
 /// Prediction. `p` receives the substep's start positions.
-pub fn predict(
-    workers: &Workers,
-    plan: &Plan,
-    x: &mut [f64],
-    v: &mut [f64],
-    p: &mut [f64],
-    force: &[f64],
-) -> Result<(), usize> {
+pub fn predict(workers: &Workers, plan: &Plan, motion: Motion<'_>) -> Result<(), usize> {
+    let Motion { x, v, p, force } = motion;
     let (count, dim) = (plan.particle_count(), plan.dim);
     workers.try_for_spans(count, PARTICLE_GRAIN, dim, [x, v, p], |r, [x, v, p]| {
         with_dim!(dim, predict_in(plan, r, x, v, p, force))
@@ -207,11 +211,9 @@ pub enum Failed {
 pub fn velocity_then_predict(
     workers: &Workers,
     plan: &Plan,
-    x: &mut [f64],
-    v: &mut [f64],
-    p: &mut [f64],
-    force: &[f64],
+    motion: Motion<'_>,
 ) -> Result<(), Failed> {
+    let Motion { x, v, p, force } = motion;
     let (count, dim) = (plan.particle_count(), plan.dim);
     // A failure is one index, ordered so that the smallest is the first
     // the kernels in turn would meet: velocities i, then predictions

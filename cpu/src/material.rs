@@ -44,10 +44,8 @@ pub fn energy_constraint(
     grad: &mut [f64],
     scratch: &mut MaterialScratch,
 ) -> Result<f64, LawRefusal> {
-    match family.kind.rest_view(e) {
-        Some((material, rest)) => {
-            hyperpbd_core::material::energy_constraint(material, points, dim, rest, grad, scratch)
-        }
+    match family.kind.material_element(e, points, dim) {
+        Some(element) => hyperpbd_core::material::energy_constraint(element, grad, scratch),
         None => Ok(f64::NAN),
     }
 }

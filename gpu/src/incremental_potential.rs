@@ -68,27 +68,19 @@ impl EntryPoint for IpEntry {
 
 /// Group-0 bindings: barrier.wgsl's 0..=10 (10: the shared status block),
 /// then v x_prev prediction inv_mass gravity_scale force terms gravity.
-const IP_BINDINGS: [Binding; 19] = [
-    BARRIER_BINDINGS[0],
-    BARRIER_BINDINGS[1],
-    BARRIER_BINDINGS[2],
-    BARRIER_BINDINGS[3],
-    BARRIER_BINDINGS[4],
-    BARRIER_BINDINGS[5],
-    BARRIER_BINDINGS[6],
-    BARRIER_BINDINGS[7],
-    BARRIER_BINDINGS[8],
-    BARRIER_BINDINGS[9],
-    BARRIER_BINDINGS[10],
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::READ,
-    Binding::READ,
-    Binding::READ,
-    Binding::WRITE,
-    Binding::READ,
-];
+const IP_BINDINGS: [Binding; 19] = Binding::joined(
+    BARRIER_BINDINGS,
+    [
+        Binding::WRITE,
+        Binding::WRITE,
+        Binding::WRITE,
+        Binding::READ,
+        Binding::READ,
+        Binding::READ,
+        Binding::WRITE,
+        Binding::READ,
+    ],
+);
 
 /// The status block before a pass: nothing moved, no failing particle,
 /// no stall, no loop cut short.

@@ -84,6 +84,33 @@ impl Binding {
     };
 }
 
+/// Bindings 0..=3 of group 0 wherever `prelude.wgsl` is included: the
+/// particle records x v p (read_write) and force (read).
+pub(crate) const PRELUDE_BINDINGS: [Binding; 4] = [
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::WRITE,
+    Binding::READ,
+];
+
+impl Binding {
+    /// `head` then `tail`: a module's group that extends another's
+    /// (C = A + B, checked where the constant is evaluated).
+    pub const fn joined<const A: usize, const B: usize, const C: usize>(
+        head: [Binding; A],
+        tail: [Binding; B],
+    ) -> [Binding; C] {
+        assert!(A + B == C, "C = A + B");
+        let mut out = [Binding::READ; C];
+        let mut i = 0;
+        while i < C {
+            out[i] = if i < A { head[i] } else { tail[i - A] };
+            i += 1;
+        }
+        out
+    }
+}
+
 /// A storage-buffer layout entry visible to compute shaders.
 pub(crate) fn storage(binding: u32, read_only: bool, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {

@@ -2,13 +2,14 @@
 //! precision) by prepending a small header.
 //!
 //! ```text
-//! module = header(DIM, real, WORKGROUP) [+ ln] + prelude.wgsl [+ measure.wgsl, material.wgsl] + family.wgsl
+//! module = header(DIM, real, WORKGROUP) [+ ln, f64: its series from core] + prelude.wgsl [+ measure.wgsl, material.wgsl] + family.wgsl
 //! ```
 //! The header's `WORKGROUP` is [`ShaderFile::workgroup_size`]: entry points
 //! declare `@workgroup_size(WORKGROUP)` and the host sizes its dispatches
 //! with the same number (`kernel_set.rs`).
 
 use crate::Precision;
+use hyperpbd_core::material::ATANH_SERIES;
 
 /// Largest dimension the GPU kernels are built and tested for. Element
 /// gathers use function-local arrays of (N+1)·N reals, so very large N would
@@ -227,10 +228,10 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
             | ShaderFile::IncrementalPotential
             | ShaderFile::Coupled
     ) {
-        source.push_str(match precision {
-            Precision::F32 => LN_F32,
-            Precision::F64 => LN_F64,
-        });
+        match precision {
+            Precision::F32 => source.push_str(LN_F32),
+            Precision::F64 => source.push_str(&ln_f64()),
+        }
         source.push('\n');
     }
     for &part in file.body() {
@@ -247,6 +248,22 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
         }
     }
     source
+}
+
+/// The comment of `ln_f64.wgsl` that the Horner lines of [`ATANH_SERIES`]
+/// replace.
+const ATANH_LINE: &str = "// ATANH_SERIES";
+
+/// `ln_f64.wgsl` with its polynomial written from the table that
+/// `material::ln` evaluates: `poly = c_0`, then `poly = poly * s2 + c_k`
+/// (each c_k the literal of the f64 value, so the shader's constants are
+/// the CPU's bits).
+fn ln_f64() -> String {
+    let mut horner = format!("var poly: f64 = {:?};", ATANH_SERIES[0]);
+    for c in &ATANH_SERIES[1..] {
+        horner += &format!("\n    poly = poly * s2 + {c:?};");
+    }
+    LN_F64.replacen(ATANH_LINE, &horner, 1)
 }
 
 /// Parses and validates a composed module with naga (no GPU needed).

@@ -12,7 +12,7 @@
 
 use super::error::{CliError, with_sources};
 use super::load::load_scene;
-use hyperpbd::compare::{Divergence, DivergenceModel};
+use hyperpbd::compare::{Divergence, DivergenceModel, Frame};
 use hyperpbd::compare_barrier::BarrierErrorModel;
 use hyperpbd::compare_frame::FrameErrorModel;
 use hyperpbd::gpu::SceneOrigin;
@@ -133,7 +133,11 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
         let (golden_report, golden) = step(cpu.as_mut())?;
         let (other_report, other) = step(gpu.as_mut())?;
         let (position, velocity) = model
-            .frame_bounds(&start, (&golden_report, &golden), (&other_report, &other))
+            .frame_bounds(Frame {
+                start: &start,
+                golden: (&golden_report, &golden),
+                other: (&other_report, &other),
+            })
             .map_err(|e| CliError::Simulation(format!("frame {frame}: {}", with_sources(&e))))?;
         let bounds = (args.bound_factor * position, args.bound_factor * velocity);
         let d = Divergence::new(frame, &golden, &other, bounds);

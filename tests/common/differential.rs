@@ -52,7 +52,7 @@
 use super::bound::print_bound;
 use super::exact::{bits, f64_identical};
 use super::gpu::adapter_or_skip;
-use hyperpbd::compare::{Divergence, DivergenceModel, max_abs_diff};
+use hyperpbd::compare::{Divergence, DivergenceModel, Frame, max_abs_diff};
 use hyperpbd::compare_frame::FrameErrorModel;
 use hyperpbd::geometry::{Scratch, factorial, oriented_measure, simplex_squared_measure};
 use hyperpbd::{Backend, CpuBackend, FamilyKind, Plan, Scene, State, StepReport};
@@ -268,7 +268,11 @@ pub fn differential(
             assert_eq!(report, rg, "{name} f64 frame {frame}: reports");
         }
         let bounds = model
-            .frame_bounds(&start, (&rc, &sc), (&rg, &sg))
+            .frame_bounds(Frame {
+                start: &start,
+                golden: (&rc, &sc),
+                other: (&rg, &sg),
+            })
             .expect("frame bounds");
         let d = Divergence::new(frame, &sc, &sg, bounds);
         assert!(

@@ -30,7 +30,7 @@ use super::*;
 
 use common::differential::both;
 use common::gpu::adapter_or_skip;
-use hyperpbd::compare::{Divergence, DivergenceModel};
+use hyperpbd::compare::{Divergence, DivergenceModel, Frame};
 use hyperpbd::compare_barrier::BarrierErrorModel;
 use hyperpbd::gpu::{GpuBarrierBackend, Precision};
 use hyperpbd::{
@@ -313,7 +313,11 @@ pub fn barrier_frames(
             gpu.read_state().expect("gpu"),
         );
         let bounds = model
-            .frame_bounds(&start, (&a, &x), (&b, &y))
+            .frame_bounds(Frame {
+                start: &start,
+                golden: (&a, &x),
+                other: (&b, &y),
+            })
             .expect("bounds");
         let d = Divergence::new(frame, &x, &y, bounds);
         assert!(d.within(), "{name} {precision} frame {frame}: {d:?}");

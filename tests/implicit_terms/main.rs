@@ -47,7 +47,9 @@ use hyperpbd::core::implicit::{
     evaluate_spring, material_curvature_diagonal, material_hessian_block, material_term, mollifier,
     normal_force, obstacle_friction, pair_friction, pcg, project_psd, tree_dot,
 };
-use hyperpbd::core::material::{Law, Material, MaterialScratch, RestView, rest_element};
+use hyperpbd::core::material::{
+    Law, Material, MaterialElement, MaterialScratch, RestView, rest_element,
+};
 use hyperpbd::geometry::Scratch;
 use num_rational::BigRational;
 

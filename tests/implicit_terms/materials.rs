@@ -47,8 +47,13 @@ fn material_hessians_match_finite_differences_and_project_in_frame_coordinates()
                         hf.resize(size * size, 0.0);
                         let mut s = MaterialScratch::new();
                         let mut h = MaterialHessianScratch::new();
-                        material_term(&material, y, dim, rest, &mut g, hf, &mut s, &mut h)
-                            .map(|_| g)
+                        let element = MaterialElement {
+                            material: &material,
+                            points: y,
+                            dim,
+                            rest,
+                        };
+                        material_term(element, &mut g, hf, &mut s, &mut h).map(|_| g)
                     };
                     let mut frame_hessian = Vec::new();
                     let Ok(_) = term(&x, &mut frame_hessian) else {

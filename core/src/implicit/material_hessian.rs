@@ -39,7 +39,7 @@
 //! ```
 
 use crate::material::{
-    Law, LawRefusal, Material, MaterialScratch, RestView, element_energy, ln, measure_ratio,
+    Law, LawRefusal, MaterialElement, MaterialScratch, RestView, element_energy, ln, measure_ratio,
 };
 
 /// Buffers of the Hessian evaluation, reused between elements.
@@ -72,30 +72,27 @@ impl MaterialHessianScratch {
 /// W of the element (as `material::element_energy`), ∇W into `grad`, and
 /// the exact H_F = ∂²Ψ/∂F̂² (Nk × Nk, row-major, symmetrised) into
 /// `frame_hessian`. Project it with [`super::project_psd`] before use.
-#[allow(clippy::too_many_arguments)]
 pub fn material_term(
-    material: &Material,
-    points: &[f64],
-    dim: usize,
-    rest: RestView<'_>,
+    element: MaterialElement<'_>,
     grad: &mut [f64],
     frame_hessian: &mut [f64],
     scratch: &mut MaterialScratch,
     hs: &mut MaterialHessianScratch,
 ) -> Result<f64, LawRefusal> {
-    let energy = element_energy(material, points, dim, rest, grad, scratch)?;
-    let k = points.len() / dim - 1;
-    let log_ratio = match material.law {
+    let energy = element_energy(element, grad, scratch)?;
+    let dim = element.dim;
+    let k = element.order();
+    let log_ratio = match element.material.law {
         Law::StVenantKirchhoff => 0.0,
         Law::NeoHookean => {
             // element_energy accepted J > 0; this recomputes the same bits.
-            let ratio = measure_ratio(points, dim, rest, scratch);
+            let ratio = measure_ratio(element.points, dim, element.rest, scratch);
             ln(ratio)
         }
     };
     hs.resize(k, dim);
-    let mu = material.lame.mu;
-    let lambda = material.lame.lambda;
+    let mu = element.material.lame.mu;
+    let lambda = element.material.lame.lambda;
     let size = dim * k;
     let f = &scratch.image;
     let s = &scratch.stress;
@@ -103,7 +100,7 @@ pub fn material_term(
     let MaterialHessianScratch { dc, ds, w, .. } = hs;
     for b in 0..dim {
         for m in 0..k {
-            match material.law {
+            match element.material.law {
                 Law::StVenantKirchhoff => {
                     for i in 0..k {
                         for j in 0..k {

@@ -17,27 +17,25 @@
 //! (tr C − k, ln J): its rounding is relative to the terms, not to W.
 
 use crate::material::{
-    Law, LawRefusal, Material, MaterialScratch, RestView, element_energy, ln, measure_ratio,
+    Law, LawRefusal, MaterialElement, MaterialScratch, element_energy, ln, measure_ratio,
 };
 
 /// W of the element (as `material::element_energy`, ∇W into `grad`) and
 /// the bound δW on the rounding of the computed W.
 pub fn material_energy_rounding(
-    material: &Material,
-    points: &[f64],
-    dim: usize,
-    rest: RestView<'_>,
+    element: MaterialElement<'_>,
     grad: &mut [f64],
     scratch: &mut MaterialScratch,
 ) -> Result<(f64, f64), LawRefusal> {
-    let energy = element_energy(material, points, dim, rest, grad, scratch)?;
-    let k = points.len() / dim - 1;
+    let energy = element_energy(element, grad, scratch)?;
+    let (dim, rest, lame) = (element.dim, element.rest, element.material.lame);
+    let k = element.order();
     let gamma = (dim as f64 + 4.0) * f64::EPSILON;
-    let (mu, lambda) = (material.lame.mu, material.lame.lambda);
-    let log_term = match material.law {
+    let (mu, lambda) = (lame.mu, lame.lambda);
+    let log_term = match element.material.law {
         Law::StVenantKirchhoff => 0.0,
         Law::NeoHookean => {
-            let log_ratio = ln(measure_ratio(points, dim, rest, scratch));
+            let log_ratio = ln(measure_ratio(element.points, dim, rest, scratch));
             k as f64 * (mu + lambda * log_ratio.abs())
         }
     };

@@ -13,23 +13,20 @@
 use super::deformation::{deform, pull_back};
 use super::neo_hookean::neo_hookean;
 use super::stvk::stvk;
-use super::{Law, LawRefusal, Material, MaterialScratch, RestView};
+use super::{Law, LawRefusal, MaterialElement, MaterialScratch};
 
-/// W of the simplex `points` (k + 1 points of length `dim`, gathered) with
-/// rest data `rest`; ∇W into `grad` (same layout as `points`). A refusal
+/// W of the element; ∇W into `grad` (the layout of its points). A refusal
 /// leaves `grad` unspecified.
 pub fn element_energy(
-    material: &Material,
-    points: &[f64],
-    dim: usize,
-    rest: RestView<'_>,
+    element: MaterialElement<'_>,
     grad: &mut [f64],
     scratch: &mut MaterialScratch,
 ) -> Result<f64, LawRefusal> {
-    let k = deform(points, dim, rest.frame, scratch);
-    let psi = match material.law {
-        Law::StVenantKirchhoff => stvk(material.lame, k, scratch),
-        Law::NeoHookean => neo_hookean(material.lame, k, dim, scratch)?,
+    let (dim, rest, lame) = (element.dim, element.rest, element.material.lame);
+    let k = deform(element.points, dim, rest.frame, scratch);
+    let psi = match element.material.law {
+        Law::StVenantKirchhoff => stvk(lame, k, scratch),
+        Law::NeoHookean => neo_hookean(lame, k, dim, scratch)?,
     };
     pull_back(k, dim, rest, scratch, grad);
     Ok(rest.measure * psi)

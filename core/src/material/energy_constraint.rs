@@ -19,20 +19,17 @@
 //! the step with it (docs/materials.md).
 
 use super::energy::element_energy;
-use super::{LawRefusal, Material, MaterialScratch, RestView};
+use super::{LawRefusal, MaterialElement, MaterialScratch};
 
 /// C of the element (see the module docs); ∇C into `grad` ((k + 1) ×
-/// `dim`, the layout of `points`). A refusal leaves `grad` unspecified.
+/// `dim`, the layout of its points). A refusal leaves `grad` unspecified.
 pub fn energy_constraint(
-    material: &Material,
-    points: &[f64],
-    dim: usize,
-    rest: RestView<'_>,
+    element: MaterialElement<'_>,
     grad: &mut [f64],
     scratch: &mut MaterialScratch,
 ) -> Result<f64, LawRefusal> {
-    let energy = element_energy(material, points, dim, rest, grad, scratch)?;
-    let count = points.len();
+    let energy = element_energy(element, grad, scratch)?;
+    let count = element.points.len();
     if energy <= 0.0 {
         grad[..count].fill(0.0);
         return Ok(0.0);

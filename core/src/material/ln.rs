@@ -20,6 +20,25 @@
 const LN2_HI: f64 = 0.693_147_180_369_123_8;
 const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
 
+/// 1/(2k + 1) for k = 12 … 0: the Horner coefficients of 2 atanh(s)/(2s)
+/// in s², highest first. `shaders/ln_f64.wgsl`'s polynomial is written
+/// from this table when a module is composed (`gpu/src/shader.rs`).
+pub const ATANH_SERIES: [f64; 13] = [
+    1.0 / 25.0,
+    1.0 / 23.0,
+    1.0 / 21.0,
+    1.0 / 19.0,
+    1.0 / 17.0,
+    1.0 / 15.0,
+    1.0 / 13.0,
+    1.0 / 11.0,
+    1.0 / 9.0,
+    1.0 / 7.0,
+    1.0 / 5.0,
+    1.0 / 3.0,
+    1.0,
+];
+
 /// ln x by the arithmetic of `shaders/ln_f64.wgsl`.
 pub fn ln(x: f64) -> f64 {
     if x.is_nan() || x <= 0.0 {
@@ -37,19 +56,10 @@ pub fn ln(x: f64) -> f64 {
     }
     let s = (m - 1.0) / (m + 1.0);
     let s2 = s * s;
-    let mut poly = 1.0 / 25.0;
-    poly = poly * s2 + 1.0 / 23.0;
-    poly = poly * s2 + 1.0 / 21.0;
-    poly = poly * s2 + 1.0 / 19.0;
-    poly = poly * s2 + 1.0 / 17.0;
-    poly = poly * s2 + 1.0 / 15.0;
-    poly = poly * s2 + 1.0 / 13.0;
-    poly = poly * s2 + 1.0 / 11.0;
-    poly = poly * s2 + 1.0 / 9.0;
-    poly = poly * s2 + 1.0 / 7.0;
-    poly = poly * s2 + 1.0 / 5.0;
-    poly = poly * s2 + 1.0 / 3.0;
-    poly = poly * s2 + 1.0;
+    let mut poly = ATANH_SERIES[0];
+    for &c in &ATANH_SERIES[1..] {
+        poly = poly * s2 + c;
+    }
     e * LN2_HI + (e * LN2_LO + 2.0 * s * poly)
 }
 

@@ -61,7 +61,7 @@ pub use energy::element_energy;
 pub use energy_constraint::energy_constraint;
 pub use error::{LawRefusal, MaterialError};
 pub use lame::{Lame, poisson_ratio_range};
-pub use ln::ln;
+pub use ln::{ATANH_SERIES, ln};
 pub use mass::{LumpedMass, lump_masses};
 pub use measures::{DeformationMeasures, deformation_measures};
 pub use rest::{DegenerateRest, RestShapes, rest_element};
@@ -123,6 +123,27 @@ pub struct RestView<'a> {
     pub frame: &'a [f64],
     /// V_0 > 0, the rest k-measure.
     pub measure: f64,
+}
+
+/// One material element as the law's functions read it: its material,
+/// its k + 1 gathered vertices (`points[j * dim + a]`) and its rest data.
+#[derive(Debug, Clone, Copy)]
+pub struct MaterialElement<'a> {
+    /// The law and its Lamé parameters.
+    pub material: &'a Material,
+    /// x_0 … x_k, `dim` coordinates each.
+    pub points: &'a [f64],
+    /// N.
+    pub dim: usize,
+    /// R and V_0.
+    pub rest: RestView<'a>,
+}
+
+impl MaterialElement<'_> {
+    /// k: the element is a k-simplex (k + 1 points).
+    pub fn order(&self) -> usize {
+        self.points.len() / self.dim - 1
+    }
 }
 
 /// Reusable buffers so that evaluation allocates nothing per element.

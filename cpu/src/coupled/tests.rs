@@ -9,7 +9,7 @@ use super::particles::{Context, Particles};
 use super::{change, setup};
 use crate::parallel::Workers;
 use hyperpbd_core::implicit::{MaterialHessianScratch, PsdScratch, material_term, project_psd};
-use hyperpbd_core::material::MaterialScratch;
+use hyperpbd_core::material::{MaterialElement, MaterialScratch};
 use hyperpbd_core::{
     ConstraintFamily, ConstraintKind, Convergence, IncrementalPotentialSettings, Particle, Plan,
     Scene, Solver, SolverPlan,
@@ -212,10 +212,13 @@ fn clipped(plan: &Plan, x: &[f64]) -> usize {
             let mut h = vec![0.0; size * size];
             let mut grad = vec![0.0; points.len()];
             let (mut s, mut hs) = (MaterialScratch::new(), MaterialHessianScratch::new());
-            material_term(
-                material, &points, dim, rest, &mut grad, &mut h, &mut s, &mut hs,
-            )
-            .expect("admissible");
+            let m = MaterialElement {
+                material,
+                points: &points,
+                dim,
+                rest,
+            };
+            material_term(m, &mut grad, &mut h, &mut s, &mut hs).expect("admissible");
             count += project_psd(&mut h, size, &mut PsdScratch::new()).clipped;
         }
     }

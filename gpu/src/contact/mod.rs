@@ -30,7 +30,7 @@ pub(crate) use buffers::{Block, Bound, ContactBuffers, Outcome, Particles};
 use hyperpbd_core::{GpuError, Kernel, Plan};
 
 use crate::Precision;
-use crate::kernel_set::{Binding, EntryPoint, KernelSet, KernelSetSpec};
+use crate::kernel_set::{Binding, EntryPoint, KernelSet, KernelSetSpec, PRELUDE_BINDINGS};
 use crate::shader::ShaderFile;
 
 /// Invocations of `boxes_and_bounds` (`BOUND_THREADS` in contact.wgsl).
@@ -127,22 +127,21 @@ pub(crate) enum ContactPhase {
 
 /// Group 0 (contact.wgsl): the prelude's x v p force, then status props
 /// boxes cands snapshot scratch counters ranges words lists.
-const BINDINGS: [Binding; 14] = [
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::READ,
-    Binding::WRITE,
-    Binding::READ,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::WRITE,
-];
+const BINDINGS: [Binding; 14] = Binding::joined(
+    PRELUDE_BINDINGS,
+    [
+        Binding::WRITE,
+        Binding::READ,
+        Binding::WRITE,
+        Binding::WRITE,
+        Binding::WRITE,
+        Binding::WRITE,
+        Binding::WRITE,
+        Binding::WRITE,
+        Binding::WRITE,
+        Binding::WRITE,
+    ],
+);
 
 /// The contact kernel set for one dimension and precision.
 pub(crate) struct ContactKernels {

@@ -51,10 +51,10 @@ pub fn energy(
     gradient: &mut [f64],
     b: &mut MaterialBuffers,
 ) -> f64 {
-    let Some((material, rest)) = family.kind.rest_view(element) else {
+    let Some(m) = family.kind.material_element(element, points, dim) else {
         return f64::NAN;
     };
-    match element_energy(material, points, dim, rest, gradient, &mut b.law) {
+    match element_energy(m, gradient, &mut b.law) {
         Ok(w) => w,
         Err(_) => {
             gradient.fill(0.0);
@@ -71,9 +71,9 @@ pub fn refusal(
     dim: usize,
     b: &mut MaterialBuffers,
 ) -> Option<LawRefusal> {
-    let (material, rest) = family.kind.rest_view(element)?;
+    let m = family.kind.material_element(element, points, dim)?;
     let mut gradient = vec![0.0; points.len()];
-    element_energy(material, points, dim, rest, &mut gradient, &mut b.law).err()
+    element_energy(m, &mut gradient, &mut b.law).err()
 }
 
 /// H_F⁺ of the element at `points` into `out` ((N k)² values, row-major);
@@ -86,22 +86,13 @@ pub fn projected_frame_hessian(
     out: &mut [f64],
     b: &mut MaterialBuffers,
 ) -> bool {
-    let Some((material, rest)) = family.kind.rest_view(element) else {
+    let Some(m) = family.kind.material_element(element, points, dim) else {
         return false;
     };
     let size = dim * (family.arity - 1);
     let mut gradient = vec![0.0; points.len()];
     let MaterialBuffers { law, hessian, psd } = b;
-    let evaluated = material_term(
-        material,
-        points,
-        dim,
-        rest,
-        &mut gradient,
-        &mut out[..size * size],
-        law,
-        hessian,
-    );
+    let evaluated = material_term(m, &mut gradient, &mut out[..size * size], law, hessian);
     evaluated.is_ok() && project_psd(&mut out[..size * size], size, psd).finite
 }
 
@@ -136,12 +127,11 @@ pub fn rounding(
     dim: usize,
     b: &mut MaterialBuffers,
 ) -> f64 {
-    let Some((material, rest)) = family.kind.rest_view(element) else {
+    let Some(m) = family.kind.material_element(element, points, dim) else {
         return 0.0;
     };
     let mut gradient = vec![0.0; points.len()];
-    material_energy_rounding(material, points, dim, rest, &mut gradient, &mut b.law)
-        .map_or(0.0, |(_, bound)| bound)
+    material_energy_rounding(m, &mut gradient, &mut b.law).map_or(0.0, |(_, bound)| bound)
 }
 
 impl Elements {
