@@ -663,9 +663,12 @@ fn cp_gradient(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     check_loops(i);
 }
 
-// P⁻¹ = 1/(m + h² (diag B_i + Σ slots)) into R_INVERSE (0: fixed).
+// The particles' half of H = M + h² Σ K⁺, after cp_slots of the same
+// cp.diagonal: 1 → P⁻¹ = 1/(m + h² (diag B_i + Σ slots)) into R_INVERSE;
+// 0 → q = m p + h² (B_i p_i + Σ slots) (0 where P⁻¹ = 0) into R_Q, p·q per
+// particle into channel A. Fixed particles: 0.
 @compute @workgroup_size(WORKGROUP)
-fn cp_inverse_diagonal(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+fn cp_particle_curvature(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
     if (i >= bp.count) {
         return;
@@ -673,37 +676,15 @@ fn cp_inverse_diagonal(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(n
     let m = mass[i];
     var sum: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
-        sum[a] = terms[i * TERMS + a * DIM + a];
-    }
-    if (m != 0.0) {
-        gather_into(i, false, &sum);
-    }
-    for (var a = 0u; a < DIM; a++) {
-        var value: real = 0.0;
-        if (m != 0.0) {
-            value = 1.0 / (m + cp.h2 * sum[a]);
+        if (cp.diagonal == 1u) {
+            sum[a] = terms[i * TERMS + a * DIM + a];
+        } else {
+            var s: real = 0.0;
+            for (var b = 0u; b < DIM; b++) {
+                s += terms[i * TERMS + a * DIM + b] * vectors[at(R_P, i * DIM + b)];
+            }
+            sum[a] = s;
         }
-        vectors[at(R_INVERSE, i * DIM + a)] = value;
-    }
-    check_loops(i);
-}
-
-// q = m p + h² (B_i p_i + Σ slots) (0 where P⁻¹ = 0) into R_Q; p·q per
-// particle into channel A.
-@compute @workgroup_size(WORKGROUP)
-fn cp_product(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = linear_index(gid, groups);
-    if (i >= bp.count) {
-        return;
-    }
-    let m = mass[i];
-    var sum: array<real, DIM>;
-    for (var a = 0u; a < DIM; a++) {
-        var s: real = 0.0;
-        for (var b = 0u; b < DIM; b++) {
-            s += terms[i * TERMS + a * DIM + b] * vectors[at(R_P, i * DIM + b)];
-        }
-        sum[a] = s;
     }
     if (m != 0.0) {
         gather_into(i, false, &sum);
@@ -711,16 +692,22 @@ fn cp_product(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     var dot: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
         let k = i * DIM + a;
-        var q: real = 0.0;
-        if (m != 0.0) {
-            q = m * vectors[at(R_P, k)] + cp.h2 * sum[a];
+        var value: real = 0.0;
+        if (cp.diagonal == 1u) {
+            if (m != 0.0) {
+                value = 1.0 / (m + cp.h2 * sum[a]);
+            }
+            vectors[at(R_INVERSE, k)] = value;
+        } else {
+            if (m != 0.0 && vectors[at(R_INVERSE, k)] != 0.0) {
+                value = m * vectors[at(R_P, k)] + cp.h2 * sum[a];
+            }
+            vectors[at(R_Q, k)] = value;
+            dot += vectors[at(R_P, k)] * value;
         }
-        if (vectors[at(R_INVERSE, k)] == 0.0) {
-            q = 0.0;
-        }
-        vectors[at(R_Q, k)] = q;
-        dot += vectors[at(R_P, k)] * q;
     }
-    tree[cp.channel_a + i] = dot;
+    if (cp.diagonal == 0u) {
+        tree[cp.channel_a + i] = dot;
+    }
     check_loops(i);
 }

@@ -205,6 +205,54 @@ pub(crate) fn infeasible_start(
     }
 }
 
+/// What both incremental-potential GPU backends load the same way: the
+/// resident state (dense layout, positions relative to the scene origin)
+/// and `shaders/barrier.wgsl`'s bindings 1..=9 (radius, obstacle geometry
+/// and arities in device coordinates, delta, the per-particle energy,
+/// gradient, Hessian block and scalar, the barrier params), in binding order.
+pub(crate) fn barrier_resources(
+    ctx: &GpuContext,
+    plan: &hyperpbd_core::Plan,
+    ip: &hyperpbd_core::IncrementalPotentialPlan,
+    state: &hyperpbd_core::State,
+    precision: Precision,
+) -> Result<(crate::resident::ResidentState, Vec<wgpu::Buffer>), hyperpbd_core::BackendError> {
+    let (n, dim) = (plan.particle_count(), plan.dim);
+    let reals = |values: &[f64]| {
+        let mut b = Vec::new();
+        push_reals(&mut b, values, precision);
+        b
+    };
+    let zeros = |len: usize| vec![0u8; len * real_size(precision)];
+    let origin = SceneOrigin::for_state(dim, &state.positions, precision);
+    let obstacles = local_obstacles(&ip.obstacles, &origin);
+    let resident = crate::resident::ResidentState::new(
+        ctx,
+        crate::layout::VectorLayout::Dense,
+        precision,
+        origin,
+        state,
+        &plan.inverse_mass,
+        &plan.force,
+    )?;
+    let (geometry, arity) = obstacle_geometry(&obstacles);
+    let buffers = vec![
+        ctx.storage("radius", &reals(&plan.radius))?,
+        ctx.storage("geometry", &reals(&geometry))?,
+        ctx.storage("arity", bytemuck::cast_slice(&arity))?,
+        ctx.storage("delta", &zeros(1))?,
+        ctx.storage("energy", &zeros(n))?,
+        ctx.storage("gradient", &zeros(n * dim))?,
+        ctx.storage("hessian", &zeros(n * dim * dim))?,
+        ctx.storage("scalar", &zeros(n))?,
+        ctx.storage(
+            "barrier params",
+            &barrier_params(precision, n, &obstacles, &ip.law),
+        )?,
+    ];
+    Ok((resident, buffers))
+}
+
 /// The `BarrierParams` block of `shaders/barrier.wgsl`.
 pub(crate) fn barrier_params(
     precision: Precision,

@@ -24,19 +24,18 @@ use hyperpbd_core::{
     Plan, Refusal, State, check_state,
 };
 
+use crate::Precision;
 use crate::barrier::{
-    BARRIER_BINDINGS, NONE, STATUS_WORDS, barrier_params, infeasible_start, local_obstacles,
-    obstacle_geometry, refuse_cut_loops, status_words,
+    BARRIER_BINDINGS, NONE, STATUS_WORDS, barrier_resources, infeasible_start, refuse_cut_loops,
+    status_words,
 };
 use crate::context::{DeviceSource, GpuContext};
 use crate::export::Exporter;
 use crate::kernel_set::{Binding, BlockWriter, EntryPoint, KernelSet, KernelSetSpec, ParamBlocks};
-use crate::layout::VectorLayout;
 use crate::params::{push_reals, read_reals, real_size};
 use crate::resident::ResidentState;
 use crate::resident_backend::{minimising_backend, resident_backend};
 use crate::shader::{MAX_GPU_DIM, ShaderFile};
-use crate::{Precision, SceneOrigin};
 
 /// Armijo constant (same as the CPU's).
 const ARMIJO: f64 = 1e-4;
@@ -174,30 +173,7 @@ impl GpuBarrierBackend {
         };
         let make = |label: &str, bytes: &[u8]| ctx.storage(label, bytes);
         let zeros = |len: usize| vec![0u8; len * real_size(precision)];
-        let origin = SceneOrigin::for_state(dim, &state.positions, precision);
-        let obstacles = local_obstacles(&ip.obstacles, &origin);
-        let resident = ResidentState::new(
-            &ctx,
-            VectorLayout::Dense,
-            precision,
-            origin,
-            state,
-            &plan.inverse_mass,
-            &plan.force,
-        )?;
-        let radius = make("radius", &reals(&plan.radius))?;
-        let (geometry_reals, arity) = obstacle_geometry(&obstacles);
-        let geometry = make("geometry", &reals(&geometry_reals))?;
-        let arity = make("arity", bytemuck::cast_slice(&arity))?;
-        let delta = make("delta", &zeros(1))?;
-        let energy = make("energy", &zeros(n))?;
-        let gradient = make("gradient", &zeros(n * dim))?;
-        let hessian = make("hessian", &zeros(n * dim * dim))?;
-        let scalar = make("scalar", &zeros(n))?;
-        let barrier_params = make(
-            "barrier params",
-            &barrier_params(precision, n, &obstacles, &ip.law),
-        )?;
+        let (resident, barrier) = barrier_resources(&ctx, &plan, &ip, state, precision)?;
         let x_prev = make("x_prev", &zeros(n * dim))?;
         let prediction = make("prediction", &zeros(n * dim))?;
         let inverse_mass = make("inv_mass", &reals(&plan.inverse_mass))?;
@@ -211,15 +187,15 @@ impl GpuBarrierBackend {
             0,
             &[
                 &resident.x,
-                &radius,
-                &geometry,
-                &arity,
-                &delta,
-                &energy,
-                &gradient,
-                &hessian,
-                &scalar,
-                &barrier_params,
+                &barrier[0],
+                &barrier[1],
+                &barrier[2],
+                &barrier[3],
+                &barrier[4],
+                &barrier[5],
+                &barrier[6],
+                &barrier[7],
+                &barrier[8],
                 &status,
                 &resident.v,
                 &x_prev,
@@ -272,23 +248,17 @@ impl GpuBarrierBackend {
             terms,
             status,
             probe,
-            _rest: vec![
-                radius,
-                geometry,
-                arity,
-                delta,
-                energy,
-                gradient,
-                hessian,
-                scalar,
-                barrier_params,
-                x_prev,
-                prediction,
-                inverse_mass,
-                gravity_scale,
-                gravity,
-                params,
-            ],
+            _rest: barrier
+                .into_iter()
+                .chain([
+                    x_prev,
+                    prediction,
+                    inverse_mass,
+                    gravity_scale,
+                    gravity,
+                    params,
+                ])
+                .collect(),
             substep: 0,
             reports: Vec::new(),
             exporter: Exporter::default(),

@@ -38,7 +38,7 @@ mod tests;
 use crate::parallel::Workers;
 use elements::{Elements, Terms};
 use hyperpbd_core::IncrementalPotentialPlan;
-use hyperpbd_core::implicit::line_search::armijo;
+use hyperpbd_core::implicit::line_search::{after_failed_search, armijo, before_search};
 use hyperpbd_core::implicit::resolution::{change_resolution, particle_sums};
 use hyperpbd_core::implicit::{
     CoupledPlan, PcgSettings, PcgWorkspace, block_tree_max, block_tree_sum, newton_cg_tolerance,
@@ -199,13 +199,9 @@ pub(crate) fn minimise(
         }
         let slope = tree_dot(gradient, direction, dim, terms, scratch);
         let moved = (0..count * dim).any(|c| x[c] + direction[c] != x[c]);
-        if !moved || !slope.is_finite() {
+        if let Some(status) = before_search(moved, slope) {
             report.iterations = iteration;
-            report.status = if slope.is_finite() {
-                MinimisationStatus::RoundingFloor
-            } else {
-                MinimisationStatus::Refused(Refusal::NonFinite { particle: 0 })
-            };
+            report.status = status;
             break;
         }
         let Ok(accepted) = armijo::<Infallible>(fraction, slope, |t| {
@@ -220,11 +216,7 @@ pub(crate) fn minimise(
         if accepted.is_none() {
             report.iterations = iteration;
             let resolution = resolution(plan, particles, elements, &terms_at, x, direction);
-            report.status = if -0.5 * slope <= resolution {
-                MinimisationStatus::RoundingFloor
-            } else {
-                MinimisationStatus::Refused(Refusal::NoDescent { residual })
-            };
+            report.status = after_failed_search(slope, resolution, residual);
             break;
         }
         x.copy_from_slice(trial);

@@ -14,8 +14,7 @@ pub(crate) enum Entry {
     Slots,
     Start,
     Gradient,
-    InverseDiagonal,
-    Product,
+    ParticleCurvature,
     CgResidual,
     CgTurn,
     Slope,
@@ -29,14 +28,13 @@ pub(crate) enum Entry {
 }
 
 impl Entry {
-    pub const ALL: [Entry; 17] = [
+    pub const ALL: [Entry; 16] = [
         Entry::Elements,
         Entry::ElementChanges,
         Entry::Slots,
         Entry::Start,
         Entry::Gradient,
-        Entry::InverseDiagonal,
-        Entry::Product,
+        Entry::ParticleCurvature,
         Entry::CgResidual,
         Entry::CgTurn,
         Entry::Slope,
@@ -58,8 +56,7 @@ impl EntryPoint for Entry {
             Entry::Slots => "cp_slots",
             Entry::Start => "cp_start",
             Entry::Gradient => "cp_gradient",
-            Entry::InverseDiagonal => "cp_inverse_diagonal",
-            Entry::Product => "cp_product",
+            Entry::ParticleCurvature => "cp_particle_curvature",
             Entry::CgResidual => "cp_cg_residual",
             Entry::CgTurn => "cp_cg_turn",
             Entry::Slope => "cp_slope",
@@ -78,35 +75,27 @@ impl EntryPoint for Entry {
 /// Group-0 bindings: barrier.wgsl's 0..=10, then v force mass
 /// gravity_scale gravity plane_mu lag_force element_words element_reals
 /// gather records slots vectors terms tree params.
-pub(crate) const BINDINGS: [Binding; 27] = [
-    BARRIER_BINDINGS[0],
-    BARRIER_BINDINGS[1],
-    BARRIER_BINDINGS[2],
-    BARRIER_BINDINGS[3],
-    BARRIER_BINDINGS[4],
-    BARRIER_BINDINGS[5],
-    BARRIER_BINDINGS[6],
-    BARRIER_BINDINGS[7],
-    BARRIER_BINDINGS[8],
-    BARRIER_BINDINGS[9],
-    BARRIER_BINDINGS[10],
-    Binding::WRITE,
-    Binding::READ,
-    Binding::READ,
-    Binding::READ,
-    Binding::READ,
-    Binding::READ,
-    Binding::WRITE,
-    Binding::READ,
-    Binding::READ,
-    Binding::READ,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::READ,
-];
+pub(crate) const BINDINGS: [Binding; 27] = Binding::joined(
+    BARRIER_BINDINGS,
+    [
+        Binding::WRITE,
+        Binding::READ,
+        Binding::READ,
+        Binding::READ,
+        Binding::READ,
+        Binding::READ,
+        Binding::WRITE,
+        Binding::READ,
+        Binding::READ,
+        Binding::READ,
+        Binding::WRITE,
+        Binding::WRITE,
+        Binding::WRITE,
+        Binding::WRITE,
+        Binding::WRITE,
+        Binding::READ,
+    ],
+);
 
 /// Vector regions of `coupled.wgsl` (R_*).
 pub(crate) mod region {

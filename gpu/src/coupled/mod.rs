@@ -9,7 +9,7 @@
 //! ```text
 //! per substep:  cp_start (x^t, x~, load, lags, d ≤ 0) → pairs at x^t (collisions) → warm start
 //!               loop { x_k → point; cp_elements; cp_gradient; Σ|max → residual (one read)
-//!                      cp_slots(diag), cp_inverse_diagonal; PCG (two reads per iteration)
+//!                      cp_slots + cp_particle_curvature (diag); PCG (two reads per iteration)
 //!                      pairs over [x_k, x_k + Δ]; filter (min, one read); cp_elements at x_k;
 //!                      slope (one read); trials (one read each); accept }
 //!               cp_finish: x = x_k, v = (x − x^t)/h
@@ -33,16 +33,15 @@ use hyperpbd_core::{
     MinimisationReport, Plan, State, check_state,
 };
 
-use crate::barrier::{barrier_params, local_obstacles, obstacle_geometry};
+use crate::Precision;
+use crate::barrier::barrier_resources;
 use crate::context::{DeviceSource, GpuContext};
 use crate::export::Exporter;
 use crate::kernel_set::{Binding, KernelSet, KernelSetSpec};
-use crate::layout::VectorLayout;
 use crate::params::{push_reals, real_size};
 use crate::resident::ResidentState;
 use crate::resident_backend::{minimising_backend, resident_backend};
 use crate::shader::MAX_GPU_DIM;
-use crate::{Precision, SceneOrigin};
 use device::{Device, ElementUpload, Reduction};
 use entries::Entry;
 
@@ -138,45 +137,23 @@ impl GpuCoupledBackend {
             push_reals(&mut b, values, precision);
             b
         };
-        let make = |label: &str, bytes: &[u8]| ctx.storage(label, bytes);
-        let zeros = |len: usize| vec![0u8; len.max(1) * real_size(precision)];
-        let origin = SceneOrigin::for_state(dim, &state.positions, precision);
-        let obstacles = local_obstacles(&ip.obstacles, &origin);
-        let resident = ResidentState::new(
-            &ctx,
-            VectorLayout::Dense,
-            precision,
-            origin,
-            state,
-            &plan.inverse_mass,
-            &plan.force,
-        )?;
+        let (resident, mut fixed) = barrier_resources(&ctx, &plan, &ip, state, precision)?;
         let mass: Vec<f64> = plan
             .inverse_mass
             .iter()
             .map(|&w| if w > 0.0 { 1.0 / w } else { 0.0 })
             .collect();
-        let (geometry, arity) = obstacle_geometry(&obstacles);
-        let planes = obstacles.plane_count();
-        let fixed = vec![
-            make("radius", &reals(&plan.radius))?,
-            make("geometry", &reals(&geometry))?,
-            make("arity", bytemuck::cast_slice(&arity))?,
-            make("delta", &zeros(1))?,
-            make("energy", &zeros(1))?,
-            make("gradient", &zeros(1))?,
-            make("hessian", &zeros(1))?,
-            make("scalar", &zeros(1))?,
-            make(
-                "barrier params",
-                &barrier_params(precision, n, &obstacles, &ip.law),
-            )?,
-            make("mass", &reals(&mass))?,
-            make("gravity_scale", &reals(&plan.gravity_scale))?,
-            make("gravity", &reals(&plan.gravity))?,
-            make("plane_mu", &reals(&coupled.plane_friction))?,
-            make("lag_force", &zeros(n * planes))?,
-        ];
+        let planes = ip.obstacles.plane_count();
+        let zeros = vec![0u8; (n * planes).max(1) * real_size(precision)];
+        for (label, bytes) in [
+            ("mass", reals(&mass)),
+            ("gravity_scale", reals(&plan.gravity_scale)),
+            ("gravity", reals(&plan.gravity)),
+            ("plane_mu", reals(&coupled.plane_friction)),
+            ("lag_force", zeros),
+        ] {
+            fixed.push(ctx.storage(label, &bytes)?);
+        }
         let mut device = Device::new(&ctx, kernels, precision, (n, dim), fixed)?;
         device.params.criterion = match ip.convergence {
             Convergence::PackedGradient { .. } => 0,

@@ -5,7 +5,7 @@
 //! the rounding floor.
 
 use hyperpbd_core::barrier::BarrierObstacles;
-use hyperpbd_core::implicit::line_search::armijo;
+use hyperpbd_core::implicit::line_search::{after_failed_search, armijo, before_search};
 use hyperpbd_core::implicit::resolution::{
     ball_rounding, change_resolution, particle_sums, spring_rounding,
 };
@@ -74,7 +74,7 @@ impl PcgVectors for DeviceVectors<'_> {
         let entries = [
             (Entry::CgTurn, turn),
             (Entry::Slots, e),
-            (Entry::Product, n),
+            (Entry::ParticleCurvature, n),
         ];
         self.reduce(&entries, &[Reduction::SumA])[0]
     }
@@ -288,7 +288,7 @@ impl GpuCoupledBackend {
             // 6–7: the Newton direction by preconditioned CG.
             let (_, e) = self.counts();
             self.device.params.diagonal = 1;
-            self.run(&[(Entry::Slots, e), (Entry::InverseDiagonal, n)], &[])?;
+            self.run(&[(Entry::Slots, e), (Entry::ParticleCurvature, n)], &[])?;
             let settings = PcgSettings {
                 max_iterations: self.coupled.cg_iterations,
                 relative_tolerance: 0.0,
@@ -340,24 +340,16 @@ impl GpuCoupledBackend {
             }
             let slope = values[0];
             let moved = status[MOVED] != 0;
-            if !moved || !slope.is_finite() {
+            if let Some(status) = before_search(moved, slope) {
                 report.iterations = iteration;
-                report.status = if slope.is_finite() {
-                    MinimisationStatus::RoundingFloor
-                } else {
-                    MinimisationStatus::Refused(Refusal::NonFinite { particle: 0 })
-                };
+                report.status = status;
                 break;
             }
             let accepted = armijo(fraction, slope, |t| self.trial(t))?;
             if accepted.is_none() {
                 report.iterations = iteration;
                 let resolution = self.resolution()?;
-                report.status = if -0.5 * slope <= resolution {
-                    MinimisationStatus::RoundingFloor
-                } else {
-                    MinimisationStatus::Refused(Refusal::NoDescent { residual })
-                };
+                report.status = after_failed_search(slope, resolution, residual);
                 break;
             }
             self.device.params.mode = 2;
