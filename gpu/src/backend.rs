@@ -30,7 +30,7 @@ use crate::resident::ResidentState;
 use crate::resident_backend::resident_backend;
 use crate::shader::ShaderFile;
 use crate::xpbd::schedule::{Dispatch, Schedule, StepMode};
-use crate::xpbd::{BINDINGS, Families, NONE, Placed, XpbdEntry};
+use crate::xpbd::{Families, NONE, Placed, XpbdEntry};
 
 mod attempt;
 pub(crate) mod batch;
@@ -195,7 +195,6 @@ impl GpuBackend {
                 label: "hyperpbd xpbd",
                 dim,
                 precision,
-                groups: &[&BINDINGS, &[crate::kernel_set::Binding::UNIFORM_BLOCK]],
                 entries: &entries,
                 constants: &world.constants,
             },

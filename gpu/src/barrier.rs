@@ -47,7 +47,7 @@ use hyperpbd_core::GpuError;
 use hyperpbd_core::barrier::{BarrierLaw, BarrierObstacles, FILTER_SAFETY};
 
 use crate::context::GpuContext;
-use crate::kernel_set::{Binding, BlockWriter, EntryPoint, KernelSet, KernelSetSpec};
+use crate::kernel_set::{BlockWriter, EntryPoint, KernelSet, KernelSetSpec};
 use crate::loop_budget::obstacle_loops_cut_short;
 use crate::params::{push_reals, read_reals, real_size};
 use crate::shader::{MAX_GPU_DIM, ShaderFile};
@@ -128,22 +128,6 @@ impl EntryPoint for BarrierEntry {
         (ShaderFile::Barrier, name)
     }
 }
-
-/// Bindings of `shaders/barrier.wgsl` (group 0): x radius geometry arity
-/// delta energy gradient hessian scalar params status.
-pub(crate) const BARRIER_BINDINGS: [Binding; 11] = [
-    Binding::WRITE,
-    Binding::READ,
-    Binding::READ,
-    Binding::READ,
-    Binding::READ,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::READ,
-    Binding::WRITE,
-];
 
 /// Words of the status block the barrier and incremental-potential kernels
 /// share (binding 10): four of the incremental-potential step, then
@@ -310,7 +294,6 @@ impl BarrierKernels {
                 label: "hyperpbd barrier",
                 dim,
                 precision,
-                groups: &[&BARRIER_BINDINGS],
                 entries: &[
                     BarrierEntry::Evaluate,
                     BarrierEntry::Filter,

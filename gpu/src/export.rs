@@ -20,7 +20,7 @@ use std::sync::OnceLock;
 use hyperpbd_core::GpuError;
 
 use crate::context::GpuContext;
-use crate::kernel_set::{Binding, BlockWriter, EntryPoint, KernelSet, KernelSetSpec};
+use crate::kernel_set::{BlockWriter, EntryPoint, KernelSet, KernelSetSpec};
 /// Where the positions sit (it lives with the resident state it
 /// describes; re-exported here, where `position_layout` hands it out).
 pub use crate::resident::PositionLayout;
@@ -38,12 +38,6 @@ impl EntryPoint for ExportEntry {
         (ShaderFile::Export, "export_positions")
     }
 }
-
-const UNIFORM: Binding = Binding {
-    read_only: true,
-    dynamic: false,
-    uniform: true,
-};
 
 /// The export pipeline of one backend (built on first use).
 #[derive(Default)]
@@ -103,7 +97,6 @@ impl Exporter {
                         label: "export_positions",
                         dim: n,
                         precision: layout.precision,
-                        groups: &[&[Binding::READ, UNIFORM, Binding::WRITE]],
                         entries: &[ExportEntry],
                         constants: &[],
                     },

@@ -26,12 +26,11 @@ use hyperpbd_core::{
 
 use crate::Precision;
 use crate::barrier::{
-    BARRIER_BINDINGS, NONE, STATUS_WORDS, barrier_resources, infeasible_start, refuse_cut_loops,
-    status_words,
+    NONE, STATUS_WORDS, barrier_resources, infeasible_start, refuse_cut_loops, status_words,
 };
 use crate::context::{DeviceSource, GpuContext};
 use crate::export::Exporter;
-use crate::kernel_set::{Binding, BlockWriter, EntryPoint, KernelSet, KernelSetSpec, ParamBlocks};
+use crate::kernel_set::{BlockWriter, EntryPoint, KernelSet, KernelSetSpec, ParamBlocks};
 use crate::params::{push_reals, read_reals, real_size};
 use crate::resident::ResidentState;
 use crate::resident_backend::{minimising_backend, resident_backend};
@@ -64,22 +63,6 @@ impl EntryPoint for IpEntry {
         (ShaderFile::IncrementalPotential, name)
     }
 }
-
-/// Group-0 bindings: barrier.wgsl's 0..=10 (10: the shared status block),
-/// then v x_prev prediction inv_mass gravity_scale force terms gravity.
-const IP_BINDINGS: [Binding; 19] = Binding::joined(
-    BARRIER_BINDINGS,
-    [
-        Binding::WRITE,
-        Binding::WRITE,
-        Binding::WRITE,
-        Binding::READ,
-        Binding::READ,
-        Binding::READ,
-        Binding::WRITE,
-        Binding::READ,
-    ],
-);
 
 /// The status block before a pass: nothing moved, no failing particle,
 /// no stall, no loop cut short.
@@ -153,7 +136,6 @@ impl GpuBarrierBackend {
                 label: "hyperpbd incremental potential",
                 dim,
                 precision,
-                groups: &[&IP_BINDINGS, &[Binding::BLOCK]],
                 entries: &[
                     IpEntry::Predict,
                     IpEntry::Gradient,

@@ -7,10 +7,14 @@
 //! ```text
 //! KernelSet::new(device, &KernelSetSpec {
 //!     label, dim, precision,
-//!     groups:  [[Binding; …]; …]       bind group g, binding k = groups[g][k]
 //!     entries: [E; …]                  E: EntryPoint → (ShaderFile, "name")
 //!     constants: [(name, value); …]    overrides every pipeline of the set shares
 //! })
+//!   reads the bind groups from the WGSL itself (naga): binding k of group g
+//!   is the module's `@group(g) @binding(k)` global — `var<storage, read>`
+//!   READ, `read_write` WRITE, `var<uniform>` a uniform; group 0 holds the
+//!   buffers, a group ≥ 1 the parameter blocks, bound with dynamic offsets
+//!   (so no hand-written table can disagree with the shader);
 //!   checks the storage bindings per stage against the device limit;
 //!   composes each ShaderFile once: shader::compose(file, dim, precision),
 //!   whose header carries `const WORKGROUP: u32 = file.workgroup_size()`
@@ -31,8 +35,8 @@
 //!
 //! A new kernel set (say, a contact solver) writes its WGSL file with
 //! `@workgroup_size(WORKGROUP)` and [`linear_index`-style] indexing, adds its
-//! [`ShaderFile`], lists its bindings and entry points, and gets everything
-//! else from here.
+//! [`ShaderFile`], lists its entry points, and gets everything else (its
+//! bind-group layouts included) from here.
 //!
 //! [`linear_index`-style]: crate::shader
 
@@ -46,7 +50,7 @@ use crate::shader::{ShaderFile, compose};
 /// Workgroups along x before the grid spills over to y (the WebGPU limit).
 pub(crate) const MAX_GROUPS_X: u32 = 65_535;
 
-/// One storage-buffer binding of a kernel set.
+/// One binding of a kernel set, as the WGSL declares it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct Binding {
     /// `var<storage, read>` rather than `read_write`.
@@ -57,58 +61,59 @@ pub(crate) struct Binding {
     pub uniform: bool,
 }
 
-impl Binding {
-    /// A `read_write` storage buffer.
-    pub const WRITE: Binding = Binding {
-        read_only: false,
-        dynamic: false,
-        uniform: false,
-    };
-    /// A `read` storage buffer.
-    pub const READ: Binding = Binding {
-        read_only: true,
-        dynamic: false,
-        uniform: false,
-    };
-    /// A read-only parameter block selected per dispatch by a dynamic offset.
-    pub const BLOCK: Binding = Binding {
-        read_only: true,
-        dynamic: true,
-        uniform: false,
-    };
-    /// A uniform block selected per dispatch by a dynamic offset.
-    pub const UNIFORM_BLOCK: Binding = Binding {
-        read_only: true,
-        dynamic: true,
-        uniform: true,
-    };
-}
-
-/// Bindings 0..=3 of group 0 wherever `prelude.wgsl` is included: the
-/// particle records x v p (read_write) and force (read).
-pub(crate) const PRELUDE_BINDINGS: [Binding; 4] = [
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::WRITE,
-    Binding::READ,
-];
-
-impl Binding {
-    /// `head` then `tail`: a module's group that extends another's
-    /// (C = A + B, checked where the constant is evaluated).
-    pub const fn joined<const A: usize, const B: usize, const C: usize>(
-        head: [Binding; A],
-        tail: [Binding; B],
-    ) -> [Binding; C] {
-        assert!(A + B == C, "C = A + B");
-        let mut out = [Binding::READ; C];
-        let mut i = 0;
-        while i < C {
-            out[i] = if i < A { head[i] } else { tail[i - A] };
-            i += 1;
+/// The bind groups of `spec`'s modules, read from their composed WGSL:
+/// every `@group(g) @binding(k)` global of every file an entry comes from
+/// (a binding some file writes is WRITE), dense in k; groups ≥ 1 are
+/// parameter blocks, bound with dynamic offsets.
+fn reflect_groups<E: EntryPoint>(
+    spec: &KernelSetSpec<'_, E>,
+) -> Result<Vec<Vec<Binding>>, GpuError> {
+    let mut files: Vec<ShaderFile> = Vec::new();
+    for &entry in spec.entries {
+        let (file, _) = entry.source();
+        if !files.contains(&file) {
+            files.push(file);
         }
-        out
     }
+    let mut found: std::collections::BTreeMap<(u32, u32), Binding> = Default::default();
+    for file in files {
+        let source = compose(file, spec.dim, spec.precision);
+        let module = naga::front::wgsl::parse_str(&source).map_err(|e| GpuError::Other {
+            message: format!("{}: {}", file.file_name(), e.emit_to_string(&source)),
+        })?;
+        for (_, var) in module.global_variables.iter() {
+            let Some(at) = &var.binding else { continue };
+            let (read_only, uniform) = match var.space {
+                naga::AddressSpace::Storage { access } => {
+                    (!access.contains(naga::StorageAccess::STORE), false)
+                }
+                naga::AddressSpace::Uniform => (true, true),
+                _ => continue,
+            };
+            let binding = found.entry((at.group, at.binding)).or_insert(Binding {
+                read_only,
+                dynamic: at.group > 0,
+                uniform,
+            });
+            binding.read_only &= read_only;
+        }
+    }
+    let mut groups: Vec<Vec<Binding>> = Vec::new();
+    for ((group, binding), b) in found {
+        let group = group as usize;
+        groups.resize(groups.len().max(group + 1), Vec::new());
+        if binding as usize != groups[group].len() {
+            return Err(GpuError::Other {
+                message: format!(
+                    "{}: @group({group}) skips binding {} (bindings must be dense)",
+                    spec.label,
+                    groups[group].len()
+                ),
+            });
+        }
+        groups[group].push(b);
+    }
+    Ok(groups)
 }
 
 /// A storage-buffer layout entry visible to compute shaders.
@@ -146,8 +151,6 @@ pub(crate) struct KernelSetSpec<'a, E> {
     pub dim: usize,
     /// Precision the modules are composed for.
     pub precision: Precision,
-    /// Bind groups in order; binding k of group g is `groups[g][k]`.
-    pub groups: &'a [&'a [Binding]],
     /// Every entry point the set dispatches.
     pub entries: &'a [E],
     /// `override` constants every pipeline of the set is specialised with,
@@ -167,8 +170,8 @@ impl<E: EntryPoint> KernelSet<E> {
     /// Builds the layouts, modules and pipelines of `spec` on `device`.
     pub fn new(device: &wgpu::Device, spec: &KernelSetSpec<'_, E>) -> Result<Self, GpuError> {
         let limits = device.limits();
-        let needed: usize = spec
-            .groups
+        let groups = reflect_groups(spec)?;
+        let needed: usize = groups
             .iter()
             .map(|g| g.iter().filter(|b| !b.uniform).count())
             .sum();
@@ -180,8 +183,7 @@ impl<E: EntryPoint> KernelSet<E> {
                 ),
             });
         }
-        let layouts: Vec<wgpu::BindGroupLayout> = spec
-            .groups
+        let layouts: Vec<wgpu::BindGroupLayout> = groups
             .iter()
             .map(|bindings| {
                 let entries: Vec<_> = bindings
@@ -246,7 +248,7 @@ impl<E: EntryPoint> KernelSet<E> {
         Ok(KernelSet {
             label: spec.label,
             layouts,
-            groups: spec.groups.iter().map(|g| g.to_vec()).collect(),
+            groups,
             pipelines,
         })
     }

@@ -30,7 +30,7 @@ pub(crate) use buffers::{Block, Bound, ContactBuffers, Outcome, Particles};
 use hyperpbd_core::{GpuError, Kernel, Plan};
 
 use crate::Precision;
-use crate::kernel_set::{Binding, EntryPoint, KernelSet, KernelSetSpec, PRELUDE_BINDINGS};
+use crate::kernel_set::{EntryPoint, KernelSet, KernelSetSpec};
 use crate::shader::ShaderFile;
 
 /// Invocations of `boxes_and_bounds` (`BOUND_THREADS` in contact.wgsl).
@@ -125,24 +125,6 @@ pub(crate) enum ContactPhase {
     Report,
 }
 
-/// Group 0 (contact.wgsl): the prelude's x v p force, then status props
-/// boxes cands snapshot scratch counters ranges words lists.
-const BINDINGS: [Binding; 14] = Binding::joined(
-    PRELUDE_BINDINGS,
-    [
-        Binding::WRITE,
-        Binding::READ,
-        Binding::WRITE,
-        Binding::WRITE,
-        Binding::WRITE,
-        Binding::WRITE,
-        Binding::WRITE,
-        Binding::WRITE,
-        Binding::WRITE,
-        Binding::WRITE,
-    ],
-);
-
 /// The contact kernel set for one dimension and precision.
 pub(crate) struct ContactKernels {
     dim: usize,
@@ -171,7 +153,6 @@ impl ContactKernels {
                 label: "hyperpbd contact",
                 dim,
                 precision,
-                groups: &[&BINDINGS, &[Binding::BLOCK]],
                 entries: &ContactEntry::ALL,
                 constants: &[],
             },

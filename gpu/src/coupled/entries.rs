@@ -1,9 +1,9 @@
 //! The coupled step's kernel set: its entry points in
-//! `shaders/coupled.wgsl` and `shaders/coupled_solve.wgsl`, their bindings,
-//! and the vector regions they share with the host.
+//! `shaders/coupled.wgsl` and `shaders/coupled_solve.wgsl` (their bindings
+//! are the WGSL's own, read by the kernel-set builder), and the vector
+//! regions they share with the host.
 
-use crate::barrier::BARRIER_BINDINGS;
-use crate::kernel_set::{Binding, EntryPoint};
+use crate::kernel_set::EntryPoint;
 use crate::shader::ShaderFile;
 
 /// Entry points of `shaders/coupled.wgsl`.
@@ -71,31 +71,6 @@ impl EntryPoint for Entry {
         (ShaderFile::Coupled, name)
     }
 }
-
-/// Group-0 bindings: barrier.wgsl's 0..=10, then v force mass
-/// gravity_scale gravity plane_mu lag_force element_words element_reals
-/// gather records slots vectors terms tree params.
-pub(crate) const BINDINGS: [Binding; 27] = Binding::joined(
-    BARRIER_BINDINGS,
-    [
-        Binding::WRITE,
-        Binding::READ,
-        Binding::READ,
-        Binding::READ,
-        Binding::READ,
-        Binding::READ,
-        Binding::WRITE,
-        Binding::READ,
-        Binding::READ,
-        Binding::READ,
-        Binding::WRITE,
-        Binding::WRITE,
-        Binding::WRITE,
-        Binding::WRITE,
-        Binding::WRITE,
-        Binding::READ,
-    ],
-);
 
 /// Vector regions of `coupled.wgsl` (R_*).
 pub(crate) mod region {

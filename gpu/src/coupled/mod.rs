@@ -37,7 +37,7 @@ use crate::Precision;
 use crate::barrier::barrier_resources;
 use crate::context::{DeviceSource, GpuContext};
 use crate::export::Exporter;
-use crate::kernel_set::{Binding, KernelSet, KernelSetSpec};
+use crate::kernel_set::{KernelSet, KernelSetSpec};
 use crate::params::{push_reals, real_size};
 use crate::resident::ResidentState;
 use crate::resident_backend::{minimising_backend, resident_backend};
@@ -127,7 +127,6 @@ impl GpuCoupledBackend {
                 label: "hyperpbd coupled step",
                 dim,
                 precision,
-                groups: &[&entries::BINDINGS, &[Binding::BLOCK]],
                 entries: &Entry::ALL,
                 constants: &[],
             },

@@ -29,7 +29,7 @@ pub(crate) mod schedule;
 use hyperpbd_core::{FamilyKind, GpuError, Plan};
 
 use crate::SceneOrigin;
-use crate::kernel_set::{Binding, EntryPoint, KernelSet, PRELUDE_BINDINGS};
+use crate::kernel_set::{EntryPoint, KernelSet};
 use crate::shader::ShaderFile;
 use call::Call;
 pub(crate) use residual::step_report;
@@ -221,25 +221,6 @@ impl EntryPoint for XpbdEntry {
         }
     }
 }
-
-/// Group 0 of the step module, in binding order (see the module doc): the
-/// prelude's, then step.wgsl's gravity_scale … pairs.
-pub(crate) const BINDINGS: [Binding; 15] = Binding::joined(
-    PRELUDE_BINDINGS,
-    [
-        Binding::READ,
-        Binding::READ,
-        Binding::READ,
-        Binding::WRITE,
-        Binding::WRITE,
-        Binding::WRITE,
-        Binding::READ,
-        Binding::READ,
-        Binding::WRITE,
-        Binding::READ,
-        Binding::READ,
-    ],
-);
 
 /// A dispatch with its block's dynamic offset.
 #[derive(Debug, Clone, Copy)]
