@@ -193,6 +193,7 @@ impl GpuBackend {
             device,
             &KernelSetSpec {
                 label: "hyperpbd xpbd",
+                modules: &[crate::shader::ShaderFile::Step],
                 dim,
                 precision,
                 entries: &entries,

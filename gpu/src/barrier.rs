@@ -292,6 +292,7 @@ impl BarrierKernels {
             &ctx.device,
             &KernelSetSpec {
                 label: "hyperpbd barrier",
+                modules: &[ShaderFile::Barrier],
                 dim,
                 precision,
                 entries: &[

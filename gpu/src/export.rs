@@ -95,6 +95,7 @@ impl Exporter {
                     &ctx.device,
                     &KernelSetSpec {
                         label: "export_positions",
+                        modules: &[ShaderFile::Export],
                         dim: n,
                         precision: layout.precision,
                         entries: &[ExportEntry],

@@ -134,6 +134,7 @@ impl GpuBarrierBackend {
             &ctx.device,
             &KernelSetSpec {
                 label: "hyperpbd incremental potential",
+                modules: &[ShaderFile::IncrementalPotential],
                 dim,
                 precision,
                 entries: &[

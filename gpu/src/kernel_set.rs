@@ -7,6 +7,7 @@
 //! ```text
 //! KernelSet::new(device, &KernelSetSpec {
 //!     label, dim, precision,
+//!     modules: [ShaderFile; …]         whose @group/@binding globals are the layouts
 //!     entries: [E; …]                  E: EntryPoint → (ShaderFile, "name")
 //!     constants: [(name, value); …]    overrides every pipeline of the set shares
 //! })
@@ -62,13 +63,14 @@ pub(crate) struct Binding {
 }
 
 /// The bind groups of `spec`'s modules, read from their composed WGSL:
-/// every `@group(g) @binding(k)` global of every file an entry comes from
+/// every `@group(g) @binding(k)` global of `spec.modules` and of every
+/// file an entry comes from
 /// (a binding some file writes is WRITE), dense in k; groups ≥ 1 are
 /// parameter blocks, bound with dynamic offsets.
 fn reflect_groups<E: EntryPoint>(
     spec: &KernelSetSpec<'_, E>,
 ) -> Result<Vec<Vec<Binding>>, GpuError> {
-    let mut files: Vec<ShaderFile> = Vec::new();
+    let mut files: Vec<ShaderFile> = spec.modules.to_vec();
     for &entry in spec.entries {
         let (file, _) = entry.source();
         if !files.contains(&file) {
@@ -151,6 +153,10 @@ pub(crate) struct KernelSetSpec<'a, E> {
     pub dim: usize,
     /// Precision the modules are composed for.
     pub precision: Precision,
+    /// The modules whose `@group/@binding` globals are the set's bind
+    /// groups (read even when `entries` is empty: an empty scene still
+    /// binds its buffers).
+    pub modules: &'a [ShaderFile],
     /// Every entry point the set dispatches.
     pub entries: &'a [E],
     /// `override` constants every pipeline of the set is specialised with,

@@ -151,6 +151,7 @@ impl ContactKernels {
             device,
             &KernelSetSpec {
                 label: "hyperpbd contact",
+                modules: &[ShaderFile::Scan, ShaderFile::Grid, ShaderFile::Collide],
                 dim,
                 precision,
                 entries: &ContactEntry::ALL,

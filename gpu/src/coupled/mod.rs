@@ -125,6 +125,7 @@ impl GpuCoupledBackend {
             &ctx.device,
             &KernelSetSpec {
                 label: "hyperpbd coupled step",
+                modules: &[crate::shader::ShaderFile::Coupled],
                 dim,
                 precision,
                 entries: &Entry::ALL,
