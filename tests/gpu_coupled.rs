@@ -249,3 +249,34 @@ fn a_refused_step_rolls_back_and_names_the_pair() {
     );
     assert_eq!(bits(&before), bits(&gpu.read_state().expect("state")));
 }
+
+/// A chain of 100 beads (99 links): every block-tree reduction (particles,
+/// elements, filter times) has a second level, which no other scene here
+/// reaches (a tree over at most 64 terms is one workgroup; mutant M114).
+#[test]
+fn a_chain_of_a_hundred_beads_reduces_over_two_levels() {
+    let mut scene = Scene::new(2, 1.0 / 60.0, 1, 1);
+    scene.gravity = Some(vec![0.0, -common::implicit_scenes::G]);
+    scene.particles.push(particle(vec![0.0, 0.0], None, 0.0));
+    for k in 1..100 {
+        scene
+            .particles
+            .push(particle(vec![0.01 * k as f64, 0.0], Some(0.1), 0.0));
+    }
+    scene.constraints.push(ConstraintFamily::new(
+        ConstraintKind::Distance,
+        1e-4,
+        (0..99).map(|k| vec![k, k + 1]).collect(),
+    ));
+    let mut s = settings(1e3, 1e-3, 1e-1, 20);
+    s.cg_iterations = Some(50);
+    scene.solver = Solver::IncrementalPotential(s);
+    let links = |s: &State| {
+        let x = &s.positions;
+        let worst = (0..99)
+            .map(|k| ((x[2 * k + 2] - x[2 * k]).hypot(x[2 * k + 3] - x[2 * k + 1]) - 0.01).abs())
+            .fold(0.0, f64::max);
+        (worst, 1e-3)
+    };
+    differential("chain of 100 beads", &scene, 4, links);
+}
