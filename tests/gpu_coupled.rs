@@ -280,3 +280,40 @@ fn a_chain_of_a_hundred_beads_reduces_over_two_levels() {
     };
     differential("chain of 100 beads", &scene, 4, links);
 }
+
+/// A pendulum whose fixed anchor sits on (radius: sunk into) the frictional
+/// floor it swings onto: fixed particles are outside the barrier and the
+/// certified filter on both paths (validation checks free particles only),
+/// so an anchor at d ≤ 0 must neither refuse the start (mutant M116) nor
+/// stall every line search at t = 0 (M115).
+#[test]
+fn an_anchor_sunk_into_the_floor_is_the_golden_path() {
+    let mut scene = Scene::new(2, 1.0 / 60.0, 1, 1);
+    scene.gravity = Some(vec![0.0, -common::implicit_scenes::G]);
+    scene.particles.push(particle(vec![0.0, 0.0], None, 0.05));
+    for k in 1..6 {
+        let r = 0.1 * k as f64;
+        scene
+            .particles
+            .push(particle(vec![0.6 * r, 0.8 * r], Some(0.2), 0.02));
+    }
+    scene.constraints.push(ConstraintFamily::new(
+        ConstraintKind::Distance,
+        1e-6,
+        (0..5).map(|k| vec![k, k + 1]).collect(),
+    ));
+    scene.obstacles.push(Obstacle::Hyperplane {
+        normal: vec![0.0, 1.0],
+        offset: 0.0,
+        friction: 0.3,
+        compliance: 0.0,
+    });
+    scene.solver = Solver::IncrementalPotential(settings(1e4, 1e-2, 1e-2, 50));
+    let above = |s: &State| {
+        let lowest = (1..6)
+            .map(|k| s.positions[2 * k + 1] - 0.02)
+            .fold(f64::INFINITY, f64::min);
+        (-lowest, 0.0)
+    };
+    differential("anchor sunk into the floor", &scene, 40, above);
+}
