@@ -1,7 +1,9 @@
 //! The coupled implicit step on the GPU (issue 16, item 4;
 //! `GpuCoupledBackend`, `shaders/coupled.wgsl`) against the golden path:
 //! every evidence scene of `tests/implicit_step.rs` stepped on both, frame
-//! by frame. In f64 on lavapipe every state, and every minimisation's
+//! by frame, and scenes for the branches they miss (measures and tethers;
+//! a 100-bead chain and an anchor sunk into a floor, written for mutants
+//! M114–M116 of docs/mutation.md). In f64 on lavapipe every state, and every minimisation's
 //! report (residuals, Newton and CG iterations, status), is bit-identical
 //! to the CPU's; on an adapter without that guarantee (it may contract
 //! a·b + c) the GPU run is held to the scene's own evidence bound instead.
