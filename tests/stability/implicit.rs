@@ -71,12 +71,19 @@ fn refused_on(case: &str, kind: BackendKind, scene: &Scene, why: &str) {
             kind.name()
         ),
         Err(error) => {
-            report(case, kind, "refused (typed)", "-", 0.0, &format!("{error}"));
             assert!(
                 matches!(&error, BackendError::Gpu(GpuError::Unsupported { what })
                     if what.contains("coupled implicit step") && what.contains(why)),
                 "{case} ({}): {error:?}",
                 kind.name()
+            );
+            report(
+                case,
+                kind,
+                "refused: GpuError::Unsupported",
+                "-",
+                0.0,
+                &format!("{error}"),
             );
         }
     }
