@@ -1,7 +1,9 @@
 //! The coupled implicit step on the GPU (issue 16, item 4;
 //! `GpuCoupledBackend`, `shaders/coupled.wgsl`) against the golden path:
 //! every evidence scene of `tests/implicit_step.rs` stepped on both, frame
-//! by frame. In f64 on lavapipe every state, and every minimisation's
+//! by frame, and scenes for the branches they miss (measures and tethers;
+//! a 100-bead chain and an anchor sunk into a floor, written for mutants
+//! M114–M116 of docs/mutation.md). In f64 on lavapipe every state, and every minimisation's
 //! report (residuals, Newton and CG iterations, status), is bit-identical
 //! to the CPU's; on an adapter without that guarantee (it may contract
 //! a·b + c) the GPU run is held to the scene's own evidence bound instead.
@@ -323,4 +325,72 @@ fn a_refused_step_rolls_back_and_names_the_pair() {
         "{gpu_error}"
     );
     assert_eq!(bits(&before), bits(&gpu.read_state().expect("state")));
+}
+
+/// A chain of 100 beads (99 links): every block-tree reduction (particles,
+/// elements, filter times) has a second level, which no other scene here
+/// reaches (a tree over at most 64 terms is one workgroup; mutant M114).
+#[test]
+fn a_chain_of_a_hundred_beads_reduces_over_two_levels() {
+    let mut scene = Scene::new(2, 1.0 / 60.0, 1, 1);
+    scene.gravity = Some(vec![0.0, -common::implicit_scenes::G]);
+    scene.particles.push(particle(vec![0.0, 0.0], None, 0.0));
+    for k in 1..100 {
+        scene
+            .particles
+            .push(particle(vec![0.01 * k as f64, 0.0], Some(0.1), 0.0));
+    }
+    scene.constraints.push(ConstraintFamily::new(
+        ConstraintKind::Distance,
+        1e-4,
+        (0..99).map(|k| vec![k, k + 1]).collect(),
+    ));
+    let mut s = settings(1e3, 1e-3, 1e-1, 20);
+    s.cg_iterations = Some(50);
+    scene.solver = Solver::IncrementalPotential(s);
+    let links = |s: &State| {
+        let x = &s.positions;
+        let worst = (0..99)
+            .map(|k| ((x[2 * k + 2] - x[2 * k]).hypot(x[2 * k + 3] - x[2 * k + 1]) - 0.01).abs())
+            .fold(0.0, f64::max);
+        (worst, 1e-3)
+    };
+    differential("chain of 100 beads", &scene, 4, links);
+}
+
+/// A pendulum whose fixed anchor sits on (radius: sunk into) the frictional
+/// floor it swings onto: fixed particles are outside the barrier and the
+/// certified filter on both paths (validation checks free particles only),
+/// so an anchor at d ≤ 0 must neither refuse the start (mutant M116) nor
+/// stall every line search at t = 0 (M115).
+#[test]
+fn an_anchor_sunk_into_the_floor_is_the_golden_path() {
+    let mut scene = Scene::new(2, 1.0 / 60.0, 1, 1);
+    scene.gravity = Some(vec![0.0, -common::implicit_scenes::G]);
+    scene.particles.push(particle(vec![0.0, 0.0], None, 0.05));
+    for k in 1..6 {
+        let r = 0.1 * k as f64;
+        scene
+            .particles
+            .push(particle(vec![0.6 * r, 0.8 * r], Some(0.2), 0.02));
+    }
+    scene.constraints.push(ConstraintFamily::new(
+        ConstraintKind::Distance,
+        1e-6,
+        (0..5).map(|k| vec![k, k + 1]).collect(),
+    ));
+    scene.obstacles.push(Obstacle::Hyperplane {
+        normal: vec![0.0, 1.0],
+        offset: 0.0,
+        friction: 0.3,
+        compliance: 0.0,
+    });
+    scene.solver = Solver::IncrementalPotential(settings(1e4, 1e-2, 1e-2, 50));
+    let above = |s: &State| {
+        let lowest = (1..6)
+            .map(|k| s.positions[2 * k + 1] - 0.02)
+            .fold(f64::INFINITY, f64::min);
+        (-lowest, 0.0)
+    };
+    differential("anchor sunk into the floor", &scene, 40, above);
 }
