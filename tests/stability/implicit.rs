@@ -4,11 +4,10 @@
 //! CPU golden path and on gpu-f64 (`GpuCoupledBackend`, docs/implicit.md
 //! §12): every case the GPU runs is held to the CPU's asserted bounds and,
 //! on lavapipe (`common::exact::f64_identical`), is bit-identical to the
-//! CPU run after every step; the cases it does not run yet
-//! (`implicit_eight_dimensions`: pair friction; `implicit_material_drop`:
-//! a material family) assert its typed refusal, `GpuError::Unsupported`,
-//! as every case does for gpu-f32 (the coupled step is f64-only on the
-//! GPU). Rigid links (compliance 0) are no energy there, so each chain's
+//! CPU run after every step; the case it does not run yet
+//! (`implicit_material_drop`: a material family) asserts its typed
+//! refusal, `GpuError::Unsupported`, as every case does for gpu-f32 (the
+//! coupled step is f64-only on the GPU). Rigid links (compliance 0) are no energy there, so each chain's
 //! links are stiff springs instead; everything else is the XPBD case's
 //! scene.
 //!
@@ -316,8 +315,8 @@ fn implicit_far_offset_1e5() {
 /// R^8: five balls (radius 0.1 m, 1 kg) in a column 0.05 m apart, each
 /// offset along a different axis, falling onto the plane x_1 = 0 with
 /// μ = 0.3 and ball friction 0.2, 2 s: ball pairs, plane barriers and
-/// both frictions in eight dimensions. gpu-f64 refuses it (pair friction
-/// is not built there yet).
+/// both frictions in eight dimensions; on gpu-f64 in lockstep, bit for
+/// bit on lavapipe after every step.
 #[test]
 fn implicit_eight_dimensions() {
     let case = "implicit_eight_dimensions";
@@ -338,14 +337,16 @@ fn implicit_eight_dimensions() {
     });
     b.scene_mut().solver = implicit(1e4, 1e-2, 1e-3);
     let scene = b.build().expect("valid");
-    refused_on(case, GPU_F64, &scene, "collisions.friction > 0");
     refused_on(case, GPU_F32, &scene, "f32");
     let (mut backend, initial) = cpu(case, &scene);
-    let mut closest = f64::INFINITY;
-    let mut m: Option<Measured> = None;
-    for _ in 0..120 {
-        let measured = run(case, backend.as_mut(), &initial, 1);
-        let s = &measured.last;
+    let mut gpu = adapter_or_skip(case, Precision::F64).map(|(adapter, summary)| {
+        let plan = Plan::compile(&scene).expect("compiles");
+        let loaded = hyperpbd::load_on_adapter(&adapter, plan, &initial, Precision::F64)
+            .unwrap_or_else(|e| panic!("{case} (gpu-f64): {e}"));
+        (loaded, f64_identical(&summary))
+    });
+    let closest_gap = |s: &State| {
+        let mut closest = f64::INFINITY;
         for i in 0..5 {
             closest = closest.min(s.position(i)[1] - 0.1);
             for j in i + 1..5 {
@@ -354,6 +355,22 @@ fn implicit_eight_dimensions() {
                     .sum();
                 closest = closest.min(d.sqrt() - 0.2);
             }
+        }
+        closest
+    };
+    let mut closest = f64::INFINITY;
+    let mut gpu_closest = f64::INFINITY;
+    let mut m: Option<Measured> = None;
+    for step in 0..120 {
+        let measured = run(case, backend.as_mut(), &initial, 1);
+        closest = closest.min(closest_gap(&measured.last));
+        if let Some((loaded, exact)) = gpu.as_mut() {
+            let other = run(case, loaded.as_mut(), &initial, 1);
+            gpu_closest = gpu_closest.min(closest_gap(&other.last));
+            assert!(
+                !*exact || bits(&measured.last) == bits(&other.last),
+                "{case}: step {step}: the gpu-f64 state differs from the golden path"
+            );
         }
         let gain = measured.energy_gain;
         m = Some(match m {
@@ -364,6 +381,16 @@ fn implicit_eight_dimensions() {
                 ..measured
             },
         });
+    }
+    if gpu.is_some() {
+        check_residual(
+            case,
+            GPU_F64,
+            "−(smallest ball or plane gap) (m)",
+            -gpu_closest,
+            0.0,
+            "the certified filter over planes and ball pairs: d > 0",
+        );
     }
     let m = m.expect("steps ran");
     let kind = BackendKind::Cpu;
