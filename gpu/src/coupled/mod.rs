@@ -2,9 +2,10 @@
 //! the GPU, the golden path's schedule (`cpu/src/coupled/`) kernel for
 //! kernel: every per-element and per-particle pass, every vector update of
 //! PCG and the line search, and every sum on the block tree run in
-//! `shaders/coupled.wgsl`; the host runs the Newton loop's decisions on the
-//! few reduced scalars it reads back, through the same core functions as
-//! the CPU (`pcg_on`, `MinimisationReport`, `change_resolution`).
+//! `shaders/coupled.wgsl` and `coupled_solve.wgsl`; the host runs the
+//! Newton loop's decisions on the few reduced scalars it reads back,
+//! through the same core functions as the CPU (`pcg_on`, `armijo`,
+//! `MinimisationReport`, `change_resolution`).
 //!
 //! ```text
 //! per substep:  cp_start (x^t, x~, load, lags, d ≤ 0) → pairs at x^t (collisions) → warm start
