@@ -62,6 +62,10 @@ fn differential(test: &str, scene: &Scene, frames: usize, evidence: impl Fn(&Sta
                 a.minimisation, b.minimisation,
                 "{test}: frame {frame}: reports differ"
             );
+            assert_eq!(
+                a.residuals, b.residuals,
+                "{test}: frame {frame}: family residuals differ"
+            );
         } else {
             let (measured, bound) = evidence(&other);
             assert!(

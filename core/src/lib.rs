@@ -33,6 +33,7 @@ mod validate;
 mod validate_guards;
 mod validate_material;
 mod validate_solver;
+pub mod violation;
 
 pub use backend::{Backend, FamilyResidual, StepReport, check_forces, check_kernel, check_state};
 pub use builders::SceneBuilder;

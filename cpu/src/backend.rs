@@ -11,6 +11,7 @@
 
 use hyperpbd_core::adaptive::{Subdivided, step_adaptive};
 use hyperpbd_core::guards;
+use hyperpbd_core::violation::ball_overlap_residual;
 use hyperpbd_core::{
     Backend, BackendError, FamilyResidual, Kernel, MinimisationReport, Plan, StageName, State,
     StepError, StepReport, check_forces, check_kernel, check_state,
@@ -289,7 +290,12 @@ impl CpuBackend {
             .map(|f| residual::residual(workers, plan.dim, f, &self.x))
             .collect();
         if plan.contacts.is_some() {
-            residuals.push(collide::residual(workers, plan, &self.x, &self.contacts));
+            // The coupled step's balls are barriers with pair sets of its
+            // own: their overlap is measured over every nearby pair.
+            residuals.push(match plan.incremental_potential() {
+                Some(_) => ball_overlap_residual(plan, &self.x),
+                None => collide::residual(workers, plan, &self.x, &self.contacts),
+            });
         }
         StepReport {
             threads: workers.threads(),

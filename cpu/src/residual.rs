@@ -12,7 +12,7 @@
 use crate::dim::{Dim, with_dim};
 use crate::parallel::Workers;
 use crate::project::Workspace;
-use hyperpbd_core::geometry::{distance, oriented_measure, simplex_squared_measure};
+use hyperpbd_core::violation::geometric_violation;
 use hyperpbd_core::{Family, FamilyKind, FamilyResidual};
 use std::ops::Range;
 
@@ -65,24 +65,17 @@ fn violation<D: Dim>(
             let i = i as usize;
             points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
         }
-        let violation = match &family.kind {
-            FamilyKind::Distance => (distance(points, dim, grad) - family.rest[e]).abs(),
-            FamilyKind::Tether => (distance(points, dim, grad) - family.rest[e]).max(0.0),
-            FamilyKind::SimplexMeasure { .. } => {
-                (simplex_squared_measure(points, dim, grad, scratch) - family.rest[e]).abs()
-            }
-            FamilyKind::OrientedMeasure => {
-                (oriented_measure(points, dim, grad, scratch) - family.rest[e]).abs()
-            }
-            FamilyKind::HyperplaneContact { normal, .. } => {
+        let kind = &family.kind;
+        let geometric = geometric_violation(kind, family.rest[e], points, dim, grad, scratch);
+        let violation = match (geometric, kind) {
+            (Some(v), _) => v,
+            (None, FamilyKind::HyperplaneContact { normal, .. }) => {
                 (family.rest[e] - crate::project::dot(normal, points)).max(0.0)
             }
             // C, or +∞ for a refused element (its Neo-Hookean energy is
             // unbounded as J → 0⁺).
-            FamilyKind::Material { .. } => {
-                crate::material::energy_constraint(family, e, points, dim, grad, material)
-                    .unwrap_or(f64::INFINITY)
-            }
+            (None, _) => crate::material::energy_constraint(family, e, points, dim, grad, material)
+                .unwrap_or(f64::INFINITY),
         };
         worst = worst.max(violation);
     }

@@ -147,7 +147,8 @@ pub(crate) use resident_backend;
 /// minimise_kernel   Backend::run_kernel's body: save, run_minimise; results the
 ///                   device could not finish (GpuError) are rolled back
 /// Subdivided        one attempt = every Minimise kernel of every substep, the
-///                   state restored byte for byte on any error (no adaptive steps)
+///                   state restored byte for byte on any error (no adaptive steps);
+///                   its report carries the families' residuals (core's violation)
 /// ```
 macro_rules! minimising_backend {
     ($backend:ty) => {
@@ -206,9 +207,25 @@ macro_rules! minimising_backend {
                         }
                     }
                 }
+                // The families' and the balls' residuals at the accepted
+                // state, as the CPU reports them (one read-back, only with
+                // families or collisions).
+                let residuals = if self.plan.families.is_empty() && self.plan.contacts.is_none() {
+                    Vec::new()
+                } else {
+                    let x = self.state.read(&self.ctx)?.positions;
+                    let (plan, violation) =
+                        (&self.plan, ::hyperpbd_core::violation::geometric_residuals);
+                    let mut residuals = violation(&plan.families, plan.dim, &x);
+                    if plan.contacts.is_some() {
+                        residuals.push(::hyperpbd_core::violation::ball_overlap_residual(plan, &x));
+                    }
+                    residuals
+                };
                 Ok(::hyperpbd_core::StepReport {
                     kernel_calls: self.plan.kernel_counts(),
                     minimisation: std::mem::take(&mut self.reports),
+                    residuals,
                     ..::hyperpbd_core::StepReport::default()
                 })
             }

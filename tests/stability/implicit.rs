@@ -105,10 +105,10 @@ fn fold(run: Option<Measured>, step: Measured) -> Measured {
 
 /// The largest link violation at `state`: |ℓ − rest| of a distance
 /// element, max(0, ℓ − rest) of a tether (cpu/src/residual.rs, the same
-/// arithmetic). `GpuCoupledBackend`'s step report carries no family
-/// residuals (the CPU's does), so the GPU's runs are measured with this on
-/// their own states; it reproduces the CPU's reported value bit for bit
-/// (asserted on every CPU step).
+/// arithmetic), measured on each run's own state; it reproduces the CPU's
+/// reported value bit for bit (asserted on every CPU step), and
+/// tests/gpu_coupled.rs holds `GpuCoupledBackend`'s reported residuals to
+/// the CPU's.
 fn link_residual(plan: &Plan, state: &State) -> f64 {
     let n = plan.dim;
     let x = &state.positions;

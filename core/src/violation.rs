@@ -1,0 +1,94 @@
+//! Constraint violation of the geometric families (cpu/src/residual.rs's
+//! arithmetic, here once for every backend that reports residuals from a
+//! state it reads back).
+//!
+//! ```text
+//! distance, simplex / oriented measure:  |C| = |value − rest|
+//! tether:                                max(0, |x1 − x0| − rest)
+//! family residual:                       max over its elements (exact in any order)
+//! collisions (ball barriers):            max(0, max over pairs (r_i + r_j − |x_j − x_i|)),
+//!                                        pairs: every pair whose boxes x ± r overlap
+//!                                        (any overlapping pair has overlapping boxes)
+//! ```
+//! Contact and material families have their own violations (the backend's:
+//! contact normals, material laws) and are not handled here.
+
+use crate::broadphase::{Aabbs, grid_pairs};
+use crate::geometry::{
+    Scratch, deepest_overlap, distance, oriented_measure, simplex_squared_measure,
+};
+use crate::{Family, FamilyKind, FamilyResidual, Plan};
+
+/// The violation of one element of a geometric family at `points` (its
+/// members' coordinates, arity × `dim`); `None` for contact and material
+/// kinds. `grad` (arity × `dim`) is scratch.
+pub fn geometric_violation(
+    kind: &FamilyKind,
+    rest: f64,
+    points: &[f64],
+    dim: usize,
+    grad: &mut [f64],
+    scratch: &mut Scratch,
+) -> Option<f64> {
+    Some(match kind {
+        FamilyKind::Distance => (distance(points, dim, grad) - rest).abs(),
+        FamilyKind::Tether => (distance(points, dim, grad) - rest).max(0.0),
+        FamilyKind::SimplexMeasure { .. } => {
+            (simplex_squared_measure(points, dim, grad, scratch) - rest).abs()
+        }
+        FamilyKind::OrientedMeasure => (oriented_measure(points, dim, grad, scratch) - rest).abs(),
+        FamilyKind::HyperplaneContact { .. } | FamilyKind::Material { .. } => return None,
+    })
+}
+
+/// The residual of every geometric family of `families` at `x` (`dim`
+/// coordinates per particle), in family order; contact and material
+/// families are left out.
+pub fn geometric_residuals(families: &[Family], dim: usize, x: &[f64]) -> Vec<FamilyResidual> {
+    let mut scratch = Scratch::default();
+    let mut out = Vec::new();
+    for family in families {
+        if matches!(
+            family.kind,
+            FamilyKind::HyperplaneContact { .. } | FamilyKind::Material { .. }
+        ) {
+            continue;
+        }
+        let arity = family.arity;
+        let mut points = vec![0.0; arity * dim];
+        let mut grad = vec![0.0; arity * dim];
+        let mut worst: f64 = 0.0;
+        for e in 0..family.len() {
+            for (j, &i) in family.elements[e * arity..(e + 1) * arity]
+                .iter()
+                .enumerate()
+            {
+                let i = i as usize;
+                points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
+            }
+            let rest = family.rest[e];
+            let v = geometric_violation(&family.kind, rest, &points, dim, &mut grad, &mut scratch);
+            worst = worst.max(v.unwrap_or(0.0));
+        }
+        out.push(FamilyResidual {
+            label: family.label.clone(),
+            max_violation: worst,
+        });
+    }
+    out
+}
+
+/// The "collisions" residual of a plan whose balls are barrier terms (the
+/// coupled implicit step): the deepest overlap of any two balls at `x`
+/// (0 when none overlaps), over the pairs of the broadphase on the static
+/// boxes x ± r, pairs of two fixed particles left out.
+pub fn ball_overlap_residual(plan: &Plan, x: &[f64]) -> FamilyResidual {
+    let boxes = Aabbs::particles(plan.dim, x, &plan.radius, 0.0);
+    let w = &plan.inverse_mass;
+    let mut pairs = grid_pairs(&boxes);
+    pairs.retain(|&[i, j]| w[i as usize] + w[j as usize] > 0.0);
+    FamilyResidual {
+        label: "collisions".into(),
+        max_violation: deepest_overlap(plan.dim, &plan.radius, &pairs, x),
+    }
+}
