@@ -178,21 +178,16 @@ impl GpuCoupledBackend {
             reports: Vec::new(),
             exporter: Exporter::default(),
         };
-        backend.upload_elements(Vec::new(), Vec::new(), true)?;
+        backend.upload_elements(Vec::new(), true)?;
         backend.ctx.check()?;
         Ok(backend)
     }
 
     /// The element list of the plan's springs, the ball pairs `pairs` and
-    /// the pair friction lags `lags` (cpu/src/coupled/elements.rs
-    /// `rebuild`), uploaded when either changed (or `force`).
-    fn upload_elements(
-        &mut self,
-        pairs: Vec<Pair>,
-        lags: Vec<PairLag>,
-        force: bool,
-    ) -> Result<(), GpuError> {
-        if !force && pairs == self.pairs && lags == self.lags {
+    /// the pair friction lags `self.lags` (cpu/src/coupled/elements.rs
+    /// `rebuild`), uploaded when the pairs changed (or `force`: new lags).
+    fn upload_elements(&mut self, pairs: Vec<Pair>, force: bool) -> Result<(), GpuError> {
+        if !force && pairs == self.pairs {
             return Ok(());
         }
         let plan = &self.plan;
@@ -225,7 +220,7 @@ impl GpuCoupledBackend {
         for pair in &pairs {
             push(pair, 4, &[]);
         }
-        for lag in &lags {
+        for lag in &self.lags {
             let mut reals = vec![lag.force_limit];
             reals.extend(&lag.normal);
             push(&lag.pair, 5, &reals);
@@ -235,7 +230,6 @@ impl GpuCoupledBackend {
         self.device
             .upload(&self.ctx, &self.state, up, pairs.len())?;
         self.pairs = pairs;
-        self.lags = lags;
         Ok(())
     }
 

@@ -208,31 +208,35 @@ impl GpuCoupledBackend {
             )));
         }
         let dim = self.plan.dim;
-        let mut start = Vec::new();
+        let inertial = self.coupled.warm_start == WarmStart::Inertial;
         if self.coupled.collisions {
-            start = self
-                .device
-                .read_regions(&self.ctx, &[region::START])?
-                .remove(0);
-            let pairs = self.sweep(&start, &start);
+            // x^t (and x~ for the inertial warm start) in one read-back.
+            let wanted: &[usize] = if inertial {
+                &[region::START, region::PREDICTION]
+            } else {
+                &[region::START]
+            };
+            let v = self.device.read_regions(&self.ctx, wanted)?;
+            let start = &v[0];
+            let at_start = self.sweep(start, start);
             let (law, friction) = (&self.ip.law, self.coupled.pair_friction);
             let radius = &self.plan.radius;
-            let lags = match pair_lags(law, friction, &start, radius, dim, &pairs) {
+            let lags = match pair_lags(law, friction, start, radius, dim, &at_start) {
                 Ok(lags) => lags,
                 Err(refusal) => return Ok(Some(refusal)),
             };
-            self.upload_elements(pairs, lags, false)?;
+            let changed = lags != self.lags;
+            self.lags = lags;
+            // P_0: the pairs at x^t, or over the segment to x~ (§7 step 4).
+            let pairs = if inertial {
+                self.sweep(start, &v[1])
+            } else {
+                at_start
+            };
+            self.upload_elements(pairs, changed)?;
         }
-        if self.coupled.warm_start == WarmStart::Previous {
+        if !inertial {
             return Ok(None);
-        }
-        if self.coupled.collisions {
-            let prediction = self
-                .device
-                .read_regions(&self.ctx, &[region::PREDICTION])?
-                .remove(0);
-            let pairs = self.sweep(&start, &prediction);
-            self.upload_elements(pairs, self.lags.clone(), false)?;
         }
         let tau = self.filter()?;
         self.device.params.step = tau;
@@ -322,7 +326,7 @@ impl GpuCoupledBackend {
                     .read_regions(&self.ctx, &[region::X, region::DIRECTION])?;
                 let reach: Vec<f64> = v[0].iter().zip(&v[1]).map(|(x, d)| x + d).collect();
                 let pairs = self.sweep(&v[0], &reach);
-                self.upload_elements(pairs, self.lags.clone(), false)?;
+                self.upload_elements(pairs, false)?;
             }
             let fraction = self.filter()?;
             // 10–11: Armijo on the difference form of F's change.
