@@ -1,8 +1,10 @@
 // The coupled implicit step (docs/implicit.md §7; golden: cpu/src/coupled/),
 // composed after measure.wgsl (distance, simplex measures) and barrier.wgsl
 // (its bindings 0..=10, obstacle_distance, barrier_law with ln_real,
-// check_loops); coupled_solve.wgsl follows. Same arithmetic, in the same
-// order, as the f64 golden path.
+// check_loops); coupled_solve.wgsl and the material elements' file
+// (coupled_material.wgsl, after material.wgsl, symmetric_eigen.wgsl and
+// material_hessian.wgsl) follow. Same arithmetic, in the same order, as the
+// f64 golden path.
 //
 //   point  binding 0 (`x`): where the evaluation passes look (x_k or a trial)
 //   vectors[R·n·DIM + k]: the step's vectors by region R (R_* below)
@@ -10,6 +12,8 @@
 //     spring  c = (along, across) radial (distance, tether) | (1/α, 0) Gauss–Newton;  aux = ∇C
 //     ball    c = (along, across) of K⁺ = b'' n nᵀ;                              aux = ∇d = (−n, n)
 //     lag     c = (along, across) of the tangent K (friction.rs);                aux = (û, 0)
+//     material  c = 0, aux = 0: its record, slots and change are written by
+//             coupled_material.wgsl (the passes here skip code MATERIAL)
 //   gather  particle k adds its slots (element order, member order): no atomics
 //   tree    per-item terms written at a channel's offset, reduced by cp_reduce:
 //           blocks of 64 halved in place (s[t] ⊕= s[t + stride], 32 … 1), the
@@ -58,9 +62,11 @@ struct Level {
 @group(0) @binding(16) var<storage, read> plane_mu: array<real>;
 @group(0) @binding(17) var<storage, read_write> lag_force: array<real>;
 // [codes (E) | arities (E) | members (E·A)]: codes 0 distance, 1 tether,
-// 2 simplex measure, 3 oriented measure, 4 ball pair, 5 pair friction lag
+// 2 simplex measure, 3 oriented measure, 4 ball pair, 5 pair friction lag,
+// 6 material element
 @group(0) @binding(18) var<storage, read> element_words: array<u32>;
-// DIM + 1 per element: [compliance, rest] (springs), [F_max, n] (friction lags)
+// DIM + 1 per element: [compliance, rest] (springs), [F_max, n] (friction lags),
+// [μ, λ] (materials)
 @group(0) @binding(19) var<storage, read> element_reals: array<real>;
 // [offsets (n + 1) | slots]
 @group(0) @binding(20) var<storage, read> gather: array<u32>;
@@ -89,6 +95,7 @@ const R_LOAD: u32 = 11u;
 const TERMS: u32 = DIM * DIM + 2u;
 const BALL: u32 = 4u;
 const LAG: u32 = 5u;
+const MATERIAL: u32 = 6u;
 // Reals per element in element_reals.
 const ELEMENT_REALS: u32 = DIM + 1u;
 
@@ -301,7 +308,7 @@ fn evaluate_element(e: u32) -> Element {
 @compute @workgroup_size(WORKGROUP)
 fn cp_elements(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let e = linear_index(gid, groups);
-    if (e >= cp.elements) {
+    if (e >= cp.elements || code_of(e) == MATERIAL) {
         return;
     }
     let value = evaluate_element(e);
@@ -327,7 +334,7 @@ fn cp_elements(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
 @compute @workgroup_size(WORKGROUP)
 fn cp_element_changes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let e = linear_index(gid, groups);
-    if (e >= cp.elements) {
+    if (e >= cp.elements || code_of(e) == MATERIAL) {
         return;
     }
     let value = evaluate_element(e);
@@ -342,7 +349,7 @@ fn cp_element_changes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
 @compute @workgroup_size(WORKGROUP)
 fn cp_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let e = linear_index(gid, groups);
-    if (e >= cp.elements) {
+    if (e >= cp.elements || code_of(e) == MATERIAL) {
         return;
     }
     let code = code_of(e);

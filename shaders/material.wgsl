@@ -1,5 +1,7 @@
-// Hyperelastic k-simplices (stvk, neo_hookean): the XPBD energy constraint
-// C = √(2W) of one element and its gradient — the arithmetic of
+// Hyperelastic k-simplices (stvk, neo_hookean): the element energy W and
+// its gradient (material_energy: the coupled implicit step's term, through
+// coupled_material.wgsl) and the XPBD energy constraint C = √(2W) of one
+// element and its gradient (material_constraint) — the arithmetic of
 // core/src/material (deformation.rs, stvk.rs, neo_hookean.rs, cholesky.rs,
 // energy.rs, energy_constraint.rs), in the same order; the projection is
 // project.wgsl's measure update, as cpu/src/project.rs runs it.
@@ -17,7 +19,8 @@
 //   C        W = V_0 Ψ;  W ≤ 0 → C = 0, ∇C = 0;  else C = √(2W), ∇C = ∇W / C
 //
 // Call fields of a material call: slot_map = offset of the family's rest
-// data in `rest`, friction = Lamé μ, factor = Lamé λ, FLAG_NEO_HOOKEAN.
+// data in `rest`, friction = Lamé μ, factor = Lamé λ, FLAG_NEO_HOOKEAN
+// (the composing file defines `call`, `rest_at` and FLAG_NEO_HOOKEAN).
 // ln is ln_real (shaders/ln_f64.wgsl in f64: arithmetic only, the bits of
 // core::material::ln; the built-in log in f32).
 
@@ -193,10 +196,11 @@ fn material_measure_ratio(e: u32, pts: ptr<function, array<real, POINTS>>) -> re
     return material_ratio(call.arity - 1u, &image, &c, &factor, &factored);
 }
 
-// C = √(2W) of element e of the running material call at the gathered
-// `pts`, ∇C into `grad`; `refused` when the law refuses the element.
-fn material_constraint(e: u32, pts: ptr<function, array<real, POINTS>>, grad: ptr<function, array<real, POINTS>>,
-                       refused: ptr<function, bool>) -> real {
+// W = V_0 Ψ of element e of the running material call at the gathered
+// `pts`, ∇W into `grad`; `refused` when the law refuses the element
+// (core: material::element_energy; the coupled implicit step's energy).
+fn material_energy(e: u32, pts: ptr<function, array<real, POINTS>>, grad: ptr<function, array<real, POINTS>>,
+                   refused: ptr<function, bool>) -> real {
     let k = call.arity - 1u;
     let base = call.slot_map + e * (k * k + 1u);
     let v0 = rest_at(base + k * k);
@@ -237,8 +241,18 @@ fn material_constraint(e: u32, pts: ptr<function, array<real, POINTS>>, grad: pt
         }
         (*grad)[a] = first;
     }
-    let energy = v0 * psi;
-    let count = (k + 1u) * DIM;
+    return v0 * psi;
+}
+
+// C = √(2W) of element e of the running material call at the gathered
+// `pts`, ∇C into `grad`; `refused` when the law refuses the element.
+fn material_constraint(e: u32, pts: ptr<function, array<real, POINTS>>, grad: ptr<function, array<real, POINTS>>,
+                       refused: ptr<function, bool>) -> real {
+    let energy = material_energy(e, pts, grad, refused);
+    if (*refused) {
+        return 0.0;
+    }
+    let count = call.arity * DIM;
     if (energy <= 0.0) {
         for (var t = 0u; t < count; t++) {
             (*grad)[t] = 0.0;

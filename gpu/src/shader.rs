@@ -3,6 +3,8 @@
 //!
 //! ```text
 //! module = header(DIM, real, WORKGROUP) [+ ln, f64: its series from core] + prelude.wgsl [+ measure.wgsl, material.wgsl] + family.wgsl
+//! (the coupled step: measure, barrier, coupled, coupled_solve, material, symmetric_eigen,
+//! material_hessian, coupled_material)
 //! ```
 //! The header's `WORKGROUP` is [`ShaderFile::workgroup_size`]: entry points
 //! declare `@workgroup_size(WORKGROUP)` and the host sizes its dispatches
@@ -35,6 +37,9 @@ const BARRIER: &str = include_str!("../../shaders/barrier.wgsl");
 const INCREMENTAL_POTENTIAL: &str = include_str!("../../shaders/incremental_potential.wgsl");
 const COUPLED: &str = include_str!("../../shaders/coupled.wgsl");
 const COUPLED_SOLVE: &str = include_str!("../../shaders/coupled_solve.wgsl");
+const SYMMETRIC_EIGEN: &str = include_str!("../../shaders/symmetric_eigen.wgsl");
+const MATERIAL_HESSIAN: &str = include_str!("../../shaders/material_hessian.wgsl");
+const COUPLED_MATERIAL: &str = include_str!("../../shaders/coupled_material.wgsl");
 const LN_F32: &str = include_str!("../../shaders/ln_f32.wgsl");
 const LN_F64: &str = include_str!("../../shaders/ln_f64.wgsl");
 const EXPORT: &str = include_str!("../../shaders/export_positions.wgsl");
@@ -68,8 +73,10 @@ pub enum ShaderFile {
     IncrementalPotential,
     /// `coupled.wgsl` (element and particle passes) and `coupled_solve.wgsl`
     /// (PCG vectors, line search, certified filter, updates, block-tree
-    /// reductions) after `measure.wgsl` and `barrier.wgsl`: the coupled
-    /// implicit step.
+    /// reductions) after `measure.wgsl` and `barrier.wgsl`, then
+    /// `coupled_material.wgsl` (material elements) after `material.wgsl`,
+    /// `symmetric_eigen.wgsl` (Jacobi, PSD projection) and
+    /// `material_hessian.wgsl`: the coupled implicit step.
     Coupled,
     /// `export_positions.wgsl` alone: positions out to a caller's vertex
     /// buffer (world coordinates, f32, projected to 3 axes).
@@ -164,6 +171,10 @@ impl ShaderFile {
                 "cp_set_x",
                 "cp_finish",
                 "cp_reduce",
+                "cp_material_elements",
+                "cp_material_changes",
+                "cp_material_frames",
+                "cp_material_slots",
             ],
             ShaderFile::Export => &["export_positions"],
         }
@@ -191,7 +202,16 @@ impl ShaderFile {
             ShaderFile::Collide => &[PRELUDE, CONTACT, COLLIDE],
             ShaderFile::Barrier => &[BARRIER],
             ShaderFile::IncrementalPotential => &[BARRIER, INCREMENTAL_POTENTIAL],
-            ShaderFile::Coupled => &[MEASURE, BARRIER, COUPLED, COUPLED_SOLVE],
+            ShaderFile::Coupled => &[
+                MEASURE,
+                BARRIER,
+                COUPLED,
+                COUPLED_SOLVE,
+                MATERIAL,
+                SYMMETRIC_EIGEN,
+                MATERIAL_HESSIAN,
+                COUPLED_MATERIAL,
+            ],
             ShaderFile::Export => &[EXPORT],
         }
     }

@@ -1,0 +1,199 @@
+// Material elements (StVK, Neo-Hookean) of the coupled implicit step
+// (docs/implicit.md §2, §12; golden: cpu/src/coupled/elements/materials.rs),
+// composed after coupled.wgsl with material.wgsl, symmetric_eigen.wgsl and
+// material_hessian.wgsl. One invocation per material block m (the m-th
+// material element in element order); coupled.wgsl's element passes skip
+// these elements (code MATERIAL), these passes write their records, slots
+// and changes in the same layout.
+//
+//   material_words  [frame stride, blocks M, then per block: element e,
+//                    rest offset of its family, slot in the family, flags]
+//   material_rest   per family, per slot: R (k × k), V_0   (material.wgsl's layout)
+//   element_reals   [μ, λ] of a material element
+//   frames          H_F⁺ per block, `frame stride` reals ((N k_max)²), written by
+//                   cp_material_frames once per Newton iteration (step 6)
+//
+//   cp_material_elements  W, ∇W at the point buffer; refused (NH: J ≤ 0) → +∞,
+//                         ∇W = 0; a non-finite record → status[3]
+//   cp_material_changes   W(point) − W(record), +∞ (REAL_MAX) where refused
+//   cp_material_frames    H_F⁺ = project_psd(H_F) at the point buffer;
+//                         refused or not finite → status[3]
+//   cp_material_slots     K_e⁺ p_e (p from R_P) or its diagonal into the slots
+
+@group(0) @binding(27) var<storage, read> material_words: array<u32>;
+@group(0) @binding(28) var<storage, read> material_rest: array<real>;
+@group(0) @binding(29) var<storage, read_write> frames: array<real>;
+
+const MATERIAL_HEADER: u32 = 2u;
+const MATERIAL_WORDS: u32 = 4u;
+const FLAG_NEO_HOOKEAN: u32 = 1u;
+
+// The fields of material.wgsl's running call.
+struct MaterialCall {
+    arity: u32,
+    slot_map: u32,
+    flags: u32,
+    friction: real, // Lamé μ
+    factor: real,   // Lamé λ
+}
+
+var<private> call: MaterialCall;
+
+fn rest_at(s: u32) -> real {
+    return material_rest[s];
+}
+
+fn material_blocks() -> u32 {
+    return material_words[1];
+}
+
+// Sets `call` for block m; its element's index.
+fn take_material(m: u32) -> u32 {
+    let at = MATERIAL_HEADER + m * MATERIAL_WORDS;
+    let e = material_words[at];
+    call.arity = arity_of(e);
+    call.slot_map = material_words[at + 1u];
+    call.flags = material_words[at + 3u];
+    call.friction = element_reals[e * ELEMENT_REALS];
+    call.factor = element_reals[e * ELEMENT_REALS + 1u];
+    return e;
+}
+
+// Slot of block m in its family.
+fn material_slot(m: u32) -> u32 {
+    return material_words[MATERIAL_HEADER + m * MATERIAL_WORDS + 2u];
+}
+
+// Element e's vertices at the point buffer.
+fn material_points(e: u32) -> array<real, POINTS> {
+    var pts: array<real, POINTS>;
+    for (var c = 0u; c < POINTS; c++) {
+        pts[c] = 0.0;
+    }
+    for (var j = 0u; j < call.arity; j++) {
+        let i = member(e, j);
+        for (var a = 0u; a < DIM; a++) {
+            pts[j * DIM + a] = x[i * DIM + a];
+        }
+    }
+    return pts;
+}
+
+// W of block m at the point buffer (REAL_MAX where the law refuses), ∇W
+// into `grad` (0 there).
+fn material_term_at_point(m: u32, e: u32, grad: ptr<function, array<real, POINTS>>) -> real {
+    var pts = material_points(e);
+    for (var c = 0u; c < POINTS; c++) {
+        (*grad)[c] = 0.0;
+    }
+    var refused = false;
+    let energy = material_energy(material_slot(m), &pts, grad, &refused);
+    if (refused) {
+        for (var c = 0u; c < POINTS; c++) {
+            (*grad)[c] = 0.0;
+        }
+        return REAL_MAX;
+    }
+    return energy;
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn cp_material_elements(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let m = linear_index(gid, groups);
+    if (m >= material_blocks()) {
+        return;
+    }
+    let e = take_material(m);
+    var grad: array<real, POINTS>;
+    let energy = material_term_at_point(m, e, &grad);
+    let base = e * record_len();
+    let width = cp.arity_max * DIM;
+    records[base] = energy;
+    records[base + 1u] = 0.0;
+    records[base + 2u] = 0.0;
+    var ok = finite(energy) && energy < REAL_MAX;
+    for (var k = 0u; k < width; k++) {
+        var g: real = 0.0;
+        if (k < POINTS) {
+            g = grad[k];
+        }
+        records[base + 3u + k] = g;
+        records[base + 3u + width + k] = 0.0;
+        ok = ok && finite(g);
+    }
+    if (!ok) {
+        atomicMin(&status[3], e);
+    }
+    check_loops(e);
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn cp_material_changes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let m = linear_index(gid, groups);
+    if (m >= material_blocks()) {
+        return;
+    }
+    let e = take_material(m);
+    var grad: array<real, POINTS>;
+    let energy = material_term_at_point(m, e, &grad);
+    var change = REAL_MAX;
+    if (energy < REAL_MAX) {
+        change = energy - records[e * record_len()];
+    }
+    tree[cp.channel_e + e] = change;
+    check_loops(e);
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn cp_material_frames(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let m = linear_index(gid, groups);
+    if (m >= material_blocks()) {
+        return;
+    }
+    let e = take_material(m);
+    var pts = material_points(e);
+    var h: array<real, HESS>;
+    let size = DIM * (call.arity - 1u);
+    var ok = material_frame_hessian(material_slot(m), &pts, &h);
+    if (ok) {
+        ok = project_psd(&h, size);
+    }
+    let block = m * material_words[0];
+    for (var t = 0u; t < size * size; t++) {
+        frames[block + t] = h[t];
+    }
+    if (!ok) {
+        atomicMin(&status[3], e);
+    }
+    check_loops(e);
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn cp_material_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let m = linear_index(gid, groups);
+    if (m >= material_blocks()) {
+        return;
+    }
+    let e = take_material(m);
+    let block = m * material_words[0];
+    let slot = material_slot(m);
+    var out: array<real, POINTS>;
+    if (cp.diagonal == 1u) {
+        material_curvature_diagonal(slot, block, &out);
+    } else {
+        var p: array<real, POINTS>;
+        for (var j = 0u; j < call.arity; j++) {
+            let i = member(e, j);
+            for (var a = 0u; a < DIM; a++) {
+                p[j * DIM + a] = vectors[at(R_P, i * DIM + a)];
+            }
+        }
+        material_curvature_product(slot, block, &p, &out);
+    }
+    let width = cp.arity_max * DIM;
+    let count = call.arity * DIM;
+    for (var k = 0u; k < count; k++) {
+        slots[e * width + k] = out[k];
+    }
+    check_loops(e);
+}
