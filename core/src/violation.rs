@@ -1,22 +1,25 @@
-//! Constraint violation of the geometric families (cpu/src/residual.rs's
-//! arithmetic, here once for every backend that reports residuals from a
-//! state it reads back).
+//! Constraint violation of the geometric and material families
+//! (cpu/src/residual.rs's arithmetic, here once for every backend that
+//! reports residuals from a state it reads back).
 //!
 //! ```text
 //! distance, simplex / oriented measure:  |C| = |value − rest|
 //! tether:                                max(0, |x1 − x0| − rest)
+//! material (StVK, Neo-Hookean):          C = √(2W) (material::energy_constraint),
+//!                                        +∞ for an element the law refuses
 //! family residual:                       max over its elements (exact in any order)
 //! collisions (ball barriers):            max(0, max over pairs (r_i + r_j − |x_j − x_i|)),
 //!                                        pairs: every pair whose boxes x ± r overlap
 //!                                        (any overlapping pair has overlapping boxes)
 //! ```
-//! Contact and material families have their own violations (the backend's:
-//! contact normals, material laws) and are not handled here.
+//! Contact families have their own violation (the backend's contact
+//! normals) and are not handled here.
 
 use crate::broadphase::{Aabbs, grid_pairs};
 use crate::geometry::{
     Scratch, deepest_overlap, distance, oriented_measure, simplex_squared_measure,
 };
+use crate::material::{MaterialScratch, energy_constraint};
 use crate::{Family, FamilyKind, FamilyResidual, Plan};
 
 /// The violation of one element of a geometric family at `points` (its
@@ -41,17 +44,15 @@ pub fn geometric_violation(
     })
 }
 
-/// The residual of every geometric family of `families` at `x` (`dim`
-/// coordinates per particle), in family order; contact and material
-/// families are left out.
-pub fn geometric_residuals(families: &[Family], dim: usize, x: &[f64]) -> Vec<FamilyResidual> {
+/// The residual of every geometric and material family of `families` at
+/// `x` (`dim` coordinates per particle), in family order; contact families
+/// are left out.
+pub fn family_residuals(families: &[Family], dim: usize, x: &[f64]) -> Vec<FamilyResidual> {
     let mut scratch = Scratch::default();
+    let mut material = MaterialScratch::new();
     let mut out = Vec::new();
     for family in families {
-        if matches!(
-            family.kind,
-            FamilyKind::HyperplaneContact { .. } | FamilyKind::Material { .. }
-        ) {
+        if matches!(family.kind, FamilyKind::HyperplaneContact { .. }) {
             continue;
         }
         let arity = family.arity;
@@ -66,9 +67,17 @@ pub fn geometric_residuals(families: &[Family], dim: usize, x: &[f64]) -> Vec<Fa
                 let i = i as usize;
                 points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
             }
-            let rest = family.rest[e];
-            let v = geometric_violation(&family.kind, rest, &points, dim, &mut grad, &mut scratch);
-            worst = worst.max(v.unwrap_or(0.0));
+            let v = match family.kind.material_element(e, &points, dim) {
+                Some(element) => {
+                    energy_constraint(element, &mut grad, &mut material).unwrap_or(f64::INFINITY)
+                }
+                None => {
+                    let rest = family.rest[e];
+                    geometric_violation(&family.kind, rest, &points, dim, &mut grad, &mut scratch)
+                        .unwrap_or(0.0)
+                }
+            };
+            worst = worst.max(v);
         }
         out.push(FamilyResidual {
             label: family.label.clone(),

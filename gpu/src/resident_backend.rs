@@ -215,7 +215,7 @@ macro_rules! minimising_backend {
                 } else {
                     let x = self.state.read(&self.ctx)?.positions;
                     let (plan, violation) =
-                        (&self.plan, ::hyperpbd_core::violation::geometric_residuals);
+                        (&self.plan, ::hyperpbd_core::violation::family_residuals);
                     let mut residuals = violation(&plan.families, plan.dim, &x);
                     if plan.contacts.is_some() {
                         residuals.push(::hyperpbd_core::violation::ball_overlap_residual(plan, &x));

@@ -195,7 +195,8 @@ const PROBE_REALS: u64 = 4;
 impl Device {
     /// The kernel set's buffers for `count` particles; `fixed` are
     /// barrier.wgsl's bindings 1..=9 followed by mass, gravity_scale,
-    /// gravity, plane_mu and lag_force.
+    /// gravity, plane_mu and lag_force, then coupled_material.wgsl's
+    /// material_words, material_rest and frames.
     pub fn new(
         ctx: &GpuContext,
         kernels: KernelSet<Entry>,
@@ -304,6 +305,9 @@ impl Device {
                 &self.terms,
                 &self.tree,
                 &self.params_buffer,
+                &f[14],
+                &f[15],
+                &f[16],
             ],
             0,
         )?;

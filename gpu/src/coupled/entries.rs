@@ -1,5 +1,6 @@
 //! The coupled step's kernel set: its entry points in
-//! `shaders/coupled.wgsl` and `shaders/coupled_solve.wgsl` (their bindings
+//! `shaders/coupled.wgsl`, `shaders/coupled_solve.wgsl` and
+//! `shaders/coupled_material.wgsl` (their bindings
 //! are the WGSL's own, read by the kernel-set builder), and the vector
 //! regions they share with the host.
 
@@ -25,10 +26,16 @@ pub(crate) enum Entry {
     SetX,
     Finish,
     Reduce,
+    MaterialElements,
+    MaterialChanges,
+    MaterialFrames,
+    MaterialSlots,
 }
 
 impl Entry {
-    pub const ALL: [Entry; 16] = [
+    /// The entries of a plan without material families (the material
+    /// passes are compiled only for a plan that has some).
+    pub const SPRINGS: [Entry; 16] = [
         Entry::Elements,
         Entry::ElementChanges,
         Entry::Slots,
@@ -46,6 +53,24 @@ impl Entry {
         Entry::Finish,
         Entry::Reduce,
     ];
+
+    /// The material passes (`coupled_material.wgsl`).
+    pub const MATERIAL: [Entry; 4] = [
+        Entry::MaterialElements,
+        Entry::MaterialChanges,
+        Entry::MaterialFrames,
+        Entry::MaterialSlots,
+    ];
+
+    /// The entries a plan needs: every spring pass, and the material passes
+    /// when it has material elements.
+    pub fn needed(materials: bool) -> Vec<Entry> {
+        let mut entries = Entry::SPRINGS.to_vec();
+        if materials {
+            entries.extend(Entry::MATERIAL);
+        }
+        entries
+    }
 }
 
 impl EntryPoint for Entry {
@@ -67,6 +92,10 @@ impl EntryPoint for Entry {
             Entry::SetX => "cp_set_x",
             Entry::Finish => "cp_finish",
             Entry::Reduce => "cp_reduce",
+            Entry::MaterialElements => "cp_material_elements",
+            Entry::MaterialChanges => "cp_material_changes",
+            Entry::MaterialFrames => "cp_material_frames",
+            Entry::MaterialSlots => "cp_material_slots",
         };
         (ShaderFile::Coupled, name)
     }

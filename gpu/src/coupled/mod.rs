@@ -2,29 +2,38 @@
 //! the GPU, the golden path's schedule (`cpu/src/coupled/`) kernel for
 //! kernel: every per-element and per-particle pass, every vector update of
 //! PCG and the line search, and every sum on the block tree run in
-//! `shaders/coupled.wgsl` and `coupled_solve.wgsl`; the host runs the
+//! `shaders/coupled.wgsl` and `coupled_solve.wgsl`, the material elements'
+//! passes (StVK, Neo-Hookean: W, ∇W, the frame Hessian H_F projected by
+//! cyclic Jacobi, its products) in `coupled_material.wgsl`; the host runs the
 //! Newton loop's decisions on the few reduced scalars it reads back,
 //! through the same core functions as the CPU (`pcg_on`, `armijo`,
 //! `MinimisationReport`, `change_resolution`).
 //!
 //! ```text
 //! per substep:  cp_start (x^t, x~, load, lags, d ≤ 0) → pairs at x^t (collisions) → warm start
-//!               loop { x_k → point; cp_elements; cp_gradient; Σ|max → residual (one read)
-//!                      cp_slots + cp_particle_curvature (diag); PCG (two reads per iteration)
-//!                      pairs over [x_k, x_k + Δ]; filter (min, one read); cp_elements at x_k;
+//!               loop { x_k → point; cp_elements + cp_material_elements; cp_gradient;
+//!                      Σ|max → residual (one read)
+//!                      cp_material_frames (H_F⁺ at x_k) + cp_slots + cp_material_slots +
+//!                      cp_particle_curvature (diag; one read for a refused frame);
+//!                      PCG (two reads per iteration)
+//!                      pairs over [x_k, x_k + Δ]; filter (min, one read); elements at x_k;
 //!                      slope (one read); trials (one read each); accept }
 //!               cp_finish: x = x_k, v = (x − x^t)/h
 //! pairs         the broadphase over the swept boxes runs on the host over x_k and Δ read
 //!               back (only with `collisions`); the element list (springs, balls, pair
 //!               friction lags frozen at x^t) is re-uploaded when the pair set changes
+//! materials     refusals (a law refusal at x_k, a non-finite H_F) and the rounding δW
+//!               of the floor are core's functions on the host, on x_k read back
+//!               (only when needed), as the golden path names and sums them
 //! refused       f32 (the certified filter's and the floor's rounding counts are f64's so
-//!               far), material families
+//!               far)
 //! ```
 //! In f64 on lavapipe every state is bit-identical to the CPU golden path
 //! (`tests/gpu_coupled.rs`).
 
 mod device;
 mod entries;
+mod material;
 mod newton;
 
 use hyperpbd_core::broadphase::{Aabbs, Pair, grid_pairs};
@@ -45,6 +54,7 @@ use crate::resident_backend::{minimising_backend, resident_backend};
 use crate::shader::MAX_GPU_DIM;
 use device::{Device, ElementUpload, Reduction};
 use entries::Entry;
+use material::Materials;
 
 /// The GPU backend of the coupled implicit step.
 pub struct GpuCoupledBackend {
@@ -59,6 +69,8 @@ pub struct GpuCoupledBackend {
     elements: ElementUpload,
     pairs: Vec<Pair>,
     lags: Vec<PairLag>,
+    /// The material elements (blocks of coupled_material.wgsl).
+    materials: Materials,
     /// m_i (0 for fixed particles).
     mass: Vec<f64>,
     substep: u32,
@@ -69,11 +81,6 @@ pub struct GpuCoupledBackend {
 /// Why the GPU does not run `plan`'s coupled step (yet), if it does not.
 fn unsupported(plan: &Plan, ip: &IncrementalPotentialPlan, precision: Precision) -> Option<String> {
     ip.coupled.as_ref()?;
-    let not_yet = |what: String| {
-        Some(format!(
-            "{what} in the coupled implicit step on the GPU (not built yet): use --backend cpu"
-        ))
-    };
     if precision == Precision::F32 {
         return Some(
             "the coupled implicit step in f32 (its certified filter and rounding floor are \
@@ -86,13 +93,6 @@ fn unsupported(plan: &Plan, ip: &IncrementalPotentialPlan, precision: Precision)
             "dimension {} (the GPU kernels support 1..={MAX_GPU_DIM})",
             plan.dim
         ));
-    }
-    if let Some(f) = plan
-        .families
-        .iter()
-        .find(|f| matches!(f.kind, FamilyKind::Material { .. }))
-    {
-        return not_yet(format!("the material family {}", f.label));
     }
     None
 }
@@ -122,6 +122,7 @@ impl GpuCoupledBackend {
         }
         let (n, dim) = (plan.particle_count(), plan.dim);
         let ctx = device.context(precision)?;
+        let materials = Materials::of(&plan);
         let kernels = KernelSet::new(
             &ctx.device,
             &KernelSetSpec {
@@ -129,7 +130,7 @@ impl GpuCoupledBackend {
                 modules: &[crate::shader::ShaderFile::Coupled],
                 dim,
                 precision,
-                entries: &Entry::ALL,
+                entries: &Entry::needed(materials.len() > 0),
                 constants: &[],
             },
         )?;
@@ -155,6 +156,7 @@ impl GpuCoupledBackend {
         ] {
             fixed.push(ctx.storage(label, &bytes)?);
         }
+        fixed.extend(materials.buffers(&ctx, &plan, precision)?);
         let mut device = Device::new(&ctx, kernels, precision, (n, dim), fixed)?;
         device.params.criterion = match ip.convergence {
             Convergence::PackedGradient { .. } => 0,
@@ -173,6 +175,7 @@ impl GpuCoupledBackend {
             elements: ElementUpload::default(),
             pairs: Vec::new(),
             lags: Vec::new(),
+            materials,
             mass,
             substep: 0,
             reports: Vec::new(),
@@ -183,7 +186,7 @@ impl GpuCoupledBackend {
         Ok(backend)
     }
 
-    /// The element list of the plan's springs, the ball pairs `pairs` and
+    /// The element list of the plan's springs and materials, the ball pairs `pairs` and
     /// the pair friction lags `self.lags` (cpu/src/coupled/elements.rs
     /// `rebuild`), uploaded when the pairs changed (or `force`: new lags).
     fn upload_elements(&mut self, pairs: Vec<Pair>, force: bool) -> Result<(), GpuError> {
@@ -209,11 +212,17 @@ impl GpuCoupledBackend {
                 FamilyKind::Distance => 0,
                 FamilyKind::Tether => 1,
                 FamilyKind::SimplexMeasure { .. } => 2,
+                FamilyKind::Material { .. } => 6,
                 _ => 3,
             };
             for e in 0..family.len() {
                 let members = &family.elements[e * family.arity..(e + 1) * family.arity];
-                push(members, code, &[family.compliance, family.rest[e]]);
+                match &family.kind {
+                    FamilyKind::Material { material, .. } => {
+                        push(members, code, &[material.lame.mu, material.lame.lambda]);
+                    }
+                    _ => push(members, code, &[family.compliance, family.rest[e]]),
+                }
             }
         }
         let first_ball = plan.families.iter().map(|f| f.len()).sum();

@@ -20,6 +20,7 @@ use hyperpbd_core::{
 use super::GpuCoupledBackend;
 use super::device::Reduction;
 use super::entries::{Entry, region};
+use super::material;
 use crate::barrier::{NONE, infeasible_start};
 
 /// Status words of coupled.wgsl.
@@ -71,9 +72,11 @@ impl PcgVectors for DeviceVectors<'_> {
         } else {
             0
         };
+        let m = self.backend.materials.len();
         let entries = [
             (Entry::CgTurn, turn),
             (Entry::Slots, e),
+            (Entry::MaterialSlots, m),
             (Entry::ParticleCurvature, n),
         ];
         self.reduce(&entries, &[Reduction::SumA])[0]
@@ -127,8 +130,13 @@ impl GpuCoupledBackend {
             Convergence::PackedGradient { .. } => Reduction::SumA,
             Convergence::MaxAccelerationResidual { .. } => Reduction::MaxA,
         };
-        let (values, status) =
-            self.run(&[(Entry::Elements, e), (Entry::Gradient, n)], &[reduction])?;
+        let m = self.materials.len();
+        let entries = [
+            (Entry::Elements, e),
+            (Entry::MaterialElements, m),
+            (Entry::Gradient, n),
+        ];
+        let (values, status) = self.run(&entries, &[reduction])?;
         if status[NON_FINITE_ELEMENT] != NONE {
             return Ok(Evaluated::Element(status[NON_FINITE_ELEMENT] as usize));
         }
@@ -168,24 +176,24 @@ impl GpuCoupledBackend {
         let (mut energy, mut force) = (0.0, 0.0);
         let up = &self.elements;
         let stride = self.device.record_len;
-        let mut points = vec![0.0; 2 * dim];
+        let mut points = vec![0.0; up.lists.arity_max * dim];
         for e in 0..up.lists.len() {
             let value = records[e * stride];
             energy += value.abs();
-            if e < up.first_ball {
+            if let Some(block) = self.materials.of_element(e) {
+                let arity = gather_points(up.lists.members(e), &v[0], dim, &mut points);
+                force += material::rounding(&self.plan, block, &points[..arity * dim]);
+            } else if e < up.first_ball {
                 let reals = &up.reals[e * (dim + 1)..];
                 force += spring_rounding(value, reals[0], reals[1], dim);
             } else if e < up.first_ball + self.pairs.len() {
                 let members = up.lists.members(e);
-                for (j, &i) in members.iter().enumerate() {
-                    let i = i as usize;
-                    points[j * dim..(j + 1) * dim].copy_from_slice(&v[0][i * dim..(i + 1) * dim]);
-                }
+                gather_points(members, &v[0], dim, &mut points);
                 let radii = (
                     self.plan.radius[members[0] as usize],
                     self.plan.radius[members[1] as usize],
                 );
-                force += ball_rounding(&self.ip.law, &points, radii, dim);
+                force += ball_rounding(&self.ip.law, &points[..2 * dim], radii, dim);
             }
         }
         Ok(change_resolution(dim, self.plan.h, sums, energy, force))
@@ -245,12 +253,23 @@ impl GpuCoupledBackend {
         Ok(None)
     }
 
-    /// Why element e could not be evaluated (no material here: a
-    /// non-finite value at its first particle).
-    fn element_refusal(&self, e: usize) -> Refusal {
-        Refusal::NonFinite {
-            particle: self.elements.lists.members(e)[0] as usize,
+    /// Why element e could not be evaluated at R_X (cpu `element_refusal`):
+    /// a material element's law refusal (x_k read back), else a non-finite
+    /// value at its first particle.
+    fn element_refusal(&self, e: usize) -> Result<Refusal, GpuError> {
+        let members = self.elements.lists.members(e);
+        if let Some(block) = self.materials.of_element(e) {
+            let dim = self.plan.dim;
+            let x = self.device.read_regions(&self.ctx, &[region::X])?;
+            let mut points = vec![0.0; members.len() * dim];
+            gather_points(members, &x[0], dim, &mut points);
+            if let Some(refusal) = material::refusal(&self.plan, block, &points) {
+                return Ok(refusal);
+            }
         }
+        Ok(Refusal::NonFinite {
+            particle: members[0] as usize,
+        })
     }
 
     /// One coupled minimisation (cpu/src/coupled/mod.rs `minimise`).
@@ -276,7 +295,7 @@ impl GpuCoupledBackend {
                         self.run(&[(Entry::SetX, n)], &[])?;
                         continue;
                     }
-                    report.status = MinimisationStatus::Refused(self.element_refusal(e));
+                    report.status = MinimisationStatus::Refused(self.element_refusal(e)?);
                     break;
                 }
                 Evaluated::Particle(particle) => {
@@ -291,8 +310,21 @@ impl GpuCoupledBackend {
             iteration += 1;
             // 6–7: the Newton direction by preconditioned CG.
             let (_, e) = self.counts();
+            let m = self.materials.len();
             self.device.params.diagonal = 1;
-            self.run(&[(Entry::Slots, e), (Entry::ParticleCurvature, n)], &[])?;
+            let entries = [
+                (Entry::MaterialFrames, m),
+                (Entry::Slots, e),
+                (Entry::MaterialSlots, m),
+                (Entry::ParticleCurvature, n),
+            ];
+            let (_, status) = self.run(&entries, &[])?;
+            if status[NON_FINITE_ELEMENT] != NONE {
+                // H_F⁺ refused (the law) or not finite at x_k (cpu `curvatures`).
+                let refusal = self.element_refusal(status[NON_FINITE_ELEMENT] as usize)?;
+                report.status = MinimisationStatus::Refused(refusal);
+                break;
+            }
             let settings = PcgSettings {
                 max_iterations: self.coupled.cg_iterations,
                 relative_tolerance: 0.0,
@@ -332,13 +364,16 @@ impl GpuCoupledBackend {
             // 10–11: Armijo on the difference form of F's change.
             let (_, e) = self.counts();
             self.point(region::X)?;
-            let (values, status) = self.run(
-                &[(Entry::Elements, e), (Entry::Slope, n)],
-                &[Reduction::SumA],
-            )?;
+            let m = self.materials.len();
+            let entries = [
+                (Entry::Elements, e),
+                (Entry::MaterialElements, m),
+                (Entry::Slope, n),
+            ];
+            let (values, status) = self.run(&entries, &[Reduction::SumA])?;
             if status[NON_FINITE_ELEMENT] != NONE {
                 report.iterations = iteration;
-                let refusal = self.element_refusal(status[NON_FINITE_ELEMENT] as usize);
+                let refusal = self.element_refusal(status[NON_FINITE_ELEMENT] as usize)?;
                 report.status = MinimisationStatus::Refused(refusal);
                 break;
             }
@@ -387,6 +422,8 @@ impl GpuCoupledBackend {
             .load_point(&mut encoder, &self.state, region::TRIAL);
         self.device.pass(&mut encoder, Entry::ParticleChanges, n);
         self.device.pass(&mut encoder, Entry::ElementChanges, e);
+        self.device
+            .pass(&mut encoder, Entry::MaterialChanges, self.materials.len());
         let own = self.device.reduce(&mut encoder, Reduction::SumA);
         let coupled = self.device.reduce(&mut encoder, Reduction::SumE);
         let (values, status) = self.device.read(&self.ctx, encoder, &[own, coupled])?;
@@ -399,4 +436,14 @@ impl GpuCoupledBackend {
         };
         Ok((change, status[MOVED] != 0))
     }
+}
+
+/// The points of an element with `members` at `x` into `points`
+/// (arity × N); the arity.
+fn gather_points(members: &[u32], x: &[f64], dim: usize, points: &mut [f64]) -> usize {
+    for (j, &i) in members.iter().enumerate() {
+        let i = i as usize;
+        points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
+    }
+    members.len()
 }

@@ -21,7 +21,7 @@ pub(crate) mod call;
 mod friction;
 mod guard;
 mod integrate;
-mod material;
+pub(crate) mod material;
 mod project;
 mod residual;
 pub(crate) mod schedule;

@@ -1,0 +1,134 @@
+//! Material families (StVK, Neo-Hookean) in the GPU coupled step, host
+//! side: the data `shaders/coupled_material.wgsl` reads, and the two
+//! things the host decides from read-back values as the golden path does
+//! (cpu/src/coupled/elements/materials.rs): why an element is refused,
+//! and an element's rounding δW for the rounding floor.
+//!
+//! ```text
+//! blocks          the material elements in element order (families first in the
+//!                 element list, family order, slot order), block m ↔ element e
+//! material_words  [frame stride (N k_max)², M, per block: e, rest offset of its
+//!                 family, slot in the family, flags (1: Neo-Hookean)]
+//! material_rest   per material family, per slot: R (k × k), V_0 (xpbd's layout)
+//! frames          M × stride reals: H_F⁺ per block, written on the device
+//! element_reals   [μ, λ] of a material element (mod.rs `upload_elements`)
+//! ```
+
+use hyperpbd_core::implicit::material_energy_rounding;
+use hyperpbd_core::material::{Law, MaterialScratch, element_energy};
+use hyperpbd_core::{FamilyKind, GpuError, Plan, Refusal};
+
+use crate::Precision;
+use crate::context::GpuContext;
+use crate::params::push_reals;
+use crate::xpbd::material::push_rest_data;
+
+/// The material elements of a plan: (family, slot) per block, and each
+/// block's element index.
+#[derive(Debug, Default)]
+pub(super) struct Materials {
+    /// (family, slot in the family) of each block.
+    pub blocks: Vec<(usize, usize)>,
+    /// Element index of each block.
+    pub elements: Vec<usize>,
+}
+
+impl Materials {
+    /// The plan's material elements, in element order.
+    pub fn of(plan: &Plan) -> Self {
+        let mut out = Materials::default();
+        let mut e = 0;
+        for (f, family) in plan.families.iter().enumerate() {
+            let material = matches!(family.kind, FamilyKind::Material { .. });
+            for slot in 0..family.len() {
+                if material {
+                    out.blocks.push((f, slot));
+                    out.elements.push(e);
+                }
+                e += 1;
+            }
+        }
+        out
+    }
+
+    /// Blocks (material elements).
+    pub fn len(&self) -> usize {
+        self.blocks.len()
+    }
+
+    /// (family, slot) of element e, if it is a material element.
+    pub fn of_element(&self, e: usize) -> Option<(usize, usize)> {
+        let m = self.elements.binary_search(&e).ok()?;
+        Some(self.blocks[m])
+    }
+
+    /// Buffers `material_words`, `material_rest` and `frames` for `plan`
+    /// (one-value buffers when it has no material element).
+    pub fn buffers(
+        &self,
+        ctx: &GpuContext,
+        plan: &Plan,
+        precision: Precision,
+    ) -> Result<[wgpu::Buffer; 3], GpuError> {
+        let stride = plan
+            .families
+            .iter()
+            .filter(|f| matches!(f.kind, FamilyKind::Material { .. }))
+            .map(|f| (plan.dim * (f.arity - 1)).pow(2))
+            .max()
+            .unwrap_or(0);
+        let mut rest = Vec::new();
+        let mut offsets = Vec::new();
+        for family in &plan.families {
+            offsets.push(rest.len() as u32);
+            push_rest_data(family, &mut rest);
+        }
+        let mut words = vec![stride as u32, self.len() as u32];
+        for (&(f, slot), &e) in self.blocks.iter().zip(&self.elements) {
+            let neo_hookean = matches!(
+                plan.families[f].kind,
+                FamilyKind::Material { material, .. } if material.law == Law::NeoHookean
+            );
+            words.extend([e as u32, offsets[f], slot as u32, u32::from(neo_hookean)]);
+        }
+        let mut rest_bytes = Vec::new();
+        push_reals(&mut rest_bytes, &rest, precision);
+        let real = crate::params::real_size(precision);
+        rest_bytes.resize(rest_bytes.len().max(real), 0);
+        let frames = vec![0u8; (self.len() * stride).max(1) * real];
+        Ok([
+            ctx.storage("material words", bytemuck::cast_slice(&words))?,
+            ctx.storage("material rest", &rest_bytes)?,
+            ctx.storage("frames", &frames)?,
+        ])
+    }
+}
+
+/// Why material element (`family`, `slot`) cannot be evaluated at its
+/// `points` (cpu `element_refusal`): the law's refusal, else `None`.
+pub(super) fn refusal(plan: &Plan, (family, slot): (usize, usize), points: &[f64]) -> Option<Refusal> {
+    let f = &plan.families[family];
+    let m = f.kind.material_element(slot, points, plan.dim)?;
+    let mut gradient = vec![0.0; points.len()];
+    let refusal = element_energy(m, &mut gradient, &mut MaterialScratch::new()).err()?;
+    Some(Refusal::Material {
+        family,
+        family_label: f.label.clone(),
+        element: f.authored_element(slot),
+        refusal,
+    })
+}
+
+/// δW of material element (`family`, `slot`) at its `points` (0 where the
+/// law refuses; cpu `materials::rounding`).
+pub(super) fn rounding(plan: &Plan, (family, slot): (usize, usize), points: &[f64]) -> f64 {
+    let Some(m) = plan.families[family]
+        .kind
+        .material_element(slot, points, plan.dim)
+    else {
+        return 0.0;
+    };
+    let mut gradient = vec![0.0; points.len()];
+    material_energy_rounding(m, &mut gradient, &mut MaterialScratch::new())
+        .map_or(0.0, |(_, bound)| bound)
+}
