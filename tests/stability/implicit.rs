@@ -2,12 +2,11 @@
 //! (`incremental_potential` with constraint families, collisions, plane
 //! friction or an explicit warm start; docs/implicit.md §11–§12), on the
 //! CPU golden path and on gpu-f64 (`GpuCoupledBackend`, docs/implicit.md
-//! §12): every case the GPU runs is held to the CPU's asserted bounds and,
-//! on lavapipe (`common::exact::f64_identical`), is bit-identical to the
-//! CPU run after every step; the case it does not run yet
-//! (`implicit_material_drop`: a material family) asserts its typed
-//! refusal, `GpuError::Unsupported`, as every case does for gpu-f32 (the
-//! coupled step is f64-only on the GPU). Rigid links (compliance 0) are no energy there, so each chain's
+//! §12): every case is held to the CPU's asserted bounds and, on lavapipe
+//! (`common::exact::f64_identical`), is bit-identical to the CPU run after
+//! every step (the Neo-Hookean drop included); every case asserts gpu-f32's
+//! typed refusal, `GpuError::Unsupported` (the coupled step is f64-only on
+//! the GPU). Rigid links (compliance 0) are no energy there, so each chain's
 //! links are stiff springs instead; everything else is the XPBD case's
 //! scene.
 //!
@@ -488,8 +487,8 @@ fn implicit_coincident_distance() {
 /// E = 2e5 Pa, 0.1 kg nodes) thrown at 10 m/s onto a plane from 0.2 m
 /// under gravity, one minimisation per 1/30 s (the first prediction is
 /// 0.13 m below the plane), 2 s: trials that would invert an element or
-/// cross the plane are rejected, and it comes to rest on the plane.
-/// gpu-f64 refuses it (material families are not built there yet).
+/// cross the plane are rejected, and it comes to rest on the plane. On
+/// gpu-f64 in lockstep, bit for bit on lavapipe.
 #[test]
 fn implicit_material_drop() {
     let case = "implicit_material_drop";
@@ -498,38 +497,35 @@ fn implicit_material_drop() {
     // (The guard tests' block has gravity +9.81 along y; this one falls.)
     scene.gravity = Some(vec![0.0, -9.81]);
     scene.solver = implicit(1e4, 1e-3, 1e-2);
-    refused_on(case, GPU_F64, &scene, "the material family");
-    refused_on(case, GPU_F32, &scene, "f32");
-    let (mut backend, initial) = cpu(case, &scene);
-    let m = run(case, backend.as_mut(), &initial, 60);
-    let kind = BackendKind::Cpu;
-    check_energy(
-        case,
-        kind,
-        &m,
-        0.0,
-        "dissipative: starts unstressed, above d^",
-    );
-    let lowest = (0..scene.particles.len())
-        .map(|i| m.last.position(i)[1])
-        .fold(f64::INFINITY, f64::min);
-    check_residual(
-        case,
-        kind,
-        "penetration −min y (m)",
-        -lowest,
-        0.0,
-        "the certified filter: d > 0",
-    );
-    let speed = m.last.velocities.iter().fold(0.0f64, |s, v| s.max(v.abs()));
-    check_residual(
-        case,
-        kind,
-        "max |v| after 2 s (m/s)",
-        speed,
-        1e-3,
-        "at rest on the plane",
-    );
+    for (kind, m) in on_cpu_and_gpu(case, &scene, 60) {
+        check_energy(
+            case,
+            kind,
+            &m,
+            0.0,
+            "dissipative: starts unstressed, above d^",
+        );
+        let lowest = (0..scene.particles.len())
+            .map(|i| m.last.position(i)[1])
+            .fold(f64::INFINITY, f64::min);
+        check_residual(
+            case,
+            kind,
+            "penetration −min y (m)",
+            -lowest,
+            0.0,
+            "the certified filter: d > 0",
+        );
+        let speed = m.last.velocities.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+        check_residual(
+            case,
+            kind,
+            "max |v| after 2 s (m/s)",
+            speed,
+            1e-3,
+            "at rest on the plane",
+        );
+    }
 }
 
 /// The coupled step with nothing to couple (an explicit warm start makes
