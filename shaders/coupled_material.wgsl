@@ -19,6 +19,7 @@
 //   cp_material_frames    H_F⁺ = project_psd(H_F) at the point buffer;
 //                         refused or not finite → status[3]
 //   cp_material_slots     K_e⁺ p_e (p from R_P) or its diagonal into the slots
+//   loops cut short       status[4] = MATERIAL_LOOPS | e (the host names the element)
 
 @group(0) @binding(27) var<storage, read> material_words: array<u32>;
 @group(0) @binding(28) var<storage, read> material_rest: array<real>;
@@ -27,6 +28,22 @@
 const MATERIAL_HEADER: u32 = 2u;
 const MATERIAL_WORDS: u32 = 4u;
 const FLAG_NEO_HOOKEAN: u32 = 1u;
+// status[4] of a material element whose loops llvmpipe cut short: the
+// element's index with this bit (a particle's index, below it, wins).
+const MATERIAL_LOOPS: u32 = 0x80000000u;
+
+// check_loops (barrier.wgsl) for material element e: the Jacobi sweeps of
+// an (N k)² frame Hessian reach llvmpipe's loop budget from N k ≈ 20.
+fn check_material_loops(e: u32) {
+    let trips = 2u + (bp.count >> 31u);
+    var probe = 0u;
+    for (var t = 0u; t < trips; t++) {
+        probe++;
+    }
+    if (probe != 2u) {
+        atomicMin(&status[LOOPS_CUT], MATERIAL_LOOPS | e);
+    }
+}
 
 // The fields of material.wgsl's running call.
 struct MaterialCall {
@@ -124,7 +141,7 @@ fn cp_material_elements(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(
     if (!ok) {
         atomicMin(&status[3], e);
     }
-    check_loops(e);
+    check_material_loops(e);
 }
 
 @compute @workgroup_size(WORKGROUP)
@@ -141,7 +158,7 @@ fn cp_material_changes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(n
         change = energy - records[e * record_len()];
     }
     tree[cp.channel_e + e] = change;
-    check_loops(e);
+    check_material_loops(e);
 }
 
 @compute @workgroup_size(WORKGROUP)
@@ -165,7 +182,7 @@ fn cp_material_frames(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
     if (!ok) {
         atomicMin(&status[3], e);
     }
-    check_loops(e);
+    check_material_loops(e);
 }
 
 @compute @workgroup_size(WORKGROUP)
@@ -195,5 +212,5 @@ fn cp_material_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num
     for (var k = 0u; k < count; k++) {
         slots[e * width + k] = out[k];
     }
-    check_loops(e);
+    check_material_loops(e);
 }

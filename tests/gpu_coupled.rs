@@ -581,3 +581,79 @@ fn an_element_inverted_at_the_start_is_the_golden_refusal() {
     );
     assert_eq!(bits(&before), bits(&gpu.read_state().expect("state")));
 }
+
+/// One Kuhn cell of 0.1 m in R^`dim` (StVK, ν = 0.1, 0.1 kg nodes)
+/// thrown at 4 m/s onto a plane from 0.2 m.
+fn one_cell_block(dim: usize) -> Scene {
+    use hyperpbd::SceneBuilder;
+    use hyperpbd::builders::BlockSpec;
+    let mut b = SceneBuilder::new(dim)
+        .dt(1.0 / 30.0)
+        .substeps(1)
+        .iterations(10)
+        .gravity_along(1, -9.81);
+    let mut origin = vec![0.0; dim];
+    origin[1] = 0.2;
+    b.soft_block(&BlockSpec {
+        cells: vec![1; dim],
+        origin,
+        spacing: 0.1,
+        mass: 0.1,
+        compliance: 1e-7,
+        edge_compliance: None,
+    });
+    let mut up = vec![0.0; dim];
+    up[1] = 1.0;
+    b.hyperplane(up, 0.0, 0.0);
+    let mut scene = b.build().expect("valid block");
+    for p in &mut scene.particles {
+        let mut v = vec![0.0; dim];
+        v[1] = -4.0;
+        p.velocity = Some(v);
+    }
+    let elements = scene.constraints[0].elements.clone();
+    scene.constraints = vec![ConstraintFamily::material(
+        ConstraintKind::Stvk,
+        2e5,
+        0.1,
+        elements,
+    )];
+    scene.solver = Solver::IncrementalPotential(settings(1e4, 1e-3, 1e-2, 50));
+    scene
+}
+
+/// Frame Hessians of 4- and 5-simplices (16 × 16, 25 × 25): in R^4 the
+/// step is the golden path's (24 elements, 2 frames); in R^5 the Jacobi
+/// sweeps exceed llvmpipe's loop budget, which the kernel detects: on
+/// lavapipe the step is refused naming a material element (a typed
+/// `GpuError::Unsupported`, the state rolled back, never a different
+/// result); an adapter without the budget runs it, held to the golden path.
+#[test]
+fn higher_dimensional_material_elements_are_the_golden_path_or_refused_as_too_long() {
+    let Some((adapter, summary)) = adapter_or_skip("R^5 material block", Precision::F64) else {
+        return;
+    };
+    let above = |s: &State| (-s.positions[1], 0.0);
+    differential("one Kuhn cell of StVK 4-simplices", &one_cell_block(4), 2, above);
+    let scene = one_cell_block(5);
+    let plan = Plan::compile(&scene).expect("compiles");
+    let state = State::from_scene(&scene);
+    let mut gpu =
+        GpuCoupledBackend::with_adapter(&adapter, plan, &state, Precision::F64).expect("loads");
+    match gpu.step() {
+        Err(BackendError::Gpu(GpuError::Unsupported { what })) => {
+            assert!(what.contains("loops of material element"), "{what}");
+            assert_eq!(bits(&state), bits(&gpu.read_state().expect("state")));
+            println!("R^5 material block: {what}");
+        }
+        Err(e) => panic!("expected the loop refusal or a step, got {e}"),
+        Ok(_) => {
+            let mut cpu = common::cpu_backend(&scene, 1);
+            cpu.step().expect("cpu");
+            let golden = cpu.read_state().expect("cpu");
+            if f64_identical(&summary) {
+                assert!(bits(&golden) == bits(&gpu.read_state().expect("gpu")));
+            }
+        }
+    }
+}

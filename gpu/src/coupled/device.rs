@@ -20,7 +20,7 @@ use hyperpbd_core::implicit::{ElementLists, REDUCTION_BLOCK};
 
 use super::entries::{Entry, region};
 use crate::Precision;
-use crate::barrier::{NONE, STATUS_WORDS, refuse_cut_loops, status_words};
+use crate::barrier::{NONE, STATUS_WORDS, status_words};
 use crate::context::GpuContext;
 use crate::kernel_set::{BlockWriter, KernelSet};
 use crate::params::{push_reals, read_reals, real_size};
@@ -496,7 +496,7 @@ impl Device {
         ctx.submit_and_wait(encoder)?;
         let bytes = ctx.read(&self.probe, status_at + 4 * STATUS_WORDS as u64)?;
         let status = status_words(&bytes[status_at as usize..]);
-        refuse_cut_loops(&status)?;
+        super::material::refuse_cut_loops_of(&status)?;
         let values = results
             .iter()
             .enumerate()

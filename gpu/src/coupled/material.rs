@@ -19,6 +19,7 @@ use hyperpbd_core::material::{Law, MaterialScratch, element_energy};
 use hyperpbd_core::{FamilyKind, GpuError, Plan, Refusal};
 
 use crate::Precision;
+use crate::barrier::{LOOPS_CUT, NONE, STATUS_WORDS, refuse_cut_loops};
 use crate::context::GpuContext;
 use crate::params::push_reals;
 use crate::xpbd::material::push_rest_data;
@@ -131,4 +132,26 @@ pub(super) fn rounding(plan: &Plan, (family, slot): (usize, usize), points: &[f6
     let mut gradient = vec![0.0; points.len()];
     material_energy_rounding(m, &mut gradient, &mut MaterialScratch::new())
         .map_or(0.0, |(_, bound)| bound)
+}
+
+/// status[4]'s bit marking a material element's cut loops
+/// (coupled_material.wgsl `MATERIAL_LOOPS`).
+const MATERIAL_LOOPS: u32 = 0x8000_0000;
+
+/// The coupled kernels' loop check: a material element whose loops
+/// llvmpipe cut short is named as one; a particle's, as barrier.rs names it.
+pub(super) fn refuse_cut_loops_of(status: &[u32; STATUS_WORDS]) -> Result<(), GpuError> {
+    let word = status[LOOPS_CUT];
+    if word != NONE && word & MATERIAL_LOOPS != 0 {
+        return Err(GpuError::Unsupported {
+            what: format!(
+                "loops this long on this adapter: it ended the loops of material element {} \
+                 early (llvmpipe stops a shader's loops after 65 535 iterations; the Jacobi \
+                 sweeps of an element's (N k)² frame Hessian reach that from N k ≈ 20): use a \
+                 hardware adapter or the CPU backend",
+                word & !MATERIAL_LOOPS
+            ),
+        });
+    }
+    refuse_cut_loops(status)
 }
