@@ -505,7 +505,10 @@ fn hanging_stvk_and_neo_hookean_blocks_are_the_golden_path() {
 fn tetrahedral_blocks_dropped_onto_a_plane_are_the_golden_path() {
     for (name, law) in [
         ("StVK tetrahedra onto a plane", ConstraintKind::Stvk),
-        ("Neo-Hookean tetrahedra onto a plane", ConstraintKind::NeoHookean),
+        (
+            "Neo-Hookean tetrahedra onto a plane",
+            ConstraintKind::NeoHookean,
+        ),
     ] {
         let mut scene = common::guarded::material_block(3, 4.0, law, None, None);
         scene.solver = Solver::IncrementalPotential(settings(1e4, 1e-3, 1e-2, 50));
@@ -529,8 +532,12 @@ fn tetrahedral_blocks_dropped_onto_a_plane_are_the_golden_path() {
 /// whose free vertex moves at `speed` towards its fixed edge.
 fn crushed_triangle(speed: f64) -> Scene {
     let mut scene = Scene::new(2, 1.0 / 60.0, 1, 1);
-    scene.particles.push(hyperpbd::Particle::fixed(vec![0.0, 0.0]));
-    scene.particles.push(hyperpbd::Particle::fixed(vec![1.0, 0.0]));
+    scene
+        .particles
+        .push(hyperpbd::Particle::fixed(vec![0.0, 0.0]));
+    scene
+        .particles
+        .push(hyperpbd::Particle::fixed(vec![1.0, 0.0]));
     let mut free = hyperpbd::Particle::new(vec![0.0, 1.0], 1.0);
     free.velocity = Some(vec![0.0, -speed]);
     scene.particles.push(free);
@@ -550,7 +557,12 @@ fn crushed_triangle(speed: f64) -> Scene {
 #[test]
 fn a_crushed_neo_hookean_triangle_is_the_golden_path() {
     let height = |s: &State| (-s.positions[5], 0.0);
-    differential("Neo-Hookean triangle crushed at 200 m/s", &crushed_triangle(200.0), 30, height);
+    differential(
+        "Neo-Hookean triangle crushed at 200 m/s",
+        &crushed_triangle(200.0),
+        30,
+        height,
+    );
 }
 
 /// An element inverted at the step's start is the golden path's typed
@@ -634,7 +646,12 @@ fn higher_dimensional_material_elements_are_the_golden_path_or_refused_as_too_lo
         return;
     };
     let above = |s: &State| (-s.positions[1], 0.0);
-    differential("one Kuhn cell of StVK 4-simplices", &one_cell_block(4), 2, above);
+    differential(
+        "one Kuhn cell of StVK 4-simplices",
+        &one_cell_block(4),
+        2,
+        above,
+    );
     let scene = one_cell_block(5);
     let plan = Plan::compile(&scene).expect("compiles");
     let state = State::from_scene(&scene);

@@ -107,7 +107,11 @@ impl Materials {
 
 /// Why material element (`family`, `slot`) cannot be evaluated at its
 /// `points` (cpu `element_refusal`): the law's refusal, else `None`.
-pub(super) fn refusal(plan: &Plan, (family, slot): (usize, usize), points: &[f64]) -> Option<Refusal> {
+pub(super) fn refusal(
+    plan: &Plan,
+    (family, slot): (usize, usize),
+    points: &[f64],
+) -> Option<Refusal> {
     let f = &plan.families[family];
     let m = f.kind.material_element(slot, points, plan.dim)?;
     let mut gradient = vec![0.0; points.len()];

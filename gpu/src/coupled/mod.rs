@@ -25,6 +25,8 @@
 //! materials     refusals (a law refusal at x_k, a non-finite H_F) and the rounding δW
 //!               of the floor are core's functions on the host, on x_k read back
 //!               (only when needed), as the golden path names and sums them
+//! loops         a material element whose Jacobi sweeps llvmpipe cuts short is a typed
+//!               refusal naming it (R^5 simplices on lavapipe; material.rs)
 //! refused       f32 (the certified filter's and the floor's rounding counts are f64's so
 //!               far)
 //! ```
