@@ -102,10 +102,11 @@ fn a_refused_step_leaves_the_state_byte_for_byte() {
     assert_eq!(bits(&before), bits(&after));
 }
 
-/// What the GPU's coupled step does not run yet (f32; material families)
-/// is a typed refusal saying why and which backend runs it;
-/// the scene itself (springs, a frictional plane, ball pairs with
-/// friction) loads on gpu-f64 through the factory (`GpuCoupledBackend`).
+/// What the GPU's coupled step does not run yet (f32, with or without a
+/// material family) is a typed refusal saying why and which backend runs
+/// it; the scene itself (springs, a frictional plane, ball pairs with
+/// friction), with a material family too, loads on gpu-f64 through the
+/// factory (`GpuCoupledBackend`).
 #[test]
 fn the_gpu_refuses_what_its_coupled_step_does_not_run_yet() {
     let scene = Scene::from_json_str(&coupled_json(1e-8, 0.3)).expect("parses");
@@ -124,7 +125,8 @@ fn the_gpu_refuses_what_its_coupled_step_does_not_run_yet() {
     );
     for (precision, scene, why) in [
         (Precision::F32, &scene, "f32"),
-        (Precision::F64, &material, "material family"),
+        (Precision::F32, &material, "f32"),
+        (Precision::F64, &material, ""),
         (Precision::F64, &scene, ""),
     ] {
         let plan = Plan::compile(scene).expect("compiles");
