@@ -674,3 +674,54 @@ fn higher_dimensional_material_elements_are_the_golden_path_or_refused_as_too_lo
         }
     }
 }
+
+/// Embedded elements (k < N) in two families of different orders: a
+/// hanging 0.3 × 0.2 m sheet of Neo-Hookean triangles in R^3 (its measure
+/// ratio from the Cholesky factor of C, not a determinant), tilted out of
+/// its plane, with StVK segments (k = 1) along its free edge, released at
+/// rest: the frame Hessians of both orders (6 × 6 and 3 × 3 in one frames
+/// buffer) on the GPU, frame for frame the golden path's bits.
+#[test]
+fn an_embedded_sheet_with_edge_segments_is_the_golden_path() {
+    use hyperpbd::builders::{coords_of, kuhn_grid_elements};
+    let cells = [3, 2];
+    let nodes = [cells[0] + 1, cells[1] + 1];
+    let mut scene = Scene::new(3, 1.0 / 60.0, 1, 1);
+    scene.gravity = Some(vec![0.0, -common::implicit_scenes::G, 0.0]);
+    for i in 0..nodes[0] * nodes[1] {
+        let c = coords_of(i, &nodes);
+        let (u, w) = (0.1 * c[0] as f64, 0.1 * c[1] as f64);
+        // The sheet spans x and y, leaning 0.3 of its height along z.
+        let position = vec![u, w, 0.3 * (0.2 - w)];
+        if c[1] == cells[1] {
+            scene.particles.push(hyperpbd::Particle::fixed(position));
+        } else {
+            let mut p = hyperpbd::Particle::new(position, 1.0);
+            p.mass = None;
+            scene.particles.push(p);
+        }
+    }
+    scene.constraints.push(
+        ConstraintFamily::material(
+            ConstraintKind::NeoHookean,
+            1e4,
+            0.3,
+            kuhn_grid_elements(&cells, 0),
+        )
+        .with_density(1000.0),
+    );
+    scene.constraints.push(ConstraintFamily::material(
+        ConstraintKind::Stvk,
+        1e3,
+        0.0,
+        (0..cells[0]).map(|k| vec![k, k + 1]).collect(),
+    ));
+    scene.solver = Solver::IncrementalPotential(settings(1e3, 1e-3, 1e-6, 50));
+    let sag = |s: &State| {
+        let lowest = (0..nodes[0])
+            .map(|i| s.position(i)[1])
+            .fold(f64::INFINITY, f64::min);
+        (-(lowest + 0.1), 0.0)
+    };
+    differential("embedded NH sheet with StVK edge segments", &scene, 30, sag);
+}
