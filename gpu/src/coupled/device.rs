@@ -111,7 +111,6 @@ pub(super) struct Params {
     pub h: f64,
     pub slip: f64,
     pub step: f64,
-    pub beta: f64,
 }
 
 impl Params {
@@ -130,14 +129,7 @@ impl Params {
             ])
             .words(&self.channels)
             .words(&[self.pairs, self.mode, 0])
-            .reals(&[
-                self.h,
-                self.h * self.h,
-                self.slip,
-                self.step,
-                self.beta,
-                epsilon,
-            ])
+            .reals(&[self.h, self.h * self.h, self.slip, self.step, epsilon])
             .finish()
     }
 }
@@ -173,8 +165,10 @@ pub(super) struct Device {
     pub terms: wgpu::Buffer,
     tree: wgpu::Buffer,
     params_buffer: wgpu::Buffer,
+    /// PCG's scalar state (`CgState`, pcg.rs).
+    pub cg: wgpu::Buffer,
     levels: wgpu::Buffer,
-    status: wgpu::Buffer,
+    pub status: wgpu::Buffer,
     probe: wgpu::Buffer,
     group: Option<wgpu::BindGroup>,
     levels_group: wgpu::BindGroup,
@@ -227,6 +221,7 @@ impl Device {
             terms: reals("terms", count * (dim * dim + 2))?,
             tree: reals("tree", 1)?,
             params_buffer: ctx.storage("coupled params", &Params::default().bytes(precision))?,
+            cg: ctx.storage("cg state", &super::pcg::CgState::default().bytes(precision))?,
             levels,
             status: ctx.storage("status", bytemuck::cast_slice(&STATUS_RESET))?,
             probe: ctx.staging("probe", PROBE_REALS * 8 + 4 * STATUS_WORDS as u64)?,
@@ -304,6 +299,7 @@ impl Device {
                 &self.terms,
                 &self.tree,
                 &self.params_buffer,
+                &self.cg,
             ],
             0,
         )?;

@@ -1,16 +1,18 @@
 //! `GpuCoupledBackend`: the coupled implicit step (docs/implicit.md §7) on
 //! the GPU, the golden path's schedule (`cpu/src/coupled/`) kernel for
-//! kernel: every per-element and per-particle pass, every vector update of
-//! PCG and the line search, and every sum on the block tree run in
-//! `shaders/coupled.wgsl` and `coupled_solve.wgsl`; the host runs the
-//! Newton loop's decisions on the few reduced scalars it reads back,
-//! through the same core functions as the CPU (`pcg_on`, `armijo`,
-//! `MinimisationReport`, `change_resolution`).
+//! kernel: every per-element and per-particle pass, PCG whole (its vectors
+//! and its scalar recurrence, pcg.rs), the line search's vectors, and every
+//! sum on the block tree run in `shaders/coupled.wgsl` and
+//! `coupled_solve.wgsl`; the host runs the Newton loop's other decisions
+//! on the few reduced scalars it reads back, through the same core
+//! functions as the CPU (`pcg_start`, `armijo`, `MinimisationReport`,
+//! `change_resolution`).
 //!
 //! ```text
 //! per substep:  cp_start (x^t, x~, load, lags, d ≤ 0) → pairs at x^t (collisions) → warm start
 //!               loop { x_k → point; cp_elements; cp_gradient; Σ|max → residual (one read)
-//!                      cp_slots + cp_particle_curvature (diag); PCG (two reads per iteration)
+//!                      PCG on the device (pcg.rs: the diagonal and start, one read; then
+//!                      chunks of iterations, one read each)
 //!                      pairs over [x_k, x_k + Δ]; filter (min, one read); cp_elements at x_k;
 //!                      slope (one read); trials (one read each); accept }
 //!               cp_finish: x = x_k, v = (x − x^t)/h
@@ -26,6 +28,7 @@
 mod device;
 mod entries;
 mod newton;
+mod pcg;
 
 use hyperpbd_core::broadphase::{Aabbs, Pair, grid_pairs};
 use hyperpbd_core::implicit::{CoupledPlan, PairLag};
@@ -45,6 +48,7 @@ use crate::resident_backend::{minimising_backend, resident_backend};
 use crate::shader::MAX_GPU_DIM;
 use device::{Device, ElementUpload, Reduction};
 use entries::Entry;
+use pcg::PcgProbe;
 
 /// The GPU backend of the coupled implicit step.
 pub struct GpuCoupledBackend {
@@ -64,6 +68,8 @@ pub struct GpuCoupledBackend {
     substep: u32,
     reports: Vec<MinimisationReport>,
     exporter: Exporter,
+    /// PCG's read-back buffer and chunk length (pcg.rs).
+    pcg: PcgProbe,
 }
 
 /// Why the GPU does not run `plan`'s coupled step (yet), if it does not.
@@ -162,6 +168,7 @@ impl GpuCoupledBackend {
         };
         device.params.h = plan.h;
         device.params.slip = coupled.slip_velocity * plan.h;
+        let pcg = PcgProbe::new(&ctx, precision)?;
         let mut backend = GpuCoupledBackend {
             plan,
             ip,
@@ -177,6 +184,7 @@ impl GpuCoupledBackend {
             substep: 0,
             reports: Vec::new(),
             exporter: Exporter::default(),
+            pcg,
         };
         backend.upload_elements(Vec::new(), true)?;
         backend.ctx.check()?;
