@@ -400,23 +400,43 @@ impl Device {
             .write_buffer(&self.status, 0, bytemuck::cast_slice(&STATUS_RESET));
     }
 
-    /// Records `entry` over `invocations`.
+    /// Records `entry` over `invocations` in a compute pass of its own.
     pub fn pass(&self, encoder: &mut wgpu::CommandEncoder, entry: Entry, invocations: usize) {
+        if invocations == 0 || self.group.is_none() {
+            return;
+        }
+        let mut pass = self.begin(encoder);
+        self.dispatch(&mut pass, entry, invocations);
+    }
+
+    /// Begins a compute pass with group 0 bound (for [`Device::dispatch`]
+    /// and [`Device::reduce_in`]): a submission's dispatches share one pass,
+    /// since on lavapipe a pass of its own per dispatch costs more than a
+    /// small dispatch (WebGPU orders the dispatches of a pass and makes each
+    /// one's writes visible to the next).
+    pub fn begin<'e>(&self, encoder: &'e mut wgpu::CommandEncoder) -> wgpu::ComputePass<'e> {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        if let Some(group) = &self.group {
+            pass.set_bind_group(0, group, &[]);
+        }
+        pass
+    }
+
+    /// Records `entry` over `invocations` into `pass` (from [`Device::begin`]).
+    pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, entry: Entry, invocations: usize) {
         if invocations == 0 {
             return;
         }
-        let Some(group) = &self.group else { return };
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_bind_group(0, group, &[]);
         pass.set_bind_group(1, &self.levels_group, &[0]);
-        self.kernels.dispatch(&mut pass, entry, invocations as u32);
+        self.kernels.dispatch(pass, entry, invocations as u32);
     }
 
-    /// Records `reduction` level by level; where its result will be (a
-    /// tree offset), or its pad when it has no terms.
-    pub fn reduce(
+    /// Records `reduction` level by level into `pass` (from
+    /// [`Device::begin`]); where its result will be (a tree offset), or its
+    /// pad when it has no terms.
+    pub fn reduce_in(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
+        pass: &mut wgpu::ComputePass<'_>,
         reduction: Reduction,
     ) -> Result<usize, f64> {
         let k = Reduction::ALL
@@ -424,20 +444,15 @@ impl Device {
             .position(|&r| r == reduction)
             .unwrap_or(0);
         let sizes = level_sizes(self.lengths[k]);
-        let Some(group) = &self.group else {
-            return Err(reduction.pad());
-        };
-        if sizes.is_empty() {
+        if self.group.is_none() || sizes.is_empty() {
             return Err(reduction.pad());
         }
         let outputs = &self.channels[reduction.channel()].1;
         for (level, &groups) in sizes.iter().enumerate() {
             let offset = ((k * MAX_LEVELS + level) as u32) * self.level_stride;
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_bind_group(0, group, &[]);
             pass.set_bind_group(1, &self.levels_group, &[offset]);
             self.kernels
-                .dispatch_workgroups(&mut pass, Entry::Reduce, groups as u32);
+                .dispatch_workgroups(pass, Entry::Reduce, groups as u32);
         }
         Ok(outputs[sizes.len() - 1])
     }

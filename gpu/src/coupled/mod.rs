@@ -265,7 +265,9 @@ impl GpuCoupledBackend {
     }
 
     /// Writes the params and a clear status block, then records `entries`
-    /// (each over its items) and `reductions`, and reads them back.
+    /// (each over its items) and `reductions` in one compute pass (on
+    /// lavapipe a pass of its own per dispatch costs more than the
+    /// dispatch), and reads them back.
     fn run(
         &self,
         entries: &[(Entry, usize)],
@@ -274,19 +276,17 @@ impl GpuCoupledBackend {
         self.device.write_params(&self.ctx);
         self.device.reset_status(&self.ctx);
         let mut encoder = self.encoder();
-        self.record(&mut encoder, entries);
-        let results: Vec<_> = reductions
-            .iter()
-            .map(|&r| self.device.reduce(&mut encoder, r))
-            .collect();
+        let results: Vec<_> = {
+            let mut pass = self.device.begin(&mut encoder);
+            for &(entry, items) in entries {
+                self.device.dispatch(&mut pass, entry, items);
+            }
+            reductions
+                .iter()
+                .map(|&r| self.device.reduce_in(&mut pass, r))
+                .collect()
+        };
         self.device.read(&self.ctx, encoder, &results)
-    }
-
-    /// Records `entries`, each over its item count.
-    fn record(&self, encoder: &mut wgpu::CommandEncoder, entries: &[(Entry, usize)]) {
-        for &(entry, items) in entries {
-            self.device.pass(encoder, entry, items);
-        }
     }
 
     /// Copies vector region `from` into the point buffer (own submission).

@@ -304,10 +304,15 @@ impl GpuCoupledBackend {
         self.device.pass(&mut encoder, Entry::Trial, n);
         self.device
             .load_point(&mut encoder, &self.state, region::TRIAL);
-        self.device.pass(&mut encoder, Entry::ParticleChanges, n);
-        self.device.pass(&mut encoder, Entry::ElementChanges, e);
-        let own = self.device.reduce(&mut encoder, Reduction::SumA);
-        let coupled = self.device.reduce(&mut encoder, Reduction::SumE);
+        let (own, coupled) = {
+            let mut pass = self.device.begin(&mut encoder);
+            self.device.dispatch(&mut pass, Entry::ParticleChanges, n);
+            self.device.dispatch(&mut pass, Entry::ElementChanges, e);
+            (
+                self.device.reduce_in(&mut pass, Reduction::SumA),
+                self.device.reduce_in(&mut pass, Reduction::SumE),
+            )
+        };
         let (values, status) = self.device.read(&self.ctx, encoder, &[own, coupled])?;
         let h2 = self.plan.h * self.plan.h;
         let total = values[0] + h2 * values[1];

@@ -197,18 +197,22 @@ impl GpuCoupledBackend {
             let k = chunk.min(settings.max_iterations - recorded);
             let mut encoder = self.encoder();
             let mut at = [0; 3];
-            for j in 0..k {
-                if recorded + j > 0 {
-                    self.device.pass(&mut encoder, Entry::CgTurn, n);
+            {
+                let device = &self.device;
+                let mut pass = device.begin(&mut encoder);
+                for j in 0..k {
+                    if recorded + j > 0 {
+                        device.dispatch(&mut pass, Entry::CgTurn, n);
+                    }
+                    device.dispatch(&mut pass, Entry::Slots, e);
+                    device.dispatch(&mut pass, Entry::ParticleCurvature, n);
+                    at[0] = landed(device.reduce_in(&mut pass, Reduction::SumA))?;
+                    device.dispatch(&mut pass, Entry::CgAlpha, 1);
+                    device.dispatch(&mut pass, Entry::CgResidual, n);
+                    at[1] = landed(device.reduce_in(&mut pass, Reduction::SumA))?;
+                    at[2] = landed(device.reduce_in(&mut pass, Reduction::SumB))?;
+                    device.dispatch(&mut pass, Entry::CgBeta, 1);
                 }
-                self.device.pass(&mut encoder, Entry::Slots, e);
-                self.device.pass(&mut encoder, Entry::ParticleCurvature, n);
-                at[0] = landed(self.device.reduce(&mut encoder, Reduction::SumA))?;
-                self.device.pass(&mut encoder, Entry::CgAlpha, 1);
-                self.device.pass(&mut encoder, Entry::CgResidual, n);
-                at[1] = landed(self.device.reduce(&mut encoder, Reduction::SumA))?;
-                at[2] = landed(self.device.reduce(&mut encoder, Reduction::SumB))?;
-                self.device.pass(&mut encoder, Entry::CgBeta, 1);
             }
             if recorded == 0 {
                 // Lands before the submission below (queue writes precede it).
