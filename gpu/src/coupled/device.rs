@@ -221,7 +221,10 @@ impl Device {
             terms: reals("terms", count * (dim * dim + 2))?,
             tree: reals("tree", 1)?,
             params_buffer: ctx.storage("coupled params", &Params::default().bytes(precision))?,
-            cg: ctx.storage("cg state", &super::pcg::CgState::default().bytes(precision))?,
+            cg: ctx.storage(
+                "cg state",
+                &super::cg_state::CgState::default().bytes(precision),
+            )?,
             levels,
             status: ctx.storage("status", bytemuck::cast_slice(&STATUS_RESET))?,
             probe: ctx.staging("probe", PROBE_REALS * 8 + 4 * STATUS_WORDS as u64)?,

@@ -25,6 +25,7 @@
 //! In f64 on lavapipe every state is bit-identical to the CPU golden path
 //! (`tests/gpu_coupled.rs`).
 
+mod cg_state;
 mod device;
 mod entries;
 mod newton;

@@ -25,120 +25,17 @@ use hyperpbd_core::GpuError;
 use hyperpbd_core::implicit::{PcgReport, PcgSettings, PcgStatus, pcg_start};
 
 use super::GpuCoupledBackend;
+use super::cg_state::CgState;
 use super::device::Reduction;
 use super::entries::Entry;
 use crate::Precision;
 use crate::barrier::{STATUS_WORDS, refuse_cut_loops, status_words};
 use crate::context::GpuContext;
-use crate::kernel_set::BlockWriter;
-use crate::params::{read_reals, real_size};
 
-/// Words of `CgState` before its reals.
-const WORDS: usize = 8;
-/// Reals of `CgState`.
-const REALS: usize = 6;
 /// Where CgState starts in the probe (after the status words, 8-aligned).
 const STATE_AT: u64 = (4 * STATUS_WORDS as u64).next_multiple_of(8);
 /// The first chunk's length before any direction was solved.
 const FIRST_CHUNK: u32 = 8;
-
-/// `CgState` of shaders/coupled.wgsl, host side.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(super) struct CgState {
-    /// Tree offsets of p·q, r·r and r·z.
-    pub at: [u32; 3],
-    pub iterations: u32,
-    pub max_iterations: u32,
-    /// 0 running, 1 converged, 2 non-finite, 3 non-positive curvature,
-    /// 4 budget exhausted.
-    pub status: u32,
-    pub stopped: u32,
-    pub rho: f64,
-    pub tolerance: f64,
-    pub curvature: f64,
-    pub residual: f64,
-    pub alpha: f64,
-    pub beta: f64,
-}
-
-impl CgState {
-    /// The block's bytes in `precision`.
-    pub fn bytes(&self, precision: Precision) -> Vec<u8> {
-        let [pq, rr, rz] = self.at;
-        BlockWriter::new(precision)
-            .words(&[
-                pq,
-                rr,
-                rz,
-                self.iterations,
-                self.max_iterations,
-                self.status,
-                self.stopped,
-                0,
-            ])
-            .reals(&[
-                self.rho,
-                self.tolerance,
-                self.curvature,
-                self.residual,
-                self.alpha,
-                self.beta,
-            ])
-            .finish()
-    }
-
-    fn len(precision: Precision) -> u64 {
-        (4 * WORDS + REALS * real_size(precision)) as u64
-    }
-
-    fn parse(bytes: &[u8], precision: Precision) -> CgState {
-        let word = |k: usize| {
-            u32::from_le_bytes([
-                bytes[4 * k],
-                bytes[4 * k + 1],
-                bytes[4 * k + 2],
-                bytes[4 * k + 3],
-            ])
-        };
-        let reals = read_reals(&bytes[4 * WORDS..Self::len(precision) as usize], precision);
-        CgState {
-            at: [word(0), word(1), word(2)],
-            iterations: word(3),
-            max_iterations: word(4),
-            status: word(5),
-            stopped: word(6),
-            rho: reals[0],
-            tolerance: reals[1],
-            curvature: reals[2],
-            residual: reals[3],
-            alpha: reals[4],
-            beta: reals[5],
-        }
-    }
-
-    /// The report of a stopped solve that started at ‖b‖ = `initial`.
-    fn report(&self, initial: f64) -> Result<PcgReport, GpuError> {
-        let status = match self.status {
-            1 => PcgStatus::Converged,
-            2 => PcgStatus::NonFinite,
-            3 => PcgStatus::NonPositiveCurvature {
-                curvature: self.curvature,
-            },
-            4 => PcgStatus::BudgetExhausted,
-            other => {
-                return Err(GpuError::Other {
-                    message: format!("the device's PCG stopped with unknown status {other}"),
-                });
-            }
-        };
-        Ok(PcgReport {
-            status,
-            iterations: self.iterations,
-            initial_residual: initial,
-            final_residual: self.residual,
-        })
-    }
-}
 
 /// The read-back buffer of the chunks, and the next first chunk's length.
 pub(super) struct PcgProbe {
