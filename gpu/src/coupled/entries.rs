@@ -17,6 +17,8 @@ pub(crate) enum Entry {
     ParticleCurvature,
     CgResidual,
     CgTurn,
+    CgAlpha,
+    CgBeta,
     Slope,
     Trial,
     ParticleChanges,
@@ -28,7 +30,7 @@ pub(crate) enum Entry {
 }
 
 impl Entry {
-    pub const ALL: [Entry; 16] = [
+    pub const ALL: [Entry; 18] = [
         Entry::Elements,
         Entry::ElementChanges,
         Entry::Slots,
@@ -37,6 +39,8 @@ impl Entry {
         Entry::ParticleCurvature,
         Entry::CgResidual,
         Entry::CgTurn,
+        Entry::CgAlpha,
+        Entry::CgBeta,
         Entry::Slope,
         Entry::Trial,
         Entry::ParticleChanges,
@@ -59,6 +63,8 @@ impl EntryPoint for Entry {
             Entry::ParticleCurvature => "cp_particle_curvature",
             Entry::CgResidual => "cp_cg_residual",
             Entry::CgTurn => "cp_cg_turn",
+            Entry::CgAlpha => "cp_cg_alpha",
+            Entry::CgBeta => "cp_cg_beta",
             Entry::Slope => "cp_slope",
             Entry::Trial => "cp_trial",
             Entry::ParticleChanges => "cp_particle_changes",
