@@ -42,9 +42,31 @@ struct CoupledParams {
     h: real,
     h2: real,
     slip: real,      // ε = ε_v h
-    step: real,      // τ (warm start), a (CG), t (trial)
-    beta: real,      // β (CG)
+    step: real,      // τ (warm start), t (trial)
     epsilon: real,   // the filter's ε
+}
+
+// PCG's scalar recurrence on the device (coupled_solve.wgsl, cp_cg_alpha
+// and cp_cg_beta: core's pcg_on after its start, decision for decision).
+// status: 0 running, 1 converged, 2 non-finite, 3 non-positive curvature,
+// 4 budget exhausted. While `stopped` is set, the CG passes (cp_slots,
+// cp_particle_curvature, cp_cg_residual, cp_cg_turn) do nothing, so a
+// submission may record more iterations than run.
+struct CgState {
+    pq_at: u32,          // tree offsets of p·q, r·r and r·z
+    rr_at: u32,
+    rz_at: u32,
+    iterations: u32,
+    max_iterations: u32,
+    status: u32,
+    stopped: u32,
+    pad: u32,
+    rho: real,           // r·z of the current residual
+    tolerance: real,
+    curvature: real,     // the last p·q
+    residual: real,      // the last ‖r‖
+    alpha: real,
+    beta: real,
 }
 
 struct Level {
@@ -77,6 +99,7 @@ struct Level {
 @group(0) @binding(24) var<storage, read_write> terms: array<real>;
 @group(0) @binding(25) var<storage, read_write> tree: array<real>;
 @group(0) @binding(26) var<storage, read> cp: CoupledParams;
+@group(0) @binding(27) var<storage, read_write> cg: CgState;
 @group(1) @binding(0) var<storage, read> level: Level;
 
 const R_GRADIENT: u32 = 0u;
@@ -345,11 +368,12 @@ fn cp_element_changes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
     tree[cp.channel_e + e] = change;
 }
 
-// K⁺ p_e (p from R_P) or the diagonal of K⁺ into element e's slots.
+// K⁺ p_e (p from R_P) or the diagonal of K⁺ into element e's slots
+// (nothing once PCG has stopped).
 @compute @workgroup_size(WORKGROUP)
 fn cp_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let e = linear_index(gid, groups);
-    if (e >= cp.elements || code_of(e) == MATERIAL) {
+    if (e >= cp.elements || cg.stopped != 0u || code_of(e) == MATERIAL) {
         return;
     }
     let code = code_of(e);
@@ -673,11 +697,11 @@ fn cp_gradient(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
 // The particles' half of H = M + h² Σ K⁺, after cp_slots of the same
 // cp.diagonal: 1 → P⁻¹ = 1/(m + h² (diag B_i + Σ slots)) into R_INVERSE;
 // 0 → q = m p + h² (B_i p_i + Σ slots) (0 where P⁻¹ = 0) into R_Q, p·q per
-// particle into channel A. Fixed particles: 0.
+// particle into channel A. Fixed particles: 0. Nothing once PCG has stopped.
 @compute @workgroup_size(WORKGROUP)
 fn cp_particle_curvature(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
-    if (i >= bp.count) {
+    if (i >= bp.count || cg.stopped != 0u) {
         return;
     }
     let m = mass[i];

@@ -19,11 +19,12 @@
 //   cp_material_frames    H_F⁺ = project_psd(H_F) at the point buffer;
 //                         refused or not finite → status[3]
 //   cp_material_slots     K_e⁺ p_e (p from R_P) or its diagonal into the slots
+//                         (nothing once PCG has stopped, as cp_slots)
 //   loops cut short       status[4] = MATERIAL_LOOPS | e (the host names the element)
 
-@group(0) @binding(27) var<storage, read> material_words: array<u32>;
-@group(0) @binding(28) var<storage, read> material_rest: array<real>;
-@group(0) @binding(29) var<storage, read_write> frames: array<real>;
+@group(0) @binding(28) var<storage, read> material_words: array<u32>;
+@group(0) @binding(29) var<storage, read> material_rest: array<real>;
+@group(0) @binding(30) var<storage, read_write> frames: array<real>;
 
 const MATERIAL_HEADER: u32 = 2u;
 const MATERIAL_WORDS: u32 = 4u;
@@ -188,7 +189,7 @@ fn cp_material_frames(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
 @compute @workgroup_size(WORKGROUP)
 fn cp_material_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let m = linear_index(gid, groups);
-    if (m >= material_blocks()) {
+    if (m >= material_blocks() || cg.stopped != 0u) {
         return;
     }
     let e = take_material(m);

@@ -8,14 +8,15 @@
 // ------------------------------------------------------------ CG vectors
 
 // PCG's residual by cp.mode: 0 the start d = 0, r = −g (0 where P⁻¹ = 0),
-// p = z; 1 an advance d += a p, r −= a q (a = cp.step). Then z = P⁻¹ r;
-// r·r into A, r·z into B.
+// p = z; 1 an advance d += α p, r −= α q (α = cg.alpha). Then z = P⁻¹ r;
+// r·r into A, r·z into B. Nothing once PCG has stopped.
 @compute @workgroup_size(WORKGROUP)
 fn cp_cg_residual(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
-    if (i >= bp.count) {
+    if (i >= bp.count || cg.stopped != 0u) {
         return;
     }
+    let alpha = cg.alpha;
     var rr: real = 0.0;
     var rz: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
@@ -28,8 +29,8 @@ fn cp_cg_residual(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
             }
             vectors[at(R_DIRECTION, k)] = 0.0;
         } else {
-            vectors[at(R_DIRECTION, k)] += cp.step * vectors[at(R_P, k)];
-            r = vectors[at(R_R, k)] - cp.step * vectors[at(R_Q, k)];
+            vectors[at(R_DIRECTION, k)] += alpha * vectors[at(R_P, k)];
+            r = vectors[at(R_R, k)] - alpha * vectors[at(R_Q, k)];
         }
         let z = inverse * r;
         vectors[at(R_R, k)] = r;
@@ -44,16 +45,75 @@ fn cp_cg_residual(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     tree[cp.channel_b + i] = rz;
 }
 
-// p = z + β p (β = cp.beta).
+// p = z + β p (β = cg.beta). Nothing once PCG has stopped.
 @compute @workgroup_size(WORKGROUP)
 fn cp_cg_turn(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
-    if (i >= bp.count) {
+    if (i >= bp.count || cg.stopped != 0u) {
         return;
     }
+    let beta = cg.beta;
     for (var a = 0u; a < DIM; a++) {
         let k = i * DIM + a;
-        vectors[at(R_P, k)] = vectors[at(R_Z, k)] + cp.beta * vectors[at(R_P, k)];
+        vectors[at(R_P, k)] = vectors[at(R_Z, k)] + beta * vectors[at(R_P, k)];
+    }
+}
+
+// x is finite as the host reads it back (neither NaN nor ±∞, and not
+// REAL_MAX, which a read-back turns into +∞).
+fn cg_finite(x: real) -> bool {
+    return x == x && abs(x) < REAL_MAX;
+}
+
+fn cg_stop(status: u32) {
+    cg.status = status;
+    cg.stopped = 1u;
+}
+
+// The first half of a PCG iteration (pcg_on): count it, then c = p·q;
+// non-finite → stop (2); c ≤ 0 → stop (3); else α = ρ / c.
+@compute @workgroup_size(WORKGROUP)
+fn cp_cg_alpha(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    if (linear_index(gid, groups) != 0u || cg.stopped != 0u) {
+        return;
+    }
+    cg.iterations += 1u;
+    let c = tree[cg.pq_at];
+    cg.curvature = c;
+    if (!cg_finite(c)) {
+        cg_stop(2u);
+        return;
+    }
+    if (c <= 0.0) {
+        cg_stop(3u);
+        return;
+    }
+    cg.alpha = cg.rho / c;
+}
+
+// The second half (after the advance): ‖r‖ = √(r·r) is the final
+// residual; non-finite → stop (2); ‖r‖ ≤ tolerance → stop (1); else
+// β = (r·z)/ρ, ρ = r·z, and at the budget → stop (4).
+@compute @workgroup_size(WORKGROUP)
+fn cp_cg_beta(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    if (linear_index(gid, groups) != 0u || cg.stopped != 0u) {
+        return;
+    }
+    let residual = sqrt(tree[cg.rr_at]);
+    cg.residual = residual;
+    if (!cg_finite(residual)) {
+        cg_stop(2u);
+        return;
+    }
+    if (residual <= cg.tolerance) {
+        cg_stop(1u);
+        return;
+    }
+    let next = tree[cg.rz_at];
+    cg.beta = next / cg.rho;
+    cg.rho = next;
+    if (cg.iterations >= cg.max_iterations) {
+        cg_stop(4u);
     }
 }
 

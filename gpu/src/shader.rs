@@ -163,6 +163,8 @@ impl ShaderFile {
                 "cp_particle_curvature",
                 "cp_cg_residual",
                 "cp_cg_turn",
+                "cp_cg_alpha",
+                "cp_cg_beta",
                 "cp_slope",
                 "cp_trial",
                 "cp_particle_changes",

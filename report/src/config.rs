@@ -66,6 +66,11 @@ pub struct Config {
     pub newton_budgets: Vec<u32>,
     /// CG budgets (`cg_iterations`, None: the default) of the implicit rows.
     pub cg_budgets: Vec<Option<u32>>,
+    /// Newton budgets of the implicit rows on the GPU backends (a subset:
+    /// on lavapipe a GPU point costs 10²–10³ CPU points, docs/performance.md).
+    pub gpu_newton_budgets: Vec<u32>,
+    /// CG budgets of the implicit rows on the GPU backends.
+    pub gpu_cg_budgets: Vec<Option<u32>>,
     /// Run the implicit rows (implicit_budgets.rs).
     pub implicit: bool,
     /// Measure only the implicit rows: writes OUT/figures/implicit.json,
@@ -118,6 +123,8 @@ impl Config {
             time_target: 0.25,
             newton_budgets: vec![1, 2, 4, 8, 16, 32, 64],
             cg_budgets: vec![Some(2), Some(8), Some(32), None],
+            gpu_newton_budgets: vec![1, 4, 16, 64],
+            gpu_cg_budgets: vec![Some(8), None],
             implicit: true,
             implicit_only: false,
             sweep: true,
@@ -152,6 +159,8 @@ impl Config {
             time_target: 0.05,
             newton_budgets: vec![1, 4, 16],
             cg_budgets: vec![Some(2), None],
+            gpu_newton_budgets: vec![1, 4],
+            gpu_cg_budgets: vec![Some(2), None],
             ..Config::full(out)
         }
     }

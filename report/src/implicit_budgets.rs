@@ -12,7 +12,7 @@
 //! cases     implicit_cases.rs: incline (vs ½ a t² and backward Euler),
 //!           the swinging 1:1e6 chain (link residual), the hanging chain
 //!           (vs its static stretch α g Σ m)
-//! point     (case, Newton budget, CG budget) on cpu-f64: `step()` alone
+//! point     (backend, case, Newton budget, CG budget): `step()` alone
 //!           timed, reps from the same initial state, median (timing.rs)
 //!           ms / sim s = median Σ step time / (frames · dt) · 1000
 //!           Newton mean = Σ MinimisationReport::iterations / minimisations
@@ -20,13 +20,16 @@
 //!           ends        = counts of Converged, BudgetExhausted, RoundingFloor
 //!                         (a refused step stops the run: the point keeps
 //!                         why, and no error)
-//! frontier  per case: pareto::undominated on (ms / sim s, error)
+//!           same state  GPU points: the end state's hash against cpu-f64's
+//!                         at the same budgets (bit-identical or not)
+//! backends  cpu-f64 over newton_budgets × cg_budgets; each configured GPU
+//!           backend with an adapter over gpu_newton_budgets ×
+//!           gpu_cg_budgets (a subset: on lavapipe a GPU point costs
+//!           10²–10³ CPU points), or its load refusal when it refuses the
+//!           step (the incline is asked first)
+//! frontier  per case, over every backend's points: pareto::undominated on
+//!           (ms / sim s, error)
 //! ```
-//! The sweep runs on cpu-f64. gpu-f64 runs the same step bit for bit on
-//! lavapipe (`GpuCoupledBackend`, tests/gpu_coupled.rs), so its errors are
-//! the CPU's; gpu-f32 refuses it at load (`GpuError::Unsupported`).
-//! [`gpu_refusals`] asks each configured GPU backend to load the incline
-//! and the report prints what it said.
 
 use crate::config::Config;
 use crate::implicit_cases::link_residual;
@@ -82,9 +85,11 @@ impl Budgets {
     }
 }
 
-/// One (case, Newton budget, CG budget) point.
+/// One (backend, case, Newton budget, CG budget) point.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ImplicitPoint {
+    /// The backend's name (`cpu-f64`, `gpu-f32`, `gpu-f64`).
+    pub backend: &'static str,
     /// The case.
     pub case: ImplicitCase,
     /// `max_iterations`.
@@ -107,6 +112,9 @@ pub struct ImplicitPoint {
     pub budgets: Budgets,
     /// On the case's frontier.
     pub frontier: bool,
+    /// GPU points: whether the end state is cpu-f64's at the same budgets,
+    /// bit for bit (None for cpu-f64 itself, or without that CPU point).
+    pub same_state_as_cpu: Option<bool>,
     /// Why the error is missing, or anything odd.
     pub note: Option<String>,
 }
@@ -124,7 +132,8 @@ pub struct ImplicitResult {
     pub second_metric: String,
     /// Simulated seconds.
     pub seconds: f64,
-    /// Newton budget × CG budget, Newton-major.
+    /// cpu-f64's points, then each GPU backend's, each Newton budget ×
+    /// CG budget, Newton-major.
     pub points: Vec<ImplicitPoint>,
 }
 
@@ -139,6 +148,10 @@ pub struct ImplicitSection {
     pub reps: usize,
     /// The cases.
     pub cases: Vec<ImplicitResult>,
+    /// Newton budgets swept on the GPU backends.
+    pub gpu_newton_budgets: Vec<u32>,
+    /// CG budgets swept on the GPU backends.
+    pub gpu_cg_budgets: Vec<Option<u32>>,
     /// (backend, what loading the incline scene on it said).
     pub gpu: Vec<(BackendKind, String)>,
     /// 1-minute load average when the section started and ended.
@@ -182,10 +195,11 @@ fn run_once(
     Ok((elapsed, last))
 }
 
-/// Measures one point on cpu-f64: one untimed warm-up step, then `reps`
+/// Measures one point on `backend`: one untimed warm-up step, then `reps`
 /// timed runs from the initial state (the first also observed); a run
 /// longer than `long_run` seconds is not repeated.
 pub fn measure(
+    backend: BackendKind,
     case: ImplicitCase,
     (newton, cg): (u32, Option<u32>),
     reps: usize,
@@ -194,8 +208,9 @@ pub fn measure(
     let scene = case.scene(newton, cg);
     let initial = State::from_scene(&scene);
     let plan = Plan::compile(&scene).map_err(|e| e.to_string())?;
-    let mut b = load(BackendKind::Cpu, plan, &initial)?;
+    let mut b = load(backend, plan, &initial)?;
     let mut point = ImplicitPoint {
+        backend: backend.name(),
         case,
         newton_budget: newton,
         cg_budget: cg,
@@ -207,6 +222,7 @@ pub fn measure(
         second: None,
         budgets: Budgets::default(),
         frontier: false,
+        same_state_as_cpu: None,
         note: None,
     };
     if let Err(e) = b.step() {
@@ -272,61 +288,100 @@ pub fn mark_frontier(points: &mut [ImplicitPoint]) {
     }
 }
 
-/// What loading the incline scene on each configured GPU backend says
-/// (gpu-f32 refuses the coupled step; gpu-f64 runs it); backends without
-/// an adapter are not asked.
-pub fn gpu_refusals(config: &Config, progress: &Progress) -> Vec<(BackendKind, String)> {
+/// What loading the incline scene on each configured GPU backend says,
+/// and the backends that run the step; backends without an adapter are
+/// not asked.
+pub fn gpu_backends(
+    config: &Config,
+    progress: &Progress,
+) -> (Vec<(BackendKind, String)>, Vec<BackendKind>) {
     let scene = ImplicitCase::Incline.scene(1, None);
     let state = State::from_scene(&scene);
-    config
+    let mut said = Vec::new();
+    let mut running = Vec::new();
+    for &b in config
         .backends
         .iter()
         .filter(|b| matches!(b, BackendKind::Gpu(_)))
         .filter(|&&b| progress.available(b))
-        .filter_map(|&b| {
-            let plan = Plan::compile(&scene).ok()?;
-            Some(match load(b, plan, &state) {
-                Err(e) => (b, format!("refused: {e}")),
-                Ok(_) => (
-                    b,
-                    "runs the coupled step (bit-identical to cpu-f64 on lavapipe: \
-                     tests/gpu_coupled.rs), not swept here"
-                        .into(),
-                ),
-            })
-        })
+    {
+        let Ok(plan) = Plan::compile(&scene) else {
+            continue;
+        };
+        match load(b, plan, &state) {
+            Err(e) => said.push((b, format!("refused: {e}"))),
+            Ok(_) => {
+                said.push((b, "runs the coupled step: swept below".into()));
+                running.push(b);
+            }
+        }
+    }
+    (said, running)
+}
+
+/// One backend's points of `case` over `budgets`, each printed as it ends.
+fn sweep(
+    backend: BackendKind,
+    case: ImplicitCase,
+    budgets: &[(u32, Option<u32>)],
+    config: &Config,
+    progress: &mut Progress,
+) -> Vec<(ImplicitPoint, State)> {
+    let mut points = Vec::new();
+    for &(newton, cg) in budgets {
+        match measure(backend, case, (newton, cg), config.reps, config.long_run) {
+            Ok((p, end)) => {
+                progress.line(&format!(
+                    "implicit {:<7} {:<8} newton {:>3} cg {:>4} {:>10.2} ms/sim-s  error {}  newton {:.1} cg {:.1}",
+                    backend.name(),
+                    case.name(),
+                    newton,
+                    cg.map_or("none".into(), |c| c.to_string()),
+                    p.ms_per_sim_second,
+                    p.error.map_or_else(|| p.note.clone().unwrap_or_default(), |e| format!("{e:.3e}")),
+                    p.budgets.newton_mean,
+                    p.budgets.cg_mean,
+                ));
+                points.push((p, end));
+            }
+            Err(e) => progress.note(&format!(
+                "implicit {} {} newton {newton} cg {cg:?}: SKIPPED: {e}",
+                backend.name(),
+                case.name()
+            )),
+        }
+    }
+    points
+}
+
+/// Newton-major (Newton budget, CG budget) pairs.
+fn grid(newton: &[u32], cg: &[Option<u32>]) -> Vec<(u32, Option<u32>)> {
+    newton
+        .iter()
+        .flat_map(|&n| cg.iter().map(move |&c| (n, c)))
         .collect()
 }
 
-/// The section: every case × Newton budget × CG budget on cpu-f64.
+/// The section: every case × Newton budget × CG budget on cpu-f64, and
+/// the GPU grid on every GPU backend that runs the step.
 pub fn run(config: &Config, progress: &mut Progress) -> ImplicitSection {
     let start = Instant::now();
     let load_start = crate::machine::load_average();
-    let gpu = gpu_refusals(config, progress);
+    let (gpu, running) = gpu_backends(config, progress);
+    let cpu_grid = grid(&config.newton_budgets, &config.cg_budgets);
+    let gpu_grid = grid(&config.gpu_newton_budgets, &config.gpu_cg_budgets);
     let mut cases = Vec::new();
     for case in CASES {
-        let mut points = Vec::new();
-        for &newton in &config.newton_budgets {
-            for &cg in &config.cg_budgets {
-                match measure(case, (newton, cg), config.reps, config.long_run) {
-                    Ok((p, _)) => {
-                        progress.line(&format!(
-                            "implicit {:<8} newton {:>3} cg {:>4} {:>10.2} ms/sim-s  error {}  newton {:.1} cg {:.1}",
-                            case.name(),
-                            newton,
-                            cg.map_or("none".into(), |c| c.to_string()),
-                            p.ms_per_sim_second,
-                            p.error.map_or_else(|| p.note.clone().unwrap_or_default(), |e| format!("{e:.3e}")),
-                            p.budgets.newton_mean,
-                            p.budgets.cg_mean,
-                        ));
-                        points.push(p);
-                    }
-                    Err(e) => progress.note(&format!(
-                        "implicit {} newton {newton} cg {cg:?}: SKIPPED: {e}",
-                        case.name()
-                    )),
-                }
+        let cpu = sweep(BackendKind::Cpu, case, &cpu_grid, config, progress);
+        let mut points: Vec<ImplicitPoint> = cpu.iter().map(|(p, _)| p.clone()).collect();
+        for &b in &running {
+            for (mut p, end) in sweep(b, case, &gpu_grid, config, progress) {
+                p.same_state_as_cpu = cpu
+                    .iter()
+                    .find(|(c, _)| (c.newton_budget, c.cg_budget) == (p.newton_budget, p.cg_budget))
+                    .filter(|(c, _)| c.note.is_none() && p.note.is_none())
+                    .map(|(_, cpu_end)| cpu_end.hash() == end.hash());
+                points.push(p);
             }
         }
         mark_frontier(&mut points);
@@ -342,6 +397,8 @@ pub fn run(config: &Config, progress: &mut Progress) -> ImplicitSection {
     ImplicitSection {
         newton_budgets: config.newton_budgets.clone(),
         cg_budgets: config.cg_budgets.clone(),
+        gpu_newton_budgets: config.gpu_newton_budgets.clone(),
+        gpu_cg_budgets: config.gpu_cg_budgets.clone(),
         reps: config.reps,
         cases,
         gpu,

@@ -4,10 +4,13 @@
 //! wrote (readme.rs's `splice`).
 //!
 //! ```text
-//! section   heading, what runs where (the GPU's own refusal text), how it
-//!           was measured, then per case one row per (Newton, CG) budget
-//! summary   per case: the smallest error, the cheapest point within 2× of
-//!           it, and the best error at a Newton budget of 1
+//! section   heading, what runs where (each GPU backend's own load answer),
+//!           how it was measured, then per case one row per (backend,
+//!           Newton, CG) point, GPU rows marked with whether their end
+//!           state is cpu-f64's at the same budgets
+//! summary   per case, over every backend: the smallest error, the
+//!           cheapest point within 2× of it, and the best error at a
+//!           Newton budget of 1
 //! ```
 
 use crate::format::{cell, error_cell, load_average, ms, sci};
@@ -31,9 +34,14 @@ pub fn cg_label(cg: Option<u32>) -> String {
     cg.map_or(format!("none ({DEFAULT_CG_ITERATIONS})"), |c| c.to_string())
 }
 
-/// "Newton n × CG c".
+/// "backend Newton n × CG c".
 fn budget_label(p: &ImplicitPoint) -> String {
-    format!("Newton {} × CG {}", p.newton_budget, cg_label(p.cg_budget))
+    format!(
+        "{} Newton {} × CG {}",
+        p.backend,
+        p.newton_budget,
+        cg_label(p.cg_budget)
+    )
 }
 
 fn finite(points: &[ImplicitPoint]) -> impl Iterator<Item = (&ImplicitPoint, f64)> {
@@ -77,9 +85,8 @@ pub fn case_summary(r: &ImplicitResult) -> Option<String> {
 
 fn gpu_sentence(section: &ImplicitSection) -> String {
     if section.gpu.is_empty() {
-        return "no GPU backend was asked here (none configured or no adapter); gpu-f64 runs \
-                the coupled step (`GpuCoupledBackend`), gpu-f32 refuses it at load \
-                (`GpuError::Unsupported`)"
+        return "no GPU backend was asked here (none configured or no adapter): the GPU \
+                backends' rows are missing (`GpuCoupledBackend` runs the step)"
             .into();
     }
     let mut said: Vec<(Vec<&str>, &str)> = Vec::new();
@@ -99,18 +106,29 @@ fn gpu_sentence(section: &ImplicitSection) -> String {
     )
 }
 
+/// "=", "≠" or "–" (cpu-f64's own rows, or no CPU point to compare).
+fn same_cell(p: &ImplicitPoint) -> &'static str {
+    match p.same_state_as_cpu {
+        Some(true) => "=",
+        Some(false) => "≠",
+        None => "–",
+    }
+}
+
 fn table(s: &mut String, r: &ImplicitResult) {
     let _ = writeln!(
         s,
-        "| Newton budget | CG budget | ms / sim s (median) | min–max (reps) | error | second measure | \
-         Newton / frame (mean, max) | CG / direction (mean, max) | converged / at budget / floor | frontier |\n\
-         |---:|---:|---:|---:|---:|---:|---:|---:|---:|:---:|"
+        "| backend | Newton budget | CG budget | ms / sim s (median) | min–max (reps) | error | second measure | \
+         Newton / frame (mean, max) | CG / direction (mean, max) | converged / at budget / floor | \
+         end state vs cpu-f64 | frontier |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---:|:---:|"
     );
     for p in &r.points {
         let b = &p.budgets;
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {}–{} ({}) | {} | {} | {:.1}, {} | {:.1}, {} | {} / {} / {} | {} |",
+            "| {} | {} | {} | {} | {}–{} ({}) | {} | {} | {:.1}, {} | {:.1}, {} | {} / {} / {} | {} | {} |",
+            p.backend,
             p.newton_budget,
             cg_label(p.cg_budget),
             ms(p.ms_per_sim_second),
@@ -126,6 +144,7 @@ fn table(s: &mut String, r: &ImplicitResult) {
             b.converged,
             b.budget_exhausted,
             b.rounding_floor,
+            same_cell(p),
             if p.frontier { "★" } else { "" }
         );
     }
@@ -136,24 +155,36 @@ pub fn implicit_section(report: &Report, section: &ImplicitSection) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "## {HEADING}\n");
     let newton: Vec<String> = section.newton_budgets.iter().map(u32::to_string).collect();
-    let cg: Vec<String> = section
-        .cg_budgets
+    let list = |budgets: &[Option<u32>]| -> String {
+        let cg: Vec<String> = budgets
+            .iter()
+            .map(|c| c.map_or("none".into(), |c| c.to_string()))
+            .collect();
+        cg.join(", ")
+    };
+    let gpu_newton: Vec<String> = section
+        .gpu_newton_budgets
         .iter()
-        .map(|c| c.map_or("none".into(), |c| c.to_string()))
+        .map(u32::to_string)
         .collect();
     let _ = writeln!(
         s,
         "The coupled incremental-potential step (docs/implicit.md §7: Newton on the incremental potential, \
-         each direction by Jacobi-preconditioned CG, a certified line search), swept on **cpu-f64**: {}. \
-         Swept: the Newton budget `max_iterations` ∈ {{{}}} × the CG budget per Newton direction \
-         `cg_iterations` ∈ {{{}}} (none: the default, {DEFAULT_CG_ITERATIONS}), one minimisation per \
-         1/60 s frame. A minimisation ends *converged* (the acceleration residual met its tolerance), \
+         each direction by Jacobi-preconditioned CG, a certified line search): {}. \
+         Swept on **cpu-f64**: the Newton budget `max_iterations` ∈ {{{}}} × the CG budget per Newton \
+         direction `cg_iterations` ∈ {{{}}} (none: the default, {DEFAULT_CG_ITERATIONS}); on each GPU \
+         backend that runs the step, Newton ∈ {{{}}} × CG ∈ {{{}}} (a subset: on this software adapter a \
+         GPU point costs 10²–10³ CPU points, mostly host round trips, docs/performance.md); one \
+         minimisation per 1/60 s frame. A GPU row's *end state vs cpu-f64* says whether its last \
+         state is cpu-f64's at the same budgets bit for bit (=) or not (≠). A minimisation ends *converged* (the acceleration residual met its tolerance), \
          *at budget* (`BudgetExhausted`: the Newton budget ran out; the iterate is kept) or at the \
          *floor* (`RoundingFloor`); the iteration counts are `MinimisationReport`'s. ★ marks the case's \
          Pareto frontier (no other point both faster and more accurate).\n",
         gpu_sentence(section),
         newton.join(", "),
-        cg.join(", "),
+        list(&section.cg_budgets),
+        gpu_newton.join(", "),
+        list(&section.gpu_cg_budgets),
     );
     let _ = writeln!(
         s,
@@ -188,7 +219,7 @@ pub fn implicit_section(report: &Report, section: &ImplicitSection) -> String {
 /// output directory relative to the README.
 pub fn readme_implicit(section: &ImplicitSection, out: &str) -> String {
     let mut s = format!(
-        "- The implicit path (coupled Newton–PCG, cpu-f64 only) against its Newton and CG budgets \
+        "- The implicit path (coupled Newton–PCG, every backend that runs it) against its Newton and CG budgets \
          ([{out}/{MARKDOWN}#{ANCHOR}]({out}/{MARKDOWN}#{ANCHOR})):\n"
     );
     for r in &section.cases {

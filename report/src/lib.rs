@@ -18,10 +18,11 @@
 //! effects   ms per step as effects are added one at a time, with controls
 //!           showing that an authored-but-inert effect compiles away effects.rs
 //!           (collisions and the barrier solver on balls: granular_effects.rs)
-//! implicit  the coupled Newton–PCG step (cpu-f64) on the incline and the
-//!           1:1e6 chain (swinging, hanging): error and time against the
-//!           Newton budget × the CG budget, iterations used, how the
-//!           minimisations ended      implicit_budgets.rs (scenes and
+//! implicit  the coupled Newton–PCG step on the incline and the 1:1e6
+//!           chain (swinging, hanging), cpu-f64 and every GPU backend that
+//!           runs it: error and time against the Newton budget × the CG
+//!           budget, iterations used, how the minimisations ended, GPU end
+//!           states against cpu-f64's      implicit_budgets.rs (scenes and
 //!           answers: implicit_cases.rs, markdown: implicit_markdown.rs)
 //! output    OUT/accuracy.md, OUT/effects.md, OUT/figures/{accuracy_pareto,
 //!           accuracy_cloth,scaling}.png, OUT/figures/{accuracy,effects,

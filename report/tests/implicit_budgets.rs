@@ -51,10 +51,11 @@ fn case(report: &Report, case: ImplicitCase) -> &ImplicitResult {
         .unwrap_or_else(|| panic!("no {} rows", case.name()))
 }
 
+/// cpu-f64's point at these budgets.
 fn point(r: &ImplicitResult, newton: u32, cg: Option<u32>) -> &ImplicitPoint {
     r.points
         .iter()
-        .find(|p| p.newton_budget == newton && p.cg_budget == cg)
+        .find(|p| p.backend == "cpu-f64" && p.newton_budget == newton && p.cg_budget == cg)
         .unwrap_or_else(|| panic!("{}: no point Newton {newton} × CG {cg:?}", r.case.name()))
 }
 
@@ -67,17 +68,28 @@ fn error(r: &ImplicitResult, newton: u32, cg: Option<u32>) -> f64 {
 #[test]
 fn every_budget_has_a_timed_row_within_its_budgets() {
     let (report, config) = report();
+    let running = running_gpu_backends(report);
     for c in CASES {
         let r = case(report, c);
+        let on = |backend: &str| r.points.iter().filter(|p| p.backend == backend).count();
         assert_eq!(
-            r.points.len(),
+            on("cpu-f64"),
             config.newton_budgets.len() * config.cg_budgets.len(),
             "{}",
             c.name()
         );
+        for b in ["gpu-f32", "gpu-f64"] {
+            let expected = if running.contains(&b) {
+                config.gpu_newton_budgets.len() * config.gpu_cg_budgets.len()
+            } else {
+                0
+            };
+            assert_eq!(on(b), expected, "{} on {b}", c.name());
+        }
         for p in &r.points {
             let at = format!(
-                "{} Newton {} × CG {:?}",
+                "{} {} Newton {} × CG {:?}",
+                p.backend,
                 c.name(),
                 p.newton_budget,
                 p.cg_budget
@@ -181,7 +193,7 @@ fn the_section_is_spliced_into_the_earlier_files() {
     assert!(section.contains(HEADING));
     let rows = section
         .lines()
-        .filter(|l| l.starts_with("| ") && !l.starts_with("| Newton"))
+        .filter(|l| l.starts_with("| ") && !l.starts_with("| backend"))
         .count();
     let points: usize = report
         .implicit
@@ -230,14 +242,85 @@ fn the_section_is_spliced_into_the_earlier_files() {
     );
 }
 
+/// The GPU backends that ran the implicit rows (their load answer said so).
+fn running_gpu_backends(report: &Report) -> Vec<&'static str> {
+    let section = report.implicit.as_ref().expect("section");
+    section
+        .gpu
+        .iter()
+        .filter(|(_, said)| said.starts_with("runs the coupled step"))
+        .map(|(b, _)| b.name())
+        .collect()
+}
+
 #[test]
 fn the_gpu_rows_say_what_each_gpu_backend_does_with_the_coupled_step() {
     let (report, _) = report();
-    for (backend, said) in &report.implicit.as_ref().expect("section").gpu {
-        let expected = match backend.name() {
-            "gpu-f64" => "runs the coupled step",
-            _ => "refused",
-        };
-        assert!(said.starts_with(expected), "{}: {said}", backend.name());
+    let section = report.implicit.as_ref().expect("section");
+    let require = std::env::var_os("HYPERPBD_REQUIRE_GPU").is_some();
+    if require {
+        assert!(
+            section.gpu.iter().any(|(b, _)| b.name() == "gpu-f64"),
+            "HYPERPBD_REQUIRE_GPU is set but gpu-f64 was not asked: {:?}",
+            report.machine.gpu_f64
+        );
+    }
+    for (backend, said) in &section.gpu {
+        match backend.name() {
+            "gpu-f64" => assert!(said.starts_with("runs the coupled step"), "{said}"),
+            // f32 runs it or refuses it with a typed, named reason.
+            _ => assert!(
+                said.starts_with("runs the coupled step") || said.starts_with("refused: "),
+                "{}: {said}",
+                backend.name()
+            ),
+        }
+    }
+}
+
+#[test]
+fn gpu_f64_rows_are_the_cpu_rows_on_lavapipe() {
+    let (report, config) = report();
+    if !running_gpu_backends(report).contains(&"gpu-f64") {
+        assert!(
+            std::env::var_os("HYPERPBD_REQUIRE_GPU").is_none(),
+            "HYPERPBD_REQUIRE_GPU is set but gpu-f64 has no implicit rows"
+        );
+        eprintln!("SKIPPED: no gpu-f64 adapter here (set HYPERPBD_REQUIRE_GPU=1 to fail instead)");
+        return;
+    }
+    // The identity guarantee is lavapipe's (tests/common/exact.rs); other
+    // adapters are held to a finite error.
+    let identical = report
+        .machine
+        .gpu_f64
+        .as_ref()
+        .is_ok_and(|a| a.contains("llvmpipe"));
+    for c in CASES {
+        let r = case(report, c);
+        for &newton in &config.gpu_newton_budgets {
+            for &cg in &config.gpu_cg_budgets {
+                let gpu = r
+                    .points
+                    .iter()
+                    .find(|p| {
+                        p.backend == "gpu-f64" && p.newton_budget == newton && p.cg_budget == cg
+                    })
+                    .unwrap_or_else(|| panic!("{}: no gpu-f64 point {newton} × {cg:?}", c.name()));
+                let cpu = point(r, newton, cg);
+                if identical {
+                    assert_eq!(
+                        gpu.same_state_as_cpu,
+                        Some(true),
+                        "{} {newton} × {cg:?}",
+                        c.name()
+                    );
+                    assert_eq!(gpu.error, cpu.error, "{} {newton} × {cg:?}", c.name());
+                    assert_eq!(gpu.budgets, cpu.budgets, "{} {newton} × {cg:?}", c.name());
+                } else {
+                    assert!(gpu.error.is_some_and(f64::is_finite), "{}", c.name());
+                }
+            }
+        }
     }
 }

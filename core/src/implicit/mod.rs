@@ -61,6 +61,7 @@ pub use material_hessian::{
 pub use material_rounding::material_energy_rounding;
 pub use pcg::{
     PcgReport, PcgSettings, PcgStatus, PcgVectors, PcgWorkspace, newton_cg_tolerance, pcg, pcg_on,
+    pcg_start,
 };
 pub use psd::{PsdProjection, PsdScratch, project_psd};
 pub use radial::RadialCurvature;

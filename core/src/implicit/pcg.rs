@@ -126,9 +126,10 @@ pub trait PcgVectors {
     fn turn(&mut self, beta: f64);
 }
 
-/// PCG's scalar recurrence over `vectors` (module docs).
-pub fn pcg_on(vectors: &mut impl PcgVectors, settings: PcgSettings) -> PcgReport {
-    let (rr, mut rho) = vectors.start();
+/// PCG's decisions at the start, from r·r and ρ = r·z of r = b: the
+/// report so far, and the tolerance when the iteration is to run (`None`:
+/// the report is final — non-finite, or ‖b‖ already within tolerance).
+pub fn pcg_start(rr: f64, rho: f64, settings: PcgSettings) -> (PcgReport, Option<f64>) {
     let initial = rr.sqrt();
     let mut report = PcgReport {
         status: PcgStatus::Converged,
@@ -138,14 +139,24 @@ pub fn pcg_on(vectors: &mut impl PcgVectors, settings: PcgSettings) -> PcgReport
     };
     if !initial.is_finite() || !rho.is_finite() {
         report.status = PcgStatus::NonFinite;
-        return report;
+        return (report, None);
     }
     let tolerance = settings
         .absolute_tolerance
         .max(settings.relative_tolerance * initial);
     if initial <= tolerance {
-        return report;
+        return (report, None);
     }
+    (report, Some(tolerance))
+}
+
+/// PCG's scalar recurrence over `vectors` (module docs).
+pub fn pcg_on(vectors: &mut impl PcgVectors, settings: PcgSettings) -> PcgReport {
+    let (rr, mut rho) = vectors.start();
+    let (mut report, tolerance) = pcg_start(rr, rho, settings);
+    let Some(tolerance) = tolerance else {
+        return report;
+    };
     for iteration in 1..=settings.max_iterations {
         let curvature = vectors.curvature();
         report.iterations = iteration;

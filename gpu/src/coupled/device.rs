@@ -111,7 +111,6 @@ pub(super) struct Params {
     pub h: f64,
     pub slip: f64,
     pub step: f64,
-    pub beta: f64,
 }
 
 impl Params {
@@ -130,14 +129,7 @@ impl Params {
             ])
             .words(&self.channels)
             .words(&[self.pairs, self.mode, 0])
-            .reals(&[
-                self.h,
-                self.h * self.h,
-                self.slip,
-                self.step,
-                self.beta,
-                epsilon,
-            ])
+            .reals(&[self.h, self.h * self.h, self.slip, self.step, epsilon])
             .finish()
     }
 }
@@ -173,8 +165,10 @@ pub(super) struct Device {
     pub terms: wgpu::Buffer,
     tree: wgpu::Buffer,
     params_buffer: wgpu::Buffer,
+    /// PCG's scalar state (`CgState`, pcg.rs).
+    pub cg: wgpu::Buffer,
     levels: wgpu::Buffer,
-    status: wgpu::Buffer,
+    pub status: wgpu::Buffer,
     probe: wgpu::Buffer,
     group: Option<wgpu::BindGroup>,
     levels_group: wgpu::BindGroup,
@@ -228,6 +222,10 @@ impl Device {
             terms: reals("terms", count * (dim * dim + 2))?,
             tree: reals("tree", 1)?,
             params_buffer: ctx.storage("coupled params", &Params::default().bytes(precision))?,
+            cg: ctx.storage(
+                "cg state",
+                &super::cg_state::CgState::default().bytes(precision),
+            )?,
             levels,
             status: ctx.storage("status", bytemuck::cast_slice(&STATUS_RESET))?,
             probe: ctx.staging("probe", PROBE_REALS * 8 + 4 * STATUS_WORDS as u64)?,
@@ -305,6 +303,7 @@ impl Device {
                 &self.terms,
                 &self.tree,
                 &self.params_buffer,
+                &self.cg,
                 &f[14],
                 &f[15],
                 &f[16],
@@ -408,23 +407,43 @@ impl Device {
             .write_buffer(&self.status, 0, bytemuck::cast_slice(&STATUS_RESET));
     }
 
-    /// Records `entry` over `invocations`.
+    /// Records `entry` over `invocations` in a compute pass of its own.
     pub fn pass(&self, encoder: &mut wgpu::CommandEncoder, entry: Entry, invocations: usize) {
+        if invocations == 0 || self.group.is_none() {
+            return;
+        }
+        let mut pass = self.begin(encoder);
+        self.dispatch(&mut pass, entry, invocations);
+    }
+
+    /// Begins a compute pass with group 0 bound (for [`Device::dispatch`]
+    /// and [`Device::reduce_in`]): a submission's dispatches share one pass,
+    /// since on lavapipe a pass of its own per dispatch costs more than a
+    /// small dispatch (WebGPU orders the dispatches of a pass and makes each
+    /// one's writes visible to the next).
+    pub fn begin<'e>(&self, encoder: &'e mut wgpu::CommandEncoder) -> wgpu::ComputePass<'e> {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        if let Some(group) = &self.group {
+            pass.set_bind_group(0, group, &[]);
+        }
+        pass
+    }
+
+    /// Records `entry` over `invocations` into `pass` (from [`Device::begin`]).
+    pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, entry: Entry, invocations: usize) {
         if invocations == 0 {
             return;
         }
-        let Some(group) = &self.group else { return };
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_bind_group(0, group, &[]);
         pass.set_bind_group(1, &self.levels_group, &[0]);
-        self.kernels.dispatch(&mut pass, entry, invocations as u32);
+        self.kernels.dispatch(pass, entry, invocations as u32);
     }
 
-    /// Records `reduction` level by level; where its result will be (a
-    /// tree offset), or its pad when it has no terms.
-    pub fn reduce(
+    /// Records `reduction` level by level into `pass` (from
+    /// [`Device::begin`]); where its result will be (a tree offset), or its
+    /// pad when it has no terms.
+    pub fn reduce_in(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
+        pass: &mut wgpu::ComputePass<'_>,
         reduction: Reduction,
     ) -> Result<usize, f64> {
         let k = Reduction::ALL
@@ -432,20 +451,15 @@ impl Device {
             .position(|&r| r == reduction)
             .unwrap_or(0);
         let sizes = level_sizes(self.lengths[k]);
-        let Some(group) = &self.group else {
-            return Err(reduction.pad());
-        };
-        if sizes.is_empty() {
+        if self.group.is_none() || sizes.is_empty() {
             return Err(reduction.pad());
         }
         let outputs = &self.channels[reduction.channel()].1;
         for (level, &groups) in sizes.iter().enumerate() {
             let offset = ((k * MAX_LEVELS + level) as u32) * self.level_stride;
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_bind_group(0, group, &[]);
             pass.set_bind_group(1, &self.levels_group, &[offset]);
             self.kernels
-                .dispatch_workgroups(&mut pass, Entry::Reduce, groups as u32);
+                .dispatch_workgroups(pass, Entry::Reduce, groups as u32);
         }
         Ok(outputs[sizes.len() - 1])
     }

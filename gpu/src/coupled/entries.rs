@@ -18,6 +18,8 @@ pub(crate) enum Entry {
     ParticleCurvature,
     CgResidual,
     CgTurn,
+    CgAlpha,
+    CgBeta,
     Slope,
     Trial,
     ParticleChanges,
@@ -35,7 +37,7 @@ pub(crate) enum Entry {
 impl Entry {
     /// The entries of a plan without material families (the material
     /// passes are compiled only for a plan that has some).
-    pub const SPRINGS: [Entry; 16] = [
+    pub const SPRINGS: [Entry; 18] = [
         Entry::Elements,
         Entry::ElementChanges,
         Entry::Slots,
@@ -44,6 +46,8 @@ impl Entry {
         Entry::ParticleCurvature,
         Entry::CgResidual,
         Entry::CgTurn,
+        Entry::CgAlpha,
+        Entry::CgBeta,
         Entry::Slope,
         Entry::Trial,
         Entry::ParticleChanges,
@@ -84,6 +88,8 @@ impl EntryPoint for Entry {
             Entry::ParticleCurvature => "cp_particle_curvature",
             Entry::CgResidual => "cp_cg_residual",
             Entry::CgTurn => "cp_cg_turn",
+            Entry::CgAlpha => "cp_cg_alpha",
+            Entry::CgBeta => "cp_cg_beta",
             Entry::Slope => "cp_slope",
             Entry::Trial => "cp_trial",
             Entry::ParticleChanges => "cp_particle_changes",

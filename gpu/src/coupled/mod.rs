@@ -1,21 +1,23 @@
 //! `GpuCoupledBackend`: the coupled implicit step (docs/implicit.md §7) on
 //! the GPU, the golden path's schedule (`cpu/src/coupled/`) kernel for
-//! kernel: every per-element and per-particle pass, every vector update of
-//! PCG and the line search, and every sum on the block tree run in
-//! `shaders/coupled.wgsl` and `coupled_solve.wgsl`, the material elements'
-//! passes (StVK, Neo-Hookean: W, ∇W, the frame Hessian H_F projected by
-//! cyclic Jacobi, its products) in `coupled_material.wgsl`; the host runs the
-//! Newton loop's decisions on the few reduced scalars it reads back,
-//! through the same core functions as the CPU (`pcg_on`, `armijo`,
-//! `MinimisationReport`, `change_resolution`).
+//! kernel: every per-element and per-particle pass, PCG whole (its vectors
+//! and its scalar recurrence, pcg.rs), the line search's vectors, and every
+//! sum on the block tree run in `shaders/coupled.wgsl` and
+//! `coupled_solve.wgsl`, the material elements' passes (StVK, Neo-Hookean:
+//! W, ∇W, the frame Hessian H_F projected by cyclic Jacobi, its products)
+//! in `coupled_material.wgsl`; the host runs the Newton loop's other
+//! decisions on the few reduced scalars it reads back, through the same
+//! core functions as the CPU (`pcg_start`, `armijo`, `MinimisationReport`,
+//! `change_resolution`).
 //!
 //! ```text
 //! per substep:  cp_start (x^t, x~, load, lags, d ≤ 0) → pairs at x^t (collisions) → warm start
 //!               loop { x_k → point; cp_elements + cp_material_elements; cp_gradient;
 //!                      Σ|max → residual (one read)
-//!                      cp_material_frames (H_F⁺ at x_k) + cp_slots + cp_material_slots +
-//!                      cp_particle_curvature (diag; one read for a refused frame);
-//!                      PCG (two reads per iteration)
+//!                      cp_material_frames (H_F⁺ at x_k; one read, only with materials)
+//!                      PCG on the device (pcg.rs: the diagonal and start, one read; then
+//!                      chunks of iterations, one read each; cp_material_slots after
+//!                      every cp_slots)
 //!                      pairs over [x_k, x_k + Δ]; filter (min, one read); elements at x_k;
 //!                      slope (one read); trials (one read each); accept }
 //!               cp_finish: x = x_k, v = (x − x^t)/h
@@ -33,10 +35,12 @@
 //! In f64 on lavapipe every state is bit-identical to the CPU golden path
 //! (`tests/gpu_coupled.rs`).
 
+mod cg_state;
 mod device;
 mod entries;
 mod material;
 mod newton;
+mod pcg;
 
 use hyperpbd_core::broadphase::{Aabbs, Pair, grid_pairs};
 use hyperpbd_core::implicit::{CoupledPlan, PairLag};
@@ -57,6 +61,7 @@ use crate::shader::MAX_GPU_DIM;
 use device::{Device, ElementUpload, Reduction};
 use entries::Entry;
 use material::Materials;
+use pcg::PcgProbe;
 
 /// The GPU backend of the coupled implicit step.
 pub struct GpuCoupledBackend {
@@ -78,6 +83,8 @@ pub struct GpuCoupledBackend {
     substep: u32,
     reports: Vec<MinimisationReport>,
     exporter: Exporter,
+    /// PCG's read-back buffer and chunk length (pcg.rs).
+    pcg: PcgProbe,
 }
 
 /// Why the GPU does not run `plan`'s coupled step (yet), if it does not.
@@ -166,6 +173,7 @@ impl GpuCoupledBackend {
         };
         device.params.h = plan.h;
         device.params.slip = coupled.slip_velocity * plan.h;
+        let pcg = PcgProbe::new(&ctx, precision)?;
         let mut backend = GpuCoupledBackend {
             plan,
             ip,
@@ -182,6 +190,7 @@ impl GpuCoupledBackend {
             substep: 0,
             reports: Vec::new(),
             exporter: Exporter::default(),
+            pcg,
         };
         backend.upload_elements(Vec::new(), true)?;
         backend.ctx.check()?;
@@ -268,7 +277,9 @@ impl GpuCoupledBackend {
     }
 
     /// Writes the params and a clear status block, then records `entries`
-    /// (each over its items) and `reductions`, and reads them back.
+    /// (each over its items) and `reductions` in one compute pass (on
+    /// lavapipe a pass of its own per dispatch costs more than the
+    /// dispatch), and reads them back.
     fn run(
         &self,
         entries: &[(Entry, usize)],
@@ -277,19 +288,17 @@ impl GpuCoupledBackend {
         self.device.write_params(&self.ctx);
         self.device.reset_status(&self.ctx);
         let mut encoder = self.encoder();
-        self.record(&mut encoder, entries);
-        let results: Vec<_> = reductions
-            .iter()
-            .map(|&r| self.device.reduce(&mut encoder, r))
-            .collect();
+        let results: Vec<_> = {
+            let mut pass = self.device.begin(&mut encoder);
+            for &(entry, items) in entries {
+                self.device.dispatch(&mut pass, entry, items);
+            }
+            reductions
+                .iter()
+                .map(|&r| self.device.reduce_in(&mut pass, r))
+                .collect()
+        };
         self.device.read(&self.ctx, encoder, &results)
-    }
-
-    /// Records `entries`, each over its item count.
-    fn record(&self, encoder: &mut wgpu::CommandEncoder, entries: &[(Entry, usize)]) {
-        for &(entry, items) in entries {
-            self.device.pass(encoder, entry, items);
-        }
     }
 
     /// Copies vector region `from` into the point buffer (own submission).

@@ -1,17 +1,15 @@
 //! The Newton loop of the coupled step on the device (docs/implicit.md §7,
 //! cpu/src/coupled/mod.rs `minimise`, decision for decision): the start
-//! and warm start, the gradient pass and residual, PCG over the device's
-//! vectors (`pcg_on`), the pairs and the certified filter, Armijo trials,
-//! the rounding floor.
+//! and warm start, the gradient pass and residual, PCG on the device
+//! (pcg.rs), the pairs and the certified filter, Armijo trials, the
+//! rounding floor.
 
 use hyperpbd_core::barrier::BarrierObstacles;
 use hyperpbd_core::implicit::line_search::{after_failed_search, armijo, before_search};
 use hyperpbd_core::implicit::resolution::{
     ball_rounding, change_resolution, particle_sums, spring_rounding,
 };
-use hyperpbd_core::implicit::{
-    PcgSettings, PcgVectors, certified_filter, newton_cg_tolerance, pair_lags, pcg_on,
-};
+use hyperpbd_core::implicit::{PcgSettings, certified_filter, newton_cg_tolerance, pair_lags};
 use hyperpbd_core::{
     Backend, BackendError, Convergence, GpuError, MinimisationReport, MinimisationStatus, Refusal,
     WarmStart,
@@ -28,76 +26,6 @@ const MOVED: usize = 0;
 const NON_FINITE_PARTICLE: usize = 1;
 const INFEASIBLE: usize = 2;
 const NON_FINITE_ELEMENT: usize = 3;
-
-/// PCG's vectors on the device: every update and product in coupled.wgsl,
-/// the scalars read back per reduction; p = z + βp is recorded ahead of
-/// the next product (one read per half-iteration).
-struct DeviceVectors<'a> {
-    backend: &'a mut GpuCoupledBackend,
-    turn_pending: bool,
-    failed: Option<GpuError>,
-}
-
-impl DeviceVectors<'_> {
-    fn reduce(&mut self, entries: &[(Entry, usize)], reductions: &[Reduction]) -> Vec<f64> {
-        if self.failed.is_some() {
-            return vec![f64::NAN; reductions.len()];
-        }
-        match self.backend.run(entries, reductions) {
-            Ok((values, _)) => values,
-            Err(e) => {
-                self.failed = Some(e);
-                vec![f64::NAN; reductions.len()]
-            }
-        }
-    }
-}
-
-impl PcgVectors for DeviceVectors<'_> {
-    fn start(&mut self) -> (f64, f64) {
-        let (n, _) = self.backend.counts();
-        self.backend.device.params.mode = 0;
-        let v = self.reduce(
-            &[(Entry::CgResidual, n)],
-            &[Reduction::SumA, Reduction::SumB],
-        );
-        (v[0], v[1])
-    }
-
-    fn curvature(&mut self) -> f64 {
-        let (n, e) = self.backend.counts();
-        self.backend.device.params.diagonal = 0;
-        let turn = if std::mem::take(&mut self.turn_pending) {
-            n
-        } else {
-            0
-        };
-        let m = self.backend.materials.len();
-        let entries = [
-            (Entry::CgTurn, turn),
-            (Entry::Slots, e),
-            (Entry::MaterialSlots, m),
-            (Entry::ParticleCurvature, n),
-        ];
-        self.reduce(&entries, &[Reduction::SumA])[0]
-    }
-
-    fn advance(&mut self, a: f64) -> (f64, f64) {
-        let (n, _) = self.backend.counts();
-        self.backend.device.params.step = a;
-        self.backend.device.params.mode = 1;
-        let v = self.reduce(
-            &[(Entry::CgResidual, n)],
-            &[Reduction::SumA, Reduction::SumB],
-        );
-        (v[0], v[1])
-    }
-
-    fn turn(&mut self, beta: f64) {
-        self.backend.device.params.beta = beta;
-        self.turn_pending = true;
-    }
-}
 
 /// How a Newton iteration's gradient pass ended.
 enum Evaluated {
@@ -308,23 +236,18 @@ impl GpuCoupledBackend {
                 break;
             }
             iteration += 1;
-            // 6–7: the Newton direction by preconditioned CG.
-            let (_, e) = self.counts();
+            // 6: H_F⁺ of every material element at x_k (cpu `curvatures`).
             let m = self.materials.len();
-            self.device.params.diagonal = 1;
-            let entries = [
-                (Entry::MaterialFrames, m),
-                (Entry::Slots, e),
-                (Entry::MaterialSlots, m),
-                (Entry::ParticleCurvature, n),
-            ];
-            let (_, status) = self.run(&entries, &[])?;
-            if status[NON_FINITE_ELEMENT] != NONE {
-                // H_F⁺ refused (the law) or not finite at x_k (cpu `curvatures`).
-                let refusal = self.element_refusal(status[NON_FINITE_ELEMENT] as usize)?;
-                report.status = MinimisationStatus::Refused(refusal);
-                break;
+            if m > 0 {
+                let (_, status) = self.run(&[(Entry::MaterialFrames, m)], &[])?;
+                if status[NON_FINITE_ELEMENT] != NONE {
+                    // Refused by the law or not finite at x_k.
+                    let refusal = self.element_refusal(status[NON_FINITE_ELEMENT] as usize)?;
+                    report.status = MinimisationStatus::Refused(refusal);
+                    break;
+                }
             }
+            // 6–7: the Newton direction by preconditioned CG (pcg.rs).
             let settings = PcgSettings {
                 max_iterations: self.coupled.cg_iterations,
                 relative_tolerance: 0.0,
@@ -336,15 +259,7 @@ impl GpuCoupledBackend {
                     self.plan.h,
                 ),
             };
-            let mut vectors = DeviceVectors {
-                backend: self,
-                turn_pending: false,
-                failed: None,
-            };
-            let cg = pcg_on(&mut vectors, settings);
-            if let Some(e) = vectors.failed {
-                return Err(e.into());
-            }
+            let cg = self.device_pcg(settings)?;
             report.cg_iterations.push(cg.iterations);
             if let Some(refusal) = cg.breakdown(iteration) {
                 report.iterations = iteration;
@@ -420,12 +335,17 @@ impl GpuCoupledBackend {
         self.device.pass(&mut encoder, Entry::Trial, n);
         self.device
             .load_point(&mut encoder, &self.state, region::TRIAL);
-        self.device.pass(&mut encoder, Entry::ParticleChanges, n);
-        self.device.pass(&mut encoder, Entry::ElementChanges, e);
-        self.device
-            .pass(&mut encoder, Entry::MaterialChanges, self.materials.len());
-        let own = self.device.reduce(&mut encoder, Reduction::SumA);
-        let coupled = self.device.reduce(&mut encoder, Reduction::SumE);
+        let (own, coupled) = {
+            let mut pass = self.device.begin(&mut encoder);
+            self.device.dispatch(&mut pass, Entry::ParticleChanges, n);
+            self.device.dispatch(&mut pass, Entry::ElementChanges, e);
+            self.device
+                .dispatch(&mut pass, Entry::MaterialChanges, self.materials.len());
+            (
+                self.device.reduce_in(&mut pass, Reduction::SumA),
+                self.device.reduce_in(&mut pass, Reduction::SumE),
+            )
+        };
         let (values, status) = self.device.read(&self.ctx, encoder, &[own, coupled])?;
         let h2 = self.plan.h * self.plan.h;
         let total = values[0] + h2 * values[1];

@@ -1,0 +1,163 @@
+//! PCG for the Newton direction on the device: the vectors and the scalar
+//! recurrence both (core's `pcg_on`, decision for decision; the scalars in
+//! `cp_cg_alpha` / `cp_cg_beta` of shaders/coupled_solve.wgsl), so that a
+//! direction costs a few reads instead of two per CG iteration.
+//!
+//! ```text
+//! submission 1  state cleared; cp_slots (+ cp_material_slots, as after every
+//!               cp_slots below) + cp_particle_curvature (the diagonal, P⁻¹),
+//!               cp_cg_residual (start: d = 0, r = −g, z = p = P⁻¹ r), r·r, r·z
+//!               one read: the start's decisions on the host (core's pcg_start)
+//! chunks        CgState written (ρ, tolerance, budget, where p·q, r·r and r·z land)
+//!               [cp_cg_turn (not before the first), cp_slots + cp_particle_curvature
+//!                (q = H p), p·q, cp_cg_alpha, cp_cg_residual (advance), r·r, r·z,
+//!                cp_cg_beta] × k, then the status words and CgState in one read
+//!               k: the previous direction's iteration count (at least 2), doubled
+//!               each chunk, never past the budget; once the state says stopped,
+//!               every pass of the chunk's rest does nothing
+//! report        CgState → PcgReport (status, iterations, ‖b‖, the last ‖r‖)
+//! ```
+//! Each pass is recorded on its own, as the host-driven loop did, so every
+//! value is computed by the same kernel from the same inputs: in f64 on
+//! lavapipe the directions and reports are the CPU's bit for bit
+//! (tests/gpu_coupled.rs).
+
+use hyperpbd_core::GpuError;
+use hyperpbd_core::implicit::{PcgReport, PcgSettings, PcgStatus, pcg_start};
+
+use super::GpuCoupledBackend;
+use super::cg_state::CgState;
+use super::device::Reduction;
+use super::entries::Entry;
+use super::material::refuse_cut_loops_of;
+use crate::Precision;
+use crate::barrier::{STATUS_WORDS, status_words};
+use crate::context::GpuContext;
+
+/// Where CgState starts in the probe (after the status words, 8-aligned).
+const STATE_AT: u64 = (4 * STATUS_WORDS as u64).next_multiple_of(8);
+/// The first chunk's length before any direction was solved.
+const FIRST_CHUNK: u32 = 8;
+
+/// The read-back buffer of the chunks, and the next first chunk's length.
+pub(super) struct PcgProbe {
+    buffer: wgpu::Buffer,
+    chunk: u32,
+}
+
+impl PcgProbe {
+    pub fn new(ctx: &GpuContext, precision: Precision) -> Result<Self, GpuError> {
+        Ok(PcgProbe {
+            buffer: ctx.staging("cg probe", STATE_AT + CgState::len(precision))?,
+            chunk: FIRST_CHUNK,
+        })
+    }
+}
+
+/// The tree offset a reduction's result lands at.
+fn landed(result: Result<usize, f64>) -> Result<u32, GpuError> {
+    result.map(|at| at as u32).map_err(|_| GpuError::Other {
+        message: "PCG's dot product over no terms (no particle)".into(),
+    })
+}
+
+impl GpuCoupledBackend {
+    /// The Newton direction into R_DIRECTION by PCG on the device (module
+    /// docs), for `settings`.
+    pub(super) fn device_pcg(&mut self, settings: PcgSettings) -> Result<PcgReport, GpuError> {
+        let (n, e) = self.counts();
+        let m = self.materials.len();
+        let precision = self.precision;
+        let cleared = CgState::default().bytes(precision);
+        self.ctx.queue.write_buffer(&self.device.cg, 0, &cleared);
+        self.device.params.diagonal = 1;
+        self.device.params.mode = 0;
+        let (start, _) = self.run(
+            &[
+                (Entry::Slots, e),
+                (Entry::MaterialSlots, m),
+                (Entry::ParticleCurvature, n),
+                (Entry::CgResidual, n),
+            ],
+            &[Reduction::SumA, Reduction::SumB],
+        )?;
+        let (mut report, tolerance) = pcg_start(start[0], start[1], settings);
+        let Some(tolerance) = tolerance else {
+            return Ok(report);
+        };
+        if settings.max_iterations == 0 {
+            report.status = PcgStatus::BudgetExhausted;
+            return Ok(report);
+        }
+        self.device.params.diagonal = 0;
+        self.device.params.mode = 1;
+        self.device.write_params(&self.ctx);
+        let mut recorded = 0;
+        let mut chunk = self.pcg.chunk.max(2);
+        loop {
+            let k = chunk.min(settings.max_iterations - recorded);
+            let mut encoder = self.encoder();
+            let mut at = [0; 3];
+            {
+                let device = &self.device;
+                let mut pass = device.begin(&mut encoder);
+                for j in 0..k {
+                    if recorded + j > 0 {
+                        device.dispatch(&mut pass, Entry::CgTurn, n);
+                    }
+                    device.dispatch(&mut pass, Entry::Slots, e);
+                    device.dispatch(&mut pass, Entry::MaterialSlots, m);
+                    device.dispatch(&mut pass, Entry::ParticleCurvature, n);
+                    at[0] = landed(device.reduce_in(&mut pass, Reduction::SumA))?;
+                    device.dispatch(&mut pass, Entry::CgAlpha, 1);
+                    device.dispatch(&mut pass, Entry::CgResidual, n);
+                    at[1] = landed(device.reduce_in(&mut pass, Reduction::SumA))?;
+                    at[2] = landed(device.reduce_in(&mut pass, Reduction::SumB))?;
+                    device.dispatch(&mut pass, Entry::CgBeta, 1);
+                }
+            }
+            if recorded == 0 {
+                // Lands before the submission below (queue writes precede it).
+                let state = CgState {
+                    at,
+                    max_iterations: settings.max_iterations,
+                    rho: start[1],
+                    tolerance,
+                    residual: report.initial_residual,
+                    ..CgState::default()
+                };
+                self.ctx
+                    .queue
+                    .write_buffer(&self.device.cg, 0, &state.bytes(precision));
+            }
+            self.device.reset_status(&self.ctx);
+            recorded += k;
+            let state = self.read_cg(encoder)?;
+            if state.stopped != 0 {
+                self.pcg.chunk = state.iterations;
+                return state.report(report.initial_residual);
+            }
+            if recorded >= settings.max_iterations {
+                return Err(GpuError::Other {
+                    message: format!(
+                        "the device's PCG ran its budget of {recorded} iterations without stopping"
+                    ),
+                });
+            }
+            chunk = chunk.saturating_mul(2);
+        }
+    }
+
+    /// Submits `encoder` after recording the copies of the status words and
+    /// CgState into the probe; waits, refuses cut loops, returns the state.
+    fn read_cg(&self, mut encoder: wgpu::CommandEncoder) -> Result<CgState, GpuError> {
+        let len = CgState::len(self.precision);
+        let probe = &self.pcg.buffer;
+        encoder.copy_buffer_to_buffer(&self.device.status, 0, probe, 0, 4 * STATUS_WORDS as u64);
+        encoder.copy_buffer_to_buffer(&self.device.cg, 0, probe, STATE_AT, len);
+        self.ctx.submit_and_wait(encoder)?;
+        let bytes = self.ctx.read(probe, STATE_AT + len)?;
+        refuse_cut_loops_of(&status_words(&bytes))?;
+        Ok(CgState::parse(&bytes[STATE_AT as usize..], self.precision))
+    }
+}
