@@ -398,3 +398,30 @@ fn an_anchor_sunk_into_the_floor_is_the_golden_path() {
     };
     differential("anchor sunk into the floor", &scene, 40, above);
 }
+
+#[test]
+fn pcg_stopped_by_its_budget_is_the_golden_path() {
+    // Two CG iterations per Newton direction cannot solve the chain's 24
+    // coordinates: directions end at the budget, where the device's
+    // recurrence (cp_cg_beta) must stop exactly as core's pcg_on does.
+    let mut scene = alternating_chain();
+    if let Solver::IncrementalPotential(s) = &mut scene.solver {
+        s.cg_iterations = Some(2);
+    }
+    let mut cpu = common::cpu_backend(&scene, 1);
+    let mut at_budget = 0;
+    for _ in 0..10 {
+        for m in cpu.step().expect("cpu").minimisation {
+            at_budget += m.cg_iterations.iter().filter(|&&c| c == 2).count();
+        }
+    }
+    assert!(at_budget > 0, "no direction reached the CG budget of 2");
+    let links = |s: &State| {
+        let x = &s.positions;
+        let worst = (0..12)
+            .map(|k| ((x[2 * k + 2] - x[2 * k]).hypot(x[2 * k + 3] - x[2 * k + 1]) - 0.1).abs())
+            .fold(0.0, f64::max);
+        (worst, 1e-2)
+    };
+    differential("chain 1:1e6, CG budget 2", &scene, 10, links);
+}
