@@ -13,6 +13,9 @@
 //! spring:  |∂E/∂C| δC = (c/α) γ (c + |rest|),  c = √(2Eα)     (C = value − rest cancels)
 //! ball:    |b'(d)| γ (ℓ + r_i + r_j),  ℓ = |x_j − x_i|,  γ = (N + 4) ε
 //! ```
+//! ε is f64's on the golden path; the `_at` forms take the ε of the
+//! precision the values were computed in (the GPU's f32 step: ε₃₂, its
+//! per-particle force terms computed by the kernel with its own ε).
 
 use crate::barrier::BarrierLaw;
 
@@ -62,16 +65,39 @@ pub fn particle_sums(
     sums
 }
 
-/// A spring's |∂E/∂C| δC from its energy E = C²/(2α).
+/// A spring's |∂E/∂C| δC from its energy E = C²/(2α) (f64).
 pub fn spring_rounding(energy: f64, compliance: f64, rest: f64, dim: usize) -> f64 {
-    let gamma = (dim as f64 + 4.0) * f64::EPSILON;
+    spring_rounding_at(energy, compliance, rest, dim, f64::EPSILON)
+}
+
+/// [`spring_rounding`] for values computed at machine epsilon `epsilon`
+/// (f32 on the GPU: `f32::EPSILON`).
+pub fn spring_rounding_at(
+    energy: f64,
+    compliance: f64,
+    rest: f64,
+    dim: usize,
+    epsilon: f64,
+) -> f64 {
+    let gamma = (dim as f64 + 4.0) * epsilon;
     let c = (2.0 * energy * compliance).sqrt();
     c / compliance * gamma * (c + rest.abs())
 }
 
-/// A ball pair's |b'(d)| δd at `points` = (x_i, x_j).
+/// A ball pair's |b'(d)| δd at `points` = (x_i, x_j) (f64).
 pub fn ball_rounding(law: &BarrierLaw, points: &[f64], radii: (f64, f64), dim: usize) -> f64 {
-    let gamma = (dim as f64 + 4.0) * f64::EPSILON;
+    ball_rounding_at(law, points, radii, dim, f64::EPSILON)
+}
+
+/// [`ball_rounding`] at machine epsilon `epsilon`.
+pub fn ball_rounding_at(
+    law: &BarrierLaw,
+    points: &[f64],
+    radii: (f64, f64),
+    dim: usize,
+    epsilon: f64,
+) -> f64 {
+    let gamma = (dim as f64 + 4.0) * epsilon;
     let mut length = 0.0;
     for a in 0..dim {
         let d = points[dim + a] - points[a];
@@ -82,7 +108,7 @@ pub fn ball_rounding(law: &BarrierLaw, points: &[f64], radii: (f64, f64), dim: u
 }
 
 /// The floor itself, from the particle sums and the elements' Σ|E_e| and
-/// Σ force rounding (element order).
+/// Σ force rounding (element order), for f64 values.
 pub fn change_resolution(
     dim: usize,
     h: f64,
@@ -90,10 +116,25 @@ pub fn change_resolution(
     element_energy: f64,
     element_force: f64,
 ) -> f64 {
+    change_resolution_at(dim, h, particles, element_energy, element_force, f64::EPSILON)
+}
+
+/// [`change_resolution`] for values computed at machine epsilon
+/// `epsilon` (the GPU's f32 step passes `f32::EPSILON`; its particle
+/// force terms already carry the kernel's own ε). With `f64::EPSILON` it
+/// is [`change_resolution`] bit for bit (same operations, same order).
+pub fn change_resolution_at(
+    dim: usize,
+    h: f64,
+    particles: ResolutionSums,
+    element_energy: f64,
+    element_force: f64,
+    epsilon: f64,
+) -> f64 {
     let h2 = h * h;
     (dim as f64 + 4.0)
         * 0.5
-        * f64::EPSILON
+        * epsilon
         * (particles.inertia + h2 * particles.work + 2.0 * h2 * (particles.energy + element_energy))
         + 2.0 * h2 * (particles.force + element_force)
 }

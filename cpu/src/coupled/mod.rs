@@ -30,11 +30,13 @@
 #![allow(clippy::needless_range_loop)]
 
 mod elements;
+mod gradient_at;
 mod particles;
 mod setup;
 #[cfg(test)]
 mod tests;
 
+pub use gradient_at::coupled_gradient;
 use crate::parallel::Workers;
 use elements::{Elements, Terms};
 use hyperpbd_core::IncrementalPotentialPlan;

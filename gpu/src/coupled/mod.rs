@@ -25,6 +25,7 @@
 
 mod device;
 mod entries;
+mod f32;
 mod newton;
 
 use hyperpbd_core::broadphase::{Aabbs, Pair, grid_pairs};
@@ -67,20 +68,13 @@ pub struct GpuCoupledBackend {
 }
 
 /// Why the GPU does not run `plan`'s coupled step (yet), if it does not.
-fn unsupported(plan: &Plan, ip: &IncrementalPotentialPlan, precision: Precision) -> Option<String> {
+fn unsupported(plan: &Plan, ip: &IncrementalPotentialPlan, _precision: Precision) -> Option<String> {
     ip.coupled.as_ref()?;
     let not_yet = |what: String| {
         Some(format!(
             "{what} in the coupled implicit step on the GPU (not built yet): use --backend cpu"
         ))
     };
-    if precision == Precision::F32 {
-        return Some(
-            "the coupled implicit step in f32 (its certified filter and rounding floor are \
-             counted for f64 only so far): use --backend gpu-f64 or --backend cpu"
-                .into(),
-        );
-    }
     if plan.dim > MAX_GPU_DIM {
         return Some(format!(
             "dimension {} (the GPU kernels support 1..={MAX_GPU_DIM})",
@@ -139,6 +133,11 @@ impl GpuCoupledBackend {
             b
         };
         let (resident, mut fixed) = barrier_resources(&ctx, &plan, &ip, state, precision)?;
+        if precision == Precision::F32 {
+            // Radii rounded outward: an f32 gap ℓ − r̂_i − r̂_j certified > 0
+            // is then > 0 with the authored f64 radii too (f32/mod.rs).
+            fixed[0] = ctx.storage("radius", &f32::outward_radii(&plan.radius))?;
+        }
         let mass: Vec<f64> = plan
             .inverse_mass
             .iter()

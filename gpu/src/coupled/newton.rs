@@ -7,7 +7,7 @@
 use hyperpbd_core::barrier::BarrierObstacles;
 use hyperpbd_core::implicit::line_search::{after_failed_search, armijo, before_search};
 use hyperpbd_core::implicit::resolution::{
-    ball_rounding, change_resolution, particle_sums, spring_rounding,
+    ball_rounding_at, change_resolution_at, particle_sums, spring_rounding_at,
 };
 use hyperpbd_core::implicit::{
     PcgSettings, PcgVectors, certified_filter, newton_cg_tolerance, pair_lags, pcg_on,
@@ -142,9 +142,11 @@ impl GpuCoupledBackend {
     }
 
     /// The rounding floor of F's change over R_DIRECTION from R_X
-    /// (core's `implicit::resolution`, on the device's values read back).
+    /// (core's `implicit::resolution`, on the device's values read back,
+    /// at the device precision's ε).
     fn resolution(&self) -> Result<f64, GpuError> {
         let dim = self.plan.dim;
+        let epsilon = self.precision.epsilon();
         let v = self.device.read_regions(
             &self.ctx,
             &[
@@ -174,7 +176,7 @@ impl GpuCoupledBackend {
             energy += value.abs();
             if e < up.first_ball {
                 let reals = &up.reals[e * (dim + 1)..];
-                force += spring_rounding(value, reals[0], reals[1], dim);
+                force += spring_rounding_at(value, reals[0], reals[1], dim, epsilon);
             } else if e < up.first_ball + self.pairs.len() {
                 let members = up.lists.members(e);
                 for (j, &i) in members.iter().enumerate() {
@@ -185,10 +187,12 @@ impl GpuCoupledBackend {
                     self.plan.radius[members[0] as usize],
                     self.plan.radius[members[1] as usize],
                 );
-                force += ball_rounding(&self.ip.law, &points, radii, dim);
+                force += ball_rounding_at(&self.ip.law, &points, radii, dim, epsilon);
             }
         }
-        Ok(change_resolution(dim, self.plan.h, sums, energy, force))
+        Ok(change_resolution_at(
+            dim, self.plan.h, sums, energy, force, epsilon,
+        ))
     }
 
     /// Steps 1–4: x^t, x~, the lags and d ≤ 0 at x^t, the pairs at x^t,
