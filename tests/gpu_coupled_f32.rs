@@ -72,6 +72,7 @@ fn f32_against_cpu(test: &str, scene: Scene, steps: usize) -> Option<f64> {
     let (mut worst, mut worst_at) = (0.0f64, (0, 0.0, 0.0));
     let (mut largest, mut closest) = (0.0f64, f64::INFINITY);
     let (mut fraction, mut unbounded) = (f64::INFINITY, None);
+    let mut rounding_share = 0.0f64;
     let mut statuses = std::collections::BTreeMap::<String, usize>::new();
     for step in 0..steps {
         let start = gpu.read_state().expect("gpu state");
@@ -103,21 +104,24 @@ fn f32_against_cpu(test: &str, scene: Scene, steps: usize) -> Option<f64> {
         let g_cpu = coupled_gradient(&plan, from, &plan.force, &x_cpu)
             .unwrap_or_else(|r| panic!("{test}: step {step}: ∇F at the CPU iterate: {r:?}"));
         largest = largest.max(hyperpbd::compare::max_abs_diff(&x_gpu, &x_cpu));
-        match coupled_step_bound(&plan, &x_gpu, &x_cpu, &g_gpu, &g_cpu) {
+        match coupled_step_bound(&plan, from, &x_gpu, &x_cpu, &g_gpu, &g_cpu) {
             Ok(b) => {
                 let (i, ratio) = b.worst();
                 for k in 0..b.bound.len() {
                     assert!(
                         b.measured[k] <= b.bound[k],
                         "{test}: step {step}: particle {k}: |x_gpu − x_cpu| = {:e} > bound {:e} \
-                         (‖g‖_A⁻¹ gpu {:e}, cpu {:e})",
+                         (‖g‖_A⁻¹ gpu {:e}, cpu {:e}, rounding {:e})",
                         b.measured[k],
                         b.bound[k],
                         b.gradient_norms.0,
-                        b.gradient_norms.1
+                        b.gradient_norms.1,
+                        b.rounding
                     );
                 }
                 fraction = fraction.min(b.modulus_fraction);
+                let total = b.gradient_norms.0 + b.gradient_norms.1 + b.rounding;
+                rounding_share = rounding_share.max(b.rounding / total);
                 if ratio > worst {
                     worst = ratio;
                     worst_at = (step, b.measured[i], b.bound[i]);
@@ -141,7 +145,8 @@ fn f32_against_cpu(test: &str, scene: Scene, steps: usize) -> Option<f64> {
     print_bound(
         format!(
             "gpu-f32 coupled {test} | position, worst particle of worst step {} \
-             (measured/bound {worst:.3}; min μ_i/m_i {fraction:.3}; max |dx| {largest:.3e}) | {steps}",
+             (measured/bound {worst:.6}; min μ_i/m_i {fraction:.3}; max |dx| {largest:.3e}; \
+             gradient rounding {rounding_share:.1e} of the bound) | {steps}",
             worst_at.0
         ),
         format_args!("{:.3e}", worst_at.1),

@@ -37,8 +37,18 @@
 //! The per-particle modulus is what can be certified per particle: the
 //! springs' and pairs' curvature along their links is positive but couples
 //! two particles (translations are its null space), so it cannot raise any
-//! A_i. Everything is evaluated in f64 (relative rounding ≲ 1e-13 on these
-//! few operations); the bound is scaled by 1 + 1e-9 for it.
+//! A_i. The gradients are the exact ones up to δg (`rounding.rs`: the
+//! f64 evaluation's own rounding, which matters where g is tiny):
+//!
+//! ```text
+//! E = ‖g_a‖_{A⁻¹} + ‖g_b‖_{A⁻¹} + ‖δg_a‖_{μ⁻¹} + ‖δg_b‖_{μ⁻¹}        ‖δ‖²_{μ⁻¹} = Σ_i |δ_i|² / μ_i
+//! ```
+//! and the bound itself (a few sums and one Cholesky per particle in f64,
+//! relative rounding ≲ 1e-13) is scaled by 1 + 1e-9.
+
+mod rounding;
+
+pub use rounding::gradient_rounding;
 
 use hyperpbd_core::barrier::BarrierLaw;
 use hyperpbd_core::geometry::closest_point_on_simplex;
@@ -53,6 +63,8 @@ pub struct CoupledStepBound {
     pub bound: Vec<f64>,
     /// ‖g_a‖_{A⁻¹} and ‖g_b‖_{A⁻¹}.
     pub gradient_norms: (f64, f64),
+    /// ‖δg_a‖_{μ⁻¹} + ‖δg_b‖_{μ⁻¹}: the gradients' own rounding.
+    pub rounding: f64,
     /// Smallest μ_i / m_i over the free particles (1: inertia only).
     pub modulus_fraction: f64,
 }
@@ -214,11 +226,12 @@ fn inverse_quadratic(a: &mut [f64], g: &[f64]) -> Option<f64> {
 }
 
 /// The bound of `a` against `b`, two iterates of the coupled step that
-/// starts from `start` = (x^t, v^t) under external forces `force`, from
-/// their f64 gradients `gradient_a`, `gradient_b` (from
-/// `hyperpbd_cpu::coupled_gradient`). `Err` says why no bound is stated.
+/// starts from `start` = (x^t, v^t), from their f64 gradients
+/// `gradient_a`, `gradient_b` (from `hyperpbd_cpu::coupled_gradient`).
+/// `Err` says why no bound is stated.
 pub fn coupled_step_bound(
     plan: &Plan,
+    start: (&[f64], &[f64]),
     a: &[f64],
     b: &[f64],
     gradient_a: &[f64],
@@ -279,7 +292,22 @@ pub fn coupled_step_bound(
         }
     }
     let (norm_a, norm_b) = (norm_a.sqrt(), norm_b.sqrt());
-    let total = (norm_a + norm_b) * (1.0 + 1e-9);
+    let (delta_a, delta_b) = (
+        gradient_rounding(plan, start, a),
+        gradient_rounding(plan, start, b),
+    );
+    let weighted = |delta: &[f64]| {
+        (0..n)
+            .filter(|&i| plan.inverse_mass[i] > 0.0)
+            .map(|i| delta[i] * delta[i] / mu[i])
+            .sum::<f64>()
+            .sqrt()
+    };
+    let rounding = weighted(&delta_a) + weighted(&delta_b);
+    if !rounding.is_finite() {
+        return Err("the gradients' rounding is not finite".into());
+    }
+    let total = (norm_a + norm_b + rounding) * (1.0 + 1e-9);
     let mut measured = vec![0.0; n];
     let mut bound = vec![0.0; n];
     for i in (0..n).filter(|&i| plan.inverse_mass[i] > 0.0) {
@@ -290,6 +318,7 @@ pub fn coupled_step_bound(
         measured,
         bound,
         gradient_norms: (norm_a, norm_b),
+        rounding,
         modulus_fraction: fraction,
     })
 }
