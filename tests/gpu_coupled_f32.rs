@@ -14,40 +14,12 @@ mod common;
 use common::bound::print_bound;
 use common::gpu::adapter_or_skip;
 use common::implicit_scenes::{alternating_chain, head_on, incline, particle, settings, stack};
-use hyperpbd::compare_coupled::coupled_step_bound;
+use common::coupled_f32::F32Check;
 use hyperpbd::{
     Backend, Collisions, ConstraintFamily, ConstraintKind, Obstacle, Plan, Scene, Solver, State,
-    WarmStart, coupled_gradient,
+    WarmStart,
 };
 use hyperpbd_gpu::{GpuCoupledBackend, Precision};
-
-/// The smallest gap of any free particle to any obstacle and of any ball
-/// pair (with collisions), in f64 against the authored geometry.
-fn smallest_gap(plan: &Plan, x: &[f64]) -> f64 {
-    let dim = plan.dim;
-    let ip = plan.incremental_potential().expect("ip");
-    let mut normal = vec![0.0; dim];
-    let mut gap = f64::INFINITY;
-    let n = plan.particle_count();
-    for i in (0..n).filter(|&i| plan.inverse_mass[i] > 0.0) {
-        let xi = &x[i * dim..(i + 1) * dim];
-        for o in 0..ip.obstacles.len() {
-            gap = gap.min(ip.obstacles.distance(o, xi, plan.radius[i], &mut normal));
-        }
-    }
-    if ip.coupled.as_ref().is_some_and(|c| c.collisions) {
-        for i in 0..n {
-            for j in i + 1..n {
-                let l = (0..dim)
-                    .map(|a| (x[j * dim + a] - x[i * dim + a]).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                gap = gap.min(l - plan.radius[i] - plan.radius[j]);
-            }
-        }
-    }
-    gap
-}
 
 /// `scene` with one substep per frame (same h): the bound is per
 /// minimisation, and the CPU restarts from the GPU's state before each.
@@ -57,111 +29,60 @@ fn per_substep(mut scene: Scene) -> Scene {
     scene
 }
 
-/// Steps `scene` `steps` times on the GPU in f32, the CPU restarted from
-/// the GPU's state before every step; asserts the bound where stated and
-/// gaps > 0, prints BOUND lines. Returns the worst measured / bound.
+/// Steps `scene` `steps` times on the GPU in f32 with `F32Check` (the CPU
+/// restarted from the GPU's state before every step; the bound asserted
+/// where stated, gaps > 0), prints BOUND lines; the worst measured /
+/// bound, `None` where no bound is stated.
 fn f32_against_cpu(test: &str, scene: Scene, steps: usize) -> Option<f64> {
     let (adapter, summary) = adapter_or_skip(test, Precision::F32)?;
     let scene = per_substep(scene);
     let plan = Plan::compile(&scene).expect("compiles");
     let state = State::from_scene(&scene);
-    let mut cpu = common::cpu_backend(&scene, 1);
     let mut gpu = GpuCoupledBackend::with_adapter(&adapter, plan.clone(), &state, Precision::F32)
         .unwrap_or_else(|e| panic!("{test}: the GPU takes the coupled step in f32: {e}"));
-    let has_gaps = smallest_gap(&plan, &state.positions).is_finite();
-    let (mut worst, mut worst_at) = (0.0f64, (0, 0.0, 0.0));
-    let (mut largest, mut closest) = (0.0f64, f64::INFINITY);
-    let (mut fraction, mut unbounded) = (f64::INFINITY, None);
-    let mut rounding_share = 0.0f64;
+    let mut check = F32Check::new(&plan, &state);
     let mut statuses = std::collections::BTreeMap::<String, usize>::new();
     for step in 0..steps {
         let start = gpu.read_state().expect("gpu state");
-        cpu.write_state(&start).expect("cpu restart");
-        let a = gpu
+        let report = gpu
             .step()
             .unwrap_or_else(|e| panic!("{test}: gpu-f32 step {step}: {e}"));
-        cpu.step()
-            .unwrap_or_else(|e| panic!("{test}: cpu step {step}: {e}"));
-        for m in &a.minimisation {
+        for m in &report.minimisation {
             *statuses.entry(format!("{:?}", m.status)).or_default() += 1;
         }
-        let (x_gpu, x_cpu) = (
-            gpu.read_state().expect("gpu").positions,
-            cpu.read_state().expect("cpu").positions,
-        );
-        assert!(
-            x_gpu.iter().all(|v| v.is_finite()),
-            "{test}: step {step}: a non-finite GPU value"
-        );
-        if has_gaps {
-            let gap = smallest_gap(&plan, &x_gpu);
-            assert!(gap > 0.0, "{test}: step {step}: gap {gap:e} ≤ 0 in f32");
-            closest = closest.min(gap);
-        }
-        let from = (&start.positions[..], &start.velocities[..]);
-        let g_gpu = coupled_gradient(&plan, from, &plan.force, &x_gpu)
-            .unwrap_or_else(|r| panic!("{test}: step {step}: ∇F at the GPU iterate: {r:?}"));
-        let g_cpu = coupled_gradient(&plan, from, &plan.force, &x_cpu)
-            .unwrap_or_else(|r| panic!("{test}: step {step}: ∇F at the CPU iterate: {r:?}"));
-        largest = largest.max(hyperpbd::compare::max_abs_diff(&x_gpu, &x_cpu));
-        match coupled_step_bound(&plan, from, &x_gpu, &x_cpu, &g_gpu, &g_cpu) {
-            Ok(b) => {
-                let (i, ratio) = b.worst();
-                for k in 0..b.bound.len() {
-                    assert!(
-                        b.measured[k] <= b.bound[k],
-                        "{test}: step {step}: particle {k}: |x_gpu − x_cpu| = {:e} > bound {:e} \
-                         (‖g‖_A⁻¹ gpu {:e}, cpu {:e}, rounding {:e})",
-                        b.measured[k],
-                        b.bound[k],
-                        b.gradient_norms.0,
-                        b.gradient_norms.1,
-                        b.rounding
-                    );
-                }
-                fraction = fraction.min(b.modulus_fraction);
-                let total = b.gradient_norms.0 + b.gradient_norms.1 + b.rounding;
-                rounding_share = rounding_share.max(b.rounding / total);
-                if ratio > worst {
-                    worst = ratio;
-                    worst_at = (step, b.measured[i], b.bound[i]);
-                }
-            }
-            Err(why) => {
-                unbounded.get_or_insert((step, why));
-            }
-        }
+        check.step(test, &start, &gpu.read_state().expect("gpu"));
     }
     let rule = format!("f32 ({}), statuses {statuses:?}", summary.name);
-    if let Some((step, why)) = &unbounded {
+    let name = format!("gpu-f32 coupled {test} | position |x_gpu − x_cpu| per particle | {steps}");
+    if let Some((step, why)) = &check.unbounded {
         print_bound(
-            format!("gpu-f32 coupled {test} | position |x_gpu − x_cpu| | {steps}"),
-            format_args!("{largest:e}"),
+            name,
+            format_args!("{:.3e}", check.largest),
             format!("none stated (step {step}: {why})"),
             &rule,
         );
         return None;
     }
+    let (ratio, step, measured, bound) = check.worst;
     print_bound(
         format!(
-            "gpu-f32 coupled {test} | position, worst particle of worst step {} \
-             (measured/bound {worst:.6}; min μ_i/m_i {fraction:.3}; max |dx| {largest:.3e}; \
-             gradient rounding {rounding_share:.1e} of the bound) | {steps}",
-            worst_at.0
+            "{name} (worst particle of worst step {step}: measured/bound {ratio:.6}; \
+             min μ_i/m_i {:.3}; max |dx| {:.3e}; gradient rounding ≤ {:.1e} of a bound)",
+            check.modulus_fraction, check.largest, check.rounding_share
         ),
-        format_args!("{:.3e}", worst_at.1),
-        format_args!("{:.3e}", worst_at.2),
+        format_args!("{measured:.3e}"),
+        format_args!("{bound:.3e}"),
         &rule,
     );
-    if has_gaps {
+    if check.closest.is_finite() {
         print_bound(
             format!("gpu-f32 coupled {test} | smallest gap (f64, authored geometry) | {steps}"),
-            format_args!("{closest:.3e}"),
+            format_args!("{:.3e}", check.closest),
             "> 0",
             &rule,
         );
     }
-    Some(worst)
+    Some(ratio)
 }
 
 #[test]

@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 pub mod bound;
+pub mod coupled_f32;
 pub mod boxes;
 pub mod differential;
 pub mod exact;

@@ -15,7 +15,9 @@
 //! ```
 //! ε is f64's on the golden path; the `_at` forms take the ε of the
 //! precision the values were computed in (the GPU's f32 step: ε₃₂, its
-//! per-particle force terms computed by the kernel with its own ε).
+//! per-particle force terms computed by the kernel with its own ε) and add
+//! the second-order terms δC²/(2α), ½ b'' δd², which f32 needs where δ
+//! exceeds C (an unstretched stiff link) and f64 does not.
 
 use crate::barrier::BarrierLaw;
 
@@ -67,11 +69,18 @@ pub fn particle_sums(
 
 /// A spring's |∂E/∂C| δC from its energy E = C²/(2α) (f64).
 pub fn spring_rounding(energy: f64, compliance: f64, rest: f64, dim: usize) -> f64 {
-    spring_rounding_at(energy, compliance, rest, dim, f64::EPSILON)
+    let gamma = (dim as f64 + 4.0) * f64::EPSILON;
+    let c = (2.0 * energy * compliance).sqrt();
+    c / compliance * gamma * (c + rest.abs())
 }
 
-/// [`spring_rounding`] for values computed at machine epsilon `epsilon`
-/// (f32 on the GPU: `f32::EPSILON`).
+/// A spring's energy rounding for values computed at machine epsilon
+/// `epsilon` (the GPU's f32 step: `f32::EPSILON`): [`spring_rounding`]'s
+/// first-order term plus the second-order δC²/(2α). In f32 δC (relative
+/// to ℓ + rest) can exceed C itself — an unstretched stiff link has C = 0
+/// and a first-order term of 0, while its computed energy is up to
+/// δC²/(2α) — so the f32 floor needs it; in f64 it is below ε² relative
+/// and the golden floor leaves it out.
 pub fn spring_rounding_at(
     energy: f64,
     compliance: f64,
@@ -81,15 +90,25 @@ pub fn spring_rounding_at(
 ) -> f64 {
     let gamma = (dim as f64 + 4.0) * epsilon;
     let c = (2.0 * energy * compliance).sqrt();
-    c / compliance * gamma * (c + rest.abs())
+    let delta = gamma * (c + rest.abs());
+    c / compliance * delta + delta * delta / (2.0 * compliance)
 }
 
 /// A ball pair's |b'(d)| δd at `points` = (x_i, x_j) (f64).
 pub fn ball_rounding(law: &BarrierLaw, points: &[f64], radii: (f64, f64), dim: usize) -> f64 {
-    ball_rounding_at(law, points, radii, dim, f64::EPSILON)
+    let gamma = (dim as f64 + 4.0) * f64::EPSILON;
+    let mut length = 0.0;
+    for a in 0..dim {
+        let d = points[dim + a] - points[a];
+        length += d * d;
+    }
+    let slope = law.evaluate(length.sqrt() - radii.0 - radii.1).1;
+    slope.abs() * gamma * (length.sqrt() + radii.0 + radii.1)
 }
 
-/// [`ball_rounding`] at machine epsilon `epsilon`.
+/// A ball pair's energy rounding at machine epsilon `epsilon`:
+/// [`ball_rounding`]'s |b'| δd plus the second-order ½ b''(d) δd² (see
+/// [`spring_rounding_at`]; b'' is largest near contact).
 pub fn ball_rounding_at(
     law: &BarrierLaw,
     points: &[f64],
@@ -103,8 +122,9 @@ pub fn ball_rounding_at(
         let d = points[dim + a] - points[a];
         length += d * d;
     }
-    let slope = law.evaluate(length.sqrt() - radii.0 - radii.1).1;
-    slope.abs() * gamma * (length.sqrt() + radii.0 + radii.1)
+    let (_, slope, curvature) = law.evaluate(length.sqrt() - radii.0 - radii.1);
+    let delta = gamma * (length.sqrt() + radii.0 + radii.1);
+    slope.abs() * delta + 0.5 * curvature * delta * delta
 }
 
 /// The floor itself, from the particle sums and the elements' Σ|E_e| and

@@ -7,7 +7,8 @@
 use hyperpbd_core::barrier::BarrierObstacles;
 use hyperpbd_core::implicit::line_search::{after_failed_search, armijo, before_search};
 use hyperpbd_core::implicit::resolution::{
-    ball_rounding_at, change_resolution_at, particle_sums, spring_rounding_at,
+    ball_rounding, ball_rounding_at, change_resolution_at, particle_sums, spring_rounding,
+    spring_rounding_at,
 };
 use hyperpbd_core::implicit::{
     PcgSettings, PcgVectors, certified_filter, newton_cg_tolerance, pair_lags, pcg_on,
@@ -20,6 +21,7 @@ use hyperpbd_core::{
 use super::GpuCoupledBackend;
 use super::device::Reduction;
 use super::entries::{Entry, region};
+use crate::Precision;
 use crate::barrier::{NONE, infeasible_start};
 
 /// Status words of coupled.wgsl.
@@ -142,11 +144,28 @@ impl GpuCoupledBackend {
     }
 
     /// The rounding floor of F's change over R_DIRECTION from R_X
-    /// (core's `implicit::resolution`, on the device's values read back,
-    /// at the device precision's ε).
+    /// (core's `implicit::resolution`, on the device's values read back):
+    /// in f64 the golden path's terms, in f32 the `_at` forms at ε₃₂ with
+    /// their second-order terms (f32.rs).
     fn resolution(&self) -> Result<f64, GpuError> {
         let dim = self.plan.dim;
         let epsilon = self.precision.epsilon();
+        let single = self.precision == Precision::F32;
+        let law = &self.ip.law;
+        let spring = |value: f64, compliance: f64, rest: f64| {
+            if single {
+                spring_rounding_at(value, compliance, rest, dim, epsilon)
+            } else {
+                spring_rounding(value, compliance, rest, dim)
+            }
+        };
+        let ball = |points: &[f64], radii: (f64, f64)| {
+            if single {
+                ball_rounding_at(law, points, radii, dim, epsilon)
+            } else {
+                ball_rounding(law, points, radii, dim)
+            }
+        };
         let v = self.device.read_regions(
             &self.ctx,
             &[
@@ -176,7 +195,7 @@ impl GpuCoupledBackend {
             energy += value.abs();
             if e < up.first_ball {
                 let reals = &up.reals[e * (dim + 1)..];
-                force += spring_rounding_at(value, reals[0], reals[1], dim, epsilon);
+                force += spring(value, reals[0], reals[1]);
             } else if e < up.first_ball + self.pairs.len() {
                 let members = up.lists.members(e);
                 for (j, &i) in members.iter().enumerate() {
@@ -187,7 +206,7 @@ impl GpuCoupledBackend {
                     self.plan.radius[members[0] as usize],
                     self.plan.radius[members[1] as usize],
                 );
-                force += ball_rounding_at(&self.ip.law, &points, radii, dim, epsilon);
+                force += ball(&points, radii);
             }
         }
         Ok(change_resolution_at(
