@@ -29,7 +29,9 @@
 //!                             D_i, D_j += 2 |b'(d_min)| / ℓ_min   (pairs with d_min < d^)
 //! simplex obstacle            ∇²(b∘d) = b''∇d∇dᵀ + b' ∇²ρ, 0 ⪯ ∇²ρ ⪯ I/ρ (distance to a convex
 //!                             set):  D_i += |b'(d_min)| / ρ_min
-//! measure springs, materials  not bounded here (their ∇²C is not): no bound is stated
+//! measure springs            ∇²E ⪰ −(sup|C|/α) sup‖∇²V‖ I on the element (measures.rs;
+//!                             simplex measures of order ≤ 2, oriented measures)
+//! materials                   not bounded here: no bound is stated
 //! ℓ_min, ρ_min                over the segment: min of the two ends − half the end points'
 //!                             separation (the nearer end is within half of it); ℓ_min = 0,
 //!                             d_min ≤ 0 or some μ_i ≤ 0: no bound is stated
@@ -46,6 +48,7 @@
 //! and the bound itself (a few sums and one Cholesky per particle in f64,
 //! relative rounding ≲ 1e-13) is scaled by 1 + 1e-9.
 
+mod measures;
 mod rounding;
 
 pub use rounding::gradient_rounding;
@@ -141,6 +144,33 @@ fn negative_curvature(plan: &Plan, a: &[f64], b: &[f64]) -> Result<Vec<f64>, Str
                 }
             }
             FamilyKind::Tether => {}
+            FamilyKind::SimplexMeasure { .. } | FamilyKind::OrientedMeasure => {
+                let oriented = family.kind == FamilyKind::OrientedMeasure;
+                let arity = family.arity;
+                for e in 0..family.len() {
+                    let members = &family.elements[e * arity..(e + 1) * arity];
+                    let gather = |x: &[f64]| -> Vec<f64> {
+                        members
+                            .iter()
+                            .flat_map(|&i| x[i as usize * dim..(i as usize + 1) * dim].to_vec())
+                            .collect()
+                    };
+                    let c = measures::measure_curvature(
+                        oriented,
+                        family.compliance,
+                        family.rest[e],
+                        &gather(a),
+                        &gather(b),
+                        dim,
+                    )
+                    .ok_or_else(|| {
+                        format!("{} element {e}: no curvature bound for its order", family.label)
+                    })?;
+                    for &i in members {
+                        d[i as usize] += c;
+                    }
+                }
+            }
             _ => {
                 return Err(format!(
                     "{} ({:?}): its curvature is not bounded here",
