@@ -12,7 +12,9 @@
 
 pub use hyperpbd_core as core;
 pub use hyperpbd_core::*;
-pub use hyperpbd_cpu::{CpuBackend, coupled_gradient, THREADS_VARIABLE, default_threads, set_default_threads};
+pub use hyperpbd_cpu::{
+    CpuBackend, THREADS_VARIABLE, coupled_gradient, default_threads, set_default_threads,
+};
 pub use hyperpbd_gpu as gpu;
 
 pub mod atomic_file;

@@ -12,9 +12,9 @@
 mod common;
 
 use common::bound::print_bound;
+use common::coupled_f32::F32Check;
 use common::gpu::adapter_or_skip;
 use common::implicit_scenes::{alternating_chain, head_on, incline, particle, settings, stack};
-use common::coupled_f32::F32Check;
 use hyperpbd::{
     Backend, Collisions, ConstraintFamily, ConstraintKind, Obstacle, Plan, Scene, Solver, State,
     WarmStart,

@@ -164,7 +164,10 @@ fn negative_curvature(plan: &Plan, a: &[f64], b: &[f64]) -> Result<Vec<f64>, Str
                         dim,
                     )
                     .ok_or_else(|| {
-                        format!("{} element {e}: no curvature bound for its order", family.label)
+                        format!(
+                            "{} element {e}: no curvature bound for its order",
+                            family.label
+                        )
                     })?;
                     for &i in members {
                         d[i as usize] += c;
@@ -207,9 +210,12 @@ fn negative_curvature(plan: &Plan, a: &[f64], b: &[f64]) -> Result<Vec<f64>, Str
         let half = 0.5 * norm_of_difference(&pa, &pb);
         for s in 0..obstacles.simplex_count() {
             let vertices = obstacles.simplex(s, dim);
-            let rho = simplex_distance(dim, vertices, &pa, &mut offset)
-                .min(simplex_distance(dim, vertices, &pb, &mut offset))
-                - half;
+            let rho = simplex_distance(dim, vertices, &pa, &mut offset).min(simplex_distance(
+                dim,
+                vertices,
+                &pb,
+                &mut offset,
+            )) - half;
             let gap = rho - plan.radius[i];
             if gap >= activation {
                 continue;
@@ -299,9 +305,8 @@ pub fn coupled_step_bound(
             for p in 0..obstacles.plane_count() {
                 let normal = &obstacles.plane_normals[p * dim..(p + 1) * dim];
                 let offset = obstacles.plane_offsets[p] + plan.radius[i];
-                let distance = |x: &[f64]| {
-                    normal.iter().zip(x).map(|(n, x)| n * x).sum::<f64>() - offset
-                };
+                let distance =
+                    |x: &[f64]| normal.iter().zip(x).map(|(n, x)| n * x).sum::<f64>() - offset;
                 let far = distance(xa).max(distance(xb));
                 let curvature = law.evaluate(far).2.max(0.0);
                 if !curvature.is_finite() {

@@ -70,7 +70,11 @@ pub fn gradient_rounding(plan: &Plan, start: (&[f64], &[f64]), x: &[f64]) -> Vec
                     continue;
                 }
                 let radii = plan.radius[i] + plan.radius[j];
-                let l = norm(&(0..dim).map(|a| x[j * dim + a] - x[i * dim + a]).collect::<Vec<_>>());
+                let l = norm(
+                    &(0..dim)
+                        .map(|a| x[j * dim + a] - x[i * dim + a])
+                        .collect::<Vec<_>>(),
+                );
                 let (_, slope, curvature) = law.evaluate(l - radii);
                 let mut t = slope.abs() + curvature * (l + radii);
                 if pair_mu > 0.0 {
@@ -112,10 +116,7 @@ pub fn gradient_rounding(plan: &Plan, start: (&[f64], &[f64]), x: &[f64]) -> Vec
             } else {
                 let s = o - obstacles.plane_count();
                 let vertices = obstacles.simplex(s, dim);
-                let far = vertices
-                    .chunks_exact(dim)
-                    .map(norm)
-                    .fold(0.0f64, f64::max);
+                let far = vertices.chunks_exact(dim).map(norm).fold(0.0f64, f64::max);
                 size + far + plan.radius[i]
             };
             terms[i] += slope.abs() + curvature * scale;

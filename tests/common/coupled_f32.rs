@@ -151,7 +151,11 @@ impl F32Check {
             ),
             None => format!(
                 "measured/bound {:.6} (step {}: {:.3e} ≤ {:.3e}; min μ_i/m_i {:.3}, max |dx| {:.3e})",
-                self.worst.0, self.worst.1, self.worst.2, self.worst.3, self.modulus_fraction,
+                self.worst.0,
+                self.worst.1,
+                self.worst.2,
+                self.worst.3,
+                self.modulus_fraction,
                 self.largest
             ),
         }

@@ -4,8 +4,8 @@
 #![allow(dead_code)]
 
 pub mod bound;
-pub mod coupled_f32;
 pub mod boxes;
+pub mod coupled_f32;
 pub mod differential;
 pub mod exact;
 pub mod gpu;

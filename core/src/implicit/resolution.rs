@@ -136,7 +136,14 @@ pub fn change_resolution(
     element_energy: f64,
     element_force: f64,
 ) -> f64 {
-    change_resolution_at(dim, h, particles, element_energy, element_force, f64::EPSILON)
+    change_resolution_at(
+        dim,
+        h,
+        particles,
+        element_energy,
+        element_force,
+        f64::EPSILON,
+    )
 }
 
 /// [`change_resolution`] for values computed at machine epsilon

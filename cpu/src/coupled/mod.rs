@@ -36,9 +36,9 @@ mod setup;
 #[cfg(test)]
 mod tests;
 
-pub use gradient_at::coupled_gradient;
 use crate::parallel::Workers;
 use elements::{Elements, Terms};
+pub use gradient_at::coupled_gradient;
 use hyperpbd_core::IncrementalPotentialPlan;
 use hyperpbd_core::implicit::line_search::{after_failed_search, armijo, before_search};
 use hyperpbd_core::implicit::resolution::{change_resolution, particle_sums};

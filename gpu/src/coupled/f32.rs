@@ -51,7 +51,10 @@ mod tests {
         for (k, &r) in radii.iter().enumerate() {
             let stored = f32::from_le_bytes(bytes[4 * k..4 * k + 4].try_into().expect("4"));
             assert!(f64::from(stored) >= r, "{r}");
-            assert!(f64::from(stored) - r <= f64::from(f32::EPSILON) * r.max(1e-38), "{r}");
+            assert!(
+                f64::from(stored) - r <= f64::from(f32::EPSILON) * r.max(1e-38),
+                "{r}"
+            );
         }
     }
 }

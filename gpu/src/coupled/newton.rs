@@ -210,7 +210,12 @@ impl GpuCoupledBackend {
             }
         }
         Ok(change_resolution_at(
-            dim, self.plan.h, sums, energy, force, epsilon,
+            dim,
+            self.plan.h,
+            sums,
+            energy,
+            force,
+            epsilon,
         ))
     }
 
