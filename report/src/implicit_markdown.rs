@@ -78,8 +78,8 @@ pub fn case_summary(r: &ImplicitResult) -> Option<String> {
 fn gpu_sentence(section: &ImplicitSection) -> String {
     if section.gpu.is_empty() {
         return "no GPU backend was asked here (none configured or no adapter); gpu-f64 runs \
-                the coupled step (`GpuCoupledBackend`), gpu-f32 refuses it at load \
-                (`GpuError::Unsupported`)"
+                the coupled step (`GpuCoupledBackend`), and so does gpu-f32 (with a per-step \
+                residual-driven bound against cpu-f64)"
             .into();
     }
     let mut said: Vec<(Vec<&str>, &str)> = Vec::new();
