@@ -237,7 +237,7 @@ fn inverse_quadratic(a: &mut [f64], g: &[f64]) -> Option<f64> {
         for k in 0..j {
             s -= a[j * n + k] * a[j * n + k];
         }
-        if !(s > 0.0) {
+        if s.is_nan() || s <= 0.0 {
             return None;
         }
         let l = s.sqrt();
@@ -288,7 +288,7 @@ pub fn coupled_step_bound(
     for i in (0..n).filter(|&i| plan.inverse_mass[i] > 0.0) {
         let m = 1.0 / plan.inverse_mass[i];
         mu[i] = m - h2 * d[i];
-        if !(mu[i] > 0.0) {
+        if mu[i].is_nan() || mu[i] <= 0.0 {
             return Err(format!(
                 "particle {i}: μ_i = m_i − h² D_i = {:e} ≤ 0 (m_i = {m:e}, h² D_i = {:e})",
                 mu[i],
