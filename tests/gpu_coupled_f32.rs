@@ -74,6 +74,17 @@ fn f32_against_cpu(test: &str, scene: Scene, steps: usize) -> Option<f64> {
         format_args!("{bound:.3e}"),
         &rule,
     );
+    let (ratio_v, step_v, measured_v, bound_v) = check.worst_velocity;
+    print_bound(
+        format!(
+            "gpu-f32 coupled {test} | velocity |v_gpu − v_cpu| per particle \
+             (worst particle of worst step {step_v}: measured/bound {ratio_v:.6}; \
+             bound B_i/h + 3 u32 |v| + 2 eps64 (|x| + |x^t|)/h) | {steps}"
+        ),
+        format_args!("{measured_v:.3e}"),
+        format_args!("{bound_v:.3e}"),
+        &rule,
+    );
     if check.closest.is_finite() {
         print_bound(
             format!("gpu-f32 coupled {test} | smallest gap (f64, authored geometry) | {steps}"),

@@ -59,6 +59,8 @@ pub struct F32Check {
     pub rounding_share: f64,
     /// The first step without a stated bound, and why.
     pub unbounded: Option<(usize, String)>,
+    /// Worst velocity measured / bound, its step, measured and bound.
+    pub worst_velocity: (f64, usize, f64, f64),
 }
 
 impl F32Check {
@@ -74,6 +76,7 @@ impl F32Check {
             modulus_fraction: f64::INFINITY,
             rounding_share: 0.0,
             unbounded: None,
+            worst_velocity: (0.0, 0, 0.0, 0.0),
         }
     }
 
@@ -99,7 +102,8 @@ impl F32Check {
                 .get_or_insert((step, format!("the CPU probe refused: {e}")));
             return;
         }
-        let x_cpu = self.probe.read_state().expect("cpu").positions;
+        let cpu_state = self.probe.read_state().expect("cpu");
+        let x_cpu = cpu_state.positions.clone();
         self.largest = self
             .largest
             .max(hyperpbd::compare::max_abs_diff(x_gpu, &x_cpu));
@@ -132,12 +136,56 @@ impl F32Check {
                 if b.bound.is_empty() {
                     return;
                 }
+                self.velocity(case, step, start, after, &cpu_state, &b.bound);
                 if ratio > self.worst.0 || self.steps == 1 {
                     self.worst = (ratio, step, b.measured[i], b.bound[i]);
                 }
             }
             Err(why) => {
                 self.unbounded.get_or_insert((step, why));
+            }
+        }
+    }
+
+    /// The velocity bound of one step: both runs set v = (x − x^t)/h from
+    /// the same x^t, so per particle
+    /// |v_gpu − v_cpu| ≤ B_i / h + 3 u₃₂ |v_gpu| + 2 ε₆₄ (|x_cpu| + |x^t|) / h
+    /// (B_i the position bound; f32's x − x^t, h and the quotient each round
+    /// once relative to v; the CPU's f64 difference relative to the
+    /// coordinates).
+    fn velocity(
+        &mut self,
+        case: &str,
+        step: usize,
+        start: &State,
+        after: &State,
+        cpu: &State,
+        bound: &[f64],
+    ) {
+        let (dim, h) = (self.plan.dim, self.plan.h);
+        let u32 = f64::from(f32::EPSILON) / 2.0;
+        let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
+        for i in (0..bound.len()).filter(|&i| self.plan.inverse_mass[i] > 0.0) {
+            let span = i * dim..(i + 1) * dim;
+            let (vg, vc) = (
+                &after.velocities[span.clone()],
+                &cpu.velocities[span.clone()],
+            );
+            let diff: Vec<f64> = vg.iter().zip(vc).map(|(p, q)| p - q).collect();
+            let measured = norm(&diff);
+            let limit = bound[i] / h
+                + 3.0 * u32 * norm(vg)
+                + 2.0
+                    * f64::EPSILON
+                    * (norm(&cpu.positions[span.clone()]) + norm(&start.positions[span]))
+                    / h;
+            assert!(
+                measured <= limit,
+                "{case}: step {step}: particle {i}: |v_gpu − v_cpu| = {measured:e} > {limit:e}"
+            );
+            let ratio = measured / limit;
+            if ratio > self.worst_velocity.0 {
+                self.worst_velocity = (ratio, step, measured, limit);
             }
         }
     }
