@@ -53,10 +53,10 @@ fn f32_against_cpu(test: &str, scene: Scene, steps: usize) -> Option<f64> {
         check.step(test, &start, &gpu.read_state().expect("gpu"));
     }
     let rule = format!("f32 ({}), statuses {statuses:?}", summary.name);
-    let name = format!("gpu-f32 coupled {test} | position |x_gpu − x_cpu| per particle | {steps}");
+    let name = format!("gpu-f32 coupled {test} | position |x_gpu − x_cpu| per particle");
     if let Some((step, why)) = &check.unbounded {
         print_bound(
-            name,
+            format!("{name} | {steps}"),
             format_args!("{:.3e}", check.largest),
             format!("none stated (step {step}: {why})"),
             &rule,
@@ -67,7 +67,7 @@ fn f32_against_cpu(test: &str, scene: Scene, steps: usize) -> Option<f64> {
     print_bound(
         format!(
             "{name} (worst particle of worst step {step}: measured/bound {ratio:.6}; \
-             min μ_i/m_i {:.3}; max |dx| {:.3e}; gradient rounding ≤ {:.1e} of a bound)",
+             min μ_i/m_i {:.3}; max |dx| {:.3e}; gradient rounding ≤ {:.1e} of a bound) | {steps}",
             check.modulus_fraction, check.largest, check.rounding_share
         ),
         format_args!("{measured:.3e}"),

@@ -88,10 +88,25 @@ impl CoupledStepBound {
     }
 }
 
-/// Distance of `x` to simplex `s`, minus nothing (the radius is the caller's).
+/// A lower bound of the distance of `x` to the simplex `vertices` that
+/// does not trust the closest-point search (certified_filter.rs's support
+/// bound): for the returned offset w = x − q̂ ≠ 0,
+/// dist(x, conv v) ≥ min_v w·(x − v) / |w|; 0 when w = 0.
 fn simplex_distance(plan_dim: usize, vertices: &[f64], x: &[f64], offset: &mut [f64]) -> f64 {
     closest_point_on_simplex(x, vertices, plan_dim, offset);
-    offset.iter().map(|w| w * w).sum::<f64>().sqrt()
+    let length = offset.iter().map(|w| w * w).sum::<f64>().sqrt();
+    if length.is_nan() || length <= 0.0 {
+        return 0.0;
+    }
+    let support = vertices
+        .chunks_exact(plan_dim)
+        .map(|v| {
+            (0..plan_dim)
+                .map(|a| offset[a] * (x[a] - v[a]))
+                .sum::<f64>()
+        })
+        .fold(f64::INFINITY, f64::min);
+    (support / length) * (1.0 - 1e-12)
 }
 
 /// |u − v| of two N-vectors.
