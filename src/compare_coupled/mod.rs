@@ -33,7 +33,9 @@
 //!                             simplex measures of order ≤ 2, oriented measures)
 //! materials                   not bounded here: no bound is stated
 //! ℓ_min, ρ_min                over the segment: min of the two ends − half the end points'
-//!                             separation (the nearer end is within half of it); ℓ_min = 0,
+//!                             separation (the nearer end is within half of it; ρ at an end
+//!                             from the support bound of the returned offset, not trusting
+//!                             the closest-point search), × (1 − 1e-12); ℓ_min = 0,
 //!                             d_min ≤ 0 or some μ_i ≤ 0: no bound is stated
 //! ```
 //! The per-particle modulus is what can be certified per particle: the
@@ -134,7 +136,8 @@ fn negative_curvature(plan: &Plan, a: &[f64], b: &[f64]) -> Result<Vec<f64>, Str
         let eb: Vec<f64> = (0..dim).map(|k| b[j * dim + k] - b[i * dim + k]).collect();
         let la = ea.iter().map(|v| v * v).sum::<f64>().sqrt();
         let lb = eb.iter().map(|v| v * v).sum::<f64>().sqrt();
-        (la.min(lb) - 0.5 * norm_of_difference(&ea, &eb)).max(0.0)
+        // (1 − 1e-12: the f64 rounding of these few operations.)
+        ((la.min(lb) - 0.5 * norm_of_difference(&ea, &eb)) * (1.0 - 1e-12)).max(0.0)
     };
     let mut d = vec![0.0; n];
     for family in &plan.families {
@@ -225,12 +228,13 @@ fn negative_curvature(plan: &Plan, a: &[f64], b: &[f64]) -> Result<Vec<f64>, Str
         let half = 0.5 * norm_of_difference(&pa, &pb);
         for s in 0..obstacles.simplex_count() {
             let vertices = obstacles.simplex(s, dim);
-            let rho = simplex_distance(dim, vertices, &pa, &mut offset).min(simplex_distance(
+            let near = simplex_distance(dim, vertices, &pa, &mut offset).min(simplex_distance(
                 dim,
                 vertices,
                 &pb,
                 &mut offset,
-            )) - half;
+            ));
+            let rho = (near - half) * (1.0 - 1e-12);
             let gap = rho - plan.radius[i];
             if gap >= activation {
                 continue;
@@ -322,7 +326,17 @@ pub fn coupled_step_bound(
                 let offset = obstacles.plane_offsets[p] + plan.radius[i];
                 let distance =
                     |x: &[f64]| normal.iter().zip(x).map(|(n, x)| n * x).sum::<f64>() - offset;
-                let far = distance(xa).max(distance(xb));
+                // The larger end distance, raised by its f64 rounding
+                // (relative to the terms of n·x − c − r).
+                let size = |x: &[f64]| {
+                    normal
+                        .iter()
+                        .zip(x)
+                        .map(|(n, x)| (n * x).abs())
+                        .sum::<f64>()
+                        + offset.abs()
+                };
+                let far = distance(xa).max(distance(xb)) + 1e-12 * size(xa).max(size(xb));
                 let curvature = law.evaluate(far).2.max(0.0);
                 if !curvature.is_finite() {
                     return Err(format!("particle {i}, plane {p}: d ≤ 0"));
