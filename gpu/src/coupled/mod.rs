@@ -19,15 +19,23 @@
 //! pairs         the broadphase over the swept boxes runs on the host over x_k and Δ read
 //!               back (only with `collisions`); the element list (springs, balls, pair
 //!               friction lags frozen at x^t) is re-uploaded when the pair set changes
-//! refused       f32 (the certified filter's and the floor's rounding counts are f64's so
-//!               far), material families
+//! f32           the same passes at ε₃₂ (f32.rs): the certified filter counts ε₃₂ on the
+//!               stored device coordinates (relative to the scene origin), radii stored
+//!               rounded outward, the rounding floor at ε₃₂ with its second-order terms;
+//!               the authored criterion, ending mostly at RoundingFloor
+//! refused       material families
 //! ```
 //! In f64 on lavapipe every state is bit-identical to the CPU golden path
-//! (`tests/gpu_coupled.rs`).
+//! (`tests/gpu_coupled.rs`). In f32 nothing the device reports is taken as
+//! evidence: the host recomputes ∇F in f64 at the returned iterate
+//! (`hyperpbd_cpu::coupled_gradient`) and bounds its distance to the CPU's
+//! iterate with a per-particle modulus (`hyperpbd::compare_coupled`,
+//! `tests/gpu_coupled_f32.rs`).
 
 mod cg_state;
 mod device;
 mod entries;
+mod f32;
 mod newton;
 mod pcg;
 
@@ -74,20 +82,17 @@ pub struct GpuCoupledBackend {
 }
 
 /// Why the GPU does not run `plan`'s coupled step (yet), if it does not.
-fn unsupported(plan: &Plan, ip: &IncrementalPotentialPlan, precision: Precision) -> Option<String> {
+fn unsupported(
+    plan: &Plan,
+    ip: &IncrementalPotentialPlan,
+    _precision: Precision,
+) -> Option<String> {
     ip.coupled.as_ref()?;
     let not_yet = |what: String| {
         Some(format!(
             "{what} in the coupled implicit step on the GPU (not built yet): use --backend cpu"
         ))
     };
-    if precision == Precision::F32 {
-        return Some(
-            "the coupled implicit step in f32 (its certified filter and rounding floor are \
-             counted for f64 only so far): use --backend gpu-f64 or --backend cpu"
-                .into(),
-        );
-    }
     if plan.dim > MAX_GPU_DIM {
         return Some(format!(
             "dimension {} (the GPU kernels support 1..={MAX_GPU_DIM})",
@@ -146,6 +151,11 @@ impl GpuCoupledBackend {
             b
         };
         let (resident, mut fixed) = barrier_resources(&ctx, &plan, &ip, state, precision)?;
+        if precision == Precision::F32 {
+            // Radii rounded outward: an f32 gap ℓ − r̂_i − r̂_j certified > 0
+            // is then > 0 with the authored f64 radii too (f32/mod.rs).
+            fixed[0] = ctx.storage("radius", &f32::outward_radii(&plan.radius))?;
+        }
         let mass: Vec<f64> = plan
             .inverse_mass
             .iter()
