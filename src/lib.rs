@@ -12,13 +12,16 @@
 
 pub use hyperpbd_core as core;
 pub use hyperpbd_core::*;
-pub use hyperpbd_cpu::{CpuBackend, THREADS_VARIABLE, default_threads, set_default_threads};
+pub use hyperpbd_cpu::{
+    CpuBackend, THREADS_VARIABLE, coupled_gradient, default_threads, set_default_threads,
+};
 pub use hyperpbd_gpu as gpu;
 
 pub mod atomic_file;
 pub mod batch;
 pub mod compare;
 pub mod compare_barrier;
+pub mod compare_coupled;
 pub mod compare_frame;
 pub mod compare_material;
 mod load;

@@ -25,6 +25,7 @@ mod residual;
 mod threads;
 
 pub use backend::CpuBackend;
+pub use coupled::coupled_gradient;
 pub use threads::{
     THREADS_VARIABLE, all_cores, default_threads, parse_threads, set_default_threads,
 };

@@ -5,6 +5,7 @@
 
 pub mod bound;
 pub mod boxes;
+pub mod coupled_f32;
 pub mod differential;
 pub mod exact;
 pub mod gpu;

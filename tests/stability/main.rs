@@ -125,6 +125,18 @@ fn is_length_unit(kind: &FamilyKind) -> bool {
 /// every step; a step error fails the test (the cases that expect one test
 /// it themselves).
 fn run(case: &str, backend: &mut dyn Backend, initial: &State, steps: usize) -> Measured {
+    try_run(case, backend, initial, steps)
+        .unwrap_or_else(|(step, e)| panic!("{case} ({}): step {step}: {e}", backend.name()))
+}
+
+/// [`run`], returning the first step error (and its step) instead of
+/// failing the test.
+fn try_run(
+    case: &str,
+    backend: &mut dyn Backend,
+    initial: &State,
+    steps: usize,
+) -> Result<Measured, (usize, BackendError)> {
     let plan = backend.plan().clone();
     let mut m = Measured {
         energy_gain: f64::NEG_INFINITY,
@@ -135,9 +147,7 @@ fn run(case: &str, backend: &mut dyn Backend, initial: &State, steps: usize) -> 
         last: initial.clone(),
     };
     for step in 0..steps {
-        let step_report = backend
-            .step()
-            .unwrap_or_else(|e| panic!("{case} ({}): step {step}: {e}", backend.name()));
+        let step_report = backend.step().map_err(|e| (step, e))?;
         let state = backend.read_state().expect("read_state");
         let bad = state
             .positions
@@ -167,7 +177,7 @@ fn run(case: &str, backend: &mut dyn Backend, initial: &State, steps: usize) -> 
     if steps == 0 {
         m.energy_gain = 0.0;
     }
-    m
+    Ok(m)
 }
 
 /// Asserts and reports the energy metric: ΔE ≤ ε·64·E_scale + `released`.

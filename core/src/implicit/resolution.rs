@@ -13,6 +13,11 @@
 //! spring:  |∂E/∂C| δC = (c/α) γ (c + |rest|),  c = √(2Eα)     (C = value − rest cancels)
 //! ball:    |b'(d)| γ (ℓ + r_i + r_j),  ℓ = |x_j − x_i|,  γ = (N + 4) ε
 //! ```
+//! ε is f64's on the golden path; the `_at` forms take the ε of the
+//! precision the values were computed in (the GPU's f32 step: ε₃₂, its
+//! per-particle force terms computed by the kernel with its own ε) and add
+//! the second-order terms δC²/(2α), ½ b'' δd², which f32 needs where δ
+//! exceeds C (an unstretched stiff link) and f64 does not.
 
 use crate::barrier::BarrierLaw;
 
@@ -62,14 +67,34 @@ pub fn particle_sums(
     sums
 }
 
-/// A spring's |∂E/∂C| δC from its energy E = C²/(2α).
+/// A spring's |∂E/∂C| δC from its energy E = C²/(2α) (f64).
 pub fn spring_rounding(energy: f64, compliance: f64, rest: f64, dim: usize) -> f64 {
     let gamma = (dim as f64 + 4.0) * f64::EPSILON;
     let c = (2.0 * energy * compliance).sqrt();
     c / compliance * gamma * (c + rest.abs())
 }
 
-/// A ball pair's |b'(d)| δd at `points` = (x_i, x_j).
+/// A spring's energy rounding for values computed at machine epsilon
+/// `epsilon` (the GPU's f32 step: `f32::EPSILON`): [`spring_rounding`]'s
+/// first-order term plus the second-order δC²/(2α). In f32 δC (relative
+/// to ℓ + rest) can exceed C itself — an unstretched stiff link has C = 0
+/// and a first-order term of 0, while its computed energy is up to
+/// δC²/(2α) — so the f32 floor needs it; in f64 it is below ε² relative
+/// and the golden floor leaves it out.
+pub fn spring_rounding_at(
+    energy: f64,
+    compliance: f64,
+    rest: f64,
+    dim: usize,
+    epsilon: f64,
+) -> f64 {
+    let gamma = (dim as f64 + 4.0) * epsilon;
+    let c = (2.0 * energy * compliance).sqrt();
+    let delta = gamma * (c + rest.abs());
+    c / compliance * delta + delta * delta / (2.0 * compliance)
+}
+
+/// A ball pair's |b'(d)| δd at `points` = (x_i, x_j) (f64).
 pub fn ball_rounding(law: &BarrierLaw, points: &[f64], radii: (f64, f64), dim: usize) -> f64 {
     let gamma = (dim as f64 + 4.0) * f64::EPSILON;
     let mut length = 0.0;
@@ -81,8 +106,29 @@ pub fn ball_rounding(law: &BarrierLaw, points: &[f64], radii: (f64, f64), dim: u
     slope.abs() * gamma * (length.sqrt() + radii.0 + radii.1)
 }
 
+/// A ball pair's energy rounding at machine epsilon `epsilon`:
+/// [`ball_rounding`]'s |b'| δd plus the second-order ½ b''(d) δd² (see
+/// [`spring_rounding_at`]; b'' is largest near contact).
+pub fn ball_rounding_at(
+    law: &BarrierLaw,
+    points: &[f64],
+    radii: (f64, f64),
+    dim: usize,
+    epsilon: f64,
+) -> f64 {
+    let gamma = (dim as f64 + 4.0) * epsilon;
+    let mut length = 0.0;
+    for a in 0..dim {
+        let d = points[dim + a] - points[a];
+        length += d * d;
+    }
+    let (_, slope, curvature) = law.evaluate(length.sqrt() - radii.0 - radii.1);
+    let delta = gamma * (length.sqrt() + radii.0 + radii.1);
+    slope.abs() * delta + 0.5 * curvature * delta * delta
+}
+
 /// The floor itself, from the particle sums and the elements' Σ|E_e| and
-/// Σ force rounding (element order).
+/// Σ force rounding (element order), for f64 values.
 pub fn change_resolution(
     dim: usize,
     h: f64,
@@ -90,10 +136,32 @@ pub fn change_resolution(
     element_energy: f64,
     element_force: f64,
 ) -> f64 {
+    change_resolution_at(
+        dim,
+        h,
+        particles,
+        element_energy,
+        element_force,
+        f64::EPSILON,
+    )
+}
+
+/// [`change_resolution`] for values computed at machine epsilon
+/// `epsilon` (the GPU's f32 step passes `f32::EPSILON`; its particle
+/// force terms already carry the kernel's own ε). With `f64::EPSILON` it
+/// is [`change_resolution`] bit for bit (same operations, same order).
+pub fn change_resolution_at(
+    dim: usize,
+    h: f64,
+    particles: ResolutionSums,
+    element_energy: f64,
+    element_force: f64,
+    epsilon: f64,
+) -> f64 {
     let h2 = h * h;
     (dim as f64 + 4.0)
         * 0.5
-        * f64::EPSILON
+        * epsilon
         * (particles.inertia + h2 * particles.work + 2.0 * h2 * (particles.energy + element_energy))
         + 2.0 * h2 * (particles.force + element_force)
 }

@@ -30,6 +30,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod elements;
+mod gradient_at;
 mod particles;
 mod setup;
 #[cfg(test)]
@@ -37,6 +38,7 @@ mod tests;
 
 use crate::parallel::Workers;
 use elements::{Elements, Terms};
+pub use gradient_at::coupled_gradient;
 use hyperpbd_core::IncrementalPotentialPlan;
 use hyperpbd_core::implicit::line_search::{after_failed_search, armijo, before_search};
 use hyperpbd_core::implicit::resolution::{change_resolution, particle_sums};

@@ -29,15 +29,24 @@
 //!               (only when needed), as the golden path names and sums them
 //! loops         a material element whose Jacobi sweeps llvmpipe cuts short is a typed
 //!               refusal naming it (R^5 simplices on lavapipe; material.rs)
-//! refused       f32 (the certified filter's and the floor's rounding counts are f64's so
-//!               far)
+//! f32           the same passes at ε₃₂ (f32.rs): the certified filter counts ε₃₂ on the
+//!               stored device coordinates (relative to the scene origin), radii stored
+//!               rounded outward, the rounding floor at ε₃₂ with its second-order terms;
+//!               the authored criterion, ending mostly at RoundingFloor
+//! refused       material families in f32 (their δW and frame Hessians are outside the
+//!               f32 bound)
 //! ```
 //! In f64 on lavapipe every state is bit-identical to the CPU golden path
-//! (`tests/gpu_coupled.rs`).
+//! (`tests/gpu_coupled.rs`). In f32 nothing the device reports is taken as
+//! evidence: the host recomputes ∇F in f64 at the returned iterate
+//! (`hyperpbd_cpu::coupled_gradient`) and bounds its distance to the CPU's
+//! iterate with a per-particle modulus (`hyperpbd::compare_coupled`,
+//! `tests/gpu_coupled_f32.rs`).
 
 mod cg_state;
 mod device;
 mod entries;
+mod f32;
 mod material;
 mod newton;
 mod pcg;
@@ -90,18 +99,24 @@ pub struct GpuCoupledBackend {
 /// Why the GPU does not run `plan`'s coupled step (yet), if it does not.
 fn unsupported(plan: &Plan, ip: &IncrementalPotentialPlan, precision: Precision) -> Option<String> {
     ip.coupled.as_ref()?;
-    if precision == Precision::F32 {
-        return Some(
-            "the coupled implicit step in f32 (its certified filter and rounding floor are \
-             counted for f64 only so far): use --backend gpu-f64 or --backend cpu"
-                .into(),
-        );
-    }
+    let not_yet = |what: String| {
+        Some(format!(
+            "{what} in the coupled implicit step on the GPU (not built yet): use --backend cpu"
+        ))
+    };
     if plan.dim > MAX_GPU_DIM {
         return Some(format!(
             "dimension {} (the GPU kernels support 1..={MAX_GPU_DIM})",
             plan.dim
         ));
+    }
+    if precision == Precision::F32
+        && let Some(f) = plan
+            .families
+            .iter()
+            .find(|f| matches!(f.kind, FamilyKind::Material { .. }))
+    {
+        return not_yet(format!("the material family {} in f32", f.label));
     }
     None
 }
@@ -149,6 +164,11 @@ impl GpuCoupledBackend {
             b
         };
         let (resident, mut fixed) = barrier_resources(&ctx, &plan, &ip, state, precision)?;
+        if precision == Precision::F32 {
+            // Radii rounded outward: an f32 gap ℓ − r̂_i − r̂_j certified > 0
+            // is then > 0 with the authored f64 radii too (f32/mod.rs).
+            fixed[0] = ctx.storage("radius", &f32::outward_radii(&plan.radius))?;
+        }
         let mass: Vec<f64> = plan
             .inverse_mass
             .iter()

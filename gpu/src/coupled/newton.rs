@@ -7,7 +7,8 @@
 use hyperpbd_core::barrier::BarrierObstacles;
 use hyperpbd_core::implicit::line_search::{after_failed_search, armijo, before_search};
 use hyperpbd_core::implicit::resolution::{
-    ball_rounding, change_resolution, particle_sums, spring_rounding,
+    ball_rounding, ball_rounding_at, change_resolution_at, particle_sums, spring_rounding,
+    spring_rounding_at,
 };
 use hyperpbd_core::implicit::{PcgSettings, certified_filter, newton_cg_tolerance, pair_lags};
 use hyperpbd_core::{
@@ -19,6 +20,7 @@ use super::GpuCoupledBackend;
 use super::device::Reduction;
 use super::entries::{Entry, region};
 use super::material;
+use crate::Precision;
 use crate::barrier::{NONE, infeasible_start};
 
 /// Status words of coupled.wgsl.
@@ -78,9 +80,28 @@ impl GpuCoupledBackend {
     }
 
     /// The rounding floor of F's change over R_DIRECTION from R_X
-    /// (core's `implicit::resolution`, on the device's values read back).
+    /// (core's `implicit::resolution`, on the device's values read back):
+    /// in f64 the golden path's terms, in f32 the `_at` forms at ε₃₂ with
+    /// their second-order terms (f32.rs).
     fn resolution(&self) -> Result<f64, GpuError> {
         let dim = self.plan.dim;
+        let epsilon = self.precision.epsilon();
+        let single = self.precision == Precision::F32;
+        let law = &self.ip.law;
+        let spring = |value: f64, compliance: f64, rest: f64| {
+            if single {
+                spring_rounding_at(value, compliance, rest, dim, epsilon)
+            } else {
+                spring_rounding(value, compliance, rest, dim)
+            }
+        };
+        let ball = |points: &[f64], radii: (f64, f64)| {
+            if single {
+                ball_rounding_at(law, points, radii, dim, epsilon)
+            } else {
+                ball_rounding(law, points, radii, dim)
+            }
+        };
         let v = self.device.read_regions(
             &self.ctx,
             &[
@@ -113,7 +134,7 @@ impl GpuCoupledBackend {
                 force += material::rounding(&self.plan, block, &points[..arity * dim]);
             } else if e < up.first_ball {
                 let reals = &up.reals[e * (dim + 1)..];
-                force += spring_rounding(value, reals[0], reals[1], dim);
+                force += spring(value, reals[0], reals[1]);
             } else if e < up.first_ball + self.pairs.len() {
                 let members = up.lists.members(e);
                 gather_points(members, &v[0], dim, &mut points);
@@ -121,10 +142,17 @@ impl GpuCoupledBackend {
                     self.plan.radius[members[0] as usize],
                     self.plan.radius[members[1] as usize],
                 );
-                force += ball_rounding(&self.ip.law, &points[..2 * dim], radii, dim);
+                force += ball(&points[..2 * dim], radii);
             }
         }
-        Ok(change_resolution(dim, self.plan.h, sums, energy, force))
+        Ok(change_resolution_at(
+            dim,
+            self.plan.h,
+            sums,
+            energy,
+            force,
+            epsilon,
+        ))
     }
 
     /// Steps 1–4: x^t, x~, the lags and d ≤ 0 at x^t, the pairs at x^t,
