@@ -2,7 +2,7 @@
 //! `shaders/coupled.wgsl`, `shaders/coupled_solve.wgsl` and
 //! `shaders/coupled_material.wgsl` (their bindings
 //! are the WGSL's own, read by the kernel-set builder), and the vector
-//! regions they share with the host.
+//! regions and status words they share with the host.
 
 use crate::kernel_set::EntryPoint;
 use crate::shader::ShaderFile;
@@ -117,4 +117,16 @@ pub(crate) mod region {
     pub const LOAD: usize = 11;
     /// Regions in all.
     pub const COUNT: usize = 12;
+}
+
+/// Status words of `coupled.wgsl` (the header's `status`).
+pub(crate) mod status {
+    /// A coordinate moved / a trial differs from x (flag).
+    pub const MOVED: usize = 0;
+    /// First particle with a non-finite gradient or energy.
+    pub const NON_FINITE_PARTICLE: usize = 1;
+    /// First particle starting at d ≤ 0 from an obstacle.
+    pub const INFEASIBLE: usize = 2;
+    /// First element with a non-finite record (or a refused frame).
+    pub const NON_FINITE_ELEMENT: usize = 3;
 }

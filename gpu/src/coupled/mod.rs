@@ -14,8 +14,8 @@
 //! per substep:  cp_start (x^t, x~, load, lags, d ≤ 0) → pairs at x^t (collisions) → warm start
 //!               loop { x_k → point; cp_elements + cp_material_elements; cp_gradient;
 //!                      Σ|max → residual (one read)
-//!                      cp_material_frames (H_F⁺ at x_k; one read, only with materials)
-//!                      PCG on the device (pcg.rs: the diagonal and start, one read; then
+//!                      PCG on the device (pcg.rs: cp_material_frames (H_F⁺ at x_k, only
+//!                      with materials), the diagonal and start, one read; then
 //!                      chunks of iterations, one read each; cp_material_slots after
 //!                      every cp_slots)
 //!                      pairs over [x_k, x_k + Δ]; filter (min, one read); elements at x_k;

@@ -18,16 +18,12 @@ use hyperpbd_core::{
 
 use super::GpuCoupledBackend;
 use super::device::Reduction;
+use super::entries::status::{INFEASIBLE, MOVED, NON_FINITE_ELEMENT, NON_FINITE_PARTICLE};
 use super::entries::{Entry, region};
 use super::material;
+use super::pcg::Direction;
 use crate::Precision;
 use crate::barrier::{NONE, infeasible_start};
-
-/// Status words of coupled.wgsl.
-const MOVED: usize = 0;
-const NON_FINITE_PARTICLE: usize = 1;
-const INFEASIBLE: usize = 2;
-const NON_FINITE_ELEMENT: usize = 3;
 
 /// How a Newton iteration's gradient pass ended.
 enum Evaluated {
@@ -264,18 +260,8 @@ impl GpuCoupledBackend {
                 break;
             }
             iteration += 1;
-            // 6: H_F⁺ of every material element at x_k (cpu `curvatures`).
-            let m = self.materials.len();
-            if m > 0 {
-                let (_, status) = self.run(&[(Entry::MaterialFrames, m)], &[])?;
-                if status[NON_FINITE_ELEMENT] != NONE {
-                    // Refused by the law or not finite at x_k.
-                    let refusal = self.element_refusal(status[NON_FINITE_ELEMENT] as usize)?;
-                    report.status = MinimisationStatus::Refused(refusal);
-                    break;
-                }
-            }
-            // 6–7: the Newton direction by preconditioned CG (pcg.rs).
+            // 6–7: H_F⁺ of every material element at x_k (cpu `curvatures`),
+            // then the Newton direction by preconditioned CG (pcg.rs).
             let settings = PcgSettings {
                 max_iterations: self.coupled.cg_iterations,
                 relative_tolerance: 0.0,
@@ -287,7 +273,14 @@ impl GpuCoupledBackend {
                     self.plan.h,
                 ),
             };
-            let cg = self.device_pcg(settings)?;
+            let cg = match self.device_pcg(settings)? {
+                Direction::Solved(cg) => cg,
+                Direction::FrameRefused(e) => {
+                    // Refused by the law or not finite at x_k.
+                    report.status = MinimisationStatus::Refused(self.element_refusal(e)?);
+                    break;
+                }
+            };
             report.cg_iterations.push(cg.iterations);
             if let Some(refusal) = cg.breakdown(iteration) {
                 report.iterations = iteration;

@@ -4,8 +4,10 @@
 //! direction costs a few reads instead of two per CG iteration.
 //!
 //! ```text
-//! submission 1  state cleared; cp_slots (+ cp_material_slots, as after every
-//!               cp_slots below) + cp_particle_curvature (the diagonal, P⁻¹),
+//! submission 1  state cleared; cp_material_frames (H_F⁺ at x_k; a refused
+//!               frame ends the solve here: Direction::FrameRefused); cp_slots
+//!               (+ cp_material_slots, as after every cp_slots below) +
+//!               cp_particle_curvature (the diagonal, P⁻¹),
 //!               cp_cg_residual (start: d = 0, r = −g, z = p = P⁻¹ r), r·r, r·z
 //!               one read: the start's decisions on the host (core's pcg_start)
 //! chunks        CgState written (ρ, tolerance, budget, where p·q, r·r and r·z land)
@@ -29,9 +31,10 @@ use super::GpuCoupledBackend;
 use super::cg_state::CgState;
 use super::device::Reduction;
 use super::entries::Entry;
+use super::entries::status::NON_FINITE_ELEMENT;
 use super::material::refuse_cut_loops_of;
 use crate::Precision;
-use crate::barrier::{STATUS_WORDS, status_words};
+use crate::barrier::{NONE, STATUS_WORDS, status_words};
 use crate::context::GpuContext;
 
 /// Where CgState starts in the probe (after the status words, 8-aligned).
@@ -61,10 +64,20 @@ fn landed(result: Result<usize, f64>) -> Result<u32, GpuError> {
     })
 }
 
+/// How the Newton direction's solve ended.
+pub(super) enum Direction {
+    /// PCG ran (its report).
+    Solved(PcgReport),
+    /// Material element e's frame Hessian at x_k was refused by its law or
+    /// not finite: no direction (cpu `curvatures` refuses the step).
+    FrameRefused(usize),
+}
+
 impl GpuCoupledBackend {
     /// The Newton direction into R_DIRECTION by PCG on the device (module
-    /// docs), for `settings`.
-    pub(super) fn device_pcg(&mut self, settings: PcgSettings) -> Result<PcgReport, GpuError> {
+    /// docs), for `settings`; the material elements' H_F⁺ at x_k (step 6)
+    /// are recorded ahead of PCG's start, in the same read.
+    pub(super) fn device_pcg(&mut self, settings: PcgSettings) -> Result<Direction, GpuError> {
         let (n, e) = self.counts();
         let m = self.materials.len();
         let precision = self.precision;
@@ -72,8 +85,9 @@ impl GpuCoupledBackend {
         self.ctx.queue.write_buffer(&self.device.cg, 0, &cleared);
         self.device.params.diagonal = 1;
         self.device.params.mode = 0;
-        let (start, _) = self.run(
+        let (start, status) = self.run(
             &[
+                (Entry::MaterialFrames, m),
                 (Entry::Slots, e),
                 (Entry::MaterialSlots, m),
                 (Entry::ParticleCurvature, n),
@@ -81,13 +95,17 @@ impl GpuCoupledBackend {
             ],
             &[Reduction::SumA, Reduction::SumB],
         )?;
+        // Only cp_material_frames writes this word in that submission.
+        if status[NON_FINITE_ELEMENT] != NONE {
+            return Ok(Direction::FrameRefused(status[NON_FINITE_ELEMENT] as usize));
+        }
         let (mut report, tolerance) = pcg_start(start[0], start[1], settings);
         let Some(tolerance) = tolerance else {
-            return Ok(report);
+            return Ok(Direction::Solved(report));
         };
         if settings.max_iterations == 0 {
             report.status = PcgStatus::BudgetExhausted;
-            return Ok(report);
+            return Ok(Direction::Solved(report));
         }
         self.device.params.diagonal = 0;
         self.device.params.mode = 1;
@@ -135,7 +153,7 @@ impl GpuCoupledBackend {
             let state = self.read_cg(encoder)?;
             if state.stopped != 0 {
                 self.pcg.chunk = state.iterations;
-                return state.report(report.initial_residual);
+                return state.report(report.initial_residual).map(Direction::Solved);
             }
             if recorded >= settings.max_iterations {
                 return Err(GpuError::Other {
