@@ -18,10 +18,13 @@ mod common;
 use common::bound::print_bound;
 use common::exact::{bits, f64_identical, f64_rule};
 use common::gpu::adapter_or_skip;
-use common::implicit_scenes::{alternating_chain, head_on, incline, particle, settings, stack};
+use common::implicit_scenes::{
+    alternating_chain, balls_in_a_v, glancing, head_on, incline, particle, settings,
+    spring_tetrahedron, stack,
+};
 use hyperpbd::{
     Backend, BackendError, Collisions, ConstraintFamily, ConstraintKind, GpuError, Obstacle, Plan,
-    Scene, Solver, State, WarmStart,
+    Scene, Solver, State,
 };
 use hyperpbd_gpu::{GpuCoupledBackend, Precision};
 
@@ -160,12 +163,7 @@ fn stack_of_ten_balls_is_the_golden_path() {
 /// sticking and sliding branches.
 #[test]
 fn pair_friction_is_the_golden_path() {
-    let mut glancing = head_on();
-    glancing.particles[1].position[1] = 0.05;
-    glancing.collisions = Some(Collisions {
-        friction: 0.5,
-        margin: 0.0,
-    });
+    let glancing = glancing();
     let gap = |s: &State| {
         let d = (s.positions[2] - s.positions[0]).hypot(s.positions[3] - s.positions[1]) - 0.2;
         (-d, 0.0)
@@ -196,27 +194,7 @@ fn pair_friction_is_the_golden_path() {
 /// distance and the certified filter's support bound on the GPU.
 #[test]
 fn simplex_mesh_obstacles_are_the_golden_path() {
-    let mut scene = Scene::new(2, 1.0 / 60.0, 2, 1);
-    scene.gravity = Some(vec![0.0, -9.81]);
-    for k in 0..3 {
-        let mut p = particle(vec![-0.25 + 0.25 * k as f64, 0.3], Some(1.0), 0.05);
-        p.velocity = Some(vec![0.5, -1.0]);
-        scene.particles.push(p);
-    }
-    scene.constraints.push(ConstraintFamily::new(
-        ConstraintKind::Distance,
-        1e-4,
-        vec![vec![0, 1], vec![1, 2]],
-    ));
-    scene.obstacles.push(Obstacle::SimplexMesh {
-        vertices: vec![vec![-1.0, 0.5], vec![0.0, -0.2], vec![1.0, 0.5]],
-        simplices: vec![vec![0, 1], vec![1, 2]],
-    });
-    scene.collisions = Some(Collisions {
-        friction: 0.0,
-        margin: 0.0,
-    });
-    scene.solver = Solver::IncrementalPotential(settings(1e4, 0.02, 1e-3, 40));
+    let scene = balls_in_a_v();
     let below = |s: &State| {
         let lowest = (0..3)
             .map(|k| s.positions[2 * k + 1])
@@ -231,55 +209,7 @@ fn simplex_mesh_obstacles_are_the_golden_path() {
 /// gradient criterion: every other branch the evidence scenes miss.
 #[test]
 fn measures_tethers_and_previous_warm_start_are_the_golden_path() {
-    let mut scene = Scene::new(3, 1.0 / 60.0, 2, 1);
-    scene.gravity = Some(vec![0.0, -9.81, 0.0]);
-    for (k, p) in [
-        [0.0, 0.3, 0.0],
-        [0.2, 0.32, 0.0],
-        [0.0, 0.31, 0.2],
-        [0.05, 0.5, 0.05],
-    ]
-    .into_iter()
-    .enumerate()
-    {
-        let mut q = particle(p.to_vec(), Some(0.5 + 0.25 * k as f64), 0.02);
-        q.velocity = Some(vec![0.3, 0.0, -0.1 * k as f64]);
-        scene.particles.push(q);
-    }
-    scene
-        .particles
-        .push(particle(vec![0.0, 1.0, 0.0], None, 0.0));
-    scene.constraints.push(ConstraintFamily::new(
-        ConstraintKind::Distance,
-        1e-5,
-        vec![vec![0, 1], vec![1, 2], vec![2, 0], vec![0, 3]],
-    ));
-    scene.constraints.push(ConstraintFamily::new(
-        ConstraintKind::Tether,
-        1e-4,
-        vec![vec![4, 3]],
-    ));
-    scene.constraints.push(ConstraintFamily::new(
-        ConstraintKind::OrientedMeasure,
-        1e-3,
-        vec![vec![0, 1, 2, 3]],
-    ));
-    scene.constraints.push(ConstraintFamily::new(
-        ConstraintKind::SimplexMeasure,
-        1e-3,
-        vec![vec![0, 1, 2]],
-    ));
-    scene.obstacles.push(Obstacle::Hyperplane {
-        normal: vec![0.0, 1.0, 0.0],
-        offset: 0.0,
-        friction: 0.4,
-        compliance: 0.0,
-    });
-    let mut s = settings(1e4, 0.01, 1e-3, 40);
-    s.convergence = hyperpbd::Convergence::PackedGradient { tolerance: 1e-9 };
-    s.warm_start = Some(WarmStart::Previous);
-    s.cg_iterations = Some(12);
-    scene.solver = Solver::IncrementalPotential(s);
+    let scene = spring_tetrahedron();
     let above = |s: &State| {
         let lowest = (0..4)
             .map(|k| s.positions[3 * k + 1])

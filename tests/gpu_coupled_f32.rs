@@ -14,11 +14,10 @@ mod common;
 use common::bound::print_bound;
 use common::coupled_f32::F32Check;
 use common::gpu::adapter_or_skip;
-use common::implicit_scenes::{alternating_chain, head_on, incline, particle, settings, stack};
-use hyperpbd::{
-    Backend, Collisions, ConstraintFamily, ConstraintKind, Obstacle, Plan, Scene, Solver, State,
-    WarmStart,
+use common::implicit_scenes::{
+    alternating_chain, balls_in_a_v, glancing, head_on, incline, spring_tetrahedron, stack,
 };
+use hyperpbd::{Backend, Plan, Scene, State};
 use hyperpbd_gpu::{GpuCoupledBackend, Precision};
 
 /// `scene` with one substep per frame (same h): the bound is per
@@ -120,39 +119,13 @@ fn stack_of_ten_balls_in_f32() {
 
 #[test]
 fn glancing_balls_with_pair_friction_in_f32() {
-    let mut glancing = head_on();
-    glancing.particles[1].position[1] = 0.05;
-    glancing.collisions = Some(Collisions {
-        friction: 0.5,
-        margin: 0.0,
-    });
-    f32_against_cpu("glancing balls, pair friction", glancing, 120);
+    f32_against_cpu("glancing balls, pair friction", glancing(), 120);
 }
 
 /// Three balls on distance springs dropped into a V of two segments.
 #[test]
 fn simplex_mesh_obstacles_in_f32() {
-    let mut scene = Scene::new(2, 1.0 / 60.0, 2, 1);
-    scene.gravity = Some(vec![0.0, -9.81]);
-    for k in 0..3 {
-        let mut p = particle(vec![-0.25 + 0.25 * k as f64, 0.3], Some(1.0), 0.05);
-        p.velocity = Some(vec![0.5, -1.0]);
-        scene.particles.push(p);
-    }
-    scene.constraints.push(ConstraintFamily::new(
-        ConstraintKind::Distance,
-        1e-4,
-        vec![vec![0, 1], vec![1, 2]],
-    ));
-    scene.obstacles.push(Obstacle::SimplexMesh {
-        vertices: vec![vec![-1.0, 0.5], vec![0.0, -0.2], vec![1.0, 0.5]],
-        simplices: vec![vec![0, 1], vec![1, 2]],
-    });
-    scene.collisions = Some(Collisions {
-        friction: 0.0,
-        margin: 0.0,
-    });
-    scene.solver = Solver::IncrementalPotential(settings(1e4, 0.02, 1e-3, 40));
+    let scene = balls_in_a_v();
     f32_against_cpu("three balls in a V of segments", scene, 80);
 }
 
@@ -160,55 +133,7 @@ fn simplex_mesh_obstacles_in_f32() {
 /// frictional plane ("previous" warm start, packed criterion).
 #[test]
 fn measures_tethers_and_previous_warm_start_in_f32() {
-    let mut scene = Scene::new(3, 1.0 / 60.0, 2, 1);
-    scene.gravity = Some(vec![0.0, -9.81, 0.0]);
-    for (k, p) in [
-        [0.0, 0.3, 0.0],
-        [0.2, 0.32, 0.0],
-        [0.0, 0.31, 0.2],
-        [0.05, 0.5, 0.05],
-    ]
-    .into_iter()
-    .enumerate()
-    {
-        let mut q = particle(p.to_vec(), Some(0.5 + 0.25 * k as f64), 0.02);
-        q.velocity = Some(vec![0.3, 0.0, -0.1 * k as f64]);
-        scene.particles.push(q);
-    }
-    scene
-        .particles
-        .push(particle(vec![0.0, 1.0, 0.0], None, 0.0));
-    scene.constraints.push(ConstraintFamily::new(
-        ConstraintKind::Distance,
-        1e-5,
-        vec![vec![0, 1], vec![1, 2], vec![2, 0], vec![0, 3]],
-    ));
-    scene.constraints.push(ConstraintFamily::new(
-        ConstraintKind::Tether,
-        1e-4,
-        vec![vec![4, 3]],
-    ));
-    scene.constraints.push(ConstraintFamily::new(
-        ConstraintKind::OrientedMeasure,
-        1e-3,
-        vec![vec![0, 1, 2, 3]],
-    ));
-    scene.constraints.push(ConstraintFamily::new(
-        ConstraintKind::SimplexMeasure,
-        1e-3,
-        vec![vec![0, 1, 2]],
-    ));
-    scene.obstacles.push(Obstacle::Hyperplane {
-        normal: vec![0.0, 1.0, 0.0],
-        offset: 0.0,
-        friction: 0.4,
-        compliance: 0.0,
-    });
-    let mut s = settings(1e4, 0.01, 1e-3, 40);
-    s.convergence = hyperpbd::Convergence::PackedGradient { tolerance: 1e-9 };
-    s.warm_start = Some(WarmStart::Previous);
-    s.cg_iterations = Some(12);
-    scene.solver = Solver::IncrementalPotential(s);
+    let scene = spring_tetrahedron();
     f32_against_cpu("tetrahedron of springs on a frictional plane", scene, 80);
 }
 

@@ -1,12 +1,12 @@
 //! The coupled implicit step's evidence scenes (issue 16, docs/implicit.md
 //! §8), shared by the CPU evidence (`tests/implicit_step.rs`) and the GPU's
-//! bit-identity tests (`tests/gpu_coupled.rs`).
+//! bit-identity tests (`tests/gpu_coupled.rs`, `tests/gpu_coupled_f32.rs`).
 
 use hyperpbd::core::barrier::BarrierLaw;
 use hyperpbd::core::implicit::closed_forms::{barrier_gap_under_load, stacked_ball_heights};
 use hyperpbd::{
     Collisions, ConstraintFamily, ConstraintKind, Convergence, IncrementalPotentialSettings,
-    Obstacle, Particle, Scene, Solver,
+    Obstacle, Particle, Scene, Solver, WarmStart,
 };
 
 /// Standard gravity (m/s²).
@@ -148,4 +148,99 @@ pub fn stack() -> (Scene, Vec<f64>) {
     scene.solver =
         Solver::IncrementalPotential(settings(law.stiffness, law.activation_distance, 1e-4, 50));
     (scene, heights)
+}
+
+/// The head-on balls with the second one 5 cm off axis and ball-pair
+/// friction μ = 0.5: a glancing contact that slides.
+pub fn glancing() -> Scene {
+    let mut glancing = head_on();
+    glancing.particles[1].position[1] = 0.05;
+    glancing.collisions = Some(Collisions {
+        friction: 0.5,
+        margin: 0.0,
+    });
+    glancing
+}
+
+/// Three balls (r = 5 cm) on distance springs dropped into a V of two
+/// mesh segments (2D).
+pub fn balls_in_a_v() -> Scene {
+    let mut scene = Scene::new(2, 1.0 / 60.0, 2, 1);
+    scene.gravity = Some(vec![0.0, -9.81]);
+    for k in 0..3 {
+        let mut p = particle(vec![-0.25 + 0.25 * k as f64, 0.3], Some(1.0), 0.05);
+        p.velocity = Some(vec![0.5, -1.0]);
+        scene.particles.push(p);
+    }
+    scene.constraints.push(ConstraintFamily::new(
+        ConstraintKind::Distance,
+        1e-4,
+        vec![vec![0, 1], vec![1, 2]],
+    ));
+    scene.obstacles.push(Obstacle::SimplexMesh {
+        vertices: vec![vec![-1.0, 0.5], vec![0.0, -0.2], vec![1.0, 0.5]],
+        simplices: vec![vec![0, 1], vec![1, 2]],
+    });
+    scene.collisions = Some(Collisions {
+        friction: 0.0,
+        margin: 0.0,
+    });
+    scene.solver = Solver::IncrementalPotential(settings(1e4, 0.02, 1e-3, 40));
+    scene
+}
+
+/// A 3D tetrahedron of distance, oriented- and simplex-measure springs,
+/// tethered to a fixed point, falling onto a frictional plane, with the
+/// "previous" warm start, the packed criterion and a CG budget of 12.
+pub fn spring_tetrahedron() -> Scene {
+    let mut scene = Scene::new(3, 1.0 / 60.0, 2, 1);
+    scene.gravity = Some(vec![0.0, -9.81, 0.0]);
+    for (k, p) in [
+        [0.0, 0.3, 0.0],
+        [0.2, 0.32, 0.0],
+        [0.0, 0.31, 0.2],
+        [0.05, 0.5, 0.05],
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let mut q = particle(p.to_vec(), Some(0.5 + 0.25 * k as f64), 0.02);
+        q.velocity = Some(vec![0.3, 0.0, -0.1 * k as f64]);
+        scene.particles.push(q);
+    }
+    scene
+        .particles
+        .push(particle(vec![0.0, 1.0, 0.0], None, 0.0));
+    scene.constraints.push(ConstraintFamily::new(
+        ConstraintKind::Distance,
+        1e-5,
+        vec![vec![0, 1], vec![1, 2], vec![2, 0], vec![0, 3]],
+    ));
+    scene.constraints.push(ConstraintFamily::new(
+        ConstraintKind::Tether,
+        1e-4,
+        vec![vec![4, 3]],
+    ));
+    scene.constraints.push(ConstraintFamily::new(
+        ConstraintKind::OrientedMeasure,
+        1e-3,
+        vec![vec![0, 1, 2, 3]],
+    ));
+    scene.constraints.push(ConstraintFamily::new(
+        ConstraintKind::SimplexMeasure,
+        1e-3,
+        vec![vec![0, 1, 2]],
+    ));
+    scene.obstacles.push(Obstacle::Hyperplane {
+        normal: vec![0.0, 1.0, 0.0],
+        offset: 0.0,
+        friction: 0.4,
+        compliance: 0.0,
+    });
+    let mut s = settings(1e4, 0.01, 1e-3, 40);
+    s.convergence = Convergence::PackedGradient { tolerance: 1e-9 };
+    s.warm_start = Some(WarmStart::Previous);
+    s.cg_iterations = Some(12);
+    scene.solver = Solver::IncrementalPotential(s);
+    scene
 }

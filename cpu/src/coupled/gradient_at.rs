@@ -46,17 +46,18 @@ pub fn coupled_gradient(
     setup.sweep_pairs(&workers, plan, ip, y, y);
     elements.rebuild(plan, &setup.pairs, &pair_lags);
     let start = particles.start.clone();
+    let slip_length = coupled.slip_velocity * plan.h;
     let terms = Terms {
         plan,
         law: &ip.law,
         start: &start,
         lags: &pair_lags,
-        slip_length: coupled.slip_velocity * plan.h,
+        slip_length,
     };
     let context = Context {
         plan,
         ip,
-        slip_length: coupled.slip_velocity * plan.h,
+        slip_length,
     };
     elements
         .evaluate(&workers, &terms, y)
