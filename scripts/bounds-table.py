@@ -12,8 +12,12 @@
 A BOUND line of tests/common/differential.rs reads
     BOUND | scene | metric | frames | measured | bound | precision
 with measured and bound of the frame with the largest measured / bound, one
-frame from the GPU's previous state; an f64 bound of `exact` means
-bit-identical (asserted on llvmpipe).
+frame from the GPU's previous state; a bound of `exact` means bit-identical
+to its reference, asserted on llvmpipe every frame from the start (f64: the
+golden path; f32: the f32 reference, hyperpbd_cpu::f32_reference), measured
+then the largest over the frames. Exact f32 rows come with `position model`
+and `velocity model` rows: the per-frame model bound any other adapter is
+held to (asserted on llvmpipe too).
 """
 
 from __future__ import annotations
@@ -83,6 +87,17 @@ def cell(measured: str, bound: str) -> str:
     return f"{measured} / {bound}" + (f" (**{r}**)" if r else "")
 
 
+def with_model(row, model) -> str:
+    """An f32 cell: the row, and where it is exact the model's bound for
+    other adapters beside it."""
+    if not row:
+        return "—"
+    if model and row[1] == "exact":
+        r = ratio(*model)
+        return f"{cell(*row)}; model {model[1]}" + (f" ({r})" if r else "")
+    return cell(*row)
+
+
 def tables(rows: list[list[str]]) -> tuple[str, str]:
     scenes: dict[str, dict] = {}
     for scene, metric, frames, measured, bound, precision in rows:
@@ -97,6 +112,8 @@ def tables(rows: list[list[str]]) -> tuple[str, str]:
         s = scenes[scene]
         pos = s.get(("position", "f32"))
         vel = s.get(("velocity", "f32"))
+        pos_model = s.get(("position model", "f32"))
+        vel_model = s.get(("velocity model", "f32"))
         f64p = s.get(("position", "f64"))
         f64v = s.get(("velocity", "f64"))
         f64 = "—"
@@ -105,8 +122,8 @@ def tables(rows: list[list[str]]) -> tuple[str, str]:
         elif f64p:
             f64 = cell(*f64p)
         short.append(
-            f"| {scene} | {s['frames']} | {cell(*pos) if pos else '—'} | "
-            f"{cell(*vel) if vel else '—'} | {f64} |"
+            f"| {scene} | {s['frames']} | {with_model(pos, pos_model)} | "
+            f"{with_model(vel, vel_model)} | {f64} |"
         )
     full = [
         "| scene | metric | frames | f32 measured / bound (ratio) | f64 |",
@@ -114,10 +131,10 @@ def tables(rows: list[list[str]]) -> tuple[str, str]:
     ]
     for scene in sorted(scenes):
         s = scenes[scene]
-        order = {"position": 0, "velocity": 1}
+        order = {"position": 0, "velocity": 1, "position model": 2, "velocity model": 3}
         metrics = sorted(
             {k[0] for k in s if isinstance(k, tuple)},
-            key=lambda m: (order.get(m, 2), m),
+            key=lambda m: (order.get(m, 4), m),
         )
         for metric in metrics:
             f32 = s.get((metric, "f32"))

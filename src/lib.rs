@@ -12,6 +12,7 @@
 
 pub use hyperpbd_core as core;
 pub use hyperpbd_core::*;
+pub use hyperpbd_cpu::f32_reference::{F32Reference, ReferenceError};
 pub use hyperpbd_cpu::{
     CpuBackend, THREADS_VARIABLE, coupled_gradient, default_threads, set_default_threads,
 };

@@ -14,6 +14,7 @@ pub mod collide;
 mod colours;
 mod coupled;
 mod dim;
+pub mod f32_reference;
 mod friction;
 mod guard;
 pub mod incremental_potential;

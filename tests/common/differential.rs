@@ -50,12 +50,12 @@
 //! ```
 
 use super::bound::print_bound;
-use super::exact::{bits, f64_identical};
+use super::exact::{bits, f32_identical, f64_identical};
 use super::gpu::adapter_or_skip;
 use hyperpbd::compare::{Divergence, DivergenceModel, Frame, max_abs_diff};
 use hyperpbd::compare_frame::FrameErrorModel;
 use hyperpbd::geometry::{Scratch, factorial, oriented_measure, simplex_squared_measure};
-use hyperpbd::{Backend, CpuBackend, FamilyKind, Plan, Scene, State, StepReport};
+use hyperpbd::{Backend, CpuBackend, F32Reference, FamilyKind, Plan, Scene, State, StepReport};
 use hyperpbd_gpu::{AdapterSummary, GpuBackend, Precision, SceneOrigin};
 
 /// Evaluation scale and gradient sum of every element of a measure family.
@@ -177,11 +177,20 @@ pub fn print_row(
     );
 }
 
-/// (metric, measured, bound) of the frame with the largest measured / bound.
+/// (metric, measured, bound) of the frame with the largest measured / bound;
+/// a NaN bound: exact (bit-identical to its reference), the largest
+/// measured.
 #[derive(Default)]
 struct Rows(Vec<(String, f64, f64)>);
 
 impl Rows {
+    fn record_exact(&mut self, metric: String, measured: f64) {
+        match self.0.iter_mut().find(|r| r.0 == metric) {
+            Some(r) => r.1 = r.1.max(measured),
+            None => self.0.push((metric, measured, f64::NAN)),
+        }
+    }
+
     fn record(&mut self, metric: String, measured: f64, bound: f64) {
         let ratio = |m: f64, b: f64| {
             if b > 0.0 {
@@ -224,6 +233,11 @@ pub fn differential(
     let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
     let mut model = FrameErrorModel::new(&plan, precision, origin.as_slice()).expect("frame model");
     let exact = precision == Precision::F64 && f64_identical(summary);
+    // f32 on llvmpipe: the f32 reference from the start, bit for bit
+    // (plans it runs; the others keep the model alone).
+    let mut reference = (precision == Precision::F32 && f32_identical(summary))
+        .then(|| F32Reference::new(plan.clone(), &state, origin.as_slice()).ok())
+        .flatten();
     let eps = precision.epsilon();
     let counts = plan.kernel_counts();
     let mut rows = Rows::default();
@@ -250,6 +264,18 @@ pub fn differential(
         let sg = gpu.read_state().expect("GPU read_state");
         assert_eq!(sc.len(), sg.len());
         last.clone_from(&sg);
+        if let Some(r) = reference.as_mut() {
+            r.step()
+                .unwrap_or_else(|e| panic!("{name}: f32 reference step {frame}: {e}"));
+            let sr = r.read_state();
+            assert!(
+                bits(&sr) == bits(&sg),
+                "{name} f32 frame {frame}: the GPU on llvmpipe is not bit-identical to the f32 \
+                 reference run from the start: max |dx| {:e}, max |dv| {:e}",
+                max_abs_diff(&sr.positions, &sg.positions),
+                max_abs_diff(&sr.velocities, &sg.velocities)
+            );
+        }
         if exact {
             let report = golden.step().expect("CPU step");
             let from_start = golden.read_state().expect("CPU read_state");
@@ -284,8 +310,18 @@ pub fn differential(
             d.velocity,
             d.velocity_bound,
         );
-        rows.record("position".into(), d.position, d.position_bound);
-        rows.record("velocity".into(), d.velocity, d.velocity_bound);
+        if reference.is_some() {
+            // Identical to its reference: this frame's error is the
+            // reference's own, the rows say `exact`; the model's bound
+            // (other adapters) is asserted and printed beside.
+            rows.record_exact("position".into(), d.position);
+            rows.record_exact("velocity".into(), d.velocity);
+            rows.record("position model".into(), d.position, d.position_bound);
+            rows.record("velocity model".into(), d.velocity, d.velocity_bound);
+        } else {
+            rows.record("position".into(), d.position, d.position_bound);
+            rows.record("velocity".into(), d.velocity, d.velocity_bound);
+        }
         let scale = model.device_scale(&[&start, &sc, &sg]);
         assert_eq!(rc.residuals.len(), rg.residuals.len());
         for (family, (a, b)) in rc.residuals.iter().zip(&rg.residuals).enumerate() {
@@ -328,7 +364,7 @@ pub fn differential(
         model.position_roundings, model.velocity_roundings, plan.substeps, plan.h
     );
     let show_bound = |bound: f64| {
-        if exact {
+        if exact || bound.is_nan() {
             "exact".to_string()
         } else {
             format!("{bound:.3e}")

@@ -9,6 +9,12 @@
 //! any other adapter          the test's derived rounding bound      Vulkan lets a driver fuse a·b + c into
 //!                                                                    an FMA (naga emits no NoContraction)
 //! ```
+//! The f32 XPBD step on lavapipe is held the same way to the f32 reference
+//! (`hyperpbd_cpu::f32_reference`: the WGSL's operations in f32 on the
+//! CPU, on the values the GPU stores), from the start, every frame: there
+//! the f32 rows of the bounds table are exact, the per-frame model bound
+//! (the rule of any other adapter) asserted and printed beside them.
+//!
 //! So on lavapipe an f64 kernel change of a single ulp fails, where a
 //! rounding bound (ε64 · X · roundings, ~1e-12 m) would let it through.
 //! The incremental-potential (barrier) path is NOT bit-identical even on
@@ -26,6 +32,13 @@ use super::bound::print_bound;
 /// golden path: Mesa's llvmpipe (lavapipe), detected by its adapter name.
 pub fn f64_identical(summary: &AdapterSummary) -> bool {
     summary.name.contains("llvmpipe")
+}
+
+/// True on adapters where the f32 XPBD step is asserted bit-identical to
+/// the f32 reference (the same adapters as [`f64_identical`]: every
+/// operation correctly rounded, none contracted or regrouped).
+pub fn f32_identical(summary: &AdapterSummary) -> bool {
+    f64_identical(summary)
 }
 
 /// What the f64 check of this adapter asserts, for BOUND lines.

@@ -9,16 +9,18 @@
 //! same roundings; read back, far − shift equals near exactly. Without the
 //! shift the far run would round its coordinates at ulp(65536) = 7.8e-3 m.
 //! The origin itself is checked against f64 arithmetic: x − o is exact,
-//! |x − o| ≤ 1.5 q, o is a multiple of q, axes near 0 stay unshifted.
+//! |x − o| ≤ 1.5 q, o is a multiple of q, axes near 0 stay unshifted. On
+//! llvmpipe the far run is also the f32 reference's (`F32Reference` with
+//! the same origin) bit for bit.
 //! (The f32 ln of the barrier law is checked against libm within the
 //! Vulkan allowance by `tests/gpu_barrier/kernels.rs`.)
 
 use super::*;
 
-use common::exact::bits;
+use common::exact::{bits, f32_identical};
 use common::gpu::adapter_or_skip;
 use hyperpbd::core::builders::ChainSpec;
-use hyperpbd::{Backend, Obstacle, Plan, SceneBuilder, State};
+use hyperpbd::{Backend, F32Reference, Obstacle, Plan, SceneBuilder, State};
 use hyperpbd_gpu::{GpuBackend, Precision, SceneOrigin};
 
 const SHIFT: [f64; 3] = [1024.0, 0.0, -65536.0];
@@ -64,7 +66,7 @@ fn bridge(shift: [f64; 3]) -> Scene {
 
 #[test]
 fn f32_far_scene_runs_bit_for_bit_as_at_the_origin() {
-    let Some((adapter, _)) = adapter_or_skip(
+    let Some((adapter, summary)) = adapter_or_skip(
         "f32_far_scene_runs_bit_for_bit_as_at_the_origin",
         Precision::F32,
     ) else {
@@ -86,9 +88,21 @@ fn f32_far_scene_runs_bit_for_bit_as_at_the_origin() {
             .expect("gpu")
     };
     let (mut a, mut b) = (load(&near), load(&far));
+    // The f32 reference with the same origin (llvmpipe: bit for bit).
+    let mut reference = f32_identical(&summary).then(|| {
+        let plan = Plan::compile(&far).expect("valid");
+        F32Reference::new(plan, &State::from_scene(&far), origin.as_slice()).expect("reference")
+    });
     let mut active = 0;
     for frame in 1..=40 {
         let (ra, rb) = (a.step().expect("near"), b.step().expect("far"));
+        if let Some(r) = reference.as_mut() {
+            r.step().expect("reference");
+            assert!(
+                bits(&r.read_state()) == bits(&b.read_state().expect("far")),
+                "frame {frame}: the far f32 run differs from the f32 reference"
+            );
+        }
         assert_eq!(ra.active_contacts, rb.active_contacts, "frame {frame}");
         active = active.max(ra.active_contacts);
         let near_state = a.read_state().expect("near");

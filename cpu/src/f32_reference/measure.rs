@@ -1,0 +1,159 @@
+//! The simplex measures in f32, as `shaders/measure.wgsl` computes them
+//! (the same algorithms as `core/src/geometry`, in the shader's order).
+//!
+//! ```text
+//! det(A)        Gaussian elimination, partial pivoting (first largest
+//!               |pivot| wins), product of pivots, sign per row swap
+//! adj(A)[j][i]  = (−1)^(i+j) det(A without row i and column j)
+//! S = det(EᵀE)/(k!)²,  ∂S/∂E = 2 E adj(EᵀE)/(k!)²    (E: N × k edges)
+//! V = det(D)/N!,       ∇_j V = row j−1 of adj(D) / N!
+//! ∇_0 = −Σ_j ∇_j
+//! ```
+
+// Coordinate loops index several arrays at once, as a kernel does.
+#![allow(clippy::needless_range_loop)]
+
+/// k! accumulated in f32 from 1.
+fn factorial(k: usize) -> f32 {
+    let mut f = 1.0f32;
+    for i in 1..=k {
+        f *= i as f32;
+    }
+    f
+}
+
+/// Determinant of the `n`×`n` row-major matrix `a` (overwritten).
+pub fn determinant(a: &mut [f32], n: usize) -> f32 {
+    let mut det = 1.0f32;
+    for col in 0..n {
+        let mut pivot_row = col;
+        let mut pivot_abs = a[col * n + col].abs();
+        for row in col + 1..n {
+            let value = a[row * n + col].abs();
+            if value > pivot_abs {
+                pivot_abs = value;
+                pivot_row = row;
+            }
+        }
+        if pivot_abs == 0.0 {
+            return 0.0;
+        }
+        if pivot_row != col {
+            for c in 0..n {
+                a.swap(col * n + c, pivot_row * n + c);
+            }
+            det = -det;
+        }
+        let pivot = a[col * n + col];
+        det *= pivot;
+        for row in col + 1..n {
+            let factor = a[row * n + col] / pivot;
+            if factor != 0.0 {
+                for c in col + 1..n {
+                    a[row * n + c] -= factor * a[col * n + c];
+                }
+            }
+        }
+    }
+    det
+}
+
+/// Adjugate of the `n`×`n` row-major matrix `a` into `out`.
+fn adjugate(a: &[f32], n: usize, out: &mut [f32]) {
+    if n == 1 {
+        out[0] = 1.0;
+        return;
+    }
+    let m = n - 1;
+    let mut minor = vec![0.0f32; m * m];
+    for i in 0..n {
+        for j in 0..n {
+            let mut idx = 0;
+            for r in (0..n).filter(|&r| r != i) {
+                for c in (0..n).filter(|&c| c != j) {
+                    minor[idx] = a[r * n + c];
+                    idx += 1;
+                }
+            }
+            let sign = if (i + j) % 2 == 1 { -1.0f32 } else { 1.0 };
+            out[j * n + i] = sign * determinant(&mut minor, m);
+        }
+    }
+}
+
+/// Squared k-measure of the k-simplex `pts` (k + 1 points of `dim`
+/// coordinates); its gradient into `grad` (same layout).
+pub fn simplex_squared_measure(pts: &[f32], dim: usize, k: usize, grad: &mut [f32]) -> f32 {
+    let scale = 1.0 / (factorial(k) * factorial(k));
+    let mut edges = vec![0.0f32; dim * k];
+    let mut gram = vec![0.0f32; k * k];
+    let mut adj = vec![0.0f32; k * k];
+    for j in 0..k {
+        for a in 0..dim {
+            edges[a * k + j] = pts[(j + 1) * dim + a] - pts[a];
+        }
+    }
+    for i in 0..k {
+        for j in 0..k {
+            let mut s = 0.0f32;
+            for a in 0..dim {
+                s += edges[a * k + i] * edges[a * k + j];
+            }
+            gram[i * k + j] = s;
+        }
+    }
+    adjugate(&gram, k, &mut adj);
+    let measure = determinant(&mut gram, k) * scale;
+    grad[..dim].fill(0.0);
+    for j in 0..k {
+        for a in 0..dim {
+            let mut s = 0.0f32;
+            for i in 0..k {
+                s += edges[a * k + i] * adj[i * k + j];
+            }
+            let gj = 2.0 * s * scale;
+            grad[(j + 1) * dim + a] = gj;
+            grad[a] -= gj;
+        }
+    }
+    measure
+}
+
+/// Signed measure det([x1−x0 … xN−x0])/N! of the N + 1 points `pts`.
+pub fn oriented_measure(pts: &[f32], n: usize, grad: &mut [f32]) -> f32 {
+    let scale = 1.0 / factorial(n);
+    let mut edges = vec![0.0f32; n * n];
+    let mut adj = vec![0.0f32; n * n];
+    for j in 0..n {
+        for a in 0..n {
+            edges[a * n + j] = pts[(j + 1) * n + a] - pts[a];
+        }
+    }
+    adjugate(&edges, n, &mut adj);
+    let measure = determinant(&mut edges, n) * scale;
+    grad[..n].fill(0.0);
+    for j in 0..n {
+        for a in 0..n {
+            let gj = adj[j * n + a] * scale;
+            grad[(j + 1) * n + a] = gj;
+            grad[a] -= gj;
+        }
+    }
+    measure
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unit_simplices() {
+        let tri = [0.0, 0.0, 1.0, 0.0, 0.0, 1.0];
+        let mut g = [0.0; 6];
+        assert_eq!(oriented_measure(&tri, 2, &mut g), 0.5);
+        assert_eq!(g, [-0.5, -0.5, 0.5, 0.0, 0.0, 0.5]);
+        assert_eq!(simplex_squared_measure(&tri, 2, 2, &mut g), 0.25);
+        let mut a = [1.0, 2.0, 3.0, 4.0];
+        assert_eq!(determinant(&mut a, 2), -2.0);
+    }
+}

@@ -1,0 +1,302 @@
+//! The GPU's f32 step, on the CPU: every XPBD kernel in f32 in the
+//! operation order of its WGSL (`shaders/integrate.wgsl`, `project.wgsl`,
+//! `measure.wgsl`, `friction.wgsl`), on the values the GPU backend stores.
+//!
+//! ```text
+//! stored once, rounded to f32 from the f64 the host computes:
+//!   x − o (o: the scene origin, gpu/src/origin.rs), v, f, w, s, g, h,
+//!   α / h², exp(−rate h), n, μ, rest (a plane's rest − n·o)
+//! step       for every substep: the plan's substep kernels in order
+//! read back  x = f64(x₃₂) + o,  v = f64(v₃₂)
+//! ```
+//! IEEE f32 operations are correctly rounded, so an adapter that runs the
+//! WGSL as written (no contraction, no reassociation; lavapipe is one,
+//! `tests/gpu_f32_reference.rs`) gives these bits, and |this − golden|
+//! is the exact cost of f32 on a step. A kernel of its own, not the golden
+//! path: this file follows the shaders, the golden path DESIGN.md; the
+//! f64 bit identity of the two is what ties the orders together.
+//!
+//! Plans it cannot run are refused at [`F32Reference::new`] with the
+//! reason: material families, particle contact (the host's broadphase and
+//! gather-Jacobi), the incremental-potential and coupled steps. Guard
+//! kernels only read; they are not run here.
+
+// Coordinate loops index several arrays at once, as a kernel does.
+#![allow(clippy::needless_range_loop)]
+
+mod integrate;
+mod measure;
+mod project;
+
+use hyperpbd_core::{FamilyKind, Kernel, Plan, State};
+
+/// The particle arrays in f32, as the device stores them.
+pub struct Particles {
+    pub dim: usize,
+    pub x: Vec<f32>,
+    pub v: Vec<f32>,
+    pub p: Vec<f32>,
+    pub force: Vec<f32>,
+    pub w: Vec<f32>,
+    pub gravity_scale: Vec<f32>,
+}
+
+/// One family as stored: rest values (planes: in device coordinates),
+/// multipliers, and the reals of its calls.
+struct Stored {
+    rest: Vec<f32>,
+    lambda: Vec<f32>,
+    alpha_tilde: f32,
+    normal: Vec<f32>,
+    mu: f32,
+}
+
+/// Why the reference cannot run a plan or a step.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReferenceError {
+    /// A stage the GPU's f32 XPBD kernels do not run on the device.
+    #[error("the f32 reference does not run {0}")]
+    Unsupported(String),
+    /// A kernel produced a non-finite value; the state is as before the step.
+    #[error("substep {substep}: {kernel:?} became non-finite at index {index}")]
+    NonFinite {
+        substep: u32,
+        kernel: Kernel,
+        index: usize,
+    },
+    /// A state or force vector of the wrong length.
+    #[error("{what}: {got} values, the plan needs {expected}")]
+    Length {
+        what: &'static str,
+        got: usize,
+        expected: usize,
+    },
+}
+
+/// The f32 step of the GPU backend, on the CPU.
+pub struct F32Reference {
+    plan: Plan,
+    origin: Vec<f64>,
+    particles: Particles,
+    families: Vec<Stored>,
+    h: f32,
+    gravity: Vec<f32>,
+    factor: f32,
+}
+
+fn round(values: &[f64]) -> Vec<f32> {
+    values.iter().map(|&v| v as f32).collect()
+}
+
+impl F32Reference {
+    /// The reference for `plan` from `state`, positions stored relative
+    /// to `origin` (the GPU backend's scene origin; zeros for none).
+    pub fn new(plan: Plan, state: &State, origin: &[f64]) -> Result<Self, ReferenceError> {
+        for k in &plan.substep_kernels {
+            if matches!(k, Kernel::Broadphase | Kernel::Collide | Kernel::Minimise) {
+                return Err(ReferenceError::Unsupported(format!("{k:?}")));
+            }
+        }
+        if let Some(f) = plan
+            .families
+            .iter()
+            .find(|f| matches!(f.kind, FamilyKind::Material { .. }))
+        {
+            return Err(ReferenceError::Unsupported(format!(
+                "material family {}",
+                f.label
+            )));
+        }
+        let shifted = origin.iter().any(|&o| o != 0.0);
+        let families = plan
+            .families
+            .iter()
+            .map(|f| {
+                let (normal, mu) = match &f.kind {
+                    FamilyKind::HyperplaneContact { normal, friction } => {
+                        (normal.as_slice(), *friction)
+                    }
+                    _ => (&[][..], 0.0),
+                };
+                let rest = f.rest.iter().map(|&r| {
+                    if normal.is_empty() || !shifted {
+                        return r as f32;
+                    }
+                    let shift: f64 = normal.iter().zip(origin).map(|(n, o)| n * o).sum();
+                    (r - shift) as f32
+                });
+                Stored {
+                    rest: rest.collect(),
+                    lambda: vec![0.0; f.len()],
+                    alpha_tilde: (f.compliance / (plan.h * plan.h)) as f32,
+                    normal: round(normal),
+                    mu: mu as f32,
+                }
+            })
+            .collect();
+        let particles = Particles {
+            dim: plan.dim,
+            x: Vec::new(),
+            v: Vec::new(),
+            p: vec![0.0; plan.particle_count() * plan.dim],
+            force: round(&plan.force),
+            w: round(&plan.inverse_mass),
+            gravity_scale: round(&plan.gravity_scale),
+        };
+        let mut reference = F32Reference {
+            h: plan.h as f32,
+            gravity: round(&plan.gravity),
+            factor: plan.damping.map_or(1.0, |(_, factor)| factor) as f32,
+            origin: if shifted { origin.to_vec() } else { Vec::new() },
+            families,
+            particles,
+            plan,
+        };
+        reference.write_state(state)?;
+        Ok(reference)
+    }
+
+    fn check(&self, what: &'static str, got: usize) -> Result<(), ReferenceError> {
+        let expected = self.plan.particle_count() * self.plan.dim;
+        if got == expected {
+            Ok(())
+        } else {
+            Err(ReferenceError::Length {
+                what,
+                got,
+                expected,
+            })
+        }
+    }
+
+    /// Stores `state` as the device would: (x − o) and v rounded to f32.
+    pub fn write_state(&mut self, state: &State) -> Result<(), ReferenceError> {
+        self.check("positions", state.positions.len())?;
+        self.check("velocities", state.velocities.len())?;
+        let n = self.plan.dim;
+        self.particles.x = if self.origin.is_empty() {
+            round(&state.positions)
+        } else {
+            let local = state
+                .positions
+                .chunks_exact(n)
+                .flat_map(|p| p.iter().zip(&self.origin).map(|(x, o)| (x - o) as f32));
+            local.collect()
+        };
+        self.particles.v = round(&state.velocities);
+        Ok(())
+    }
+
+    /// External forces (per particle, `dim` each), rounded to f32.
+    pub fn set_forces(&mut self, forces: &[f64]) -> Result<(), ReferenceError> {
+        self.check("forces", forces.len())?;
+        self.particles.force = round(forces);
+        Ok(())
+    }
+
+    /// The state as the GPU backend reads it back: x = f64(x₃₂) + o.
+    pub fn read_state(&self) -> State {
+        let n = self.plan.dim;
+        let mut positions: Vec<f64> = self.particles.x.iter().map(|&x| f64::from(x)).collect();
+        if !self.origin.is_empty() {
+            for p in positions.chunks_exact_mut(n) {
+                for (x, o) in p.iter_mut().zip(&self.origin) {
+                    *x += o;
+                }
+            }
+        }
+        State {
+            dim: n,
+            positions,
+            velocities: self.particles.v.iter().map(|&v| f64::from(v)).collect(),
+        }
+    }
+
+    /// One step (every substep of the plan). On a non-finite value the
+    /// state is restored and the first failing kernel named.
+    pub fn step(&mut self) -> Result<(), ReferenceError> {
+        let (x, v) = (self.particles.x.clone(), self.particles.v.clone());
+        for substep in 0..self.plan.substeps {
+            for k in 0..self.plan.substep_kernels.len() {
+                let kernel = self.plan.substep_kernels[k];
+                if let Err(index) = self.kernel(kernel) {
+                    self.particles.x = x;
+                    self.particles.v = v;
+                    return Err(ReferenceError::NonFinite {
+                        substep,
+                        kernel,
+                        index,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// One kernel call; the first failing index.
+    fn kernel(&mut self, kernel: Kernel) -> Result<(), usize> {
+        let s = &mut self.particles;
+        match kernel {
+            Kernel::Predict => {
+                for f in &mut self.families {
+                    f.lambda.fill(0.0);
+                }
+                let terms = integrate::Predict {
+                    h: self.h,
+                    gravity: self.plan.predict.gravity.then_some(&self.gravity[..]),
+                    force: self.plan.predict.force,
+                };
+                integrate::predict(s, &terms)
+            }
+            Kernel::Project { family, color } => {
+                let f = &self.plan.families[family];
+                let stored = &mut self.families[family];
+                let colour = project::Colour {
+                    slots: f.color(color),
+                    arity: f.arity,
+                    elements: &f.elements,
+                    rest: &stored.rest,
+                    alpha_tilde: stored.alpha_tilde,
+                };
+                let lambda = &mut stored.lambda;
+                match &f.kind {
+                    FamilyKind::Distance => project::distance(s, &colour, lambda, false),
+                    FamilyKind::Tether => project::distance(s, &colour, lambda, true),
+                    FamilyKind::SimplexMeasure { k } => {
+                        project::measure(s, &colour, lambda, project::Measure::Simplex { k: *k })
+                    }
+                    FamilyKind::OrientedMeasure => {
+                        project::measure(s, &colour, lambda, project::Measure::Oriented)
+                    }
+                    FamilyKind::HyperplaneContact { .. } => {
+                        let plane = project::Plane {
+                            normal: &stored.normal,
+                            mu: stored.mu,
+                        };
+                        project::contact(s, &colour, &plane, lambda)
+                    }
+                    // Refused in `new`.
+                    FamilyKind::Material { .. } => Ok(()),
+                }
+            }
+            Kernel::Velocity => integrate::velocity(s, self.h),
+            Kernel::Friction { family } => {
+                let stored = &self.families[family];
+                let friction = integrate::Friction {
+                    normal: &stored.normal,
+                    mu: stored.mu,
+                    h: self.h,
+                    particles: &self.plan.families[family].elements,
+                    lambda: &stored.lambda,
+                };
+                integrate::friction(s, &friction)
+            }
+            Kernel::Damping => {
+                integrate::damping(s, self.factor);
+                Ok(())
+            }
+            // Read-only checks; refused in `new` for the rest.
+            _ => Ok(()),
+        }
+    }
+}

@@ -1,0 +1,145 @@
+//! The f32 reference (`hyperpbd_cpu::f32_reference`) on the CPU alone: what
+//! it refuses, that a failed step loses nothing, that its origin shift is
+//! exact, and that it is the golden path's physics within f32 rounding.
+//! (On lavapipe `gpu_differential` and `gpu_coverage` hold the GPU's f32
+//! step to it bit for bit.)
+
+use hyperpbd::compare::max_abs_diff;
+use hyperpbd::core::builders::ChainSpec;
+use hyperpbd::{
+    Backend, CpuBackend, F32Reference, Kernel, Obstacle, Plan, ReferenceError, Scene, SceneBuilder,
+    State,
+};
+
+/// A 2D chain of 12 links, first particle fixed, over a frictional plane.
+fn chain(shift: f64) -> Scene {
+    let mut b = SceneBuilder::new(2)
+        .dt(1.0 / 64.0)
+        .substeps(4)
+        .iterations(2)
+        .gravity_along(1, 9.8125)
+        .damping(0.25);
+    b.chain(&ChainSpec {
+        start: vec![shift, 1.0],
+        direction: vec![1.0, 0.0],
+        count: 12,
+        spacing: 0.0625,
+        mass: 0.125,
+        compliance: 1e-6,
+        fix_first: true,
+    });
+    let mut scene = b.build().expect("valid");
+    scene.obstacles.push(Obstacle::Hyperplane {
+        normal: vec![0.0, 1.0],
+        offset: 0.5,
+        friction: 0.5,
+        compliance: 0.0,
+    });
+    scene
+}
+
+fn reference(scene: &Scene, origin: &[f64]) -> F32Reference {
+    let plan = Plan::compile(scene).expect("valid");
+    F32Reference::new(plan, &State::from_scene(scene), origin).expect("supported")
+}
+
+#[test]
+fn the_golden_path_within_f32_rounding() {
+    let scene = chain(0.0);
+    let mut r = reference(&scene, &[0.0, 0.0]);
+    let plan = Plan::compile(&scene).expect("valid");
+    let mut golden = CpuBackend::new(plan, &State::from_scene(&scene)).expect("cpu");
+    let mut worst = 0.0f64;
+    for _ in 0..60 {
+        r.step().expect("reference step");
+        golden.step().expect("golden step");
+        let (a, b) = (r.read_state(), golden.read_state().expect("read"));
+        worst = worst.max(max_abs_diff(&a.positions, &b.positions));
+    }
+    // ~1e-6 m: f32 rounding over a second of a falling, landing chain.
+    // A wrong kernel (a sign, a dropped term) is off by centimetres.
+    println!("f32 reference vs golden path, 60 frames: {worst:e} m");
+    assert!(worst > 0.0, "f32 must round somewhere");
+    assert!(worst < 1e-4, "{worst:e} m");
+}
+
+#[test]
+fn a_scene_far_from_the_origin_runs_as_at_the_origin() {
+    // 2^16 m away, shifted by an origin of the same amount: the same
+    // device coordinates and plane offsets, so the same bits.
+    let (near, far) = (chain(0.0), chain(65536.0));
+    let mut a = reference(&near, &[0.0, 0.0]);
+    let mut b = reference(&far, &[65536.0, 0.0]);
+    for frame in 1..=30 {
+        a.step().expect("near");
+        b.step().expect("far");
+        let mut moved_back = b.read_state();
+        for p in moved_back.positions.chunks_exact_mut(2) {
+            p[0] -= 65536.0;
+        }
+        let near_state = a.read_state();
+        assert_eq!(near_state.positions, moved_back.positions, "frame {frame}");
+        assert_eq!(
+            near_state.velocities, moved_back.velocities,
+            "frame {frame}"
+        );
+    }
+}
+
+#[test]
+fn a_failed_step_leaves_the_state_as_it_was() {
+    let scene = chain(0.0);
+    let mut r = reference(&scene, &[0.0, 0.0]);
+    r.step().expect("first step");
+    let mut state = r.read_state();
+    let before = state.clone();
+    // 1e39 is finite in f64 and +∞ in f32: the prediction of particle 5
+    // fails.
+    state.velocities[5 * 2] = 1e39;
+    r.write_state(&state).expect("write");
+    let written = r.read_state();
+    match r.step() {
+        Err(ReferenceError::NonFinite {
+            substep: 0,
+            kernel: Kernel::Predict,
+            index: 5,
+        }) => {}
+        other => panic!("expected a prediction failure at particle 5, got {other:?}"),
+    }
+    assert_eq!(r.read_state(), written, "the failed step changed the state");
+    r.write_state(&before).expect("write");
+    r.step().expect("a good state steps again");
+}
+
+#[test]
+fn what_it_does_not_run_is_refused_by_name() {
+    // Particle contact (the host's broadphase and gather-Jacobi).
+    let balls = hyperpbd::scenes::by_name("sandpile2d").expect("scene");
+    let plan = Plan::compile(&balls).expect("valid");
+    let refused = F32Reference::new(plan, &State::from_scene(&balls), &[0.0, 0.0]);
+    assert!(
+        matches!(&refused, Err(ReferenceError::Unsupported(what)) if what == "Broadphase"),
+        "{:?}",
+        refused.err()
+    );
+    // Material families.
+    let jelly = hyperpbd::scenes::jelly4d();
+    let plan = Plan::compile(&jelly).expect("valid");
+    let refused = F32Reference::new(plan, &State::from_scene(&jelly), &[0.0; 4]);
+    assert!(
+        matches!(&refused, Err(ReferenceError::Unsupported(what)) if what.starts_with("material family")),
+        "{:?}",
+        refused.err()
+    );
+    // Wrong lengths.
+    let scene = chain(0.0);
+    let mut r = reference(&scene, &[0.0, 0.0]);
+    assert!(matches!(
+        r.set_forces(&[0.0; 3]),
+        Err(ReferenceError::Length {
+            what: "forces",
+            got: 3,
+            expected: 24
+        })
+    ));
+}
