@@ -275,6 +275,21 @@ pub fn differential(
                 max_abs_diff(&sr.positions, &sg.positions),
                 max_abs_diff(&sr.velocities, &sg.velocities)
             );
+            let (residuals, active) = r.residuals();
+            let gpu: Vec<u64> = rg
+                .residuals
+                .iter()
+                .map(|f| f.max_violation.to_bits())
+                .collect();
+            let expected: Vec<u64> = residuals.iter().map(|r| r.to_bits()).collect();
+            assert_eq!(
+                gpu, expected,
+                "{name} f32 frame {frame}: residuals vs the f32 reference"
+            );
+            assert_eq!(
+                rg.active_contacts, active,
+                "{name} f32 frame {frame}: active contacts vs the f32 reference"
+            );
         }
         if exact {
             let report = golden.step().expect("CPU step");
@@ -346,7 +361,13 @@ pub fn differential(
                 .families
                 .get(family)
                 .map_or("particle_contact", |f| f.kind.name());
-            rows.record(format!("residual {} {kind}", a.label), measured, bound);
+            let metric = format!("residual {} {kind}", a.label);
+            if reference.is_some() {
+                rows.record_exact(metric.clone(), measured);
+                rows.record(format!("{metric} model"), measured, bound);
+            } else {
+                rows.record(metric, measured, bound);
+            }
         }
         if precision == Precision::F64 {
             assert_eq!(

@@ -66,6 +66,12 @@
 //! and velocities of Project, x of Velocity/Friction/Damping stay exactly
 //! equal.
 //!
+//! f32 on lavapipe: every kernel is also run on the f32 reference
+//! (`hyperpbd_cpu::f32_reference`, the WGSL's f32 operations on the CPU)
+//! from the same synced input, λ carried as on the device, and asserted
+//! bit-identical to the GPU; those rows print `exact`, the bounds above as
+//! `… model` rows beside them (asserted as before).
+//!
 //! Decisions (`λ > 0`, static friction `|Δt| ≤ μ w λ`, `len > 0`) are
 //! discontinuous; the cases are built so that no element sits within
 //! rounding of one: penetrations ≥ 1 mm or clearances ≥ 1 cm; sliding
@@ -83,12 +89,12 @@ mod pair;
 
 use common::Lcg;
 
-use common::exact::f64_identical;
+use common::exact::{bits, f32_identical, f64_identical};
 use common::gpu::adapter_or_skip;
 use hyperpbd::compare::{coordinate_scale, max_abs_diff};
 use hyperpbd::{
-    Backend, ConstraintFamily, ConstraintKind, CpuBackend, FamilyKind, Kernel, Particle, Plan,
-    Scene, SceneBuilder, State,
+    Backend, ConstraintFamily, ConstraintKind, CpuBackend, F32Reference, FamilyKind, Kernel,
+    Particle, Plan, Scene, SceneBuilder, State,
 };
 use hyperpbd_gpu::{GpuBackend, Precision};
 

@@ -12,6 +12,10 @@ pub(super) struct Pair {
     precision: Precision,
     /// f64 on an adapter where bit identity is asserted (bounds 0).
     exact: bool,
+    /// f32 on such an adapter: the f32 reference, held to the GPU bit for
+    /// bit after every kernel from the same input (the model's bounds are
+    /// asserted too, printed as `… model` rows).
+    reference: Option<F32Reference>,
     name: String,
     /// Position bound of this substep's Project per family (for Friction).
     lambda_bound: Vec<f64>,
@@ -32,12 +36,16 @@ impl Pair {
         let gpu = GpuBackend::with_adapter(adapter, plan.clone(), &state, precision)
             .unwrap_or_else(|e| panic!("{name}: GPU backend: {e}"));
         let families = plan.families.len();
+        let reference = (precision == Precision::F32 && f32_identical(&summary))
+            .then(|| F32Reference::new(plan.clone(), &state, gpu.origin().as_slice()).ok())
+            .flatten();
         let cpu = CpuBackend::new(plan, &state).expect("CPU backend");
         Pair {
             cpu,
             gpu,
             precision,
             exact: precision == Precision::F64 && f64_identical(&summary),
+            reference,
             name: name.into(),
             lambda_bound: vec![0.0; families],
             worst: Vec::new(),
@@ -48,6 +56,9 @@ impl Pair {
     fn sync(&mut self) -> State {
         let state = self.gpu.read_state().expect("GPU read_state");
         self.cpu.write_state(&state).expect("CPU write_state");
+        if let Some(r) = self.reference.as_mut() {
+            r.write_state(&state).expect("reference write_state");
+        }
         state
     }
 
@@ -60,6 +71,19 @@ impl Pair {
             .unwrap_or_else(|e| panic!("{}: GPU {kernel:?}: {e}", self.name));
         let cpu = self.cpu.read_state().expect("CPU read_state");
         let gpu = self.gpu.read_state().expect("GPU read_state");
+        if let Some(r) = self.reference.as_mut() {
+            r.run_kernel(kernel)
+                .unwrap_or_else(|e| panic!("{}: f32 reference {kernel:?}: {e}", self.name));
+            let expected = r.read_state();
+            assert!(
+                bits(&expected) == bits(&gpu),
+                "{} f32: {kernel:?} on llvmpipe differs from the f32 reference from the same \
+                 input: max |dx| {:e}, max |dv| {:e}",
+                self.name,
+                max_abs_diff(&expected.positions, &gpu.positions),
+                max_abs_diff(&expected.velocities, &gpu.velocities)
+            );
+        }
         let plan = self.cpu.plan().clone();
         let s = scales(&[&before, &cpu, &gpu]);
         let (xb, vb) = if self.exact {
@@ -97,6 +121,17 @@ impl Pair {
                 s.v
             );
             let key = format!("{kind} {metric}");
+            if self.reference.is_some() {
+                // Exact: the largest measured (NaN bound), the model beside.
+                match self.worst.iter_mut().find(|(k, _, _)| *k == key) {
+                    Some(w) => w.1 = w.1.max(measured),
+                    None => self.worst.push((key.clone(), measured, f64::NAN)),
+                }
+            }
+            let key = match self.reference {
+                Some(_) => format!("{key} model"),
+                None => key,
+            };
             match self.worst.iter_mut().find(|(k, _, _)| *k == key) {
                 Some(w) => {
                     if ratio(measured, bound) > ratio(w.1, w.2) {
@@ -138,7 +173,7 @@ impl Pair {
 
     fn print(&self) {
         for (key, measured, bound) in &self.worst {
-            let bound = if self.exact {
+            let bound = if self.exact || bound.is_nan() {
                 "exact".to_string()
             } else {
                 format!("{bound:.3e}")

@@ -27,6 +27,7 @@
 mod integrate;
 mod measure;
 mod project;
+mod residual;
 
 use hyperpbd_core::{FamilyKind, Kernel, Plan, State};
 
@@ -212,6 +213,32 @@ impl F32Reference {
         }
     }
 
+    /// The step report's residuals as the GPU computes them in f32: per
+    /// family the largest violation (f64 of the f32 value), and the
+    /// contacts active in the last substep (λ > 0).
+    pub fn residuals(&self) -> (Vec<f64>, usize) {
+        let n = self.plan.dim;
+        let residuals = self
+            .plan
+            .families
+            .iter()
+            .zip(&self.families)
+            .map(|(f, stored)| {
+                let r = residual::residual(f, n, &self.particles.x, &stored.rest, &stored.normal);
+                f64::from(r)
+            })
+            .collect();
+        let active = self
+            .plan
+            .families
+            .iter()
+            .zip(&self.families)
+            .filter(|(f, _)| f.kind.is_inequality())
+            .map(|(_, stored)| stored.lambda.iter().filter(|&&l| l > 0.0).count())
+            .sum();
+        (residuals, active)
+    }
+
     /// One step (every substep of the plan). On a non-finite value the
     /// state is restored and the first failing kernel named.
     pub fn step(&mut self) -> Result<(), ReferenceError> {
@@ -231,6 +258,18 @@ impl F32Reference {
             }
         }
         Ok(())
+    }
+
+    /// One kernel call alone (as `Backend::run_kernel`: kernel-level
+    /// comparisons; λ persists between calls, Predict resets it). A
+    /// failure is reported as substep 0 and not rolled back.
+    pub fn run_kernel(&mut self, kernel: Kernel) -> Result<(), ReferenceError> {
+        self.kernel(kernel)
+            .map_err(|index| ReferenceError::NonFinite {
+                substep: 0,
+                kernel,
+                index,
+            })
     }
 
     /// One kernel call; the first failing index.

@@ -1,0 +1,63 @@
+//! The step report's residuals in f32, as `shaders/residual.wgsl`
+//! computes them: per family the largest violation over its elements
+//! (max is exact, so the order of the GPU's reduction does not matter).
+//!
+//! ```text
+//! distance         |d − rest|        d = √(Σ_a (x1 − x0)_a²)
+//! tether           max(d − rest, 0)
+//! simplex measure  |S − rest|        oriented measure  |V − rest|
+//! contact          max(rest − n·x, 0)    (rest in device coordinates)
+//! ```
+
+// Coordinate loops index several arrays at once, as a kernel does.
+#![allow(clippy::needless_range_loop)]
+
+use hyperpbd_core::{Family, FamilyKind};
+
+use super::measure::{oriented_measure, simplex_squared_measure};
+
+/// |x1 − x0| of the two points in `pts`.
+fn distance(pts: &[f32], n: usize) -> f32 {
+    let mut d2 = 0.0f32;
+    for a in 0..n {
+        let e = pts[n + a] - pts[a];
+        d2 += e * e;
+    }
+    d2.sqrt()
+}
+
+/// Largest violation of family `f` at positions `x` (device
+/// coordinates), its rest values `rest` and plane normal `normal`.
+pub fn residual(f: &Family, n: usize, x: &[f32], rest: &[f32], normal: &[f32]) -> f32 {
+    let mut pts = vec![0.0f32; f.arity * n];
+    let mut grad = vec![0.0f32; f.arity * n];
+    let mut worst = 0.0f32;
+    for e in 0..f.len() {
+        for (j, &i) in f.elements[e * f.arity..(e + 1) * f.arity]
+            .iter()
+            .enumerate()
+        {
+            let i = i as usize;
+            pts[j * n..(j + 1) * n].copy_from_slice(&x[i * n..(i + 1) * n]);
+        }
+        let violation = match f.kind {
+            FamilyKind::Distance => (distance(&pts, n) - rest[e]).abs(),
+            FamilyKind::Tether => (distance(&pts, n) - rest[e]).max(0.0),
+            FamilyKind::SimplexMeasure { k } => {
+                (simplex_squared_measure(&pts, n, k, &mut grad) - rest[e]).abs()
+            }
+            FamilyKind::OrientedMeasure => (oriented_measure(&pts, n, &mut grad) - rest[e]).abs(),
+            FamilyKind::HyperplaneContact { .. } => {
+                let mut nx = 0.0f32;
+                for a in 0..n {
+                    nx += normal[a] * pts[a];
+                }
+                (rest[e] - nx).max(0.0)
+            }
+            // The reference refuses material families.
+            FamilyKind::Material { .. } => 0.0,
+        };
+        worst = worst.max(violation);
+    }
+    worst
+}
