@@ -3,20 +3,21 @@
 //! lavapipe (common::exact), against the CPU golden path — for a 15-world
 //! sweep of chain2d (gravity × plane offset), a 12-world sweep of the
 //! ground cloth (compliance, friction, damping, plane normal) and the
-//! shards of the first; f32 within the single-world per-frame bound. A
+//! shards of the first; f32 within the single-world per-frame bound, and
+//! on lavapipe bit for bit each world's own f32 reference. A
 //! failing world puts every world back and is named as its own run names
 //! it; worlds a GPU batch cannot share a schedule with are refused by
 //! world.
 
 mod common;
 
-use common::exact::{check_f64, f64_rule};
+use common::exact::{bits, check_f64, f32_identical, f64_rule};
 use common::gpu::adapter_or_skip;
 use hyperpbd::batch::{Batch, BatchError, GpuBatch};
 use hyperpbd::compare::{DivergenceModel, Frame};
 use hyperpbd::compare_frame::FrameErrorModel;
 use hyperpbd::sweep::Sweep;
-use hyperpbd::{Backend, Precision, Scene, scenes};
+use hyperpbd::{Backend, F32Reference, Precision, Scene, State, scenes};
 
 const CHAIN: &str = include_str!("../scenes/chain2d.json");
 
@@ -137,7 +138,7 @@ fn one_world_and_the_shards_of_a_sweep_are_the_whole_batch() {
 
 #[test]
 fn f32_worlds_stay_within_the_single_world_frame_bound() {
-    let Some((adapter, _)) = adapter_or_skip("gpu_batch f32", Precision::F32) else {
+    let Some((adapter, summary)) = adapter_or_skip("gpu_batch f32", Precision::F32) else {
         return;
     };
     let scenes = chains();
@@ -152,13 +153,46 @@ fn f32_worlds_stay_within_the_single_world_frame_bound() {
         .iter()
         .map(|c| FrameErrorModel::new(c.plan(), Precision::F32, &origin).expect("model"))
         .collect();
+    // llvmpipe: each world is also its own f32 reference from the start
+    // (the batch's shared origin), bit for bit.
+    let mut references: Vec<F32Reference> = if f32_identical(&summary) {
+        scenes
+            .iter()
+            .zip(&cpus)
+            .map(|(s, c)| {
+                F32Reference::new(c.plan().clone(), &State::from_scene(s), &origin)
+                    .expect("reference")
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
     let (mut worst_x, mut worst_v): (f64, f64) = (0.0, 0.0);
-    for _ in 0..30 {
+    for frame in 1..=30 {
         // Each frame the golden path restarts from the batch's state (the
         // per-frame model's rule, src/compare_frame.rs).
         let starts = gpu.read_states().expect("states");
         let reports = gpu.step().expect("batch step");
         let ends = gpu.read_states().expect("states");
+        for (k, r) in references.iter_mut().enumerate() {
+            r.step().expect("reference step");
+            assert!(
+                bits(&r.read_state()) == bits(&ends[k]),
+                "world {k} frame {frame}: the f32 batch differs from the world's f32 reference"
+            );
+            let (residuals, active) = r.residuals();
+            let gpu_bits: Vec<u64> = reports[k]
+                .residuals
+                .iter()
+                .map(|f| f.max_violation.to_bits())
+                .collect();
+            let expected: Vec<u64> = residuals.iter().map(|x| x.to_bits()).collect();
+            assert_eq!(gpu_bits, expected, "world {k} frame {frame}: residuals");
+            assert_eq!(
+                reports[k].active_contacts, active,
+                "world {k} frame {frame}"
+            );
+        }
         for (k, cpu) in cpus.iter_mut().enumerate() {
             cpu.write_state(&starts[k]).expect("write");
             let report = cpu.step().expect("cpu step");
@@ -186,6 +220,14 @@ fn f32_worlds_stay_within_the_single_world_frame_bound() {
         "1 (each frame, each world)",
         "the single-world per-frame model (DivergenceModel::frame_bounds)",
     );
+    if !references.is_empty() {
+        common::bound::print_bound(
+            "gpu_batch chains f32 (15 worlds, 30 frames) vs each world's f32 reference",
+            "0 (bit-identical: states, residuals, active contacts)",
+            "exact",
+            "llvmpipe (common::exact::f32_identical)",
+        );
+    }
 }
 
 #[test]
