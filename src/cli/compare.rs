@@ -8,6 +8,11 @@
 //!                        OVER lines are always printed; any OVER frame exits 3
 //! XPBD                   FrameErrorModel: the roundings of one frame's substeps
 //! incremental potential  BarrierErrorModel: driven by both runs' residuals
+//! f32 XPBD               also the f32 reference (F32Reference, the WGSL's
+//!                        f32 arithmetic on the CPU) from the same start: the
+//!                        GPU's distance from it (0 where the adapter neither
+//!                        contracts nor regroups, e.g. lavapipe); --exact
+//!                        makes any nonzero distance a failure (exit 3)
 //! ```
 
 use super::error::{CliError, with_sources};
@@ -16,7 +21,9 @@ use hyperpbd::compare::{Divergence, DivergenceModel, Frame};
 use hyperpbd::compare_barrier::BarrierErrorModel;
 use hyperpbd::compare_frame::FrameErrorModel;
 use hyperpbd::gpu::SceneOrigin;
-use hyperpbd::{Backend, BackendError, BackendKind, Plan, Precision, SolverPlan, State};
+use hyperpbd::{
+    Backend, BackendError, BackendKind, F32Reference, Plan, Precision, SolverPlan, State,
+};
 use std::path::PathBuf;
 
 /// Options of `hyperpbd compare`.
@@ -44,6 +51,10 @@ pub struct CompareArgs {
         allow_negative_numbers = true
     )]
     bound_factor: f64,
+    /// f32: fail unless every frame is the f32 reference's bit for bit (an
+    /// adapter that neither contracts nor regroups, e.g. lavapipe).
+    #[arg(long)]
+    exact: bool,
 }
 
 fn parse_precision(name: &str) -> Result<Precision, String> {
@@ -63,6 +74,49 @@ fn model(
             Box::new(FrameErrorModel::new(plan, precision, origin.as_slice())?)
         }
         SolverPlan::IncrementalPotential(_) => Box::new(BarrierErrorModel::new(plan, precision)),
+    })
+}
+
+/// The f32 reference of an f32 XPBD plan it runs (with the GPU's origin).
+fn reference(
+    plan: &Plan,
+    precision: Precision,
+    state: &State,
+) -> Result<Option<F32Reference>, CliError> {
+    if precision != Precision::F32 || !matches!(plan.solver, SolverPlan::Xpbd) {
+        return Ok(None);
+    }
+    let origin = SceneOrigin::for_state(plan.dim, &state.positions, precision);
+    Ok(F32Reference::new(plan.clone(), state, origin.as_slice()).ok())
+}
+
+/// The f32 reference's frame from `start`: its largest coordinate distance
+/// (positions and velocities) from the GPU's `other`; 0 means bit for bit.
+fn reference_distance(
+    r: &mut F32Reference,
+    start: &State,
+    other: &State,
+    frame: u64,
+) -> Result<f64, CliError> {
+    let failed = |e: &dyn std::fmt::Display| {
+        CliError::Simulation(format!("f32 reference frame {frame}: {e}"))
+    };
+    r.write_state(start).map_err(|e| failed(&e))?;
+    r.step().map_err(|e| failed(&e))?;
+    let expected = r.read_state();
+    let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+    if same(&expected.positions, &other.positions) && same(&expected.velocities, &other.velocities)
+    {
+        return Ok(0.0);
+    }
+    let distance = hyperpbd::compare::max_abs_diff(&expected.positions, &other.positions).max(
+        hyperpbd::compare::max_abs_diff(&expected.velocities, &other.velocities),
+    );
+    // Differing bits at distance 0 (±0, NaN payloads) still differ.
+    Ok(if distance > 0.0 {
+        distance
+    } else {
+        f64::MIN_POSITIVE
     })
 }
 
@@ -88,6 +142,14 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
              horizons only (tests/gpu_granular.rs compares invariants instead)"
         );
     }
+    let mut reference = reference(&plan, args.precision, &state)?;
+    if args.exact && reference.is_none() {
+        return Err(CliError::Input(
+            "--exact: needs --precision f32 and an XPBD plan the f32 reference runs \
+             (no material families, no particle contact)"
+                .into(),
+        ));
+    }
     let gpu_error = |e: &dyn std::fmt::Display| CliError::Input(format!("GPU: {e}"));
     super::software_threads::choose(&plan);
     let (adapter, summary) =
@@ -104,11 +166,12 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
         model.describe()
     );
     println!(
-        "{:>6} {:>13} {:>13} {:>13} {:>13}  status",
-        "frame", "max |dx|", "bound", "max |dv|", "bound"
+        "{:>6} {:>13} {:>13} {:>13} {:>13} {:>13}  status",
+        "frame", "max |dx|", "bound", "max |dv|", "bound", "vs f32 ref."
     );
     let mut worst: Option<Divergence> = None;
     let mut over = 0u64;
+    let mut identical = 0u64;
     for frame in 1..=args.frames {
         let step = |b: &mut dyn Backend| {
             b.step()
@@ -141,13 +204,23 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
             .map_err(|e| CliError::Simulation(format!("frame {frame}: {}", with_sources(&e))))?;
         let bounds = (args.bound_factor * position, args.bound_factor * velocity);
         let d = Divergence::new(frame, &golden, &other, bounds);
-        let ok = d.within();
+        let from_reference = match reference.as_mut() {
+            Some(r) => Some(reference_distance(r, &start, &other, frame)?),
+            None => None,
+        };
+        identical += u64::from(from_reference == Some(0.0));
+        let ok = d.within() && (!args.exact || from_reference == Some(0.0));
         if !ok {
             over += 1;
         }
         if frame % args.every == 0 || frame == args.frames || !ok {
+            let vs_reference = match from_reference {
+                Some(0.0) => "exact".to_string(),
+                Some(distance) => format!("{distance:.3e}"),
+                None => "-".to_string(),
+            };
             println!(
-                "{frame:>6} {:>13.3e} {:>13.3e} {:>13.3e} {:>13.3e}  {}",
+                "{frame:>6} {:>13.3e} {:>13.3e} {:>13.3e} {:>13.3e} {vs_reference:>13}  {}",
                 d.position,
                 d.position_bound,
                 d.velocity,
@@ -168,9 +241,20 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
             w.steps, w.position, w.position_bound, w.velocity, w.velocity_bound
         );
     }
+    if reference.is_some() {
+        println!(
+            "f32 reference: the GPU matched it bit for bit in {identical} of {} frames",
+            args.frames
+        );
+    }
     if over > 0 {
+        let what = if args.exact {
+            "over the bound or off the f32 reference"
+        } else {
+            "over the bound"
+        };
         return Err(CliError::Simulation(format!(
-            "{over} of {} frames over the bound",
+            "{over} of {} frames {what}",
             args.frames
         )));
     }

@@ -73,3 +73,41 @@ fn compare_refuses_a_bad_bound_factor() {
         );
     }
 }
+
+/// `--exact`: on lavapipe every f32 frame is the f32 reference's bit for
+/// bit, and the run says so; a plan the reference does not run, or f64, is
+/// refused as bad input.
+#[test]
+fn compare_exact_holds_the_gpu_to_the_f32_reference() {
+    let Some((_, summary)) = adapter_or_skip(
+        "compare_exact_holds_the_gpu_to_the_f32_reference",
+        Precision::F32,
+    ) else {
+        return;
+    };
+    let dir = TempDir::new("compare-exact");
+    let example = dir.write("example.json", EXAMPLE);
+    let mut args: Vec<std::ffi::OsString> = vec![
+        "compare".into(),
+        example.as_os_str().to_owned(),
+        "--frames".into(),
+        "3".into(),
+        "--exact".into(),
+    ];
+    let out = hyperpbd::<_, std::ffi::OsString>(args.clone());
+    let stdout = text(&out.stdout);
+    if common::exact::f32_identical(&summary) {
+        assert_success(&out);
+        assert!(
+            stdout.contains("f32 reference: the GPU matched it bit for bit in 3 of 3 frames"),
+            "{stdout}"
+        );
+    } else {
+        // Another adapter may contract: the reference column says by how much.
+        println!("{stdout}");
+    }
+    args.extend(["--precision".into(), "f64".into()]);
+    let out = hyperpbd::<_, std::ffi::OsString>(args);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("--exact: needs --precision f32"));
+}
