@@ -16,8 +16,9 @@
 mod common;
 
 use common::bound::print_bound;
+use common::exact::{bits, f32_identical};
 use common::gpu::adapter_or_skip;
-use hyperpbd::{Backend, CpuBackend, Plan, Scene, State};
+use hyperpbd::{Backend, CpuBackend, F32Reference, Plan, Scene, State, StepReport};
 use hyperpbd_gpu::{GpuBackend, Precision};
 
 fn scenes() -> Vec<(&'static str, Scene, usize)> {
@@ -33,6 +34,33 @@ fn max_diff(a: &[f64], b: &[f64]) -> f64 {
         .zip(b)
         .map(|(x, y)| (x - y).abs())
         .fold(0.0, f64::max)
+}
+
+/// Steps the f32 reference and asserts it is the GPU's frame `frame`
+/// (state `sg`, report `rg`) bit for bit.
+fn check_reference(name: &str, frame: usize, r: &mut F32Reference, rg: &StepReport, sg: &State) {
+    r.step()
+        .unwrap_or_else(|e| panic!("{name}: f32 reference step {frame}: {e}"));
+    let sr = r.read_state();
+    assert!(
+        bits(&sr) == bits(sg),
+        "{name} f32 frame {frame}: the GPU on llvmpipe is not bit-identical to the f32 \
+         reference: max |dx| {:e}, max |dv| {:e}",
+        max_diff(&sr.positions, &sg.positions),
+        max_diff(&sr.velocities, &sg.velocities)
+    );
+    let (residuals, active) = r.residuals();
+    let gpu: Vec<u64> = rg
+        .residuals
+        .iter()
+        .map(|f| f.max_violation.to_bits())
+        .collect();
+    let expected: Vec<u64> = residuals.iter().map(|r| r.to_bits()).collect();
+    assert_eq!(gpu, expected, "{name} f32 frame {frame}: residuals");
+    assert_eq!(
+        rg.active_contacts, active,
+        "{name} f32 frame {frame}: active contacts"
+    );
 }
 
 #[test]
@@ -78,7 +106,7 @@ fn gpu_f64_contact_steps_are_bit_identical_to_the_cpu() {
 
 #[test]
 fn gpu_f32_contact_steps_stay_within_bounds() {
-    let Some((adapter, _)) = adapter_or_skip("gpu_granular_f32", Precision::F32) else {
+    let Some((adapter, summary)) = adapter_or_skip("gpu_granular_f32", Precision::F32) else {
         return;
     };
     for (name, scene, frames) in scenes() {
@@ -94,12 +122,19 @@ fn gpu_f32_contact_steps_stay_within_bounds() {
         let mut cpu = CpuBackend::new(plan.clone(), &state).expect("cpu");
         let mut gpu =
             GpuBackend::with_adapter(&adapter, plan.clone(), &state, Precision::F32).expect("gpu");
+        let mut reference = f32_identical(&summary).then(|| {
+            F32Reference::new(plan.clone(), &state, gpu.origin().as_slice())
+                .expect("the f32 reference runs particle contact")
+        });
         cpu.step().expect("cpu step");
-        gpu.step().expect("gpu step");
+        let rg = gpu.step().expect("gpu step");
         let (sc, sg) = (
             cpu.read_state().expect("read"),
             gpu.read_state().expect("read"),
         );
+        if let Some(r) = reference.as_mut() {
+            check_reference(name, 1, r, &rg, &sg);
+        }
         let err = max_diff(&sc.positions, &sg.positions);
         let scale = state.positions.iter().fold(1.0f64, |m, v| m.max(v.abs()));
         let n = plan.dim as f64;
@@ -134,9 +169,12 @@ fn gpu_f32_contact_steps_stay_within_bounds() {
         };
         let e0 = energy(&state);
         let mut worst: f64 = 0.0;
-        for _ in 1..frames * 4 {
-            gpu.step().expect("gpu step");
+        for frame in 2..=frames * 4 {
+            let rg = gpu.step().expect("gpu step");
             let s = gpu.read_state().expect("read");
+            if let Some(r) = reference.as_mut() {
+                check_reference(name, frame, r, &rg, &s);
+            }
             // Energy rounding allowance: f32 positions of ~1 m and masses
             // summing to M give |ΔE| ~ ε·M·g·X per particle sum; 1e-4 J.
             assert!(
@@ -165,5 +203,13 @@ fn gpu_f32_contact_steps_stay_within_bounds() {
             "invariant",
         );
         assert!(worst <= 0.15, "{name}: overlap {worst}");
+        if reference.is_some() {
+            print_bound(
+                format_args!("gpu f32 {name} ({} frames) vs f32 reference", frames * 4),
+                "0 (bit-identical: states, residuals, active contacts)",
+                "0",
+                "llvmpipe: exact",
+            );
+        }
     }
 }
