@@ -65,7 +65,8 @@ pub fn collide(s: &mut Particles, c: &Contact, ahead: &mut [u32]) -> Result<(), 
                 continue 'particles;
             }
             let rm = r[m];
-            let cval = dist - if lower { rm + rk } else { rk + rm };
+            // IEEE addition commutes: the WGSL's r_i + r_j in either order.
+            let cval = dist - (rk + rm);
             if !(cval < 0.0 && dist > 0.0) {
                 continue;
             }
@@ -107,7 +108,7 @@ pub fn collide(s: &mut Particles, c: &Contact, ahead: &mut [u32]) -> Result<(), 
                 continue;
             }
             let wm = w[m];
-            let share = wk / if lower { wm + wk } else { wk + wm };
+            let share = wk / (wk + wm);
             let sign = if lower { -share } else { share };
             for a in 0..n {
                 sum[a] += sign * out[a];
