@@ -93,6 +93,65 @@ pub fn lists(s: &Particles, pad: &[f32], lists: &mut Vec<Vec<u32>>) {
 mod tests {
     use super::*;
 
+    fn particles(dim: usize, x: Vec<f32>, w: Vec<f32>) -> Particles {
+        Particles {
+            dim,
+            p: x.clone(),
+            x,
+            v: Vec::new(),
+            force: Vec::new(),
+            w,
+            gravity_scale: Vec::new(),
+        }
+    }
+
+    /// The sweep's lists are the exhaustive test's on the same boxes.
+    #[test]
+    fn sweep_lists_are_the_exhaustive_ones() {
+        let (dim, count) = (3, 200);
+        let mut seed = 12345u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let x: Vec<f32> = (0..count * dim).map(|_| next()).collect();
+        let w: Vec<f32> = (0..count)
+            .map(|i| if i % 7 == 0 { 0.0 } else { 1.0 })
+            .collect();
+        let pad: Vec<f32> = (0..count).map(|_| 0.15 * next()).collect();
+        let s = particles(dim, x, w);
+        let mut found = Vec::new();
+        lists(&s, &pad, &mut found);
+        let (lo, hi) = boxes(&s, &pad);
+        let mut pairs = 0;
+        for i in 0..count {
+            let expected: Vec<u32> = (0..count)
+                .filter(|&j| {
+                    j != i
+                        && s.w[i] + s.w[j] != 0.0
+                        && (0..dim).all(|a| {
+                            lo[i * dim + a] <= hi[j * dim + a] && lo[j * dim + a] <= hi[i * dim + a]
+                        })
+                })
+                .map(|j| j as u32)
+                .collect();
+            pairs += expected.len();
+            assert_eq!(found[i], expected, "particle {i}");
+        }
+        assert!(pairs > count, "the case must have pairs ({pairs})");
+    }
+
+    /// Two boxes whose f32 corners meet only after the outward steps are
+    /// listed (as on the device), and two fixed particles are not.
+    #[test]
+    fn outward_rounding_decides_a_grazing_pair() {
+        let gap = f32::from_bits(1.0f32.to_bits() + 1);
+        let s = particles(1, vec![0.0, gap, 5.0, 5.5], vec![1.0, 1.0, 0.0, 0.0]);
+        let mut found = Vec::new();
+        lists(&s, &[0.5, 0.5, 1.0, 1.0], &mut found);
+        assert_eq!(found, vec![vec![1], vec![0], vec![], vec![]]);
+    }
+
     #[test]
     fn outward_steps() {
         assert_eq!(below(1.0), f32::from_bits(1.0f32.to_bits() - 1));
