@@ -1,11 +1,13 @@
 //! The GPU's f32 step, on the CPU: every XPBD kernel in f32 in the
 //! operation order of its WGSL (`shaders/integrate.wgsl`, `project.wgsl`,
-//! `measure.wgsl`, `friction.wgsl`), on the values the GPU backend stores.
+//! `measure.wgsl`, `friction.wgsl`, `grid.wgsl`, `collide.wgsl`), on the
+//! values the GPU backend stores.
 //!
 //! ```text
 //! stored once, rounded to f32 from the f64 the host computes:
 //!   x − o (o: the scene origin, gpu/src/origin.rs), v, f, w, s, g, h,
-//!   α / h², exp(−rate h), n, μ, rest (a plane's rest − n·o)
+//!   α / h², exp(−rate h), n, μ, rest (a plane's rest − n·o),
+//!   r, μ between particles; pad = r + margin rounded up
 //! step       for every substep: the plan's substep kernels in order
 //! read back  x = f64(x₃₂) + o,  v = f64(v₃₂)
 //! ```
@@ -16,9 +18,7 @@
 //! path: this file follows the shaders, the golden path DESIGN.md; the
 //! f64 bit identity of the two is what ties the orders together.
 //!
-//! Particle contact (`shaders/grid.wgsl`, `collide.wgsl`) as the device
-//! runs it: r, w rounded to f32, the box pad r + margin rounded up to f32,
-//! μ rounded to f32; Broadphase builds every particle's ascending list
+//! Particle contact as the device runs it: Broadphase builds every particle's ascending list
 //! from the f32 swept boxes (`broadphase.rs`), Collide one gather-Jacobi
 //! iteration on the last lists (`collide.rs`); the report adds the
 //! deepest overlap over the last lists after the families' residuals and
