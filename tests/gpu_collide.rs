@@ -23,9 +23,11 @@
 mod common;
 
 use common::bound::print_bound;
+use common::exact::f32_identical;
 use common::gpu::adapter_or_skip;
 use hyperpbd::{Backend, CpuBackend, Plan, Scene, State};
 use hyperpbd_cpu::collide::{self, Contacts};
+use hyperpbd_cpu::f32_reference;
 use hyperpbd_gpu::{CollideInput, GpuCollide, Precision};
 
 const ITERATIONS: u32 = 4;
@@ -82,9 +84,10 @@ fn round(values: &mut [f64], precision: Precision) {
 
 fn differential(precision: Precision) {
     let test = format!("gpu_collide_{precision}");
-    let Some((adapter, _)) = adapter_or_skip(&test, precision) else {
+    let Some((adapter, summary)) = adapter_or_skip(&test, precision) else {
         return;
     };
+    let identical = precision == Precision::F32 && f32_identical(&summary);
     for case in cases() {
         let plan = Plan::compile(&case.scene).expect("valid");
         let mut cpu = CpuBackend::new(plan.clone(), &State::from_scene(&case.scene)).expect("cpu");
@@ -131,6 +134,9 @@ fn differential(precision: Precision) {
             friction: contacts_plan.friction,
         };
         let found = gpu.iterate(&input, ITERATIONS).expect("gpu collide");
+        if identical {
+            check_reference(case.name, &plan, &input, &found);
+        }
         let err = expected
             .iter()
             .zip(&found)
@@ -181,6 +187,52 @@ fn differential(precision: Precision) {
             );
         }
     }
+}
+
+/// f32 on lavapipe: `found` is the f32 reference's iteration on the same
+/// lists, bit for bit.
+fn check_reference(name: &str, plan: &Plan, input: &CollideInput, found: &[f64]) {
+    let lists: Vec<Vec<u32>> = (0..plan.particle_count())
+        .map(|k| {
+            let range = input.offsets[k] as usize..input.offsets[k + 1] as usize;
+            let entries = &input.entries[range];
+            let partner = |&e: &u32| input.pairs[e as usize / 2][1 - e as usize % 2];
+            entries.iter().map(partner).collect()
+        })
+        .collect();
+    let reference = f32_reference::iterate(
+        &f32_reference::Iteration {
+            dim: plan.dim,
+            x: input.x,
+            p: input.p,
+            inverse_mass: input.inverse_mass,
+            radius: input.radius,
+            lists: &lists,
+            friction: input.friction,
+        },
+        ITERATIONS,
+    )
+    .expect("f32 reference collide");
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let differs = reference
+        .iter()
+        .zip(found)
+        .filter(|(a, b)| a.to_bits() != b.to_bits())
+        .count();
+    print_bound(
+        format_args!(
+            "collide f32 {name} vs f32 reference ({} coordinates)",
+            found.len()
+        ),
+        format_args!("{differs} differ"),
+        "0",
+        "llvmpipe: bit-identical",
+    );
+    assert!(
+        bits(&reference) == bits(found),
+        "{name}: f32 collide on llvmpipe is not bit-identical to the f32 reference \
+         ({differs} coordinates differ)"
+    );
 }
 
 #[test]

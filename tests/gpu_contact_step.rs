@@ -12,7 +12,9 @@
 //! failures          a non-finite contact distance: the CPU's error, state kept
 //! run_kernel        Predict, Broadphase, Collide, Velocity one at a time
 //! f32               bit-identical between runs (integer atomics only order
-//!                   bucket slots; lists are sorted)
+//!                   bucket slots; lists are sorted); on lavapipe also
+//!                   bit-identical to the f32 reference (states, reports),
+//!                   the regrowth step included
 //! loop budget       llvmpipe ends a shader's loops after 65 535 iterations:
 //!                   a cut is a typed error, never a short list
 //! ```
@@ -23,10 +25,11 @@ mod common;
 
 use common::bound::print_bound;
 
+use common::exact::{assert_f32_reference_step, f32_identical};
 use common::gpu::adapter_or_skip;
 use hyperpbd::{
-    Backend, BackendError, Collisions, CpuBackend, Kernel, Particle, Plan, Scene, SceneBuilder,
-    StageName, State, StepError, StepReport,
+    Backend, BackendError, Collisions, CpuBackend, F32Reference, Kernel, Particle, Plan, Scene,
+    SceneBuilder, StageName, State, StepError, StepReport,
 };
 use hyperpbd_core::broadphase::Aabbs;
 use hyperpbd_gpu::{GpuBackend, GpuSweep, Precision, StepMode};
@@ -132,7 +135,7 @@ fn f64_contact_steps_equal_the_cpu_bit_for_bit_in_both_schedules() {
 #[test]
 fn lists_that_outgrow_their_slots_are_grown_and_the_step_rerun() {
     for precision in [Precision::F32, Precision::F64] {
-        let Some((adapter, _)) = adapter_or_skip("gpu_contact_regrowth", precision) else {
+        let Some((adapter, summary)) = adapter_or_skip("gpu_contact_regrowth", precision) else {
             return;
         };
         let scene = dense_cluster();
@@ -151,9 +154,24 @@ fn lists_that_outgrow_their_slots_are_grown_and_the_step_rerun() {
         let mut gpu =
             GpuBackend::with_adapter(&adapter, plan.clone(), &state, precision).expect("gpu");
         assert_eq!(gpu.contact_list_slots(), Some(32));
+        let mut reference = (precision == Precision::F32 && f32_identical(&summary)).then(|| {
+            F32Reference::new(plan.clone(), &state, gpu.origin().as_slice()).expect("reference")
+        });
         let mut cpu = CpuBackend::new(plan.clone(), &state).expect("cpu");
         let rc = cpu.step().expect("cpu step");
         let rg = gpu.step().expect("gpu step after regrowth");
+        if let Some(r) = reference.as_mut() {
+            // The balls start exactly touching: f32 rounding decides which
+            // pairs are active, and the reference decides it the same way.
+            let sg = gpu.read_state().unwrap();
+            assert_f32_reference_step("dense cluster after regrowth", 1, r, &rg, &sg);
+            print_bound(
+                "gpu f32 list regrowth inside a step (dense cluster 2d, 1 frame) vs f32 reference",
+                "0 differing bits (state, residuals, active contacts)",
+                0,
+                "llvmpipe: exact",
+            );
+        }
         let slots = gpu.contact_list_slots().unwrap_or(0);
         let c = cpu.contacts();
         let longest = (0..96)
@@ -290,24 +308,91 @@ fn contact_kernels_run_alone_like_the_cpu() {
     assert!(cpu.contacts().active_count() > 0, "the case has contacts");
 }
 
+/// f32 on lavapipe: each contact kernel alone is the f32 reference's
+/// kernel bit for bit (lists and the report as well, checked by a step
+/// after them).
+#[test]
+fn f32_contact_kernels_run_alone_like_the_f32_reference() {
+    let Some((adapter, summary)) = adapter_or_skip("gpu_contact_run_kernel_f32", Precision::F32)
+    else {
+        return;
+    };
+    if !f32_identical(&summary) {
+        return;
+    }
+    let scene = hyperpbd::scenes::column3d(4, 5);
+    let plan = Plan::compile(&scene).expect("valid");
+    let mut cpu = CpuBackend::new(plan.clone(), &State::from_scene(&scene)).expect("cpu");
+    for _ in 0..12 {
+        cpu.step().expect("cpu step");
+    }
+    let state = cpu.read_state().unwrap();
+    let mut gpu =
+        GpuBackend::with_adapter(&adapter, plan.clone(), &state, Precision::F32).expect("gpu");
+    let mut reference =
+        F32Reference::new(plan, &state, gpu.origin().as_slice()).expect("reference");
+    let kernels = [
+        Kernel::Predict,
+        Kernel::Broadphase,
+        Kernel::Collide,
+        Kernel::Collide,
+        Kernel::Velocity,
+    ];
+    for kernel in kernels {
+        reference.run_kernel(kernel).expect("reference kernel");
+        gpu.run_kernel(kernel).expect("gpu kernel");
+        let (sr, sg) = (reference.read_state(), gpu.read_state().unwrap());
+        assert!(
+            bits(&sr.positions) == bits(&sg.positions),
+            "f32 {kernel:?}: positions differ from the f32 reference"
+        );
+        assert!(
+            bits(&sr.velocities) == bits(&sg.velocities),
+            "f32 {kernel:?}: velocities differ from the f32 reference"
+        );
+    }
+    for frame in 1..=3 {
+        let report = gpu.step().expect("gpu step");
+        let s = gpu.read_state().unwrap();
+        assert_f32_reference_step(
+            "column3d 4x5 after run_kernel",
+            frame,
+            &mut reference,
+            &report,
+            &s,
+        );
+    }
+}
+
 #[test]
 fn f32_contact_steps_are_identical_between_runs() {
-    let Some((adapter, _)) = adapter_or_skip("gpu_contact_f32_runs", Precision::F32) else {
+    let Some((adapter, summary)) = adapter_or_skip("gpu_contact_f32_runs", Precision::F32) else {
         return;
     };
     let scene = hyperpbd::scenes::pit3d(8, 6);
     let plan = Plan::compile(&scene).expect("valid");
     let state = State::from_scene(&scene);
-    let run = || {
+    // On lavapipe the first run is also the f32 reference's, every frame.
+    let run = |check: bool| {
         let mut gpu =
             GpuBackend::with_adapter(&adapter, plan.clone(), &state, Precision::F32).expect("gpu");
-        for _ in 0..12 {
-            gpu.step().expect("gpu step");
+        let mut reference = (check && f32_identical(&summary)).then(|| {
+            F32Reference::new(plan.clone(), &state, gpu.origin().as_slice()).expect("reference")
+        });
+        for frame in 1..=12 {
+            let report = gpu.step().expect("gpu step");
+            if let Some(r) = reference.as_mut() {
+                let s = gpu.read_state().unwrap();
+                assert_f32_reference_step("pit3d 8x6", frame, r, &report, &s);
+            }
         }
         let s = gpu.read_state().unwrap();
         (bits(&s.positions), bits(&s.velocities))
     };
-    assert!(run() == run(), "f32 contact steps differ between runs");
+    assert!(
+        run(true) == run(false),
+        "f32 contact steps differ between runs"
+    );
 }
 
 #[test]

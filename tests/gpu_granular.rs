@@ -16,8 +16,9 @@
 mod common;
 
 use common::bound::print_bound;
+use common::exact::{assert_f32_reference_step, f32_identical};
 use common::gpu::adapter_or_skip;
-use hyperpbd::{Backend, CpuBackend, Plan, Scene, State};
+use hyperpbd::{Backend, CpuBackend, F32Reference, Plan, Scene, State};
 use hyperpbd_gpu::{GpuBackend, Precision};
 
 fn scenes() -> Vec<(&'static str, Scene, usize)> {
@@ -78,7 +79,7 @@ fn gpu_f64_contact_steps_are_bit_identical_to_the_cpu() {
 
 #[test]
 fn gpu_f32_contact_steps_stay_within_bounds() {
-    let Some((adapter, _)) = adapter_or_skip("gpu_granular_f32", Precision::F32) else {
+    let Some((adapter, summary)) = adapter_or_skip("gpu_granular_f32", Precision::F32) else {
         return;
     };
     for (name, scene, frames) in scenes() {
@@ -94,12 +95,19 @@ fn gpu_f32_contact_steps_stay_within_bounds() {
         let mut cpu = CpuBackend::new(plan.clone(), &state).expect("cpu");
         let mut gpu =
             GpuBackend::with_adapter(&adapter, plan.clone(), &state, Precision::F32).expect("gpu");
+        let mut reference = f32_identical(&summary).then(|| {
+            F32Reference::new(plan.clone(), &state, gpu.origin().as_slice())
+                .expect("the f32 reference runs particle contact")
+        });
         cpu.step().expect("cpu step");
-        gpu.step().expect("gpu step");
+        let rg = gpu.step().expect("gpu step");
         let (sc, sg) = (
             cpu.read_state().expect("read"),
             gpu.read_state().expect("read"),
         );
+        if let Some(r) = reference.as_mut() {
+            assert_f32_reference_step(name, 1, r, &rg, &sg);
+        }
         let err = max_diff(&sc.positions, &sg.positions);
         let scale = state.positions.iter().fold(1.0f64, |m, v| m.max(v.abs()));
         let n = plan.dim as f64;
@@ -134,9 +142,12 @@ fn gpu_f32_contact_steps_stay_within_bounds() {
         };
         let e0 = energy(&state);
         let mut worst: f64 = 0.0;
-        for _ in 1..frames * 4 {
-            gpu.step().expect("gpu step");
+        for frame in 2..=frames as u64 * 4 {
+            let rg = gpu.step().expect("gpu step");
             let s = gpu.read_state().expect("read");
+            if let Some(r) = reference.as_mut() {
+                assert_f32_reference_step(name, frame, r, &rg, &s);
+            }
             // Energy rounding allowance: f32 positions of ~1 m and masses
             // summing to M give |ΔE| ~ ε·M·g·X per particle sum; 1e-4 J.
             assert!(
@@ -165,5 +176,13 @@ fn gpu_f32_contact_steps_stay_within_bounds() {
             "invariant",
         );
         assert!(worst <= 0.15, "{name}: overlap {worst}");
+        if reference.is_some() {
+            print_bound(
+                format_args!("gpu f32 {name} ({} frames) vs f32 reference", frames * 4),
+                "0 (bit-identical: states, residuals, active contacts)",
+                "0",
+                "llvmpipe: exact",
+            );
+        }
     }
 }

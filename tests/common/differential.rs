@@ -50,7 +50,7 @@
 //! ```
 
 use super::bound::print_bound;
-use super::exact::{bits, f32_identical, f64_identical};
+use super::exact::{assert_f32_reference_step, bits, f32_identical, f64_identical};
 use super::gpu::adapter_or_skip;
 use hyperpbd::compare::{Divergence, DivergenceModel, Frame, max_abs_diff};
 use hyperpbd::compare_frame::FrameErrorModel;
@@ -265,31 +265,7 @@ pub fn differential(
         assert_eq!(sc.len(), sg.len());
         last.clone_from(&sg);
         if let Some(r) = reference.as_mut() {
-            r.step()
-                .unwrap_or_else(|e| panic!("{name}: f32 reference step {frame}: {e}"));
-            let sr = r.read_state();
-            assert!(
-                bits(&sr) == bits(&sg),
-                "{name} f32 frame {frame}: the GPU on llvmpipe is not bit-identical to the f32 \
-                 reference run from the start: max |dx| {:e}, max |dv| {:e}",
-                max_abs_diff(&sr.positions, &sg.positions),
-                max_abs_diff(&sr.velocities, &sg.velocities)
-            );
-            let (residuals, active) = r.residuals();
-            let gpu: Vec<u64> = rg
-                .residuals
-                .iter()
-                .map(|f| f.max_violation.to_bits())
-                .collect();
-            let expected: Vec<u64> = residuals.iter().map(|r| r.to_bits()).collect();
-            assert_eq!(
-                gpu, expected,
-                "{name} f32 frame {frame}: residuals vs the f32 reference"
-            );
-            assert_eq!(
-                rg.active_contacts, active,
-                "{name} f32 frame {frame}: active contacts vs the f32 reference"
-            );
+            assert_f32_reference_step(name, frame, r, &rg, &sg);
         }
         if exact {
             let report = golden.step().expect("CPU step");

@@ -23,7 +23,8 @@
 //! issue replaces that ln; call [`check_f64`] only where identity is
 //! claimed.
 
-use hyperpbd::State;
+use hyperpbd::compare::max_abs_diff;
+use hyperpbd::{F32Reference, State, StepReport};
 use hyperpbd_gpu::AdapterSummary;
 
 use super::bound::print_bound;
@@ -102,4 +103,42 @@ pub fn assert_identical_if_claimed(
         hyperpbd::compare::max_abs_diff(&golden.velocities, &other.velocities)
     );
     true
+}
+
+/// Steps the f32 reference once and asserts it is the GPU's step `frame`
+/// bit for bit: state `gpu`, and report `report` (every residual, the
+/// particle contacts' deepest overlap included, and the active contacts).
+pub fn assert_f32_reference_step(
+    name: &str,
+    frame: u64,
+    reference: &mut F32Reference,
+    report: &StepReport,
+    gpu: &State,
+) {
+    reference
+        .step()
+        .unwrap_or_else(|e| panic!("{name}: f32 reference step {frame}: {e}"));
+    let sr = reference.read_state();
+    assert!(
+        bits(&sr) == bits(gpu),
+        "{name} f32 frame {frame}: the GPU on llvmpipe is not bit-identical to the f32 \
+         reference run from the start: max |dx| {:e}, max |dv| {:e}",
+        max_abs_diff(&sr.positions, &gpu.positions),
+        max_abs_diff(&sr.velocities, &gpu.velocities)
+    );
+    let (residuals, active) = reference.residuals();
+    let found: Vec<u64> = report
+        .residuals
+        .iter()
+        .map(|f| f.max_violation.to_bits())
+        .collect();
+    let expected: Vec<u64> = residuals.iter().map(|r| r.to_bits()).collect();
+    assert_eq!(
+        found, expected,
+        "{name} f32 frame {frame}: residuals vs the f32 reference"
+    );
+    assert_eq!(
+        report.active_contacts, active,
+        "{name} f32 frame {frame}: active contacts vs the f32 reference"
+    );
 }

@@ -1,11 +1,13 @@
 //! The GPU's f32 step, on the CPU: every XPBD kernel in f32 in the
 //! operation order of its WGSL (`shaders/integrate.wgsl`, `project.wgsl`,
-//! `measure.wgsl`, `friction.wgsl`), on the values the GPU backend stores.
+//! `measure.wgsl`, `friction.wgsl`, `grid.wgsl`, `collide.wgsl`), on the
+//! values the GPU backend stores.
 //!
 //! ```text
 //! stored once, rounded to f32 from the f64 the host computes:
 //!   x − o (o: the scene origin, gpu/src/origin.rs), v, f, w, s, g, h,
-//!   α / h², exp(−rate h), n, μ, rest (a plane's rest − n·o)
+//!   α / h², exp(−rate h), n, μ, rest (a plane's rest − n·o),
+//!   r, μ between particles; pad = r + margin rounded up
 //! step       for every substep: the plan's substep kernels in order
 //! read back  x = f64(x₃₂) + o,  v = f64(v₃₂)
 //! ```
@@ -16,19 +18,29 @@
 //! path: this file follows the shaders, the golden path DESIGN.md; the
 //! f64 bit identity of the two is what ties the orders together.
 //!
+//! Particle contact as the device runs it: Broadphase builds every particle's ascending list
+//! from the f32 swept boxes (`broadphase.rs`), Collide one gather-Jacobi
+//! iteration on the last lists (`collide.rs`); the report adds the
+//! deepest overlap over the last lists after the families' residuals and
+//! the active pairs of the last Collide to the active contacts.
+//!
 //! Plans it cannot run are refused at [`F32Reference::new`] with the
-//! reason: material families, particle contact (the host's broadphase and
-//! gather-Jacobi), the incremental-potential and coupled steps. Guard
-//! kernels only read; they are not run here.
+//! reason: material families and the incremental-potential (Minimise)
+//! step. Guard kernels only read; they are not run here.
 
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
 
+mod broadphase;
+mod collide;
 mod integrate;
 mod measure;
 mod project;
 mod residual;
 
+pub use collide::{Iteration, iterate};
+
+use hyperpbd_core::broadphase::key_up;
 use hyperpbd_core::{FamilyKind, Kernel, Plan, State};
 
 /// The particle arrays in f32, as the device stores them.
@@ -50,6 +62,17 @@ struct Stored {
     alpha_tilde: f32,
     normal: Vec<f32>,
     mu: f32,
+}
+
+/// Particle contact as stored: radii, box pads and μ in f32, the lists of
+/// the last Broadphase and the active pairs (m > k) of the last Collide
+/// per particle.
+struct Contacts {
+    radius: Vec<f32>,
+    pad: Vec<f32>,
+    mu: f32,
+    lists: Vec<Vec<u32>>,
+    ahead: Vec<u32>,
 }
 
 /// Why the reference cannot run a plan or a step.
@@ -83,6 +106,7 @@ pub struct F32Reference {
     h: f32,
     gravity: Vec<f32>,
     factor: f32,
+    contacts: Option<Contacts>,
 }
 
 fn round(values: &[f64]) -> Vec<f32> {
@@ -94,7 +118,7 @@ impl F32Reference {
     /// to `origin` (the GPU backend's scene origin; zeros for none).
     pub fn new(plan: Plan, state: &State, origin: &[f64]) -> Result<Self, ReferenceError> {
         for k in &plan.substep_kernels {
-            if matches!(k, Kernel::Broadphase | Kernel::Collide | Kernel::Minimise) {
+            if matches!(k, Kernel::Minimise) {
                 return Err(ReferenceError::Unsupported(format!("{k:?}")));
             }
         }
@@ -144,6 +168,23 @@ impl F32Reference {
             w: round(&plan.inverse_mass),
             gravity_scale: round(&plan.gravity_scale),
         };
+        let contacts = plan.contacts.map(|c| Contacts {
+            radius: round(&plan.radius),
+            pad: plan.radius.iter().map(|&r| key_up(r + c.margin)).collect(),
+            mu: c.friction as f32,
+            lists: vec![Vec::new(); plan.particle_count()],
+            ahead: vec![0; plan.particle_count()],
+        });
+        if contacts.is_none()
+            && let Some(k) = plan
+                .substep_kernels
+                .iter()
+                .find(|k| matches!(k, Kernel::Broadphase | Kernel::Collide))
+        {
+            return Err(ReferenceError::Unsupported(format!(
+                "{k:?} without particle contact settings"
+            )));
+        }
         let mut reference = F32Reference {
             h: plan.h as f32,
             gravity: round(&plan.gravity),
@@ -151,6 +192,7 @@ impl F32Reference {
             origin: if shifted { origin.to_vec() } else { Vec::new() },
             families,
             particles,
+            contacts,
             plan,
         };
         reference.write_state(state)?;
@@ -214,11 +256,13 @@ impl F32Reference {
     }
 
     /// The step report's residuals as the GPU computes them in f32: per
-    /// family the largest violation (f64 of the f32 value), and the
-    /// contacts active in the last substep (λ > 0).
+    /// family the largest violation (f64 of the f32 value), then with
+    /// particle contact the deepest overlap over the last lists; and the
+    /// contacts active in the last substep (λ > 0), plus the pairs the
+    /// last Collide found active.
     pub fn residuals(&self) -> (Vec<f64>, usize) {
         let n = self.plan.dim;
-        let residuals = self
+        let mut residuals = self
             .plan
             .families
             .iter()
@@ -227,8 +271,8 @@ impl F32Reference {
                 let r = residual::residual(f, n, &self.particles.x, &stored.rest, &stored.normal);
                 f64::from(r)
             })
-            .collect();
-        let active = self
+            .collect::<Vec<f64>>();
+        let mut active: usize = self
             .plan
             .families
             .iter()
@@ -236,6 +280,12 @@ impl F32Reference {
             .filter(|(f, _)| f.kind.is_inequality())
             .map(|(_, stored)| stored.lambda.iter().filter(|&&l| l > 0.0).count())
             .sum();
+        if let Some(c) = &self.contacts {
+            let x = &self.particles.x;
+            let deepest = residual::deepest_overlap(n, x, &c.radius, &c.lists);
+            residuals.push(f64::from(deepest));
+            active += c.ahead.iter().map(|&a| a as usize).sum::<usize>();
+        }
         (residuals, active)
     }
 
@@ -334,6 +384,23 @@ impl F32Reference {
                 integrate::damping(s, self.factor);
                 Ok(())
             }
+            Kernel::Broadphase => {
+                if let Some(c) = self.contacts.as_mut() {
+                    broadphase::lists(s, &c.pad, &mut c.lists);
+                }
+                Ok(())
+            }
+            Kernel::Collide => match self.contacts.as_mut() {
+                Some(c) => {
+                    let contact = collide::Contact {
+                        radius: &c.radius,
+                        mu: c.mu,
+                        lists: &c.lists,
+                    };
+                    collide::collide(s, &contact, &mut c.ahead)
+                }
+                None => Ok(()),
+            },
             // Read-only checks; refused in `new` for the rest.
             _ => Ok(()),
         }

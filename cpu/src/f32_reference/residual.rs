@@ -7,6 +7,7 @@
 //! tether           max(d − rest, 0)
 //! simplex measure  |S − rest|        oriented measure  |V − rest|
 //! contact          max(rest − n·x, 0)    (rest in device coordinates)
+//! particle contact max(0, max over listed pairs of r_k + r_m − |x_m − x_k|)
 //! ```
 
 // Coordinate loops index several arrays at once, as a kernel does.
@@ -60,4 +61,23 @@ pub fn residual(f: &Family, n: usize, x: &[f32], rest: &[f32], normal: &[f32]) -
         worst = worst.max(violation);
     }
     worst
+}
+
+/// The particle-contact residual as `contact_report` computes it: the
+/// deepest overlap r_k + r_m − |x_m − x_k| over the pairs of the last
+/// lists (m > k), at least 0.
+pub fn deepest_overlap(n: usize, x: &[f32], radius: &[f32], lists: &[Vec<u32>]) -> f32 {
+    let mut deepest = 0.0f32;
+    for (k, list) in lists.iter().enumerate() {
+        for &m in list.iter().filter(|&&m| m as usize > k) {
+            let m = m as usize;
+            let mut len2 = 0.0f32;
+            for a in 0..n {
+                let d = x[m * n + a] - x[k * n + a];
+                len2 += d * d;
+            }
+            deepest = deepest.max(radius[k] + radius[m] - len2.sqrt());
+        }
+    }
+    deepest
 }
