@@ -153,7 +153,9 @@ mod tests {
         assert_eq!(oriented_measure(&tri, 2, &mut g), 0.5);
         assert_eq!(g, [-0.5, -0.5, 0.5, 0.0, 0.0, 0.5]);
         assert_eq!(simplex_squared_measure(&tri, 2, 2, &mut g), 0.25);
+        // Rows swapped (pivot 3), then 2 − (1/3)·4 in f32: not quite −2.
         let mut a = [1.0, 2.0, 3.0, 4.0];
-        assert_eq!(determinant(&mut a, 2), -2.0);
+        let third = 1.0f32 / 3.0;
+        assert_eq!(determinant(&mut a, 2), -3.0 * (2.0 - third * 4.0));
     }
 }

@@ -7,6 +7,7 @@
 //! tether           max(d − rest, 0)
 //! simplex measure  |S − rest|        oriented measure  |V − rest|
 //! contact          max(rest − n·x, 0)    (rest in device coordinates)
+//! material         C = √(2W)  (+∞ for an element the law refuses)
 //! ```
 
 // Coordinate loops index several arrays at once, as a kernel does.
@@ -14,6 +15,7 @@
 
 use hyperpbd_core::{Family, FamilyKind};
 
+use super::material::Law;
 use super::measure::{oriented_measure, simplex_squared_measure};
 
 /// |x1 − x0| of the two points in `pts`.
@@ -26,9 +28,17 @@ fn distance(pts: &[f32], n: usize) -> f32 {
     d2.sqrt()
 }
 
-/// Largest violation of family `f` at positions `x` (device
-/// coordinates), its rest values `rest` and plane normal `normal`.
-pub fn residual(f: &Family, n: usize, x: &[f32], rest: &[f32], normal: &[f32]) -> f32 {
+/// What the residual reads of a stored family: rest values, the plane
+/// normal, a material family's law.
+pub struct StoredFamily<'a> {
+    pub rest: &'a [f32],
+    pub normal: &'a [f32],
+    pub material: Option<&'a Law>,
+}
+
+/// Largest violation of family `f` at positions `x` (device coordinates).
+pub fn residual(f: &Family, n: usize, x: &[f32], stored: &StoredFamily) -> f32 {
+    let (rest, normal) = (stored.rest, stored.normal);
     let mut pts = vec![0.0f32; f.arity * n];
     let mut grad = vec![0.0f32; f.arity * n];
     let mut worst = 0.0f32;
@@ -54,8 +64,12 @@ pub fn residual(f: &Family, n: usize, x: &[f32], rest: &[f32], normal: &[f32]) -
                 }
                 (rest[e] - nx).max(0.0)
             }
-            // The reference refuses material families.
-            FamilyKind::Material { .. } => 0.0,
+            FamilyKind::Material { .. } => match stored.material {
+                Some(law) => law
+                    .constraint(e, &pts, n, &mut grad)
+                    .unwrap_or(f32::INFINITY),
+                None => 0.0,
+            },
         };
         worst = worst.max(violation);
     }
