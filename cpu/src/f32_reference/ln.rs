@@ -10,8 +10,9 @@
 //! ```
 //! The exact f carries the leading term, so the roundings of s land only
 //! on the corrections: within 1 ulp of `libm::logf` on every positive
-//! normal f32 (measured, all 2 130 706 432 of them; the plain e ln2 + 2 s
-//! poly sum was 3 ulp off). The shader finds e from a log2 estimate,
+//! normal f32 (measured, all 2 130 706 432 of them: 74 810 at 1 ulp; the
+//! plain e ln2 + 2 s poly sum put 1 001 at 3 ulp). Subnormal x (which the
+//! shader's ldexp may flush) is outside its domain. The shader finds e from a log2 estimate,
 //! corrects m into the same interval and scales by 2^±64 exactly where
 //! ldexp would leave the normal range: (m, e) is unique, so both reach the
 //! same pair and then run the same operations. Defined for positive normal
