@@ -1,13 +1,14 @@
 #!/usr/bin/env python3
 """Regenerates the CPU/GPU bounds tables from the tests' own BOUND lines.
 
-    scripts/bounds-table.py            runs tests/gpu_differential.rs and
-                                       tests/gpu_kernels/ (lavapipe) and rewrites the
-                                       tables between the markers
-                                       <!-- bounds:begin … --> / <!-- bounds:end --> in
-                                       README.md, <!-- bounds-all:begin … --> and
-                                       <!-- kernels:begin … --> in docs/bounds.md
-    scripts/bounds-table.py FILE       the same from saved test output (both tests')
+    scripts/bounds-table.py            runs tests/gpu_differential.rs,
+                                       tests/gpu_kernels/ and tests/gpu_materials.rs
+                                       (lavapipe) and rewrites the tables between the
+                                       markers <!-- bounds:begin … --> / <!-- bounds:end -->
+                                       and <!-- materials:begin … --> in README.md,
+                                       <!-- bounds-all:begin … -->, <!-- kernels:begin … -->
+                                       and <!-- materials:begin … --> in docs/bounds.md
+    scripts/bounds-table.py FILE       the same from saved test output (all three tests')
 
 A BOUND line of tests/common/differential.rs reads
     BOUND | scene | metric | frames | measured | bound | precision
@@ -30,7 +31,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 COMMAND = [
     "cargo", "test", "--release", "--test", "gpu_differential", "--test", "gpu_kernels",
-    "--", "--nocapture", "--test-threads", "2",
+    "--test", "gpu_materials", "--", "--nocapture", "--test-threads", "2",
 ]
 
 
@@ -158,6 +159,48 @@ def tables(rows: list[list[str]]) -> tuple[str, str]:
     return "\n".join(head + short), "\n".join(full)
 
 
+MATERIAL_LAWS = (" stvk", " neo_hookean")
+
+
+def material_residual(metrics) -> str | None:
+    """The residual metric of a scene's material family, if it has one."""
+    for metric in metrics:
+        if metric.startswith("residual ") and metric.endswith(MATERIAL_LAWS):
+            return metric
+    return None
+
+
+def split_materials(rows: list[list[str]]) -> tuple[list[list[str]], list[list[str]]]:
+    """(rows of scenes without a material family, rows of those with one:
+    tests/gpu_materials.rs)."""
+    material = {r[0] for r in rows if material_residual([r[1]])}
+    return [r for r in rows if r[0] not in material], [r for r in rows if r[0] in material]
+
+
+def materials_table(rows: list[list[str]]) -> str:
+    """One row per material scene: f32 position, velocity and the material
+    family's residual (= f32 reference, model beside), f64."""
+    scenes: dict[str, dict] = {}
+    for scene, metric, frames, measured, bound, precision in rows:
+        s = scenes.setdefault(scene, {"frames": frames})
+        s[(metric, precision)] = (measured, bound)
+    out = [
+        "| scene | frames | position f32, one frame (model: other adapters) | velocity f32, one frame | residual f32 of the material family | f64 position, velocity, residual |",
+        "|---|---:|---:|---:|---:|---|",
+    ]
+    for scene in sorted(scenes):
+        s = scenes[scene]
+        residual = material_residual(k[0] for k in s if isinstance(k, tuple))
+        f32 = [
+            with_model(s.get((m, "f32")), s.get((f"{m} model", "f32")))
+            for m in ("position", "velocity", residual)
+        ]
+        f64 = [s.get((m, "f64")) for m in ("position", "velocity", residual)]
+        f64_cell = ", ".join(cell(*c) for c in f64 if c) or "—"
+        out.append(f"| {scene} | {s['frames']} | {' | '.join(f32)} | {f64_cell} |")
+    return "\n".join(out)
+
+
 def replace(path: Path, marker: str, body: str) -> None:
     text = path.read_text()
     begin = f"<!-- {marker}:begin"
@@ -185,10 +228,15 @@ def main() -> None:
     rows = bound_lines(text)
     if not rows:
         sys.exit("no BOUND lines")
+    rows, material_rows = split_materials(rows)
     short, full = tables(rows)
     replace(ROOT / "README.md", "bounds", short)
     replace(ROOT / "docs" / "bounds.md", "bounds-all", full)
     replace(ROOT / "docs" / "bounds.md", "kernels", kernel_table(text))
+    if material_rows:
+        materials = materials_table(material_rows)
+        replace(ROOT / "README.md", "materials", materials)
+        replace(ROOT / "docs" / "bounds.md", "materials", materials)
     print(f"{len(rows)} BOUND lines → README.md, docs/bounds.md")
 
 

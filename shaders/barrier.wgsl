@@ -2,9 +2,9 @@
 // incremental-potential path), one invocation per particle looping over
 // every obstacle: planes first, then simplices, in the order of
 // BarrierObstacles (core/src/barrier.rs). Same arithmetic, in the same
-// order, as the f64 golden path; ln_real is the built-in log in f32 and an
-// arithmetic-only ln in f64 (ln_f64.wgsl), because lavapipe's f64 log is
-// garbage.
+// order, as the f64 golden path; ln_real is an arithmetic-only ln in both
+// precisions (ln_f32.wgsl, ln_f64.wgsl), because lavapipe's f64 log is
+// garbage and its f32 log a polynomial no CPU repeats.
 //
 //   plane:    d = n·x − c − r,                n = unit normal
 //   simplex:  d = |x − q| − r,  n = (x − q)/|x − q|,  q = closest point

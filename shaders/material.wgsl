@@ -21,8 +21,9 @@
 // Call fields of a material call: slot_map = offset of the family's rest
 // data in `rest`, friction = Lamé μ, factor = Lamé λ, FLAG_NEO_HOOKEAN
 // (the composing file defines `call`, `rest_at` and FLAG_NEO_HOOKEAN).
-// ln is ln_real (shaders/ln_f64.wgsl in f64: arithmetic only, the bits of
-// core::material::ln; the built-in log in f32).
+// ln is ln_real, arithmetic only in both precisions (shaders/ln_f64.wgsl:
+// the bits of core::material::ln; shaders/ln_f32.wgsl: the bits of the f32
+// reference's ln).
 
 // Cholesky factor L of the symmetric n×n `a` into `l` (lower; strictly
 // upper part 0); false when a pivot is not > 0 (or NaN).

@@ -11,7 +11,7 @@
 //!   neo_h. δC' = δC + γ_{k+1} tr C      (Cholesky backward error, ‖|L||Lᵀ|‖ ≤ tr C)
 //!          ρ_J = √(tr C⁻¹)(δF̂ + γ_k ‖|L||U|‖) + γ_k     k = N (elimination, its |L||U|)
 //!              = ½ ‖C⁻¹‖ δC' + γ_k                        k < N (J = Π L_jj)
-//!          δln J ≤ −ln(1 − ρ_J) + e_log,  e_log = 2⁻²¹ + 6u(|ln J| + 2ρ_J)  (f32 built-in log)
+//!          δln J ≤ −ln(1 − ρ_J) + e_log,  e_log = 2⁻²¹ + 6u(|ln J| + 2ρ_J)  (f32: Vulkan's log allowance)
 //!                                                 10u(|ln J| + 2ρ_J)       (f64 ln_real)
 //!          δC⁻¹ ≤ ‖C⁻¹‖₂² δC' + 2‖C⁻¹‖₂^½ γ_k tr C⁻¹ √(tr C) + γ_k tr C⁻¹
 //!          δΨ ≤ ½μ(√k δC + γ_k tr C + u|tr C − k|) + μ δln + λ(|ln J| δln + ½δln²) + γ_5 Ψ̄
@@ -60,8 +60,10 @@ fn frobenius(a: &[f64]) -> f64 {
 pub struct Rounding {
     /// u = ε/2.
     pub unit: f64,
-    /// f32: the built-in log (Vulkan: 2⁻²¹ absolute on [0.5, 2], 3 ulp
-    /// outside); f64: `ln_real` (within 5 ulp, tests/materials_law.rs).
+    /// f32: the allowance of Vulkan's built-in log (2⁻²¹ absolute on
+    /// [0.5, 2], 3 ulp outside), kept for the arithmetic `ln_f32.wgsl`
+    /// (1 ulp where f32 rounds correctly; the allowance covers adapters
+    /// where it does not); f64: `ln_real` (within 5 ulp, tests/materials_law.rs).
     pub builtin_log: bool,
 }
 

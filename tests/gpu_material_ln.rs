@@ -1,15 +1,19 @@
 //! The Neo-Hookean law's logarithm (`hyperpbd::core::material::ln`, the
 //! CPU side) against the f64 WGSL `ln_real` of `shaders/ln_f64.wgsl`, run
 //! on the GPU: equal bit for bit, so an f64 material kernel can repeat the
-//! law exactly. Printed as `BOUND | name | measured | bound | rationale`.
+//! law exactly; and the f32 reference's ln against `shaders/ln_f32.wgsl`
+//! in f32, bit for bit where f32 is correctly rounded (lavapipe). Printed
+//! as `BOUND | name | measured | bound | rationale`.
 
 mod common;
 
+use common::exact::f32_identical;
 use common::gpu::adapter_or_skip;
 use hyperpbd::barrier::{BarrierLaw, BarrierObstacles};
 use hyperpbd::core::material::ln;
 use hyperpbd::gpu::Precision;
 use hyperpbd::gpu::barrier::BarrierKernels;
+use hyperpbd_cpu::f32_reference::ln::ln as ln32;
 
 #[test]
 fn material_ln_equals_the_f64_shader_ln_bit_for_bit() {
@@ -66,6 +70,74 @@ fn material_ln_equals_the_f64_shader_ln_bit_for_bit() {
     }
     common::bound::print_bound(
         format_args!("material ln: CPU vs f64 shader, {} values", values.len()),
+        format_args!("{differing} differing"),
+        0,
+        "same operations in the same order, correctly rounded on both sides",
+    );
+    assert_eq!(differing, 0);
+}
+
+#[test]
+fn the_f32_reference_ln_equals_the_f32_shader_ln_bit_for_bit() {
+    let Some((adapter, summary)) = adapter_or_skip(
+        "the_f32_reference_ln_equals_the_f32_shader_ln_bit_for_bit",
+        Precision::F32,
+    ) else {
+        return;
+    };
+    if !f32_identical(&summary) {
+        println!("f32 ln: this adapter does not promise correctly rounded f32; not compared");
+        return;
+    }
+    let law = BarrierLaw {
+        stiffness: 1.0,
+        activation_distance: 1.0,
+    };
+    let kernels = BarrierKernels::new(
+        &adapter,
+        Precision::F32,
+        1,
+        law,
+        &BarrierObstacles::default(),
+    )
+    .expect("kernels");
+    // Every 4099th positive normal f32 (both ends included: the 2^±64
+    // scaling), every f32 within 2^-12 of 1, each side of √2 and of the
+    // powers of two.
+    let mut values: Vec<f32> = (f32::MIN_POSITIVE.to_bits()..=f32::MAX.to_bits())
+        .step_by(4099)
+        .map(f32::from_bits)
+        .collect();
+    values.extend(
+        ((1.0f32 - 1.0 / 4096.0).to_bits()..=(1.0f32 + 1.0 / 4096.0).to_bits()).map(f32::from_bits),
+    );
+    for e in -126..=127 {
+        let p = 2f32.powi(e);
+        for q in [p, p * std::f32::consts::SQRT_2] {
+            values.extend([
+                q,
+                f32::from_bits(q.to_bits() - 1),
+                f32::from_bits(q.to_bits() + 1),
+            ]);
+        }
+    }
+    values.retain(|v| v.is_normal());
+    values.extend([f32::MIN_POSITIVE, f32::MAX]);
+    let inputs: Vec<f64> = values.iter().map(|&v| f64::from(v)).collect();
+    let got = kernels.ln(&inputs).expect("ln");
+    let mut differing = 0usize;
+    for (&v, &g) in values.iter().zip(&got) {
+        let expected = ln32(v);
+        if (g as f32).to_bits() != expected.to_bits() {
+            differing += 1;
+            eprintln!("ln({v:e}): GPU {g:e}, f32 reference {expected:e}");
+        }
+    }
+    common::bound::print_bound(
+        format_args!(
+            "f32 ln: f32 reference vs f32 shader, {} values",
+            values.len()
+        ),
         format_args!("{differing} differing"),
         0,
         "same operations in the same order, correctly rounded on both sides",

@@ -1,8 +1,10 @@
 //! The material families (stvk, neo_hookean) on the GPU against the CPU
 //! golden path, frame by frame (`common::differential`): gpu-f64 bit for
 //! bit from the start on lavapipe (positions, velocities, reports), gpu-f32
-//! within the per-frame FrameErrorModel; and a Neo-Hookean refusal named
-//! exactly as the CPU names it, with the state unchanged.
+//! on lavapipe bit for bit from the start to the f32 reference (every scene
+//! here is one it runs) and within the per-frame FrameErrorModel; and a
+//! Neo-Hookean refusal named exactly as the CPU names it, with the state
+//! unchanged.
 //!
 //! ```text
 //! soft block 2D/3D   Kuhn block (3 cells of 0.1 m per axis, 0.1 kg nodes)
@@ -19,9 +21,10 @@ mod common;
 use common::differential::both;
 use common::gpu::load_or_skip;
 use hyperpbd::{
-    Backend, BackendError, BackendKind, ConstraintFamily, ConstraintKind, CpuBackend, Obstacle,
-    Particle, Plan, Precision, Scene, State, StepError,
+    Backend, BackendError, BackendKind, ConstraintFamily, ConstraintKind, CpuBackend, F32Reference,
+    Kernel, Obstacle, Particle, Plan, Precision, ReferenceError, Scene, State, StepError,
 };
+use hyperpbd_gpu::SceneOrigin;
 
 /// The Kuhn block of common::guarded at 2 m/s, its simplices one `law`
 /// family, 4 substeps × 4 iterations, friction on the plane.
@@ -128,6 +131,31 @@ fn jelly4d_matches_the_golden_path() {
 }
 
 #[test]
+fn the_f32_reference_runs_every_material_scene() {
+    // `common::differential` holds gpu-f32 to the f32 reference only where
+    // F32Reference::new accepts the plan: every scene above must be one.
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/jelly4d.json");
+    let mut scenes = vec![
+        membrane(),
+        lumped_square(),
+        Scene::from_json_file(&path).expect("jelly4d"),
+    ];
+    for dim in [2, 3] {
+        for law in [ConstraintKind::NeoHookean, ConstraintKind::Stvk] {
+            scenes.push(soft_block(dim, law));
+        }
+    }
+    for scene in &scenes {
+        let plan = Plan::compile(scene).expect("plan");
+        let state = State::from_scene(scene);
+        let origin = SceneOrigin::for_state(plan.dim, &state.positions, Precision::F32);
+        if let Err(e) = F32Reference::new(plan, &state, origin.as_slice()) {
+            panic!("the f32 reference refuses a material scene: {e}");
+        }
+    }
+}
+
+#[test]
 fn an_inverting_neo_hookean_step_is_refused_as_on_the_cpu() {
     // The 40 m/s drop of tests/materials_guards.rs, without guards: the
     // law refuses a collapsed element inside the one substep.
@@ -141,6 +169,22 @@ fn an_inverting_neo_hookean_step_is_refused_as_on_the_cpu() {
         golden,
         BackendError::Step(StepError::MaterialRefused { .. })
     ));
+    // The f32 reference (gpu-f32's bits on lavapipe) fails the projection
+    // of a refused element too, and keeps its state.
+    let origin = SceneOrigin::for_state(plan.dim, &state.positions, Precision::F32);
+    let mut reference =
+        F32Reference::new(plan.clone(), &state, origin.as_slice()).expect("reference");
+    let start = reference.read_state();
+    let failed = reference.step();
+    println!("f32 reference: {failed:?}");
+    assert!(matches!(
+        failed,
+        Err(ReferenceError::NonFinite {
+            kernel: Kernel::Project { family: 0, .. },
+            ..
+        })
+    ));
+    assert_eq!(reference.read_state(), start);
     let test = "an_inverting_neo_hookean_step_is_refused_as_on_the_cpu";
     let Some(mut gpu) =
         load_or_skip(test, BackendKind::Gpu(Precision::F64), plan, &state).expect("gpu backend")

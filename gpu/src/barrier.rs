@@ -359,8 +359,8 @@ impl BarrierKernels {
         Ok(std::mem::take(&mut out[3]))
     }
 
-    /// `ln` of every value as the kernels compute it (the built-in log in
-    /// f32; the arithmetic-only ln of `ln_f64.wgsl` in f64).
+    /// `ln` of every value as the kernels compute it (the arithmetic-only
+    /// ln of `ln_f32.wgsl` / `ln_f64.wgsl`).
     pub fn ln(&self, values: &[f64]) -> Result<Vec<f64>, GpuError> {
         let mut out = self.run(BarrierEntry::Ln, &[], &[], values, values.len())?;
         Ok(std::mem::take(&mut out[3]))

@@ -2,7 +2,7 @@
 //! precision) by prepending a small header.
 //!
 //! ```text
-//! module = header(DIM, real, WORKGROUP) [+ ln, f64: its series from core] + prelude.wgsl [+ measure.wgsl, material.wgsl] + family.wgsl
+//! module = header(DIM, real, WORKGROUP) [+ ln, its series from core] + prelude.wgsl [+ measure.wgsl, material.wgsl] + family.wgsl
 //! (the coupled step: measure, barrier, coupled, coupled_solve, material, symmetric_eigen,
 //! material_hessian, coupled_material)
 //! ```
@@ -11,7 +11,7 @@
 //! with the same number (`kernel_set.rs`).
 
 use crate::Precision;
-use hyperpbd_core::material::ATANH_SERIES;
+use hyperpbd_core::material::{ATANH_SERIES, ATANH_TERMS_F32};
 
 /// Largest dimension the GPU kernels are built and tested for. Element
 /// gathers use function-local arrays of (N+1)·N reals, so very large N would
@@ -250,7 +250,7 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
             | ShaderFile::Coupled
     ) {
         match precision {
-            Precision::F32 => source.push_str(LN_F32),
+            Precision::F32 => source.push_str(&ln_f32()),
             Precision::F64 => source.push_str(&ln_f64()),
         }
         source.push('\n');
@@ -271,7 +271,7 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
     source
 }
 
-/// The comment of `ln_f64.wgsl` that the Horner lines of [`ATANH_SERIES`]
+/// The comment of `ln_f64.wgsl` and `ln_f32.wgsl` that the Horner lines of [`ATANH_SERIES`]
 /// replace.
 const ATANH_LINE: &str = "// ATANH_SERIES";
 
@@ -285,6 +285,21 @@ fn ln_f64() -> String {
         horner += &format!("\n    poly = poly * s2 + {c:?};");
     }
     LN_F64.replacen(ATANH_LINE, &horner, 1)
+}
+
+/// `ln_f32.wgsl` with its polynomial written from the last
+/// [`ATANH_TERMS_F32`] entries of [`ATANH_SERIES`] but the final 1 (1/11 …
+/// 1/3), each rounded to f32 (the literal is the f32 value's exact
+/// decimal, so the shader's constants are the f32 reference's bits).
+fn ln_f32() -> String {
+    let n = ATANH_SERIES.len();
+    let series = &ATANH_SERIES[n - ATANH_TERMS_F32..n - 1];
+    let literal = |c: f64| format!("{:?}", f64::from(c as f32));
+    let mut horner = format!("var poly: f32 = {};", literal(series[0]));
+    for &c in &series[1..] {
+        horner += &format!("\n    poly = poly * s2 + {};", literal(c));
+    }
+    LN_F32.replacen(ATANH_LINE, &horner, 1)
 }
 
 /// Parses and validates a composed module with naga (no GPU needed).

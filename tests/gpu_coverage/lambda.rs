@@ -11,18 +11,18 @@
 //! where α~λ vanishes.) Kernel level, both backends from the same state;
 //! f64 on lavapipe bit for bit after every call (`common::exact`); the
 //! material families (stvk, neo_hookean) on a compressed Kuhn block in 2, 3
-//! and 4 D likewise. This
+//! and 4 D likewise, and in f32 against the f32 reference. This
 //! test asserts identity only: on an adapter that does not promise it, it
 //! says so and checks nothing (the whole-step tests keep their bounds
 //! there).
 
 use super::*;
 
-use common::exact::{assert_identical_if_claimed, f64_identical};
+use common::exact::{assert_identical_if_claimed, bits, f32_identical, f64_identical};
 use common::gpu::adapter_or_skip;
 use hyperpbd::{
-    Backend, ConstraintFamily, ConstraintKind, CpuBackend, Kernel, Obstacle, Particle, Plan,
-    SceneBuilder, State,
+    Backend, ConstraintFamily, ConstraintKind, CpuBackend, F32Reference, Kernel, Obstacle,
+    Particle, Plan, SceneBuilder, State,
 };
 use hyperpbd_gpu::{GpuBackend, Precision};
 
@@ -212,6 +212,75 @@ fn repeated_material_projections_with_nonzero_multipliers_match_bit_for_bit() {
                 &compressed_material_block(dim, law),
             );
             println!("LAMBDA | {label} | {calls} projection calls with λ ≠ 0 | f64 bit-identical");
+        }
+    }
+}
+
+/// [`project_repeatedly`] in f32 against the f32 reference (the WGSL's f32
+/// operations on the CPU, λ carried as on the device): bit identity after
+/// every call; returns the number of projection calls.
+fn project_repeatedly_f32(adapter: &wgpu::Adapter, label: &str, scene: &Scene) -> usize {
+    let plan = Plan::compile(scene).expect("compiles");
+    let state = State::from_scene(scene);
+    let mut gpu =
+        GpuBackend::with_adapter(adapter, plan.clone(), &state, Precision::F32).expect("gpu");
+    let mut reference = F32Reference::new(plan.clone(), &state, gpu.origin().as_slice())
+        .expect("the f32 reference runs material families");
+    let mut calls = 0;
+    for (f, family) in plan.families.iter().enumerate() {
+        for color in 0..family.color_count() {
+            let start = gpu.read_state().expect("gpu state");
+            reference
+                .write_state(&start)
+                .expect("reference write_state");
+            reference
+                .run_kernel(Kernel::Predict)
+                .expect("reference predict");
+            gpu.run_kernel(Kernel::Predict).expect("gpu predict");
+            for repeat in 0..4 {
+                let kernel = Kernel::Project { family: f, color };
+                reference.run_kernel(kernel).expect("reference project");
+                gpu.run_kernel(kernel).expect("gpu project");
+                calls += 1;
+                assert!(
+                    bits(&reference.read_state()) == bits(&gpu.read_state().expect("gpu")),
+                    "{label} {} color {color} call {repeat}: f32 on llvmpipe differs from the \
+                     f32 reference",
+                    family.label
+                );
+            }
+        }
+    }
+    calls
+}
+
+#[test]
+fn repeated_f32_material_projections_match_the_f32_reference_bit_for_bit() {
+    // The material kernel alone in f32 (gpu_materials holds whole steps):
+    // both laws, 2–4 D, compressed 8 % so C is far from 0 and λ ≠ 0 from
+    // the second call on.
+    let test = "repeated_f32_material_projections_match_the_f32_reference_bit_for_bit";
+    let Some((adapter, summary)) = adapter_or_skip(test, Precision::F32) else {
+        return;
+    };
+    if !f32_identical(&summary) {
+        println!(
+            "NOT CHECKED: {test} asserts f32 bit identity, which {} does not promise",
+            summary.name
+        );
+        return;
+    }
+    for dim in [2, 3, 4] {
+        for (law, name) in [
+            (ConstraintKind::Stvk, "stvk"),
+            (ConstraintKind::NeoHookean, "neo_hookean"),
+        ] {
+            let label = format!("R^{dim} {name} block");
+            let calls =
+                project_repeatedly_f32(&adapter, &label, &compressed_material_block(dim, law));
+            println!(
+                "LAMBDA | {label} | {calls} f32 projection calls (4 per colour) | bit-identical to the f32 reference"
+            );
         }
     }
 }

@@ -39,6 +39,13 @@ pub const ATANH_SERIES: [f64; 13] = [
     1.0,
 ];
 
+/// How many of the last [`ATANH_SERIES`] terms (1/11 … 1) the f32 ln
+/// sums: `shaders/ln_f32.wgsl` and the f32 reference's `ln` (truncation
+/// s^12/13 < 5e-11 relative for |s| ≤ 0.1716, far below f32's 2^-24).
+/// Their polynomial is 1/11 … 1/3 rounded to f32; the 1 is carried exactly
+/// by f = m − 1.
+pub const ATANH_TERMS_F32: usize = 6;
+
 /// ln x by the arithmetic of `shaders/ln_f64.wgsl`.
 pub fn ln(x: f64) -> f64 {
     if x.is_nan() || x <= 0.0 {

@@ -61,7 +61,7 @@ pub use energy::element_energy;
 pub use energy_constraint::energy_constraint;
 pub use error::{LawRefusal, MaterialError};
 pub use lame::{Lame, poisson_ratio_range};
-pub use ln::{ATANH_SERIES, ln};
+pub use ln::{ATANH_SERIES, ATANH_TERMS_F32, ln};
 pub use mass::{LumpedMass, lump_masses};
 pub use measures::{DeformationMeasures, deformation_measures};
 pub use rest::{DegenerateRest, RestShapes, rest_element};

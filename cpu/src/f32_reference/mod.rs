@@ -1,19 +1,21 @@
 //! The GPU's f32 step, on the CPU: every XPBD kernel in f32 in the
 //! operation order of its WGSL (`shaders/integrate.wgsl`, `project.wgsl`,
-//! `measure.wgsl`, `friction.wgsl`, `grid.wgsl`, `collide.wgsl`), on the
-//! values the GPU backend stores.
+//! `measure.wgsl`, `material.wgsl`, `ln_f32.wgsl`, `friction.wgsl`,
+//! `residual.wgsl`, `grid.wgsl`, `collide.wgsl`), on the values the GPU
+//! backend stores.
 //!
 //! ```text
 //! stored once, rounded to f32 from the f64 the host computes:
 //!   x − o (o: the scene origin, gpu/src/origin.rs), v, f, w, s, g, h,
 //!   α / h², exp(−rate h), n, μ, rest (a plane's rest − n·o),
-//!   r, μ between particles; pad = r + margin rounded up
+//!   r, μ between particles; pad = r + margin rounded up;
+//!   material R, V_0 and Lamé μ, λ
 //! step       for every substep: the plan's substep kernels in order
 //! read back  x = f64(x₃₂) + o,  v = f64(v₃₂)
 //! ```
 //! IEEE f32 operations are correctly rounded, so an adapter that runs the
-//! WGSL as written (no contraction, no reassociation; lavapipe is one,
-//! `tests/gpu_f32_reference.rs`) gives these bits, and |this − golden|
+//! WGSL as written (no contraction, no reassociation; lavapipe is one:
+//! `tests/common/exact.rs`) gives these bits, and |this − golden|
 //! is the exact cost of f32 on a step. A kernel of its own, not the golden
 //! path: this file follows the shaders, the golden path DESIGN.md; the
 //! f64 bit identity of the two is what ties the orders together.
@@ -24,9 +26,15 @@
 //! deepest overlap over the last lists after the families' residuals and
 //! the active pairs of the last Collide to the active contacts.
 //!
+//! Material families (stvk, neo_hookean) run as `material.wgsl` does,
+//! Neo-Hookean's ln J by the arithmetic f32 ln of `ln_f32.wgsl` (no
+//! built-in log: an adapter's approximation cannot be repeated here); an
+//! element the law refuses fails its projection and reads +∞ in the
+//! residual.
+//!
 //! Plans it cannot run are refused at [`F32Reference::new`] with the
-//! reason: material families and the incremental-potential (Minimise)
-//! step. Guard kernels only read; they are not run here.
+//! reason: the incremental-potential (Minimise) step. Guard kernels only
+//! read; they are not run here.
 
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
@@ -34,6 +42,8 @@
 mod broadphase;
 mod collide;
 mod integrate;
+pub mod ln;
+mod material;
 mod measure;
 mod project;
 mod residual;
@@ -41,6 +51,7 @@ mod residual;
 pub use collide::{Iteration, iterate};
 
 use hyperpbd_core::broadphase::key_up;
+use hyperpbd_core::material::Law;
 use hyperpbd_core::{FamilyKind, Kernel, Plan, State};
 
 /// The particle arrays in f32, as the device stores them.
@@ -55,13 +66,42 @@ pub struct Particles {
 }
 
 /// One family as stored: rest values (planes: in device coordinates),
-/// multipliers, and the reals of its calls.
+/// multipliers, the reals of its calls, and a material family's law.
 struct Stored {
     rest: Vec<f32>,
     lambda: Vec<f32>,
     alpha_tilde: f32,
     normal: Vec<f32>,
     mu: f32,
+    material: Option<material::Law>,
+}
+
+/// The law of a material family as the GPU uploads it
+/// (`gpu/src/xpbd/material.rs`): per element R then V_0, Lamé μ and λ,
+/// each rounded to f32 once.
+fn material_law(kind: &FamilyKind) -> Option<material::Law> {
+    let FamilyKind::Material {
+        material,
+        order,
+        frames,
+        measures,
+    } = kind
+    else {
+        return None;
+    };
+    let kk = order * order;
+    let mut data = Vec::with_capacity(measures.len() * (kk + 1));
+    for (frame, &measure) in frames.chunks_exact(kk).zip(measures) {
+        data.extend(frame.iter().map(|&r| r as f32));
+        data.push(measure as f32);
+    }
+    Some(material::Law {
+        neo_hookean: material.law == Law::NeoHookean,
+        mu: material.lame.mu as f32,
+        lambda: material.lame.lambda as f32,
+        k: *order,
+        data,
+    })
 }
 
 /// Particle contact as stored: radii, box pads and μ in f32, the lists of
@@ -122,16 +162,6 @@ impl F32Reference {
                 return Err(ReferenceError::Unsupported(format!("{k:?}")));
             }
         }
-        if let Some(f) = plan
-            .families
-            .iter()
-            .find(|f| matches!(f.kind, FamilyKind::Material { .. }))
-        {
-            return Err(ReferenceError::Unsupported(format!(
-                "material family {}",
-                f.label
-            )));
-        }
         let shifted = origin.iter().any(|&o| o != 0.0);
         let families = plan
             .families
@@ -156,6 +186,7 @@ impl F32Reference {
                     alpha_tilde: (f.compliance / (plan.h * plan.h)) as f32,
                     normal: round(normal),
                     mu: mu as f32,
+                    material: material_law(&f.kind),
                 }
             })
             .collect();
@@ -268,7 +299,12 @@ impl F32Reference {
             .iter()
             .zip(&self.families)
             .map(|(f, stored)| {
-                let r = residual::residual(f, n, &self.particles.x, &stored.rest, &stored.normal);
+                let stored_family = residual::StoredFamily {
+                    rest: &stored.rest,
+                    normal: &stored.normal,
+                    material: stored.material.as_ref(),
+                };
+                let r = residual::residual(f, n, &self.particles.x, &stored_family);
                 f64::from(r)
             })
             .collect::<Vec<f64>>();
@@ -364,8 +400,12 @@ impl F32Reference {
                         };
                         project::contact(s, &colour, &plane, lambda)
                     }
-                    // Refused in `new`.
-                    FamilyKind::Material { .. } => Ok(()),
+                    FamilyKind::Material { .. } => match &stored.material {
+                        Some(law) => {
+                            project::measure(s, &colour, lambda, project::Measure::Material(law))
+                        }
+                        None => Ok(()),
+                    },
                 }
             }
             Kernel::Velocity => integrate::velocity(s, self.h),

@@ -18,6 +18,7 @@
 use std::ops::Range;
 
 use super::Particles;
+use super::material::Law;
 use super::measure::{oriented_measure, simplex_squared_measure};
 
 /// One colour of one family: its elements (`arity` particle indices per
@@ -30,11 +31,13 @@ pub struct Colour<'a> {
     pub alpha_tilde: f32,
 }
 
-/// The constraint of a measure family.
+/// The constraint of a measure family (a material family's C = √(2W)
+/// is projected as one, a refused element failing its slot).
 #[derive(Clone, Copy)]
-pub enum Measure {
+pub enum Measure<'a> {
     Simplex { k: usize },
     Oriented,
+    Material(&'a Law),
 }
 
 pub fn distance(
@@ -105,13 +108,14 @@ pub fn measure(
             pts[j * n..(j + 1) * n].copy_from_slice(&s.x[i * n..(i + 1) * n]);
         }
         let value = match kind {
-            Measure::Simplex { k } => simplex_squared_measure(&pts, n, k, &mut grad),
-            Measure::Oriented => oriented_measure(&pts, n, &mut grad),
+            Measure::Simplex { k } => Some(simplex_squared_measure(&pts, n, k, &mut grad)),
+            Measure::Oriented => Some(oriented_measure(&pts, n, &mut grad)),
+            Measure::Material(law) => law.constraint(e, &pts, n, &mut grad),
         };
-        if !value.is_finite() {
+        let Some(value) = value.filter(|v| v.is_finite()) else {
             failed = failed.or(Some(e));
             continue;
-        }
+        };
         let mut wsum = 0.0f32;
         for (j, &i) in element.iter().enumerate() {
             let mut g2 = 0.0f32;

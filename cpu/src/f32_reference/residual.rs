@@ -7,6 +7,7 @@
 //! tether           max(d − rest, 0)
 //! simplex measure  |S − rest|        oriented measure  |V − rest|
 //! contact          max(rest − n·x, 0)    (rest in device coordinates)
+//! material         C = √(2W)  (+∞ for an element the law refuses)
 //! particle contact max(0, max over listed pairs of r_k + r_m − |x_m − x_k|)
 //! ```
 
@@ -15,6 +16,7 @@
 
 use hyperpbd_core::{Family, FamilyKind};
 
+use super::material::Law;
 use super::measure::{oriented_measure, simplex_squared_measure};
 
 /// |x1 − x0| of the two points in `pts`.
@@ -27,9 +29,17 @@ fn distance(pts: &[f32], n: usize) -> f32 {
     d2.sqrt()
 }
 
-/// Largest violation of family `f` at positions `x` (device
-/// coordinates), its rest values `rest` and plane normal `normal`.
-pub fn residual(f: &Family, n: usize, x: &[f32], rest: &[f32], normal: &[f32]) -> f32 {
+/// What the residual reads of a stored family: rest values, the plane
+/// normal, a material family's law.
+pub struct StoredFamily<'a> {
+    pub rest: &'a [f32],
+    pub normal: &'a [f32],
+    pub material: Option<&'a Law>,
+}
+
+/// Largest violation of family `f` at positions `x` (device coordinates).
+pub fn residual(f: &Family, n: usize, x: &[f32], stored: &StoredFamily) -> f32 {
+    let (rest, normal) = (stored.rest, stored.normal);
     let mut pts = vec![0.0f32; f.arity * n];
     let mut grad = vec![0.0f32; f.arity * n];
     let mut worst = 0.0f32;
@@ -55,8 +65,12 @@ pub fn residual(f: &Family, n: usize, x: &[f32], rest: &[f32], normal: &[f32]) -
                 }
                 (rest[e] - nx).max(0.0)
             }
-            // The reference refuses material families.
-            FamilyKind::Material { .. } => 0.0,
+            FamilyKind::Material { .. } => match stored.material {
+                Some(law) => law
+                    .constraint(e, &pts, n, &mut grad)
+                    .unwrap_or(f32::INFINITY),
+                None => 0.0,
+            },
         };
         worst = worst.max(violation);
     }

@@ -1,0 +1,242 @@
+//! The material energy constraint in f32, as `shaders/material.wgsl`'s
+//! `material_constraint` computes it (both laws, in its operation order).
+//!
+//! ```text
+//! rest data  per element e at e (k² + 1): R (k × k, row-major, upper), V_0
+//! D[a][j] = x_{j+1}[a] − x_0[a];  F̂ = D R;  C = F̂ᵀF̂
+//! stvk    E = ½(C − I);  Ψ = μ tr(E²) + (λ/2)(tr E)²;  S = 2μE + λ tr(E) I
+//! neo_h.  J = det F̂ (k = N) or Π L_jj (k < N), C = L Lᵀ; refused unless
+//!         J > 0 and the Cholesky succeeds; C⁻¹ = Yᵀ Y, Y = L⁻¹;
+//!         Ψ = ½μ(tr C − k) − μ ln J + ½λ (ln J)²;  S = μ(I − C⁻¹) + λ ln J C⁻¹
+//! ∇W      P̂ = F̂ S;  ∇_{i+1}W[a] = V_0 Σ_{j≥i} P̂[a][j] R[i][j];  ∇_0 W = −Σ_i ∇_{i+1}W
+//! C       W = V_0 Ψ;  W ≤ 0 → C = 0, ∇C = 0;  else C = √(2W), ∇C = ∇W / C
+//! ```
+//! ln is the arithmetic f32 ln of `ln_f32.wgsl` ([`super::ln::ln`]).
+
+// Coordinate loops index several arrays at once, as a kernel does.
+#![allow(clippy::needless_range_loop)]
+
+use super::ln::ln;
+use super::measure::determinant;
+
+/// One material family as the device stores it: the law, Lamé μ and λ
+/// (the call's friction and factor) and the rest data, all rounded to f32.
+pub struct Law {
+    pub neo_hookean: bool,
+    pub mu: f32,
+    pub lambda: f32,
+    /// Simplex order k.
+    pub k: usize,
+    pub data: Vec<f32>,
+}
+
+/// Cholesky factor L of the symmetric n×n `a` into `l` (lower, strictly
+/// upper part 0); false when a pivot is not > 0 (or NaN).
+fn cholesky(a: &[f32], n: usize, l: &mut [f32]) -> bool {
+    for j in 0..n {
+        let mut d = a[j * n + j];
+        for m in 0..j {
+            d -= l[j * n + m] * l[j * n + m];
+        }
+        if d.is_nan() || d <= 0.0 {
+            return false;
+        }
+        let ljj = d.sqrt();
+        l[j * n + j] = ljj;
+        for c in j + 1..n {
+            l[j * n + c] = 0.0;
+        }
+        for i in j + 1..n {
+            let mut s = a[i * n + j];
+            for m in 0..j {
+                s -= l[i * n + m] * l[j * n + m];
+            }
+            l[i * n + j] = s / ljj;
+        }
+    }
+    true
+}
+
+/// C⁻¹ = Yᵀ Y, Y = L⁻¹ (L lower triangular, nonzero diagonal), into `inv`.
+fn inverse(l: &[f32], n: usize, inv: &mut [f32]) {
+    let mut y = vec![0.0f32; n * n];
+    for j in 0..n {
+        for i in 0..j {
+            y[i * n + j] = 0.0;
+        }
+        y[j * n + j] = 1.0 / l[j * n + j];
+        for i in j + 1..n {
+            let mut s = 0.0f32;
+            for m in j..i {
+                s += l[i * n + m] * y[m * n + j];
+            }
+            y[i * n + j] = -s / l[i * n + i];
+        }
+    }
+    for i in 0..n {
+        for j in 0..n {
+            let mut s = 0.0f32;
+            for m in i.max(j)..n {
+                s += y[m * n + i] * y[m * n + j];
+            }
+            inv[i * n + j] = s;
+        }
+    }
+}
+
+/// The deformation of one element: edges D (N × k), F̂ = D R, C = F̂ᵀF̂.
+struct Deformation {
+    edges: Vec<f32>,
+    image: Vec<f32>,
+    c: Vec<f32>,
+}
+
+impl Law {
+    /// St. Venant–Kirchhoff: Ψ of C, S into `stress`.
+    fn stvk(&self, c: &[f32], stress: &mut [f32]) -> f32 {
+        let (k, mu, lambda) = (self.k, self.mu, self.lambda);
+        let mut trace = 0.0f32;
+        let mut square = 0.0f32;
+        for i in 0..k {
+            for j in 0..k {
+                let delta = if i == j { 1.0f32 } else { 0.0 };
+                let e = 0.5 * (c[i * k + j] - delta);
+                square += e * e;
+                stress[i * k + j] = 2.0 * mu * e;
+            }
+            trace += 0.5 * (c[i * k + i] - 1.0);
+        }
+        for i in 0..k {
+            stress[i * k + i] += lambda * trace;
+        }
+        mu * square + 0.5 * lambda * trace * trace
+    }
+
+    /// Compressible Neo-Hookean: Ψ, S into `stress`; None (refused) when
+    /// J ≤ 0, NaN or C is not positive definite.
+    fn neo_hookean(&self, dim: usize, d: &Deformation, stress: &mut [f32]) -> Option<f32> {
+        let (k, mu, lambda) = (self.k, self.mu, self.lambda);
+        let c = &d.c;
+        // J (material_ratio): det F̂ by elimination (k = N) or Π L_jj.
+        let mut factor = vec![0.0f32; k * k];
+        let factored = cholesky(c, k, &mut factor);
+        let mut ratio = 0.0f32;
+        if k == dim {
+            let mut square = d.image[..k * k].to_vec();
+            ratio = determinant(&mut square, k);
+        } else if factored {
+            let mut product = 1.0f32;
+            for j in 0..k {
+                product *= factor[j * k + j];
+            }
+            ratio = product;
+        }
+        if ratio.is_nan() || ratio <= 0.0 || !factored {
+            return None;
+        }
+        let mut inv = vec![0.0f32; k * k];
+        inverse(&factor, k, &mut inv);
+        let log_ratio = ln(ratio);
+        let mut trace = 0.0f32;
+        for i in 0..k {
+            trace += c[i * k + i];
+        }
+        for i in 0..k {
+            for j in 0..k {
+                let delta = if i == j { 1.0f32 } else { 0.0 };
+                let cinv = inv[i * k + j];
+                stress[i * k + j] = mu * (delta - cinv) + lambda * log_ratio * cinv;
+            }
+        }
+        Some(0.5 * mu * (trace - k as f32) - mu * log_ratio + 0.5 * lambda * log_ratio * log_ratio)
+    }
+
+    /// D, F̂ and C of element `e` at the gathered `pts`.
+    fn deform(&self, e: usize, pts: &[f32], dim: usize) -> Deformation {
+        let k = self.k;
+        let base = e * (k * k + 1);
+        let mut d = Deformation {
+            edges: vec![0.0; dim * k],
+            image: vec![0.0; dim * k],
+            c: vec![0.0; k * k],
+        };
+        for j in 0..k {
+            for a in 0..dim {
+                d.edges[a * k + j] = pts[(j + 1) * dim + a] - pts[a];
+            }
+        }
+        for a in 0..dim {
+            for j in 0..k {
+                let mut f = 0.0f32;
+                for i in 0..=j {
+                    f += d.edges[a * k + i] * self.data[base + i * k + j];
+                }
+                d.image[a * k + j] = f;
+            }
+        }
+        for i in 0..k {
+            for j in 0..k {
+                let mut s = 0.0f32;
+                for a in 0..dim {
+                    s += d.image[a * k + i] * d.image[a * k + j];
+                }
+                d.c[i * k + j] = s;
+            }
+        }
+        d
+    }
+
+    /// W = V_0 Ψ of element `e` at `pts`, ∇W into `grad`; None: refused.
+    fn energy(&self, e: usize, pts: &[f32], dim: usize, grad: &mut [f32]) -> Option<f32> {
+        let k = self.k;
+        let base = e * (k * k + 1);
+        let v0 = self.data[base + k * k];
+        let mut d = self.deform(e, pts, dim);
+        let mut stress = vec![0.0f32; k * k];
+        let psi = if self.neo_hookean {
+            self.neo_hookean(dim, &d, &mut stress)?
+        } else {
+            self.stvk(&d.c, &mut stress)
+        };
+        // Pull-back: P̂ = F̂ S (into the edges), then ∇W.
+        for a in 0..dim {
+            for j in 0..k {
+                let mut p = 0.0f32;
+                for m in 0..k {
+                    p += d.image[a * k + m] * stress[m * k + j];
+                }
+                d.edges[a * k + j] = p;
+            }
+        }
+        for a in 0..dim {
+            let mut first = 0.0f32;
+            for i in 0..k {
+                let mut h = 0.0f32;
+                for j in i..k {
+                    h += d.edges[a * k + j] * self.data[base + i * k + j];
+                }
+                let hv = v0 * h;
+                grad[(i + 1) * dim + a] = hv;
+                first -= hv;
+            }
+            grad[a] = first;
+        }
+        Some(v0 * psi)
+    }
+
+    /// C = √(2W) of element `e` at the gathered `pts` (k + 1 points of
+    /// `dim` coordinates), ∇C into `grad`; None when the law refuses it.
+    pub fn constraint(&self, e: usize, pts: &[f32], dim: usize, grad: &mut [f32]) -> Option<f32> {
+        let energy = self.energy(e, pts, dim, grad)?;
+        let count = (self.k + 1) * dim;
+        if energy <= 0.0 {
+            grad[..count].fill(0.0);
+            return Some(0.0);
+        }
+        let cval = (2.0 * energy).sqrt();
+        for t in 0..count {
+            grad[t] /= cval;
+        }
+        Some(cval)
+    }
+}
