@@ -272,11 +272,18 @@ fn a_non_finite_contact_is_named_like_the_cpu_and_rolled_back() {
     }
 }
 
-#[test]
-fn contact_kernels_run_alone_like_the_cpu() {
-    let Some((adapter, _)) = adapter_or_skip("gpu_contact_run_kernel", Precision::F64) else {
-        return;
-    };
+/// The kernels a contact substep runs, as the kernel-alone tests call them.
+const CONTACT_KERNELS: [Kernel; 5] = [
+    Kernel::Predict,
+    Kernel::Broadphase,
+    Kernel::Collide,
+    Kernel::Collide,
+    Kernel::Velocity,
+];
+
+/// A 4 × 5 column of balls after 12 CPU steps (settling, in contact): its
+/// CPU backend, plan and state.
+fn settled_column() -> (CpuBackend, Plan, State) {
     let scene = hyperpbd::scenes::column3d(4, 5);
     let plan = Plan::compile(&scene).expect("valid");
     let mut cpu = CpuBackend::new(plan.clone(), &State::from_scene(&scene)).expect("cpu");
@@ -284,15 +291,16 @@ fn contact_kernels_run_alone_like_the_cpu() {
         cpu.step().expect("cpu step");
     }
     let state = cpu.read_state().unwrap();
+    (cpu, plan, state)
+}
+#[test]
+fn contact_kernels_run_alone_like_the_cpu() {
+    let Some((adapter, _)) = adapter_or_skip("gpu_contact_run_kernel", Precision::F64) else {
+        return;
+    };
+    let (mut cpu, plan, state) = settled_column();
     let mut gpu = GpuBackend::with_adapter(&adapter, plan, &state, Precision::F64).expect("gpu");
-    let kernels = [
-        Kernel::Predict,
-        Kernel::Broadphase,
-        Kernel::Collide,
-        Kernel::Collide,
-        Kernel::Velocity,
-    ];
-    for kernel in kernels {
+    for kernel in CONTACT_KERNELS {
         cpu.run_kernel(kernel).expect("cpu kernel");
         gpu.run_kernel(kernel).expect("gpu kernel");
         let (sc, sg) = (cpu.read_state().unwrap(), gpu.read_state().unwrap());
@@ -320,25 +328,12 @@ fn f32_contact_kernels_run_alone_like_the_f32_reference() {
     if !f32_identical(&summary) {
         return;
     }
-    let scene = hyperpbd::scenes::column3d(4, 5);
-    let plan = Plan::compile(&scene).expect("valid");
-    let mut cpu = CpuBackend::new(plan.clone(), &State::from_scene(&scene)).expect("cpu");
-    for _ in 0..12 {
-        cpu.step().expect("cpu step");
-    }
-    let state = cpu.read_state().unwrap();
+    let (_, plan, state) = settled_column();
     let mut gpu =
         GpuBackend::with_adapter(&adapter, plan.clone(), &state, Precision::F32).expect("gpu");
     let mut reference =
         F32Reference::new(plan, &state, gpu.origin().as_slice()).expect("reference");
-    let kernels = [
-        Kernel::Predict,
-        Kernel::Broadphase,
-        Kernel::Collide,
-        Kernel::Collide,
-        Kernel::Velocity,
-    ];
-    for kernel in kernels {
+    for kernel in CONTACT_KERNELS {
         reference.run_kernel(kernel).expect("reference kernel");
         gpu.run_kernel(kernel).expect("gpu kernel");
         let (sr, sg) = (reference.read_state(), gpu.read_state().unwrap());

@@ -15,6 +15,16 @@ use hyperpbd::gpu::Precision;
 use hyperpbd::gpu::barrier::BarrierKernels;
 use hyperpbd_cpu::f32_reference::ln::ln as ln32;
 
+/// The barrier kernels of a unit law and no obstacles: their `ln_check`
+/// entry point runs the shader's ln alone.
+fn ln_kernels(adapter: &wgpu::Adapter, precision: Precision) -> BarrierKernels {
+    let law = BarrierLaw {
+        stiffness: 1.0,
+        activation_distance: 1.0,
+    };
+    BarrierKernels::new(adapter, precision, 1, law, &BarrierObstacles::default()).expect("kernels")
+}
+
 #[test]
 fn material_ln_equals_the_f64_shader_ln_bit_for_bit() {
     let Some((adapter, _)) = adapter_or_skip(
@@ -23,18 +33,7 @@ fn material_ln_equals_the_f64_shader_ln_bit_for_bit() {
     ) else {
         return;
     };
-    let law = BarrierLaw {
-        stiffness: 1.0,
-        activation_distance: 1.0,
-    };
-    let kernels = BarrierKernels::new(
-        &adapter,
-        Precision::F64,
-        1,
-        law,
-        &BarrierObstacles::default(),
-    )
-    .expect("kernels");
+    let kernels = ln_kernels(&adapter, Precision::F64);
     // The measure ratios a material sees (around 1, both sides of each
     // power of two and of √2), plus the whole positive range.
     let mut values = Vec::new();
@@ -89,18 +88,7 @@ fn the_f32_reference_ln_equals_the_f32_shader_ln_bit_for_bit() {
         println!("f32 ln: this adapter does not promise correctly rounded f32; not compared");
         return;
     }
-    let law = BarrierLaw {
-        stiffness: 1.0,
-        activation_distance: 1.0,
-    };
-    let kernels = BarrierKernels::new(
-        &adapter,
-        Precision::F32,
-        1,
-        law,
-        &BarrierObstacles::default(),
-    )
-    .expect("kernels");
+    let kernels = ln_kernels(&adapter, Precision::F32);
     // Every 4099th positive normal f32 (both ends included: the 2^±64
     // scaling), every f32 within 2^-12 of 1, each side of √2 and of the
     // powers of two.
