@@ -39,6 +39,7 @@
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
 
+pub mod barrier;
 mod broadphase;
 mod collide;
 mod integrate;
