@@ -1,7 +1,7 @@
 //! The f32 reference (`hyperpbd_cpu::f32_reference`) on the CPU alone: what
 //! it refuses, that a failed step loses nothing, that its origin shift is
 //! exact, and that it is the golden path's physics within f32 rounding
-//! (particle contact included).
+//! (particle contact and the barrier kernels included).
 //! (On lavapipe `gpu_differential` and `gpu_coverage` hold the GPU's f32
 //! step to it bit for bit.)
 
@@ -248,4 +248,107 @@ fn an_element_the_law_refuses_fails_its_projection() {
         other => panic!("expected a refused material projection, got {other:?}"),
     }
     assert_eq!(r.read_state(), before);
+}
+
+/// The barrier kernels' reference (`f32_reference::barrier`) against the
+/// golden path in 3D over a plane, a triangle and a tetrahedron: the
+/// smallest distance within δd = 16 (N + 4) ε S, the energy within the
+/// spread of the law over d ± δd plus 16 ε |b| and the f32 ln's error, the
+/// fraction certified (d > 0 along the cut step, in f64) above 9 δd, and
+/// a particle at d ≤ 0 reads energy f32::MAX (+∞) and fraction 0. (On
+/// lavapipe `gpu_barrier` holds the kernels to it bit for bit.)
+#[test]
+fn barrier_kernels_are_the_golden_path_within_f32_rounding() {
+    use hyperpbd::barrier::{
+        BarrierLaw, BarrierObstacles, ParticleBarrier, evaluate_particle_barrier,
+    };
+    use hyperpbd_cpu::f32_reference::barrier as reference;
+
+    let mut scene = Scene::new(3, 0.01, 1, 1);
+    scene.obstacles.push(Obstacle::Hyperplane {
+        normal: vec![0.0, 0.0, 1.0],
+        offset: -0.1,
+        friction: 0.0,
+        compliance: 0.0,
+    });
+    scene.obstacles.push(Obstacle::SimplexMesh {
+        vertices: vec![
+            vec![0.0, 0.0, -0.05],
+            vec![1.0, 0.0, -0.05],
+            vec![0.0, 1.0, -0.05],
+            vec![0.3, 0.3, -0.4],
+        ],
+        simplices: vec![vec![0, 1, 2], vec![0, 1, 2, 3]],
+    });
+    let geometry = BarrierObstacles::compile(&scene);
+    let law = BarrierLaw {
+        stiffness: 50.0,
+        activation_distance: 0.25,
+    };
+    let inputs = reference::BarrierInputs::new(3, &law, &geometry);
+    let e = f64::from(f32::EPSILON);
+    let mut golden = ParticleBarrier::new(3);
+    let mut n = [0.0; 3];
+    let (mut compared, mut cut) = (0, 0);
+    for k in 0..8 * 8 * 8 {
+        let x = [
+            -0.2 + 0.2 * (k % 8) as f64,
+            -0.2 + 0.2 * (k / 8 % 8) as f64,
+            0.01 + 0.04 * (k / 64) as f64,
+        ];
+        let r = 0.01;
+        let step = [0.05, -0.1, -0.3];
+        let d: Vec<f64> = (0..geometry.len())
+            .map(|o| geometry.distance(o, &x, r, &mut n))
+            .collect();
+        let delta_d = 16.0 * 7.0 * e * (1.5 + r);
+        let smallest = d.iter().copied().fold(f64::INFINITY, f64::min);
+        let x32 = x.map(|c| c as f32);
+        let step32 = step.map(|c| c as f32);
+        let terms = reference::evaluate(&inputs, &x32, r as f32);
+        let fraction = f64::from(reference::filter_fraction(&inputs, &x32, r as f32, &step32));
+        if smallest <= 9.0 * delta_d {
+            continue; // the f32 floor
+        }
+        compared += 1;
+        evaluate_particle_barrier(&law, &geometry, &x, r, &mut golden);
+        let dd = (f64::from(terms.min_distance) - golden.min_distance).abs();
+        assert!(dd <= delta_d, "{x:?}: distance {dd:e} > {delta_d:e}");
+        let mut bound = 0.0;
+        for &di in &d {
+            if di - delta_d >= law.activation_distance {
+                continue;
+            }
+            let b = law.evaluate(di).0;
+            let spread = [di - delta_d, di + delta_d]
+                .map(|t| (law.evaluate(t).0 - b).abs())
+                .into_iter()
+                .fold(0.0, f64::max);
+            let gap = (di - law.activation_distance).abs();
+            bound += spread + 16.0 * e * b.abs() + law.stiffness * gap * gap * 2f64.powi(-21);
+        }
+        let de = (f64::from(terms.energy) - golden.energy).abs();
+        assert!(de <= bound, "{x:?}: energy {de:e} > {bound:e}");
+        if fraction < 1.0 {
+            cut += 1;
+        }
+        for s in 0..=16 {
+            let y: Vec<f64> = (0..3)
+                .map(|a| x[a] + fraction * s as f64 / 16.0 * step[a])
+                .collect();
+            for o in 0..geometry.len() {
+                let after = geometry.distance(o, &y, r, &mut n);
+                assert!(after > 0.0, "{x:?}: fraction {fraction} crosses {o}");
+            }
+        }
+    }
+    eprintln!("barrier reference vs golden: {compared} particles compared, {cut} steps cut");
+    assert!(compared > 100 && cut > 0, "{compared} compared, {cut} cut");
+    // Inside the tetrahedron and below the plane: d ≤ 0.
+    let inside = [0.1f32, 0.1, -0.2];
+    let terms = reference::evaluate(&inputs, &inside, 0.01);
+    assert_eq!(terms.energy, f32::MAX, "infeasible reads +∞");
+    assert!(terms.min_distance < 0.0);
+    let fraction = reference::filter_fraction(&inputs, &inside, 0.01, &[0.0, 0.0, 1.0]);
+    assert_eq!(fraction, 0.0, "infeasible admits no step");
 }

@@ -21,7 +21,8 @@
 //! lavapipe: its f64 ln (shaders/ln_f64.wgsl) differs from libm's by
 //! rounding, so its tests keep their derived bound until the implicit-path
 //! issue replaces that ln; call [`check_f64`] only where identity is
-//! claimed.
+//! claimed. Its f32 kernels (evaluate, filter_fraction) are held bit for
+//! bit to the f32 reference on lavapipe (`tests/gpu_barrier/kernels.rs`).
 
 use hyperpbd::compare::max_abs_diff;
 use hyperpbd::{F32Reference, State, StepReport};

@@ -1,7 +1,55 @@
 //! Barrier kernels against the golden path: the f64 `ln`, per-particle energy,
-//! gradient, Hessian block and smallest distance, filter fractions.
+//! gradient, Hessian block and smallest distance, filter fractions; in
+//! f32 on llvmpipe also bit for bit against the f32 reference
+//! (`hyperpbd_cpu::f32_reference::barrier`).
 
 use super::*;
+use common::exact::f32_identical;
+use hyperpbd_cpu::f32_reference::barrier as reference;
+
+/// The f32 reference's kernel inputs where f32 results are held bit for
+/// bit to it (f32 on llvmpipe: `common::exact::f32_identical`).
+fn reference_inputs(
+    summary: &hyperpbd::gpu::AdapterSummary,
+    precision: Precision,
+    dim: usize,
+    law: &BarrierLaw,
+    geometry: &BarrierObstacles,
+) -> Option<reference::BarrierInputs> {
+    (precision == Precision::F32 && f32_identical(summary))
+        .then(|| reference::BarrierInputs::new(dim, law, geometry))
+}
+
+/// Values as uploaded in f32: each rounded once.
+fn f32s(values: &[f64]) -> Vec<f32> {
+    values.iter().map(|&v| v as f32).collect()
+}
+
+/// Asserts a GPU value read back from f32 is `expected` bit for bit.
+fn assert_bits(what: &str, got: f64, expected: f64) {
+    assert!(
+        got.to_bits() == expected.to_bits(),
+        "{what}: GPU {got:e} ({:#018x}) vs f32 reference {expected:e} ({:#018x})",
+        got.to_bits(),
+        expected.to_bits()
+    );
+}
+
+/// Prints the BOUND line of `identical` f32 rows bit-identical to the
+/// f32 reference, after checking every sampled particle was compared.
+fn report_identical(what: &str, dim: usize, identical: usize) {
+    let sampled: usize = COUNTS.iter().sum();
+    assert_eq!(
+        identical, sampled,
+        "{what} dim {dim}: every particle compared to the f32 reference"
+    );
+    print_bound(
+        format_args!("{what} f32 dim {dim} vs f32 reference ({identical} particles bit-identical)"),
+        "0",
+        "0",
+        "llvmpipe (common::exact::f32_identical): the f32 rows are bit-identical to the f32 reference",
+    );
+}
 
 /// Obstacles in R^dim: two planes, a triangle mesh (dim ≥ 2), a segment
 /// mesh, a tetrahedron (dim ≥ 3).
@@ -238,7 +286,7 @@ fn f64_ln_matches_libm_over_a_wide_range() {
 #[test]
 fn barrier_evaluation_matches_the_golden_path() {
     for precision in PRECISIONS {
-        let Some((adapter, _)) =
+        let Some((adapter, summary)) =
             adapter_or_skip("barrier_evaluation_matches_the_golden_path", precision)
         else {
             continue;
@@ -252,6 +300,8 @@ fn barrier_evaluation_matches_the_golden_path() {
             };
             let kernels =
                 BarrierKernels::new(&adapter, precision, dim, law, &geometry).expect("kernels");
+            let reference = reference_inputs(&summary, precision, dim, &law, &geometry);
+            let mut bit_identical = 0;
             let mut worst = [0.0f64; 4];
             let mut worst_tight: f64 = 0.0;
             let mut floor = 0;
@@ -265,6 +315,27 @@ fn barrier_evaluation_matches_the_golden_path() {
                 for i in 0..count {
                     let xi = &x[i * dim..(i + 1) * dim];
                     evaluate_particle_barrier(&law, &geometry, xi, r[i], &mut cpu);
+                    if let Some(inputs) = &reference {
+                        let t = reference::evaluate(inputs, &f32s(xi), r[i] as f32);
+                        let at = |what: &str| format!("dim {dim} particle {i} of {count}: {what}");
+                        let energy = if t.energy >= f32::MAX {
+                            f64::INFINITY
+                        } else {
+                            f64::from(t.energy)
+                        };
+                        assert_bits(&at("energy"), gpu.energy[i], energy);
+                        for a in 0..dim {
+                            let got = gpu.gradient[i * dim + a];
+                            assert_bits(&at("gradient"), got, f64::from(t.gradient[a]));
+                        }
+                        for a in 0..dim * dim {
+                            let got = gpu.hessian[i * dim * dim + a];
+                            assert_bits(&at("hessian"), got, f64::from(t.hessian[a]));
+                        }
+                        let d = f64::from(t.min_distance);
+                        assert_bits(&at("min distance"), gpu.min_distance[i], d);
+                        bit_identical += 1;
+                    }
                     let b = bounds(&law, &geometry, xi, r[i], precision);
                     if b.floor {
                         floor += 1;
@@ -336,6 +407,9 @@ fn barrier_evaluation_matches_the_golden_path() {
                     );
                 }
             }
+            if reference.is_some() {
+                report_identical("barrier evaluation", dim, bit_identical);
+            }
             if precision == Precision::F64 {
                 assert_eq!(floor, 0, "f64 has no floor at these scales");
                 print_bound(
@@ -365,7 +439,7 @@ fn barrier_evaluation_matches_the_golden_path() {
 #[test]
 fn filter_fractions_match_the_golden_path_and_stay_certified() {
     for precision in PRECISIONS {
-        let Some((adapter, _)) = adapter_or_skip(
+        let Some((adapter, summary)) = adapter_or_skip(
             "filter_fractions_match_the_golden_path_and_stay_certified",
             precision,
         ) else {
@@ -380,6 +454,8 @@ fn filter_fractions_match_the_golden_path_and_stay_certified() {
             };
             let kernels =
                 BarrierKernels::new(&adapter, precision, dim, law, &geometry).expect("kernels");
+            let reference = reference_inputs(&summary, precision, dim, &law, &geometry);
+            let mut bit_identical = 0;
             let e = precision.epsilon();
             let mut worst: f64 = 0.0;
             let mut cut = 0;
@@ -394,6 +470,13 @@ fn filter_fractions_match_the_golden_path_and_stay_certified() {
                     let xi = &x[i * dim..(i + 1) * dim];
                     let di = &deltas[i * dim..(i + 1) * dim];
                     let cpu = filter_fraction(&geometry, xi, r[i], di);
+                    if let Some(inputs) = &reference {
+                        let t =
+                            reference::filter_fraction(inputs, &f32s(xi), r[i] as f32, &f32s(di));
+                        let at = format!("dim {dim} particle {i} of {count}: filter fraction");
+                        assert_bits(&at, gpu[i], f64::from(t));
+                        bit_identical += 1;
+                    }
                     let delta_d = 16.0 * (dim as f64 + 4.0) * e * scale(xi, &geometry, r[i]);
                     let length = di.iter().map(|c| c * c).sum::<f64>().sqrt();
                     // Bound: max over obstacles of η (δd/a + d0 δa/a²), δa = 16 (DIM+4) ε |Δ|.
@@ -448,6 +531,9 @@ fn filter_fractions_match_the_golden_path_and_stay_certified() {
                 }
             }
             assert!(checked == 0 || cut > 0, "no step was cut");
+            if reference.is_some() {
+                report_identical("filter fraction", dim, bit_identical);
+            }
             print_bound(
                 format_args!(
                     "filter fraction {precision} dim {dim} ({checked} particles, {cut} cut)"

@@ -2,7 +2,10 @@
 //! helper against libm, per-particle barrier energy / gradient / Hessian
 //! block / smallest distance, and filter fractions, in f32 and f64, with
 //! derived per-particle bounds printed as
-//! `BOUND | name | measured | bound | rationale`.
+//! `BOUND | name | measured | bound | rationale`. In f32 on lavapipe
+//! (`common::exact::f32_identical`) every particle's evaluation and filter
+//! fraction is also asserted bit-identical to the f32 reference
+//! (`hyperpbd_cpu::f32_reference::barrier`), under the f32 floor too.
 //!
 //! ```text
 //! δd  = K·ε·S       distance error of the kernel: S = |x|∞ + max |obstacle coordinate| + r,

@@ -2,7 +2,7 @@
 //! operation order of its WGSL (`shaders/integrate.wgsl`, `project.wgsl`,
 //! `measure.wgsl`, `material.wgsl`, `ln_f32.wgsl`, `friction.wgsl`,
 //! `residual.wgsl`, `grid.wgsl`, `collide.wgsl`), on the values the GPU
-//! backend stores.
+//! backend stores; and the barrier kernels of `barrier.wgsl` ([`barrier`]).
 //!
 //! ```text
 //! stored once, rounded to f32 from the f64 the host computes:
@@ -35,10 +35,20 @@
 //! Plans it cannot run are refused at [`F32Reference::new`] with the
 //! reason: the incremental-potential (Minimise) step. Guard kernels only
 //! read; they are not run here.
+//!
+//! The barrier path's per-particle kernels stand alone in [`barrier`]:
+//! `evaluate` (energy Σ b, gradient Σ b' n, Hessian block Σ b'' n nᵀ,
+//! smallest d over every plane and simplex) and `filter_fraction` (the
+//! certified step fraction) of `shaders/barrier.wgsl`, in f32 in its order,
+//! on the obstacle geometry, κ, d^ and η the device holds (each rounded to
+//! f32 once) with the arithmetic f32 ln; `tests/gpu_barrier` holds the
+//! kernels' f32 results to them bit for bit on lavapipe. The minimisation
+//! around them (ip_gradient, ip_newton) is not here.
 
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
 
+pub mod barrier;
 mod broadphase;
 mod collide;
 mod integrate;
