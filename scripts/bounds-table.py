@@ -110,11 +110,17 @@ def f32_cell(row) -> str:
     return cell(*row)
 
 
-def tables(rows: list[list[str]]) -> tuple[str, str]:
+def by_scene(rows: list[list[str]]) -> dict[str, dict]:
+    """Per scene: its frames, and (metric, precision) → (measured, bound)."""
     scenes: dict[str, dict] = {}
     for scene, metric, frames, measured, bound, precision in rows:
         s = scenes.setdefault(scene, {"frames": frames})
         s[(metric, precision)] = (measured, bound)
+    return scenes
+
+
+def tables(rows: list[list[str]]) -> tuple[str, str]:
+    scenes = by_scene(rows)
     head = [
         "| scene | frames | position f32, one frame (model: other adapters) | velocity f32, one frame | f64 position, velocity |",
         "|---|---:|---:|---:|---|",
@@ -180,10 +186,7 @@ def split_materials(rows: list[list[str]]) -> tuple[list[list[str]], list[list[s
 def materials_table(rows: list[list[str]]) -> str:
     """One row per material scene: f32 position, velocity and the material
     family's residual (= f32 reference, model beside), f64."""
-    scenes: dict[str, dict] = {}
-    for scene, metric, frames, measured, bound, precision in rows:
-        s = scenes.setdefault(scene, {"frames": frames})
-        s[(metric, precision)] = (measured, bound)
+    scenes = by_scene(rows)
     out = [
         "| scene | frames | position f32, one frame (model: other adapters) | velocity f32, one frame | residual f32 of the material family | f64 position, velocity, residual |",
         "|---|---:|---:|---:|---:|---|",

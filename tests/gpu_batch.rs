@@ -11,7 +11,7 @@
 
 mod common;
 
-use common::exact::{bits, check_f64, f32_identical, f64_rule};
+use common::exact::{assert_f32_reference_step, check_f64, f32_identical, f64_rule};
 use common::gpu::adapter_or_skip;
 use hyperpbd::batch::{Batch, BatchError, GpuBatch};
 use hyperpbd::compare::{DivergenceModel, Frame};
@@ -175,23 +175,8 @@ fn f32_worlds_stay_within_the_single_world_frame_bound() {
         let reports = gpu.step().expect("batch step");
         let ends = gpu.read_states().expect("states");
         for (k, r) in references.iter_mut().enumerate() {
-            r.step().expect("reference step");
-            assert!(
-                bits(&r.read_state()) == bits(&ends[k]),
-                "world {k} frame {frame}: the f32 batch differs from the world's f32 reference"
-            );
-            let (residuals, active) = r.residuals();
-            let gpu_bits: Vec<u64> = reports[k]
-                .residuals
-                .iter()
-                .map(|f| f.max_violation.to_bits())
-                .collect();
-            let expected: Vec<u64> = residuals.iter().map(|x| x.to_bits()).collect();
-            assert_eq!(gpu_bits, expected, "world {k} frame {frame}: residuals");
-            assert_eq!(
-                reports[k].active_contacts, active,
-                "world {k} frame {frame}"
-            );
+            let name = format!("gpu_batch world {k}");
+            assert_f32_reference_step(&name, frame, r, &reports[k], &ends[k]);
         }
         for (k, cpu) in cpus.iter_mut().enumerate() {
             cpu.write_state(&starts[k]).expect("write");

@@ -17,7 +17,7 @@
 
 use super::*;
 
-use common::exact::{bits, f32_identical};
+use common::exact::{assert_f32_reference_step, bits, f32_identical};
 use common::gpu::adapter_or_skip;
 use hyperpbd::core::builders::ChainSpec;
 use hyperpbd::{Backend, F32Reference, Obstacle, Plan, SceneBuilder, State};
@@ -97,11 +97,8 @@ fn f32_far_scene_runs_bit_for_bit_as_at_the_origin() {
     for frame in 1..=40 {
         let (ra, rb) = (a.step().expect("near"), b.step().expect("far"));
         if let Some(r) = reference.as_mut() {
-            r.step().expect("reference");
-            assert!(
-                bits(&r.read_state()) == bits(&b.read_state().expect("far")),
-                "frame {frame}: the far f32 run differs from the f32 reference"
-            );
+            let far_state = b.read_state().expect("far");
+            assert_f32_reference_step("far bridge", frame, r, &rb, &far_state);
         }
         assert_eq!(ra.active_contacts, rb.active_contacts, "frame {frame}");
         active = active.max(ra.active_contacts);
