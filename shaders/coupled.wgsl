@@ -13,7 +13,7 @@
 //     ball    c = (along, across) of K⁺ = b'' n nᵀ;                              aux = ∇d = (−n, n)
 //     lag     c = (along, across) of the tangent K (friction.rs);                aux = (û, 0)
 //     material  c = 0, aux = 0: its record, slots and change are written by
-//             coupled_material.wgsl (the passes here skip code MATERIAL)
+//             coupled_material.wgsl (the passes here skip code ELEMENT_MATERIAL)
 //   gather  particle k adds its slots (element order, member order): no atomics
 //   tree    per-item terms written at a channel's offset, reduced by cp_reduce:
 //           blocks of 64 halved in place (s[t] ⊕= s[t + stride], 32 … 1), the
@@ -116,9 +116,7 @@ const R_PREDICTION: u32 = 10u;
 const R_LOAD: u32 = 11u;
 
 const TERMS: u32 = DIM * DIM + 2u;
-const BALL: u32 = 4u;
-const LAG: u32 = 5u;
-const MATERIAL: u32 = 6u;
+// ELEMENT_* (the element codes) come from the generated header (gpu/src/codes.rs).
 // Reals per element in element_reals.
 const ELEMENT_REALS: u32 = DIM + 1u;
 
@@ -253,7 +251,7 @@ fn evaluate_element(e: u32) -> Element {
     out.count = arity * DIM;
     out.c0 = 0.0;
     out.c1 = 0.0;
-    if (code == BALL) {
+    if (code == ELEMENT_BALL) {
         let length = distance(&pts, &aux);
         out.aux = aux;
         let d = length - radius[member(e, 0u)] - radius[member(e, 1u)];
@@ -273,7 +271,7 @@ fn evaluate_element(e: u32) -> Element {
         radial(law.y, law.z, length, &out);
         return out;
     }
-    if (code == LAG) {
+    if (code == ELEMENT_LAG) {
         // w = (x_j − x_j^t) − (x_i − x_i^t); ∇_j = F g u, ∇_i = −∇_j.
         let i = member(e, 0u);
         let j = member(e, 1u);
@@ -298,16 +296,21 @@ fn evaluate_element(e: u32) -> Element {
     let compliance = element_reals[e * ELEMENT_REALS];
     let rest = element_reals[e * ELEMENT_REALS + 1u];
     var value: real;
-    if (code == 2u) {
+    if (code == ELEMENT_SIMPLEX) {
         value = simplex_squared_measure(&pts, arity - 1u, &aux);
-    } else if (code == 3u) {
+    } else if (code == ELEMENT_ORIENTED) {
         value = oriented_measure(&pts, &aux);
-    } else {
+    } else if (code == ELEMENT_DISTANCE || code == ELEMENT_TETHER) {
         value = distance(&pts, &aux);
+    } else {
+        // No other code is uploaded (gpu/src/codes.rs); an unknown one is
+        // never another kind: its energy refuses every iterate.
+        out.energy = REAL_MAX;
+        return out;
     }
     out.aux = aux;
     let c = value - rest;
-    if (code == 1u && c <= 0.0) {
+    if (code == ELEMENT_TETHER && c <= 0.0) {
         out.energy = 0.0;
         return out;
     }
@@ -318,7 +321,7 @@ fn evaluate_element(e: u32) -> Element {
         }
     }
     out.energy = c * c / (2.0 * compliance);
-    if (code <= 1u) {
+    if (code == ELEMENT_DISTANCE || code == ELEMENT_TETHER) {
         radial(f, 1.0 / compliance, value, &out);
     } else {
         out.c0 = 1.0 / compliance;
@@ -331,7 +334,7 @@ fn evaluate_element(e: u32) -> Element {
 @compute @workgroup_size(WORKGROUP)
 fn cp_elements(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let e = linear_index(gid, groups);
-    if (e >= cp.elements || code_of(e) == MATERIAL) {
+    if (e >= cp.elements || code_of(e) == ELEMENT_MATERIAL) {
         return;
     }
     let value = evaluate_element(e);
@@ -357,7 +360,7 @@ fn cp_elements(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
 @compute @workgroup_size(WORKGROUP)
 fn cp_element_changes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let e = linear_index(gid, groups);
-    if (e >= cp.elements || code_of(e) == MATERIAL) {
+    if (e >= cp.elements || code_of(e) == ELEMENT_MATERIAL) {
         return;
     }
     let value = evaluate_element(e);
@@ -373,7 +376,7 @@ fn cp_element_changes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
 @compute @workgroup_size(WORKGROUP)
 fn cp_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let e = linear_index(gid, groups);
-    if (e >= cp.elements || cg.stopped != 0u || code_of(e) == MATERIAL) {
+    if (e >= cp.elements || cg.stopped != 0u || code_of(e) == ELEMENT_MATERIAL) {
         return;
     }
     let code = code_of(e);
@@ -393,7 +396,7 @@ fn cp_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     }
     let along = records[base + 1u];
     let across = records[base + 2u];
-    if (code == 2u || code == 3u) {
+    if (code == ELEMENT_SIMPLEX || code == ELEMENT_ORIENTED) {
         // Gauss–Newton: weight ∇C ∇Cᵀ.
         let count = arity * DIM;
         if (cp.diagonal == 1u) {
@@ -418,7 +421,7 @@ fn cp_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
         }
         return;
     }
-    if (code == LAG) {
+    if (code == ELEMENT_LAG) {
         // Tangent K of the lag (friction.rs apply_pair, diagonal): n the
         // lag's normal, û = aux[0..DIM].
         let base_n = e * ELEMENT_REALS + 1u;

@@ -3,7 +3,7 @@
 // composed after coupled.wgsl with material.wgsl, symmetric_eigen.wgsl and
 // material_hessian.wgsl. One invocation per material block m (the m-th
 // material element in element order); coupled.wgsl's element passes skip
-// these elements (code MATERIAL), these passes write their records, slots
+// these elements (code ELEMENT_MATERIAL), these passes write their records, slots
 // and changes in the same layout.
 //
 //   material_words  [frame stride, blocks M, then per block: element e,
@@ -28,7 +28,6 @@
 
 const MATERIAL_HEADER: u32 = 2u;
 const MATERIAL_WORDS: u32 = 4u;
-const FLAG_NEO_HOOKEAN: u32 = 1u;
 // status[4] of a material element whose loops llvmpipe cut short: the
 // element's index with this bit (a particle's index, below it, wins).
 const MATERIAL_LOOPS: u32 = 0x80000000u;

@@ -15,11 +15,7 @@
 // Guard call blocks: `alpha_tilde` holds r, `factor` holds v² (computed
 // on the host); nothing is written but the status word.
 
-const OP_GUARD_MEASURE: u32 = 9u;
-const OP_GUARD_SPEED: u32 = 10u;
-const FLAG_ORIENTATION: u32 = 32u;
-const FLAG_RATIO: u32 = 64u;
-const FLAG_MATERIAL: u32 = 256u;
+// OP_GUARD_*, FLAG_* come from the generated header (gpu/src/codes.rs).
 
 fn guard_element(e: u32) {
     var pts: array<real, POINTS>;

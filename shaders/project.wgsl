@@ -102,10 +102,11 @@ fn project_distance_element(t: u32) {
     }
 }
 
-// Simplex measures (kind 1: squared k-measure, kind 2: oriented N-measure)
-// and the material energy constraint (kind 3, material.wgsl; a refused
-// element fails like a non-finite one): gather, evaluate C and ∇C, update.
-fn project_measure_element(t: u32, kind: u32) {
+// Simplex measures (OP_PROJECT_SIMPLEX: squared k-measure,
+// OP_PROJECT_ORIENTED: oriented N-measure) and the material energy
+// constraint (OP_PROJECT_MATERIAL, material.wgsl; a refused element fails
+// like a non-finite one): gather, evaluate C and ∇C, update.
+fn project_measure_element(t: u32, op: u32) {
     let e = call.first + t;
     let s = call.slot_base + e;
     let arity = call.arity;
@@ -114,12 +115,14 @@ fn project_measure_element(t: u32, kind: u32) {
     gather(e, &pts);
     var value: real;
     var refused = false;
-    if (kind == 1u) {
+    if (op == OP_PROJECT_SIMPLEX) {
         value = simplex_squared_measure(&pts, arity - 1u, &grad);
-    } else if (kind == 2u) {
+    } else if (op == OP_PROJECT_ORIENTED) {
         value = oriented_measure(&pts, &grad);
-    } else {
+    } else if (op == OP_PROJECT_MATERIAL) {
         value = material_constraint(e, &pts, &grad, &refused);
+    } else {
+        refused = true;
     }
     if (refused || !finite(value)) {
         fail(e);
@@ -233,14 +236,14 @@ fn project_elements(gid: vec3<u32>, groups: vec3<u32>, op: u32) {
             case OP_PROJECT_DISTANCE: {
                 project_distance_element(e);
             }
-            case OP_PROJECT_SIMPLEX: {
-                project_measure_element(e, 1u);
+            case OP_PROJECT_SIMPLEX, OP_PROJECT_ORIENTED, OP_PROJECT_MATERIAL: {
+                project_measure_element(e, op);
             }
-            case OP_PROJECT_ORIENTED: {
-                project_measure_element(e, 2u);
-            }
-            case OP_PROJECT_MATERIAL, default: {
-                project_measure_element(e, 3u);
+            // Not an element projection: every op is named (tests/shaders.rs),
+            // and one that reaches here, or an unknown one, fails the step.
+            case OP_PREDICT, OP_PROJECT_CONTACT, OP_VELOCITY, OP_FRICTION, OP_DAMPING, OP_RESIDUAL,
+                 OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST, OP_NONE, default: {
+                fail(e);
             }
         }
         record_failure();

@@ -35,18 +35,21 @@ fn violation(e: u32) -> real {
     var grad: array<real, POINTS>;
     gather(e, &pts);
     let kind = call.kind;
-    if (kind == 0u) {
+    if (kind == RESIDUAL_DISTANCE) {
         return abs(distance(&pts, &grad) - rest_at(s));
-    } else if (kind == 1u) {
+    } else if (kind == RESIDUAL_SIMPLEX) {
         return abs(simplex_squared_measure(&pts, call.arity - 1u, &grad) - rest_at(s));
-    } else if (kind == 2u) {
+    } else if (kind == RESIDUAL_ORIENTED) {
         return abs(oriented_measure(&pts, &grad) - rest_at(s));
-    } else if (kind == 4u) {
+    } else if (kind == RESIDUAL_TETHER) {
         return max(distance(&pts, &grad) - rest_at(s), 0.0);
-    } else if (kind == 5u) {
+    } else if (kind == RESIDUAL_MATERIAL) {
         var refused = false;
         let c = material_constraint(e, &pts, &grad, &refused);
         return select(c, infinity(), refused);
+    } else if (kind != RESIDUAL_CONTACT) {
+        // An unknown kind reads as violated without bound, never as another kind.
+        return infinity();
     }
     var nx: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
@@ -82,7 +85,7 @@ fn reduce_workgroup(lid: u32) {
 fn residual_chunk(k: u32, start: u32, end: u32, lid: u32) {
     var worst: real = 0.0;
     var contacts = 0u;
-    let contact = call.kind == 3u;
+    let contact = call.kind == RESIDUAL_CONTACT;
     for (var e = start + lid; e < end; e += WORKGROUP) {
         take_element(e, contact, &worst, &contacts);
     }
@@ -159,7 +162,7 @@ fn residual_lanes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     call = calls[world * WORLD_CALLS + here.first_call + t / WORLDS];
     var worst: real = 0.0;
     var contacts = 0u;
-    let contact = call.kind == 3u;
+    let contact = call.kind == RESIDUAL_CONTACT;
     for (var e = 0u; e < call.count; e++) {
         take_element(e, contact, &worst, &contacts);
     }

@@ -64,7 +64,7 @@ struct Call {
     arity: u32,       // particles per element
     call: u32,        // index of the kernel call within the step (error reports)
     flags: u32,       // FLAG_*
-    kind: u32,        // residual: 0 distance, 1 simplex measure, 2 oriented, 3 contact, 4 tether, 5 material
+    kind: u32,        // residual: RESIDUAL_* (gpu/src/codes.rs)
     slot_map: u32,    // contact, friction: offset of the family's particle → slot map;
                       // material: offset of the family's rest data in `rest`
     chunk: u32,       // residual: first chunk of the family in `partials`
@@ -97,31 +97,7 @@ struct Dispatch {
     calls: array<Call, SEGMENT>,
 }
 
-const OP_PREDICT: u32 = 0u;
-const OP_PROJECT_DISTANCE: u32 = 1u;
-const OP_PROJECT_SIMPLEX: u32 = 2u;
-const OP_PROJECT_ORIENTED: u32 = 3u;
-const OP_PROJECT_CONTACT: u32 = 4u;
-const OP_VELOCITY: u32 = 5u;
-const OP_FRICTION: u32 = 6u;
-const OP_DAMPING: u32 = 7u;
-const OP_RESIDUAL: u32 = 8u;
-const OP_PROJECT_MATERIAL: u32 = 11u;
-
-const FLAG_GRAVITY: u32 = 1u;  // predict: s g term
-const FLAG_FORCE: u32 = 2u;    // predict: w f term
-const FLAG_FIRST: u32 = 4u;    // projection: first of its family this substep (λ = 0 before)
-const FLAG_TETHER: u32 = 8u;   // distance: one-sided (|x1 − x0| ≤ rest)
-const FLAG_UNREAD: u32 = 16u;  // projection: nothing reads this λ later (not stored)
-const FLAG_NEO_HOOKEAN: u32 = 128u; // material: the Neo-Hookean law (else StVK)
-const FLAG_UNIT_SCALE: u32 = 512u; // predict: every dynamic particle's gravity scale is 1
-
-const IO_LOAD_X: u32 = 1u;
-const IO_LOAD_V: u32 = 2u;
-const IO_LOAD_P: u32 = 4u;
-const IO_STORE_X: u32 = 8u;
-const IO_STORE_V: u32 = 16u;
-const IO_STORE_P: u32 = 32u;
+// OP_*, FLAG_*, IO_* come from the generated header (gpu/src/codes.rs).
 
 const NONE: u32 = 0xffffffffu;
 
@@ -208,10 +184,13 @@ fn world_reals(op: u32, c: u32) {
                 call.friction = calls[k].friction;
                 call.factor = calls[k].factor;
             }
-            case OP_VELOCITY: {}
-            default: {
+            case OP_PROJECT_DISTANCE, OP_PROJECT_SIMPLEX, OP_PROJECT_ORIENTED, OP_RESIDUAL,
+                 OP_GUARD_MEASURE, OP_GUARD_SPEED: {
                 call.alpha_tilde = calls[k].alpha_tilde;
             }
+            case OP_VELOCITY, OP_HOST, OP_NONE: {}
+            // Every op is named above (tests/shaders.rs); an unknown one loads nothing.
+            default: {}
         }
     }
 }
@@ -314,7 +293,13 @@ fn run_op(op: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
         case OP_DAMPING: {
             damping_particle(i, rx, rv, rp);
         }
-        default: {}
+        // Not per-particle, or no call: nothing runs here.
+        case OP_PROJECT_DISTANCE, OP_PROJECT_SIMPLEX, OP_PROJECT_ORIENTED, OP_PROJECT_MATERIAL,
+             OP_RESIDUAL, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST, OP_NONE: {}
+        // Every op is named above (tests/shaders.rs): an unknown one fails the step.
+        default: {
+            fail(i);
+        }
     }
 }
 
@@ -351,7 +336,7 @@ fn store_records(io: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, R
 
 // THE OPS AND FLAGS OF A PIPELINE read from a uniform block are fixed
 // when it is created (pipeline-overridable constants): for `particles`,
-// OP0..OP7 the ops of calls first_call + 0..7 (NO_OP for none), FL0..FL7
+// OP0..OP7 the ops of calls first_call + 0..7 (OP_NONE for none), FL0..FL7
 // their FLAG_*, IO the records loaded and stored; for `project_*` and
 // `guard`, FLAGS the flags of their one call (and OP0 the guard's op).
 // The runner copies them into the private `call`, so the kernels keep
@@ -359,15 +344,14 @@ fn store_records(io: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, R
 // loads and stores, the force and gravity-scale loads, the other law)
 // is removed, where a SIMD implementation such as lavapipe would run it
 // for every batch under a mask.
-const NO_OP: u32 = 255u;
-override OP0: u32 = NO_OP;
-override OP1: u32 = NO_OP;
-override OP2: u32 = NO_OP;
-override OP3: u32 = NO_OP;
-override OP4: u32 = NO_OP;
-override OP5: u32 = NO_OP;
-override OP6: u32 = NO_OP;
-override OP7: u32 = NO_OP;
+override OP0: u32 = OP_NONE;
+override OP1: u32 = OP_NONE;
+override OP2: u32 = OP_NONE;
+override OP3: u32 = OP_NONE;
+override OP4: u32 = OP_NONE;
+override OP5: u32 = OP_NONE;
+override OP6: u32 = OP_NONE;
+override OP7: u32 = OP_NONE;
 override FL0: u32 = 0u;
 override FL1: u32 = 0u;
 override FL2: u32 = 0u;
@@ -388,7 +372,7 @@ fn take_call(k: u32, flags: u32) {
 // Call k of a fixed run, with op `op` and flags `flags`.
 fn run_slot(op: u32, flags: u32, k: u32, i: u32, rx: ptr<function, Record>,
             rv: ptr<function, Record>, rp: ptr<function, Record>) {
-    if (op != NO_OP) {
+    if (op != OP_NONE) {
         take_call(k, flags);
         world_reals(op, here.first_call + k);
         run_op(op, i, rx, rv, rp);

@@ -14,6 +14,7 @@ pub mod adapter;
 mod backend;
 pub mod barrier;
 pub mod broadphase;
+pub mod codes;
 pub mod collide;
 mod contact;
 mod context;

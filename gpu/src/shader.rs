@@ -2,7 +2,7 @@
 //! precision) by prepending a small header.
 //!
 //! ```text
-//! module = header(DIM, real, WORKGROUP) [+ ln, its series from core] + prelude.wgsl [+ measure.wgsl, material.wgsl] + family.wgsl
+//! module = header(DIM, real, WORKGROUP, the shared codes of codes.rs) [+ ln, its series from core] + prelude.wgsl [+ measure.wgsl, material.wgsl] + family.wgsl
 //! (the coupled step: measure, barrier, coupled, coupled_solve, material, symmetric_eigen,
 //! material_hessian, coupled_material)
 //! ```
@@ -234,13 +234,14 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
          const MINOR: u32 = {minor}u;\n\
          const REAL_MAX: real = {real_max};\n\
          const WORKGROUP: u32 = {workgroup}u;\n\
-         const VEC: u32 = {vec}u;\n\n",
+         const VEC: u32 = {vec}u;\n\n{codes}\n",
         file = file.file_name(),
         points = (dim + 1) * dim,
         mat = dim * dim,
         minor = (dim.saturating_sub(1) * dim.saturating_sub(1)).max(1),
         workgroup = file.workgroup_size(),
         vec = crate::layout::record_words(dim),
+        codes = crate::codes::wgsl_header(),
     );
     if matches!(
         file,

@@ -8,7 +8,7 @@
 //! blocks          the material elements in element order (families first in the
 //!                 element list, family order, slot order), block m ↔ element e
 //! material_words  [frame stride (N k_max)², M, per block: e, rest offset of its
-//!                 family, slot in the family, flags (1: Neo-Hookean)]
+//!                 family, slot in the family, flags (FLAG_NEO_HOOKEAN)]
 //! material_rest   per material family, per slot: R (k × k), V_0 (xpbd's layout)
 //! frames          M × stride reals: H_F⁺ per block, written on the device
 //! element_reals   [μ, λ] of a material element (mod.rs `upload_elements`)
@@ -21,6 +21,7 @@ use hyperpbd_core::{FamilyKind, GpuError, Plan, Refusal};
 use crate::Precision;
 use crate::barrier::{LOOPS_CUT, NONE, STATUS_WORDS, refuse_cut_loops};
 use crate::context::GpuContext;
+use crate::codes::FLAG_NEO_HOOKEAN;
 use crate::params::push_reals;
 use crate::xpbd::material::push_rest_data;
 
@@ -90,7 +91,8 @@ impl Materials {
                 plan.families[f].kind,
                 FamilyKind::Material { material, .. } if material.law == Law::NeoHookean
             );
-            words.extend([e as u32, offsets[f], slot as u32, u32::from(neo_hookean)]);
+            let flags = if neo_hookean { FLAG_NEO_HOOKEAN } else { 0 };
+            words.extend([e as u32, offsets[f], slot as u32, flags]);
         }
         let mut rest_bytes = Vec::new();
         push_reals(&mut rest_bytes, &rest, precision);

@@ -60,6 +60,7 @@ use hyperpbd_core::{
 
 use crate::Precision;
 use crate::barrier::barrier_resources;
+use crate::codes;
 use crate::context::{DeviceSource, GpuContext};
 use crate::export::Exporter;
 use crate::kernel_set::{KernelSet, KernelSetSpec};
@@ -239,12 +240,9 @@ impl GpuCoupledBackend {
                 .extend(std::iter::repeat_n(0.0, width - reals.len()));
         };
         for family in &plan.families {
-            let code = match family.kind {
-                FamilyKind::Distance => 0,
-                FamilyKind::Tether => 1,
-                FamilyKind::SimplexMeasure { .. } => 2,
-                FamilyKind::Material { .. } => 6,
-                _ => 3,
+            // Hyperplanes are obstacle barriers here, never elements.
+            let Some(code) = codes::element_code(&family.kind) else {
+                continue;
             };
             for e in 0..family.len() {
                 let members = &family.elements[e * family.arity..(e + 1) * family.arity];
@@ -252,18 +250,27 @@ impl GpuCoupledBackend {
                     FamilyKind::Material { material, .. } => {
                         push(members, code, &[material.lame.mu, material.lame.lambda]);
                     }
-                    _ => push(members, code, &[family.compliance, family.rest[e]]),
+                    FamilyKind::Distance
+                    | FamilyKind::Tether
+                    | FamilyKind::SimplexMeasure { .. }
+                    | FamilyKind::OrientedMeasure
+                    | FamilyKind::HyperplaneContact { .. } => {
+                        push(members, code, &[family.compliance, family.rest[e]])
+                    }
                 }
             }
         }
-        let first_ball = plan.families.iter().map(|f| f.len()).sum();
+        let first_ball = (plan.families.iter())
+            .filter(|f| codes::element_code(&f.kind).is_some())
+            .map(|f| f.len())
+            .sum();
         for pair in &pairs {
-            push(pair, 4, &[]);
+            push(pair, codes::ELEMENT_BALL, &[]);
         }
         for lag in &self.lags {
             let mut reals = vec![lag.force_limit];
             reals.extend(&lag.normal);
-            push(&lag.pair, 5, &reals);
+            push(&lag.pair, codes::ELEMENT_LAG, &reals);
         }
         up.first_ball = first_ball;
         up.lists.build_gather(plan.particle_count());

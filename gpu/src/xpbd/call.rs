@@ -22,39 +22,13 @@ use crate::kernel_set::BlockWriter;
 /// step.wgsl).
 pub(crate) const SEGMENT: usize = 8;
 
-pub(crate) const OP_PREDICT: u32 = 0;
-pub(crate) const OP_PROJECT_DISTANCE: u32 = 1;
-pub(crate) const OP_PROJECT_SIMPLEX: u32 = 2;
-pub(crate) const OP_PROJECT_ORIENTED: u32 = 3;
-pub(crate) const OP_PROJECT_CONTACT: u32 = 4;
-pub(crate) const OP_VELOCITY: u32 = 5;
-pub(crate) const OP_FRICTION: u32 = 6;
-pub(crate) const OP_DAMPING: u32 = 7;
-pub(crate) const OP_RESIDUAL: u32 = 8;
-pub(crate) const OP_GUARD_MEASURE: u32 = 9;
-pub(crate) const OP_GUARD_SPEED: u32 = 10;
-pub(crate) const OP_PROJECT_MATERIAL: u32 = 11;
-/// A kernel the host runs itself between dispatches (broadphase, particle
-/// contact): no block of its own is ever executed.
-pub(crate) const OP_HOST: u32 = 0xff;
-
-pub(crate) const FLAG_GRAVITY: u32 = 1;
-pub(crate) const FLAG_FORCE: u32 = 2;
-pub(crate) const FLAG_FIRST: u32 = 4;
-pub(crate) const FLAG_TETHER: u32 = 8;
-pub(crate) const FLAG_UNREAD: u32 = 16;
-pub(crate) const FLAG_ORIENTATION: u32 = 32;
-pub(crate) const FLAG_RATIO: u32 = 64;
-pub(crate) const FLAG_NEO_HOOKEAN: u32 = 128;
-pub(crate) const FLAG_MATERIAL: u32 = 256;
-pub(crate) const FLAG_UNIT_SCALE: u32 = 512;
-
-pub(crate) const IO_LOAD_X: u32 = 1;
-pub(crate) const IO_LOAD_V: u32 = 2;
-pub(crate) const IO_LOAD_P: u32 = 4;
-pub(crate) const IO_STORE_X: u32 = 8;
-pub(crate) const IO_STORE_V: u32 = 16;
-pub(crate) const IO_STORE_P: u32 = 32;
+pub(crate) use crate::codes::{
+    FLAG_FIRST, FLAG_FORCE, FLAG_GRAVITY, FLAG_MATERIAL, FLAG_NEO_HOOKEAN, FLAG_ORIENTATION,
+    FLAG_RATIO, FLAG_TETHER, FLAG_UNIT_SCALE, FLAG_UNREAD, IO_LOAD_P, IO_LOAD_V, IO_LOAD_X,
+    IO_STORE_P, IO_STORE_V, IO_STORE_X, OP_DAMPING, OP_FRICTION, OP_GUARD_MEASURE,
+    OP_GUARD_SPEED, OP_HOST, OP_NONE, OP_PREDICT, OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE,
+    OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX, OP_RESIDUAL, OP_VELOCITY,
+};
 
 /// One kernel call, before encoding.
 #[derive(Debug, Clone, Default)]
@@ -179,7 +153,10 @@ fn access(op: u32) -> (u32, u32) {
         OP_PROJECT_CONTACT => (x | p, x),
         OP_VELOCITY => (x | p, v),
         OP_FRICTION | OP_DAMPING => (x | v, v),
-        _ => (0, 0),
+        // Not per-particle: no records of their own.
+        OP_PROJECT_DISTANCE | OP_PROJECT_SIMPLEX | OP_PROJECT_ORIENTED | OP_PROJECT_MATERIAL
+        | OP_RESIDUAL | OP_GUARD_MEASURE | OP_GUARD_SPEED | OP_HOST | OP_NONE => (0, 0),
+        unknown => unreachable!("op {unknown} is not in codes::OPS"),
     }
 }
 

@@ -105,7 +105,11 @@ impl Families {
                     out.slot_map.push(out.slot_maps.len() as u32);
                     out.slot_maps.extend(map);
                 }
-                _ => {
+                FamilyKind::Distance
+                | FamilyKind::Tether
+                | FamilyKind::SimplexMeasure { .. }
+                | FamilyKind::OrientedMeasure
+                | FamilyKind::Material { .. } => {
                     out.rest.extend_from_slice(&f.rest);
                     out.slot_map.push(0);
                 }
@@ -263,7 +267,7 @@ mod tests {
     #[test]
     fn flags_are_constants_of_their_pipelines() {
         let mut segment = schedule::Segment {
-            ops: [255; call::SEGMENT],
+            ops: [call::OP_NONE as u8; call::SEGMENT],
             flags: [0; call::SEGMENT],
             io: 7,
         };

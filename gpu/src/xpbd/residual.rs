@@ -23,18 +23,6 @@ pub(crate) fn chunk_len(workgroup: u32) -> u32 {
     16 * workgroup
 }
 
-/// The family kind as residual.wgsl numbers it.
-fn kind_code(kind: &FamilyKind) -> u32 {
-    match kind {
-        FamilyKind::Distance => 0,
-        FamilyKind::SimplexMeasure { .. } => 1,
-        FamilyKind::OrientedMeasure => 2,
-        FamilyKind::HyperplaneContact { .. } => 3,
-        FamilyKind::Tether => 4,
-        FamilyKind::Material { .. } => 5,
-    }
-}
-
 /// One residual call per family, with its first chunk, and the chunk
 /// table `(call index, first element)` (`first_call`: index of the first
 /// residual call in the call list).
@@ -51,7 +39,7 @@ pub(crate) fn residual_calls(
         let index = first_call + family as u32;
         let mut call = Call {
             op: OP_RESIDUAL,
-            kind: kind_code(&f.kind),
+            kind: crate::codes::residual_code(&f.kind),
             chunk: chunks.len() as u32,
             ..families.family_call(plan, family, index)
         };

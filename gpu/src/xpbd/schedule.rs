@@ -30,8 +30,9 @@
 use hyperpbd_core::{Family, FamilyKind, Kernel, Plan};
 
 use super::call::{
-    Call, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST, OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED,
-    OP_PROJECT_SIMPLEX, SEGMENT, dispatch_block, records_io,
+    Call, OP_DAMPING, OP_FRICTION, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST, OP_NONE, OP_PREDICT,
+    OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE, OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED,
+    OP_PROJECT_SIMPLEX, OP_RESIDUAL, OP_VELOCITY, SEGMENT, dispatch_block, records_io,
 };
 use super::{Families, friction, guard, integrate, project, residual};
 use crate::Precision;
@@ -62,7 +63,7 @@ impl StepMode {
 /// overridable constants).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub(crate) struct Segment {
-    /// Op of call first + k; NO_OP (255) past the run.
+    /// Op of call first + k; OP_NONE past the run.
     pub ops: [u8; SEGMENT],
     /// FLAG_* of call first + k (0 past the run).
     pub flags: [u16; SEGMENT],
@@ -72,7 +73,7 @@ pub(crate) struct Segment {
 
 impl Segment {
     fn of(calls: &[Call]) -> Segment {
-        let mut ops = [255u8; SEGMENT];
+        let mut ops = [OP_NONE as u8; SEGMENT];
         let mut flags = [0u16; SEGMENT];
         for ((op, flag), call) in ops.iter_mut().zip(&mut flags).zip(calls) {
             *op = call.op as u8;
@@ -160,7 +161,7 @@ impl Dispatch {
             | Run::Guard(..) => calls
                 .get(self.first_call as usize..self.end_call as usize)
                 .unwrap_or_default(),
-            _ => &[],
+            Run::Residual | Run::Reduce | Run::ResidualLanes | Run::Small | Run::Host(_) => &[],
         };
         dispatch_block(
             [self.first_call, self.end_call, self.count, 0],
@@ -363,17 +364,18 @@ fn kernel_call(
 
 /// The dispatch of call `index` alone.
 fn single(call: &Call, index: usize) -> Dispatch {
-    let run = if call.per_particle() {
-        Run::Particles(Segment::of(std::slice::from_ref(call)))
-    } else {
-        match call.op {
-            OP_HOST => Run::Host(call.kernel.unwrap_or(Kernel::Broadphase)),
-            OP_PROJECT_SIMPLEX => Run::Simplex(call.flags),
-            OP_PROJECT_ORIENTED => Run::Oriented(call.flags),
-            OP_PROJECT_MATERIAL => Run::Material(call.flags),
-            OP_GUARD_MEASURE | OP_GUARD_SPEED => Run::Guard(call.op, call.flags),
-            _ => Run::Distance(call.flags),
+    let run = match call.op {
+        OP_PREDICT | OP_PROJECT_CONTACT | OP_VELOCITY | OP_FRICTION | OP_DAMPING => {
+            Run::Particles(Segment::of(std::slice::from_ref(call)))
         }
+        OP_HOST => Run::Host(call.kernel.unwrap_or(Kernel::Broadphase)),
+        OP_PROJECT_DISTANCE => Run::Distance(call.flags),
+        OP_PROJECT_SIMPLEX => Run::Simplex(call.flags),
+        OP_PROJECT_ORIENTED => Run::Oriented(call.flags),
+        OP_PROJECT_MATERIAL => Run::Material(call.flags),
+        OP_GUARD_MEASURE | OP_GUARD_SPEED => Run::Guard(call.op, call.flags),
+        OP_RESIDUAL | OP_NONE => unreachable!("op {} is never a step call", call.op),
+        unknown => unreachable!("op {unknown} is not in codes::OPS"),
     };
     Dispatch {
         run,
