@@ -141,6 +141,12 @@ impl Family {
         self.source.get(slot).map_or(slot, |&s| s as usize)
     }
 
+    /// α~ = α / h², the compliance in the units of the XPBD update at
+    /// substep length `h` (every backend takes it from here).
+    pub fn alpha_tilde(&self, h: f64) -> f64 {
+        self.compliance / (h * h)
+    }
+
     /// Number of colors.
     pub fn color_count(&self) -> usize {
         self.color_starts.len().saturating_sub(1)

@@ -21,6 +21,7 @@ pub mod guards;
 pub mod implicit;
 mod incremental_potential_plan;
 mod json;
+pub mod kinds;
 pub mod material;
 mod material_plan;
 mod minimisation;

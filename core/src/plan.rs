@@ -23,10 +23,10 @@
 
 use crate::IncrementalPotentialPlan;
 use crate::coloring::greedy_colors;
-use crate::geometry::{Scratch, constraint_value, unit_vector};
+use crate::geometry::{Scratch, unit_vector};
 use crate::guard_rules::{Adaptive, Guards, guarded_families};
 use crate::material_plan::{self, FamilyMass};
-use crate::{ConstraintKind, Family, FamilyKind, Obstacle, Scene, SceneError, Solver, StageName};
+use crate::{Family, FamilyKind, Obstacle, Scene, SceneError, Solver, StageName, kinds};
 
 /// Which terms prediction includes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -203,20 +203,8 @@ impl Plan {
                 continue;
             }
             let arity = authored.elements[0].len();
-            let kind = match (authored.kind, &materials.shapes[f]) {
-                (_, Some((material, _))) => FamilyKind::Material {
-                    material: *material,
-                    order: arity - 1,
-                    frames: Vec::new(),
-                    measures: Vec::new(),
-                },
-                (ConstraintKind::Distance, None) => FamilyKind::Distance,
-                (ConstraintKind::SimplexMeasure, None) => {
-                    FamilyKind::SimplexMeasure { k: arity - 1 }
-                }
-                (ConstraintKind::Tether, None) => FamilyKind::Tether,
-                (_, None) => FamilyKind::OrientedMeasure,
-            };
+            let material = materials.shapes[f].as_ref().map(|(material, _)| *material);
+            let kind = kinds::family_kind(authored.kind, arity, material);
             let flat: Vec<usize> = authored.elements.iter().flatten().copied().collect();
             let rest: Vec<f64> = match &authored.rest {
                 Some(rest) => rest.clone(),
@@ -229,7 +217,7 @@ impl Plan {
                                 points[j * dim..(j + 1) * dim]
                                     .copy_from_slice(&scene.particles[i].position);
                             }
-                            constraint_value(authored.kind, &points, dim, &mut grad, &mut scratch)
+                            kinds::value(authored.kind, &points, dim, &mut grad, &mut scratch)
                         })
                         .collect()
                 }

@@ -199,7 +199,10 @@ impl ConstraintKind {
         match self {
             ConstraintKind::Stvk => Some(crate::material::Law::StVenantKirchhoff),
             ConstraintKind::NeoHookean => Some(crate::material::Law::NeoHookean),
-            _ => None,
+            ConstraintKind::Distance
+            | ConstraintKind::SimplexMeasure
+            | ConstraintKind::OrientedMeasure
+            | ConstraintKind::Tether => None,
         }
     }
 }

@@ -3,8 +3,9 @@
 //! The first violated rule is reported, in document order, with the path of
 //! the offending field. Nothing downstream re-checks what is checked here.
 
-use crate::geometry::{DEGENERATE_VOLUME_RATIO, Scratch, constraint_value, factorial};
-use crate::{ConstraintKind, MAX_DIM, Obstacle, Scene, SceneError};
+use crate::geometry::Scratch;
+use crate::kinds::{self, Arity};
+use crate::{MAX_DIM, Obstacle, Scene, SceneError};
 
 fn finite(path: impl FnOnce() -> String, value: f64) -> Result<(), SceneError> {
     if value.is_finite() {
@@ -155,33 +156,25 @@ impl Scene {
                     expected,
                     found: element.len(),
                 };
-                match family.kind {
-                    ConstraintKind::Distance | ConstraintKind::Tether if element.len() != 2 => {
-                        return Err(arity_error("2".into()));
+                match kinds::arity(family.kind) {
+                    Arity::Exactly(n) if element.len() != n => {
+                        return Err(arity_error(n.to_string()));
                     }
-                    ConstraintKind::SimplexMeasure
-                    | ConstraintKind::Stvk
-                    | ConstraintKind::NeoHookean
-                        if !(2..=dim + 1).contains(&element.len()) =>
-                    {
+                    Arity::Full if element.len() != dim + 1 => {
+                        return Err(arity_error(format!("{} (dim + 1)", dim + 1)));
+                    }
+                    Arity::Simplex if !(2..=dim + 1).contains(&element.len()) => {
                         return Err(arity_error(format!(
                             "k + 1 with 1 <= k <= {dim} (2..={})",
                             dim + 1
                         )));
                     }
-                    ConstraintKind::SimplexMeasure
-                    | ConstraintKind::Stvk
-                    | ConstraintKind::NeoHookean
-                        if element.len() != first_arity =>
-                    {
+                    Arity::Simplex if element.len() != first_arity => {
                         return Err(arity_error(format!(
                             "{first_arity} (one k per family, as in elements[0])"
                         )));
                     }
-                    ConstraintKind::OrientedMeasure if element.len() != dim + 1 => {
-                        return Err(arity_error(format!("{} (dim + 1)", dim + 1)));
-                    }
-                    _ => {}
+                    Arity::Exactly(_) | Arity::Full | Arity::Simplex => {}
                 }
                 for (j, &index) in element.iter().enumerate() {
                     if index >= count {
@@ -212,22 +205,12 @@ impl Scene {
                 for (e, &r) in rest.iter().enumerate() {
                     let path = format!("constraints[{f}].rest[{e}]");
                     finite(|| path.clone(), r)?;
-                    let why = match family.kind {
-                        ConstraintKind::Distance | ConstraintKind::Tether if r < 0.0 => {
-                            "a rest length must be >= 0"
-                        }
-                        ConstraintKind::SimplexMeasure if r < 0.0 => {
-                            "a squared measure must be >= 0"
-                        }
-                        ConstraintKind::OrientedMeasure if r == 0.0 => {
-                            "an oriented rest measure of zero has no orientation to preserve"
-                        }
-                        _ => continue,
-                    };
-                    return Err(SceneError::DegenerateRest {
-                        path,
-                        why: why.into(),
-                    });
+                    if let Some(why) = kinds::rest_problem(family.kind, r) {
+                        return Err(SceneError::DegenerateRest {
+                            path,
+                            why: why.into(),
+                        });
+                    }
                 }
             } else {
                 for (e, element) in family.elements.iter().enumerate() {
@@ -236,8 +219,7 @@ impl Scene {
                         points.extend_from_slice(&self.particles[i].position);
                     }
                     grad.resize(points.len(), 0.0);
-                    let value =
-                        constraint_value(family.kind, &points, dim, &mut grad, &mut scratch);
+                    let value = kinds::value(family.kind, &points, dim, &mut grad, &mut scratch);
                     let path = || format!("constraints[{f}].elements[{e}]");
                     if !value.is_finite() {
                         return Err(SceneError::DegenerateRest {
@@ -248,27 +230,8 @@ impl Scene {
                             ),
                         });
                     }
-                    if family.kind == ConstraintKind::OrientedMeasure {
-                        let mut longest: f64 = 0.0;
-                        for &i in element {
-                            for &j in element {
-                                longest = longest.max(distance(
-                                    &self.particles[i].position,
-                                    &self.particles[j].position,
-                                ));
-                            }
-                        }
-                        let floor =
-                            DEGENERATE_VOLUME_RATIO * longest.powi(dim as i32) / factorial(dim);
-                        if value.abs() <= floor {
-                            return Err(SceneError::DegenerateRest {
-                                path: path(),
-                                why: format!(
-                                    "the authored simplex has signed volume {value:e}, not above \
-                                     the degeneracy floor {floor:e}"
-                                ),
-                            });
-                        }
+                    if let Some(why) = kinds::authored_problem(family.kind, &points, dim, value) {
+                        return Err(SceneError::DegenerateRest { path: path(), why });
                     }
                 }
             }
@@ -313,12 +276,4 @@ impl Scene {
         }
         Ok(())
     }
-}
-
-fn distance(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y) * (x - y))
-        .sum::<f64>()
-        .sqrt()
 }

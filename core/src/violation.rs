@@ -20,7 +20,7 @@ use crate::geometry::{
     Scratch, deepest_overlap, distance, oriented_measure, simplex_squared_measure,
 };
 use crate::material::{MaterialScratch, energy_constraint};
-use crate::{Family, FamilyKind, FamilyResidual, Plan};
+use crate::{Family, FamilyKind, FamilyResidual, Plan, kinds};
 
 /// The violation of one element of a geometric family at `points` (its
 /// members' coordinates, arity × `dim`); `None` for contact and material
@@ -33,15 +33,13 @@ pub fn geometric_violation(
     grad: &mut [f64],
     scratch: &mut Scratch,
 ) -> Option<f64> {
-    Some(match kind {
-        FamilyKind::Distance => (distance(points, dim, grad) - rest).abs(),
-        FamilyKind::Tether => (distance(points, dim, grad) - rest).max(0.0),
-        FamilyKind::SimplexMeasure { .. } => {
-            (simplex_squared_measure(points, dim, grad, scratch) - rest).abs()
-        }
-        FamilyKind::OrientedMeasure => (oriented_measure(points, dim, grad, scratch) - rest).abs(),
+    let value = match kind {
+        FamilyKind::Distance | FamilyKind::Tether => distance(points, dim, grad),
+        FamilyKind::SimplexMeasure { .. } => simplex_squared_measure(points, dim, grad, scratch),
+        FamilyKind::OrientedMeasure => oriented_measure(points, dim, grad, scratch),
         FamilyKind::HyperplaneContact { .. } | FamilyKind::Material { .. } => return None,
-    })
+    };
+    kinds::violation(kind, value, rest)
 }
 
 /// The residual of every geometric and material family of `families` at

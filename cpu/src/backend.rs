@@ -173,7 +173,7 @@ impl CpuBackend {
                     dim: plan.dim,
                     inverse_mass: &plan.inverse_mass,
                     family: fam,
-                    alpha_tilde: fam.compliance / (plan.h * plan.h),
+                    alpha_tilde: fam.alpha_tilde(plan.h),
                     start: &self.p,
                 };
                 project(

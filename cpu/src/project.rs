@@ -148,7 +148,13 @@ fn project_elements<X: Coordinates + ?Sized>(
             batch.dim,
             contact_in(batch, normal, *friction, elements, x, lambda)
         ),
-        _ => with_dim!(batch.dim, measure(batch, elements, x, lambda, ws)),
+        FamilyKind::Distance
+        | FamilyKind::Tether
+        | FamilyKind::SimplexMeasure { .. }
+        | FamilyKind::OrientedMeasure
+        | FamilyKind::Material { .. } => {
+            with_dim!(batch.dim, measure(batch, elements, x, lambda, ws))
+        }
     }
 }
 
@@ -242,7 +248,7 @@ fn measure<D: Dim, X: Coordinates + ?Sized>(
             let i = i as usize;
             ws.points[j * dim..(j + 1) * dim].copy_from_slice(x.values(i * dim..(i + 1) * dim));
         }
-        let value = match f.kind {
+        let value = match &f.kind {
             FamilyKind::Distance | FamilyKind::Tether => {
                 hyperpbd_core::geometry::distance(&ws.points, dim, &mut ws.grad)
             }
@@ -261,7 +267,11 @@ fn measure<D: Dim, X: Coordinates + ?Sized>(
                 )
                 .map_err(|_| e)?
             }
-            _ => oriented_measure(&ws.points, dim, &mut ws.grad, &mut ws.scratch),
+            FamilyKind::OrientedMeasure => {
+                oriented_measure(&ws.points, dim, &mut ws.grad, &mut ws.scratch)
+            }
+            // Contacts take `contact_in`, never this path.
+            FamilyKind::HyperplaneContact { .. } => return Err(e),
         };
         if !value.is_finite() {
             return Err(e);

@@ -20,7 +20,8 @@
 //! ```
 
 use glam::{DVec2, DVec3};
-use hyperpbd_core::geometry::{Scratch, constraint_value};
+use hyperpbd_core::geometry::Scratch;
+use hyperpbd_core::kinds;
 use hyperpbd_core::{ConstraintKind, Obstacle, Scene, State};
 
 /// A hyperplane n·x = offset with unit n; n·x < offset + r is excluded.
@@ -99,7 +100,7 @@ impl SceneGeometry {
                             points[j * dim..(j + 1) * dim]
                                 .copy_from_slice(&scene.particles[i].position);
                         }
-                        constraint_value(family.kind, &points, dim, &mut grad, &mut scratch)
+                        kinds::value(family.kind, &points, dim, &mut grad, &mut scratch)
                     })
                     .collect(),
             };
@@ -204,7 +205,7 @@ impl SceneGeometry {
                 for (j, &i) in element.iter().enumerate() {
                     points[j * dim..(j + 1) * dim].copy_from_slice(state.position(i));
                 }
-                let c = constraint_value(f.kind, &points, dim, &mut grad, &mut scratch);
+                let c = kinds::value(f.kind, &points, dim, &mut grad, &mut scratch);
                 let r = ((c - f.rest[e]) / f.scale[e]).abs();
                 let r = if r.is_nan() { f64::INFINITY } else { r };
                 for &i in element {

@@ -14,12 +14,13 @@
 //!   x → (a, b) has norm √3:  ‖∇²V‖ ≤ 9 L²,  ‖∇V‖ ≤ √6 L³
 //! ```
 //! Other orders (k ≥ 3 simplex measures) state no bound; V itself is
-//! core's `constraint_value`.
+//! core's `kinds::value`.
 
 use hyperpbd_core::ConstraintKind;
-use hyperpbd_core::geometry::{Scratch, constraint_value};
+use hyperpbd_core::geometry::Scratch;
+use hyperpbd_core::kinds;
 
-/// V at `points` by core's `constraint_value` (the golden definition).
+/// V at `points` by core's `kinds::value` (the golden definition).
 fn value(oriented: bool, points: &[f64], dim: usize) -> f64 {
     let kind = if oriented {
         ConstraintKind::OrientedMeasure
@@ -27,7 +28,7 @@ fn value(oriented: bool, points: &[f64], dim: usize) -> f64 {
         ConstraintKind::SimplexMeasure
     };
     let mut grad = vec![0.0; points.len()];
-    constraint_value(kind, points, dim, &mut grad, &mut Scratch::new())
+    kinds::value(kind, points, dim, &mut grad, &mut Scratch::new())
 }
 
 /// The largest edge |x_v − x_0| of the element at `points`.

@@ -51,30 +51,3 @@ pub const DEGENERATE_VOLUME_RATIO: f64 = 1e-12;
 pub fn factorial(k: usize) -> f64 {
     (1..=k).fold(1.0, |acc, i| acc * i as f64)
 }
-
-/// The value of constraint `kind` at `points` (k + 1 points of length
-/// `dim`): the rest value an element takes from its authored geometry.
-/// A material kind's rest value is 0, the minimum of its energy
-/// constraint C = √(2W) (its rest shape lives in the plan's rest frames),
-/// with ∇C = 0.
-pub fn constraint_value(
-    kind: crate::ConstraintKind,
-    points: &[f64],
-    dim: usize,
-    grad: &mut [f64],
-    scratch: &mut Scratch,
-) -> f64 {
-    match kind {
-        crate::ConstraintKind::Distance | crate::ConstraintKind::Tether => {
-            distance(points, dim, grad)
-        }
-        crate::ConstraintKind::SimplexMeasure => {
-            simplex_squared_measure(points, dim, grad, scratch)
-        }
-        crate::ConstraintKind::OrientedMeasure => oriented_measure(points, dim, grad, scratch),
-        crate::ConstraintKind::Stvk | crate::ConstraintKind::NeoHookean => {
-            grad.fill(0.0);
-            0.0
-        }
-    }
-}

@@ -36,7 +36,7 @@
 //!
 //! Material kinds are no springs (their energy is the law's,
 //! material_hessian.rs): here their value is 0 with ∇C = 0
-//! (`geometry::constraint_value`).
+//! (`kinds::value`).
 //!
 //! Products (element layout, (k + 1) × N):
 //! ```text
@@ -47,7 +47,8 @@
 
 use super::RadialCurvature;
 use crate::ConstraintKind;
-use crate::geometry::{Scratch, constraint_value};
+use crate::geometry::Scratch;
+use crate::kinds;
 
 /// The curvature of one spring element (PSD).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -89,7 +90,7 @@ pub fn evaluate_spring(
     energy_gradient: &mut [f64],
     scratch: &mut Scratch,
 ) -> Spring {
-    let value = constraint_value(kind, points, dim, constraint_gradient, scratch);
+    let value = kinds::value(kind, points, dim, constraint_gradient, scratch);
     let c = value - rest;
     let count = points.len();
     if kind == ConstraintKind::Tether && c <= 0.0 {

@@ -310,7 +310,12 @@ impl Elements {
             Kind::Spring { family, .. } => {
                 let curvature = match terms.plan.families[family as usize].kind {
                     FamilyKind::Distance | FamilyKind::Tether => SpringCurvature::Radial(radial),
-                    _ => SpringCurvature::GaussNewton { weight: record[1] },
+                    FamilyKind::SimplexMeasure { .. }
+                    | FamilyKind::OrientedMeasure
+                    | FamilyKind::Material { .. }
+                    | FamilyKind::HyperplaneContact { .. } => {
+                        SpringCurvature::GaussNewton { weight: record[1] }
+                    }
                 };
                 let spring = Spring {
                     energy: record[0],

@@ -181,7 +181,11 @@ impl F32Reference {
                     FamilyKind::HyperplaneContact { normal, friction } => {
                         (normal.as_slice(), *friction)
                     }
-                    _ => (&[][..], 0.0),
+                    FamilyKind::Distance
+                    | FamilyKind::Tether
+                    | FamilyKind::SimplexMeasure { .. }
+                    | FamilyKind::OrientedMeasure
+                    | FamilyKind::Material { .. } => (&[][..], 0.0),
                 };
                 let rest = f.rest.iter().map(|&r| {
                     if normal.is_empty() || !shifted {
@@ -193,7 +197,7 @@ impl F32Reference {
                 Stored {
                     rest: rest.collect(),
                     lambda: vec![0.0; f.len()],
-                    alpha_tilde: (f.compliance / (plan.h * plan.h)) as f32,
+                    alpha_tilde: f.alpha_tilde(plan.h) as f32,
                     normal: round(normal),
                     mu: mu as f32,
                     material: material_law(&f.kind),

@@ -20,8 +20,8 @@ use hyperpbd_core::{FamilyKind, GpuError, Plan, Refusal};
 
 use crate::Precision;
 use crate::barrier::{LOOPS_CUT, NONE, STATUS_WORDS, refuse_cut_loops};
-use crate::context::GpuContext;
 use crate::codes::FLAG_NEO_HOOKEAN;
+use crate::context::GpuContext;
 use crate::params::push_reals;
 use crate::xpbd::material::push_rest_data;
 

@@ -17,7 +17,11 @@ pub(crate) fn friction(plan: &Plan, families: &Families, family: usize, call: u3
     let f = &plan.families[family];
     let (normal, mu) = match &f.kind {
         FamilyKind::HyperplaneContact { normal, friction } => (normal.clone(), *friction),
-        _ => (Vec::new(), 0.0),
+        FamilyKind::Distance
+        | FamilyKind::Tether
+        | FamilyKind::SimplexMeasure { .. }
+        | FamilyKind::OrientedMeasure
+        | FamilyKind::Material { .. } => (Vec::new(), 0.0),
     };
     Call {
         op: OP_FRICTION,

@@ -35,7 +35,7 @@ pub(crate) fn project(
         count: range.len() as u32,
         first: range.start as u32,
         flags: if first { FLAG_FIRST } else { 0 } | if last { FLAG_UNREAD } else { 0 },
-        alpha_tilde: f.compliance / (plan.h * plan.h),
+        alpha_tilde: f.alpha_tilde(plan.h),
         kernel: Some(Kernel::Project { family, color }),
         ..families.family_call(plan, family, call)
     };

@@ -1,0 +1,161 @@
+//! Constraint kinds, one home each: what a kind's elements are (arity),
+//! which rest values it takes, how it is checked, its value C with ∇C, its
+//! relation and its violation. Validation, the plan, residuals and the
+//! implicit springs ask here; the backends' tuned kernels implement the
+//! same value (their differential tests hold them to it).
+//!
+//! ```text
+//! kind               arity          rest (omitted: C at the authored positions)   relation  violation   home
+//! distance           2              ≥ 0                                           C = 0     |C|         distance.rs
+//! tether             2              ≥ 0                                           C ≤ 0     max(C, 0)   tether.rs
+//! simplex_measure    k+1, 1 ≤ k ≤ N ≥ 0                                           C = 0     |C|         simplex_measure.rs
+//! oriented_measure   N+1            ≠ 0; authored simplex not degenerate          C = 0     |C|         oriented_measure.rs
+//! stvk, neo_hookean  k+1, 1 ≤ k ≤ N 0 (the rest shape lives in the plan's frames)  C = 0     √(2W)       material.rs
+//! hyperplane contact 1 (obstacle)   offset + radius                               C ≥ 0     by the backend's normals  hyperplane_contact.rs
+//! ```
+//! Adding a kind: one file here, a variant of [`ConstraintKind`] (and of
+//! [`FamilyKind`] if it compiles to its own), one line in each function
+//! below; every match over kinds in the crates is exhaustive, so the
+//! compiler names every place left (the backends' kernels, the shared
+//! codes of `gpu/src/codes.rs`).
+
+mod distance;
+mod hyperplane_contact;
+mod material;
+mod oriented_measure;
+mod simplex_measure;
+mod tether;
+
+use crate::geometry::Scratch;
+use crate::material::Material;
+use crate::{ConstraintKind, FamilyKind};
+
+/// How many particles an element of a kind has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Arity {
+    /// Exactly this many.
+    Exactly(usize),
+    /// N + 1: a full-dimensional simplex of R^N.
+    Full,
+    /// A k-simplex: k + 1 particles with 1 ≤ k ≤ N, the same k for the
+    /// whole family.
+    Simplex,
+}
+
+/// The relation an element imposes on C = value − rest.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Relation {
+    /// C = 0 (λ free).
+    Equal,
+    /// C ≤ 0 (λ ≤ 0: it only pulls).
+    AtMost,
+    /// C ≥ 0 (λ ≥ 0: it only pushes).
+    AtLeast,
+}
+
+/// The arity of `kind`.
+pub fn arity(kind: ConstraintKind) -> Arity {
+    match kind {
+        ConstraintKind::Distance => distance::ARITY,
+        ConstraintKind::Tether => tether::ARITY,
+        ConstraintKind::SimplexMeasure => simplex_measure::ARITY,
+        ConstraintKind::OrientedMeasure => oriented_measure::ARITY,
+        ConstraintKind::Stvk | ConstraintKind::NeoHookean => material::ARITY,
+    }
+}
+
+/// Why an authored rest value `rest` (finite) is refused by `kind`, if it
+/// is. Material kinds take no rest values (their validation refuses the
+/// key).
+pub fn rest_problem(kind: ConstraintKind, rest: f64) -> Option<&'static str> {
+    match kind {
+        ConstraintKind::Distance => distance::rest_problem(rest),
+        ConstraintKind::Tether => tether::rest_problem(rest),
+        ConstraintKind::SimplexMeasure => simplex_measure::rest_problem(rest),
+        ConstraintKind::OrientedMeasure => oriented_measure::rest_problem(rest),
+        ConstraintKind::Stvk | ConstraintKind::NeoHookean => None,
+    }
+}
+
+/// Why the authored element at `points` (its particles' positions, arity ×
+/// `dim`), whose value is `value`, cannot be an element of `kind` with
+/// its rest value taken from it, if it cannot.
+pub fn authored_problem(
+    kind: ConstraintKind,
+    points: &[f64],
+    dim: usize,
+    value: f64,
+) -> Option<String> {
+    match kind {
+        ConstraintKind::OrientedMeasure => oriented_measure::authored_problem(points, dim, value),
+        ConstraintKind::Distance
+        | ConstraintKind::Tether
+        | ConstraintKind::SimplexMeasure
+        | ConstraintKind::Stvk
+        | ConstraintKind::NeoHookean => None,
+    }
+}
+
+/// The value of `kind` at `points` (arity × `dim`, gathered), with ∇C
+/// written into `grad` (the layout of `points`): the rest value an element
+/// takes from its authored geometry. A material kind's value here is 0,
+/// the minimum of its energy constraint C = √(2W) (its rest shape lives in
+/// the plan's rest frames), with ∇C = 0.
+pub fn value(
+    kind: ConstraintKind,
+    points: &[f64],
+    dim: usize,
+    grad: &mut [f64],
+    scratch: &mut Scratch,
+) -> f64 {
+    match kind {
+        ConstraintKind::Distance => distance::value(points, dim, grad),
+        ConstraintKind::Tether => tether::value(points, dim, grad),
+        ConstraintKind::SimplexMeasure => simplex_measure::value(points, dim, grad, scratch),
+        ConstraintKind::OrientedMeasure => oriented_measure::value(points, dim, grad, scratch),
+        ConstraintKind::Stvk | ConstraintKind::NeoHookean => material::rest_value(grad),
+    }
+}
+
+/// The compiled kind of an authored family of `kind` whose elements have
+/// `arity` particles (`material`: its law and Lamé parameters, for the
+/// material kinds).
+pub fn family_kind(kind: ConstraintKind, arity: usize, material: Option<Material>) -> FamilyKind {
+    match (kind, material) {
+        (ConstraintKind::Stvk | ConstraintKind::NeoHookean, Some(material)) => {
+            material::family_kind(material, arity)
+        }
+        (ConstraintKind::Distance, _) => FamilyKind::Distance,
+        (ConstraintKind::Tether, _) => FamilyKind::Tether,
+        (ConstraintKind::SimplexMeasure, _) => simplex_measure::family_kind(arity),
+        (ConstraintKind::OrientedMeasure, _) => FamilyKind::OrientedMeasure,
+        (ConstraintKind::Stvk | ConstraintKind::NeoHookean, None) => {
+            unreachable!("material_plan compiles a material for every material family")
+        }
+    }
+}
+
+/// The relation of a compiled kind.
+pub fn relation(kind: &FamilyKind) -> Relation {
+    match kind {
+        FamilyKind::Distance | FamilyKind::SimplexMeasure { .. } | FamilyKind::OrientedMeasure => {
+            Relation::Equal
+        }
+        FamilyKind::Tether => tether::RELATION,
+        FamilyKind::Material { .. } => material::RELATION,
+        FamilyKind::HyperplaneContact { .. } => hyperplane_contact::RELATION,
+    }
+}
+
+/// The violation of one element of a geometric kind whose value is
+/// `value` and rest value `rest`; `None` for contact and material kinds
+/// (the backend's contact normals and the law measure those).
+pub fn violation(kind: &FamilyKind, value: f64, rest: f64) -> Option<f64> {
+    match kind {
+        FamilyKind::Distance => Some(distance::violation(value, rest)),
+        FamilyKind::Tether => Some(tether::violation(value, rest)),
+        FamilyKind::SimplexMeasure { .. } => Some(simplex_measure::violation(value, rest)),
+        FamilyKind::OrientedMeasure => Some(oriented_measure::violation(value, rest)),
+        FamilyKind::HyperplaneContact { .. } | FamilyKind::Material { .. } => None,
+    }
+}
