@@ -28,7 +28,11 @@ use super::graph::{Built, Cmp, Graph, Op, Slot};
 
 /// ∂output/∂input_j for the inputs `0..inputs` (nodes 0… are the inputs);
 /// `None` where it is identically zero.
-pub(crate) fn gradient(g: &mut Graph, output: Slot, inputs: usize) -> Result<Vec<Option<Slot>>, super::graph::Exhausted> {
+pub(crate) fn gradient(
+    g: &mut Graph,
+    output: Slot,
+    inputs: usize,
+) -> Result<Vec<Option<Slot>>, super::graph::Exhausted> {
     let mut adj: Vec<Option<Slot>> = vec![None; output + 1];
     adj[output] = Some(g.constant(1.0)?);
     for i in (0..=output).rev() {
@@ -100,7 +104,12 @@ pub(crate) fn gradient(g: &mut Graph, output: Slot, inputs: usize) -> Result<Vec
     Ok((0..inputs).map(|j| adj.get(j).copied().flatten()).collect())
 }
 
-fn accumulate(g: &mut Graph, adj: &mut [Option<Slot>], to: Slot, contribution: Built) -> Result<(), super::graph::Exhausted> {
+fn accumulate(
+    g: &mut Graph,
+    adj: &mut [Option<Slot>],
+    to: Slot,
+    contribution: Built,
+) -> Result<(), super::graph::Exhausted> {
     let c = contribution?;
     adj[to] = Some(match adj[to] {
         None => c,

@@ -106,7 +106,11 @@ pub fn compile(
         ("dim", dim, limits::MAX_DIM),
     ] {
         if value == 0 || value > max {
-            return Err(ExprError::at(src, 0, ExprErrorKind::Shape { what, value, max }));
+            return Err(ExprError::at(
+                src,
+                0,
+                ExprErrorKind::Shape { what, value, max },
+            ));
         }
     }
     let (mut graph, value) = parse::lower(src, params, arity, dim)?;

@@ -19,11 +19,11 @@
 //!   every minor built once (≤ k·2^k products)
 //! ```
 
+use super::ParamValue;
 use super::error::{ExprError, ExprErrorKind, ValueType};
 use super::graph::{Built, Cmp, Exhausted, Graph, Op, Slot};
 use super::lex::{Token, tokens};
 use super::limits::{MAX_DEPTH, MAX_DET_ORDER, MAX_GRAPH_NODES, MAX_LETS};
-use super::ParamValue;
 use std::collections::HashMap;
 
 /// A built-in function.
@@ -241,7 +241,9 @@ impl<'a> Parser<'a> {
                 return Err(self.error_at(at, invalid("not a name ([A-Za-z_][A-Za-z0-9_]*)")));
             }
             if reserved(name) {
-                return Err(self.error_at(at, invalid("reserved (a particle, a function or `let`)")));
+                return Err(
+                    self.error_at(at, invalid("reserved (a particle, a function or `let`)"))
+                );
             }
             if self.params.contains_key(name.as_str()) {
                 return Err(self.error_at(at, invalid("given twice")));
@@ -251,7 +253,10 @@ impl<'a> Parser<'a> {
                     if !v.is_finite() {
                         return Err(self.error_at(at, invalid("not finite")));
                     }
-                    Val::S({ let t = self.graph.constant(*v); self.built(t) }?)
+                    Val::S({
+                        let t = self.graph.constant(*v);
+                        self.built(t)
+                    }?)
                 }
                 ParamValue::Vector(v) => {
                     if v.len() != self.dim {
@@ -307,11 +312,17 @@ impl<'a> Parser<'a> {
     fn additive(&mut self, op: char, left: Val, right: Val, at: usize) -> Parsed<Val> {
         let f = |g: &mut Graph, a, b| if op == '+' { g.add(a, b) } else { g.sub(a, b) };
         match (left, right) {
-            (Val::S(a), Val::S(b)) => Ok(Val::S({ let t = f(&mut self.graph, a, b); self.built(t) }?)),
+            (Val::S(a), Val::S(b)) => Ok(Val::S({
+                let t = f(&mut self.graph, a, b);
+                self.built(t)
+            }?)),
             (Val::V(a), Val::V(b)) => {
                 let mut out = Vec::with_capacity(a.len());
                 for (&x, &y) in a.iter().zip(&b) {
-                    out.push({ let t = f(&mut self.graph, x, y); self.built(t) }?);
+                    out.push({
+                        let t = f(&mut self.graph, x, y);
+                        self.built(t)
+                    }?);
                 }
                 Ok(Val::V(out))
             }
@@ -339,18 +350,27 @@ impl<'a> Parser<'a> {
     fn multiplicative(&mut self, op: char, left: Val, right: Val, at: usize) -> Parsed<Val> {
         let f = |g: &mut Graph, a, b| if op == '*' { g.mul(a, b) } else { g.div(a, b) };
         match (left, right) {
-            (Val::S(a), Val::S(b)) => Ok(Val::S({ let t = f(&mut self.graph, a, b); self.built(t) }?)),
+            (Val::S(a), Val::S(b)) => Ok(Val::S({
+                let t = f(&mut self.graph, a, b);
+                self.built(t)
+            }?)),
             (Val::V(v), Val::S(s)) => {
                 let mut out = Vec::with_capacity(v.len());
                 for &x in &v {
-                    out.push({ let t = f(&mut self.graph, x, s); self.built(t) }?);
+                    out.push({
+                        let t = f(&mut self.graph, x, s);
+                        self.built(t)
+                    }?);
                 }
                 Ok(Val::V(out))
             }
             (Val::S(s), Val::V(v)) if op == '*' => {
                 let mut out = Vec::with_capacity(v.len());
                 for &x in &v {
-                    out.push({ let t = self.graph.mul(s, x); self.built(t) }?);
+                    out.push({
+                        let t = self.graph.mul(s, x);
+                        self.built(t)
+                    }?);
                 }
                 Ok(Val::V(out))
             }
@@ -371,11 +391,17 @@ impl<'a> Parser<'a> {
             let v = self.unary()?;
             self.depth -= 1;
             return match v {
-                Val::S(a) => Ok(Val::S({ let t = self.graph.neg(a); self.built(t) }?)),
+                Val::S(a) => Ok(Val::S({
+                    let t = self.graph.neg(a);
+                    self.built(t)
+                }?)),
                 Val::V(v) => {
                     let mut out = Vec::with_capacity(v.len());
                     for &x in &v {
-                        out.push({ let t = self.graph.neg(x); self.built(t) }?);
+                        out.push({
+                            let t = self.graph.neg(x);
+                            self.built(t)
+                        }?);
                     }
                     Ok(Val::V(out))
                 }
@@ -435,7 +461,10 @@ impl<'a> Parser<'a> {
     fn primary(&mut self) -> Parsed<Val> {
         let (tok, at) = self.next();
         match tok {
-            Token::Number(v, _) => Ok(Val::S({ let t = self.graph.constant(v); self.built(t) }?)),
+            Token::Number(v, _) => Ok(Val::S({
+                let t = self.graph.constant(v);
+                self.built(t)
+            }?)),
             Token::Symbol('(') => {
                 let v = self.expr()?;
                 self.expect(')', "`)`")?;
@@ -565,7 +594,10 @@ impl<'a> Parser<'a> {
                 }
                 let cols: Vec<Vec<Slot>> =
                     args.iter().map(|a| self.vector(a)).collect::<Parsed<_>>()?;
-                (n, (0..n * n).map(|i| cols[i % n][i / n]).collect::<Vec<_>>())
+                (
+                    n,
+                    (0..n * n).map(|i| cols[i % n][i / n]).collect::<Vec<_>>(),
+                )
             }
             Val::S(_) => {
                 let k = (1..=n).find(|k| k * k >= n).unwrap_or(n);

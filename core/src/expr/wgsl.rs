@@ -4,8 +4,15 @@
 //! results are theirs bit for bit.
 //!
 //! ```text
-//! fn NAME(x: array<T, K>) -> array<T, M>      K = arity·dim,  M = 1 + |∇C| + |∇²C|
+//! fn NAME(x: array<T, K>, opaque: bool) -> array<T, M>   K = arity·dim,  M = 1 + |∇C| + |∇²C|
 //!   let v<i>: T = <op of earlier v's>;       generated identifiers only
+//!   arithmetic:  let r<i> = <op>;  let v<i> = select(r<i>, −r<i>, opaque)
+//!   (the host passes an `opaque` that is false at run time but unknown to
+//!    the compiler, e.g. `arrayLength(&buffer) == 0u`: WGSL cannot forbid
+//!    contraction or regrouping, and lavapipe (Mesa 22) regroups sums and
+//!    fuses a·b + c across slots when it can see through them — measured:
+//!    ~3 % of outputs off by an ulp without it; same trick as step.wgsl's
+//!    `kept`)
 //!   result = [C, ∇C…, ∇²C…]                    (Tape::outputs order)
 //! constants: typed literals (`1.5lf`, `0.1f`), the shortest text of the
 //!   value already rounded to T (so no abstract-float evaluation happens);
@@ -16,13 +23,13 @@
 //! No name from the source reaches the output: params are constants,
 //! bindings are slots.
 
-use super::graph::{Cmp, Op};
-use super::tape::Tape;
 use super::exp::{
     EXP_INV_LN2_F32, EXP_INV_LN2_F64, EXP_LN2_HI_F32, EXP_LN2_HI_F64, EXP_LN2_LO_F32,
     EXP_LN2_LO_F64, EXP_MAX_F32, EXP_MAX_F64, EXP_MIN_F32, EXP_MIN_F64, EXP_SERIES_F32,
     EXP_SERIES_F64,
 };
+use super::graph::{Cmp, Op};
+use super::tape::Tape;
 use crate::Precision;
 use crate::material::{ATANH_SERIES, ATANH_TERMS_F32};
 use std::fmt::Write;
@@ -58,7 +65,7 @@ pub fn emit_wgsl(tape: &Tape, fn_name: &str, precision: Precision) -> String {
     let _ = writeln!(
         s,
         "// generated from an expression: {} ops, outputs [C, ∇C ({}), ∇²C ({})]\n\
-         fn {fn_name}(x: array<{t}, {k}>) -> array<{t}, {m}> {{",
+         fn {fn_name}(x: array<{t}, {k}>, opaque: bool) -> array<{t}, {m}> {{",
         tape.ops.len(),
         tape.gradient.len(),
         tape.hessian.len(),
@@ -66,18 +73,21 @@ pub fn emit_wgsl(tape: &Tape, fn_name: &str, precision: Precision) -> String {
         m = outputs.len(),
     );
     for (i, op) in tape.ops.iter().enumerate() {
-        let rhs = match *op {
-            Op::Input(j) => format!("x[{j}]"),
-            Op::Const(c) => literal(c, precision),
-            Op::Add(a, b) => format!("v{a} + v{b}"),
-            Op::Sub(a, b) => format!("v{a} - v{b}"),
-            Op::Mul(a, b) => format!("v{a} * v{b}"),
-            Op::Div(a, b) => format!("v{a} / v{b}"),
-            Op::Neg(a) => format!("-v{a}"),
-            Op::Sqrt(a) => format!("sqrt(v{a})"),
-            Op::Abs(a) => format!("abs(v{a})"),
-            Op::Ln(a) => format!("ln_real(v{a})"),
-            Op::Exp(a) => format!("exp_real(v{a})"),
+        // Arithmetic results pass through `select(r, −r, opaque)`: exactly r
+        // at run time (the host passes false), but the optimiser cannot see
+        // it, so it can neither regroup a sum nor fuse a·b + c across slots.
+        let (rhs, arithmetic) = match *op {
+            Op::Input(j) => (format!("x[{j}]"), false),
+            Op::Const(c) => (literal(c, precision), false),
+            Op::Add(a, b) => (format!("v{a} + v{b}"), true),
+            Op::Sub(a, b) => (format!("v{a} - v{b}"), true),
+            Op::Mul(a, b) => (format!("v{a} * v{b}"), true),
+            Op::Div(a, b) => (format!("v{a} / v{b}"), true),
+            Op::Neg(a) => (format!("-v{a}"), true),
+            Op::Sqrt(a) => (format!("sqrt(v{a})"), true),
+            Op::Abs(a) => (format!("abs(v{a})"), true),
+            Op::Ln(a) => (format!("ln_real(v{a})"), true),
+            Op::Exp(a) => (format!("exp_real(v{a})"), true),
             Op::Select {
                 cmp,
                 lhs,
@@ -89,10 +99,20 @@ pub fn emit_wgsl(tape: &Tape, fn_name: &str, precision: Precision) -> String {
                     Cmp::Lt => "<",
                     Cmp::Le => "<=",
                 };
-                format!("select(v{otherwise}, v{then}, v{lhs} {c} v{rhs})")
+                (
+                    format!("select(v{otherwise}, v{then}, v{lhs} {c} v{rhs})"),
+                    false,
+                )
             }
         };
-        let _ = writeln!(s, "    let v{i}: {t} = {rhs};");
+        if arithmetic {
+            let _ = writeln!(
+                s,
+                "    let r{i}: {t} = {rhs};\n    let v{i}: {t} = select(r{i}, -r{i}, opaque);"
+            );
+        } else {
+            let _ = writeln!(s, "    let v{i}: {t} = {rhs};");
+        }
     }
     let list: Vec<String> = outputs.iter().map(|o| format!("v{o}")).collect();
     let _ = writeln!(
@@ -161,7 +181,11 @@ pub fn wgsl_support(precision: Precision) -> String {
                 literal(f64::from(EXP_SERIES_F32[0]), precision)
             );
             for &c in &EXP_SERIES_F32[1..] {
-                let _ = write!(series, "\n    q = q * r + {};", literal(f64::from(c), precision));
+                let _ = write!(
+                    series,
+                    "\n    q = q * r + {};",
+                    literal(f64::from(c), precision)
+                );
             }
             (
                 LN_F32.replacen("// ATANH_SERIES", &ln, 1),

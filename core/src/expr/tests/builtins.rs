@@ -18,8 +18,8 @@
 
 use super::random::Rng;
 use super::{compiled, eval_one};
-use crate::geometry::{Scratch, distance, oriented_measure, simplex_squared_measure};
 use crate::expr::Outputs;
+use crate::geometry::{Scratch, distance, oriented_measure, simplex_squared_measure};
 
 fn factorial(k: usize) -> f64 {
     (1..=k).fold(1.0, |a, i| a * i as f64)
@@ -49,7 +49,9 @@ pub(crate) fn oriented_source(dim: usize) -> String {
 
 /// Π_i ‖row_i‖₁ of the matrix `rows` (k rows of k).
 fn row_norm_product(rows: &[Vec<f64>]) -> f64 {
-    rows.iter().map(|r| r.iter().map(|v| v.abs()).sum::<f64>()).product()
+    rows.iter()
+        .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
+        .product()
 }
 
 #[test]
@@ -57,17 +59,28 @@ fn distance_is_the_builtin_value_bit_for_bit_and_its_gradient_within_rounding() 
     let mut rng = Rng(11);
     let mut compared = 0;
     for dim in 2..=4 {
-        let tape = compiled("norm(x1 - x0)", &[], 2, dim).tape(Outputs::ValueGradient).expect("tape");
+        let tape = compiled("norm(x1 - x0)", &[], 2, dim)
+            .tape(Outputs::ValueGradient)
+            .expect("tape");
         for _ in 0..500 {
             let x: Vec<f64> = (0..2 * dim).map(|_| rng.uniform(-1.0, 1.0)).collect();
             let mut g = vec![0.0; 2 * dim];
             let d = distance(&x, dim, &mut g);
             let out = eval_one(&tape, &x);
-            assert_eq!(out[0].to_bits(), d.to_bits(), "same operations in the same order");
+            assert_eq!(
+                out[0].to_bits(),
+                d.to_bits(),
+                "same operations in the same order"
+            );
             for j in 0..2 * dim {
                 // Each side: a quotient and a sum of dim products (≤ (dim + 3)ε relative to 1).
                 let bound = 2.0 * (dim as f64 + 3.0) * f64::EPSILON;
-                assert!((out[1 + j] - g[j]).abs() <= bound, "{} vs {} (bound {bound:e})", out[1 + j], g[j]);
+                assert!(
+                    (out[1 + j] - g[j]).abs() <= bound,
+                    "{} vs {} (bound {bound:e})",
+                    out[1 + j],
+                    g[j]
+                );
                 compared += 1;
             }
         }
@@ -90,7 +103,9 @@ fn simplex_and_oriented_measures_agree_with_the_builtins() {
             };
             for (src, is_oriented) in sources {
                 let arity = k + 1;
-                let tape = compiled(&src, &[], arity, dim).tape(Outputs::ValueGradient).expect("tape");
+                let tape = compiled(&src, &[], arity, dim)
+                    .tape(Outputs::ValueGradient)
+                    .expect("tape");
                 for _ in 0..200 {
                     let x: Vec<f64> = (0..arity * dim).map(|_| rng.uniform(-1.0, 1.0)).collect();
                     let mut g = vec![0.0; arity * dim];
@@ -105,7 +120,9 @@ fn simplex_and_oriented_measures_agree_with_the_builtins() {
                         let e = |j: usize, a: usize| x[j * dim + a] - x[a];
                         let rows: Vec<Vec<f64>> = (1..=k)
                             .map(|i| {
-                                (1..=k).map(|j| (0..dim).map(|a| e(i, a) * e(j, a)).sum()).collect()
+                                (1..=k)
+                                    .map(|j| (0..dim).map(|a| e(i, a) * e(j, a)).sum())
+                                    .collect()
                             })
                             .collect();
                         (v, rows, 1.0 / (factorial(k) * factorial(k)))
@@ -126,13 +143,25 @@ fn simplex_and_oriented_measures_agree_with_the_builtins() {
                     // times the chain factor ∂entry/∂x — 1 per column, N
                     // columns summed for x0 (oriented); 2|e|·k, k ≤ N Gram
                     // entries with |e_a| ≤ 2 (simplex).
-                    let norms: Vec<f64> =
-                        rows.iter().map(|r| r.iter().map(|v| v.abs()).sum::<f64>()).collect();
+                    let norms: Vec<f64> = rows
+                        .iter()
+                        .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
+                        .collect();
                     let cofactors: f64 = (0..norms.len())
-                        .map(|r| (0..norms.len()).filter(|&i| i != r).map(|i| norms[i]).product::<f64>())
+                        .map(|r| {
+                            (0..norms.len())
+                                .filter(|&i| i != r)
+                                .map(|i| norms[i])
+                                .product::<f64>()
+                        })
                         .sum();
-                    let chain = if is_oriented { kk } else { 2.0 * 2.0 * 2.0 * kk };
-                    let gbound = 2.0 * (2.0 * kk + 6.0 + extra) * f64::EPSILON * scale * cofactors * chain;
+                    let chain = if is_oriented {
+                        kk
+                    } else {
+                        2.0 * 2.0 * 2.0 * kk
+                    };
+                    let gbound =
+                        2.0 * (2.0 * kk + 6.0 + extra) * f64::EPSILON * scale * cofactors * chain;
                     for j in 0..arity * dim {
                         assert!(
                             (out[1 + j] - g[j]).abs() <= gbound,

@@ -9,8 +9,8 @@
 //! it to 4τ + 1e-7·(1 + |f'|); where they do not (a kink of abs/min/max
 //! within h), the point is skipped and counted — at most 5 % may be.
 
-use super::random::{Rng, params, program};
-use super::{compiled, eval_one, full};
+use super::random::{Rng, program};
+use super::{compiled, eval_one, full, params};
 
 fn fd(f: &dyn Fn(&[f64]) -> f64, x: &[f64], j: usize, h: f64) -> f64 {
     let mut p = x.to_vec();
@@ -74,7 +74,9 @@ fn gradient_and_hessian_match_finite_differences() {
             }
         }
     }
-    eprintln!("derivatives: {programs} programs, {checked} entries checked, {skipped} skipped at kinks");
+    eprintln!(
+        "derivatives: {programs} programs, {checked} entries checked, {skipped} skipped at kinks"
+    );
     assert!(checked > 10_000, "{checked}");
     assert!(skipped * 20 <= checked, "{skipped} skipped of {checked}");
 }

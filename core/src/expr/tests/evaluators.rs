@@ -17,8 +17,8 @@
 //! slack of using u|r| on values that are themselves computed in f64.
 //! Lanes that are not bounded are counted; at most 2 % may be.
 
-use super::random::{Rng, params, program};
-use super::{compiled, full};
+use super::random::{Rng, program};
+use super::{compiled, full, params};
 use crate::expr::{Cmp, Columns, Op, Tape};
 
 fn bounds(tape: &Tape, v: &Columns<f64>, lane: usize) -> Option<Vec<f64>> {
@@ -81,7 +81,12 @@ fn lanes_at_once_equal_one_lane_at_a_time_bit_for_bit() {
     let mut compared = 0usize;
     for case in 0..40 {
         let (dim, arity) = (1 + case % 4, 1 + case % 3);
-        let tape = full(&compiled(&program(&mut rng, 3, arity, dim), &params(dim), arity, dim));
+        let tape = full(&compiled(
+            &program(&mut rng, 3, arity, dim),
+            &params(dim),
+            arity,
+            dim,
+        ));
         let n = arity * dim;
         let lanes = 37 + case;
         let x: Vec<f64> = (0..n * lanes).map(|_| rng.uniform(-1.5, 1.5)).collect();
@@ -94,9 +99,15 @@ fn lanes_at_once_equal_one_lane_at_a_time_bit_for_bit() {
             tape.eval_f32(1, |j, _| x[l * n + j] as f32, &mut one32);
             for s in tape.outputs() {
                 let (a, b) = (all64.get(s, l), one64.get(s, 0));
-                assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()), "{a:e} {b:e}");
+                assert!(
+                    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                    "{a:e} {b:e}"
+                );
                 let (a, b) = (all32.get(s, l), one32.get(s, 0));
-                assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()), "{a:e} {b:e}");
+                assert!(
+                    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                    "{a:e} {b:e}"
+                );
                 compared += 2;
             }
         }
@@ -111,11 +122,18 @@ fn f32_is_f64_within_f32_rounding() {
     let mut worst: f64 = 0.0;
     for case in 0..60 {
         let (dim, arity) = (1 + case % 4, 1 + case % 3);
-        let tape = full(&compiled(&program(&mut rng, 3, arity, dim), &params(dim), arity, dim));
+        let tape = full(&compiled(
+            &program(&mut rng, 3, arity, dim),
+            &params(dim),
+            arity,
+            dim,
+        ));
         let n = arity * dim;
         let lanes = 64;
         // Inputs exactly representable in f32, so both sides read the same numbers.
-        let x: Vec<f32> = (0..n * lanes).map(|_| rng.uniform(-1.5, 1.5) as f32).collect();
+        let x: Vec<f32> = (0..n * lanes)
+            .map(|_| rng.uniform(-1.5, 1.5) as f32)
+            .collect();
         let (mut c64, mut c32) = (Columns::new(), Columns::<f32>::new());
         tape.eval_f64(lanes, |j, l| f64::from(x[l * n + j]), &mut c64);
         tape.eval_f32(lanes, |j, l| x[l * n + j], &mut c32);
@@ -139,7 +157,12 @@ fn f32_is_f64_within_f32_rounding() {
             }
         }
     }
-    eprintln!("f32 vs f64: {compared} outputs, {unbounded}/{lanes_total} lanes unbounded, worst measured/bound {worst:.3}");
+    eprintln!(
+        "f32 vs f64: {compared} outputs, {unbounded}/{lanes_total} lanes unbounded, worst measured/bound {worst:.3}"
+    );
     assert!(compared > 50_000, "{compared}");
-    assert!(unbounded * 50 <= lanes_total, "{unbounded} of {lanes_total}");
+    assert!(
+        unbounded * 50 <= lanes_total,
+        "{unbounded} of {lanes_total}"
+    );
 }

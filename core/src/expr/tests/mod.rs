@@ -12,7 +12,12 @@ pub(crate) mod random;
 use super::{Columns, Compiled, Outputs, ParamValue, Tape, compile};
 
 /// Compiles or panics with the error.
-pub(crate) fn compiled(src: &str, params: &[(String, ParamValue)], arity: usize, dim: usize) -> Compiled {
+pub(crate) fn compiled(
+    src: &str,
+    params: &[(String, ParamValue)],
+    arity: usize,
+    dim: usize,
+) -> Compiled {
     compile(src, params, arity, dim).unwrap_or_else(|e| panic!("{src}: {e}"))
 }
 
@@ -21,6 +26,11 @@ pub(crate) fn eval_one(tape: &Tape, x: &[f64]) -> Vec<f64> {
     let mut cols = Columns::new();
     tape.eval_f64(1, |j, _| x[j], &mut cols);
     tape.outputs().map(|s| cols.get(s, 0)).collect()
+}
+
+/// The param list of [`random::program`]: `c`, a vector.
+pub(crate) fn params(dim: usize) -> Vec<(String, ParamValue)> {
+    vec![("c".to_string(), ParamValue::Vector(random::param_c(dim)))]
 }
 
 /// The value + gradient + Hessian tape.

@@ -1,6 +1,7 @@
 //! A seeded generator of random well-typed expressions (deterministic:
 //! xorshift64*), for derivative and evaluator tests here and in
-//! `tests/expr_gpu.rs` (which has its own copy of the idea).
+//! `tests/expr_gpu.rs` (which includes this file by path, so it depends on
+//! nothing of the crate).
 
 /// xorshift64* generator.
 pub(crate) struct Rng(pub u64);
@@ -51,11 +52,17 @@ pub(crate) fn scalar(rng: &mut Rng, depth: usize, arity: usize, dim: usize) -> S
         9 => format!("max({}, {})", s!(), s!()),
         10 => format!("abs({})", s!()),
         11 => format!("-{}", s!()),
-        12 => format!("dot({}, {})", vector(rng, d, arity, dim), vector(rng, d, arity, dim)),
+        12 => format!(
+            "dot({}, {})",
+            vector(rng, d, arity, dim),
+            vector(rng, d, arity, dim)
+        ),
         13 => format!("norm({})", vector(rng, d, arity, dim)),
         14 => format!("({})[{}]", vector(rng, d, arity, dim), rng.below(dim)),
         15 if dim <= 4 => {
-            let v: Vec<String> = (0..dim).map(|_| vector(rng, d.min(1), arity, dim)).collect();
+            let v: Vec<String> = (0..dim)
+                .map(|_| vector(rng, d.min(1), arity, dim))
+                .collect();
             format!("det({})", v.join(", "))
         }
         _ => s!(),
@@ -72,10 +79,26 @@ pub(crate) fn vector(rng: &mut Rng, depth: usize, arity: usize, dim: usize) -> S
     }
     let d = depth - 1;
     match rng.below(6) {
-        0 => format!("({} + {})", vector(rng, d, arity, dim), vector(rng, d, arity, dim)),
-        1 => format!("({} - {})", vector(rng, d, arity, dim), vector(rng, d, arity, dim)),
-        2 => format!("{} * {}", scalar(rng, d, arity, dim), vector(rng, d, arity, dim)),
-        3 => format!("{} / (2 + {a} * {a})", vector(rng, d, arity, dim), a = scalar(rng, d, arity, dim)),
+        0 => format!(
+            "({} + {})",
+            vector(rng, d, arity, dim),
+            vector(rng, d, arity, dim)
+        ),
+        1 => format!(
+            "({} - {})",
+            vector(rng, d, arity, dim),
+            vector(rng, d, arity, dim)
+        ),
+        2 => format!(
+            "{} * {}",
+            scalar(rng, d, arity, dim),
+            vector(rng, d, arity, dim)
+        ),
+        3 => format!(
+            "{} / (2 + {a} * {a})",
+            vector(rng, d, arity, dim),
+            a = scalar(rng, d, arity, dim)
+        ),
         4 => format!("-{}", vector(rng, d, arity, dim)),
         _ => format!("x{}", rng.below(arity)),
     }
@@ -89,8 +112,7 @@ pub(crate) fn program(rng: &mut Rng, depth: usize, arity: usize, dim: usize) -> 
     format!("let a = {a}; let v = {v}; let a = a * 0.5 + dot(v, c); {r} + a")
 }
 
-/// The param `c` used by [`program`].
-pub(crate) fn params(dim: usize) -> Vec<(String, super::super::ParamValue)> {
-    let c = (0..dim).map(|a| 0.25 * a as f64 - 0.3).collect();
-    vec![("c".to_string(), super::super::ParamValue::Vector(c))]
+/// The value of the param `c` (a vector) used by [`program`].
+pub(crate) fn param_c(dim: usize) -> Vec<f64> {
+    (0..dim).map(|a| 0.25 * a as f64 - 0.3).collect()
 }
