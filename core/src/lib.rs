@@ -14,6 +14,7 @@ pub mod broadphase;
 pub mod builders;
 mod coloring;
 mod error;
+pub mod expr;
 mod family;
 pub mod geometry;
 mod guard_rules;

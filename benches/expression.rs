@@ -1,0 +1,137 @@
+//! Criterion benchmark of the expression evaluator against the built-in
+//! kernel it replaces: C and ∇C of `norm(x1 − x0)` over 16 384 elements in
+//! R^3, column-wise (`Tape::eval_f64`, one op over all lanes at a time)
+//! vs `geometry::distance` element by element — each side gathering its
+//! element's coordinates from one particle array, one thread.
+//!
+//! ```text
+//! expression/builtin      distance() per element, gradient written to an array
+//! expression/expression   eval_f64 over the 16 384 lanes (outputs left in the columns)
+//! ```
+//! Before criterion runs, both are timed interleaved (A, B, A, B, … 201
+//! rounds, so drift of the machine hits both alike) and the ratio of the
+//! medians is printed: `expression/builtin median ratio`.
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use criterion::{Criterion, Throughput, criterion_group};
+use hyperpbd::core::expr::{Columns, Outputs, Tape, compile};
+use hyperpbd::core::geometry::distance;
+
+const DIM: usize = 3;
+const LANES: usize = 16_384;
+
+struct Data {
+    positions: Vec<f64>,
+    elements: Vec<[usize; 2]>,
+}
+
+fn data() -> Data {
+    // A 128 × 128 grid's horizontal and vertical edges (16 256 + …), cut to LANES.
+    let n = 128;
+    let mut positions = Vec::with_capacity(n * n * DIM);
+    let mut s = 0x1234_5678_9abc_def0u64;
+    for i in 0..n * n {
+        for a in 0..DIM {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let jitter = (s >> 11) as f64 / (1u64 << 53) as f64 * 1e-3;
+            let base = match a {
+                0 => (i % n) as f64,
+                1 => (i / n) as f64,
+                _ => 0.0,
+            };
+            positions.push(base / n as f64 + jitter);
+        }
+    }
+    let mut elements = Vec::with_capacity(LANES);
+    for i in 0..n * n {
+        if i % n + 1 < n {
+            elements.push([i, i + 1]);
+        }
+        if i + n < n * n {
+            elements.push([i, i + n]);
+        }
+    }
+    elements.truncate(LANES);
+    Data {
+        positions,
+        elements,
+    }
+}
+
+fn builtin(d: &Data, grad: &mut [f64]) -> f64 {
+    let mut points = [0.0; 2 * DIM];
+    let mut sum = 0.0;
+    for (e, el) in d.elements.iter().enumerate() {
+        for (j, &p) in el.iter().enumerate() {
+            points[j * DIM..(j + 1) * DIM].copy_from_slice(&d.positions[p * DIM..(p + 1) * DIM]);
+        }
+        sum += distance(&points, DIM, &mut grad[e * 2 * DIM..(e + 1) * 2 * DIM]);
+    }
+    sum
+}
+
+fn expression(d: &Data, tape: &Tape, cols: &mut Columns<f64>) -> f64 {
+    let lanes = d.elements.len();
+    tape.eval_f64(
+        lanes,
+        |j, l| d.positions[d.elements[l][j / DIM] * DIM + j % DIM],
+        cols,
+    );
+    cols.get(tape.value, lanes - 1)
+}
+
+fn median(mut v: Vec<Duration>) -> Duration {
+    v.sort();
+    v[v.len() / 2]
+}
+
+fn interleaved(d: &Data, tape: &Tape) {
+    let mut grad = vec![0.0; d.elements.len() * 2 * DIM];
+    let mut cols = Columns::new();
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    for _ in 0..201 {
+        let t = Instant::now();
+        black_box(builtin(black_box(d), &mut grad));
+        a.push(t.elapsed());
+        let t = Instant::now();
+        black_box(expression(black_box(d), tape, &mut cols));
+        b.push(t.elapsed());
+    }
+    let (ma, mb) = (median(a), median(b));
+    println!(
+        "expression/builtin median ratio: {:.3} (built-in {:?}, expression {:?}, {} elements, dim {DIM}, {} ops)",
+        mb.as_secs_f64() / ma.as_secs_f64(),
+        ma,
+        mb,
+        d.elements.len(),
+        tape.ops.len()
+    );
+}
+
+fn bench(c: &mut Criterion) {
+    let d = data();
+    let tape = compile("norm(x1 - x0)", &[], 2, DIM)
+        .and_then(|c| c.tape(Outputs::ValueGradient))
+        .expect("compiles");
+    interleaved(&d, &tape);
+    let mut group = c.benchmark_group("expression");
+    group.throughput(Throughput::Elements(d.elements.len() as u64));
+    let mut grad = vec![0.0; d.elements.len() * 2 * DIM];
+    group.bench_function("builtin", |b| b.iter(|| builtin(black_box(&d), &mut grad)));
+    let mut cols = Columns::new();
+    group.bench_function("expression", |b| {
+        b.iter(|| expression(black_box(&d), &tape, &mut cols))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+
+fn main() {
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}

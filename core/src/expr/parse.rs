@@ -1,0 +1,693 @@
+//! Parse, type-check and unroll in one pass: each construct becomes its
+//! scalar operations in the hash-consed [`Graph`] as soon as it is read
+//! (vectors are `dim` slots), so a `let` binds slots, never text, and the
+//! program is linear in the source.
+//!
+//! ```text
+//! program = ("let" name "=" expr ";")* expr          (the result: a scalar)
+//! expr    = term (("+" | "-") term)*
+//! term    = unary (("*" | "/") unary)*
+//! unary   = "-" unary | postfix
+//! postfix = primary ("[" integer "]")*
+//! primary = number | name | name "(" expr ("," expr)* ")" | "(" expr ")"
+//!
+//! s ± s, v ± v;  s·s, s·v, v·s;  s/s, v/s;  −s, −v;  v[i] (i < N)
+//! dot(v, v) = Σ_a v_a w_a (a = 0 … N−1, left to right);  norm(v) = √dot(v, v)
+//! sqrt, abs, ln, exp: s → s;  min, max: (s, s) → s
+//! det(v1, …, vN) = det[v1 … vN] (columns);  det(s_1, …, s_{k²}) = det of the
+//!   k×k matrix given row by row;  Laplace expansion along the rows with
+//!   every minor built once (≤ k·2^k products)
+//! ```
+
+use super::ParamValue;
+use super::error::{ExprError, ExprErrorKind, ValueType};
+use super::graph::{Built, Cmp, Exhausted, Graph, Op, Slot};
+use super::lex::{Token, tokens};
+use super::limits::{MAX_DEPTH, MAX_DET_ORDER, MAX_GRAPH_NODES, MAX_LETS};
+use std::collections::HashMap;
+
+/// A built-in function.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Function {
+    Dot,
+    Norm,
+    Sqrt,
+    Abs,
+    Min,
+    Max,
+    Ln,
+    Exp,
+    Det,
+}
+
+/// The built-in functions by name (reserved: no `let` or param may take
+/// these names).
+const FUNCTIONS: [(&str, Function); 9] = [
+    ("dot", Function::Dot),
+    ("norm", Function::Norm),
+    ("sqrt", Function::Sqrt),
+    ("abs", Function::Abs),
+    ("min", Function::Min),
+    ("max", Function::Max),
+    ("ln", Function::Ln),
+    ("exp", Function::Exp),
+    ("det", Function::Det),
+];
+
+#[derive(Debug, Clone)]
+enum Val {
+    S(Slot),
+    V(Vec<Slot>),
+}
+
+impl Val {
+    fn ty(&self) -> ValueType {
+        match self {
+            Val::S(_) => ValueType::Scalar,
+            Val::V(_) => ValueType::Vector,
+        }
+    }
+}
+
+/// `x<digits>`: a particle name, with its index.
+pub(crate) fn particle_index(name: &str) -> Option<usize> {
+    let digits = name.strip_prefix('x')?;
+    if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    Some(digits.parse().unwrap_or(usize::MAX))
+}
+
+fn is_identifier(name: &str) -> bool {
+    let mut chars = name.chars();
+    chars
+        .next()
+        .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+}
+
+/// Whether `name` is a particle, a function or `let`.
+fn reserved(name: &str) -> bool {
+    name == "let" || particle_index(name).is_some() || FUNCTIONS.iter().any(|(n, _)| *n == name)
+}
+
+struct Parser<'a> {
+    src: &'a str,
+    toks: Vec<(Token, usize)>,
+    at: usize,
+    depth: usize,
+    graph: Graph,
+    arity: usize,
+    dim: usize,
+    params: HashMap<&'a str, Val>,
+    lets: Vec<(String, Val)>,
+}
+
+type Parsed<T> = Result<T, ExprError>;
+
+/// The graph of `src` (inputs are nodes 0 … arity·dim − 1) and the slot
+/// of its scalar result.
+pub(crate) fn lower(
+    src: &str,
+    params: &[(String, ParamValue)],
+    arity: usize,
+    dim: usize,
+) -> Parsed<(Graph, Slot)> {
+    let toks = tokens(src)?;
+    let mut p = Parser {
+        src,
+        toks,
+        at: 0,
+        depth: 0,
+        graph: Graph::default(),
+        arity,
+        dim,
+        params: HashMap::new(),
+        lets: Vec::new(),
+    };
+    for j in 0..arity * dim {
+        let s = p.graph.push(Op::Input(j));
+        p.built(s)?;
+    }
+    p.bind_params(params)?;
+    let mut count = 0;
+    while p.peek() == &Token::Name("let".into()) {
+        count += 1;
+        if count > MAX_LETS {
+            return Err(p.error(ExprErrorKind::TooLarge {
+                what: "`let` count",
+                limit: MAX_LETS,
+            }));
+        }
+        p.next();
+        let (name, at) = match p.next() {
+            (Token::Name(name), at) => (name, at),
+            (other, at) => {
+                return Err(p.error_at(
+                    at,
+                    ExprErrorKind::Syntax {
+                        expected: "a name after `let`",
+                        found: other.describe(),
+                    },
+                ));
+            }
+        };
+        if reserved(&name) {
+            return Err(p.error_at(at, ExprErrorKind::ReservedName { name }));
+        }
+        p.expect('=', "`=`")?;
+        let value = p.expr()?;
+        p.expect(';', "`;`")?;
+        p.lets.push((name, value));
+    }
+    let start = p.position();
+    let result = p.expr()?;
+    if p.peek() != &Token::End {
+        let found = p.peek().describe();
+        return Err(p.error(ExprErrorKind::Syntax {
+            expected: "an operator or end of input",
+            found,
+        }));
+    }
+    match result {
+        Val::S(s) => Ok((p.graph, s)),
+        Val::V(_) => Err(p.error_at(
+            start,
+            ExprErrorKind::TypeMismatch {
+                expected: ValueType::Scalar,
+                found: ValueType::Vector,
+            },
+        )),
+    }
+}
+
+impl<'a> Parser<'a> {
+    fn peek(&self) -> &Token {
+        &self.toks[self.at].0
+    }
+
+    fn position(&self) -> usize {
+        self.toks[self.at].1
+    }
+
+    fn next(&mut self) -> (Token, usize) {
+        let t = self.toks[self.at].clone();
+        if self.at + 1 < self.toks.len() {
+            self.at += 1;
+        }
+        t
+    }
+
+    fn error_at(&self, at: usize, kind: ExprErrorKind) -> ExprError {
+        ExprError::at(self.src, at, kind)
+    }
+
+    fn error(&self, kind: ExprErrorKind) -> ExprError {
+        self.error_at(self.position(), kind)
+    }
+
+    fn built(&self, b: Built) -> Parsed<Slot> {
+        b.map_err(|Exhausted| {
+            self.error(ExprErrorKind::TooLarge {
+                what: "operation count",
+                limit: MAX_GRAPH_NODES,
+            })
+        })
+    }
+
+    fn expect(&mut self, c: char, expected: &'static str) -> Parsed<()> {
+        if self.peek() == &Token::Symbol(c) {
+            self.next();
+            Ok(())
+        } else {
+            let found = self.peek().describe();
+            Err(self.error(ExprErrorKind::Syntax { expected, found }))
+        }
+    }
+
+    /// Params become constants; their errors point at their first use.
+    fn bind_params(&mut self, params: &'a [(String, ParamValue)]) -> Parsed<()> {
+        for (name, value) in params {
+            let at = self
+                .toks
+                .iter()
+                .find(|(t, _)| matches!(t, Token::Name(n) if n == name))
+                .map_or(0, |&(_, at)| at);
+            let invalid = |reason| ExprErrorKind::InvalidParam {
+                name: name.clone(),
+                reason,
+            };
+            if !is_identifier(name) {
+                return Err(self.error_at(at, invalid("not a name ([A-Za-z_][A-Za-z0-9_]*)")));
+            }
+            if reserved(name) {
+                return Err(
+                    self.error_at(at, invalid("reserved (a particle, a function or `let`)"))
+                );
+            }
+            if self.params.contains_key(name.as_str()) {
+                return Err(self.error_at(at, invalid("given twice")));
+            }
+            let val = match value {
+                ParamValue::Scalar(v) => {
+                    if !v.is_finite() {
+                        return Err(self.error_at(at, invalid("not finite")));
+                    }
+                    Val::S({
+                        let t = self.graph.constant(*v);
+                        self.built(t)
+                    }?)
+                }
+                ParamValue::Vector(v) => {
+                    if v.len() != self.dim {
+                        return Err(self.error_at(
+                            at,
+                            ExprErrorKind::ParamLength {
+                                name: name.clone(),
+                                expected: self.dim,
+                                found: v.len(),
+                            },
+                        ));
+                    }
+                    if !v.iter().all(|c| c.is_finite()) {
+                        return Err(self.error_at(at, invalid("not finite")));
+                    }
+                    let mut slots = Vec::with_capacity(v.len());
+                    for &c in v {
+                        let s = self.graph.constant(c);
+                        slots.push(self.built(s)?);
+                    }
+                    Val::V(slots)
+                }
+            };
+            self.params.insert(name, val);
+        }
+        Ok(())
+    }
+
+    fn enter(&mut self) -> Parsed<()> {
+        self.depth += 1;
+        if self.depth > MAX_DEPTH {
+            return Err(self.error(ExprErrorKind::TooLarge {
+                what: "nesting depth",
+                limit: MAX_DEPTH,
+            }));
+        }
+        Ok(())
+    }
+
+    fn expr(&mut self) -> Parsed<Val> {
+        self.enter()?;
+        let mut left = self.term()?;
+        while let Token::Symbol(op @ ('+' | '-')) = *self.peek() {
+            self.next();
+            let at = self.position();
+            let right = self.term()?;
+            left = self.additive(op, left, right, at)?;
+        }
+        self.depth -= 1;
+        Ok(left)
+    }
+
+    fn additive(&mut self, op: char, left: Val, right: Val, at: usize) -> Parsed<Val> {
+        let f = |g: &mut Graph, a, b| if op == '+' { g.add(a, b) } else { g.sub(a, b) };
+        match (left, right) {
+            (Val::S(a), Val::S(b)) => Ok(Val::S({
+                let t = f(&mut self.graph, a, b);
+                self.built(t)
+            }?)),
+            (Val::V(a), Val::V(b)) => {
+                let mut out = Vec::with_capacity(a.len());
+                for (&x, &y) in a.iter().zip(&b) {
+                    out.push({
+                        let t = f(&mut self.graph, x, y);
+                        self.built(t)
+                    }?);
+                }
+                Ok(Val::V(out))
+            }
+            (l, r) => Err(self.error_at(
+                at,
+                ExprErrorKind::TypeMismatch {
+                    expected: l.ty(),
+                    found: r.ty(),
+                },
+            )),
+        }
+    }
+
+    fn term(&mut self) -> Parsed<Val> {
+        let mut left = self.unary()?;
+        while let Token::Symbol(op @ ('*' | '/')) = *self.peek() {
+            self.next();
+            let at = self.position();
+            let right = self.unary()?;
+            left = self.multiplicative(op, left, right, at)?;
+        }
+        Ok(left)
+    }
+
+    fn multiplicative(&mut self, op: char, left: Val, right: Val, at: usize) -> Parsed<Val> {
+        let f = |g: &mut Graph, a, b| if op == '*' { g.mul(a, b) } else { g.div(a, b) };
+        match (left, right) {
+            (Val::S(a), Val::S(b)) => Ok(Val::S({
+                let t = f(&mut self.graph, a, b);
+                self.built(t)
+            }?)),
+            (Val::V(v), Val::S(s)) => {
+                let mut out = Vec::with_capacity(v.len());
+                for &x in &v {
+                    out.push({
+                        let t = f(&mut self.graph, x, s);
+                        self.built(t)
+                    }?);
+                }
+                Ok(Val::V(out))
+            }
+            (Val::S(s), Val::V(v)) if op == '*' => {
+                let mut out = Vec::with_capacity(v.len());
+                for &x in &v {
+                    out.push({
+                        let t = self.graph.mul(s, x);
+                        self.built(t)
+                    }?);
+                }
+                Ok(Val::V(out))
+            }
+            (_, right) => Err(self.error_at(
+                at,
+                ExprErrorKind::TypeMismatch {
+                    expected: ValueType::Scalar,
+                    found: right.ty(),
+                },
+            )),
+        }
+    }
+
+    fn unary(&mut self) -> Parsed<Val> {
+        if self.peek() == &Token::Symbol('-') {
+            self.enter()?;
+            self.next();
+            let v = self.unary()?;
+            self.depth -= 1;
+            return match v {
+                Val::S(a) => Ok(Val::S({
+                    let t = self.graph.neg(a);
+                    self.built(t)
+                }?)),
+                Val::V(v) => {
+                    let mut out = Vec::with_capacity(v.len());
+                    for &x in &v {
+                        out.push({
+                            let t = self.graph.neg(x);
+                            self.built(t)
+                        }?);
+                    }
+                    Ok(Val::V(out))
+                }
+            };
+        }
+        self.postfix()
+    }
+
+    fn postfix(&mut self) -> Parsed<Val> {
+        let start = self.position();
+        let mut v = self.primary()?;
+        while self.peek() == &Token::Symbol('[') {
+            self.next();
+            let (tok, at) = self.next();
+            let index = match &tok {
+                Token::Number(_, text) if text.bytes().all(|b| b.is_ascii_digit()) => {
+                    text.parse::<usize>().unwrap_or(usize::MAX)
+                }
+                other => {
+                    return Err(self.error_at(
+                        at,
+                        ExprErrorKind::Syntax {
+                            expected: "an integer index",
+                            found: other.describe(),
+                        },
+                    ));
+                }
+            };
+            self.expect(']', "`]`")?;
+            v = match v {
+                Val::V(c) => match c.get(index) {
+                    Some(&s) => Val::S(s),
+                    None => {
+                        return Err(self.error_at(
+                            at,
+                            ExprErrorKind::IndexOutOfRange {
+                                index,
+                                dim: self.dim,
+                            },
+                        ));
+                    }
+                },
+                Val::S(_) => {
+                    return Err(self.error_at(
+                        start,
+                        ExprErrorKind::TypeMismatch {
+                            expected: ValueType::Vector,
+                            found: ValueType::Scalar,
+                        },
+                    ));
+                }
+            };
+        }
+        Ok(v)
+    }
+
+    fn primary(&mut self) -> Parsed<Val> {
+        let (tok, at) = self.next();
+        match tok {
+            Token::Number(v, _) => Ok(Val::S({
+                let t = self.graph.constant(v);
+                self.built(t)
+            }?)),
+            Token::Symbol('(') => {
+                let v = self.expr()?;
+                self.expect(')', "`)`")?;
+                Ok(v)
+            }
+            Token::Name(name) if self.peek() == &Token::Symbol('(') => self.call(name, at),
+            Token::Name(name) => self.name(name, at),
+            other => Err(self.error_at(
+                at,
+                ExprErrorKind::Syntax {
+                    expected: "a number, a name, `-` or `(`",
+                    found: other.describe(),
+                },
+            )),
+        }
+    }
+
+    fn name(&mut self, name: String, at: usize) -> Parsed<Val> {
+        if let Some((_, v)) = self.lets.iter().rev().find(|(n, _)| *n == name) {
+            return Ok(v.clone());
+        }
+        if let Some(v) = self.params.get(name.as_str()) {
+            return Ok(v.clone());
+        }
+        if let Some(index) = particle_index(&name) {
+            if index >= self.arity {
+                return Err(self.error_at(
+                    at,
+                    ExprErrorKind::ParticleOutOfRange {
+                        index,
+                        arity: self.arity,
+                    },
+                ));
+            }
+            return Ok(Val::V((index * self.dim..(index + 1) * self.dim).collect()));
+        }
+        Err(self.error_at(at, ExprErrorKind::UnknownName { name }))
+    }
+
+    fn call(&mut self, name: String, at: usize) -> Parsed<Val> {
+        let Some(&(function, f)) = FUNCTIONS.iter().find(|(n, _)| *n == name) else {
+            return Err(self.error_at(at, ExprErrorKind::UnknownName { name }));
+        };
+        self.enter()?;
+        self.expect('(', "`(`")?;
+        let mut args = vec![(self.position(), self.expr()?)];
+        while self.peek() == &Token::Symbol(',') {
+            self.next();
+            args.push((self.position(), self.expr()?));
+        }
+        self.expect(')', "`,` or `)`")?;
+        self.depth -= 1;
+        let count = |n: usize, words: &str| -> Parsed<()> {
+            if args.len() == n {
+                Ok(())
+            } else {
+                Err(ExprError::at(
+                    self.src,
+                    at,
+                    ExprErrorKind::ArgumentCount {
+                        function,
+                        expected: words.to_string(),
+                        found: args.len(),
+                    },
+                ))
+            }
+        };
+        let unary: fn(Slot) -> Op = match f {
+            Function::Dot | Function::Norm => {
+                let (v, w) = if f == Function::Dot {
+                    count(2, "2 vectors")?;
+                    (self.vector(&args[0])?, self.vector(&args[1])?)
+                } else {
+                    count(1, "1 vector")?;
+                    (self.vector(&args[0])?, self.vector(&args[0])?)
+                };
+                let t = self.graph.mul(v[0], w[0]);
+                let mut sum = self.built(t)?;
+                for a in 1..v.len() {
+                    let t = self.graph.mul(v[a], w[a]);
+                    let t = self.built(t)?;
+                    let s = self.graph.add(sum, t);
+                    sum = self.built(s)?;
+                }
+                if f == Function::Norm {
+                    let s = self.graph.unary(Op::Sqrt, sum);
+                    sum = self.built(s)?;
+                }
+                return Ok(Val::S(sum));
+            }
+            Function::Min | Function::Max => {
+                count(2, "2 scalars")?;
+                let (a, b) = (self.scalar(&args[0])?, self.scalar(&args[1])?);
+                // min: a ≤ b ? a : b;  max: b ≤ a ? a : b  (ties: a).
+                let s = if f == Function::Min {
+                    self.graph.select(Cmp::Le, a, b, a, b)
+                } else {
+                    self.graph.select(Cmp::Le, b, a, a, b)
+                };
+                return Ok(Val::S(self.built(s)?));
+            }
+            Function::Det => return self.det(args, at),
+            Function::Sqrt => Op::Sqrt,
+            Function::Abs => Op::Abs,
+            Function::Ln => Op::Ln,
+            Function::Exp => Op::Exp,
+        };
+        count(1, "1 scalar")?;
+        let a = self.scalar(&args[0])?;
+        let s = self.graph.unary(unary, a);
+        Ok(Val::S(self.built(s)?))
+    }
+
+    fn det(&mut self, args: Vec<(usize, Val)>, at: usize) -> Parsed<Val> {
+        let n = args.len();
+        let (k, matrix) = match &args[0].1 {
+            Val::V(_) => {
+                if n != self.dim {
+                    return Err(self.error_at(
+                        at,
+                        ExprErrorKind::ArgumentCount {
+                            function: "det",
+                            expected: format!("{} vectors (N) or k² scalars", self.dim),
+                            found: n,
+                        },
+                    ));
+                }
+                let cols: Vec<Vec<Slot>> =
+                    args.iter().map(|a| self.vector(a)).collect::<Parsed<_>>()?;
+                (
+                    n,
+                    (0..n * n).map(|i| cols[i % n][i / n]).collect::<Vec<_>>(),
+                )
+            }
+            Val::S(_) => {
+                let k = (1..=n).find(|k| k * k >= n).unwrap_or(n);
+                if k * k != n {
+                    return Err(self.error_at(
+                        at,
+                        ExprErrorKind::ArgumentCount {
+                            function: "det",
+                            expected: format!("{} vectors (N) or k² scalars", self.dim),
+                            found: n,
+                        },
+                    ));
+                }
+                let entries = args.iter().map(|a| self.scalar(a)).collect::<Parsed<_>>()?;
+                (k, entries)
+            }
+        };
+        if k > MAX_DET_ORDER {
+            return Err(self.error_at(
+                at,
+                ExprErrorKind::TooLarge {
+                    what: "determinant order",
+                    limit: MAX_DET_ORDER,
+                },
+            ));
+        }
+        let mut memo = HashMap::new();
+        let d = self.minor(&matrix, k, 0, (1u32 << k) - 1, &mut memo);
+        Ok(Val::S(self.built(d)?))
+    }
+
+    /// det of rows row… and the columns in `cols` (a bit set), by Laplace
+    /// expansion along row `row`; each minor built once.
+    fn minor(
+        &mut self,
+        a: &[Slot],
+        k: usize,
+        row: usize,
+        cols: u32,
+        memo: &mut HashMap<u32, Slot>,
+    ) -> Built {
+        if let Some(&s) = memo.get(&cols) {
+            return Ok(s);
+        }
+        if row + 1 == k {
+            return Ok(a[row * k + cols.trailing_zeros() as usize]);
+        }
+        let mut acc: Option<Slot> = None;
+        let mut sign_negative = false;
+        for c in 0..k {
+            if cols & (1 << c) == 0 {
+                continue;
+            }
+            let m = self.minor(a, k, row + 1, cols & !(1 << c), memo)?;
+            let term = self.graph.mul(a[row * k + c], m)?;
+            acc = Some(match (acc, sign_negative) {
+                (None, _) => term,
+                (Some(s), false) => self.graph.add(s, term)?,
+                (Some(s), true) => self.graph.sub(s, term)?,
+            });
+            sign_negative = !sign_negative;
+        }
+        let s = acc.ok_or(Exhausted)?;
+        memo.insert(cols, s);
+        Ok(s)
+    }
+
+    fn scalar(&self, (at, v): &(usize, Val)) -> Parsed<Slot> {
+        match v {
+            Val::S(s) => Ok(*s),
+            Val::V(_) => Err(self.error_at(
+                *at,
+                ExprErrorKind::TypeMismatch {
+                    expected: ValueType::Scalar,
+                    found: ValueType::Vector,
+                },
+            )),
+        }
+    }
+
+    fn vector(&self, (at, v): &(usize, Val)) -> Parsed<Vec<Slot>> {
+        match v {
+            Val::V(v) => Ok(v.clone()),
+            Val::S(_) => Err(self.error_at(
+                *at,
+                ExprErrorKind::TypeMismatch {
+                    expected: ValueType::Vector,
+                    found: ValueType::Scalar,
+                },
+            )),
+        }
+    }
+}
