@@ -188,7 +188,7 @@ fn world_reals(op: u32, c: u32) {
                  OP_GUARD_MEASURE, OP_GUARD_SPEED: {
                 call.alpha_tilde = calls[k].alpha_tilde;
             }
-            case OP_VELOCITY, OP_HOST, OP_NONE: {}
+            case OP_VELOCITY, OP_PROJECT_EXPRESSION, OP_HOST, OP_NONE: {}
             // Every op is named above (tests/shaders.rs); an unknown one loads nothing.
             default: {}
         }
@@ -295,7 +295,8 @@ fn run_op(op: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
         }
         // Not per-particle, or no call: nothing runs here.
         case OP_PROJECT_DISTANCE, OP_PROJECT_SIMPLEX, OP_PROJECT_ORIENTED, OP_PROJECT_MATERIAL,
-             OP_RESIDUAL, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST, OP_NONE: {}
+             OP_PROJECT_EXPRESSION, OP_RESIDUAL, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST,
+             OP_NONE: {}
         // Every op is named above (tests/shaders.rs): an unknown one fails the step.
         default: {
             fail(i);

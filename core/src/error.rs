@@ -145,6 +145,12 @@ pub enum SceneError {
         path: String,
         source: crate::material::MaterialError,
     },
+    /// An expression that does not compile, with where in it.
+    #[error("{path}: {source}")]
+    Expression {
+        path: String,
+        source: crate::expr::ExprError,
+    },
     /// `rest_positions` with a count other than one per scene particle.
     #[error("{path}: {found} rest positions for {expected} particles (one per scene particle)")]
     RestPositionsCount {

@@ -37,6 +37,8 @@ pub enum FamilyKind {
         /// velocity response).
         friction: f64,
     },
+    /// C = value − rest of a user's expression (kinds/expression.rs).
+    Expression(std::sync::Arc<crate::kinds::ExpressionKind>),
 }
 
 impl FamilyKind {
@@ -52,6 +54,7 @@ impl FamilyKind {
                 Law::NeoHookean => "neo_hookean",
             },
             FamilyKind::HyperplaneContact { .. } => "hyperplane_contact",
+            FamilyKind::Expression(_) => "expression",
         }
     }
 
@@ -92,6 +95,11 @@ impl FamilyKind {
             dim,
             rest,
         })
+    }
+
+    /// True for an expression family.
+    pub fn is_expression(&self) -> bool {
+        matches!(self, FamilyKind::Expression(_))
     }
 
     /// True for contact families (inequality C ≥ 0 whose active elements

@@ -23,10 +23,12 @@
 
 use crate::IncrementalPotentialPlan;
 use crate::coloring::greedy_colors;
+use crate::expr::Columns;
 use crate::geometry::{Scratch, unit_vector};
 use crate::guard_rules::{Adaptive, Guards, guarded_families};
+use crate::kinds::{self, ExpressionKind};
 use crate::material_plan::{self, FamilyMass};
-use crate::{Family, FamilyKind, Obstacle, Scene, SceneError, Solver, StageName, kinds};
+use crate::{ConstraintKind, Family, FamilyKind, Obstacle, Scene, SceneError, Solver, StageName};
 
 /// Which terms prediction includes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -198,13 +200,25 @@ impl Plan {
 
         let mut families = Vec::new();
         let mut scratch = Scratch::new();
+        let mut columns = Columns::new();
         for (f, authored) in scene.constraints.iter().enumerate() {
             if authored.elements.is_empty() {
                 continue;
             }
             let arity = authored.elements[0].len();
             let material = materials.shapes[f].as_ref().map(|(material, _)| *material);
-            let kind = kinds::family_kind(authored.kind, arity, material);
+            let expression = match authored.kind {
+                ConstraintKind::Expression => {
+                    Some(ExpressionKind::compile(f, authored, arity, dim)?)
+                }
+                ConstraintKind::Distance
+                | ConstraintKind::Tether
+                | ConstraintKind::SimplexMeasure
+                | ConstraintKind::OrientedMeasure
+                | ConstraintKind::Stvk
+                | ConstraintKind::NeoHookean => None,
+            };
+            let kind = kinds::family_kind(authored.kind, arity, material, expression);
             let flat: Vec<usize> = authored.elements.iter().flatten().copied().collect();
             let rest: Vec<f64> = match &authored.rest {
                 Some(rest) => rest.clone(),
@@ -217,7 +231,16 @@ impl Plan {
                                 points[j * dim..(j + 1) * dim]
                                     .copy_from_slice(&scene.particles[i].position);
                             }
-                            kinds::value(authored.kind, &points, dim, &mut grad, &mut scratch)
+                            match &kind {
+                                FamilyKind::Expression(e) => e.value_at(&points, &mut columns),
+                                _ => kinds::value(
+                                    authored.kind,
+                                    &points,
+                                    dim,
+                                    &mut grad,
+                                    &mut scratch,
+                                ),
+                            }
                         })
                         .collect()
                 }

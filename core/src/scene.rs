@@ -178,6 +178,9 @@ pub enum ConstraintKind {
     /// Compressible Neo-Hookean k-simplices, as `Stvk`; an element that
     /// collapses or inverts during a step stops the step (typed refusal).
     NeoHookean,
+    /// C = value − rest for a user's `value` expression of the element's
+    /// particles `x0 … x{arity−1}` (docs/expressions.md): ∇C is derived.
+    Expression,
 }
 
 impl ConstraintKind {
@@ -190,6 +193,7 @@ impl ConstraintKind {
             ConstraintKind::Tether => "tether",
             ConstraintKind::Stvk => "stvk",
             ConstraintKind::NeoHookean => "neo_hookean",
+            ConstraintKind::Expression => "expression",
         }
     }
 
@@ -202,7 +206,8 @@ impl ConstraintKind {
             ConstraintKind::Distance
             | ConstraintKind::SimplexMeasure
             | ConstraintKind::OrientedMeasure
-            | ConstraintKind::Tether => None,
+            | ConstraintKind::Tether
+            | ConstraintKind::Expression => None,
         }
     }
 }
@@ -240,6 +245,16 @@ pub struct ConstraintFamily {
     /// lumped masses ρ·V_0/(k + 1) from every element they belong to.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub density: Option<f64>,
+    /// Expression families: the value, e.g. `"let d = x1 - x0; norm(d)"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub value: Option<String>,
+    /// Expression families: named constants, each a number or an N-vector
+    /// (authored order kept).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub params: Option<serde_json::Map<String, serde_json::Value>>,
+    /// Expression families: `"=="` (default), `">="` or `"<="`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub relation: Option<crate::kinds::Relation>,
 }
 
 impl ConstraintFamily {
@@ -254,6 +269,18 @@ impl ConstraintFamily {
             poisson_ratio: None,
             rest_positions: None,
             density: None,
+            value: None,
+            params: None,
+            relation: None,
+        }
+    }
+
+    /// An expression family: C = `value` − rest over `elements` (rest from
+    /// the authored geometry, relation `==`, no params).
+    pub fn expression(value: &str, compliance: f64, elements: Vec<Vec<usize>>) -> Self {
+        ConstraintFamily {
+            value: Some(value.into()),
+            ..ConstraintFamily::new(ConstraintKind::Expression, compliance, elements)
         }
     }
 
@@ -278,6 +305,8 @@ impl ConstraintFamily {
         with_rest_positions(rest_positions: Vec<Vec<f64>>) = Some(rest_positions);
         /// Sets the density (lumped mass for particles without `mass`).
         with_density(density: f64) = Some(density);
+        /// Sets an expression family's relation.
+        with_relation(relation: crate::kinds::Relation) = Some(relation);
     }
 }
 

@@ -5,7 +5,7 @@
 
 use crate::geometry::Scratch;
 use crate::kinds::{self, Arity};
-use crate::{MAX_DIM, Obstacle, Scene, SceneError};
+use crate::{ConstraintKind, MAX_DIM, Obstacle, Scene, SceneError};
 
 fn finite(path: impl FnOnce() -> String, value: f64) -> Result<(), SceneError> {
     if value.is_finite() {
@@ -140,6 +140,7 @@ impl Scene {
         let dim = self.dim;
         let count = self.particles.len();
         let mut scratch = Scratch::new();
+        let mut columns = crate::expr::Columns::new();
         let mut points = Vec::new();
         let mut grad = Vec::new();
         for (f, family) in self.constraints.iter().enumerate() {
@@ -169,12 +170,15 @@ impl Scene {
                             dim + 1
                         )));
                     }
-                    Arity::Simplex if element.len() != first_arity => {
+                    Arity::Family if element.is_empty() => {
+                        return Err(arity_error("at least 1".into()));
+                    }
+                    Arity::Simplex | Arity::Family if element.len() != first_arity => {
                         return Err(arity_error(format!(
                             "{first_arity} (one k per family, as in elements[0])"
                         )));
                     }
-                    Arity::Exactly(_) | Arity::Full | Arity::Simplex => {}
+                    Arity::Exactly(_) | Arity::Full | Arity::Simplex | Arity::Family => {}
                 }
                 for (j, &index) in element.iter().enumerate() {
                     if index >= count {
@@ -192,6 +196,25 @@ impl Scene {
                     }
                 }
             }
+            let expression = match family.kind {
+                // An empty family still has its expression checked (any
+                // particle index is then in range).
+                ConstraintKind::Expression => Some(crate::kinds::ExpressionKind::compile(
+                    f,
+                    family,
+                    match first_arity {
+                        0 => crate::expr::limits::MAX_ARITY,
+                        arity => arity,
+                    },
+                    dim,
+                )?),
+                ConstraintKind::Distance
+                | ConstraintKind::Tether
+                | ConstraintKind::SimplexMeasure
+                | ConstraintKind::OrientedMeasure
+                | ConstraintKind::Stvk
+                | ConstraintKind::NeoHookean => None,
+            };
             if family.kind.law().is_some() {
                 self.validate_material(f, family)?;
             } else if let Some(rest) = &family.rest {
@@ -219,7 +242,10 @@ impl Scene {
                         points.extend_from_slice(&self.particles[i].position);
                     }
                     grad.resize(points.len(), 0.0);
-                    let value = kinds::value(family.kind, &points, dim, &mut grad, &mut scratch);
+                    let value = match &expression {
+                        Some(expression) => expression.value_at(&points, &mut columns),
+                        None => kinds::value(family.kind, &points, dim, &mut grad, &mut scratch),
+                    };
                     let path = || format!("constraints[{f}].elements[{e}]");
                     if !value.is_finite() {
                         return Err(SceneError::DegenerateRest {

@@ -18,7 +18,7 @@
 //! `constraints[2].rest_positions[7][1]`, `constraints[2].elements[5]`.
 
 use crate::material::{Material, MaterialError, RestShapes};
-use crate::{ConstraintFamily, Scene, SceneError};
+use crate::{ConstraintFamily, ConstraintKind, Scene, SceneError};
 
 impl Scene {
     /// The keys of family `f`: material keys only on material kinds, and
@@ -35,6 +35,16 @@ impl Scene {
             kind,
             why: why.into(),
         };
+        let expression_keys = [
+            ("value", family.value.is_some()),
+            ("params", family.params.is_some()),
+            ("relation", family.relation.is_some()),
+        ];
+        if family.kind != ConstraintKind::Expression
+            && let Some((field, _)) = expression_keys.iter().find(|(_, given)| *given)
+        {
+            return Err(not_for(field, "only expression families take it"));
+        }
         if family.kind.law().is_none() {
             let material_keys = [
                 ("youngs_modulus", family.youngs_modulus.is_some()),

@@ -37,6 +37,7 @@ pub fn geometric_violation(
         FamilyKind::Distance | FamilyKind::Tether => distance(points, dim, grad),
         FamilyKind::SimplexMeasure { .. } => simplex_squared_measure(points, dim, grad, scratch),
         FamilyKind::OrientedMeasure => oriented_measure(points, dim, grad, scratch),
+        FamilyKind::Expression(expression) => expression.value_at(points, &mut scratch.columns),
         FamilyKind::HyperplaneContact { .. } | FamilyKind::Material { .. } => return None,
     };
     kinds::violation(kind, value, rest)

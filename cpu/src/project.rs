@@ -11,6 +11,8 @@
 //!
 //! Σ_j w_j |∇_j C|² is w_0 + w_1 for distance and w for contacts (their
 //! gradients are unit vectors); measure kinds sum the computed gradients.
+//! Expression families run `hyperpbd_core::kinds::project` (one code for
+//! f64 here and f32 in the f32 reference; its docs have the update).
 //! Material families (`material.rs`) take this generic path with their
 //! energy constraint C = √(2W) (rest value 0, compliance 1); a
 //! Neo-Hookean element with J ≤ 0 fails its slot like a non-finite update.
@@ -40,7 +42,9 @@
 
 use crate::dim::{Dim, with_dim};
 use crate::parallel::{Coordinates, DisjointSlice, Shared, Workers, first_error};
+use hyperpbd_core::expr::Columns;
 use hyperpbd_core::geometry::{Scratch, oriented_measure, simplex_squared_measure};
+use hyperpbd_core::kinds;
 use hyperpbd_core::material::MaterialScratch;
 use hyperpbd_core::{Family, FamilyKind};
 use std::ops::Range;
@@ -69,6 +73,20 @@ pub struct Workspace {
     pub scratch: Scratch,
     /// The material laws' buffers.
     pub material: MaterialScratch,
+    /// An expression family's columns (one per tape slot).
+    pub columns: Columns<f64>,
+}
+
+/// Coordinates as an expression projection reads and writes them.
+struct Positions<'a, X: ?Sized>(&'a mut X);
+
+impl<X: Coordinates + ?Sized> kinds::Positions<f64> for Positions<'_, X> {
+    fn get(&self, k: usize) -> f64 {
+        self.0.values(k..k + 1)[0]
+    }
+    fn set(&mut self, k: usize, value: f64) {
+        self.0.values_mut(k..k + 1)[0] = value;
+    }
 }
 
 /// Projects elements `range` (one colour's color-ordered slots) of
@@ -154,6 +172,18 @@ fn project_elements<X: Coordinates + ?Sized>(
         | FamilyKind::OrientedMeasure
         | FamilyKind::Material { .. } => {
             with_dim!(batch.dim, measure(batch, elements, x, lambda, ws))
+        }
+        FamilyKind::Expression(kind) => {
+            let colour = kinds::Colour {
+                kind,
+                dim: batch.dim,
+                elements: &batch.family.elements,
+                rest: &batch.family.rest,
+                alpha_tilde: batch.alpha_tilde,
+                inverse_mass: batch.inverse_mass,
+                slots: elements,
+            };
+            kinds::project(&colour, &mut Positions(x), lambda, &mut ws.columns)
         }
     }
 }
@@ -270,8 +300,9 @@ fn measure<D: Dim, X: Coordinates + ?Sized>(
             FamilyKind::OrientedMeasure => {
                 oriented_measure(&ws.points, dim, &mut ws.grad, &mut ws.scratch)
             }
-            // Contacts take `contact_in`, never this path.
-            FamilyKind::HyperplaneContact { .. } => return Err(e),
+            // Contacts take `contact_in` and expressions `kinds::project`,
+            // never this path.
+            FamilyKind::HyperplaneContact { .. } | FamilyKind::Expression(_) => return Err(e),
         };
         if !value.is_finite() {
             return Err(e);

@@ -55,6 +55,7 @@ fn violation<D: Dim>(
         grad,
         scratch,
         material,
+        ..
     } = ws;
     points.resize(arity * dim, 0.0);
     grad.resize(arity * dim, 0.0);

@@ -44,6 +44,8 @@ codes! {
         OP_GUARD_MEASURE = 9;
         OP_GUARD_SPEED = 10;
         OP_PROJECT_MATERIAL = 11;
+        /// An expression family (not on the device yet: refused at load).
+        OP_PROJECT_EXPRESSION = 12;
         /// A kernel the host runs itself between dispatches (broadphase,
         /// particle contact): no block of its own is ever executed.
         OP_HOST = 0xff;
@@ -99,6 +101,7 @@ codes! {
         RESIDUAL_CONTACT = 3;
         RESIDUAL_TETHER = 4;
         RESIDUAL_MATERIAL = 5;
+        RESIDUAL_EXPRESSION = 6;
     }
 }
 
@@ -127,12 +130,14 @@ pub fn residual_code(kind: &FamilyKind) -> u32 {
         FamilyKind::HyperplaneContact { .. } => RESIDUAL_CONTACT,
         FamilyKind::Tether => RESIDUAL_TETHER,
         FamilyKind::Material { .. } => RESIDUAL_MATERIAL,
+        FamilyKind::Expression(_) => RESIDUAL_EXPRESSION,
     }
 }
 
 /// The coupled step's element code of a constraint family's elements;
 /// `None` for hyperplane contact, which the coupled step treats as an
-/// obstacle barrier, never as an element.
+/// obstacle barrier, never as an element, and for expression families,
+/// which the implicit path refuses (validate_solver.rs).
 pub fn element_code(kind: &FamilyKind) -> Option<u32> {
     match kind {
         FamilyKind::Distance => Some(ELEMENT_DISTANCE),
@@ -140,7 +145,7 @@ pub fn element_code(kind: &FamilyKind) -> Option<u32> {
         FamilyKind::SimplexMeasure { .. } => Some(ELEMENT_SIMPLEX),
         FamilyKind::OrientedMeasure => Some(ELEMENT_ORIENTED),
         FamilyKind::Material { .. } => Some(ELEMENT_MATERIAL),
-        FamilyKind::HyperplaneContact { .. } => None,
+        FamilyKind::HyperplaneContact { .. } | FamilyKind::Expression(_) => None,
     }
 }
 

@@ -20,8 +20,9 @@
 //! ```
 
 use glam::{DVec2, DVec3};
+use hyperpbd_core::expr::Columns;
 use hyperpbd_core::geometry::Scratch;
-use hyperpbd_core::kinds;
+use hyperpbd_core::kinds::{self, ExpressionKind};
 use hyperpbd_core::{ConstraintKind, Obstacle, Scene, State};
 
 /// A hyperplane n·x = offset with unit n; n·x < offset + r is excluded.
@@ -35,6 +36,8 @@ pub(crate) struct Plane {
 #[derive(Debug, Clone)]
 struct Elements {
     kind: ConstraintKind,
+    /// An expression family's compiled value.
+    expression: Option<ExpressionKind>,
     arity: usize,
     /// Particle indices, `arity` per element.
     particles: Vec<usize>,
@@ -84,9 +87,25 @@ impl SceneGeometry {
         let edge_index = |pair: (usize, usize)| edges.binary_search(&pair).ok();
         let mut scratch = Scratch::new();
         let mut families = Vec::new();
-        for family in &scene.constraints {
+        let mut columns = Columns::new();
+        for (f, family) in scene.constraints.iter().enumerate() {
             let Some(arity) = family.elements.first().map(Vec::len) else {
                 continue;
+            };
+            // The scene is validated: its expressions compile.
+            let expression = match family.kind {
+                ConstraintKind::Expression => {
+                    match ExpressionKind::compile(f, family, arity, dim) {
+                        Ok(expression) => Some(expression),
+                        Err(_) => continue,
+                    }
+                }
+                ConstraintKind::Distance
+                | ConstraintKind::Tether
+                | ConstraintKind::SimplexMeasure
+                | ConstraintKind::OrientedMeasure
+                | ConstraintKind::Stvk
+                | ConstraintKind::NeoHookean => None,
             };
             let particles: Vec<usize> = family.elements.iter().flatten().copied().collect();
             let mut points = vec![0.0; arity * dim];
@@ -100,7 +119,12 @@ impl SceneGeometry {
                             points[j * dim..(j + 1) * dim]
                                 .copy_from_slice(&scene.particles[i].position);
                         }
-                        kinds::value(family.kind, &points, dim, &mut grad, &mut scratch)
+                        match &expression {
+                            Some(e) => e.value_at(&points, &mut columns),
+                            None => {
+                                kinds::value(family.kind, &points, dim, &mut grad, &mut scratch)
+                            }
+                        }
                     })
                     .collect(),
             };
@@ -110,6 +134,8 @@ impl SceneGeometry {
                 ConstraintKind::OrientedMeasure => dim,
                 // No geometric value (rest 0, value 0): drawn unstrained.
                 ConstraintKind::Stvk | ConstraintKind::NeoHookean => 1,
+                // Units unknown: relative to the rest value, or to length.
+                ConstraintKind::Expression => 1,
             };
             let fallback = length.powi(power as i32);
             let scale = rest
@@ -127,6 +153,7 @@ impl SceneGeometry {
                 .collect();
             families.push(Elements {
                 kind: family.kind,
+                expression,
                 arity,
                 particles,
                 rest,
@@ -196,6 +223,7 @@ impl SceneGeometry {
         let dim = self.dim;
         let mut particle = vec![0.0f64; self.len()];
         let mut edge = vec![0.0f64; self.edges.len()];
+        let mut columns = Columns::new();
         let mut scratch = Scratch::new();
         for f in &self.families {
             let per_element_edges = f.arity * (f.arity - 1) / 2;
@@ -205,7 +233,10 @@ impl SceneGeometry {
                 for (j, &i) in element.iter().enumerate() {
                     points[j * dim..(j + 1) * dim].copy_from_slice(state.position(i));
                 }
-                let c = kinds::value(f.kind, &points, dim, &mut grad, &mut scratch);
+                let c = match &f.expression {
+                    Some(e) => e.value_at(&points, &mut columns),
+                    None => kinds::value(f.kind, &points, dim, &mut grad, &mut scratch),
+                };
                 let r = ((c - f.rest[e]) / f.scale[e]).abs();
                 let r = if r.is_nan() { f64::INFINITY } else { r };
                 for &i in element {

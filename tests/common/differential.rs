@@ -137,6 +137,8 @@ fn residual_bound(
         // Lipschitz constant at one state bounds it nearby; the exact
         // residual at the GPU's state is the golden path's function there.
         FamilyKind::Material { .. } => unreachable!("material_residual_bound"),
+        // The GPU refuses expression families (not on the device yet).
+        FamilyKind::Expression(_) => unreachable!("the GPU refuses expression families"),
     }
 }
 

@@ -33,6 +33,8 @@ pub struct Scratch {
     pub(crate) gram: Vec<f64>,
     pub(crate) adj: Vec<f64>,
     pub(crate) minor: Vec<f64>,
+    /// An expression's columns (its value at one element).
+    pub(crate) columns: crate::expr::Columns<f64>,
 }
 
 impl Scratch {

@@ -26,6 +26,7 @@ pub fn simplex_squared_measure(
         gram: gram_matrix,
         adj,
         minor,
+        ..
     } = scratch;
     edges.resize(dim * k, 0.0);
     gram_matrix.resize(k * k, 0.0);

@@ -116,6 +116,9 @@ pub fn evaluate_spring(
         | ConstraintKind::NeoHookean => SpringCurvature::GaussNewton {
             weight: 1.0 / compliance,
         },
+        ConstraintKind::Expression => {
+            unreachable!("the implicit path refuses expression families (validate_solver.rs)")
+        }
     };
     Spring {
         energy,

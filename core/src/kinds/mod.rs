@@ -12,6 +12,7 @@
 //! oriented_measure   N+1            ≠ 0; authored simplex not degenerate          C = 0     |C|         oriented_measure.rs
 //! stvk, neo_hookean  k+1, 1 ≤ k ≤ N 0 (the rest shape lives in the plan's frames)  C = 0     √(2W)       material.rs
 //! hyperplane contact 1 (obstacle)   offset + radius                               C ≥ 0     by the backend's normals  hyperplane_contact.rs
+//! expression         any, per family any                                          relation  by relation expression.rs
 //! ```
 //! Adding a kind: one file here, a variant of [`ConstraintKind`] (and of
 //! [`FamilyKind`] if it compiles to its own), one line in each function
@@ -20,11 +21,16 @@
 //! codes of `gpu/src/codes.rs`).
 
 mod distance;
+mod expression;
 mod hyperplane_contact;
 mod material;
 mod oriented_measure;
 mod simplex_measure;
 mod tether;
+
+use serde::{Deserialize, Serialize};
+
+pub use expression::{Colour, ExpressionKind, Positions, ProjectionReal, project};
 
 use crate::geometry::Scratch;
 use crate::material::Material;
@@ -37,20 +43,37 @@ pub enum Arity {
     Exactly(usize),
     /// N + 1: a full-dimensional simplex of R^N.
     Full,
+    /// Any length ≥ 1, the same for the whole family (expressions).
+    Family,
     /// A k-simplex: k + 1 particles with 1 ≤ k ≤ N, the same k for the
     /// whole family.
     Simplex,
 }
 
-/// The relation an element imposes on C = value − rest.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// The relation an element imposes on C = value − rest (an expression
+/// family's `relation` key).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Relation {
     /// C = 0 (λ free).
+    #[serde(rename = "==")]
     Equal,
     /// C ≤ 0 (λ ≤ 0: it only pulls).
+    #[serde(rename = "<=")]
     AtMost,
     /// C ≥ 0 (λ ≥ 0: it only pushes).
+    #[serde(rename = ">=")]
     AtLeast,
+}
+
+impl Relation {
+    /// As written in a scene.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Relation::Equal => "==",
+            Relation::AtMost => "<=",
+            Relation::AtLeast => ">=",
+        }
+    }
 }
 
 /// The arity of `kind`.
@@ -61,6 +84,7 @@ pub fn arity(kind: ConstraintKind) -> Arity {
         ConstraintKind::SimplexMeasure => simplex_measure::ARITY,
         ConstraintKind::OrientedMeasure => oriented_measure::ARITY,
         ConstraintKind::Stvk | ConstraintKind::NeoHookean => material::ARITY,
+        ConstraintKind::Expression => Arity::Family,
     }
 }
 
@@ -73,7 +97,7 @@ pub fn rest_problem(kind: ConstraintKind, rest: f64) -> Option<&'static str> {
         ConstraintKind::Tether => tether::rest_problem(rest),
         ConstraintKind::SimplexMeasure => simplex_measure::rest_problem(rest),
         ConstraintKind::OrientedMeasure => oriented_measure::rest_problem(rest),
-        ConstraintKind::Stvk | ConstraintKind::NeoHookean => None,
+        ConstraintKind::Stvk | ConstraintKind::NeoHookean | ConstraintKind::Expression => None,
     }
 }
 
@@ -92,7 +116,8 @@ pub fn authored_problem(
         | ConstraintKind::Tether
         | ConstraintKind::SimplexMeasure
         | ConstraintKind::Stvk
-        | ConstraintKind::NeoHookean => None,
+        | ConstraintKind::NeoHookean
+        | ConstraintKind::Expression => None,
     }
 }
 
@@ -100,7 +125,9 @@ pub fn authored_problem(
 /// written into `grad` (the layout of `points`): the rest value an element
 /// takes from its authored geometry. A material kind's value here is 0,
 /// the minimum of its energy constraint C = √(2W) (its rest shape lives in
-/// the plan's rest frames), with ∇C = 0.
+/// the plan's rest frames), with ∇C = 0. Expression families are valued
+/// by their compiled tape ([`ExpressionKind::value_at`]); validation and
+/// the plan take that path, and the implicit path refuses them.
 pub fn value(
     kind: ConstraintKind,
     points: &[f64],
@@ -114,14 +141,26 @@ pub fn value(
         ConstraintKind::SimplexMeasure => simplex_measure::value(points, dim, grad, scratch),
         ConstraintKind::OrientedMeasure => oriented_measure::value(points, dim, grad, scratch),
         ConstraintKind::Stvk | ConstraintKind::NeoHookean => material::rest_value(grad),
+        ConstraintKind::Expression => {
+            unreachable!("an expression's value needs its compiled tape (ExpressionKind::value_at)")
+        }
     }
 }
 
 /// The compiled kind of an authored family of `kind` whose elements have
 /// `arity` particles (`material`: its law and Lamé parameters, for the
-/// material kinds).
-pub fn family_kind(kind: ConstraintKind, arity: usize, material: Option<Material>) -> FamilyKind {
+/// material kinds; `expression`: the compiled expression).
+pub fn family_kind(
+    kind: ConstraintKind,
+    arity: usize,
+    material: Option<Material>,
+    expression: Option<ExpressionKind>,
+) -> FamilyKind {
     match (kind, material) {
+        (ConstraintKind::Expression, _) => match expression {
+            Some(expression) => FamilyKind::Expression(std::sync::Arc::new(expression)),
+            None => unreachable!("the plan compiles every expression family"),
+        },
         (ConstraintKind::Stvk | ConstraintKind::NeoHookean, Some(material)) => {
             material::family_kind(material, arity)
         }
@@ -144,6 +183,7 @@ pub fn relation(kind: &FamilyKind) -> Relation {
         FamilyKind::Tether => tether::RELATION,
         FamilyKind::Material { .. } => material::RELATION,
         FamilyKind::HyperplaneContact { .. } => hyperplane_contact::RELATION,
+        FamilyKind::Expression(expression) => expression.relation,
     }
 }
 
@@ -156,6 +196,7 @@ pub fn violation(kind: &FamilyKind, value: f64, rest: f64) -> Option<f64> {
         FamilyKind::Tether => Some(tether::violation(value, rest)),
         FamilyKind::SimplexMeasure { .. } => Some(simplex_measure::violation(value, rest)),
         FamilyKind::OrientedMeasure => Some(oriented_measure::violation(value, rest)),
+        FamilyKind::Expression(expression) => Some(expression.violation(value, rest)),
         FamilyKind::HyperplaneContact { .. } | FamilyKind::Material { .. } => None,
     }
 }

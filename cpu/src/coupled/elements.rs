@@ -313,7 +313,8 @@ impl Elements {
                     FamilyKind::SimplexMeasure { .. }
                     | FamilyKind::OrientedMeasure
                     | FamilyKind::Material { .. }
-                    | FamilyKind::HyperplaneContact { .. } => {
+                    | FamilyKind::HyperplaneContact { .. }
+                    | FamilyKind::Expression(_) => {
                         SpringCurvature::GaussNewton { weight: record[1] }
                     }
                 };
@@ -497,6 +498,8 @@ fn constraint_kind(kind: &FamilyKind) -> ConstraintKind {
         FamilyKind::OrientedMeasure | FamilyKind::HyperplaneContact { .. } => {
             ConstraintKind::OrientedMeasure
         }
+        // The implicit path refuses expression families (validate_solver.rs).
+        FamilyKind::Expression(_) => ConstraintKind::Expression,
         // Material families are `Kind::Material` elements, never springs.
         FamilyKind::Material { .. } => {
             unreachable!("a material family is no spring (Elements::rebuild)")

@@ -61,6 +61,8 @@ mod residual;
 pub use collide::{Iteration, iterate};
 
 use hyperpbd_core::broadphase::key_up;
+use hyperpbd_core::expr::Columns;
+use hyperpbd_core::kinds;
 use hyperpbd_core::material::Law;
 use hyperpbd_core::{FamilyKind, Kernel, Plan, State};
 
@@ -157,6 +159,8 @@ pub struct F32Reference {
     gravity: Vec<f32>,
     factor: f32,
     contacts: Option<Contacts>,
+    /// An expression family's columns.
+    columns: Columns<f32>,
 }
 
 fn round(values: &[f64]) -> Vec<f32> {
@@ -173,6 +177,14 @@ impl F32Reference {
             }
         }
         let shifted = origin.iter().any(|&o| o != 0.0);
+        if shifted && let Some(f) = plan.families.iter().find(|f| f.kind.is_expression()) {
+            // An expression need not be translation-invariant (a param may
+            // be a point): it reads world coordinates.
+            return Err(ReferenceError::Unsupported(format!(
+                "{} (an expression family) in coordinates shifted by a scene origin",
+                f.label
+            )));
+        }
         let families = plan
             .families
             .iter()
@@ -185,7 +197,8 @@ impl F32Reference {
                     | FamilyKind::Tether
                     | FamilyKind::SimplexMeasure { .. }
                     | FamilyKind::OrientedMeasure
-                    | FamilyKind::Material { .. } => (&[][..], 0.0),
+                    | FamilyKind::Material { .. }
+                    | FamilyKind::Expression(_) => (&[][..], 0.0),
                 };
                 let rest = f.rest.iter().map(|&r| {
                     if normal.is_empty() || !shifted {
@@ -239,6 +252,7 @@ impl F32Reference {
             particles,
             contacts,
             plan,
+            columns: Columns::new(),
         };
         reference.write_state(state)?;
         Ok(reference)
@@ -413,6 +427,19 @@ impl F32Reference {
                             mu: stored.mu,
                         };
                         project::contact(s, &colour, &plane, lambda)
+                    }
+                    FamilyKind::Expression(kind) => {
+                        let colour = kinds::Colour {
+                            kind,
+                            dim: s.dim,
+                            elements: &f.elements,
+                            rest: &stored.rest,
+                            alpha_tilde: stored.alpha_tilde,
+                            inverse_mass: &s.w,
+                            slots: f.color(color),
+                        };
+                        let slots = f.color(color);
+                        kinds::project(&colour, &mut s.x[..], &mut lambda[slots], &mut self.columns)
                     }
                     FamilyKind::Material { .. } => match &stored.material {
                         Some(law) => {

@@ -43,6 +43,7 @@ pub fn residual(f: &Family, n: usize, x: &[f32], stored: &StoredFamily) -> f32 {
     let mut pts = vec![0.0f32; f.arity * n];
     let mut grad = vec![0.0f32; f.arity * n];
     let mut worst = 0.0f32;
+    let mut columns = hyperpbd_core::expr::Columns::new();
     for e in 0..f.len() {
         for (j, &i) in f.elements[e * f.arity..(e + 1) * f.arity]
             .iter()
@@ -51,11 +52,11 @@ pub fn residual(f: &Family, n: usize, x: &[f32], stored: &StoredFamily) -> f32 {
             let i = i as usize;
             pts[j * n..(j + 1) * n].copy_from_slice(&x[i * n..(i + 1) * n]);
         }
-        let violation = match f.kind {
+        let violation = match &f.kind {
             FamilyKind::Distance => (distance(&pts, n) - rest[e]).abs(),
             FamilyKind::Tether => (distance(&pts, n) - rest[e]).max(0.0),
             FamilyKind::SimplexMeasure { k } => {
-                (simplex_squared_measure(&pts, n, k, &mut grad) - rest[e]).abs()
+                (simplex_squared_measure(&pts, n, *k, &mut grad) - rest[e]).abs()
             }
             FamilyKind::OrientedMeasure => (oriented_measure(&pts, n, &mut grad) - rest[e]).abs(),
             FamilyKind::HyperplaneContact { .. } => {
@@ -64,6 +65,9 @@ pub fn residual(f: &Family, n: usize, x: &[f32], stored: &StoredFamily) -> f32 {
                     nx += normal[a] * pts[a];
                 }
                 (rest[e] - nx).max(0.0)
+            }
+            FamilyKind::Expression(kind) => {
+                kind.violation(kind.value_at(&pts, &mut columns), rest[e])
             }
             FamilyKind::Material { .. } => match stored.material {
                 Some(law) => law

@@ -254,7 +254,8 @@ impl GpuCoupledBackend {
                     | FamilyKind::Tether
                     | FamilyKind::SimplexMeasure { .. }
                     | FamilyKind::OrientedMeasure
-                    | FamilyKind::HyperplaneContact { .. } => {
+                    | FamilyKind::HyperplaneContact { .. }
+                    | FamilyKind::Expression(_) => {
                         push(members, code, &[family.compliance, family.rest[e]])
                     }
                 }

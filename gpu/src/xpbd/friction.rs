@@ -21,7 +21,8 @@ pub(crate) fn friction(plan: &Plan, families: &Families, family: usize, call: u3
         | FamilyKind::Tether
         | FamilyKind::SimplexMeasure { .. }
         | FamilyKind::OrientedMeasure
-        | FamilyKind::Material { .. } => (Vec::new(), 0.0),
+        | FamilyKind::Material { .. }
+        | FamilyKind::Expression(_) => (Vec::new(), 0.0),
     };
     Call {
         op: OP_FRICTION,

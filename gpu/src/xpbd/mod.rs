@@ -75,6 +75,15 @@ impl Families {
             slots: 0,
             material_base: Vec::new(),
         };
+        if let Some(f) = plan.families.iter().find(|f| f.kind.is_expression()) {
+            return Err(GpuError::Unsupported {
+                what: format!(
+                    "{}: expression families run on the CPU golden path and the f32 reference \
+                     so far (their WGSL kernel is not wired into the step yet)",
+                    f.label
+                ),
+            });
+        }
         for f in &plan.families {
             if f.arity == 2 && out.elements.len() % 2 == 1 {
                 // Pairs are read as vec2<u32>: an even offset.
@@ -109,7 +118,8 @@ impl Families {
                 | FamilyKind::Tether
                 | FamilyKind::SimplexMeasure { .. }
                 | FamilyKind::OrientedMeasure
-                | FamilyKind::Material { .. } => {
+                | FamilyKind::Material { .. }
+                | FamilyKind::Expression(_) => {
                     out.rest.extend_from_slice(&f.rest);
                     out.slot_map.push(0);
                 }

@@ -18,7 +18,7 @@ use hyperpbd_core::{FamilyKind, Kernel, Plan};
 use super::Families;
 use super::call::{
     Call, FLAG_FIRST, FLAG_TETHER, FLAG_UNREAD, OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE,
-    OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX,
+    OP_PROJECT_EXPRESSION, OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX,
 };
 
 /// Projection of colour `color` of family `family`.
@@ -47,6 +47,8 @@ pub(crate) fn project(
         }
         FamilyKind::SimplexMeasure { .. } => c.op = OP_PROJECT_SIMPLEX,
         FamilyKind::OrientedMeasure => c.op = OP_PROJECT_ORIENTED,
+        // Refused when the backend lays out the families (Families::new).
+        FamilyKind::Expression(_) => c.op = OP_PROJECT_EXPRESSION,
         FamilyKind::Material { .. } => {
             c.op = OP_PROJECT_MATERIAL;
             super::material::set_fields(f, families, family, &mut c);

@@ -31,8 +31,9 @@ use hyperpbd_core::{Family, FamilyKind, Kernel, Plan};
 
 use super::call::{
     Call, OP_DAMPING, OP_FRICTION, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST, OP_NONE, OP_PREDICT,
-    OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE, OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED,
-    OP_PROJECT_SIMPLEX, OP_RESIDUAL, OP_VELOCITY, SEGMENT, dispatch_block, records_io,
+    OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE, OP_PROJECT_EXPRESSION, OP_PROJECT_MATERIAL,
+    OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX, OP_RESIDUAL, OP_VELOCITY, SEGMENT, dispatch_block,
+    records_io,
 };
 use super::{Families, friction, guard, integrate, project, residual};
 use crate::Precision;
@@ -374,7 +375,9 @@ fn single(call: &Call, index: usize) -> Dispatch {
         OP_PROJECT_ORIENTED => Run::Oriented(call.flags),
         OP_PROJECT_MATERIAL => Run::Material(call.flags),
         OP_GUARD_MEASURE | OP_GUARD_SPEED => Run::Guard(call.op, call.flags),
-        OP_RESIDUAL | OP_NONE => unreachable!("op {} is never a step call", call.op),
+        OP_RESIDUAL | OP_NONE | OP_PROJECT_EXPRESSION => {
+            unreachable!("op {} is never a step call", call.op)
+        }
         unknown => unreachable!("op {unknown} is not in codes::OPS"),
     };
     Dispatch {

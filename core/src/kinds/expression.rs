@@ -1,0 +1,279 @@
+//! Expression families: C = value(x0 … x{arity−1}) − rest for a user's
+//! `value` expression (docs/expressions.md), compiled once per (dimension,
+//! arity) by [`crate::expr`] into straight-line tapes; ∇C is derived,
+//! never written. The projection below is generic over the precision, so
+//! the golden path (f64) and the f32 reference (f32) run one code, and
+//! the WGSL kernel performs the same operations in the same order.
+//!
+//! ```text
+//! per colour: evaluate the value+gradient tape over every element (a
+//!   column per slot: elements of a colour share no dynamic particle, so
+//!   this equals evaluating them one after another)
+//! per element, in slot order:
+//!   C non-finite                         → the element fails (typed step error)
+//!   wsum = Σ_j [w_j ≠ 0] w_j Σ_a g_ja²    (j, then a ascending; fixed particles skipped)
+//!   wsum non-finite or 0                 → no response (∇C zero or undefined)
+//!   Δλ = (−(C − rest) − α~ λ) / (wsum + α~);  non-finite → the element fails
+//!   "==": λ' = λ + Δλ
+//!   ">=": t = λ + Δλ; λ' = t < 0 ? 0 : t; Δλ = λ' − λ     "<=": λ' = t < 0 ? t : 0; Δλ = λ' − λ
+//!   x_j += (w_j g_j) Δλ  (dynamic j)
+//! violation: "==" |C|, ">=" max(−C, 0), "<=" max(C, 0)
+//! ```
+
+use std::ops::Range;
+
+use super::Relation;
+use crate::expr::{self, Columns, Compiled, Outputs, ParamValue, Real, Stats, Tape};
+use crate::{ConstraintFamily, SceneError};
+
+/// A compiled expression family.
+#[derive(Debug, Clone)]
+pub struct ExpressionKind {
+    /// The authored value expression.
+    pub source: String,
+    /// Its relation.
+    pub relation: Relation,
+    /// Particles per element.
+    pub arity: usize,
+    /// C alone (rest values, residuals).
+    pub value: Tape,
+    /// C and ∇C (the projection).
+    pub gradient: Tape,
+    compiled: Compiled,
+}
+
+impl PartialEq for ExpressionKind {
+    fn eq(&self, other: &Self) -> bool {
+        self.source == other.source
+            && self.relation == other.relation
+            && self.arity == other.arity
+            && self.gradient == other.gradient
+    }
+}
+
+impl ExpressionKind {
+    /// Compiles constraint family `f` (an expression family with elements
+    /// of `arity` particles) for R^`dim`.
+    pub fn compile(
+        f: usize,
+        family: &ConstraintFamily,
+        arity: usize,
+        dim: usize,
+    ) -> Result<ExpressionKind, SceneError> {
+        let at = |field: &str| format!("constraints[{f}].{field}");
+        let source = family
+            .value
+            .as_deref()
+            .ok_or_else(|| SceneError::MissingField {
+                path: at("value"),
+                kind: "expression",
+            })?;
+        let params = params(f, family)?;
+        let expression = |source| SceneError::Expression {
+            path: at("value"),
+            source,
+        };
+        let compiled = expr::compile(source, &params, arity, dim).map_err(expression)?;
+        let value = compiled.tape(Outputs::Value).map_err(expression)?;
+        let gradient = compiled.tape(Outputs::ValueGradient).map_err(expression)?;
+        Ok(ExpressionKind {
+            source: source.into(),
+            relation: family.relation.unwrap_or(Relation::Equal),
+            arity,
+            value,
+            gradient,
+            compiled,
+        })
+    }
+
+    /// Op counts and derivative sizes (`hyperpbd plan`).
+    pub fn stats(&self) -> Stats {
+        self.compiled.stats()
+    }
+
+    /// C, ∇C and ∇²C (the implicit path), derived on request.
+    pub fn hessian_tape(&self) -> Result<Tape, expr::ExprError> {
+        self.compiled.tape(Outputs::ValueGradientHessian)
+    }
+
+    /// C at `points` (arity × `dim`, one element), in precision `R`.
+    pub fn value_at<R: Real>(&self, points: &[R], columns: &mut Columns<R>) -> R {
+        self.value.eval(1, |j, _| points[j], columns);
+        columns.get(self.value.value, 0)
+    }
+
+    /// The violation of an element whose value is `value` and rest `rest`,
+    /// in precision `R`.
+    pub fn violation<R: ProjectionReal>(&self, value: R, rest: R) -> R {
+        let c = value - rest;
+        let zero = R::constant(0.0);
+        let positive = |v: R| if v > zero { v } else { zero };
+        match self.relation {
+            Relation::Equal => c.abs(),
+            Relation::AtLeast => positive(-c),
+            Relation::AtMost => positive(c),
+        }
+    }
+}
+
+/// The params of family `f` in authored order: a number or an array of
+/// numbers each (the compiler checks a vector's length against N).
+fn params(f: usize, family: &ConstraintFamily) -> Result<Vec<(String, ParamValue)>, SceneError> {
+    let mut out = Vec::new();
+    for (name, value) in family.params.iter().flatten() {
+        let path = format!("constraints[{f}].params.{name}");
+        let number = |v: &serde_json::Value, path: String| match v.as_f64() {
+            Some(x) if x.is_finite() => Ok(x),
+            Some(x) => Err(SceneError::NonFinite { path, value: x }),
+            None => Err(SceneError::Inconsistent {
+                path,
+                why: "a param is a number or an array of numbers (an N-vector)".into(),
+            }),
+        };
+        let value = match value {
+            serde_json::Value::Array(items) => ParamValue::Vector(
+                (items.iter().enumerate())
+                    .map(|(k, v)| number(v, format!("{path}[{k}]")))
+                    .collect::<Result<_, _>>()?,
+            ),
+            other => ParamValue::Scalar(number(other, path)?),
+        };
+        out.push((name.clone(), value));
+    }
+    Ok(out)
+}
+
+/// The precisions the projection runs in.
+pub trait ProjectionReal: Real {
+    /// Neither NaN nor ±∞.
+    fn finite(self) -> bool;
+}
+
+impl ProjectionReal for f64 {
+    fn finite(self) -> bool {
+        self.is_finite()
+    }
+}
+
+impl ProjectionReal for f32 {
+    fn finite(self) -> bool {
+        self.is_finite()
+    }
+}
+
+/// Positions an expression projection reads and writes (flat, `dim` per
+/// particle).
+pub trait Positions<R> {
+    /// Coordinate `k`.
+    fn get(&self, k: usize) -> R;
+    /// Sets coordinate `k`.
+    fn set(&mut self, k: usize, value: R);
+}
+
+impl<R: Copy> Positions<R> for [R] {
+    fn get(&self, k: usize) -> R {
+        self[k]
+    }
+    fn set(&mut self, k: usize, value: R) {
+        self[k] = value;
+    }
+}
+
+/// Slots `slots` (one colour, or a chunk of one) of an expression family
+/// in precision `R`.
+pub struct Colour<'a, R> {
+    /// The family's kind.
+    pub kind: &'a ExpressionKind,
+    /// Dimension N.
+    pub dim: usize,
+    /// The family's particle indices, `arity` per (colour-ordered) slot.
+    pub elements: &'a [u32],
+    /// The family's rest values, per slot.
+    pub rest: &'a [R],
+    /// α / h².
+    pub alpha_tilde: R,
+    /// Inverse mass per particle.
+    pub inverse_mass: &'a [R],
+    /// The slots to project.
+    pub slots: Range<usize>,
+}
+
+/// Projects the slots of `c` (module docs); `lambda` holds their
+/// multipliers (`lambda[0]` is slot `c.slots.start`). Every element is
+/// projected; the first failing slot is returned.
+pub fn project<R: ProjectionReal, X: Positions<R> + ?Sized>(
+    c: &Colour<'_, R>,
+    x: &mut X,
+    lambda: &mut [R],
+    columns: &mut Columns<R>,
+) -> Result<(), usize> {
+    let (dim, arity) = (c.dim, c.kind.arity);
+    let tape = &c.kind.gradient;
+    let first = c.slots.start;
+    let zero = R::constant(0.0);
+    tape.eval(
+        c.slots.len(),
+        |j, lane| {
+            let i = c.elements[(first + lane) * arity + j / dim] as usize;
+            x.get(i * dim + j % dim)
+        },
+        columns,
+    );
+    let mut failed = None;
+    for (lane, e) in c.slots.clone().enumerate() {
+        let value = columns.get(tape.value, lane);
+        if !value.finite() {
+            failed = failed.or(Some(e));
+            continue;
+        }
+        let members = &c.elements[e * arity..(e + 1) * arity];
+        let mut wsum = zero;
+        for (j, &i) in members.iter().enumerate() {
+            let w = c.inverse_mass[i as usize];
+            if w == zero {
+                continue;
+            }
+            let mut g2 = zero;
+            for a in 0..dim {
+                let g = columns.get(tape.gradient[j * dim + a], lane);
+                g2 = g2 + g * g;
+            }
+            wsum = wsum + w * g2;
+        }
+        if !wsum.finite() || wsum == zero {
+            continue;
+        }
+        let l = lambda[lane];
+        let raw = (-(value - c.rest[e]) - c.alpha_tilde * l) / (wsum + c.alpha_tilde);
+        if !raw.finite() {
+            failed = failed.or(Some(e));
+            continue;
+        }
+        let t = l + raw;
+        let (next, dl) = match c.kind.relation {
+            Relation::Equal => (t, raw),
+            Relation::AtLeast => {
+                let next = if t < zero { zero } else { t };
+                (next, next - l)
+            }
+            Relation::AtMost => {
+                let next = if t < zero { t } else { zero };
+                (next, next - l)
+            }
+        };
+        lambda[lane] = next;
+        for (j, &i) in members.iter().enumerate() {
+            let i = i as usize;
+            let w = c.inverse_mass[i];
+            if w == zero {
+                continue;
+            }
+            for a in 0..dim {
+                let g = columns.get(tape.gradient[j * dim + a], lane);
+                let k = i * dim + a;
+                x.set(k, x.get(k) + w * g * dl);
+            }
+        }
+    }
+    failed.map_or(Ok(()), Err)
+}
