@@ -239,10 +239,12 @@ fn project_elements(gid: vec3<u32>, groups: vec3<u32>, op: u32) {
             case OP_PROJECT_SIMPLEX, OP_PROJECT_ORIENTED, OP_PROJECT_MATERIAL: {
                 project_measure_element(e, op);
             }
+            case OP_PROJECT_EXPRESSION: {
+                project_expression_element(e);
+            }
             // Not an element projection: every op is named (tests/shaders.rs),
             // and one that reaches here, or an unknown one, fails the step.
-            case OP_PREDICT, OP_PROJECT_CONTACT, OP_VELOCITY, OP_FRICTION, OP_DAMPING,
-                 OP_PROJECT_EXPRESSION, OP_RESIDUAL, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST,
+            case OP_PREDICT, OP_PROJECT_CONTACT, OP_VELOCITY, OP_FRICTION, OP_DAMPING, OP_RESIDUAL, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST,
                  OP_NONE, default: {
                 fail(e);
             }
@@ -269,4 +271,9 @@ fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @buil
 @compute @workgroup_size(WORKGROUP)
 fn project_material(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     project_elements(gid, groups, OP_PROJECT_MATERIAL);
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn project_expression(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    project_elements(gid, groups, OP_PROJECT_EXPRESSION);
 }

@@ -47,6 +47,8 @@ fn violation(e: u32) -> real {
         var refused = false;
         let c = material_constraint(e, &pts, &grad, &refused);
         return select(c, infinity(), refused);
+    } else if (kind == RESIDUAL_EXPRESSION) {
+        return expression_violation(e);
     } else if (kind != RESIDUAL_CONTACT) {
         // An unknown kind reads as violated without bound, never as another kind.
         return infinity();

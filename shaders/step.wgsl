@@ -184,11 +184,11 @@ fn world_reals(op: u32, c: u32) {
                 call.friction = calls[k].friction;
                 call.factor = calls[k].factor;
             }
-            case OP_PROJECT_DISTANCE, OP_PROJECT_SIMPLEX, OP_PROJECT_ORIENTED, OP_RESIDUAL,
-                 OP_GUARD_MEASURE, OP_GUARD_SPEED: {
+            case OP_PROJECT_DISTANCE, OP_PROJECT_SIMPLEX, OP_PROJECT_ORIENTED,
+                 OP_PROJECT_EXPRESSION, OP_RESIDUAL, OP_GUARD_MEASURE, OP_GUARD_SPEED: {
                 call.alpha_tilde = calls[k].alpha_tilde;
             }
-            case OP_VELOCITY, OP_PROJECT_EXPRESSION, OP_HOST, OP_NONE: {}
+            case OP_VELOCITY, OP_HOST, OP_NONE: {}
             // Every op is named above (tests/shaders.rs); an unknown one loads nothing.
             default: {}
         }

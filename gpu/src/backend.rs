@@ -189,6 +189,7 @@ impl GpuBackend {
         // Pipelines for the entry points this plan's schedules use only
         // (lavapipe compiles each one: seconds for the measure kernels).
         let entries = schedule.entries();
+        let generated = crate::xpbd::expression::generated(&plan, precision);
         let kernels = KernelSet::new(
             device,
             &KernelSetSpec {
@@ -198,6 +199,7 @@ impl GpuBackend {
                 precision,
                 entries: &entries,
                 constants: &world.constants,
+                generated: Some(&generated),
             },
         )?;
         // The call blocks first: the largest buffer of a long step, named

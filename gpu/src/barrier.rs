@@ -301,6 +301,7 @@ impl BarrierKernels {
                     BarrierEntry::Ln,
                 ],
                 constants: &[],
+                generated: None,
             },
         )?;
         let (reals, arity) = obstacle_geometry(obstacles);

@@ -44,7 +44,7 @@ codes! {
         OP_GUARD_MEASURE = 9;
         OP_GUARD_SPEED = 10;
         OP_PROJECT_MATERIAL = 11;
-        /// An expression family (not on the device yet: refused at load).
+        /// An expression family (xpbd/expression.rs).
         OP_PROJECT_EXPRESSION = 12;
         /// A kernel the host runs itself between dispatches (broadphase,
         /// particle contact): no block of its own is ever executed.

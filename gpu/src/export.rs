@@ -100,6 +100,7 @@ impl Exporter {
                         precision: layout.precision,
                         entries: &[ExportEntry],
                         constants: &[],
+                        generated: None,
                     },
                 )?;
                 self.kernels.get_or_init(|| built)

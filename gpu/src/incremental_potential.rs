@@ -146,6 +146,7 @@ impl GpuBarrierBackend {
                     IpEntry::Velocity,
                 ],
                 constants: &[],
+                generated: None,
             },
         )?;
         let n = plan.particle_count();

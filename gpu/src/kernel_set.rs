@@ -46,7 +46,7 @@ use hyperpbd_core::GpuError;
 use crate::Precision;
 use crate::context::GpuContext;
 use crate::params::push_reals;
-use crate::shader::{ShaderFile, compose};
+use crate::shader::{ShaderFile, compose_with};
 
 /// Workgroups along x before the grid spills over to y (the WebGPU limit).
 pub(crate) const MAX_GROUPS_X: u32 = 65_535;
@@ -79,7 +79,7 @@ fn reflect_groups<E: EntryPoint>(
     }
     let mut found: std::collections::BTreeMap<(u32, u32), Binding> = Default::default();
     for file in files {
-        let source = compose(file, spec.dim, spec.precision);
+        let source = compose_with(file, spec.dim, spec.precision, spec.generated);
         let module = naga::front::wgsl::parse_str(&source).map_err(|e| GpuError::Other {
             message: format!("{}: {}", file.file_name(), e.emit_to_string(&source)),
         })?;
@@ -162,6 +162,9 @@ pub(crate) struct KernelSetSpec<'a, E> {
     /// `override` constants every pipeline of the set is specialised with,
     /// besides its entry's own (a batch's world strides).
     pub constants: &'a [(&'static str, f64)],
+    /// WGSL the step module is composed with (a plan's expression
+    /// families); `None` for the other sets.
+    pub generated: Option<&'a str>,
 }
 
 /// Layouts and pipelines of one kernel family.
@@ -224,7 +227,7 @@ impl<E: EntryPoint> KernelSet<E> {
         for &entry in spec.entries {
             let (file, name) = entry.source();
             if !modules.iter().any(|(f, _)| *f == file) {
-                let source = compose(file, spec.dim, spec.precision);
+                let source = compose_with(file, spec.dim, spec.precision, spec.generated);
                 let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
                     label: Some(file.file_name()),
                     source: wgpu::ShaderSource::Wgsl(source.into()),

@@ -120,6 +120,7 @@ impl ShaderFile {
                 "project_simplex_measure",
                 "project_oriented_measure",
                 "project_material",
+                "project_expression",
                 "residual",
                 "reduce",
                 "residual_lanes",
@@ -219,8 +220,20 @@ impl ShaderFile {
     }
 }
 
-/// The complete WGSL module of `file` for dimension `dim` and `precision`.
+/// The complete WGSL module of `file` for dimension `dim` and `precision`
+/// (the step module without expression families).
 pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
+    compose_with(file, dim, precision, None)
+}
+
+/// [`compose`], the step module followed by `generated` (a plan's
+/// expression families, `xpbd/expression.rs`; `None`: none).
+pub(crate) fn compose_with(
+    file: ShaderFile,
+    dim: usize,
+    precision: Precision,
+    generated: Option<&str>,
+) -> String {
     let real_max = match precision {
         Precision::F32 => "3.4028234663852886e38",
         Precision::F64 => "1.7976931348623157e308",
@@ -267,6 +280,12 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
                 RECORDS
             });
             source.push('\n');
+        }
+    }
+    if file == ShaderFile::Step {
+        match generated {
+            Some(generated) => source.push_str(generated),
+            None => source.push_str(&crate::xpbd::expression::generated_for(&[], dim, precision)),
         }
     }
     source

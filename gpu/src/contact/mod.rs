@@ -156,6 +156,7 @@ impl ContactKernels {
                 precision,
                 entries: &ContactEntry::ALL,
                 constants: &[],
+                generated: None,
             },
         )?;
         Ok(ContactKernels {

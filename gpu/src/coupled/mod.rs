@@ -157,6 +157,7 @@ impl GpuCoupledBackend {
                 precision,
                 entries: &Entry::needed(materials.len() > 0),
                 constants: &[],
+                generated: None,
             },
         )?;
         let reals = |values: &[f64]| {

@@ -18,6 +18,7 @@
 //! group 1: the `Dispatch` block of each dispatch (dynamic offset).
 
 pub(crate) mod call;
+pub(crate) mod expression;
 mod friction;
 mod guard;
 mod integrate;
@@ -75,15 +76,6 @@ impl Families {
             slots: 0,
             material_base: Vec::new(),
         };
-        if let Some(f) = plan.families.iter().find(|f| f.kind.is_expression()) {
-            return Err(GpuError::Unsupported {
-                what: format!(
-                    "{}: expression families run on the CPU golden path and the f32 reference \
-                     so far (their WGSL kernel is not wired into the step yet)",
-                    f.label
-                ),
-            });
-        }
         for f in &plan.families {
             if f.arity == 2 && out.elements.len() % 2 == 1 {
                 // Pairs are read as vec2<u32>: an even offset.
@@ -169,6 +161,7 @@ pub(crate) enum XpbdEntry {
     Guard(u32, u32),
     Material(u32),
     ResidualLanes,
+    Expression(u32),
 }
 
 impl XpbdEntry {
@@ -185,6 +178,7 @@ impl XpbdEntry {
             XpbdEntry::Guard(..) => 7,
             XpbdEntry::Material(_) => 8,
             XpbdEntry::ResidualLanes => 9,
+            XpbdEntry::Expression(_) => 10,
         }
     }
 }
@@ -202,6 +196,7 @@ impl EntryPoint for XpbdEntry {
             XpbdEntry::Guard(..) => "guard",
             XpbdEntry::Material(_) => "project_material",
             XpbdEntry::ResidualLanes => "residual_lanes",
+            XpbdEntry::Expression(_) => "project_expression",
         };
         (ShaderFile::Step, name)
     }
@@ -226,7 +221,8 @@ impl EntryPoint for XpbdEntry {
             XpbdEntry::Distance(f)
             | XpbdEntry::Simplex(f)
             | XpbdEntry::Oriented(f)
-            | XpbdEntry::Material(f) => vec![flags(f)],
+            | XpbdEntry::Material(f)
+            | XpbdEntry::Expression(f) => vec![flags(f)],
             XpbdEntry::Guard(op, f) => vec![("OP0", f64::from(op)), flags(f)],
             XpbdEntry::Residual
             | XpbdEntry::Reduce

@@ -47,8 +47,10 @@ pub(crate) fn project(
         }
         FamilyKind::SimplexMeasure { .. } => c.op = OP_PROJECT_SIMPLEX,
         FamilyKind::OrientedMeasure => c.op = OP_PROJECT_ORIENTED,
-        // Refused when the backend lays out the families (Families::new).
-        FamilyKind::Expression(_) => c.op = OP_PROJECT_EXPRESSION,
+        FamilyKind::Expression(_) => {
+            c.op = OP_PROJECT_EXPRESSION;
+            c.slot_map = super::expression::expression_index(plan, family);
+        }
         FamilyKind::Material { .. } => {
             c.op = OP_PROJECT_MATERIAL;
             super::material::set_fields(f, families, family, &mut c);

@@ -46,6 +46,9 @@ pub(crate) fn residual_calls(
         if let FamilyKind::HyperplaneContact { normal, .. } = &f.kind {
             call.normal = normal.clone();
         }
+        if f.kind.is_expression() {
+            call.slot_map = super::expression::expression_index(plan, family);
+        }
         super::material::set_fields(f, families, family, &mut call);
         for first in (0..f.len() as u32).step_by(chunk as usize) {
             chunks.push([index, first]);

@@ -101,6 +101,9 @@ pub(crate) enum Run {
     Simplex(u32),
     Oriented(u32),
     Material(u32),
+    /// `project_expression`: one colour of an expression family, with
+    /// the call's FLAG_*.
+    Expression(u32),
     /// `residual`: one workgroup per chunk.
     Residual,
     /// `reduce`: one workgroup per family.
@@ -127,6 +130,7 @@ impl Run {
             Run::Simplex(flags) => E::Simplex(flags),
             Run::Oriented(flags) => E::Oriented(flags),
             Run::Material(flags) => E::Material(flags),
+            Run::Expression(flags) => E::Expression(flags),
             Run::Residual => E::Residual,
             Run::Reduce => E::Reduce,
             Run::ResidualLanes => E::ResidualLanes,
@@ -159,6 +163,7 @@ impl Dispatch {
             | Run::Simplex(_)
             | Run::Oriented(_)
             | Run::Material(_)
+            | Run::Expression(_)
             | Run::Guard(..) => calls
                 .get(self.first_call as usize..self.end_call as usize)
                 .unwrap_or_default(),
@@ -375,7 +380,8 @@ fn single(call: &Call, index: usize) -> Dispatch {
         OP_PROJECT_ORIENTED => Run::Oriented(call.flags),
         OP_PROJECT_MATERIAL => Run::Material(call.flags),
         OP_GUARD_MEASURE | OP_GUARD_SPEED => Run::Guard(call.op, call.flags),
-        OP_RESIDUAL | OP_NONE | OP_PROJECT_EXPRESSION => {
+        OP_PROJECT_EXPRESSION => Run::Expression(call.flags),
+        OP_RESIDUAL | OP_NONE => {
             unreachable!("op {} is never a step call", call.op)
         }
         unknown => unreachable!("op {unknown} is not in codes::OPS"),

@@ -1,0 +1,182 @@
+//! Expression families on the device: the WGSL the step module is composed
+//! with for a plan, generated from each family's tapes (`hyperpbd_core::
+//! expr::emit_wgsl`) around the projection of `hyperpbd_core::kinds::
+//! project` — the same operations in the same order, so on lavapipe gpu-f64
+//! is the golden path and gpu-f32 the f32 reference bit for bit.
+//!
+//! ```text
+//! per expression family k (plan order; the call's slot_map holds k):
+//!   expression{k}_gradient(x, opaque) -> [C, ∇C]   the tape (emit_wgsl)
+//!   expression{k}_value(x, opaque)    -> [C]
+//!   expression{k}_inputs(e)           the element's coordinates (particle j, axis a at j·DIM + a)
+//!   expression{k}_project(t)          the XPBD update of element first + t
+//!   expression{k}_violation(e)        by the relation: |C|, max(−C, 0), max(C, 0)
+//! project_expression_element(t), expression_violation(e)   switch over k
+//! ```
+//! `opaque` is `call.call == NONE`: false for every call, but only the run
+//! knows it (the emitted code passes each arithmetic result through it so
+//! the driver can neither regroup nor fuse; shaders/step.wgsl `kept`).
+
+use std::fmt::Write;
+
+use hyperpbd_core::expr::emit_wgsl;
+use hyperpbd_core::kinds::{ExpressionKind, Relation};
+use hyperpbd_core::{FamilyKind, Plan, Precision};
+
+/// The expression families of `plan`, in plan order: (family index, kind).
+pub(crate) fn expression_families(plan: &Plan) -> Vec<(usize, &ExpressionKind)> {
+    (plan.families.iter().enumerate())
+        .filter_map(|(f, family)| match &family.kind {
+            FamilyKind::Expression(kind) => Some((f, kind.as_ref())),
+            FamilyKind::Distance
+            | FamilyKind::Tether
+            | FamilyKind::SimplexMeasure { .. }
+            | FamilyKind::OrientedMeasure
+            | FamilyKind::Material { .. }
+            | FamilyKind::HyperplaneContact { .. } => None,
+        })
+        .collect()
+}
+
+/// The index k of family `family` among `plan`'s expression families.
+pub(crate) fn expression_index(plan: &Plan, family: usize) -> u32 {
+    plan.families[..family]
+        .iter()
+        .filter(|f| f.kind.is_expression())
+        .count() as u32
+}
+
+/// The generated WGSL of `plan`'s expression families for the step module.
+pub(crate) fn generated(plan: &Plan, precision: Precision) -> String {
+    let kinds: Vec<&ExpressionKind> = (expression_families(plan).into_iter())
+        .map(|(_, kind)| kind)
+        .collect();
+    generated_for(&kinds, plan.dim, precision)
+}
+
+/// The generated WGSL of expression families `kinds` in R^`dim` (the two
+/// dispatchers alone for none: every step module has them).
+pub(crate) fn generated_for(kinds: &[&ExpressionKind], dim: usize, precision: Precision) -> String {
+    let mut s = String::new();
+    let mut project_cases = String::new();
+    let mut violation_cases = String::new();
+    // Writing to a String cannot fail.
+    for (k, kind) in kinds.iter().enumerate() {
+        s.push_str(&emit_wgsl(&kind.gradient, &format!("expression{k}_gradient"), precision));
+        s.push_str(&emit_wgsl(&kind.value, &format!("expression{k}_value"), precision));
+        let arity = kind.arity;
+        let n = arity * dim;
+        let clamp = match kind.relation {
+            Relation::Equal => "    let next = t_new;\n    let dl = raw;",
+            Relation::AtLeast => {
+                "    let next = select(t_new, 0.0, t_new < 0.0);\n    let dl = next - l;"
+            }
+            Relation::AtMost => {
+                "    let next = select(0.0, t_new, t_new < 0.0);\n    let dl = next - l;"
+            }
+        };
+        let violation = match kind.relation {
+            Relation::Equal => "abs(c)",
+            Relation::AtLeast => "select(0.0, -c, -c > 0.0)",
+            Relation::AtMost => "select(0.0, c, c > 0.0)",
+        };
+        let _ = write!(
+            s,
+            r#"
+fn expression{k}_inputs(e: u32) -> array<real, {n}> {{
+    var inputs: array<real, {n}>;
+    for (var j = 0u; j < {arity}u; j++) {{
+        var r = load_x(elements[call.elem_base + e * {arity}u + j]);
+        for (var a = 0u; a < DIM; a++) {{
+            inputs[j * DIM + a] = lane(&r, a);
+        }}
+    }}
+    return inputs;
+}}
+
+fn expression{k}_project(t: u32) {{
+    let e = call.first + t;
+    let s = call.slot_base + e;
+    var out = expression{k}_gradient(expression{k}_inputs(e), call.call == NONE);
+    let value = out[0];
+    if (!finite(value)) {{
+        fail(e);
+        return;
+    }}
+    var wsum: real = 0.0;
+    for (var j = 0u; j < {arity}u; j++) {{
+        var r = load_x(elements[call.elem_base + e * {arity}u + j]);
+        let w = inverse_mass_of(&r);
+        if (w == 0.0) {{
+            continue;
+        }}
+        var g2: real = 0.0;
+        for (var a = 0u; a < DIM; a++) {{
+            let g = out[1u + j * DIM + a];
+            g2 += g * g;
+        }}
+        wsum += w * g2;
+    }}
+    if (!finite(wsum) || wsum == 0.0) {{
+        no_response(s);
+        return;
+    }}
+    let l = lambda_before(s);
+    let alpha_tilde = call.alpha_tilde;
+    let raw = (-(value - rest_at(s)) - alpha_tilde * l) / (wsum + alpha_tilde);
+    if (!finite(raw)) {{
+        fail(e);
+        return;
+    }}
+    let t_new = l + raw;
+{clamp}
+    set_lambda(s, next);
+    for (var j = 0u; j < {arity}u; j++) {{
+        let i = elements[call.elem_base + e * {arity}u + j];
+        var r = load_x(i);
+        let w = inverse_mass_of(&r);
+        if (w == 0.0) {{
+            continue;
+        }}
+        for (var a = 0u; a < DIM; a++) {{
+            set_lane(&r, a, lane(&r, a) + w * out[1u + j * DIM + a] * dl);
+        }}
+        store_x(i, r);
+    }}
+}}
+
+fn expression{k}_violation(e: u32) -> real {{
+    let out = expression{k}_value(expression{k}_inputs(e), call.call == NONE);
+    let c = out[0] - rest_at(call.slot_base + e);
+    return {violation};
+}}
+"#
+        );
+        let _ = writeln!(project_cases, "        case {k}u: {{ expression{k}_project(t); }}");
+        let _ = writeln!(
+            violation_cases,
+            "        case {k}u: {{ return expression{k}_violation(e); }}"
+        );
+    }
+    let _ = write!(
+        s,
+        r#"
+// Element first + t of the running expression projection (expression
+// slot_map of the call); an unknown one fails the step.
+fn project_expression_element(t: u32) {{
+    switch (call.slot_map) {{
+{project_cases}        default: {{ fail(call.first + t); }}
+    }}
+}}
+
+// The violation of element e of the running expression residual call;
+// an unknown expression reads as violated without bound.
+fn expression_violation(e: u32) -> real {{
+    switch (call.slot_map) {{
+{violation_cases}        default: {{ return infinity(); }}
+    }}
+}}
+"#
+    );
+    s
+}
