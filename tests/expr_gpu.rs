@@ -101,7 +101,7 @@ fn every_emitted_module_validates_for_dims_1_to_8() {
     let mut rng = Rng(5);
     let mut validated = 0;
     for dim in 1..=8 {
-        for (arity, src) in expressions(dim, &mut rng, 6) {
+        for (arity, src) in expressions(dim, &mut rng, 2) {
             let c =
                 compile(&src, &params(dim), arity, dim).unwrap_or_else(|e| panic!("{src}: {e}"));
             for outputs in [

@@ -49,7 +49,7 @@ pub const EXP_SERIES_F32: [f32; 7] = [
 ];
 
 /// 1/ln 2 (f64).
-pub const EXP_INV_LN2_F64: f64 = 1.442_695_040_888_963_4;
+pub const EXP_INV_LN2_F64: f64 = std::f64::consts::LOG2_E;
 /// fdlibm's high part of ln 2 (33 significant bits).
 pub const EXP_LN2_HI_F64: f64 = 6.931_471_803_691_238e-1;
 /// ln 2 − [`EXP_LN2_HI_F64`].

@@ -18,6 +18,7 @@ mod diff;
 mod error;
 mod eval;
 mod exp;
+mod functions;
 mod graph;
 mod lex;
 mod parse;

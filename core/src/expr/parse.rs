@@ -21,47 +21,20 @@
 
 use super::ParamValue;
 use super::error::{ExprError, ExprErrorKind, ValueType};
-use super::graph::{Built, Cmp, Exhausted, Graph, Op, Slot};
+use super::functions::is_function;
+use super::graph::{Built, Exhausted, Graph, Op, Slot};
 use super::lex::{Token, tokens};
-use super::limits::{MAX_DEPTH, MAX_DET_ORDER, MAX_GRAPH_NODES, MAX_LETS};
+use super::limits::{MAX_DEPTH, MAX_GRAPH_NODES, MAX_LETS};
 use std::collections::HashMap;
 
-/// A built-in function.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Function {
-    Dot,
-    Norm,
-    Sqrt,
-    Abs,
-    Min,
-    Max,
-    Ln,
-    Exp,
-    Det,
-}
-
-/// The built-in functions by name (reserved: no `let` or param may take
-/// these names).
-const FUNCTIONS: [(&str, Function); 9] = [
-    ("dot", Function::Dot),
-    ("norm", Function::Norm),
-    ("sqrt", Function::Sqrt),
-    ("abs", Function::Abs),
-    ("min", Function::Min),
-    ("max", Function::Max),
-    ("ln", Function::Ln),
-    ("exp", Function::Exp),
-    ("det", Function::Det),
-];
-
 #[derive(Debug, Clone)]
-enum Val {
+pub(super) enum Val {
     S(Slot),
     V(Vec<Slot>),
 }
 
 impl Val {
-    fn ty(&self) -> ValueType {
+    pub(super) fn ty(&self) -> ValueType {
         match self {
             Val::S(_) => ValueType::Scalar,
             Val::V(_) => ValueType::Vector,
@@ -88,22 +61,22 @@ fn is_identifier(name: &str) -> bool {
 
 /// Whether `name` is a particle, a function or `let`.
 fn reserved(name: &str) -> bool {
-    name == "let" || particle_index(name).is_some() || FUNCTIONS.iter().any(|(n, _)| *n == name)
+    name == "let" || particle_index(name).is_some() || is_function(name)
 }
 
-struct Parser<'a> {
-    src: &'a str,
-    toks: Vec<(Token, usize)>,
-    at: usize,
-    depth: usize,
-    graph: Graph,
-    arity: usize,
-    dim: usize,
-    params: HashMap<&'a str, Val>,
-    lets: Vec<(String, Val)>,
+pub(super) struct Parser<'a> {
+    pub(super) src: &'a str,
+    pub(super) toks: Vec<(Token, usize)>,
+    pub(super) at: usize,
+    pub(super) depth: usize,
+    pub(super) graph: Graph,
+    pub(super) arity: usize,
+    pub(super) dim: usize,
+    pub(super) params: HashMap<&'a str, Val>,
+    pub(super) lets: Vec<(String, Val)>,
 }
 
-type Parsed<T> = Result<T, ExprError>;
+pub(super) type Parsed<T> = Result<T, ExprError>;
 
 /// The graph of `src` (inputs are nodes 0 … arity·dim − 1) and the slot
 /// of its scalar result.
@@ -182,15 +155,15 @@ pub(crate) fn lower(
 }
 
 impl<'a> Parser<'a> {
-    fn peek(&self) -> &Token {
+    pub(super) fn peek(&self) -> &Token {
         &self.toks[self.at].0
     }
 
-    fn position(&self) -> usize {
+    pub(super) fn position(&self) -> usize {
         self.toks[self.at].1
     }
 
-    fn next(&mut self) -> (Token, usize) {
+    pub(super) fn next(&mut self) -> (Token, usize) {
         let t = self.toks[self.at].clone();
         if self.at + 1 < self.toks.len() {
             self.at += 1;
@@ -198,15 +171,15 @@ impl<'a> Parser<'a> {
         t
     }
 
-    fn error_at(&self, at: usize, kind: ExprErrorKind) -> ExprError {
+    pub(super) fn error_at(&self, at: usize, kind: ExprErrorKind) -> ExprError {
         ExprError::at(self.src, at, kind)
     }
 
-    fn error(&self, kind: ExprErrorKind) -> ExprError {
+    pub(super) fn error(&self, kind: ExprErrorKind) -> ExprError {
         self.error_at(self.position(), kind)
     }
 
-    fn built(&self, b: Built) -> Parsed<Slot> {
+    pub(super) fn built(&self, b: Built) -> Parsed<Slot> {
         b.map_err(|Exhausted| {
             self.error(ExprErrorKind::TooLarge {
                 what: "operation count",
@@ -215,7 +188,7 @@ impl<'a> Parser<'a> {
         })
     }
 
-    fn expect(&mut self, c: char, expected: &'static str) -> Parsed<()> {
+    pub(super) fn expect(&mut self, c: char, expected: &'static str) -> Parsed<()> {
         if self.peek() == &Token::Symbol(c) {
             self.next();
             Ok(())
@@ -285,7 +258,7 @@ impl<'a> Parser<'a> {
         Ok(())
     }
 
-    fn enter(&mut self) -> Parsed<()> {
+    pub(super) fn enter(&mut self) -> Parsed<()> {
         self.depth += 1;
         if self.depth > MAX_DEPTH {
             return Err(self.error(ExprErrorKind::TooLarge {
@@ -296,7 +269,7 @@ impl<'a> Parser<'a> {
         Ok(())
     }
 
-    fn expr(&mut self) -> Parsed<Val> {
+    pub(super) fn expr(&mut self) -> Parsed<Val> {
         self.enter()?;
         let mut left = self.term()?;
         while let Token::Symbol(op @ ('+' | '-')) = *self.peek() {
@@ -504,168 +477,7 @@ impl<'a> Parser<'a> {
         Err(self.error_at(at, ExprErrorKind::UnknownName { name }))
     }
 
-    fn call(&mut self, name: String, at: usize) -> Parsed<Val> {
-        let Some(&(function, f)) = FUNCTIONS.iter().find(|(n, _)| *n == name) else {
-            return Err(self.error_at(at, ExprErrorKind::UnknownName { name }));
-        };
-        self.enter()?;
-        self.expect('(', "`(`")?;
-        let mut args = vec![(self.position(), self.expr()?)];
-        while self.peek() == &Token::Symbol(',') {
-            self.next();
-            args.push((self.position(), self.expr()?));
-        }
-        self.expect(')', "`,` or `)`")?;
-        self.depth -= 1;
-        let count = |n: usize, words: &str| -> Parsed<()> {
-            if args.len() == n {
-                Ok(())
-            } else {
-                Err(ExprError::at(
-                    self.src,
-                    at,
-                    ExprErrorKind::ArgumentCount {
-                        function,
-                        expected: words.to_string(),
-                        found: args.len(),
-                    },
-                ))
-            }
-        };
-        let unary: fn(Slot) -> Op = match f {
-            Function::Dot | Function::Norm => {
-                let (v, w) = if f == Function::Dot {
-                    count(2, "2 vectors")?;
-                    (self.vector(&args[0])?, self.vector(&args[1])?)
-                } else {
-                    count(1, "1 vector")?;
-                    (self.vector(&args[0])?, self.vector(&args[0])?)
-                };
-                let t = self.graph.mul(v[0], w[0]);
-                let mut sum = self.built(t)?;
-                for a in 1..v.len() {
-                    let t = self.graph.mul(v[a], w[a]);
-                    let t = self.built(t)?;
-                    let s = self.graph.add(sum, t);
-                    sum = self.built(s)?;
-                }
-                if f == Function::Norm {
-                    let s = self.graph.unary(Op::Sqrt, sum);
-                    sum = self.built(s)?;
-                }
-                return Ok(Val::S(sum));
-            }
-            Function::Min | Function::Max => {
-                count(2, "2 scalars")?;
-                let (a, b) = (self.scalar(&args[0])?, self.scalar(&args[1])?);
-                // min: a ≤ b ? a : b;  max: b ≤ a ? a : b  (ties: a).
-                let s = if f == Function::Min {
-                    self.graph.select(Cmp::Le, a, b, a, b)
-                } else {
-                    self.graph.select(Cmp::Le, b, a, a, b)
-                };
-                return Ok(Val::S(self.built(s)?));
-            }
-            Function::Det => return self.det(args, at),
-            Function::Sqrt => Op::Sqrt,
-            Function::Abs => Op::Abs,
-            Function::Ln => Op::Ln,
-            Function::Exp => Op::Exp,
-        };
-        count(1, "1 scalar")?;
-        let a = self.scalar(&args[0])?;
-        let s = self.graph.unary(unary, a);
-        Ok(Val::S(self.built(s)?))
-    }
-
-    fn det(&mut self, args: Vec<(usize, Val)>, at: usize) -> Parsed<Val> {
-        let n = args.len();
-        let (k, matrix) = match &args[0].1 {
-            Val::V(_) => {
-                if n != self.dim {
-                    return Err(self.error_at(
-                        at,
-                        ExprErrorKind::ArgumentCount {
-                            function: "det",
-                            expected: format!("{} vectors (N) or k² scalars", self.dim),
-                            found: n,
-                        },
-                    ));
-                }
-                let cols: Vec<Vec<Slot>> =
-                    args.iter().map(|a| self.vector(a)).collect::<Parsed<_>>()?;
-                (
-                    n,
-                    (0..n * n).map(|i| cols[i % n][i / n]).collect::<Vec<_>>(),
-                )
-            }
-            Val::S(_) => {
-                let k = (1..=n).find(|k| k * k >= n).unwrap_or(n);
-                if k * k != n {
-                    return Err(self.error_at(
-                        at,
-                        ExprErrorKind::ArgumentCount {
-                            function: "det",
-                            expected: format!("{} vectors (N) or k² scalars", self.dim),
-                            found: n,
-                        },
-                    ));
-                }
-                let entries = args.iter().map(|a| self.scalar(a)).collect::<Parsed<_>>()?;
-                (k, entries)
-            }
-        };
-        if k > MAX_DET_ORDER {
-            return Err(self.error_at(
-                at,
-                ExprErrorKind::TooLarge {
-                    what: "determinant order",
-                    limit: MAX_DET_ORDER,
-                },
-            ));
-        }
-        let mut memo = HashMap::new();
-        let d = self.minor(&matrix, k, 0, (1u32 << k) - 1, &mut memo);
-        Ok(Val::S(self.built(d)?))
-    }
-
-    /// det of rows row… and the columns in `cols` (a bit set), by Laplace
-    /// expansion along row `row`; each minor built once.
-    fn minor(
-        &mut self,
-        a: &[Slot],
-        k: usize,
-        row: usize,
-        cols: u32,
-        memo: &mut HashMap<u32, Slot>,
-    ) -> Built {
-        if let Some(&s) = memo.get(&cols) {
-            return Ok(s);
-        }
-        if row + 1 == k {
-            return Ok(a[row * k + cols.trailing_zeros() as usize]);
-        }
-        let mut acc: Option<Slot> = None;
-        let mut sign_negative = false;
-        for c in 0..k {
-            if cols & (1 << c) == 0 {
-                continue;
-            }
-            let m = self.minor(a, k, row + 1, cols & !(1 << c), memo)?;
-            let term = self.graph.mul(a[row * k + c], m)?;
-            acc = Some(match (acc, sign_negative) {
-                (None, _) => term,
-                (Some(s), false) => self.graph.add(s, term)?,
-                (Some(s), true) => self.graph.sub(s, term)?,
-            });
-            sign_negative = !sign_negative;
-        }
-        let s = acc.ok_or(Exhausted)?;
-        memo.insert(cols, s);
-        Ok(s)
-    }
-
-    fn scalar(&self, (at, v): &(usize, Val)) -> Parsed<Slot> {
+    pub(super) fn scalar(&self, (at, v): &(usize, Val)) -> Parsed<Slot> {
         match v {
             Val::S(s) => Ok(*s),
             Val::V(_) => Err(self.error_at(
@@ -678,7 +490,7 @@ impl<'a> Parser<'a> {
         }
     }
 
-    fn vector(&self, (at, v): &(usize, Val)) -> Parsed<Vec<Slot>> {
+    pub(super) fn vector(&self, (at, v): &(usize, Val)) -> Parsed<Vec<Slot>> {
         match v {
             Val::V(v) => Ok(v.clone()),
             Val::S(_) => Err(self.error_at(

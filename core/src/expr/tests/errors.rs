@@ -7,6 +7,18 @@ fn vector(name: &str, n: usize) -> (String, ParamValue) {
     (name.to_string(), ParamValue::Vector(vec![1.0; n]))
 }
 
+/// (source, params, arity, dim, position, line, column, kind).
+type Case<'a> = (
+    &'a str,
+    &'a Vec<(String, ParamValue)>,
+    usize,
+    usize,
+    usize,
+    usize,
+    usize,
+    K,
+);
+
 #[test]
 fn each_error_kind_at_its_position() {
     use ValueType::{Scalar as S, Vector as V};
@@ -14,16 +26,7 @@ fn each_error_kind_at_its_position() {
     let none: Vec<(String, ParamValue)> = Vec::new();
     let c3 = vec![vector("c", 3)];
     // (source, params, arity, dim, position, line, column, kind)
-    let table: Vec<(
-        &str,
-        &Vec<(String, ParamValue)>,
-        usize,
-        usize,
-        usize,
-        usize,
-        usize,
-        K,
-    )> = vec![
+    let table: Vec<Case> = vec![
         (
             "norm(x1 - y)",
             &none,
@@ -269,14 +272,14 @@ fn each_error_kind_at_its_position() {
 
 #[test]
 fn display_names_the_position() {
-    let e = compile("norm(y)", &[], 1, 3).err().expect("error");
+    let e = compile("norm(y)", &[], 1, 3).expect_err("error");
     assert_eq!(e.to_string(), "at 1:6: unknown name `y`");
 }
 
 #[test]
 fn params_are_checked() {
     let bad =
-        |params: Vec<(String, ParamValue)>| compile("1", &params, 1, 2).err().expect("error").kind;
+        |params: Vec<(String, ParamValue)>| compile("1", &params, 1, 2).expect_err("error").kind;
     assert!(matches!(bad(vec![vector("x0", 2)]), K::InvalidParam { .. }));
     assert!(matches!(
         bad(vec![vector("a b", 2)]),
@@ -327,7 +330,7 @@ fn hostile_sizes_are_refused() {
             found: 3,
         })
     );
-    let det11 = format!("det({})", vec!["x0"; 11].join(", "));
+    let det11 = format!("det({})", ["x0"; 11].join(", "));
     assert_eq!(
         compile(&det11, &[], 1, 11).err().map(|e| e.kind),
         Some(K::TooLarge {

@@ -5,6 +5,7 @@
 
 mod builtins;
 mod derivatives;
+mod emit;
 mod errors;
 mod evaluators;
 pub(crate) mod random;
