@@ -2,7 +2,7 @@
 //! precision) by prepending a small header.
 //!
 //! ```text
-//! module = header(DIM, real, WORKGROUP, the shared codes of codes.rs) [+ ln, its series from core] + prelude.wgsl [+ measure.wgsl, material.wgsl] + family.wgsl
+//! module = header(DIM, real, WORKGROUP, the shared codes of codes.rs) [+ ln_real, exp_real: core::expr::wgsl_support] + prelude.wgsl [+ measure.wgsl, material.wgsl] + family.wgsl
 //! (the coupled step: measure, barrier, coupled, coupled_solve, material, symmetric_eigen,
 //! material_hessian, coupled_material)
 //! ```
@@ -11,7 +11,6 @@
 //! with the same number (`kernel_set.rs`).
 
 use crate::Precision;
-use hyperpbd_core::material::{ATANH_SERIES, ATANH_TERMS_F32};
 
 /// Largest dimension the GPU kernels are built and tested for. Element
 /// gathers use function-local arrays of (N+1)·N reals, so very large N would
@@ -40,8 +39,6 @@ const COUPLED_SOLVE: &str = include_str!("../../shaders/coupled_solve.wgsl");
 const SYMMETRIC_EIGEN: &str = include_str!("../../shaders/symmetric_eigen.wgsl");
 const MATERIAL_HESSIAN: &str = include_str!("../../shaders/material_hessian.wgsl");
 const COUPLED_MATERIAL: &str = include_str!("../../shaders/coupled_material.wgsl");
-const LN_F32: &str = include_str!("../../shaders/ln_f32.wgsl");
-const LN_F64: &str = include_str!("../../shaders/ln_f64.wgsl");
 const EXPORT: &str = include_str!("../../shaders/export_positions.wgsl");
 
 /// A kernel family: one WGSL file and its entry points.
@@ -263,10 +260,9 @@ pub(crate) fn compose_with(
             | ShaderFile::IncrementalPotential
             | ShaderFile::Coupled
     ) {
-        match precision {
-            Precision::F32 => source.push_str(&ln_f32()),
-            Precision::F64 => source.push_str(&ln_f64()),
-        }
+        // ln_real and exp_real, their constants written from core's tables
+        // (expressions call both; the barrier and material kernels ln).
+        source.push_str(&hyperpbd_core::expr::wgsl_support(precision));
         source.push('\n');
     }
     for &part in file.body() {
@@ -289,37 +285,6 @@ pub(crate) fn compose_with(
         }
     }
     source
-}
-
-/// The comment of `ln_f64.wgsl` and `ln_f32.wgsl` that the Horner lines of [`ATANH_SERIES`]
-/// replace.
-const ATANH_LINE: &str = "// ATANH_SERIES";
-
-/// `ln_f64.wgsl` with its polynomial written from the table that
-/// `material::ln` evaluates: `poly = c_0`, then `poly = poly * s2 + c_k`
-/// (each c_k the literal of the f64 value, so the shader's constants are
-/// the CPU's bits).
-fn ln_f64() -> String {
-    let mut horner = format!("var poly: f64 = {:?};", ATANH_SERIES[0]);
-    for c in &ATANH_SERIES[1..] {
-        horner += &format!("\n    poly = poly * s2 + {c:?};");
-    }
-    LN_F64.replacen(ATANH_LINE, &horner, 1)
-}
-
-/// `ln_f32.wgsl` with its polynomial written from the last
-/// [`ATANH_TERMS_F32`] entries of [`ATANH_SERIES`] but the final 1 (1/11 …
-/// 1/3), each rounded to f32 (the literal is the f32 value's exact
-/// decimal, so the shader's constants are the f32 reference's bits).
-fn ln_f32() -> String {
-    let n = ATANH_SERIES.len();
-    let series = &ATANH_SERIES[n - ATANH_TERMS_F32..n - 1];
-    let literal = |c: f64| format!("{:?}", f64::from(c as f32));
-    let mut horner = format!("var poly: f32 = {};", literal(series[0]));
-    for &c in &series[1..] {
-        horner += &format!("\n    poly = poly * s2 + {};", literal(c));
-    }
-    LN_F32.replacen(ATANH_LINE, &horner, 1)
 }
 
 /// Parses and validates a composed module with naga (no GPU needed).
