@@ -14,3 +14,6 @@ source scripts/install-lavapipe.sh
 # code, and building wgpu twice would double the build time.
 cargo test --release --workspace --all-targets
 cargo test --release --workspace --doc
+# `cargo run --release -- demo` after this must reuse the build: the same
+# features for every shared crate (see the root Cargo.toml).
+bash scripts/feature-diff.sh

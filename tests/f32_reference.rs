@@ -5,7 +5,7 @@
 //! (On lavapipe `gpu_differential` and `gpu_coverage` hold the GPU's f32
 //! step to it bit for bit.)
 
-use hyperpbd::compare::max_abs_diff;
+use hyperpbd_verify::compare::max_abs_diff;
 use hyperpbd::core::builders::ChainSpec;
 use hyperpbd::{
     Backend, Convergence, CpuBackend, F32Reference, IncrementalPotentialSettings, Kernel, Obstacle,

@@ -75,8 +75,8 @@ fn differential_with(
                 bits(&golden) == bits(&other),
                 "{test}: frame {frame}: the f64 GPU state differs from the golden path \
                  (max |dx| = {:e}, max |dv| = {:e})",
-                hyperpbd::compare::max_abs_diff(&golden.positions, &other.positions),
-                hyperpbd::compare::max_abs_diff(&golden.velocities, &other.velocities)
+                hyperpbd_verify::compare::max_abs_diff(&golden.positions, &other.positions),
+                hyperpbd_verify::compare::max_abs_diff(&golden.velocities, &other.velocities)
             );
             assert_eq!(
                 a.minimisation, b.minimisation,
@@ -93,7 +93,7 @@ fn differential_with(
                 "{test}: frame {frame}: {measured:e} > {bound:e}"
             );
         }
-        worst = worst.max(hyperpbd::compare::max_abs_diff(
+        worst = worst.max(hyperpbd_verify::compare::max_abs_diff(
             &golden.positions,
             &other.positions,
         ));

@@ -30,8 +30,8 @@ use super::*;
 
 use common::differential::both;
 use common::gpu::adapter_or_skip;
-use hyperpbd::compare::{Divergence, DivergenceModel, Frame};
-use hyperpbd::compare_barrier::BarrierErrorModel;
+use hyperpbd_verify::compare::{Divergence, DivergenceModel, Frame};
+use hyperpbd_verify::compare_barrier::BarrierErrorModel;
 use hyperpbd::gpu::{GpuBarrierBackend, Precision};
 use hyperpbd::{
     Backend, ConstraintFamily, ConstraintKind, Convergence, CpuBackend,

@@ -91,7 +91,7 @@ use common::Lcg;
 
 use common::exact::{bits, f32_identical, f64_identical};
 use common::gpu::adapter_or_skip;
-use hyperpbd::compare::{coordinate_scale, max_abs_diff};
+use hyperpbd_verify::compare::{coordinate_scale, max_abs_diff};
 use hyperpbd::{
     Backend, ConstraintFamily, ConstraintKind, CpuBackend, F32Reference, FamilyKind, Kernel,
     Particle, Plan, Scene, SceneBuilder, State,

@@ -6,7 +6,7 @@
 //! gpu-f64 and lavapipe (`common::exact::f64_identical`) it is
 //! bit-identical to the CPU run after every step, and on gpu-f32 every
 //! step is checked against a CPU probe restarted from the f32 state with
-//! the residual-driven bound of `hyperpbd::compare_coupled` where it is
+//! the residual-driven bound of `hyperpbd_verify::compare_coupled` where it is
 //! stated (`common::coupled_f32`), gaps > 0, the energy at ε₃₂ and f32's
 //! own bound where a case's bound is a rounding one. The Neo-Hookean drop
 //! (`implicit_material_drop`) runs on gpu-f64 in lockstep, bit for bit on
@@ -193,13 +193,13 @@ fn lockstep(
             let mut b = run(case, backend.as_mut(), &initial, 1);
             b.residual = link_residual(&plan, &b.last);
             b.final_residual = b.residual;
-            let dx = hyperpbd::compare::max_abs_diff(&a.last.positions, &b.last.positions);
+            let dx = hyperpbd_verify::compare::max_abs_diff(&a.last.positions, &b.last.positions);
             worst = worst.max(dx);
             assert!(
                 !*exact || bits(&a.last) == bits(&b.last),
                 "{case}: step {step}: the gpu-f64 state differs from the golden path \
                  (max |dx| = {dx:e}, max |dv| = {:e})",
-                hyperpbd::compare::max_abs_diff(&a.last.velocities, &b.last.velocities)
+                hyperpbd_verify::compare::max_abs_diff(&a.last.velocities, &b.last.velocities)
             );
             on_gpu = Some(fold(on_gpu, b));
         }
