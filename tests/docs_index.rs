@@ -47,7 +47,11 @@ fn entries(dir: &Path, ext: Option<&str>) -> BTreeSet<String> {
     let mut out = BTreeSet::new();
     for entry in fs::read_dir(dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())) {
         let path = entry.expect("readable folder entry").path();
-        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("").to_string();
+        let name = path
+            .file_name()
+            .and_then(|n| n.to_str())
+            .unwrap_or("")
+            .to_string();
         if name.starts_with('.') {
             continue;
         }
@@ -55,8 +59,14 @@ fn entries(dir: &Path, ext: Option<&str>) -> BTreeSet<String> {
             None if path.is_dir() => {
                 out.insert(name);
             }
-            Some(ext) if path.is_file() && path.extension().and_then(|e| e.to_str()) == Some(ext) => {
-                let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("").to_string();
+            Some(ext)
+                if path.is_file() && path.extension().and_then(|e| e.to_str()) == Some(ext) =>
+            {
+                let stem = path
+                    .file_stem()
+                    .and_then(|s| s.to_str())
+                    .unwrap_or("")
+                    .to_string();
                 out.insert(stem);
             }
             _ => {}
@@ -91,7 +101,10 @@ fn layout_names_every_crate_folder_bench_and_test_folder() {
         }
     }
     let top = entries(&root(), None);
-    assert!(top.contains("tests") && top.contains("docs"), "top folders: {top:?}");
+    assert!(
+        top.contains("tests") && top.contains("docs"),
+        "top folders: {top:?}"
+    );
     for dir in top.iter().filter(|d| *d != "target") {
         if !layout.contains(&format!("\n{dir}/")) {
             missing.push(format!("top-level folder {dir}/"));
@@ -245,22 +258,40 @@ fn every_relative_link_resolves() {
                 } else {
                     dir.join(path)
                 };
-                let name = file.strip_prefix(root()).unwrap_or(file).display().to_string();
+                let name = file
+                    .strip_prefix(root())
+                    .unwrap_or(file)
+                    .display()
+                    .to_string();
                 if !resolved.exists() {
-                    broken.push(format!("{name} (prose line {}): {target} (no such path)", n + 1));
+                    broken.push(format!(
+                        "{name} (prose line {}): {target} (no such path)",
+                        n + 1
+                    ));
                     continue;
                 }
                 if let Some(anchor) = anchor
                     && resolved.extension().and_then(|e| e.to_str()) == Some("md")
                     && !anchors(&read(&resolved)).contains(anchor)
                 {
-                    broken.push(format!("{name} (prose line {}): {target} (no such heading)", n + 1));
+                    broken.push(format!(
+                        "{name} (prose line {}): {target} (no such heading)",
+                        n + 1
+                    ));
                 }
             }
         }
     }
-    assert!(checked > 50, "only {checked} links found: the parser is broken");
-    assert!(broken.is_empty(), "{} broken links:\n{}", broken.len(), broken.join("\n"));
+    assert!(
+        checked > 50,
+        "only {checked} links found: the parser is broken"
+    );
+    assert!(
+        broken.is_empty(),
+        "{} broken links:\n{}",
+        broken.len(),
+        broken.join("\n")
+    );
 }
 
 #[test]

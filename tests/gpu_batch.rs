@@ -14,10 +14,10 @@ mod common;
 use common::exact::{assert_f32_reference_step, check_f64, f32_identical, f64_rule};
 use common::gpu::adapter_or_skip;
 use hyperpbd::batch::{Batch, BatchError, GpuBatch};
-use hyperpbd_verify::compare::{DivergenceModel, Frame};
-use hyperpbd_verify::compare_frame::FrameErrorModel;
 use hyperpbd::sweep::Sweep;
 use hyperpbd::{Backend, F32Reference, Precision, Scene, State, scenes};
+use hyperpbd_verify::compare::{DivergenceModel, Frame};
+use hyperpbd_verify::compare_frame::FrameErrorModel;
 
 const CHAIN: &str = include_str!("../scenes/chain2d.json");
 

@@ -16,10 +16,10 @@ mod common;
 use common::Lcg;
 use common::differential::{both, print_row};
 use common::gpu::adapter_or_skip;
-use hyperpbd_verify::compare::max_abs_diff;
 use hyperpbd::core::builders::{ChainSpec, GridSpec};
 use hyperpbd::{Backend, CpuBackend, Particle, Plan, Scene, SceneBuilder, State, StepReport};
 use hyperpbd_gpu::{GpuBackend, Precision};
+use hyperpbd_verify::compare::max_abs_diff;
 
 fn build(b: SceneBuilder) -> Scene {
     b.build().expect("test scene is valid")

@@ -7,8 +7,8 @@
 //! every step: finite values, every gap > 0 in f64 against the authored
 //! geometry, and the bound wherever the module states one.
 
-use hyperpbd_verify::compare_coupled::coupled_step_bound;
 use hyperpbd::{Backend, CpuBackend, Plan, State, coupled_gradient};
+use hyperpbd_verify::compare_coupled::coupled_step_bound;
 
 /// The smallest gap of any free particle to any obstacle and of any ball
 /// pair (with collisions), in f64 against the authored geometry; ∞ with

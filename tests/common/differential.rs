@@ -52,11 +52,11 @@
 use super::bound::print_bound;
 use super::exact::{assert_f32_reference_step, bits, f32_identical, f64_identical};
 use super::gpu::adapter_or_skip;
-use hyperpbd_verify::compare::{Divergence, DivergenceModel, Frame, max_abs_diff};
-use hyperpbd_verify::compare_frame::FrameErrorModel;
 use hyperpbd::geometry::{Scratch, factorial, oriented_measure, simplex_squared_measure};
 use hyperpbd::{Backend, CpuBackend, F32Reference, FamilyKind, Plan, Scene, State, StepReport};
 use hyperpbd_gpu::{AdapterSummary, GpuBackend, Precision, SceneOrigin};
+use hyperpbd_verify::compare::{Divergence, DivergenceModel, Frame, max_abs_diff};
+use hyperpbd_verify::compare_frame::FrameErrorModel;
 
 /// Evaluation scale and gradient sum of every element of a measure family.
 fn measure_scales(plan: &Plan, family: usize, state: &State) -> (f64, f64) {

@@ -24,9 +24,9 @@
 //! claimed. Its f32 kernels (evaluate, filter_fraction) are held bit for
 //! bit to the f32 reference on lavapipe (`tests/gpu_barrier/kernels.rs`).
 
-use hyperpbd_verify::compare::max_abs_diff;
 use hyperpbd::{F32Reference, State, StepReport};
 use hyperpbd_gpu::AdapterSummary;
+use hyperpbd_verify::compare::max_abs_diff;
 
 use super::bound::print_bound;
 

@@ -4,9 +4,9 @@ use super::*;
 
 use hyperpbd::builders::triangle_grid;
 
-use hyperpbd_verify::compare_barrier::BarrierErrorModel;
 use hyperpbd::gpu::GpuBarrierBackend;
 use hyperpbd::{Backend, Convergence, CpuBackend, MinimisationStatus, Particle, Plan, State};
+use hyperpbd_verify::compare_barrier::BarrierErrorModel;
 
 fn solver(
     convergence: Convergence,
