@@ -164,7 +164,7 @@ fn newton_budget(c: &mut Criterion) {
         // Tolerance 1e-12 m/s²: the budget, not the criterion, stops it.
         let scene = drop_scene(budget, 1e-12);
         let after = run(&scene, 30);
-        let error = hyperpbd::compare::max_abs_diff(&after.positions, &reference.positions);
+        let error = hyperpbd_verify::compare::max_abs_diff(&after.positions, &reference.positions);
         println!(
             "ACCURACY | newton budget {budget} | max |x − x_ref| after 30 steps {error:.3e} m"
         );

@@ -17,7 +17,7 @@
 //!
 //! With `HYPERPBD_SCALING=1` the benchmark instead times each sweep at
 //! n = 1k … 1M (median of a few runs), fits the log–log exponent and prints
-//! the README table, plus a dense cube (every box's slab along the axis holds
+//! the table in docs/performance-log.md, plus a dense cube (every box's slab along the axis holds
 //! n^(2/3) boxes: the one-axis sweep's bad case) up to 256k.
 //! GPU cases are skipped with a printed notice when no adapter exists.
 

@@ -19,7 +19,7 @@
 //!                 issue's ratio (all threads against Taichi on one)
 //! ```
 //! `cargo bench --bench cpu_threads [-- peer [SIZES…]|column|taichi]`;
-//! prints the README's `cpu-threads` table rows and then (with no filter)
+//! prints the `cpu-threads` table rows of docs/performance-log.md and then (with no filter)
 //! the Taichi table. Every run asserts that both backends end in the same
 //! state (hash), so a fast wrong answer cannot pass. Without `--bench` (as
 //! under `cargo test --all-targets`) a smoke run of two small cloths only.

@@ -1,15 +1,16 @@
 #!/usr/bin/env bash
 # Regenerates the accuracy report from measurements on this machine:
 #   docs/accuracy.md, docs/effects.md, docs/figures/{accuracy_pareto,
-#   accuracy_cloth,scaling}.png, docs/figures/{accuracy,effects,implicit}.json, and the
-#   README section "What accuracy costs".
+#   accuracy_cloth,scaling}.png and docs/figures/{accuracy,effects,implicit}.json
+#   (docs only: the README's summary table reads docs/accuracy.md, see
+#   scripts/readme-summary.py).
 #
 #   scripts/accuracy.sh                 # the full report (tens of minutes on 2 cores)
 #   scripts/accuracy.sh --only-effects  # only docs/effects.md, figures/effects.json
-#                                       # and the README's effect lines (minutes)
+#                                       # (minutes)
 #   scripts/accuracy.sh --only-implicit # only the implicit rows (Newton × CG budgets):
 #                                       # figures/implicit.json, their section of
-#                                       # docs/accuracy.md and README lines (a minute)
+#                                       # docs/accuracy.md (a minute)
 #   scripts/accuracy.sh --reps 5        # extra options go to `hyperpbd-report`
 #
 # For a smoke test that leaves docs/ alone (under two minutes):
@@ -23,4 +24,4 @@ cd "$(dirname "$0")/.."
 
 source scripts/install-lavapipe.sh
 
-exec cargo run --release -p hyperpbd-report -- --out docs --readme README.md "$@"
+exec cargo run --release -p hyperpbd-report -- --out docs "$@"

@@ -4,10 +4,11 @@
     scripts/bounds-table.py            runs tests/gpu_differential.rs,
                                        tests/gpu_kernels/ and tests/gpu_materials.rs
                                        (lavapipe) and rewrites the tables between the
-                                       markers <!-- bounds:begin … --> / <!-- bounds:end -->
-                                       and <!-- materials:begin … --> in README.md,
-                                       <!-- bounds-all:begin … -->, <!-- kernels:begin … -->
-                                       and <!-- materials:begin … --> in docs/bounds.md
+                                       markers <!-- bounds-all:begin … -->,
+                                       <!-- kernels:begin … --> and
+                                       <!-- materials:begin … --> in docs/bounds.md
+                                       (the README's summary table is built from these
+                                       by scripts/readme-summary.py)
     scripts/bounds-table.py FILE       the same from saved test output (all three tests')
 
 A BOUND line of tests/common/differential.rs reads
@@ -232,15 +233,13 @@ def main() -> None:
     if not rows:
         sys.exit("no BOUND lines")
     rows, material_rows = split_materials(rows)
-    short, full = tables(rows)
-    replace(ROOT / "README.md", "bounds", short)
+    _short, full = tables(rows)
     replace(ROOT / "docs" / "bounds.md", "bounds-all", full)
     replace(ROOT / "docs" / "bounds.md", "kernels", kernel_table(text))
     if material_rows:
         materials = materials_table(material_rows)
-        replace(ROOT / "README.md", "materials", materials)
         replace(ROOT / "docs" / "bounds.md", "materials", materials)
-    print(f"{len(rows)} BOUND lines → README.md, docs/bounds.md")
+    print(f"{len(rows)} BOUND lines → docs/bounds.md")
 
 
 if __name__ == "__main__":

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerates the README gallery, docs/gallery/*.png and *.gif: every
+# Regenerates the gallery (docs/gallery.md), docs/gallery/*.png and *.gif: every
 # shipped scene (scenes/*.json) run on the CPU golden backend (deterministic
 # f64, so the pictures only change when the physics or the drawing does) and
 # drawn by `hyperpbd render`.

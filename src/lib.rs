@@ -6,9 +6,11 @@
 //! ```
 //! This crate re-exports the pieces, holds the one backend factory
 //! ([`load`]: the CPU golden path or the GPU backend of the plan's solver),
-//! the CPU/GPU comparison models, atomic output files, and the built-in
+//! atomic output files, and the built-in
 //! scenes used by the CLI (`hyperpbd demo`, `hyperpbd scene NAME`), the
-//! tests and the benchmarks.
+//! tests and the benchmarks. The CPU/GPU error models and comparers live
+//! beside it in `hyperpbd-verify` (used by `hyperpbd compare` and the
+//! tests, not re-exported here).
 
 pub use hyperpbd_core as core;
 pub use hyperpbd_core::*;
@@ -20,11 +22,6 @@ pub use hyperpbd_gpu as gpu;
 
 pub mod atomic_file;
 pub mod batch;
-pub mod compare;
-pub mod compare_barrier;
-pub mod compare_coupled;
-pub mod compare_frame;
-pub mod compare_material;
 mod load;
 pub mod scenes;
 pub mod sweep;

@@ -9,10 +9,10 @@
 mod common;
 
 use common::gpu::adapter_or_skip;
-use hyperpbd::compare::{Divergence, DivergenceModel, Frame};
-use hyperpbd::compare_barrier::BarrierErrorModel;
-use hyperpbd::compare_frame::FrameErrorModel;
 use hyperpbd::{Backend, BackendKind, Plan, Precision, Scene, SolverPlan, State, scenes};
+use hyperpbd_verify::compare::{Divergence, DivergenceModel, Frame};
+use hyperpbd_verify::compare_barrier::BarrierErrorModel;
+use hyperpbd_verify::compare_frame::FrameErrorModel;
 
 fn compiled(scene: &Scene) -> (Plan, State) {
     (

@@ -12,6 +12,7 @@
 //! parallel reduction, a platform `exp` — is exactly what these tests exist
 //! to catch.
 
+#[path = "common/support.rs"]
 mod support;
 
 use hyperpbd::{Backend, CpuBackend, Plan, Scene, State};

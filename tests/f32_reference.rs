@@ -5,12 +5,12 @@
 //! (On lavapipe `gpu_differential` and `gpu_coverage` hold the GPU's f32
 //! step to it bit for bit.)
 
-use hyperpbd::compare::max_abs_diff;
 use hyperpbd::core::builders::ChainSpec;
 use hyperpbd::{
     Backend, Convergence, CpuBackend, F32Reference, IncrementalPotentialSettings, Kernel, Obstacle,
     Particle, Plan, ReferenceError, Scene, SceneBuilder, Solver, State,
 };
+use hyperpbd_verify::compare::max_abs_diff;
 
 /// A 2D chain of 12 links, first particle fixed, over a frictional plane.
 fn chain(shift: f64) -> Scene {

@@ -1,8 +1,8 @@
 //! Adapter discovery and a smoke compute dispatch.
 //!
 //! Every test that needs a device goes through `common::gpu::adapter_or_skip`:
-//! without an adapter they print `SKIPPED: no adapter` and pass, unless
-//! `HYPERPBD_REQUIRE_GPU=1`.
+//! without an adapter they print `SKIPPED: no adapter`, record the skip
+//! (counted by `scripts/test.sh`) and pass, unless `HYPERPBD_REQUIRE_GPU=1`.
 
 mod common;
 

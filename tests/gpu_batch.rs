@@ -14,10 +14,10 @@ mod common;
 use common::exact::{assert_f32_reference_step, check_f64, f32_identical, f64_rule};
 use common::gpu::adapter_or_skip;
 use hyperpbd::batch::{Batch, BatchError, GpuBatch};
-use hyperpbd::compare::{DivergenceModel, Frame};
-use hyperpbd::compare_frame::FrameErrorModel;
 use hyperpbd::sweep::Sweep;
 use hyperpbd::{Backend, F32Reference, Precision, Scene, State, scenes};
+use hyperpbd_verify::compare::{DivergenceModel, Frame};
+use hyperpbd_verify::compare_frame::FrameErrorModel;
 
 const CHAIN: &str = include_str!("../scenes/chain2d.json");
 
@@ -170,7 +170,7 @@ fn f32_worlds_stay_within_the_single_world_frame_bound() {
     let (mut worst_x, mut worst_v): (f64, f64) = (0.0, 0.0);
     for frame in 1..=30 {
         // Each frame the golden path restarts from the batch's state (the
-        // per-frame model's rule, src/compare_frame.rs).
+        // per-frame model's rule, verify/src/compare_frame.rs).
         let starts = gpu.read_states().expect("states");
         let reports = gpu.step().expect("batch step");
         let ends = gpu.read_states().expect("states");

@@ -4,7 +4,7 @@
 //! restarted from the GPU's state, both take the step, and the host
 //! recomputes ∇F in f64 at both iterates (`hyperpbd::coupled_gradient`,
 //! the golden gradient code) to bound their distance with the per-particle
-//! modulus of `hyperpbd::compare_coupled`. Asserted every step: the bound
+//! modulus of `hyperpbd_verify::compare_coupled`. Asserted every step: the bound
 //! (where the module states one), every gap > 0 against the authored
 //! geometry in f64, every value finite.
 //! `cargo test --release --test gpu_coupled_f32 -- --nocapture | grep '^BOUND'`.

@@ -161,8 +161,10 @@ fn the_gpu_refuses_what_its_coupled_step_does_not_run_yet() {
 /// so does `--backend cpu`.
 #[test]
 fn run_with_the_f32_gpu_backend_runs_the_coupled_step() {
-    if !common::gpu::gpu_required() && hyperpbd_gpu::request_adapter(Precision::F32).is_err() {
-        eprintln!("SKIPPED: no adapter (run_with_the_f32_gpu_backend_runs_the_coupled_step)");
+    if !common::gpu::gpu_required()
+        && let Err(e) = hyperpbd_gpu::request_adapter(Precision::F32)
+    {
+        common::gpu::record_skip("run_with_the_f32_gpu_backend_runs_the_coupled_step", &e);
         return;
     }
     let dir = std::env::temp_dir().join(format!("hyperpbd-implicit-{}", std::process::id()));

@@ -2,7 +2,7 @@
 //! from a scene's size, and what a process runs with.
 //!
 //! ```text
-//! measured (../shared/lavapipe-bench, docs/performance.md):
+//! measured (a standalone lavapipe micro-benchmark, docs/performance-log.md):
 //!   lavapipe hands every dispatch to its worker threads: 35–63 µs each with
 //!   its default (one per core), ~1 µs with LP_NUM_THREADS=0 (the work runs
 //!   on the submitting thread); above ~10–15k items per dispatch the

@@ -55,7 +55,7 @@ impl Image {
     }
 
     /// PNG file bytes with a palette of at most `colors` colours (2..=256):
-    /// lossy when the picture has more, much smaller (the README gallery).
+    /// lossy when the picture has more, much smaller (docs/gallery.md).
     pub fn to_png_indexed(&self, colors: usize) -> Result<Vec<u8>, RenderError> {
         if !(2..=256).contains(&colors) {
             return Err(RenderError::Encode {

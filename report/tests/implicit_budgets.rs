@@ -4,6 +4,11 @@
 //! earlier report and README, then checks of its numbers against the
 //! cases' known answers and of the files it spliced.
 
+/// The skip count of scripts/test.sh (`record_skip`).
+#[allow(dead_code)]
+#[path = "../../tests/common/gpu.rs"]
+mod gpu;
+
 use hyperpbd_report::implicit_budgets::{CASES, ImplicitCase, ImplicitPoint, ImplicitResult};
 use hyperpbd_report::implicit_markdown::{HEADING, IMPLICIT_BEGIN, IMPLICIT_END};
 use hyperpbd_report::readme::{README_BEGIN, README_END};
@@ -286,7 +291,10 @@ fn gpu_f64_rows_are_the_cpu_rows_on_lavapipe() {
             std::env::var_os("HYPERPBD_REQUIRE_GPU").is_none(),
             "HYPERPBD_REQUIRE_GPU is set but gpu-f64 has no implicit rows"
         );
-        eprintln!("SKIPPED: no gpu-f64 adapter here (set HYPERPBD_REQUIRE_GPU=1 to fail instead)");
+        gpu::record_skip(
+            "gpu_f64_rows_are_the_cpu_rows_on_lavapipe",
+            &"no gpu-f64 adapter here (set HYPERPBD_REQUIRE_GPU=1 to fail instead)",
+        );
         return;
     }
     // The identity guarantee is lavapipe's (tests/common/exact.rs); other

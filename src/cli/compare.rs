@@ -17,13 +17,13 @@
 
 use super::error::{CliError, with_sources};
 use super::load::load_scene;
-use hyperpbd::compare::{Divergence, DivergenceModel, Frame};
-use hyperpbd::compare_barrier::BarrierErrorModel;
-use hyperpbd::compare_frame::FrameErrorModel;
 use hyperpbd::gpu::SceneOrigin;
 use hyperpbd::{
     Backend, BackendError, BackendKind, F32Reference, Plan, Precision, SolverPlan, State,
 };
+use hyperpbd_verify::compare::{Divergence, DivergenceModel, Frame};
+use hyperpbd_verify::compare_barrier::BarrierErrorModel;
+use hyperpbd_verify::compare_frame::FrameErrorModel;
 use std::path::PathBuf;
 
 /// Options of `hyperpbd compare`.
@@ -109,9 +109,10 @@ fn reference_distance(
     {
         return Ok(0.0);
     }
-    let distance = hyperpbd::compare::max_abs_diff(&expected.positions, &other.positions).max(
-        hyperpbd::compare::max_abs_diff(&expected.velocities, &other.velocities),
-    );
+    let distance =
+        hyperpbd_verify::compare::max_abs_diff(&expected.positions, &other.positions).max(
+            hyperpbd_verify::compare::max_abs_diff(&expected.velocities, &other.velocities),
+        );
     // Differing bits at distance 0 (±0, NaN payloads) still differ.
     Ok(if distance > 0.0 {
         distance

@@ -74,7 +74,7 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 256)]
     gif_colors: usize,
     /// Write PNGs with a palette of at most N colours (2..=256): lossy,
-    /// several times smaller (the README gallery uses this).
+    /// several times smaller (docs/gallery.md uses this).
     #[arg(long)]
     png_colors: Option<usize>,
     /// Write only the animation, no PNG frames (the last frame is still

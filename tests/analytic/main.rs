@@ -7,7 +7,7 @@
 //! code happens to produce. Run with `cargo test --release --test analytic
 //! -- --nocapture` to see the measured values.
 
-#[path = "../support/mod.rs"]
+#[path = "../common/support.rs"]
 mod support;
 
 mod damping;

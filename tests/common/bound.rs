@@ -3,7 +3,7 @@
 //! ```text
 //! BOUND | name | measured | bound | rationale
 //! ```
-//! (docs/bounds.md and the README's tables are written from these lines:
+//! (docs/bounds.md's tables are written from these lines:
 //! `cargo test --release -- --nocapture | grep '^BOUND'`).
 
 use std::fmt::Display;

@@ -2,13 +2,13 @@
 //! path (docs/bounds.md "Coupled implicit step in f32"), shared by
 //! `tests/gpu_coupled_f32.rs` and the stability suite: a CPU probe is
 //! restarted from the GPU's state before each step, both take the step,
-//! and `hyperpbd::compare_coupled` bounds their distance from the f64
+//! and `hyperpbd_verify::compare_coupled` bounds their distance from the f64
 //! gradients at both iterates (`hyperpbd::coupled_gradient`). Asserted
 //! every step: finite values, every gap > 0 in f64 against the authored
 //! geometry, and the bound wherever the module states one.
 
-use hyperpbd::compare_coupled::coupled_step_bound;
 use hyperpbd::{Backend, CpuBackend, Plan, State, coupled_gradient};
+use hyperpbd_verify::compare_coupled::coupled_step_bound;
 
 /// The smallest gap of any free particle to any obstacle and of any ball
 /// pair (with collisions), in f64 against the authored geometry; ∞ with
@@ -106,7 +106,7 @@ impl F32Check {
         let x_cpu = cpu_state.positions.clone();
         self.largest = self
             .largest
-            .max(hyperpbd::compare::max_abs_diff(x_gpu, &x_cpu));
+            .max(hyperpbd_verify::compare::max_abs_diff(x_gpu, &x_cpu));
         let from = (&start.positions[..], &start.velocities[..]);
         let gradient = |x: &[f64]| {
             coupled_gradient(plan, from, &plan.force, x)

@@ -4,7 +4,7 @@
 //! Every frame, the golden path is restarted from the GPU's own state of
 //! the previous frame and both run the same frame; the difference is that
 //! one frame's rounding, held to the per-frame model of
-//! `hyperpbd::compare_frame::FrameErrorModel`. f64 on lavapipe is also run
+//! `hyperpbd_verify::compare_frame::FrameErrorModel`. f64 on lavapipe is also run
 //! from the start on a second CPU backend and asserted bit-identical to it,
 //! reports included ([`super::exact`]). After the last frame one line per
 //! metric is printed:
@@ -39,7 +39,7 @@
 //!            (Hadamard: an elimination determinant rounds relative to it);
 //!            materials |r(x_gpu) − r_cpu| + max_e δC_e(x_gpu): r evaluated in
 //!            f64 at the GPU's state plus the device's evaluation error of
-//!            C = √(2W) (hyperpbd::compare_material; C is a cone at rest,
+//!            C = √(2W) (hyperpbd_verify::compare_material; C is a cone at rest,
 //!            so no Lipschitz constant at one state bounds it)
 //! contacts   active contacts (λ > 0 in the last substep): equal in f64
 //!            (bound 0). In f32 a contact whose λ is within rounding of 0 may
@@ -52,11 +52,11 @@
 use super::bound::print_bound;
 use super::exact::{assert_f32_reference_step, bits, f32_identical, f64_identical};
 use super::gpu::adapter_or_skip;
-use hyperpbd::compare::{Divergence, DivergenceModel, Frame, max_abs_diff};
-use hyperpbd::compare_frame::FrameErrorModel;
 use hyperpbd::geometry::{Scratch, factorial, oriented_measure, simplex_squared_measure};
 use hyperpbd::{Backend, CpuBackend, F32Reference, FamilyKind, Plan, Scene, State, StepReport};
 use hyperpbd_gpu::{AdapterSummary, GpuBackend, Precision, SceneOrigin};
+use hyperpbd_verify::compare::{Divergence, DivergenceModel, Frame, max_abs_diff};
+use hyperpbd_verify::compare_frame::FrameErrorModel;
 
 /// Evaluation scale and gradient sum of every element of a measure family.
 fn measure_scales(plan: &Plan, family: usize, state: &State) -> (f64, f64) {
@@ -153,8 +153,8 @@ fn material_residual_bound(
     cpu_residual: f64,
     precision: Precision,
 ) -> f64 {
-    let rounding = hyperpbd::compare_material::Rounding::of(precision);
-    let (at_gpu, error) = hyperpbd::compare_material::residual_error(
+    let rounding = hyperpbd_verify::compare_material::Rounding::of(precision);
+    let (at_gpu, error) = hyperpbd_verify::compare_material::residual_error(
         &plan.families[family],
         &gpu.positions,
         plan.dim,

@@ -24,9 +24,9 @@
 //! claimed. Its f32 kernels (evaluate, filter_fraction) are held bit for
 //! bit to the f32 reference on lavapipe (`tests/gpu_barrier/kernels.rs`).
 
-use hyperpbd::compare::max_abs_diff;
 use hyperpbd::{F32Reference, State, StepReport};
 use hyperpbd_gpu::AdapterSummary;
+use hyperpbd_verify::compare::max_abs_diff;
 
 use super::bound::print_bound;
 
@@ -100,8 +100,8 @@ pub fn assert_identical_if_claimed(
         bits(golden) == bits(other),
         "{name}: f64 on llvmpipe must be bit-identical to the golden path: \
          max |dx| = {:e}, max |dv| = {:e}",
-        hyperpbd::compare::max_abs_diff(&golden.positions, &other.positions),
-        hyperpbd::compare::max_abs_diff(&golden.velocities, &other.velocities)
+        hyperpbd_verify::compare::max_abs_diff(&golden.positions, &other.positions),
+        hyperpbd_verify::compare::max_abs_diff(&golden.velocities, &other.velocities)
     );
     true
 }

@@ -1,9 +1,12 @@
 //! The one way GPU tests find an adapter (and load a backend on it).
 //!
 //! With an adapter: `Some`. Without one, the test prints a clear
-//! `SKIPPED: no adapter (<test>): <why>` line and returns early — unless
-//! `HYPERPBD_REQUIRE_GPU=1` (set by CI, which installs lavapipe), where a
-//! missing adapter fails the test.
+//! `SKIPPED: no adapter (<test>): <why>` line, appends `<test>` to
+//! [`SKIP_LOG`] and returns early — unless `HYPERPBD_REQUIRE_GPU=1` (set by
+//! CI, which installs lavapipe), where a missing adapter fails the test.
+//! `scripts/test.sh` prints one line counting the tests in [`SKIP_LOG`] and
+//! fails on a nonzero count unless `HYPERPBD_NO_GPU=1` says no GPU is
+//! expected, so a run without an adapter never reads as a full pass.
 
 use hyperpbd::{Backend, BackendError, BackendKind, Plan, State};
 use hyperpbd_gpu::{AdapterSummary, Precision, request_adapter};
@@ -11,6 +14,27 @@ use hyperpbd_gpu::{AdapterSummary, Precision, request_adapter};
 /// Environment variable that turns a missing adapter from a skip into a
 /// failure.
 pub const REQUIRE_GPU_ENV: &str = "HYPERPBD_REQUIRE_GPU";
+
+/// Where skipped GPU tests are recorded, one `<binary>::<test>\t<why>` line each
+/// (the workspace's shared target folder; `scripts/test.sh` empties it
+/// before a run and counts the distinct tests after it).
+pub const SKIP_LOG: &str = concat!(env!("CARGO_TARGET_TMPDIR"), "/gpu-skipped.txt");
+
+/// Prints the `SKIPPED: no adapter` line of `test` and records it in
+/// [`SKIP_LOG`]. A log that cannot be written fails the test: a skip that
+/// is not counted would read as a pass.
+pub fn record_skip(test: &str, why: &dyn std::fmt::Display) {
+    use std::io::Write;
+    eprintln!("SKIPPED: no adapter ({test}): {why}");
+    let why = why.to_string().replace(['\n', '\t'], " ");
+    let line = format!("{}::{test}\t{why}\n", env!("CARGO_CRATE_NAME"));
+    std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(SKIP_LOG)
+        .and_then(|mut f| f.write_all(line.as_bytes()))
+        .unwrap_or_else(|e| panic!("cannot record the skip of {test} in {SKIP_LOG}: {e}"));
+}
 
 /// Whether `HYPERPBD_REQUIRE_GPU=1` is set.
 pub fn gpu_required() -> bool {
@@ -43,7 +67,7 @@ pub fn adapter_or_skip(
              or unset {REQUIRE_GPU_ENV} to skip GPU tests."
         ),
         Err(e) => {
-            eprintln!("SKIPPED: no adapter ({test}): {e}");
+            record_skip(test, &e);
             None
         }
     }

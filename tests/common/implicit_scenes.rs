@@ -1,6 +1,6 @@
 //! The coupled implicit step's evidence scenes (issue 16, docs/implicit.md
 //! §8), shared by the CPU evidence (`tests/implicit_step.rs`) and the GPU's
-//! bit-identity tests (`tests/gpu_coupled.rs`, `tests/gpu_coupled_f32.rs`).
+//! bit-identity tests (`tests/gpu_coupled/`, `tests/gpu_coupled_f32.rs`).
 
 use hyperpbd::core::barrier::BarrierLaw;
 use hyperpbd::core::implicit::closed_forms::{barrier_gap_under_load, stacked_ball_heights};

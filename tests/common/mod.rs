@@ -12,6 +12,8 @@ pub mod gpu;
 pub mod guarded;
 pub mod implicit_scenes;
 pub mod materials;
+// support.rs (CPU-only helpers of tests/analytic/ and tests/determinism.rs)
+// is included on its own by those binaries, not through this module.
 
 /// A deterministic pseudo-random number generator (64-bit LCG), so test
 /// scenes are jittered the same way on every run.

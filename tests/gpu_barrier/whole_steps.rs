@@ -4,9 +4,9 @@ use super::*;
 
 use hyperpbd::builders::triangle_grid;
 
-use hyperpbd::compare_barrier::BarrierErrorModel;
 use hyperpbd::gpu::GpuBarrierBackend;
 use hyperpbd::{Backend, Convergence, CpuBackend, MinimisationStatus, Particle, Plan, State};
+use hyperpbd_verify::compare_barrier::BarrierErrorModel;
 
 fn solver(
     convergence: Convergence,
@@ -56,7 +56,7 @@ fn whole_steps(
     let mut gpu =
         GpuBarrierBackend::with_adapter(adapter, plan.clone(), &state, precision).expect("gpu");
     let mut model = BarrierErrorModel::new(&plan, precision);
-    let mut scale = hyperpbd::compare::coordinate_scale(&state);
+    let mut scale = hyperpbd_verify::compare::coordinate_scale(&state);
     let mut worst: f64 = 0.0;
     let mut identical = 0;
     let mut smallest = f64::INFINITY;
@@ -73,10 +73,10 @@ fn whole_steps(
         }
         let golden = cpu.read_state().expect("cpu state");
         let other = gpu.read_state().expect("gpu state");
-        scale = scale.max(hyperpbd::compare::coordinate_scale(&golden));
+        scale = scale.max(hyperpbd_verify::compare::coordinate_scale(&golden));
         model.advance(&a.minimisation, &b.minimisation, scale);
-        let dx = hyperpbd::compare::max_abs_diff(&golden.positions, &other.positions);
-        let dv = hyperpbd::compare::max_abs_diff(&golden.velocities, &other.velocities);
+        let dx = hyperpbd_verify::compare::max_abs_diff(&golden.positions, &other.positions);
+        let dv = hyperpbd_verify::compare::max_abs_diff(&golden.velocities, &other.velocities);
         let (px, pv) = (model.position_bound(), model.velocity_bound());
         assert!(
             dx <= px && dv <= pv,
@@ -253,7 +253,7 @@ fn whole_steps_match_the_golden_path() {
                 ),
                 format_args!("{worst:.3e}"),
                 "1",
-                "largest ratio to BarrierErrorModel (src/compare_barrier.rs)",
+                "largest ratio to BarrierErrorModel (verify/src/compare_barrier.rs)",
             );
         }
         // A 4D triangle mesh (slide) and the packed criterion.
@@ -531,7 +531,7 @@ fn f32_far_from_the_origin_keeps_the_accuracy_of_the_origin() {
         GpuBarrierBackend::with_adapter(&adapter, plan.clone(), &state, precision).expect("gpu");
     // The model of the scene at the origin: coordinates of size |x_near|.
     let mut model = BarrierErrorModel::new(&plan, precision);
-    let near_scale = hyperpbd::compare::coordinate_scale(&State::from_scene(&near));
+    let near_scale = hyperpbd_verify::compare::coordinate_scale(&State::from_scene(&near));
     let mut worst: f64 = 0.0;
     for step in 1..=30 {
         let a = cpu.step().expect("cpu step");
@@ -539,7 +539,7 @@ fn f32_far_from_the_origin_keeps_the_accuracy_of_the_origin() {
         model.advance(&a.minimisation, &b.minimisation, near_scale);
         let golden = cpu.read_state().expect("cpu state");
         let other = gpu.read_state().expect("gpu state");
-        let dx = hyperpbd::compare::max_abs_diff(&golden.positions, &other.positions);
+        let dx = hyperpbd_verify::compare::max_abs_diff(&golden.positions, &other.positions);
         let bound = model.position_bound();
         assert!(dx <= bound, "step {step}: |dx| {dx:e} > {bound:e}");
         let d = smallest_distance(&far, &other);

@@ -112,7 +112,7 @@ fn f32_far_scene_runs_bit_for_bit_as_at_the_origin() {
         assert!(
             bits(&near_state) == bits(&moved_back),
             "frame {frame}: the f32 run at {SHIFT:?} differs from the run at the origin by {:e} m",
-            hyperpbd::compare::max_abs_diff(&near_state.positions, &moved_back.positions)
+            hyperpbd_verify::compare::max_abs_diff(&near_state.positions, &moved_back.positions)
         );
     }
     assert!(active > 0, "the bridge never touched its planes");

@@ -4,7 +4,7 @@
 //! Every test here reaches a term, a field or a decision that the other
 //! GPU tests leave at a default, and compares against the golden path by
 //! the rules of `common::exact` (f64 on lavapipe: bit for bit) and the
-//! per-frame models (`hyperpbd::compare_frame`, `hyperpbd::compare_barrier`):
+//! per-frame models (`hyperpbd_verify::compare_frame`, `hyperpbd_verify::compare_barrier`):
 //!
 //! ```text
 //! scene_fields   every scene field non-default on every XPBD kernel: gravity

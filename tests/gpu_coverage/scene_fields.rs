@@ -30,14 +30,14 @@ use super::*;
 
 use common::differential::both;
 use common::gpu::adapter_or_skip;
-use hyperpbd::compare::{Divergence, DivergenceModel, Frame};
-use hyperpbd::compare_barrier::BarrierErrorModel;
 use hyperpbd::gpu::{GpuBarrierBackend, Precision};
 use hyperpbd::{
     Backend, ConstraintFamily, ConstraintKind, Convergence, CpuBackend,
     IncrementalPotentialSettings, MinimisationStatus, Obstacle, Particle, Plan, SceneBuilder,
     Solver, State,
 };
+use hyperpbd_verify::compare::{Divergence, DivergenceModel, Frame};
+use hyperpbd_verify::compare_barrier::BarrierErrorModel;
 
 const SCALES: [f64; 6] = [1.0, 0.5, 2.0, 0.0, -0.3, 1.5];
 

@@ -101,7 +101,7 @@ pub(super) fn kernel_bounds(
     let h = plan.h;
     match kernel {
         Kernel::Predict => {
-            let a = hyperpbd::compare_frame::largest_acceleration(plan);
+            let a = hyperpbd_verify::compare_frame::largest_acceleration(plan);
             (
                 e * r(8.0) * (s.x + h * (s.v + h * a)),
                 e * r(8.0) * (s.v + h * a),

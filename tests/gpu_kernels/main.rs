@@ -91,12 +91,12 @@ use common::Lcg;
 
 use common::exact::{bits, f32_identical, f64_identical};
 use common::gpu::adapter_or_skip;
-use hyperpbd::compare::{coordinate_scale, max_abs_diff};
 use hyperpbd::{
     Backend, ConstraintFamily, ConstraintKind, CpuBackend, F32Reference, FamilyKind, Kernel,
     Particle, Plan, Scene, SceneBuilder, State,
 };
 use hyperpbd_gpu::{GpuBackend, Precision};
+use hyperpbd_verify::compare::{coordinate_scale, max_abs_diff};
 
 /// Roundings allowed for f64 on a chain the driver may contract.
 const R64: f64 = 4.0;

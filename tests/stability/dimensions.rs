@@ -13,7 +13,7 @@ on_every_backend!(eight_dimensions, nine_dimensions, empty_scene, one_particle,)
 /// (+307 J at 2 iterations, the edges left 3 cm off): Gauss–Seidel stopped
 /// that far from convergence turns the unconverged edge corrections into
 /// velocity every substep. From 4 iterations on it is dissipative; the
-/// README says so.
+/// docs/stability.md says so.
 fn eight_dimensions(kind: BackendKind) {
     let case = "eight_dimensions";
     let dim = 8;

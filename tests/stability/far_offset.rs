@@ -50,11 +50,11 @@ fn far_offset(case: &str, kind: BackendKind, d: f64) {
     };
     let m = run(case, backend.as_mut(), &initial, frames);
     check_energy(case, kind, &m, 0.0, "damped bridge");
-    let error = hyperpbd::compare::max_abs_diff(&relative(&m.last, d), &golden.positions);
+    let error = hyperpbd_verify::compare::max_abs_diff(&relative(&m.last, d), &golden.positions);
     // The bridge at the origin in this backend's precision, against the
     // same golden run: what the precision costs without any offset.
     let plan = Plan::compile(&scene).expect("valid");
-    let model = hyperpbd::compare::ErrorModel::new(
+    let model = hyperpbd_verify::compare::ErrorModel::new(
         &plan,
         match kind {
             GPU_F32 => hyperpbd::Precision::F32,
@@ -65,7 +65,7 @@ fn far_offset(case: &str, kind: BackendKind, d: f64) {
     // offset itself is carried exactly in f64 (ε64 · d per rounding).
     let local_scale = 2.0;
     let bound = model.position_bound(local_scale, frames as u64)
-        + hyperpbd::compare::ErrorModel::new(&plan, hyperpbd::Precision::F64)
+        + hyperpbd_verify::compare::ErrorModel::new(&plan, hyperpbd::Precision::F64)
             .position_bound(d + local_scale, frames as u64);
     check_residual(
         case,
@@ -98,7 +98,7 @@ fn far_offset(case: &str, kind: BackendKind, d: f64) {
         for _ in 0..frames {
             at_origin.step().expect("f32 step at the origin");
         }
-        let origin_error = hyperpbd::compare::max_abs_diff(
+        let origin_error = hyperpbd_verify::compare::max_abs_diff(
             &at_origin.read_state().expect("read").positions,
             &golden.positions,
         );
@@ -128,7 +128,7 @@ fn far_offset(case: &str, kind: BackendKind, d: f64) {
         }
         let raw_state = raw.read_state().expect("read");
         let raw_error =
-            hyperpbd::compare::max_abs_diff(&relative(&raw_state, d), &golden.positions);
+            hyperpbd_verify::compare::max_abs_diff(&relative(&raw_state, d), &golden.positions);
         report(
             case,
             kind,
@@ -178,7 +178,7 @@ fn f32_state_round_trips_through_the_scene_origin() {
     }
     gpu.write_state(&written).expect("write");
     let back = gpu.read_state().expect("read");
-    let error = hyperpbd::compare::max_abs_diff(&back.positions, &written.positions);
+    let error = hyperpbd_verify::compare::max_abs_diff(&back.positions, &written.positions);
     let bound = f64::from(ulp32(2.0)) / 2.0;
     print_bound(
         "f32 write/read at 1e5",

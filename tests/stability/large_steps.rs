@@ -107,11 +107,11 @@ fn dt_one_microsecond(kind: BackendKind) {
         initial.positions[tip] - golden_fall
     };
     let plan = Plan::compile(&scene).expect("valid");
-    let f64_model = hyperpbd::compare::ErrorModel::new(&plan, hyperpbd::Precision::F64);
+    let f64_model = hyperpbd_verify::compare::ErrorModel::new(&plan, hyperpbd::Precision::F64);
     let (bound, why) = match kind {
         GPU_F32 => (
             golden_fall
-                + hyperpbd::compare::ErrorModel::new(&plan, hyperpbd::Precision::F32)
+                + hyperpbd_verify::compare::ErrorModel::new(&plan, hyperpbd::Precision::F32)
                     .position_bound(1.0, steps as u64),
             "f32: the true fall + its rounding model (the fall itself is below ulp)",
         ),

@@ -6,7 +6,7 @@
 //! ```text
 //! STABLE | case | backend | result | metric = measured | bound (rationale)
 //! ```
-//! and the README table "What stays stable" is written from
+//! and the table of docs/stability.md is written from
 //! `cargo test --release --test stability -- --nocapture --test-threads 1 | grep '^STABLE'`.
 //!
 //! # The metrics

@@ -20,7 +20,7 @@
 //!              at RoundingFloor (no trial decreases F beyond ε₃₂'s resolution) or
 //!              BudgetExhausted (both keep the iterate); NoDescent is still a refusal
 //! trust        none: the device's f32 residual is not used as evidence; the host
-//!              recomputes ∇F in f64 at the returned iterate (hyperpbd::compare_coupled)
+//!              recomputes ∇F in f64 at the returned iterate (hyperpbd_verify::compare_coupled)
 //! ```
 //! The plane's stored f32 normal and offset are the authored ones rounded
 //! once (relative u₃₂, the offset after the exact origin shift); the

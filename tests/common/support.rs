@@ -1,4 +1,6 @@
-//! Helpers for the analytic and determinism tests. Each test binary compiles
+//! Helpers for the analytic and determinism tests (CPU only: they include
+//! this file alone, `#[path = "…/common/support.rs"] mod support;`, not the
+//! whole of `common`, so they link no GPU code). Each test binary compiles
 //! this module on its own and uses only part of it.
 
 #![allow(dead_code)]

@@ -252,7 +252,7 @@ type Decision = (f64, f64, f64);
 
 impl FrameErrorModel {
     /// The model of `plan` (an XPBD plan) run at `precision` with device
-    /// coordinates relative to `origin` (`hyperpbd::gpu::SceneOrigin`).
+    /// coordinates relative to `origin` (`hyperpbd_gpu::SceneOrigin`).
     pub fn new(plan: &Plan, precision: Precision, origin: &[f64]) -> Result<Self, BackendError> {
         let iterations = f64::from(plan.iterations);
         let (equality, contact) = largest_degree(plan);
