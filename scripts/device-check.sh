@@ -1,0 +1,176 @@
+#!/usr/bin/env bash
+# The prepared device check (docs/device-check.md).
+#
+#   scripts/device-check.sh --stage   on a development machine: build the
+#                                     release CLI and the timing example,
+#                                     strip them, add Debian's libvulkan1
+#                                     loader, the scenes and these scripts
+#                                     into device-kit/ (git-ignored, ≤ 64 MiB)
+#   device-kit/device-check.sh        on the GPU machine (no Rust, no network):
+#                                     one run inside 8 minutes; a JSON and a
+#                                     markdown report under $OUT
+#   scripts/device-check.sh --dry     here, on lavapipe, tiny sizes, report
+#                                     under $OUT or out/device-check/ (the
+#                                     test suite runs it: tests/device_check.rs)
+#
+# The run: info (adapter, f64, passthrough, shader path) · gpu-f64 against the
+# golden path and gpu-f32 against the f32 reference on the differential
+# scenes under both shader paths (hyperpbd compare; --exact for f32) ·
+# dispatch counts (hyperpbd plan) · the timings of examples/device_bench.rs
+# (step fit t = a + b·N, frames per schedule, one dependent dispatch,
+# batches, the pit and the column) · the CuPy floor (scripts/cupy_baseline.py,
+# skipped cleanly without CuPy). Every step runs under `timeout` inside the
+# run's budget; a step that fails or times out is recorded, never fatal.
+set -u
+
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+mode=run
+for arg in "$@"; do
+    case "$arg" in
+        --stage) mode=stage ;;
+        --dry) mode=dry ;;
+        -h | --help)
+            sed -n '2,23p' "${BASH_SOURCE[0]}"
+            exit 0
+            ;;
+        *)
+            echo "device-check: unknown argument $arg (expected --stage or --dry)" >&2
+            exit 2
+            ;;
+    esac
+done
+
+# The kit: this script's own folder when it was staged (bin/hyperpbd beside
+# it), else device-kit/ at the repository root.
+if [ -x "$here/bin/hyperpbd" ]; then
+    kit="$here"
+    root="$(cd "$here/.." && pwd)"
+else
+    root="$(cd "$here/.." && pwd)"
+    kit="${HYPERPBD_KIT:-$root/device-kit}"
+fi
+
+stage() {
+    set -e
+    cd "$root"
+    nice -n 5 cargo build --release --bin hyperpbd --example device_bench
+    rm -rf "$kit"
+    mkdir -p "$kit/bin" "$kit/vulkan"
+    cp target/release/hyperpbd target/release/examples/device_bench "$kit/bin/"
+    strip "$kit/bin/hyperpbd" "$kit/bin/device_bench"
+    cp -r scenes "$kit/scenes"
+    cp scripts/device-check.sh scripts/cupy_baseline.py scripts/device_report.py "$kit/"
+    local debs
+    debs="$(mktemp -d)"
+    (cd "$debs" && apt-get download libvulkan1)
+    for deb in "$debs"/*.deb; do
+        dpkg -x "$deb" "$kit/vulkan"
+        basename "$deb" >>"$kit/vulkan/PACKAGES"
+    done
+    rm -rf "$debs"
+    git rev-parse HEAD >"$kit/COMMIT" 2>/dev/null || echo unknown >"$kit/COMMIT"
+    local bytes
+    bytes="$(du -sb "$kit" | cut -f1)"
+    echo "staged $kit: $bytes bytes ($(cat "$kit/COMMIT"))"
+    if [ "$bytes" -gt $((64 * 1024 * 1024)) ]; then
+        echo "device-check: the kit is over 64 MiB" >&2
+        exit 1
+    fi
+}
+
+if [ "$mode" = stage ]; then
+    stage
+    exit $?
+fi
+
+dry=""
+[ "$mode" = dry ] && dry="--dry"
+out="${OUT:-$root/out/device-check}"
+mkdir -p "$out/logs"
+: >"$out/steps.tsv"
+
+# Binaries: the kit's, else (dry mode, or HYPERPBD_BIN/HYPERPBD_BENCH) the
+# release build of this checkout.
+hyperpbd="${HYPERPBD_BIN:-}"
+bench="${HYPERPBD_BENCH:-}"
+[ -z "$hyperpbd" ] && [ -x "$kit/bin/hyperpbd" ] && hyperpbd="$kit/bin/hyperpbd"
+[ -z "$bench" ] && [ -x "$kit/bin/device_bench" ] && bench="$kit/bin/device_bench"
+[ -z "$hyperpbd" ] && hyperpbd="$root/target/release/hyperpbd"
+[ -z "$bench" ] && bench="$root/target/release/examples/device_bench"
+scenes="$kit/scenes"
+[ -d "$scenes" ] || scenes="$root/scenes"
+report="$kit/device_report.py"
+[ -f "$report" ] || report="$root/scripts/device_report.py"
+cupy="$kit/cupy_baseline.py"
+[ -f "$cupy" ] || cupy="$root/scripts/cupy_baseline.py"
+
+# The Vulkan loader: the system's, else the kit's libvulkan1. The NVIDIA
+# ICD ships with the driver; where its manifest is missing but the driver's
+# library is present, write one.
+if ! ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1 '; then
+    for lib in "$kit"/vulkan/usr/lib/*-linux-gnu; do
+        [ -d "$lib" ] && export LD_LIBRARY_PATH="$lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+    done
+fi
+icd_found=no
+for dir in /usr/share/vulkan/icd.d /etc/vulkan/icd.d /usr/local/share/vulkan/icd.d; do
+    ls "$dir"/*.json >/dev/null 2>&1 && icd_found=yes
+done
+if [ "$icd_found" = no ] && ldconfig -p 2>/dev/null | grep -q 'libGLX_nvidia\.so\.0 '; then
+    cat >"$out/nvidia_icd.json" <<'JSON'
+{"file_format_version": "1.0.0", "ICD": {"library_path": "libGLX_nvidia.so.0", "api_version": "1.3.0"}}
+JSON
+    export VK_DRIVER_FILES="$out/nvidia_icd.json" VK_ICD_FILENAMES="$out/nvidia_icd.json"
+fi
+export NODEVICE_SELECT=1
+
+# The run's budget: 8 minutes on the GPU machine less a margin for the
+# report; the dry run is held to 3 minutes.
+if [ -n "$dry" ]; then budget=180; else budget=450; fi
+start=$(date +%s)
+
+# step NAME SECONDS COMMAND…: run under `timeout` (at most SECONDS, never
+# past the budget), output to logs/NAME.log; record rc and milliseconds.
+step() {
+    local name="$1" limit="$2"
+    shift 2
+    local left=$((budget - ($(date +%s) - start)))
+    [ "$limit" -gt "$left" ] && limit="$left"
+    if [ "$limit" -le 0 ]; then
+        printf '%s\t%s\t%s\n' "$name" "skipped" "0" >>"$out/steps.tsv"
+        return
+    fi
+    local t0 rc
+    t0=$(date +%s%N)
+    timeout --kill-after=5 "$limit" "$@" >"$out/logs/$name.log" 2>&1
+    rc=$?
+    printf '%s\t%s\t%s\n' "$name" "$rc" "$((($(date +%s%N) - t0) / 1000000))" >>"$out/steps.tsv"
+}
+
+step info 60 "$hyperpbd" info
+
+if [ -n "$dry" ]; then
+    diff_scenes="chain2d"
+    frames=2
+else
+    diff_scenes="chain2d cloth tesseract jelly4d incline5d example barrier4d sandpile2d ballpit4d column3d"
+    frames=20
+fi
+for scene in $diff_scenes; do
+    step "plan-$scene" 30 "$hyperpbd" plan "$scenes/$scene.json"
+done
+step cupy 60 python3 "$cupy" $dry
+for path in spirv wgsl; do
+    for scene in $diff_scenes; do
+        HYPERPBD_SHADER_PATH=$path step "compare-$path-f64-$scene" 60 \
+            "$hyperpbd" compare "$scenes/$scene.json" --precision f64 --frames "$frames"
+        HYPERPBD_SHADER_PATH=$path step "compare-$path-f32-$scene" 60 \
+            "$hyperpbd" compare "$scenes/$scene.json" --precision f32 --exact --frames "$frames"
+    done
+done
+HYPERPBD_SHADER_PATH=spirv step bench 240 "$bench" $dry
+
+python3 "$report" "$out" $dry
+rc=$?
+echo "device-check: report in $out/report.md and $out/report.json ($(($(date +%s) - start)) s)"
+exit $rc
