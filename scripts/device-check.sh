@@ -16,7 +16,7 @@
 # The run: info (adapter, f64, passthrough, shader path) · gpu-f64 against the
 # golden path and gpu-f32 against the f32 reference on the differential
 # scenes under both shader paths (hyperpbd compare; --exact for f32) ·
-# dispatch counts (hyperpbd plan) · the timings of examples/device_bench.rs
+# dispatch counts (hyperpbd plan) · the timings of src/bin/device_bench.rs
 # (step fit t = a + b·N, frames per schedule, one dependent dispatch,
 # batches, the pit and the column) · the CuPy floor (scripts/cupy_baseline.py,
 # skipped cleanly without CuPy). Every step runs under `timeout` inside the
@@ -53,10 +53,10 @@ fi
 stage() {
     set -e
     cd "$root"
-    nice -n 5 cargo build --release --bin hyperpbd --example device_bench
+    nice -n 5 cargo build --release --bin hyperpbd --bin device_bench
     rm -rf "$kit"
     mkdir -p "$kit/bin" "$kit/vulkan"
-    cp target/release/hyperpbd target/release/examples/device_bench "$kit/bin/"
+    cp target/release/hyperpbd target/release/device_bench "$kit/bin/"
     strip "$kit/bin/hyperpbd" "$kit/bin/device_bench"
     cp -r scenes "$kit/scenes"
     cp scripts/device-check.sh scripts/cupy_baseline.py scripts/device_report.py "$kit/"
@@ -96,7 +96,7 @@ bench="${HYPERPBD_BENCH:-}"
 [ -z "$hyperpbd" ] && [ -x "$kit/bin/hyperpbd" ] && hyperpbd="$kit/bin/hyperpbd"
 [ -z "$bench" ] && [ -x "$kit/bin/device_bench" ] && bench="$kit/bin/device_bench"
 [ -z "$hyperpbd" ] && hyperpbd="$root/target/release/hyperpbd"
-[ -z "$bench" ] && bench="$root/target/release/examples/device_bench"
+[ -z "$bench" ] && bench="$root/target/release/device_bench"
 scenes="$kit/scenes"
 [ -d "$scenes" ] || scenes="$root/scenes"
 report="$kit/device_report.py"

@@ -9,7 +9,7 @@ OUT (steps.tsv, logs/*.log) and writes OUT/report.json and OUT/report.md.
                difference, exit code (3: over the bound or, with --exact,
                off the f32 reference)
     plan       compute dispatches per step of each scene
-    bench      the JSON lines of examples/device_bench.rs
+    bench      the JSON lines of src/bin/device_bench.rs
     cupy       scripts/cupy_baseline.py's JSON (or its skip)
 
 Usage: device_report.py OUT [--dry]
@@ -147,7 +147,7 @@ def markdown(r):
     lines += ["", "## Dispatches per step (hyperpbd plan)", "", "| scene | dispatches |", "|---|---:|"]
     for scene, n in r["plan"].items():
         lines.append(f"| {scene} | {fmt(n)} |")
-    lines += ["", "## Timings (examples/device_bench.rs, median s)", ""]
+    lines += ["", "## Timings (src/bin/device_bench.rs, median s)", ""]
     for row in r["bench"]:
         kind = row.get("kind")
         rest = ", ".join(f"{k} {fmt(v)}" for k, v in row.items() if k != "kind")

@@ -21,7 +21,8 @@
 //! schedule the scene does not fit) is a `{"kind": "skipped", …}` line
 //! naming why, never a silent omission.
 //!
-//! `cargo build --release --example device_bench`
+//! `cargo build --release --bin device_bench` (a binary of the root crate,
+//! so the integration tests get a fresh one: tests/device_check.rs)
 
 use std::time::Instant;
 
