@@ -54,7 +54,10 @@ fn dry_device_check_runs_and_reports_every_section() {
                 .find(|r| r["path"] == path && r["precision"] == precision)
                 .unwrap_or_else(|| panic!("no compare row {path} {precision}: {text}"));
             assert!(row["frames"].as_u64().unwrap_or(0) > 0, "{row}");
-            assert_eq!(row["differing"], 0, "lavapipe differs from the reference: {row}");
+            assert_eq!(
+                row["differing"], 0,
+                "lavapipe differs from the reference: {row}"
+            );
             assert_eq!(row["rc"], "0", "{row}");
         }
     }
@@ -65,14 +68,19 @@ fn dry_device_check_runs_and_reports_every_section() {
         "{text}"
     );
     let bench = report["bench"].as_array().expect("bench rows");
-    for kind in ["adapter", "step", "step_fit", "frame", "dispatch", "batch", "granular"] {
+    for kind in [
+        "adapter", "step", "step_fit", "frame", "dispatch", "batch", "granular",
+    ] {
         assert!(
             bench.iter().any(|r| r["kind"] == kind),
             "no {kind} row in the timings: {text}"
         );
     }
     assert!(
-        !bench.iter().any(|r| r["kind"] == "skipped" && r["what"].as_str().is_some_and(|w| w.contains("step"))),
+        !bench
+            .iter()
+            .any(|r| r["kind"] == "skipped"
+                && r["what"].as_str().is_some_and(|w| w.contains("step"))),
         "a step row was skipped: {text}"
     );
     let cupy = &report["cupy"];

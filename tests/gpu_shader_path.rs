@@ -52,7 +52,10 @@ fn every_float_result_of_every_module_carries_no_contraction() {
         }
     }
     eprintln!("{modules} pipelines, {results} float arithmetic results, all NoContraction");
-    assert!(results > 10_000, "suspiciously few float results: {results}");
+    assert!(
+        results > 10_000,
+        "suspiciously few float results: {results}"
+    );
 }
 
 /// The first float result id of `words` (the test removes its decoration).
@@ -83,13 +86,9 @@ fn nagas_own_spirv_has_no_no_contraction_so_the_pass_is_needed() {
             &Default::default(),
         )
         .unwrap();
-        let words = naga::back::spv::write_vec(
-            &module,
-            &info,
-            &naga::back::spv::Options::default(),
-            None,
-        )
-        .unwrap();
+        let words =
+            naga::back::spv::write_vec(&module, &info, &naga::back::spv::Options::default(), None)
+                .unwrap();
         let (missing, total) = undecorated(&words).unwrap();
         assert!(total > 100, "{precision}: {total} float results");
         assert_eq!(missing.len(), total, "{precision}: naga decorated some");
@@ -107,7 +106,10 @@ fn lavapipe_offers_passthrough_and_the_variable_chooses_the_path() {
     let backend = adapter.get_info().backend;
     let features = adapter.features();
     if summary.backend == "vulkan" {
-        assert!(summary.passthrough, "Vulkan without PASSTHROUGH_SHADERS: {summary}");
+        assert!(
+            summary.passthrough,
+            "Vulkan without PASSTHROUGH_SHADERS: {summary}"
+        );
     }
     let chosen = ShaderPath::choose(&summary.name, backend, features).unwrap();
     match std::env::var(SHADER_PATH_VARIABLE).as_deref() {

@@ -304,7 +304,9 @@ mod tests {
         let line = s.to_string();
         assert!(!line.contains('\n'), "{line}");
         assert!(
-            line.contains("llvmpipe") && line.contains("f64: yes") && line.contains("passthrough: yes"),
+            line.contains("llvmpipe")
+                && line.contains("f64: yes")
+                && line.contains("passthrough: yes"),
             "{line}"
         );
         assert!(s.supports(Precision::F64));

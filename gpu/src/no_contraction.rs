@@ -240,7 +240,17 @@ mod tests {
         assert_eq!(undecorated(&words).unwrap(), (vec![5, 6], 2));
         let out = decorate(&words).unwrap();
         assert_eq!(out.len(), words.len() + 6);
-        assert_eq!(&out[13..19], &[OP_DECORATE | (3 << 16), 5, 42, OP_DECORATE | (3 << 16), 6, 42]);
+        assert_eq!(
+            &out[13..19],
+            &[
+                OP_DECORATE | (3 << 16),
+                5,
+                42,
+                OP_DECORATE | (3 << 16),
+                6,
+                42
+            ]
+        );
         assert_eq!(undecorated(&out).unwrap(), (vec![], 2));
         assert_eq!(decorate(&out).unwrap(), out, "idempotent");
         let stripped = strip_decoration(&out, 6).unwrap();

@@ -105,7 +105,11 @@ impl ShaderPath {
     /// Those of [`crate::request_adapter`] and [`ShaderPath::choose`].
     pub fn current(precision: Precision) -> Result<ShaderPath, GpuError> {
         let (adapter, summary) = crate::request_adapter(precision)?;
-        ShaderPath::choose(&summary.name, adapter.get_info().backend, adapter.features())
+        ShaderPath::choose(
+            &summary.name,
+            adapter.get_info().backend,
+            adapter.features(),
+        )
     }
 
     /// The path kernel sets on `device` use: spirv exactly when the device
@@ -158,7 +162,8 @@ fn options() -> naga::back::spv::Options<'static> {
             image_load: BoundsCheckPolicy::Restrict,
             binding_array: BoundsCheckPolicy::Unchecked,
         },
-        zero_initialize_workgroup_memory: naga::back::spv::ZeroInitializeWorkgroupMemoryMode::Polyfill,
+        zero_initialize_workgroup_memory:
+            naga::back::spv::ZeroInitializeWorkgroupMemoryMode::Polyfill,
         force_loop_bounding: true,
         ..Default::default()
     }

@@ -192,7 +192,10 @@ fn frame_rows(adapter: &wgpu::Adapter, sizes: &Sizes) {
     let mut chain = scenes::chain2d();
     chain.substeps = 10;
     let name = format!("cloth{}", sizes.frame_cloth);
-    for (scene_name, scene) in [("chain20", chain), (name.as_str(), scenes::cloth(sizes.frame_cloth))] {
+    for (scene_name, scene) in [
+        ("chain20", chain),
+        (name.as_str(), scenes::cloth(sizes.frame_cloth)),
+    ] {
         for precision in [Precision::F32, Precision::F64] {
             for mode in [StepMode::Exact, StepMode::Fused, StepMode::Small] {
                 let what = format!("frame {scene_name} gpu-{precision}-{}", mode.as_str());
@@ -220,8 +223,8 @@ fn frame_rows(adapter: &wgpu::Adapter, sizes: &Sizes) {
 fn dispatch_rows(adapter: &wgpu::Adapter, sizes: &Sizes) {
     for precision in [Precision::F32, Precision::F64] {
         let what = format!("dispatch gpu-{precision}");
-        let measured = load(adapter, &scenes::cloth(8), precision, Some(StepMode::Exact))
-            .and_then(|mut b| {
+        let measured =
+            load(adapter, &scenes::cloth(8), precision, Some(StepMode::Exact)).and_then(|mut b| {
                 b.step().map_err(|e| e.to_string())?;
                 let one = median(sizes.warmup, sizes.steps, || {
                     b.repeat_kernel(Kernel::Predict, 1)
