@@ -85,9 +85,14 @@ fi
 
 dry=""
 [ "$mode" = dry ] && dry="--dry"
+# $OUT gets three files (the run tool brings back at most 8): report.json,
+# report.md and logs.tar.gz (every step's log and steps.tsv); the logs are
+# written in a scratch folder first.
 out="${OUT:-$root/out/device-check}"
-mkdir -p "$out/logs"
-: >"$out/steps.tsv"
+mkdir -p "$out"
+work="$(mktemp -d "${TMPDIR:-/tmp}/hyperpbd-device-check.XXXXXX")"
+mkdir -p "$work/logs"
+: >"$work/steps.tsv"
 
 # Binaries: the kit's, else (dry mode, or HYPERPBD_BIN/HYPERPBD_BENCH) the
 # release build of this checkout.
@@ -116,11 +121,16 @@ icd_found=no
 for dir in /usr/share/vulkan/icd.d /etc/vulkan/icd.d /usr/local/share/vulkan/icd.d; do
     ls "$dir"/*.json >/dev/null 2>&1 && icd_found=yes
 done
-if [ "$icd_found" = no ] && ldconfig -p 2>/dev/null | grep -q 'libGLX_nvidia\.so\.0 '; then
-    cat >"$out/nvidia_icd.json" <<'JSON'
+nvidia_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+if [ "$icd_found" = no ] && [ -z "${VK_DRIVER_FILES:-}" ]; then
+    if [ -f "$nvidia_icd" ]; then
+        export VK_DRIVER_FILES="$nvidia_icd" VK_ICD_FILENAMES="$nvidia_icd"
+    elif ldconfig -p 2>/dev/null | grep -q 'libGLX_nvidia\.so\.0 '; then
+        cat >"$work/nvidia_icd.json" <<'JSON'
 {"file_format_version": "1.0.0", "ICD": {"library_path": "libGLX_nvidia.so.0", "api_version": "1.3.0"}}
 JSON
-    export VK_DRIVER_FILES="$out/nvidia_icd.json" VK_ICD_FILENAMES="$out/nvidia_icd.json"
+        export VK_DRIVER_FILES="$work/nvidia_icd.json" VK_ICD_FILENAMES="$work/nvidia_icd.json"
+    fi
 fi
 export NODEVICE_SELECT=1
 
@@ -137,14 +147,14 @@ step() {
     local left=$((budget - ($(date +%s) - start)))
     [ "$limit" -gt "$left" ] && limit="$left"
     if [ "$limit" -le 0 ]; then
-        printf '%s\t%s\t%s\n' "$name" "skipped" "0" >>"$out/steps.tsv"
+        printf '%s\t%s\t%s\n' "$name" "skipped" "0" >>"$work/steps.tsv"
         return
     fi
     local t0 rc
     t0=$(date +%s%N)
-    timeout --kill-after=5 "$limit" "$@" >"$out/logs/$name.log" 2>&1
+    timeout --kill-after=5 "$limit" "$@" >"$work/logs/$name.log" 2>&1
     rc=$?
-    printf '%s\t%s\t%s\n' "$name" "$rc" "$((($(date +%s%N) - t0) / 1000000))" >>"$out/steps.tsv"
+    printf '%s\t%s\t%s\n' "$name" "$rc" "$((($(date +%s%N) - t0) / 1000000))" >>"$work/steps.tsv"
 }
 
 step info 60 "$hyperpbd" info
@@ -160,17 +170,25 @@ for scene in $diff_scenes; do
     step "plan-$scene" 30 "$hyperpbd" plan "$scenes/$scene.json"
 done
 step cupy 60 python3 "$cupy" $dry
-for path in spirv wgsl; do
+compare_all() {
+    local path="$1"
     for scene in $diff_scenes; do
         HYPERPBD_SHADER_PATH=$path step "compare-$path-f64-$scene" 60 \
             "$hyperpbd" compare "$scenes/$scene.json" --precision f64 --frames "$frames"
         HYPERPBD_SHADER_PATH=$path step "compare-$path-f32-$scene" 60 \
             "$hyperpbd" compare "$scenes/$scene.json" --precision f32 --exact --frames "$frames"
     done
-done
+}
+# The timings run between the two shader paths' comparisons, so a slow
+# comparison cannot starve them.
+compare_all spirv
 HYPERPBD_SHADER_PATH=spirv step bench 240 "$bench" $dry
+compare_all wgsl
 
-python3 "$report" "$out" $dry
+python3 "$report" "$work" $dry
 rc=$?
+cp "$work/report.json" "$work/report.md" "$out/" 2>/dev/null
+tar czf "$out/logs.tar.gz" -C "$work" logs steps.tsv
+rm -rf "$work"
 echo "device-check: report in $out/report.md and $out/report.json ($(($(date +%s) - start)) s)"
 exit $rc
