@@ -19,7 +19,8 @@
 # dispatch counts (hyperpbd plan) · the timings of src/bin/device_bench.rs
 # (step fit t = a + b·N, frames per schedule, one dependent dispatch,
 # batches, the pit and the column) · the CuPy floor (scripts/cupy_baseline.py,
-# skipped cleanly without CuPy). Every step runs under `timeout` inside the
+# skipped cleanly without CuPy); HYPERPBD_DEVICE_SCENES="a b" overrides the
+# compared scenes. Every step runs under `timeout` inside the
 # run's budget; a step that fails or times out is recorded, never fatal.
 set -u
 
@@ -40,38 +41,37 @@ for arg in "$@"; do
     esac
 done
 
-# The kit: this script's own folder when it was staged (bin/hyperpbd beside
-# it), else device-kit/ at the repository root.
-if [ -x "$here/bin/hyperpbd" ]; then
-    kit="$here"
-    root="$(cd "$here/.." && pwd)"
-else
-    root="$(cd "$here/.." && pwd)"
-    kit="${HYPERPBD_KIT:-$root/device-kit}"
-fi
+# Run from the kit (device-kit/device-check.sh, bin/hyperpbd beside it):
+# the kit's binaries, scripts and scenes. Run as scripts/device-check.sh:
+# this checkout's (release build, scripts/, scenes/), never a kit that may
+# be stale; --stage writes the kit to device-kit/.
+root="$(cd "$here/.." && pwd)"
+staging="$root/device-kit"
+kit=""
+[ -x "$here/bin/hyperpbd" ] && kit="$here"
 
 stage() {
     set -e
     cd "$root"
     nice -n 5 cargo build --release --bin hyperpbd --bin device_bench
-    rm -rf "$kit"
-    mkdir -p "$kit/bin" "$kit/vulkan"
-    cp target/release/hyperpbd target/release/device_bench "$kit/bin/"
-    strip "$kit/bin/hyperpbd" "$kit/bin/device_bench"
-    cp -r scenes "$kit/scenes"
-    cp scripts/device-check.sh scripts/cupy_baseline.py scripts/device_report.py "$kit/"
+    rm -rf "$staging"
+    mkdir -p "$staging/bin" "$staging/vulkan"
+    cp target/release/hyperpbd target/release/device_bench "$staging/bin/"
+    strip "$staging/bin/hyperpbd" "$staging/bin/device_bench"
+    cp -r scenes "$staging/scenes"
+    cp scripts/device-check.sh scripts/cupy_baseline.py scripts/device_report.py "$staging/"
     local debs
     debs="$(mktemp -d)"
     (cd "$debs" && apt-get download libvulkan1)
     for deb in "$debs"/*.deb; do
-        dpkg -x "$deb" "$kit/vulkan"
-        basename "$deb" >>"$kit/vulkan/PACKAGES"
+        dpkg -x "$deb" "$staging/vulkan"
+        basename "$deb" >>"$staging/vulkan/PACKAGES"
     done
     rm -rf "$debs"
-    git rev-parse HEAD >"$kit/COMMIT" 2>/dev/null || echo unknown >"$kit/COMMIT"
+    git rev-parse HEAD >"$staging/COMMIT" 2>/dev/null || echo unknown >"$staging/COMMIT"
     local bytes
-    bytes="$(du -sb "$kit" | cut -f1)"
-    echo "staged $kit: $bytes bytes ($(cat "$kit/COMMIT"))"
+    bytes="$(du -sb "$staging" | cut -f1)"
+    echo "staged $staging: $bytes bytes ($(cat "$staging/COMMIT"))"
     if [ "$bytes" -gt $((64 * 1024 * 1024)) ]; then
         echo "device-check: the kit is over 64 MiB" >&2
         exit 1
@@ -98,21 +98,24 @@ mkdir -p "$work/logs"
 # release build of this checkout.
 hyperpbd="${HYPERPBD_BIN:-}"
 bench="${HYPERPBD_BENCH:-}"
-[ -z "$hyperpbd" ] && [ -x "$kit/bin/hyperpbd" ] && hyperpbd="$kit/bin/hyperpbd"
-[ -z "$bench" ] && [ -x "$kit/bin/device_bench" ] && bench="$kit/bin/device_bench"
-[ -z "$hyperpbd" ] && hyperpbd="$root/target/release/hyperpbd"
-[ -z "$bench" ] && bench="$root/target/release/device_bench"
-scenes="$kit/scenes"
-[ -d "$scenes" ] || scenes="$root/scenes"
-report="$kit/device_report.py"
-[ -f "$report" ] || report="$root/scripts/device_report.py"
-cupy="$kit/cupy_baseline.py"
-[ -f "$cupy" ] || cupy="$root/scripts/cupy_baseline.py"
+if [ -n "$kit" ]; then
+    [ -z "$hyperpbd" ] && hyperpbd="$kit/bin/hyperpbd"
+    [ -z "$bench" ] && bench="$kit/bin/device_bench"
+    scenes="$kit/scenes"
+    scripts="$kit"
+else
+    [ -z "$hyperpbd" ] && hyperpbd="$root/target/release/hyperpbd"
+    [ -z "$bench" ] && bench="$root/target/release/device_bench"
+    scenes="$root/scenes"
+    scripts="$root/scripts"
+fi
+report="$scripts/device_report.py"
+cupy="$scripts/cupy_baseline.py"
 
 # The Vulkan loader: the system's, else the kit's libvulkan1. The NVIDIA
 # ICD ships with the driver; where its manifest is missing but the driver's
 # library is present, write one.
-if ! ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1 '; then
+if [ -n "$kit" ] && ! ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1 '; then
     for lib in "$kit"/vulkan/usr/lib/*-linux-gnu; do
         [ -d "$lib" ] && export LD_LIBRARY_PATH="$lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
     done
@@ -166,6 +169,7 @@ else
     diff_scenes="chain2d cloth tesseract jelly4d incline5d example barrier4d sandpile2d ballpit4d column3d"
     frames=20
 fi
+diff_scenes="${HYPERPBD_DEVICE_SCENES:-$diff_scenes}"
 for scene in $diff_scenes; do
     step "plan-$scene" 30 "$hyperpbd" plan "$scenes/$scene.json"
 done
@@ -177,6 +181,13 @@ compare_all() {
             "$hyperpbd" compare "$scenes/$scene.json" --precision f64 --frames "$frames"
         HYPERPBD_SHADER_PATH=$path step "compare-$path-f32-$scene" 60 \
             "$hyperpbd" compare "$scenes/$scene.json" --precision f32 --exact --frames "$frames"
+        # A plan the f32 reference does not run (the incremental potential):
+        # against the golden path's bound only.
+        if grep -q -- '--exact: needs' "$work/logs/compare-$path-f32-$scene.log"; then
+            sed -i "/^compare-$path-f32-$scene\t/d" "$work/steps.tsv"
+            HYPERPBD_SHADER_PATH=$path step "compare-$path-f32-$scene" 60 \
+                "$hyperpbd" compare "$scenes/$scene.json" --precision f32 --frames "$frames"
+        fi
     done
 }
 # The timings run between the two shader paths' comparisons, so a slow

@@ -34,7 +34,6 @@ fn dry_device_check_runs_and_reports_every_section() {
         .env("OUT", &out)
         .env("HYPERPBD_BIN", env!("CARGO_BIN_EXE_hyperpbd"))
         .env("HYPERPBD_BENCH", env!("CARGO_BIN_EXE_device_bench"))
-        .env("HYPERPBD_KIT", out.join("no-kit"))
         .env_remove("HYPERPBD_SHADER_PATH")
         .status()
         .expect("bash runs");

@@ -133,3 +133,49 @@ fn lavapipe_offers_passthrough_and_the_variable_chooses_the_path() {
     }
     eprintln!("{}", chosen.describe());
 }
+
+/// `hyperpbd` with `args` and `HYPERPBD_SHADER_PATH` set to `path` (or
+/// unset): exit status and stdout + stderr.
+fn cli(args: &[&str], path: Option<&str>) -> (bool, String) {
+    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_hyperpbd"));
+    command.args(args).env_remove(SHADER_PATH_VARIABLE);
+    if let Some(path) = path {
+        command.env(SHADER_PATH_VARIABLE, path);
+    }
+    let out = command.output().expect("hyperpbd runs");
+    let text =
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    (out.status.success(), text)
+}
+
+#[test]
+fn info_and_run_say_which_path_runs_and_a_bad_value_is_named() {
+    let Some((_, summary)) = adapter_or_skip("shader path cli", Precision::F32) else {
+        return;
+    };
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/chain2d.json");
+    let default = if summary.passthrough { "spirv" } else { "wgsl" };
+    for (path, expected) in [(None, default), (Some("wgsl"), "wgsl")] {
+        let (ok, text) = cli(&["info"], path);
+        assert!(ok, "{text}");
+        assert!(
+            text.contains(&format!("shader path: {expected} ")),
+            "{path:?}: {text}"
+        );
+        let (ok, text) = cli(&["run", scene, "--backend", "gpu", "--frames", "1"], path);
+        assert!(ok, "{text}");
+        assert!(
+            text.contains(&format!("shader path: {expected} ")),
+            "{path:?}: {text}"
+        );
+    }
+    let (ok, text) = cli(
+        &["run", scene, "--backend", "gpu", "--frames", "1"],
+        Some("fast"),
+    );
+    assert!(!ok, "{text}");
+    assert!(
+        text.contains(SHADER_PATH_VARIABLE) && text.contains("\"fast\""),
+        "{text}"
+    );
+}
