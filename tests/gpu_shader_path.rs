@@ -9,6 +9,9 @@
 //! on an adapter (lavapipe in CI): Vulkan offers PASSTHROUGH_SHADERS, the
 //!   default path is spirv, HYPERPBD_SHADER_PATH=wgsl and =spirv choose
 //! ```
+//! `HYPERPBD_DUMP_SPIRV=DIR` writes every decorated pipeline module there
+//! (`spirv-val --target-env vulkan1.1 DIR/*.spv` checks them).
+//!
 //! Both paths giving the same bits is shown by running the differential
 //! tests under each value of `HYPERPBD_SHADER_PATH` (docs/device-check.md).
 
@@ -33,6 +36,12 @@ fn every_float_result_of_every_module_carries_no_contraction() {
                     .unwrap_or_else(|e| panic!("{file:?} DIM {dim} {precision}: {e}"));
                 assert_eq!(words.len(), file.entry_points().len());
                 for (entry, words) in words {
+                    if let Some(dir) = std::env::var_os("HYPERPBD_DUMP_SPIRV") {
+                        // For an external validator: spirv-val --target-env vulkan1.1 DIR/*.spv
+                        let name = format!("{}-{dim}-{precision}-{entry}.spv", file.file_name());
+                        let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+                        std::fs::write(std::path::Path::new(&dir).join(name), bytes).unwrap();
+                    }
                     let (missing, total) = undecorated(&words).unwrap();
                     assert!(
                         missing.is_empty(),
