@@ -112,15 +112,24 @@ impl ShaderPath {
         )
     }
 
-    /// The path kernel sets on `device` use: spirv exactly when the device
-    /// was created with `PASSTHROUGH_SHADERS` on Vulkan and the variable
-    /// does not say `wgsl`.
+    /// The path kernel sets on `device` use: spirv when the device was
+    /// created with `PASSTHROUGH_SHADERS` on Vulkan and the variable does
+    /// not say `wgsl`; wgsl otherwise, except that `spirv` asked for on a
+    /// device without the feature (a caller's own device) is
+    /// [`GpuError::MissingFeature`].
     pub(crate) fn of_device(device: &wgpu::Device) -> Result<ShaderPath, GpuError> {
         let info = device.adapter_info();
         let offered = offers_passthrough(info.backend, device.features());
         match (request()?, offered) {
-            (Request::Only(ShaderPath::Wgsl), _) | (_, false) => Ok(ShaderPath::Wgsl),
+            (Request::Only(ShaderPath::Wgsl), _) | (Request::Auto, false) => Ok(ShaderPath::Wgsl),
             (Request::Only(ShaderPath::Spirv) | Request::Auto, true) => Ok(ShaderPath::Spirv),
+            (Request::Only(ShaderPath::Spirv), false) => Err(GpuError::MissingFeature {
+                adapter: format!("{} (the device given)", info.name),
+                feature: format!(
+                    "PASSTHROUGH_SHADERS on Vulkan ({SHADER_PATH_VARIABLE}=spirv; backend {})",
+                    info.backend.to_str()
+                ),
+            }),
         }
     }
 }
