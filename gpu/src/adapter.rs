@@ -41,6 +41,10 @@ pub struct AdapterSummary {
     pub driver_info: String,
     /// Whether the adapter offers [`wgpu::Features::SHADER_F64`].
     pub shader_f64: bool,
+    /// Whether the adapter is Vulkan with
+    /// [`wgpu::Features::PASSTHROUGH_SHADERS`] (the no-contraction SPIR-V
+    /// shader path, [`crate::ShaderPath::Spirv`], can run).
+    pub passthrough: bool,
     /// Largest storage-buffer binding, in bytes.
     pub max_storage_buffer_binding_size: u64,
     /// Largest buffer, in bytes.
@@ -59,6 +63,10 @@ impl AdapterSummary {
             driver: info.driver,
             driver_info: info.driver_info,
             shader_f64: adapter.features().contains(wgpu::Features::SHADER_F64),
+            passthrough: info.backend == wgpu::Backend::Vulkan
+                && adapter
+                    .features()
+                    .contains(wgpu::Features::PASSTHROUGH_SHADERS),
             max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
             max_buffer_size: limits.max_buffer_size,
         }
@@ -84,8 +92,9 @@ impl fmt::Display for AdapterSummary {
         }
         write!(
             f,
-            "; f64: {}; max storage binding: {} B; max buffer: {} B",
+            "; f64: {}; passthrough: {}; max storage binding: {} B; max buffer: {} B",
             if self.shader_f64 { "yes" } else { "no" },
+            if self.passthrough { "yes" } else { "no" },
             self.max_storage_buffer_binding_size,
             self.max_buffer_size
         )
@@ -198,6 +207,8 @@ fn find_adapter() -> Result<wgpu::Adapter, GpuError> {
 }
 
 /// A device and its queue on `adapter`, with the features `precision` needs
+/// (and `PASSTHROUGH_SHADERS` where the shader path is
+/// [`crate::ShaderPath::Spirv`], see [`crate::ShaderPath::choose`])
 /// and the adapter's own limits (not the WebGPU defaults: large scenes need
 /// the large storage bindings a desktop adapter offers).
 ///
@@ -206,15 +217,22 @@ fn find_adapter() -> Result<wgpu::Adapter, GpuError> {
 /// - [`GpuError::MissingFeature`] when the adapter lacks a feature
 ///   `precision` needs (checked before asking, so wgpu never panics on it).
 /// - [`GpuError::DeviceRequest`] when the driver refuses the device.
+/// - The errors of [`crate::ShaderPath::choose`] (`HYPERPBD_SHADER_PATH`).
 pub fn request_device(
     adapter: &wgpu::Adapter,
     precision: Precision,
 ) -> Result<(wgpu::Device, wgpu::Queue), GpuError> {
-    let name = adapter.get_info().name;
+    let info = adapter.get_info();
+    let name = info.name;
     check_features(adapter, &name, precision)?;
+    let path = crate::ShaderPath::choose(&name, info.backend, adapter.features())?;
+    let passthrough = match path {
+        crate::ShaderPath::Spirv => wgpu::Features::PASSTHROUGH_SHADERS,
+        crate::ShaderPath::Wgsl => wgpu::Features::empty(),
+    };
     let desc = wgpu::DeviceDescriptor {
         label: Some("hyperpbd"),
-        required_features: required_features(precision),
+        required_features: required_features(precision) | passthrough,
         required_limits: adapter.limits(),
         experimental_features: wgpu::ExperimentalFeatures::disabled(),
         memory_hints: wgpu::MemoryHints::Performance,
@@ -279,13 +297,16 @@ mod tests {
             driver: "llvmpipe".into(),
             driver_info: "Mesa 23.2.1".into(),
             shader_f64: true,
+            passthrough: true,
             max_storage_buffer_binding_size: 1 << 27,
             max_buffer_size: 1 << 30,
         };
         let line = s.to_string();
         assert!(!line.contains('\n'), "{line}");
         assert!(
-            line.contains("llvmpipe") && line.contains("f64: yes"),
+            line.contains("llvmpipe")
+                && line.contains("f64: yes")
+                && line.contains("passthrough: yes"),
             "{line}"
         );
         assert!(s.supports(Precision::F64));

@@ -21,7 +21,9 @@
 //!   whose header carries `const WORKGROUP: u32 = file.workgroup_size()`
 //!   (every entry point is `@workgroup_size(WORKGROUP)`, so the host's
 //!   dispatch size and the shader's come from the same number);
-//!   creates one pipeline per entry on one pipeline layout.
+//!   creates one pipeline per entry on one pipeline layout; on the spirv
+//!   shader path (spirv.rs) each pipeline gets its own passthrough module,
+//!   its override constants applied and every float result NoContraction.
 //! set.bind(device, g, &[buffers])     the bind group g (whole buffers; a
 //!                                     dynamic binding sees one block)
 //! ParamBlocks::new(device)            parameter blocks at the device's
@@ -47,6 +49,7 @@ use crate::Precision;
 use crate::context::GpuContext;
 use crate::params::push_reals;
 use crate::shader::{ShaderFile, compose_with};
+use crate::spirv::{self, ShaderPath};
 
 /// Workgroups along x before the grid spills over to y (the WebGPU limit).
 pub(crate) const MAX_GROUPS_X: u32 = 65_535;
@@ -222,32 +225,57 @@ impl<E: EntryPoint> KernelSet<E> {
             bind_group_layouts: &layout_refs,
             immediate_size: 0,
         });
+        let path = ShaderPath::of_device(device)?;
         let mut modules: Vec<(ShaderFile, wgpu::ShaderModule)> = Vec::new();
+        let mut parsed: Vec<(ShaderFile, (naga::Module, naga::valid::ModuleInfo))> = Vec::new();
         let mut pipelines = Vec::with_capacity(spec.entries.len());
         for &entry in spec.entries {
             let (file, name) = entry.source();
-            if !modules.iter().any(|(f, _)| *f == file) {
-                let source = compose_with(file, spec.dim, spec.precision, spec.generated);
-                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some(file.file_name()),
-                    source: wgpu::ShaderSource::Wgsl(source.into()),
-                });
-                modules.push((file, module));
-            }
-            let Some((_, module)) = modules.iter().find(|(f, _)| *f == file) else {
-                return Err(GpuError::Other {
-                    message: format!("{}: no module for {file:?}", spec.label),
-                });
-            };
             let mut constants = entry.constants();
             constants.extend_from_slice(spec.constants);
+            // The spirv path applies the constants itself (one module per
+            // pipeline); the wgsl path shares one module per file.
+            let passthrough;
+            let (module, constants): (&wgpu::ShaderModule, &[(&str, f64)]) = match path {
+                ShaderPath::Spirv => {
+                    if !parsed.iter().any(|(f, _)| *f == file) {
+                        let parsed_module =
+                            spirv::parse(file, spec.dim, spec.precision, spec.generated)?;
+                        parsed.push((file, parsed_module));
+                    }
+                    let Some((_, module)) = parsed.iter().find(|(f, _)| *f == file) else {
+                        return Err(GpuError::Other {
+                            message: format!("{}: no module for {file:?}", spec.label),
+                        });
+                    };
+                    passthrough =
+                        spirv::passthrough_module(device, file, module, name, &constants)?;
+                    (&passthrough, &[])
+                }
+                ShaderPath::Wgsl => {
+                    if !modules.iter().any(|(f, _)| *f == file) {
+                        let source = compose_with(file, spec.dim, spec.precision, spec.generated);
+                        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                            label: Some(file.file_name()),
+                            source: wgpu::ShaderSource::Wgsl(source.into()),
+                        });
+                        modules.push((file, module));
+                    }
+                    let Some((_, module)) = modules.iter().find(|(f, _)| *f == file) else {
+                        return Err(GpuError::Other {
+                            message: format!("{}: no module for {file:?}", spec.label),
+                        });
+                    };
+                    (module, &constants)
+                }
+            };
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(name),
                 layout: Some(&pipeline_layout),
                 module,
                 entry_point: Some(name),
                 compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: &constants,
+                    constants,
                     ..Default::default()
                 },
                 cache: None,

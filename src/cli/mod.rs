@@ -124,6 +124,10 @@ fn info() {
     for a in adapters {
         println!("{a}");
     }
+    match hyperpbd::gpu::ShaderPath::current(hyperpbd::Precision::F32) {
+        Ok(path) => println!("{}", path.describe()),
+        Err(e) => println!("shader path: none ({e})"),
+    }
     println!("CPU golden backend: cpu-f64 (always available)");
     println!("{}", software_threads::info_line());
 }

@@ -128,6 +128,17 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         args.frames,
         backend.name()
     );
+    if backend.name().starts_with("gpu") {
+        let precision = if backend.name() == "gpu-f64" {
+            hyperpbd::Precision::F64
+        } else {
+            hyperpbd::Precision::F32
+        };
+        match hyperpbd::gpu::ShaderPath::current(precision) {
+            Ok(path) => println!("{}", path.describe()),
+            Err(e) => println!("shader path: unknown ({e})"),
+        }
+    }
     if let Some(report) = last {
         print_report(&report);
     }
