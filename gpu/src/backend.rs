@@ -129,8 +129,20 @@ impl GpuBackend {
         origin: Option<SceneOrigin>,
         mode: Option<StepMode>,
     ) -> Result<Self, BackendError> {
-        let origin =
-            origin.unwrap_or_else(|| SceneOrigin::for_state(plan.dim, &state.positions, precision));
+        // An expression need not be translation-invariant (a param may be a
+        // point): a plan with one keeps world coordinates.
+        let expressions = plan.families.iter().any(|f| f.kind.is_expression());
+        let origin = origin.unwrap_or_else(|| match expressions {
+            true => SceneOrigin::zero(plan.dim),
+            false => SceneOrigin::for_state(plan.dim, &state.positions, precision),
+        });
+        if expressions && origin.as_slice().iter().any(|&o| o != 0.0) {
+            return Err(BackendError::InvalidCall(
+                "a plan with expression families runs in world coordinates: its scene origin \
+                 must be zero"
+                    .into(),
+            ));
+        }
         check_state(&plan, state)?;
         if origin.as_slice().len() != plan.dim {
             return Err(BackendError::InvalidCall(format!(

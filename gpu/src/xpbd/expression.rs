@@ -62,10 +62,21 @@ pub(crate) fn generated_for(kinds: &[&ExpressionKind], dim: usize, precision: Pr
     let mut violation_cases = String::new();
     // Writing to a String cannot fail.
     for (k, kind) in kinds.iter().enumerate() {
-        s.push_str(&emit_wgsl(&kind.gradient, &format!("expression{k}_gradient"), precision));
-        s.push_str(&emit_wgsl(&kind.value, &format!("expression{k}_value"), precision));
+        s.push_str(&emit_wgsl(
+            &kind.gradient,
+            &format!("expression{k}_gradient"),
+            precision,
+        ));
+        s.push_str(&emit_wgsl(
+            &kind.value,
+            &format!("expression{k}_value"),
+            precision,
+        ));
         let arity = kind.arity;
         let n = arity * dim;
+        // The emitted tapes name the precision, and naga tells an array of
+        // the `real` alias from one of the type it names.
+        let t = precision.as_str();
         let clamp = match kind.relation {
             Relation::Equal => "    let next = t_new;\n    let dl = raw;",
             Relation::AtLeast => {
@@ -83,8 +94,8 @@ pub(crate) fn generated_for(kinds: &[&ExpressionKind], dim: usize, precision: Pr
         let _ = write!(
             s,
             r#"
-fn expression{k}_inputs(e: u32) -> array<real, {n}> {{
-    var inputs: array<real, {n}>;
+fn expression{k}_inputs(e: u32) -> array<{t}, {n}> {{
+    var inputs: array<{t}, {n}>;
     for (var j = 0u; j < {arity}u; j++) {{
         var r = load_x(elements[call.elem_base + e * {arity}u + j]);
         for (var a = 0u; a < DIM; a++) {{
@@ -97,7 +108,8 @@ fn expression{k}_inputs(e: u32) -> array<real, {n}> {{
 fn expression{k}_project(t: u32) {{
     let e = call.first + t;
     let s = call.slot_base + e;
-    var out = expression{k}_gradient(expression{k}_inputs(e), call.call == NONE);
+    let inputs = expression{k}_inputs(e);
+    var out = expression{k}_gradient(inputs, call.call == NONE);
     let value = out[0];
     if (!finite(value)) {{
         fail(e);
@@ -146,13 +158,17 @@ fn expression{k}_project(t: u32) {{
 }}
 
 fn expression{k}_violation(e: u32) -> real {{
-    let out = expression{k}_value(expression{k}_inputs(e), call.call == NONE);
+    let inputs = expression{k}_inputs(e);
+    let out = expression{k}_value(inputs, call.call == NONE);
     let c = out[0] - rest_at(call.slot_base + e);
     return {violation};
 }}
 "#
         );
-        let _ = writeln!(project_cases, "        case {k}u: {{ expression{k}_project(t); }}");
+        let _ = writeln!(
+            project_cases,
+            "        case {k}u: {{ expression{k}_project(t); }}"
+        );
         let _ = writeln!(
             violation_cases,
             "        case {k}u: {{ return expression{k}_violation(e); }}"
