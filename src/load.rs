@@ -239,4 +239,22 @@ mod tests {
         );
         assert!("tpu".parse::<BackendKind>().is_err());
     }
+
+    #[test]
+    fn load_with_runs_the_asked_threads_and_returns_the_auto_notice() {
+        let scene = crate::scenes::chain2d();
+        let plan = || Plan::compile(&scene).expect("chain2d compiles");
+        let state = State::from_scene(&scene);
+        let loaded = load_with(plan(), &state, BackendKind::Cpu, Some(2)).expect("cpu loads");
+        assert!(loaded.notice.is_none(), "a named backend has no notice");
+        let mut backend = loaded.backend;
+        assert_eq!(backend.step().expect("chain2d steps").threads, 2);
+        // auto always loads something and always says what and why.
+        let auto = load_with(plan(), &state, BackendKind::Auto, Some(1)).expect("auto loads");
+        let notice = auto.notice.expect("auto says what it picked");
+        assert!(
+            notice.starts_with(&format!("backend auto -> {}", auto.backend.name())),
+            "{notice}"
+        );
+    }
 }
