@@ -12,36 +12,38 @@
 //! ```
 
 use hyperpbd::{MinimisationStatus, StepReport};
+use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-/// `report` as a dict (see the module docs).
+/// `report` as a dict (see the module docs). Keys are interned: a
+/// `step(frames=1)` call builds this dict every frame.
 pub fn report_dict<'py>(py: Python<'py>, report: &StepReport) -> PyResult<Bound<'py, PyDict>> {
     let dict = PyDict::new(py);
-    dict.set_item("max_violation", report.max_violation())?;
+    dict.set_item(intern!(py, "max_violation"), report.max_violation())?;
     let residuals = PyDict::new(py);
     for r in &report.residuals {
         residuals.set_item(&r.label, r.max_violation)?;
     }
-    dict.set_item("residuals", residuals)?;
-    dict.set_item("active_contacts", report.active_contacts)?;
-    dict.set_item("threads", report.threads)?;
-    dict.set_item("retries", report.retries())?;
+    dict.set_item(intern!(py, "residuals"), residuals)?;
+    dict.set_item(intern!(py, "active_contacts"), report.active_contacts)?;
+    dict.set_item(intern!(py, "threads"), report.threads)?;
+    dict.set_item(intern!(py, "retries"), report.retries())?;
     let calls = PyDict::new(py);
     for (stage, count) in &report.kernel_calls {
         calls.set_item(stage.as_str(), count)?;
     }
-    dict.set_item("kernel_calls", calls)?;
+    dict.set_item(intern!(py, "kernel_calls"), calls)?;
     let minimisation = PyList::empty(py);
     for m in &report.minimisation {
         let entry = PyDict::new(py);
-        entry.set_item("iterations", m.iterations)?;
-        entry.set_item("initial_residual", m.initial_residual)?;
-        entry.set_item("final_residual", m.final_residual)?;
-        entry.set_item("status", status(&m.status))?;
+        entry.set_item(intern!(py, "iterations"), m.iterations)?;
+        entry.set_item(intern!(py, "initial_residual"), m.initial_residual)?;
+        entry.set_item(intern!(py, "final_residual"), m.final_residual)?;
+        entry.set_item(intern!(py, "status"), status(&m.status))?;
         minimisation.append(entry)?;
     }
-    dict.set_item("minimisation", minimisation)?;
+    dict.set_item(intern!(py, "minimisation"), minimisation)?;
     Ok(dict)
 }
 
