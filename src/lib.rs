@@ -26,7 +26,7 @@ mod load;
 pub mod scenes;
 pub mod sweep;
 
-pub use load::{BackendKind, load, load_on_adapter};
+pub use load::{BackendKind, Loaded, load, load_on_adapter, load_with};
 
 #[doc = include_str!("../README.md")]
 #[cfg(doctest)]

@@ -104,14 +104,60 @@ pub fn load(
     state: &State,
     kind: BackendKind,
 ) -> Result<Box<dyn Backend>, BackendError> {
+    let loaded = load_with(plan, state, kind, None)?;
+    if let Some(notice) = &loaded.notice {
+        eprintln!("notice: {notice}");
+    }
+    Ok(loaded.backend)
+}
+
+/// A backend [`load_with`] loaded, and what `auto` picked and why.
+pub struct Loaded {
+    /// The backend (every backend can move to another thread).
+    pub backend: Box<dyn Backend + Send>,
+    /// For `auto`: `backend auto -> …` with the reason, the words [`load`]
+    /// prints on stderr; `None` for a named backend.
+    pub notice: Option<String>,
+}
+
+/// [`load`] for embedders: the CPU backend runs on `threads` threads
+/// (`None`: [`crate::default_threads`]), the `auto` notice is returned
+/// instead of printed, and the backend is `Send` (a binding steps it with
+/// its interpreter lock released).
+///
+/// # Errors
+///
+/// As [`load`].
+pub fn load_with(
+    plan: Plan,
+    state: &State,
+    kind: BackendKind,
+    threads: Option<usize>,
+) -> Result<Loaded, BackendError> {
+    let named = |backend| Loaded {
+        backend,
+        notice: None,
+    };
     match kind {
-        BackendKind::Cpu => Ok(Box::new(CpuBackend::new(plan, state)?)),
+        BackendKind::Cpu => Ok(named(cpu(plan, state, threads)?)),
         BackendKind::Gpu(precision) => {
             let (adapter, _) = hyperpbd_gpu::request_adapter(precision)?;
-            load_on_adapter(&adapter, plan, state, precision)
+            Ok(named(on_adapter(&adapter, plan, state, precision)?))
         }
-        BackendKind::Auto => load_auto(plan, state),
+        BackendKind::Auto => load_auto(plan, state, threads),
     }
+}
+
+/// The CPU golden path on `threads` threads (`None`: the default count).
+fn cpu(
+    plan: Plan,
+    state: &State,
+    threads: Option<usize>,
+) -> Result<Box<dyn Backend + Send>, BackendError> {
+    Ok(Box::new(match threads {
+        Some(n) => CpuBackend::with_threads(plan, state, n)?,
+        None => CpuBackend::new(plan, state)?,
+    }))
 }
 
 /// Loads `plan` with `state` on a device of `adapter`: the GPU backend of
@@ -123,6 +169,16 @@ pub fn load_on_adapter(
     state: &State,
     precision: Precision,
 ) -> Result<Box<dyn Backend>, BackendError> {
+    Ok(on_adapter(adapter, plan, state, precision)?)
+}
+
+/// [`load_on_adapter`], `Send`.
+fn on_adapter(
+    adapter: &wgpu::Adapter,
+    plan: Plan,
+    state: &State,
+    precision: Precision,
+) -> Result<Box<dyn Backend + Send>, BackendError> {
     Ok(match plan.solver {
         SolverPlan::Xpbd => Box::new(GpuBackend::with_adapter(adapter, plan, state, precision)?),
         SolverPlan::IncrementalPotential(ref ip) if ip.coupled.is_some() => Box::new(
@@ -134,8 +190,9 @@ pub fn load_on_adapter(
     })
 }
 
-/// `auto`: gpu-f32 where a hardware adapter loads the plan, else the CPU.
-fn load_auto(plan: Plan, state: &State) -> Result<Box<dyn Backend>, BackendError> {
+/// `auto`: gpu-f32 where a hardware adapter loads the plan, else the CPU;
+/// the notice says which and why.
+fn load_auto(plan: Plan, state: &State, threads: Option<usize>) -> Result<Loaded, BackendError> {
     let max_dim = hyperpbd_gpu::shader::MAX_GPU_DIM;
     let why = match hyperpbd_gpu::request_adapter(Precision::F32) {
         Err(e) => format!("no GPU adapter ({e})"),
@@ -148,18 +205,22 @@ fn load_auto(plan: Plan, state: &State) -> Result<Box<dyn Backend>, BackendError
             "dimension {} is above the GPU kernels' limit of {max_dim}",
             plan.dim
         ),
-        Ok((adapter, summary)) => {
-            match load_on_adapter(&adapter, plan.clone(), state, Precision::F32) {
-                Ok(backend) => {
-                    eprintln!("notice: backend auto -> gpu-f32 on {}", summary.name);
-                    return Ok(backend);
-                }
-                Err(e) => format!("the GPU backend failed to load on {}: {e}", summary.name),
+        Ok((adapter, summary)) => match on_adapter(&adapter, plan.clone(), state, Precision::F32) {
+            Ok(backend) => {
+                return Ok(Loaded {
+                    backend,
+                    notice: Some(format!("backend auto -> gpu-f32 on {}", summary.name)),
+                });
             }
-        }
+            Err(e) => format!("the GPU backend failed to load on {}: {e}", summary.name),
+        },
     };
-    eprintln!("notice: backend auto -> cpu-f64 (the f64 CPU golden path): {why}");
-    Ok(Box::new(CpuBackend::new(plan, state)?))
+    Ok(Loaded {
+        backend: cpu(plan, state, threads)?,
+        notice: Some(format!(
+            "backend auto -> cpu-f64 (the f64 CPU golden path): {why}"
+        )),
+    })
 }
 
 #[cfg(test)]
@@ -177,5 +238,23 @@ mod tests {
             Ok(BackendKind::Gpu(Precision::F32))
         );
         assert!("tpu".parse::<BackendKind>().is_err());
+    }
+
+    #[test]
+    fn load_with_runs_the_asked_threads_and_returns_the_auto_notice() {
+        let scene = crate::scenes::chain2d();
+        let plan = || Plan::compile(&scene).expect("chain2d compiles");
+        let state = State::from_scene(&scene);
+        let loaded = load_with(plan(), &state, BackendKind::Cpu, Some(2)).expect("cpu loads");
+        assert!(loaded.notice.is_none(), "a named backend has no notice");
+        let mut backend = loaded.backend;
+        assert_eq!(backend.step().expect("chain2d steps").threads, 2);
+        // auto always loads something and always says what and why.
+        let auto = load_with(plan(), &state, BackendKind::Auto, Some(1)).expect("auto loads");
+        let notice = auto.notice.expect("auto says what it picked");
+        assert!(
+            notice.starts_with(&format!("backend auto -> {}", auto.backend.name())),
+            "{notice}"
+        );
     }
 }
