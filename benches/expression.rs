@@ -11,6 +11,11 @@
 //! Before criterion runs, both are timed interleaved (A, B, A, B, … 201
 //! rounds, so drift of the machine hits both alike) and the ratio of the
 //! medians is printed: `expression/builtin median ratio`.
+//!
+//! Then whole steps: the 128² peer cloth (`scenes::peer_cloth(128)`) with
+//! its distance families as built-ins and as `norm(x1 - x0)` expressions,
+//! interleaved, medians: on the CPU (one thread) and, when an adapter is
+//! there, gpu-f32 (`step ratio` lines).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -112,7 +117,82 @@ fn interleaved(d: &Data, tape: &Tape) {
     );
 }
 
+/// The peer cloth with its distance families written as expressions.
+fn expressed(scene: &hyperpbd::Scene) -> hyperpbd::Scene {
+    let mut out = scene.clone();
+    for family in &mut out.constraints {
+        if family.kind == hyperpbd::ConstraintKind::Distance {
+            let mut e = hyperpbd::ConstraintFamily::expression(
+                "norm(x1 - x0)",
+                family.compliance,
+                family.elements.clone(),
+            );
+            e.rest = family.rest.clone();
+            *family = e;
+        }
+    }
+    out
+}
+
+/// Interleaved whole steps of `a` and `b` (`rounds` each after one warm-up
+/// step), the median ratio b / a printed as `label`.
+fn step_ratio(
+    label: &str,
+    a: &mut dyn hyperpbd::Backend,
+    b: &mut dyn hyperpbd::Backend,
+    rounds: usize,
+) {
+    let (mut ta, mut tb) = (Vec::new(), Vec::new());
+    let ok = a.step().is_ok() && b.step().is_ok();
+    for _ in 0..rounds {
+        let t = Instant::now();
+        let ra = a.step();
+        ta.push(t.elapsed());
+        let t = Instant::now();
+        let rb = b.step();
+        tb.push(t.elapsed());
+        if ra.is_err() || rb.is_err() || !ok {
+            println!("{label}: a step failed");
+            return;
+        }
+    }
+    let (ma, mb) = (median(ta), median(tb));
+    println!(
+        "{label} step ratio: {:.3} (built-in {:?}, expression {:?}, median of {rounds})",
+        mb.as_secs_f64() / ma.as_secs_f64(),
+        ma,
+        mb
+    );
+}
+
+fn whole_steps() {
+    use hyperpbd::{BackendKind, Plan, State};
+    let scene = hyperpbd::scenes::peer_cloth(128);
+    let other = expressed(&scene);
+    let load = |s: &hyperpbd::Scene, kind| {
+        let plan = Plan::compile(s).expect("compiles");
+        hyperpbd::load(plan, &State::from_scene(s), kind)
+    };
+    let cpu = |s: &hyperpbd::Scene| {
+        let plan = Plan::compile(s).expect("compiles");
+        hyperpbd::CpuBackend::with_threads(plan, &State::from_scene(s), 1).expect("cpu")
+    };
+    let (mut a, mut b) = (cpu(&scene), cpu(&other));
+    step_ratio("peer cloth 128², cpu-f64 one thread", &mut a, &mut b, 31);
+    let gpu = BackendKind::Gpu(hyperpbd::gpu::Precision::F32);
+    match (load(&scene, gpu), load(&other, gpu)) {
+        (Ok(mut a), Ok(mut b)) => {
+            step_ratio("peer cloth 128², gpu-f32", a.as_mut(), b.as_mut(), 11)
+        }
+        (a, b) => println!(
+            "peer cloth 128², gpu-f32: skipped ({:?})",
+            a.err().or(b.err()).map(|e| e.to_string())
+        ),
+    }
+}
+
 fn bench(c: &mut Criterion) {
+    whole_steps();
     let d = data();
     let tape = compile("norm(x1 - x0)", &[], 2, DIM)
         .and_then(|c| c.tape(Outputs::ValueGradient))

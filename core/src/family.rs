@@ -54,7 +54,7 @@ impl FamilyKind {
                 Law::NeoHookean => "neo_hookean",
             },
             FamilyKind::HyperplaneContact { .. } => "hyperplane_contact",
-            FamilyKind::Expression(_) => "expression",
+            FamilyKind::Expression(kind) => kind.name,
         }
     }
 

@@ -26,9 +26,9 @@ use crate::coloring::greedy_colors;
 use crate::expr::Columns;
 use crate::geometry::{Scratch, unit_vector};
 use crate::guard_rules::{Adaptive, Guards, guarded_families};
-use crate::kinds::{self, ExpressionKind};
+use crate::kinds;
 use crate::material_plan::{self, FamilyMass};
-use crate::{ConstraintKind, Family, FamilyKind, Obstacle, Scene, SceneError, Solver, StageName};
+use crate::{Family, FamilyKind, Obstacle, Scene, SceneError, Solver, StageName};
 
 /// Which terms prediction includes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -207,17 +207,7 @@ impl Plan {
             }
             let arity = authored.elements[0].len();
             let material = materials.shapes[f].as_ref().map(|(material, _)| *material);
-            let expression = match authored.kind {
-                ConstraintKind::Expression => {
-                    Some(ExpressionKind::compile(f, authored, arity, dim)?)
-                }
-                ConstraintKind::Distance
-                | ConstraintKind::Tether
-                | ConstraintKind::SimplexMeasure
-                | ConstraintKind::OrientedMeasure
-                | ConstraintKind::Stvk
-                | ConstraintKind::NeoHookean => None,
-            };
+            let expression = kinds::expression_of(f, authored, arity, dim)?;
             let kind = kinds::family_kind(authored.kind, arity, material, expression);
             let flat: Vec<usize> = authored.elements.iter().flatten().copied().collect();
             let rest: Vec<f64> = match &authored.rest {

@@ -181,6 +181,9 @@ pub enum ConstraintKind {
     /// C = value − rest for a user's `value` expression of the element's
     /// particles `x0 … x{arity−1}` (docs/expressions.md): ∇C is derived.
     Expression,
+    /// The cosine fold of two triangles sharing an edge (4 particles,
+    /// N ≥ 3): C = −u_A·u_B − rest over the conormals (kinds/bending.rs).
+    Bending,
 }
 
 impl ConstraintKind {
@@ -194,6 +197,7 @@ impl ConstraintKind {
             ConstraintKind::Stvk => "stvk",
             ConstraintKind::NeoHookean => "neo_hookean",
             ConstraintKind::Expression => "expression",
+            ConstraintKind::Bending => "bending",
         }
     }
 
@@ -207,7 +211,8 @@ impl ConstraintKind {
             | ConstraintKind::SimplexMeasure
             | ConstraintKind::OrientedMeasure
             | ConstraintKind::Tether
-            | ConstraintKind::Expression => None,
+            | ConstraintKind::Expression
+            | ConstraintKind::Bending => None,
         }
     }
 }

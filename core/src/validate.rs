@@ -5,7 +5,7 @@
 
 use crate::geometry::Scratch;
 use crate::kinds::{self, Arity};
-use crate::{ConstraintKind, MAX_DIM, Obstacle, Scene, SceneError};
+use crate::{MAX_DIM, Obstacle, Scene, SceneError};
 
 fn finite(path: impl FnOnce() -> String, value: f64) -> Result<(), SceneError> {
     if value.is_finite() {
@@ -173,9 +173,14 @@ impl Scene {
                     Arity::Family if element.is_empty() => {
                         return Err(arity_error("at least 1".into()));
                     }
-                    Arity::Simplex | Arity::Family if element.len() != first_arity => {
+                    Arity::Simplex if element.len() != first_arity => {
                         return Err(arity_error(format!(
                             "{first_arity} (one k per family, as in elements[0])"
+                        )));
+                    }
+                    Arity::Family if element.len() != first_arity => {
+                        return Err(arity_error(format!(
+                            "{first_arity} (one arity per family, as in elements[0])"
                         )));
                     }
                     Arity::Exactly(_) | Arity::Full | Arity::Simplex | Arity::Family => {}
@@ -196,25 +201,19 @@ impl Scene {
                     }
                 }
             }
-            let expression = match family.kind {
-                // An empty family still has its expression checked (any
-                // particle index is then in range).
-                ConstraintKind::Expression => Some(crate::kinds::ExpressionKind::compile(
-                    f,
-                    family,
-                    match first_arity {
-                        0 => crate::expr::limits::MAX_ARITY,
-                        arity => arity,
-                    },
-                    dim,
-                )?),
-                ConstraintKind::Distance
-                | ConstraintKind::Tether
-                | ConstraintKind::SimplexMeasure
-                | ConstraintKind::OrientedMeasure
-                | ConstraintKind::Stvk
-                | ConstraintKind::NeoHookean => None,
+            if let Some(why) = kinds::dimension_problem(family.kind, dim) {
+                return Err(SceneError::Inconsistent {
+                    path: at("type"),
+                    why,
+                });
+            }
+            // An empty family still has its expression checked (any
+            // particle index is then in range).
+            let arity = match first_arity {
+                0 => crate::expr::limits::MAX_ARITY,
+                arity => arity,
             };
+            let expression = kinds::expression_of(f, family, arity, dim)?;
             if family.kind.law().is_some() {
                 self.validate_material(f, family)?;
             } else if let Some(rest) = &family.rest {

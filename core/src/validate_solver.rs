@@ -77,11 +77,15 @@ impl Scene {
             why: why.into(),
         };
         for (f, family) in self.constraints.iter().enumerate() {
-            if family.kind == crate::ConstraintKind::Expression {
+            if matches!(
+                family.kind,
+                crate::ConstraintKind::Expression | crate::ConstraintKind::Bending
+            ) {
                 return Err(unsupported(
                     format!("constraints[{f}]"),
-                    "expression families run on the XPBD path only so far (their ∇²C for the \
-                     implicit springs is derived, but not yet wired into the implicit steps)",
+                    "expression families (and bending, one) run on the XPBD path only so far \
+                     (their ∇²C for the implicit springs is derived, but not yet wired into the \
+                     implicit steps)",
                 ));
             }
             // A material family's energy is its law's (compliance is not read).

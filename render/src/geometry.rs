@@ -93,19 +93,8 @@ impl SceneGeometry {
                 continue;
             };
             // The scene is validated: its expressions compile.
-            let expression = match family.kind {
-                ConstraintKind::Expression => {
-                    match ExpressionKind::compile(f, family, arity, dim) {
-                        Ok(expression) => Some(expression),
-                        Err(_) => continue,
-                    }
-                }
-                ConstraintKind::Distance
-                | ConstraintKind::Tether
-                | ConstraintKind::SimplexMeasure
-                | ConstraintKind::OrientedMeasure
-                | ConstraintKind::Stvk
-                | ConstraintKind::NeoHookean => None,
+            let Ok(expression) = kinds::expression_of(f, family, arity, dim) else {
+                continue;
             };
             let particles: Vec<usize> = family.elements.iter().flatten().copied().collect();
             let mut points = vec![0.0; arity * dim];
@@ -135,7 +124,7 @@ impl SceneGeometry {
                 // No geometric value (rest 0, value 0): drawn unstrained.
                 ConstraintKind::Stvk | ConstraintKind::NeoHookean => 1,
                 // Units unknown: relative to the rest value, or to length.
-                ConstraintKind::Expression => 1,
+                ConstraintKind::Expression | ConstraintKind::Bending => 1,
             };
             let fallback = length.powi(power as i32);
             let scale = rest

@@ -70,6 +70,23 @@ pub fn describe(plan: &Plan) -> String {
                 material.lame.mu, material.lame.lambda
             );
         }
+        if let FamilyKind::Expression(kind) = &f.kind {
+            let stats = kind.stats();
+            let hessian = stats
+                .hessian_ops
+                .map_or("over the limits".to_string(), |ops| ops.to_string());
+            let _ = write!(
+                s,
+                ", relation {}, arity {}: {} ops (value), {} ops (value + ∇C, {} entries), \
+                 {hessian} ops (+ ∇²C, {} entries)",
+                kind.relation.as_str(),
+                kind.arity,
+                stats.value_ops,
+                stats.gradient_ops,
+                stats.gradient_size,
+                stats.hessian_size
+            );
+        }
         s.push('\n');
     }
     for m in &plan.lumped_mass {

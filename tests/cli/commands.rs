@@ -166,3 +166,43 @@ fn gpu_commands_print_no_mesa_session_noise() {
         assert!(!stderr.contains("XDG_RUNTIME_DIR"), "{args:?}: {stderr}");
     }
 }
+
+#[test]
+fn plan_prints_an_expression_family_as_compiled() {
+    let dir = TempDir::new("plan-expression");
+    let scene_path = dir.write(
+        "ring.json",
+        r#"{"dim": 3, "dt": 0.01, "gravity": [0, -9.81, 0],
+            "particles": [{"position": [1, 0, 0], "mass": 1}, {"position": [1, -0.5, 0], "mass": 1}],
+            "constraints": [
+              {"type": "expression", "value": "let d = x0 - c; norm(d)", "params": {"c": [0, 0, 0]},
+               "elements": [[0]]},
+              {"type": "expression", "value": "norm(x1 - x0)", "relation": "<=", "elements": [[0, 1]]}]}"#,
+    );
+    let out = hyperpbd(["plan".as_ref(), scene_path.as_os_str()]);
+    assert_success(&out);
+    let stdout = text(&out.stdout);
+    for needle in [
+        "family 0 constraints[0] expression: 1 elements",
+        "relation ==, arity 1: ",
+        "ops (value + ∇C, 3 entries)",
+        "(+ ∇²C, 6 entries)",
+        "family 1 constraints[1] expression: 1 elements",
+        "relation <=, arity 2: 15 ops (value), 27 ops (value + ∇C, 6 entries), 110 ops (+ ∇²C, 21 entries)",
+    ] {
+        assert!(stdout.contains(needle), "missing {needle:?} in\n{stdout}");
+    }
+    // A bad expression: exit code 2, one message naming the path and position.
+    let bad = dir.write(
+        "bad.json",
+        r#"{"dim": 2, "dt": 0.01, "particles": [{"position": [0, 0], "mass": 1}],
+            "constraints": [{"type": "expression", "value": "norm(x0 - y)", "elements": [[0]]}]}"#,
+    );
+    let out = hyperpbd(["plan".as_ref(), bad.as_os_str()]);
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = text(&out.stderr);
+    assert!(
+        stderr.contains("constraints[0].value: at 1:11: unknown name `y`"),
+        "{stderr}"
+    );
+}

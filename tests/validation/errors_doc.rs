@@ -88,7 +88,7 @@ fn catalogue() -> Vec<String> {
         )),
         j(r#"{"dim": 1, "dt": 0.1, "particles": [{"position": [1e400], "mass": 1}]}"#),
         j(&doc(
-            r#", "constraints": [{"type": "bending", "elements": []}]"#,
+            r#", "constraints": [{"type": "twist", "elements": []}]"#,
         )),
         j(&doc(r#", "obstacles": [{"type": "sphere"}]"#)),
         j(r#"{"dim": 1}"#),
@@ -100,6 +100,7 @@ fn catalogue() -> Vec<String> {
         j(""),
     ]);
     out.extend(barrier_catalogue());
+    out.extend(expression_catalogue());
     let missing = std::path::Path::new("no-such-scene.json");
     out.push(
         Scene::from_json_file(missing)
@@ -223,4 +224,62 @@ fn docs_errors_md_quotes_every_message() {
          by triggering each error):\n{}",
         missing.join("\n")
     );
+}
+
+/// The messages of expression families (docs/errors.md, "Expression
+/// families"): each added as constraints[3] to the base scene.
+fn expression_catalogue() -> Vec<String> {
+    let with =
+        |value: Option<&str>, params: Option<serde_json::Value>, elements: Vec<Vec<usize>>| {
+            let mut s = base();
+            let mut family = ConstraintFamily::new(ConstraintKind::Expression, 0.0, elements);
+            family.value = value.map(str::to_string);
+            family.params = params.map(|p| p.as_object().expect("object").clone());
+            s.constraints.push(family);
+            s.validate().expect_err("rejected").to_string()
+        };
+    let pairs = || vec![vec![0, 2], vec![2, 3]];
+    let mut out = vec![
+        with(Some("norm(x1 - x0"), None, pairs()),
+        with(Some("norm(x1 - y)"), None, pairs()),
+        with(Some("norm(x2 - x0)"), None, pairs()),
+        with(Some("x1 - x0"), None, pairs()),
+        with(Some("sqrt(x0)"), None, pairs()),
+        with(Some("det(x1, x0)"), None, pairs()),
+        with(
+            Some("dot(c, x0)"),
+            Some(serde_json::json!({"c": [0.0, 1.0]})),
+            pairs(),
+        ),
+        with(
+            Some("dot(c, x0)"),
+            Some(serde_json::json!({"c": "up"})),
+            pairs(),
+        ),
+        with(None, None, pairs()),
+        with(Some("norm(x1 - x0)"), None, vec![vec![0, 2], vec![2]]),
+        with(Some("let a = x0[0]; ".repeat(300).as_str()), None, pairs()),
+    ];
+    let mut s = base();
+    s.constraints[0].value = Some("norm(x1 - x0)".into());
+    out.push(s.validate().expect_err("rejected").to_string());
+    // Bending needs a fold: dim >= 3.
+    out.push(
+        Scene::from_json_str(
+            r#"{"dim": 2, "dt": 0.1, "particles": [{"position": [0, 0], "mass": 1}],
+                "constraints": [{"type": "bending", "elements": []}]}"#,
+        )
+        .expect_err("rejected")
+        .to_string(),
+    );
+    // A value that turns non-finite during a step.
+    use hyperpbd::Backend;
+    let mut s = base();
+    let mut family =
+        ConstraintFamily::expression("sqrt(dot(x1 - x0, x1 - x0) - 4)", 0.0, vec![vec![0, 2]]);
+    family.rest = Some(vec![0.0]);
+    s.constraints.push(family);
+    let mut b = hyperpbd::cpu_backend(&s).expect("backend");
+    out.push(b.step().expect_err("sqrt of a negative").to_string());
+    out
 }

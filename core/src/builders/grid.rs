@@ -157,3 +157,45 @@ impl SceneBuilder {
         grid
     }
 }
+
+impl SceneBuilder {
+    /// Adds a bending family (`compliance`) over the hinges of a 2-grid
+    /// `grid` (as [`SceneBuilder::grid`] returned it), each unit square
+    /// split along its diagonal c → c + a + b into the triangles
+    /// (c, c+a, c+a+b) and (c, c+b, c+a+b). One element per interior edge
+    /// [x0, x1, x2, x3]: the edge x0x1 and the third vertices of its two
+    /// triangles (kinds/bending.rs). `None` for a grid that is not 2-D or
+    /// has no interior edge.
+    pub fn grid_bending(&mut self, grid: &Grid, compliance: f64) -> Option<usize> {
+        let [na, nb] = grid.counts[..] else {
+            return None;
+        };
+        let at = |a: usize, b: usize| grid.index(&[a, b]);
+        let mut elements = Vec::new();
+        for b in 0..nb.saturating_sub(1) {
+            for a in 0..na.saturating_sub(1) {
+                // The square's diagonal.
+                elements.push(vec![at(a, b), at(a + 1, b + 1), at(a + 1, b), at(a, b + 1)]);
+            }
+        }
+        for b in 1..nb.saturating_sub(1) {
+            for a in 0..na.saturating_sub(1) {
+                // Edge along a, between the squares at b − 1 and b.
+                elements.push(vec![at(a, b), at(a + 1, b), at(a + 1, b + 1), at(a, b - 1)]);
+            }
+        }
+        for b in 0..nb.saturating_sub(1) {
+            for a in 1..na.saturating_sub(1) {
+                // Edge along b, between the squares at a − 1 and a.
+                elements.push(vec![at(a, b), at(a, b + 1), at(a + 1, b + 1), at(a - 1, b)]);
+            }
+        }
+        (!elements.is_empty()).then(|| {
+            self.family(ConstraintFamily::new(
+                ConstraintKind::Bending,
+                compliance,
+                elements,
+            ))
+        })
+    }
+}

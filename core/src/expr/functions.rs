@@ -30,28 +30,27 @@ enum Function {
     Det,
 }
 
-/// The built-in functions by name (reserved: no `let` or param may take
-/// these names).
-const FUNCTIONS: [(&str, Function); 9] = [
-    ("dot", Function::Dot),
-    ("norm", Function::Norm),
-    ("sqrt", Function::Sqrt),
-    ("abs", Function::Abs),
-    ("min", Function::Min),
-    ("max", Function::Max),
-    ("ln", Function::Ln),
-    ("exp", Function::Exp),
-    ("det", Function::Det),
-];
-
-/// Whether `name` is a built-in function.
-pub(super) fn is_function(name: &str) -> bool {
-    FUNCTIONS.iter().any(|(n, _)| *n == name)
+/// The built-in function of `name` (the names are `lex::FUNCTION_NAMES`,
+/// reserved: no `let` or param may take them).
+fn function_of(name: &str) -> Option<Function> {
+    Some(match name {
+        "dot" => Function::Dot,
+        "norm" => Function::Norm,
+        "sqrt" => Function::Sqrt,
+        "abs" => Function::Abs,
+        "min" => Function::Min,
+        "max" => Function::Max,
+        "ln" => Function::Ln,
+        "exp" => Function::Exp,
+        "det" => Function::Det,
+        _ => return None,
+    })
 }
 
 impl Parser<'_> {
     pub(super) fn call(&mut self, name: String, at: usize) -> Parsed<Val> {
-        let Some(&(function, f)) = FUNCTIONS.iter().find(|(n, _)| *n == name) else {
+        let found = super::lex::FUNCTION_NAMES.iter().find(|n| **n == name);
+        let Some((&function, f)) = found.and_then(|n| Some((n, function_of(n)?))) else {
             return Err(self.error_at(at, ExprErrorKind::UnknownName { name }));
         };
         self.enter()?;
@@ -209,5 +208,16 @@ impl Parser<'_> {
         let s = acc.ok_or(Exhausted)?;
         memo.insert(cols, s);
         Ok(s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn every_reserved_function_name_is_a_function() {
+        for name in super::super::lex::FUNCTION_NAMES {
+            assert!(super::function_of(name).is_some(), "{name}");
+        }
+        assert!(super::function_of("sin").is_none());
     }
 }

@@ -32,6 +32,17 @@ impl Token {
 }
 
 /// `src` as tokens with character offsets, ending with [`Token::End`].
+/// The built-in functions' names (reserved: no `let` or param may take
+/// them; functions.rs maps each to its rule).
+pub(super) const FUNCTION_NAMES: [&str; 9] = [
+    "dot", "norm", "sqrt", "abs", "min", "max", "ln", "exp", "det",
+];
+
+/// Whether `name` is a built-in function.
+pub(super) fn is_function(name: &str) -> bool {
+    FUNCTION_NAMES.contains(&name)
+}
+
 pub(crate) fn tokens(src: &str) -> Result<Vec<(Token, usize)>, ExprError> {
     let chars: Vec<char> = src.chars().collect();
     if chars.len() > MAX_SOURCE_CHARS {

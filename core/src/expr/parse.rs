@@ -21,9 +21,8 @@
 
 use super::ParamValue;
 use super::error::{ExprError, ExprErrorKind, ValueType};
-use super::functions::is_function;
 use super::graph::{Built, Exhausted, Graph, Op, Slot};
-use super::lex::{Token, tokens};
+use super::lex::{Token, is_function, tokens};
 use super::limits::{MAX_DEPTH, MAX_GRAPH_NODES, MAX_LETS};
 use std::collections::HashMap;
 

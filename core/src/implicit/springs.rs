@@ -116,7 +116,7 @@ pub fn evaluate_spring(
         | ConstraintKind::NeoHookean => SpringCurvature::GaussNewton {
             weight: 1.0 / compliance,
         },
-        ConstraintKind::Expression => {
+        ConstraintKind::Expression | ConstraintKind::Bending => {
             unreachable!("the implicit path refuses expression families (validate_solver.rs)")
         }
     };

@@ -22,14 +22,16 @@
 
 use std::ops::Range;
 
-use super::Relation;
+use super::relation::Relation;
 use crate::expr::{self, Columns, Compiled, Outputs, ParamValue, Real, Stats, Tape};
-use crate::{ConstraintFamily, SceneError};
 
 /// A compiled expression family.
 #[derive(Debug, Clone)]
 pub struct ExpressionKind {
-    /// The authored value expression.
+    /// What the plan calls it: `expression`, or the built-in kind it
+    /// defines (`bending`).
+    pub name: &'static str,
+    /// The value expression.
     pub source: String,
     /// Its relation.
     pub relation: Relation,
@@ -44,7 +46,8 @@ pub struct ExpressionKind {
 
 impl PartialEq for ExpressionKind {
     fn eq(&self, other: &Self) -> bool {
-        self.source == other.source
+        self.name == other.name
+            && self.source == other.source
             && self.relation == other.relation
             && self.arity == other.arity
             && self.gradient == other.gradient
@@ -52,33 +55,24 @@ impl PartialEq for ExpressionKind {
 }
 
 impl ExpressionKind {
-    /// Compiles constraint family `f` (an expression family with elements
-    /// of `arity` particles) for R^`dim`.
-    pub fn compile(
-        f: usize,
-        family: &ConstraintFamily,
+    /// The expression `source` named `name` (`expression`, or the built-in
+    /// kind it defines) with `params`, for elements of `arity` particles in
+    /// R^`dim`.
+    pub fn new(
+        name: &'static str,
+        source: &str,
+        params: &[(String, ParamValue)],
+        relation: Relation,
         arity: usize,
         dim: usize,
-    ) -> Result<ExpressionKind, SceneError> {
-        let at = |field: &str| format!("constraints[{f}].{field}");
-        let source = family
-            .value
-            .as_deref()
-            .ok_or_else(|| SceneError::MissingField {
-                path: at("value"),
-                kind: "expression",
-            })?;
-        let params = params(f, family)?;
-        let expression = |source| SceneError::Expression {
-            path: at("value"),
-            source,
-        };
-        let compiled = expr::compile(source, &params, arity, dim).map_err(expression)?;
-        let value = compiled.tape(Outputs::Value).map_err(expression)?;
-        let gradient = compiled.tape(Outputs::ValueGradient).map_err(expression)?;
+    ) -> Result<ExpressionKind, expr::ExprError> {
+        let compiled = expr::compile(source, params, arity, dim)?;
+        let value = compiled.tape(Outputs::Value)?;
+        let gradient = compiled.tape(Outputs::ValueGradient)?;
         Ok(ExpressionKind {
+            name,
             source: source.into(),
-            relation: family.relation.unwrap_or(Relation::Equal),
+            relation,
             arity,
             value,
             gradient,
@@ -114,33 +108,6 @@ impl ExpressionKind {
             Relation::AtMost => positive(c),
         }
     }
-}
-
-/// The params of family `f` in authored order: a number or an array of
-/// numbers each (the compiler checks a vector's length against N).
-fn params(f: usize, family: &ConstraintFamily) -> Result<Vec<(String, ParamValue)>, SceneError> {
-    let mut out = Vec::new();
-    for (name, value) in family.params.iter().flatten() {
-        let path = format!("constraints[{f}].params.{name}");
-        let number = |v: &serde_json::Value, path: String| match v.as_f64() {
-            Some(x) if x.is_finite() => Ok(x),
-            Some(x) => Err(SceneError::NonFinite { path, value: x }),
-            None => Err(SceneError::Inconsistent {
-                path,
-                why: "a param is a number or an array of numbers (an N-vector)".into(),
-            }),
-        };
-        let value = match value {
-            serde_json::Value::Array(items) => ParamValue::Vector(
-                (items.iter().enumerate())
-                    .map(|(k, v)| number(v, format!("{path}[{k}]")))
-                    .collect::<Result<_, _>>()?,
-            ),
-            other => ParamValue::Scalar(number(other, path)?),
-        };
-        out.push((name.clone(), value));
-    }
-    Ok(out)
 }
 
 /// The precisions the projection runs in.

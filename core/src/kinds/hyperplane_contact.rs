@@ -3,6 +3,6 @@
 //! (λ ≥ 0), with static friction in the projection and dynamic friction as
 //! a velocity response (DESIGN.md, the golden algorithms).
 
-use super::Relation;
+use super::relation::Relation;
 
 pub(super) const RELATION: Relation = Relation::AtLeast;

@@ -4,7 +4,8 @@
 //! compliance 1. The law, its measures and rest frames live in
 //! `crate::material`; validation of their keys in `validate_material.rs`.
 
-use super::{Arity, Relation};
+use super::Arity;
+use super::relation::Relation;
 use crate::FamilyKind;
 use crate::material::Material;
 

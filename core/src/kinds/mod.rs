@@ -13,6 +13,7 @@
 //! stvk, neo_hookean  k+1, 1 ≤ k ≤ N 0 (the rest shape lives in the plan's frames)  C = 0     √(2W)       material.rs
 //! hyperplane contact 1 (obstacle)   offset + radius                               C ≥ 0     by the backend's normals  hyperplane_contact.rs
 //! expression         any, per family any                                          relation  by relation expression.rs
+//! bending (cosine)   4, N ≥ 3       in [−1, 1]                                    C = 0     |C|         bending.rs (an expression)
 //! ```
 //! Adding a kind: one file here, a variant of [`ConstraintKind`] (and of
 //! [`FamilyKind`] if it compiles to its own), one line in each function
@@ -20,21 +21,23 @@
 //! compiler names every place left (the backends' kernels, the shared
 //! codes of `gpu/src/codes.rs`).
 
+mod bending;
 mod distance;
 mod expression;
 mod hyperplane_contact;
 mod material;
 mod oriented_measure;
+mod relation;
 mod simplex_measure;
 mod tether;
 
-use serde::{Deserialize, Serialize};
-
 pub use expression::{Colour, ExpressionKind, Positions, ProjectionReal, project};
+pub use relation::Relation;
 
+use crate::expr::ParamValue;
 use crate::geometry::Scratch;
 use crate::material::Material;
-use crate::{ConstraintKind, FamilyKind};
+use crate::{ConstraintFamily, ConstraintKind, FamilyKind, SceneError};
 
 /// How many particles an element of a kind has.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -50,32 +53,6 @@ pub enum Arity {
     Simplex,
 }
 
-/// The relation an element imposes on C = value − rest (an expression
-/// family's `relation` key).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum Relation {
-    /// C = 0 (λ free).
-    #[serde(rename = "==")]
-    Equal,
-    /// C ≤ 0 (λ ≤ 0: it only pulls).
-    #[serde(rename = "<=")]
-    AtMost,
-    /// C ≥ 0 (λ ≥ 0: it only pushes).
-    #[serde(rename = ">=")]
-    AtLeast,
-}
-
-impl Relation {
-    /// As written in a scene.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Relation::Equal => "==",
-            Relation::AtMost => "<=",
-            Relation::AtLeast => ">=",
-        }
-    }
-}
-
 /// The arity of `kind`.
 pub fn arity(kind: ConstraintKind) -> Arity {
     match kind {
@@ -85,6 +62,7 @@ pub fn arity(kind: ConstraintKind) -> Arity {
         ConstraintKind::OrientedMeasure => oriented_measure::ARITY,
         ConstraintKind::Stvk | ConstraintKind::NeoHookean => material::ARITY,
         ConstraintKind::Expression => Arity::Family,
+        ConstraintKind::Bending => bending::ARITY,
     }
 }
 
@@ -97,8 +75,70 @@ pub fn rest_problem(kind: ConstraintKind, rest: f64) -> Option<&'static str> {
         ConstraintKind::Tether => tether::rest_problem(rest),
         ConstraintKind::SimplexMeasure => simplex_measure::rest_problem(rest),
         ConstraintKind::OrientedMeasure => oriented_measure::rest_problem(rest),
+        ConstraintKind::Bending => bending::rest_problem(rest),
         ConstraintKind::Stvk | ConstraintKind::NeoHookean | ConstraintKind::Expression => None,
     }
+}
+
+/// Why `kind` cannot live in R^`dim`, if it cannot.
+pub fn dimension_problem(kind: ConstraintKind, dim: usize) -> Option<String> {
+    match kind {
+        ConstraintKind::Bending => (dim < bending::MIN_DIM).then(|| {
+            format!(
+                "a fold between two triangles needs dim >= {} (the scene has {dim})",
+                bending::MIN_DIM
+            )
+        }),
+        ConstraintKind::Distance
+        | ConstraintKind::Tether
+        | ConstraintKind::SimplexMeasure
+        | ConstraintKind::OrientedMeasure
+        | ConstraintKind::Stvk
+        | ConstraintKind::NeoHookean
+        | ConstraintKind::Expression => None,
+    }
+}
+
+/// The compiled expression of constraint family `f` when its kind is
+/// defined by one — a user's `value`, or a built-in kind written as an
+/// expression (bending) — for elements of `arity` particles in
+/// R^`dim`; `None` for the kinds with kernels of their own.
+pub fn expression_of(
+    f: usize,
+    family: &ConstraintFamily,
+    arity: usize,
+    dim: usize,
+) -> Result<Option<ExpressionKind>, SceneError> {
+    Ok(match family.kind {
+        ConstraintKind::Expression => {
+            let path = format!("constraints[{f}].value");
+            let source = family
+                .value
+                .as_deref()
+                .ok_or_else(|| SceneError::MissingField {
+                    path: path.clone(),
+                    kind: "expression",
+                })?;
+            let params = expression_params(f, family)?;
+            let relation = family.relation.unwrap_or(Relation::Equal);
+            let compiled = ExpressionKind::new("expression", source, &params, relation, arity, dim);
+            Some(compiled.map_err(|source| SceneError::Expression { path, source })?)
+        }
+        ConstraintKind::Bending => {
+            let compiled =
+                ExpressionKind::new("bending", bending::COSINE, &[], Relation::Equal, arity, dim);
+            Some(compiled.map_err(|source| SceneError::Expression {
+                path: format!("constraints[{f}].type"),
+                source,
+            })?)
+        }
+        ConstraintKind::Distance
+        | ConstraintKind::Tether
+        | ConstraintKind::SimplexMeasure
+        | ConstraintKind::OrientedMeasure
+        | ConstraintKind::Stvk
+        | ConstraintKind::NeoHookean => None,
+    })
 }
 
 /// Why the authored element at `points` (its particles' positions, arity ×
@@ -117,7 +157,8 @@ pub fn authored_problem(
         | ConstraintKind::SimplexMeasure
         | ConstraintKind::Stvk
         | ConstraintKind::NeoHookean
-        | ConstraintKind::Expression => None,
+        | ConstraintKind::Expression
+        | ConstraintKind::Bending => None,
     }
 }
 
@@ -141,7 +182,7 @@ pub fn value(
         ConstraintKind::SimplexMeasure => simplex_measure::value(points, dim, grad, scratch),
         ConstraintKind::OrientedMeasure => oriented_measure::value(points, dim, grad, scratch),
         ConstraintKind::Stvk | ConstraintKind::NeoHookean => material::rest_value(grad),
-        ConstraintKind::Expression => {
+        ConstraintKind::Expression | ConstraintKind::Bending => {
             unreachable!("an expression's value needs its compiled tape (ExpressionKind::value_at)")
         }
     }
@@ -157,7 +198,7 @@ pub fn family_kind(
     expression: Option<ExpressionKind>,
 ) -> FamilyKind {
     match (kind, material) {
-        (ConstraintKind::Expression, _) => match expression {
+        (ConstraintKind::Expression | ConstraintKind::Bending, _) => match expression {
             Some(expression) => FamilyKind::Expression(std::sync::Arc::new(expression)),
             None => unreachable!("the plan compiles every expression family"),
         },
@@ -199,4 +240,34 @@ pub fn violation(kind: &FamilyKind, value: f64, rest: f64) -> Option<f64> {
         FamilyKind::Expression(expression) => Some(expression.violation(value, rest)),
         FamilyKind::HyperplaneContact { .. } | FamilyKind::Material { .. } => None,
     }
+}
+
+/// The params of family `f` in authored order: a number or an array of
+/// numbers each (the compiler checks a vector's length against N).
+fn expression_params(
+    f: usize,
+    family: &ConstraintFamily,
+) -> Result<Vec<(String, ParamValue)>, SceneError> {
+    let mut out = Vec::new();
+    for (name, value) in family.params.iter().flatten() {
+        let path = format!("constraints[{f}].params.{name}");
+        let number = |v: &serde_json::Value, path: String| match v.as_f64() {
+            Some(x) if x.is_finite() => Ok(x),
+            Some(x) => Err(SceneError::NonFinite { path, value: x }),
+            None => Err(SceneError::Inconsistent {
+                path,
+                why: "a param is a number or an array of numbers (an N-vector)".into(),
+            }),
+        };
+        let value = match value {
+            serde_json::Value::Array(items) => ParamValue::Vector(
+                (items.iter().enumerate())
+                    .map(|(k, v)| number(v, format!("{path}[{k}]")))
+                    .collect::<Result<_, _>>()?,
+            ),
+            other => ParamValue::Scalar(number(other, path)?),
+        };
+        out.push((name.clone(), value));
+    }
+    Ok(out)
 }

@@ -6,7 +6,8 @@
 //! violation = max(C, 0)
 //! ```
 
-use super::{Arity, Relation};
+use super::Arity;
+use super::relation::Relation;
 
 pub(super) const ARITY: Arity = Arity::Exactly(2);
 pub(super) const RELATION: Relation = Relation::AtMost;
