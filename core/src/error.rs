@@ -149,7 +149,7 @@ pub enum SceneError {
     #[error("{path}: {source}")]
     Expression {
         path: String,
-        source: crate::expr::ExprError,
+        source: Box<crate::expr::ExprError>,
     },
     /// `rest_positions` with a count other than one per scene particle.
     #[error("{path}: {found} rest positions for {expected} particles (one per scene particle)")]

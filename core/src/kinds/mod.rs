@@ -122,14 +122,17 @@ pub fn expression_of(
             let params = expression_params(f, family)?;
             let relation = family.relation.unwrap_or(Relation::Equal);
             let compiled = ExpressionKind::new("expression", source, &params, relation, arity, dim);
-            Some(compiled.map_err(|source| SceneError::Expression { path, source })?)
+            Some(compiled.map_err(|source| SceneError::Expression {
+                path,
+                source: Box::new(source),
+            })?)
         }
         ConstraintKind::Bending => {
             let compiled =
                 ExpressionKind::new("bending", bending::COSINE, &[], Relation::Equal, arity, dim);
             Some(compiled.map_err(|source| SceneError::Expression {
                 path: format!("constraints[{f}].type"),
-                source,
+                source: Box::new(source),
             })?)
         }
         ConstraintKind::Distance
