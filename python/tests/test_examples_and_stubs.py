@@ -16,6 +16,7 @@ PICTURES = {
     "cloth_on_plane.py": "cloth_on_plane.png",
     "damping_sweep.py": "damping_sweep.png",
     "energy_4d.py": "energy_4d.png",
+    "expression_families.py": "expression_families.png",
     "scene_from_dict.py": None,
 }
 

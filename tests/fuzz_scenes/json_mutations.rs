@@ -8,17 +8,25 @@ use super::*;
 const DOCUMENT: &str = include_str!("../../scenes/example.json");
 
 /// Every document the mutations start from: the example (constraints,
-/// friction, damping), balls with particle contact, and the barrier path
-/// with a hyperplane and segment / triangle / tetrahedron meshes.
-const DOCUMENTS: [&str; 3] = [
+/// friction, damping), balls with particle contact, the barrier path
+/// with a hyperplane and segment / triangle / tetrahedron meshes, and
+/// bending with an expression family (ln, exp, a param, a relation).
+const DOCUMENTS: [&str; 4] = [
     DOCUMENT,
     include_str!("../../fuzz/seeds/scene_json/balls.json"),
     include_str!("../../fuzz/seeds/scene_json/barrier_mesh.json"),
+    include_str!("../../fuzz/seeds/scene_json/bending.json"),
 ];
 
 /// Replacement tokens: numbers at and beyond the edges of every type, and
 /// values of the wrong type.
 const TOKENS: &[&str] = &[
+    // Hostile expressions: a syntax error, a wrong det, names that are
+    // not there, a deep let chain.
+    "\"x0 +\"",
+    "\"det(x0)\"",
+    "\"norm(x9 - y)\"",
+    "\"let a = x0[0]; let a = a * a; let a = a * a; let a = a * a; let a = a * a; a\"",
     "0",
     "-0",
     "1",

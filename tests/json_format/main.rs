@@ -273,10 +273,10 @@ fn unknown_key_in_damping() {
 #[test]
 fn unknown_kind_names_the_type_key() {
     let (path, message) = json_error(&doc(
-        r#", "constraints": [{"type": "bending", "elements": []}]"#,
+        r#", "constraints": [{"type": "twist", "elements": []}]"#,
     ));
     assert_eq!(path, "constraints[0].type");
-    assert!(message.starts_with("unknown variant `bending`, expected one of `distance`"));
+    assert!(message.starts_with("unknown variant `twist`, expected one of `distance`"));
     let (path, message) = json_error(&doc(
         r#", "obstacles": [{"type": "sphere", "normal": [0, 1]}]"#,
     ));
