@@ -187,8 +187,11 @@ pub fn project<R: ProjectionReal, X: Positions<R> + ?Sized>(
         columns,
     );
     let mut failed = None;
+    // The columns read per element, looked up once per call.
+    let values = columns.column(tape.value);
+    let gradient: Vec<&[R]> = tape.gradient.iter().map(|&g| columns.column(g)).collect();
     for (lane, e) in c.slots.clone().enumerate() {
-        let value = columns.get(tape.value, lane);
+        let value = values[lane];
         if !value.finite() {
             failed = failed.or(Some(e));
             continue;
@@ -201,8 +204,8 @@ pub fn project<R: ProjectionReal, X: Positions<R> + ?Sized>(
                 continue;
             }
             let mut g2 = zero;
-            for a in 0..dim {
-                let g = columns.get(tape.gradient[j * dim + a], lane);
+            for column in &gradient[j * dim..(j + 1) * dim] {
+                let g = column[lane];
                 g2 = g2 + g * g;
             }
             wsum = wsum + w * g2;
@@ -235,10 +238,9 @@ pub fn project<R: ProjectionReal, X: Positions<R> + ?Sized>(
             if w == zero {
                 continue;
             }
-            for a in 0..dim {
-                let g = columns.get(tape.gradient[j * dim + a], lane);
+            for (a, column) in gradient[j * dim..(j + 1) * dim].iter().enumerate() {
                 let k = i * dim + a;
-                x.set(k, x.get(k) + w * g * dl);
+                x.set(k, x.get(k) + w * column[lane] * dl);
             }
         }
     }
