@@ -223,7 +223,12 @@ impl Plan {
                             }
                             match &kind {
                                 FamilyKind::Expression(e) => e.value_at(&points, &mut columns),
-                                _ => kinds::value(
+                                FamilyKind::Distance
+                                | FamilyKind::Tether
+                                | FamilyKind::SimplexMeasure { .. }
+                                | FamilyKind::OrientedMeasure
+                                | FamilyKind::Material { .. }
+                                | FamilyKind::HyperplaneContact { .. } => kinds::value(
                                     authored.kind,
                                     &points,
                                     dim,
