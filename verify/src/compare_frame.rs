@@ -361,7 +361,7 @@ impl FrameErrorModel {
                         &plan.inverse_mass,
                         &lambda,
                         &mut lambda_error[family],
-                        f.compliance / (h * h),
+                        f.alpha_tilde(h),
                         self.rounding,
                         &mut material,
                     );
