@@ -8,6 +8,8 @@
 
 mod common;
 
+use common::expressions::as_expressions;
+
 use hyperpbd::kinds::Relation;
 use hyperpbd::{
     Backend, BackendError, ConstraintFamily, ConstraintKind, CpuBackend, F32Reference, Obstacle,
@@ -35,25 +37,6 @@ fn largest_difference(a: &State, b: &State) -> f64 {
         .zip(&b.positions)
         .map(|(x, y)| (x - y).abs())
         .fold(0.0, f64::max)
-}
-
-/// `scene` with every family of `kind` replaced by the expression
-/// `value` (relation `relation`), elements, compliance and rest kept.
-fn as_expressions(scene: &Scene, kind: ConstraintKind, value: &str, relation: Relation) -> Scene {
-    let mut out = scene.clone();
-    let mut replaced = 0;
-    for family in &mut out.constraints {
-        if family.kind == kind {
-            let mut expression =
-                ConstraintFamily::expression(value, family.compliance, family.elements.clone())
-                    .with_relation(relation);
-            expression.rest = family.rest.clone();
-            *family = expression;
-            replaced += 1;
-        }
-    }
-    assert!(replaced > 0, "the scene has a {kind:?} family");
-    out
 }
 
 /// The built-in and its expression differ only in the rounding of C and

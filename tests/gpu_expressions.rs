@@ -8,6 +8,7 @@
 mod common;
 
 use common::exact::{assert_f32_reference_step, assert_identical_if_claimed, bits};
+use common::expressions::as_expressions;
 use common::gpu::adapter_or_skip;
 use hyperpbd::kinds::Relation;
 use hyperpbd::{
@@ -15,21 +16,6 @@ use hyperpbd::{
     State, scenes,
 };
 use hyperpbd_gpu::Precision;
-
-/// `scene` with every family of `kind` replaced by the expression `value`.
-fn as_expressions(scene: &Scene, kind: ConstraintKind, value: &str, relation: Relation) -> Scene {
-    let mut out = scene.clone();
-    for family in &mut out.constraints {
-        if family.kind == kind {
-            let mut expression =
-                ConstraintFamily::expression(value, family.compliance, family.elements.clone())
-                    .with_relation(relation);
-            expression.rest = family.rest.clone();
-            *family = expression;
-        }
-    }
-    out
-}
 
 fn cases() -> Vec<(&'static str, Scene, usize)> {
     let cloth = as_expressions(

@@ -8,6 +8,7 @@ pub mod boxes;
 pub mod coupled_f32;
 pub mod differential;
 pub mod exact;
+pub mod expressions;
 pub mod gpu;
 pub mod guarded;
 pub mod implicit_scenes;
