@@ -16,7 +16,8 @@ pub use hyperpbd_core as core;
 pub use hyperpbd_core::*;
 pub use hyperpbd_cpu::f32_reference::{F32Reference, ReferenceError};
 pub use hyperpbd_cpu::{
-    CpuBackend, THREADS_VARIABLE, coupled_gradient, default_threads, set_default_threads,
+    CpuBackend, THREADS_VARIABLE, constraint_force, coupled_gradient, default_threads,
+    set_default_threads,
 };
 pub use hyperpbd_gpu as gpu;
 

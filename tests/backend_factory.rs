@@ -105,3 +105,28 @@ fn a_gpu_kind_gets_the_backend_of_the_plans_solver() {
         assert_eq!(direct.is_err(), barrier, "barrier plan {barrier}");
     }
 }
+
+/// `"primal_residual": true` runs on the CPU only so far: both GPU
+/// precisions refuse it by name, saying which backend runs it; the CPU
+/// kind loads it.
+#[test]
+fn the_gpu_refuses_the_primal_residual_update_by_name() {
+    let mut scene = scenes::chain2d();
+    scene.solver = hyperpbd::Solver::Xpbd(hyperpbd::XpbdSettings {
+        primal_residual: true,
+    });
+    let (plan, state) = compiled(&scene);
+    assert!(hyperpbd::load(plan.clone(), &state, BackendKind::Cpu).is_ok());
+    for precision in [Precision::F32, Precision::F64] {
+        let test = "the_gpu_refuses_the_primal_residual_update_by_name";
+        match common::gpu::load_or_skip(test, BackendKind::Gpu(precision), plan.clone(), &state) {
+            Ok(None) => return,
+            Ok(Some(_)) => panic!("{precision}: loaded"),
+            Err(err) => assert!(
+                matches!(&err, hyperpbd::BackendError::Gpu(hyperpbd::GpuError::Unsupported { what })
+                    if what.contains("primal_residual") && what.contains("--backend cpu")),
+                "{err:?}"
+            ),
+        }
+    }
+}

@@ -179,6 +179,18 @@ fn what_it_does_not_run_is_refused_by_name() {
         "{:?}",
         refused.err()
     );
+    // XPBD with the primal residual (CPU f64 only so far).
+    let mut carried = chain(0.0);
+    carried.solver = Solver::Xpbd(hyperpbd::XpbdSettings {
+        primal_residual: true,
+    });
+    let plan = Plan::compile(&carried).expect("valid");
+    let refused = F32Reference::new(plan, &State::from_scene(&carried), &[0.0, 0.0]);
+    assert!(
+        matches!(&refused, Err(ReferenceError::Unsupported(what)) if what.contains("primal_residual")),
+        "{:?}",
+        refused.err()
+    );
     // Particle contact and material families are run, not refused.
     let balls = hyperpbd::scenes::by_name("sandpile2d").expect("scene");
     let plan = Plan::compile(&balls).expect("valid");

@@ -55,7 +55,7 @@ pub use scene::{
 };
 pub use solver::{
     Convergence, DEFAULT_CG_ITERATIONS, DEFAULT_FRICTION_SLIP_VELOCITY,
-    IncrementalPotentialSettings, Solver, WarmStart,
+    IncrementalPotentialSettings, Solver, WarmStart, XpbdSettings,
 };
 pub use state::State;
 

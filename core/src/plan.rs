@@ -28,7 +28,7 @@ use crate::geometry::{Scratch, unit_vector};
 use crate::guard_rules::{Adaptive, Guards, guarded_families};
 use crate::kinds;
 use crate::material_plan::{self, FamilyMass};
-use crate::{Family, FamilyKind, Obstacle, Scene, SceneError, Solver, StageName};
+use crate::{Family, FamilyKind, Obstacle, Scene, SceneError, Solver, StageName, XpbdSettings};
 
 /// Which terms prediction includes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -147,6 +147,9 @@ pub struct Plan {
     pub substep_kernels: Vec<Kernel>,
     /// Which solver the substeps run, with that solver's own data.
     pub solver: SolverPlan,
+    /// XPBD's update carries the primal residual (`primal_residual`): the
+    /// projections keep each element's displacement (`cpu/src/consistent.rs`).
+    pub primal_residual: bool,
     /// The checks of every completed substep, when the scene has `guards`.
     pub guards: Option<Guards>,
     /// The retry policy of a guard-rejected step.
@@ -261,7 +264,7 @@ impl Plan {
             });
         }
         let solver = match &scene.solver {
-            Solver::Xpbd => SolverPlan::Xpbd,
+            Solver::Xpbd(_) => SolverPlan::Xpbd,
             Solver::IncrementalPotential(settings) => {
                 SolverPlan::IncrementalPotential(IncrementalPotentialPlan::compile(scene, settings))
             }
@@ -381,6 +384,12 @@ impl Plan {
             contacts,
             stages,
             substep_kernels,
+            primal_residual: matches!(
+                scene.solver,
+                Solver::Xpbd(XpbdSettings {
+                    primal_residual: true
+                })
+            ),
             solver,
             guards: scene.guards.clone(),
             adaptive: scene.adaptive,

@@ -447,7 +447,7 @@ impl Scene {
             obstacles: Vec::new(),
             damping: None,
             collisions: None,
-            solver: Solver::Xpbd,
+            solver: Solver::default(),
             guards: None,
             adaptive: None,
         }

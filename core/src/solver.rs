@@ -2,6 +2,8 @@
 //!
 //! ```text
 //! "solver": {"type": "xpbd"}                                  (default)
+//! "solver": {"type": "xpbd", "primal_residual": true}         (XPBD whose fixed
+//!            point is backward Euler's; CPU only so far)
 //! "solver": {"type": "incremental_potential",
 //!            "barrier_stiffness": κ, "activation_distance": d^,
 //!            "convergence": {"kind": "packed_gradient" | "max_acceleration_residual",
@@ -20,21 +22,41 @@
 use serde::{Deserialize, Serialize};
 
 /// The solver path of a scene.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Solver {
     /// Substepped XPBD (the default).
-    #[default]
-    Xpbd,
+    Xpbd(XpbdSettings),
     /// Per-step minimisation of the incremental potential with barriers.
     IncrementalPotential(IncrementalPotentialSettings),
 }
 
-impl Solver {
-    /// True for the default XPBD path (omitted from JSON output).
-    pub fn is_xpbd(&self) -> bool {
-        matches!(self, Solver::Xpbd)
+impl Default for Solver {
+    fn default() -> Self {
+        Solver::Xpbd(XpbdSettings::default())
     }
+}
+
+impl Solver {
+    /// True for the XPBD path with default settings (omitted from JSON
+    /// output).
+    pub fn is_xpbd(&self) -> bool {
+        *self == Solver::default()
+    }
+}
+
+/// Settings of the XPBD path (every key optional; an unknown key is
+/// refused with its name, so a misspelt setting never runs the default).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct XpbdSettings {
+    /// Carry the primal residual: every element keeps the displacement its
+    /// force put on its particles and an update replaces it, so that the
+    /// iteration's fixed point is the backward-Euler step's
+    /// (`cpu/src/consistent.rs`, docs/accuracy.md "Equilibria"). Off by
+    /// default: the standard update, which assumes the residual is 0.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub primal_residual: bool,
 }
 
 /// Settings of the incremental-potential path.

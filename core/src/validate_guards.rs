@@ -10,7 +10,7 @@
 //! ```
 
 use crate::guard_rules::MAX_SUBDIVISIONS;
-use crate::{Scene, SceneError, Solver};
+use crate::{Scene, SceneError};
 
 impl Scene {
     pub(crate) fn validate_guards(&self) -> Result<(), SceneError> {
@@ -33,7 +33,7 @@ impl Scene {
                     range: "(0, inf)",
                 });
             }
-            if !matches!(self.solver, Solver::Xpbd) {
+            if !matches!(self.solver, crate::Solver::Xpbd(_)) {
                 return Err(SceneError::UnsupportedBySolver {
                     path: "guards".into(),
                     solver: "incremental_potential",

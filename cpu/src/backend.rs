@@ -17,12 +17,14 @@ use hyperpbd_core::{
     StepError, StepReport, check_forces, check_kernel, check_state,
 };
 
+use crate::carried::CarriedForces;
 use crate::collide::{self, Contacts};
 use crate::integrate::{Failed, Motion};
 use crate::parallel::Workers;
 use crate::project::{Batch, Workspace, project};
 use crate::{
-    colours, coupled, friction, guard, incremental_potential, integrate, project, residual, threads,
+    colours, consistent, coupled, friction, guard, incremental_potential, integrate, project,
+    residual, threads,
 };
 use hyperpbd_core::broadphase::Aabbs;
 
@@ -72,6 +74,8 @@ pub struct CpuBackend {
     /// `plan.subdivided(j)` for j = 1, 2, … (adaptive retries), made on
     /// first use.
     subdivided: Vec<Plan>,
+    /// The element forces of `primal_residual` (empty without it).
+    carried: CarriedForces,
 }
 
 impl CpuBackend {
@@ -92,6 +96,7 @@ impl CpuBackend {
             lambda_starts.push(lambda_starts[lambda_starts.len() - 1] + f.len());
         }
         let lambda = vec![0.0; lambda_starts[lambda_starts.len() - 1]];
+        let carried = CarriedForces::new(&plan);
         Ok(CpuBackend {
             force: plan.force.clone(),
             x: state.positions.clone(),
@@ -114,6 +119,7 @@ impl CpuBackend {
             on_pool: false,
             fused_tail: None,
             subdivided: Vec::new(),
+            carried,
         }
         .with_pool_choice())
     }
@@ -164,9 +170,12 @@ impl CpuBackend {
         let plan = &self.plan;
         let workers = &self.workers;
         match kernel {
-            Kernel::Predict => self
-                .predicting(integrate::predict)
-                .map_err(|i| self.particle_error(StageName::Predict, i)),
+            Kernel::Predict => {
+                let predicted = self.predicting(integrate::predict);
+                predicted.map_err(|i| self.particle_error(StageName::Predict, i))?;
+                self.warm_start();
+                Ok(())
+            }
             Kernel::Project { family, color } => {
                 let fam = &plan.families[family];
                 let batch = Batch {
@@ -176,15 +185,29 @@ impl CpuBackend {
                     alpha_tilde: fam.alpha_tilde(plan.h),
                     start: &self.p,
                 };
-                project(
-                    workers,
-                    &batch,
-                    fam.color(color),
-                    &mut self.x,
-                    &mut self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]],
-                    &mut self.workspace,
-                )
-                .map_err(|slot| {
+                let lambda =
+                    &mut self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]];
+                let projected = if plan.primal_residual {
+                    let (carried, scratch) = self.carried.family(family, lambda);
+                    consistent::project(
+                        &batch,
+                        fam.color(color),
+                        &mut self.x,
+                        carried,
+                        &mut self.workspace,
+                        scratch,
+                    )
+                } else {
+                    project(
+                        workers,
+                        &batch,
+                        fam.color(color),
+                        &mut self.x,
+                        lambda,
+                        &mut self.workspace,
+                    )
+                };
+                projected.map_err(|slot| {
                     let substep = self.substep;
                     match hyperpbd_core::element_refusal(plan.dim, fam, slot, &self.x) {
                         Some(refusal) => {
@@ -341,6 +364,7 @@ impl Backend for CpuBackend {
         self.revertible = false;
         self.x.clone_from(&state.positions);
         self.v.clone_from(&state.velocities);
+        self.carried.clear(&mut self.lambda);
         Ok(())
     }
 
@@ -399,11 +423,13 @@ impl CpuBackend {
         self.saved_v.resize(self.v.len(), 0.0);
         copy(workers, &self.x, &mut self.saved_x);
         copy(workers, &self.v, &mut self.saved_v);
+        self.carried.save(&self.plan, &self.lambda);
         self.minimisation.clear();
         self.revertible = false;
         if let Err(e) = self.substeps() {
             self.x.clone_from(&self.saved_x);
             self.v.clone_from(&self.saved_v);
+            self.carried.restore(&self.plan, &mut self.lambda);
             return Err(e);
         }
         self.revertible = true;
@@ -424,7 +450,14 @@ impl CpuBackend {
         self.revertible = false;
         self.x.clone_from(&self.saved_x);
         self.v.clone_from(&self.saved_v);
+        self.carried.restore(&self.plan, &mut self.lambda);
         Ok(())
+    }
+
+    /// The carried forces' warm start of a substep (`carried.rs`).
+    fn warm_start(&mut self) {
+        self.carried
+            .warm_start(&self.plan, &mut self.x, &mut self.lambda);
     }
 
     /// The plan's kernels, `substeps` times. Where a substep ends with
@@ -462,7 +495,12 @@ impl CpuBackend {
             force: &self.force,
         };
         let ((), result) = workers.join(
-            || reset(workers, &mut self.lambda),
+            || {
+                // With the primal residual the forces carry over (warm_start).
+                if !plan.primal_residual {
+                    reset(workers, &mut self.lambda);
+                }
+            },
             || pass(workers, plan, motion),
         );
         result
@@ -471,7 +509,10 @@ impl CpuBackend {
     /// The end of this substep and the prediction of the next, fused.
     fn velocity_then_predict(&mut self) -> Result<(), BackendError> {
         match self.predicting(integrate::velocity_then_predict) {
-            Ok(()) => Ok(()),
+            Ok(()) => {
+                self.warm_start();
+                Ok(())
+            }
             Err(Failed::Velocity(i)) => Err(self.particle_error(StageName::Velocity, i)),
             Err(Failed::Predict(i)) => {
                 self.substep += 1;

@@ -10,8 +10,11 @@
 //! bit-identical across runs and machines.
 
 mod backend;
+mod carried;
 pub mod collide;
 mod colours;
+mod consistent;
+mod constraint_force;
 mod coupled;
 mod dim;
 pub mod f32_reference;
@@ -26,6 +29,7 @@ mod residual;
 mod threads;
 
 pub use backend::CpuBackend;
+pub use constraint_force::constraint_force;
 pub use coupled::coupled_gradient;
 pub use threads::{
     THREADS_VARIABLE, all_cores, default_threads, parse_threads, set_default_threads,

@@ -278,32 +278,7 @@ fn measure<D: Dim, X: Coordinates + ?Sized>(
             let i = i as usize;
             ws.points[j * dim..(j + 1) * dim].copy_from_slice(x.values(i * dim..(i + 1) * dim));
         }
-        let value = match &f.kind {
-            FamilyKind::Distance | FamilyKind::Tether => {
-                hyperpbd_core::geometry::distance(&ws.points, dim, &mut ws.grad)
-            }
-            FamilyKind::SimplexMeasure { .. } => {
-                simplex_squared_measure(&ws.points, dim, &mut ws.grad, &mut ws.scratch)
-            }
-            FamilyKind::Material { .. } => {
-                // A refusal fails the slot; `element_refusal` names it.
-                crate::material::energy_constraint(
-                    f,
-                    e,
-                    &ws.points,
-                    dim,
-                    &mut ws.grad,
-                    &mut ws.material,
-                )
-                .map_err(|_| e)?
-            }
-            FamilyKind::OrientedMeasure => {
-                oriented_measure(&ws.points, dim, &mut ws.grad, &mut ws.scratch)
-            }
-            // Contacts take `contact_in` and expressions `kinds::project`,
-            // never this path.
-            FamilyKind::HyperplaneContact { .. } | FamilyKind::Expression(_) => return Err(e),
-        };
+        let value = gathered_value(f, e, dim, ws)?;
         if !value.is_finite() {
             return Err(e);
         }
@@ -344,6 +319,44 @@ fn measure<D: Dim, X: Coordinates + ?Sized>(
         }
     }
     Ok(())
+}
+
+/// C and ∇C (into `ws.grad`) of slot `e` of a gradient-based family
+/// (distance, tether, measures, materials) at the points gathered into
+/// `ws.points`. A material refusal, or a contact or expression family (they
+/// take their own paths), fails the slot.
+pub(crate) fn gathered_value(
+    f: &Family,
+    e: usize,
+    dim: usize,
+    ws: &mut Workspace,
+) -> Result<f64, usize> {
+    Ok(match &f.kind {
+        FamilyKind::Distance | FamilyKind::Tether => {
+            hyperpbd_core::geometry::distance(&ws.points, dim, &mut ws.grad)
+        }
+        FamilyKind::SimplexMeasure { .. } => {
+            simplex_squared_measure(&ws.points, dim, &mut ws.grad, &mut ws.scratch)
+        }
+        FamilyKind::Material { .. } => {
+            // A refusal fails the slot; `element_refusal` names it.
+            crate::material::energy_constraint(
+                f,
+                e,
+                &ws.points,
+                dim,
+                &mut ws.grad,
+                &mut ws.material,
+            )
+            .map_err(|_| e)?
+        }
+        FamilyKind::OrientedMeasure => {
+            oriented_measure(&ws.points, dim, &mut ws.grad, &mut ws.scratch)
+        }
+        // Contacts take `contact_in` and expressions `kinds::project`,
+        // never this path.
+        FamilyKind::HyperplaneContact { .. } | FamilyKind::Expression(_) => return Err(e),
+    })
 }
 
 fn contact_in<D: Dim, X: Coordinates + ?Sized>(

@@ -161,6 +161,13 @@ impl GpuBackend {
             }
             .into());
         }
+        if plan.primal_residual {
+            return Err(GpuError::Unsupported {
+                what: "XPBD with \"primal_residual\": true (the CPU runs it so far: --backend cpu)"
+                    .into(),
+            }
+            .into());
+        }
         if plan.incremental_potential().is_some() {
             return Err(crate::incremental_potential::incremental_potential_unsupported().into());
         }

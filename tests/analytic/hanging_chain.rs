@@ -5,6 +5,18 @@ use super::*;
 /// Per-link (stretch_k − α T_k) / (α T_0) after settling, and the largest
 /// position change over the final second.
 fn hanging_chain_error(iterations: u32, alpha: f64, count: usize, mass: f64) -> (Vec<f64>, f64) {
+    hanging_chain_error_with(iterations, alpha, count, mass, false)
+}
+
+/// [`hanging_chain_error`] with the standard update or, with
+/// `primal_residual`, the update that carries the primal residual.
+fn hanging_chain_error_with(
+    iterations: u32,
+    alpha: f64,
+    count: usize,
+    mass: f64,
+    primal_residual: bool,
+) -> (Vec<f64>, f64) {
     let dt = 1.0 / 60.0;
     let link = 0.1;
     let mut b = SceneBuilder::new(3)
@@ -22,6 +34,7 @@ fn hanging_chain_error(iterations: u32, alpha: f64, count: usize, mass: f64) -> 
         compliance: alpha,
         fix_first: true,
     });
+    b.scene_mut().solver = hyperpbd::Solver::Xpbd(hyperpbd::XpbdSettings { primal_residual });
     let scene = b.build().expect("valid scene");
     let rest: Vec<f64> = (0..count)
         .map(|k| {
@@ -190,5 +203,37 @@ fn hanging_chain_converges_to_compliant_equilibrium() {
             e1 < e0,
             "equilibrium error did not decrease from {k0} to {k1} iterations: {e0:e} -> {e1:e}"
         );
+    }
+}
+
+/// The same chain with `"primal_residual": true` settles on the compliant
+/// equilibrium stretch α·T_k itself, for any number of sweeps: the forces
+/// carry over between substeps, so a chain at rest in equilibrium starts
+/// each substep at its solution, and the fixed point is backward Euler's
+/// (cpu/src/consistent.rs). Bound: the rounding floor of the check above
+/// (4u·X / (1 − e^{−r h}) / (α T_0)), against the standard update's
+/// K-sweep error printed beside it.
+#[test]
+fn the_primal_residual_chain_settles_on_the_compliant_stretch_for_any_sweep_count() {
+    let (count, mass) = (8usize, 0.1);
+    let h: f64 = 1.0 / 600.0;
+    let alpha = 2.5e-5;
+    let top = alpha * mass * G * count as f64;
+    let bound = 4.0 * U * 1.5 / (1.0 - (-3.0 * h).exp()) / top;
+    for k in [1u32, 4] {
+        let (per_link, drift) = hanging_chain_error_with(k, alpha, count, mass, true);
+        let (standard, _) = hanging_chain_error(k, alpha, count, mass);
+        let err = max_abs(&per_link);
+        super::bound::print_bound(
+            format_args!("hanging chain, {k} sweeps, primal_residual: max |stretch − αT|/αT_0"),
+            format_args!("{err:.3e}"),
+            format_args!("{bound:.3e}"),
+            format_args!(
+                "rounding floor; the standard update: {:.3e}",
+                max_abs(&standard)
+            ),
+        );
+        assert!(drift <= 1e-3 * top, "not settled ({k} sweeps): {drift:e}");
+        assert!(err <= bound, "{k} sweeps: {err:e} > {bound:e}");
     }
 }

@@ -7,6 +7,8 @@
 //! code happens to produce. Run with `cargo test --release --test analytic
 //! -- --nocapture` to see the measured values.
 
+#[path = "../common/bound.rs"]
+mod bound;
 #[path = "../common/support.rs"]
 mod support;
 
@@ -14,6 +16,7 @@ mod damping;
 mod free_fall;
 mod hanging_chain;
 mod incline;
+mod patch;
 mod pendulum;
 mod resting_contact;
 mod scenes;

@@ -11,7 +11,7 @@ fn barrier_scene_compiles_to_the_minimise_stage_only() {
     assert!(plan.families.is_empty());
     assert!(plan.incremental_potential().is_some());
     let mut xpbd = scene.clone();
-    xpbd.solver = Solver::Xpbd;
+    xpbd.solver = Solver::default();
     let plan = Plan::compile(&xpbd).unwrap();
     assert!(plan.incremental_potential().is_none());
     assert!(!plan.stages.contains(&StageName::Minimise));
@@ -215,7 +215,7 @@ fn barrier_validation_names_the_field() {
     // A simplex mesh under XPBD.
     let mut s = mesh(square, vec![vec![0, 1, 2]]);
     s.validate().expect("valid barrier scene");
-    s.solver = Solver::Xpbd;
+    s.solver = Solver::default();
     s.obstacles.remove(0);
     assert!(matches!(
         err(&s),
@@ -252,7 +252,7 @@ fn barrier_scene_json_round_trips() {
     assert_eq!(again, scene);
     let xpbd =
         Scene::from_json_str(r#"{"dim": 1, "dt": 0.1, "solver": {"type": "xpbd"}}"#).unwrap();
-    assert_eq!(xpbd.solver, Solver::Xpbd);
+    assert_eq!(xpbd.solver, Solver::default());
     assert!(!xpbd.to_json_string().contains("solver"));
     for bad in [
         r#"{"dim": 1, "dt": 0.1, "solver": {"type": "incremental_potential", "barrier_stiffness": 1, "activation_distance": 1, "convergence": {"kind": "packed_gradient", "tolerance": 1}, "max_iterations": 3, "extra": 1}}"#,

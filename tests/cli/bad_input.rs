@@ -51,6 +51,19 @@ fn unknown_key_is_rejected() {
 }
 
 #[test]
+fn an_unknown_key_of_the_xpbd_solver_is_rejected() {
+    // A misspelt setting must not silently run the default.
+    assert_rejected(
+        &example_with(
+            r#""damping": {"rate": 0.5}"#,
+            r#""damping": {"rate": 0.5}, "solver": {"type": "xpbd", "iterations": 20}"#,
+        ),
+        2,
+        &["solver: unknown field `iterations`, expected `primal_residual`"],
+    );
+}
+
+#[test]
 fn wrong_length_is_rejected() {
     assert_rejected(
         &example_with(

@@ -62,6 +62,7 @@ const TOKENS: &[&str] = &[
     "\"tether\"",
     "\"simplex_mesh\"",
     "\"xpbd\"",
+    "{\"type\": \"xpbd\", \"iterations\": 20}",
     "\"incremental_potential\"",
     "\"packed_gradient\"",
     "\"max_acceleration_residual\"",

@@ -77,6 +77,7 @@ fn catalogue() -> Vec<String> {
             r#", "obstacles": [{"type": "hyperplane", "normal": [1], "restitution": 1}]"#,
         )),
         j(&doc(r#", "damping": {"rate": 1, "linear": 1}"#)),
+        j(&doc(r#", "solver": {"type": "xpbd", "iterations": 20}"#)),
         j(r#"{"dim": "3", "dt": 0.1}"#),
         j(r#"{"dim": 1, "dt": 0.1, "particles": [{"position": ["0"], "mass": 1}]}"#),
         j(&doc(

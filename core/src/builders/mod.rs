@@ -1,16 +1,19 @@
 //! Builders for real scenes: particle grids with edge springs (cloth is a
 //! 2-grid in R^3), Kuhn-simplexized soft N-cuboids, chains, tethers, and
-//! triangulated squares as simplex-mesh obstacles.
+//! triangulated squares as simplex-mesh obstacles, and the linear patch
+//! test of a hyperelastic law.
 
 mod chain;
 mod grid;
 mod kuhn;
+mod patch;
 mod tether;
 mod triangle_grid;
 
 pub use chain::ChainSpec;
 pub use grid::{Grid, GridSpec, coords_of};
 pub use kuhn::{BlockSpec, kuhn_grid_elements, kuhn_simplices};
+pub use patch::{Patch, PatchSpec};
 pub use triangle_grid::triangle_grid;
 
 use crate::{ConstraintFamily, Damping, Obstacle, Particle, Scene};

@@ -176,6 +176,11 @@ impl F32Reference {
                 return Err(ReferenceError::Unsupported(format!("{k:?}")));
             }
         }
+        if plan.primal_residual {
+            return Err(ReferenceError::Unsupported(
+                "XPBD with \"primal_residual\": true (CPU f64 only so far)".into(),
+            ));
+        }
         let shifted = origin.iter().any(|&o| o != 0.0);
         if shifted && let Some(f) = plan.families.iter().find(|f| f.kind.is_expression()) {
             // An expression need not be translation-invariant (a param may

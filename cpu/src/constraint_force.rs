@@ -1,0 +1,103 @@
+//! The constraint force of the current iterate, ∇C(x)ᵀλ, per particle: the
+//! term whose mismatch with M(x − x~) is XPBD's primal residual.
+//!
+//! ```text
+//! q_i = Σ_{elements e ∋ i} ∇_i C_e(x) λ_e        (family order, slot order;
+//!                                                 dynamic particles only)
+//! g_i = m_i (x_i − x~_i) − q_i                   (Macklin et al. 2016, eq. 17)
+//! ```
+//! Standard XPBD assumes g = 0 when it projects (eq. 18); at its fixed
+//! point on a stressed material g is not 0 (docs/accuracy.md,
+//! "Equilibria", measured by `cargo run --release --example
+//! patch_residual`). λ is in the backend's units (force · h²), so q / h²
+//! is a force. Used by that measurement and by the tests; not by a step.
+
+// Coordinate loops index several arrays at once, as a kernel does.
+#![allow(clippy::needless_range_loop)]
+
+use crate::project::{Workspace, gathered_value};
+use hyperpbd_core::{Family, FamilyKind, Plan};
+
+/// q = ∇C(x)ᵀλ (module docs), `plan.dim` values per particle; fixed
+/// particles get 0. `multipliers[f]` holds family f's λ per colour-ordered
+/// slot (what [`CpuBackend::multipliers`](crate::CpuBackend::multipliers)
+/// returns). Err names the family and slot whose value was not finite (or
+/// whose material element was refused).
+pub fn constraint_force(
+    plan: &Plan,
+    x: &[f64],
+    multipliers: &[&[f64]],
+) -> Result<Vec<f64>, (usize, usize)> {
+    let mut force = vec![0.0; x.len()];
+    let mut ws = Workspace::default();
+    for (f, family) in plan.families.iter().enumerate() {
+        accumulate(plan, family, x, multipliers[f], &mut force, &mut ws)
+            .map_err(|slot| (f, slot))?;
+    }
+    Ok(force)
+}
+
+/// q += ∇C(x)ᵀλ over the slots of `family`, in order.
+fn accumulate(
+    plan: &Plan,
+    family: &Family,
+    x: &[f64],
+    lambda: &[f64],
+    force: &mut [f64],
+    ws: &mut Workspace,
+) -> Result<(), usize> {
+    let (dim, arity) = (plan.dim, family.arity);
+    let w = &plan.inverse_mass;
+    if let FamilyKind::Expression(kind) = &family.kind {
+        kind.gradient.eval(
+            family.len(),
+            |j, slot| {
+                let i = family.elements[slot * arity + j / dim] as usize;
+                x[i * dim + j % dim]
+            },
+            &mut ws.columns,
+        );
+    }
+    ws.points.resize(arity * dim, 0.0);
+    ws.grad.resize(arity * dim, 0.0);
+    for e in 0..family.len() {
+        let element = &family.elements[e * arity..(e + 1) * arity];
+        let value = match &family.kind {
+            FamilyKind::HyperplaneContact { normal, .. } => {
+                let i = element[0] as usize;
+                ws.grad[..dim].copy_from_slice(&normal[..dim]);
+                (0..dim).map(|a| normal[a] * x[i * dim + a]).sum()
+            }
+            FamilyKind::Expression(kind) => {
+                for (k, &slot) in kind.gradient.gradient.iter().enumerate() {
+                    ws.grad[k] = ws.columns.column(slot)[e];
+                }
+                ws.columns.column(kind.gradient.value)[e]
+            }
+            FamilyKind::Distance
+            | FamilyKind::Tether
+            | FamilyKind::SimplexMeasure { .. }
+            | FamilyKind::OrientedMeasure
+            | FamilyKind::Material { .. } => {
+                for (j, &i) in element.iter().enumerate() {
+                    let i = i as usize;
+                    ws.points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
+                }
+                gathered_value(family, e, dim, ws)?
+            }
+        };
+        if !value.is_finite() {
+            return Err(e);
+        }
+        for (j, &i) in element.iter().enumerate() {
+            let i = i as usize;
+            if w[i] == 0.0 {
+                continue;
+            }
+            for a in 0..dim {
+                force[i * dim + a] += ws.grad[j * dim + a] * lambda[e];
+            }
+        }
+    }
+    Ok(())
+}
