@@ -1,6 +1,6 @@
 //! The linear patch test on the XPBD path: how far the interior settles
 //! from the exact equilibrium F X, and XPBD's primal residual at that fixed
-//! point (docs/accuracy.md, "Equilibria"). Prints markdown tables.
+//! point (docs/equilibria.md). Prints markdown tables.
 //!
 //! ```text
 //! cargo run --release --example patch_residual

@@ -53,7 +53,7 @@ pub struct XpbdSettings {
     /// Carry the primal residual: every element keeps the displacement its
     /// force put on its particles and an update replaces it, so that the
     /// iteration's fixed point is the backward-Euler step's
-    /// (`cpu/src/consistent.rs`, docs/accuracy.md "Equilibria"). Off by
+    /// (`cpu/src/consistent.rs`, docs/equilibria.md). Off by
     /// default: the standard update, which assumes the residual is 0.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub primal_residual: bool,

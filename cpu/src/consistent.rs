@@ -2,7 +2,7 @@
 //! "primal_residual": true}`): each element keeps the displacement its
 //! force has put on its particles, so that an update replaces the
 //! element's old force instead of adding to it, and the iteration's fixed
-//! point is the backward-Euler step's (docs/accuracy.md, "Equilibria").
+//! point is the backward-Euler step's (docs/equilibria.md).
 //!
 //! Backward Euler with per-element potentials Φ_e (Φ = C² / (2 α~) for a
 //! compliant constraint, Φ = W / α~ for a material element, α~ = α / h²;

@@ -7,9 +7,8 @@
 //! g_i = m_i (x_i − x~_i) − q_i                   (Macklin et al. 2016, eq. 17)
 //! ```
 //! Standard XPBD assumes g = 0 when it projects (eq. 18); at its fixed
-//! point on a stressed material g is not 0 (docs/accuracy.md,
-//! "Equilibria", measured by `cargo run --release --example
-//! patch_residual`). λ is in the backend's units (force · h²), so q / h²
+//! point on a stressed material g is not 0 (docs/equilibria.md, measured
+//! by `cargo run --release --example patch_residual`). λ is in the backend's units (force · h²), so q / h²
 //! is a force. Used by that measurement and by the tests; not by a step.
 
 // Coordinate loops index several arrays at once, as a kernel does.

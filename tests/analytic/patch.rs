@@ -10,7 +10,7 @@
 //! - XPBD with `"primal_residual": true` (cpu/src/consistent.rs) lands on
 //!   F X from X at 10 substeps × 10 sweeps: ≤ 1e-8 m, the standard
 //!   update's offset printed beside it.
-//! - XPBD's fixed point misses it (docs/accuracy.md, "Equilibria"); the
+//! - XPBD's fixed point misses it (docs/equilibria.md); the
 //!   offset is printed (BOUND lines) and the diagnosis is checked: at the
 //!   fixed point (10 substeps × 100 sweeps) the multipliers satisfy compliance (λ = −C/α~), so the
 //!   constraint force ∇C(x)ᵀλ / h² of the last substep is the elastic
@@ -141,7 +141,7 @@ fn xpbd_misses_the_patch_by_its_primal_residual() {
             format_args!("patch test, standard XPBD 10×100, {dim}D {law:?}: offset from F X (m)"),
             format_args!("{offset:.3e}"),
             "none (a known defect)",
-            "XPBD's fixed point is not backward Euler's (docs/accuracy.md, Equilibria); the implicit path: ≤ 1e-8",
+            "XPBD's fixed point is not backward Euler's (docs/equilibria.md); the implicit path: ≤ 1e-8",
         );
         // A real imbalance: more than 1 N at an interior node of 0.05 kg.
         assert!(imbalance > 1.0, "{dim}D: |∇W| = {imbalance:e} N");
