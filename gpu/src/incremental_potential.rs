@@ -251,6 +251,12 @@ impl GpuBarrierBackend {
         Ok(backend)
     }
 
+    /// Times the host has waited for this backend's device since it was
+    /// loaded (every `device.poll`: `GpuContext::poll`).
+    pub fn host_waits(&self) -> u64 {
+        self.ctx.host_waits()
+    }
+
     /// Records `entry` over `invocations` with parameter block `block`.
     fn pass(
         &self,

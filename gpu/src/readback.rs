@@ -7,10 +7,13 @@
 
 use hyperpbd_core::GpuError;
 
+use crate::context::GpuContext;
+
 /// Maps the first `len` bytes of `buffer` (a `MAP_READ` buffer whose copies
-/// have been submitted), waits for the device, and returns a copy of them.
+/// have been submitted), waits for the device (one counted
+/// [`GpuContext::poll`]), and returns a copy of them.
 pub(crate) fn read_mapped(
-    device: &wgpu::Device,
+    ctx: &GpuContext,
     buffer: &wgpu::Buffer,
     len: u64,
 ) -> Result<Vec<u8>, GpuError> {
@@ -22,11 +25,7 @@ pub(crate) fn read_mapped(
     slice.map_async(wgpu::MapMode::Read, move |r| {
         let _ = tx.send(r);
     });
-    device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| GpuError::DeviceLost {
-            message: e.to_string(),
-        })?;
+    ctx.poll(None)?;
     match rx.recv() {
         Ok(Ok(())) => {}
         Ok(Err(e)) => {

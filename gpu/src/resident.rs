@@ -288,11 +288,7 @@ impl ResidentState {
                 let mapped = match s.mapped.try_recv() {
                     Ok(r) => r,
                     Err(_) => {
-                        ctx.device
-                            .poll(wgpu::PollType::wait_indefinitely())
-                            .map_err(|e| GpuError::DeviceLost {
-                                message: e.to_string(),
-                            })?;
+                        ctx.poll(None)?;
                         s.mapped.recv().map_err(|_| GpuError::DeviceLost {
                             message: "snapshot mapping was never answered".into(),
                         })?

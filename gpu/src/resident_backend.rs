@@ -16,7 +16,8 @@
 //!              vertex buffer, one dispatch recorded into the caller's
 //!              encoder (crate::export)
 //! Backend      name "gpu-<precision>", plan, step = step_adaptive over the
-//!              type's Subdivided attempts, read/write state and set forces
+//!              type's Subdivided attempts (its report's host_waits: the
+//!              context's polls during the step), read/write state and set forces
 //!              through the ResidentState; the rest given per type
 //! ```
 //! The orphan rule keeps a blanket `impl Backend` out of this crate, so one
@@ -105,11 +106,14 @@ macro_rules! resident_backend {
             fn step(
                 &mut self,
             ) -> Result<::hyperpbd_core::StepReport, ::hyperpbd_core::BackendError> {
-                ::hyperpbd_core::adaptive::step_adaptive(
+                let before = self.ctx.host_waits();
+                let mut report = ::hyperpbd_core::adaptive::step_adaptive(
                     self.plan.substeps,
                     self.plan.adaptive,
                     self,
-                )
+                )?;
+                report.host_waits = self.ctx.host_waits() - before;
+                Ok(report)
             }
 
             fn read_state(
