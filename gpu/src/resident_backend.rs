@@ -171,7 +171,8 @@ macro_rules! minimising_backend {
                 ::hyperpbd_core::check_kernel(&self.plan, kernel)?;
                 let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
                 self.state.save(&mut encoder);
-                self.ctx.submit_and_wait(encoder)?;
+                // No wait: the steps' submissions follow it in queue order.
+                self.ctx.submit(encoder)?;
                 match self.run_minimise() {
                     // Results the device could not finish (loops cut short, a
                     // lost device) are not kept: the state goes back to the
@@ -198,7 +199,8 @@ macro_rules! minimising_backend {
                 }
                 let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
                 self.state.save(&mut encoder);
-                self.ctx.submit_and_wait(encoder)?;
+                // No wait: the steps' submissions follow it in queue order.
+                self.ctx.submit(encoder)?;
                 self.reports.clear();
                 for substep in 0..self.plan.substeps {
                     self.substep = substep;
