@@ -487,18 +487,41 @@ impl Device {
         mut encoder: wgpu::CommandEncoder,
         results: &[Result<usize, f64>],
     ) -> Result<(Vec<f64>, [u32; STATUS_WORDS]), GpuError> {
-        let r = real_size(self.precision) as u64;
-        for (k, result) in results.iter().enumerate() {
-            if let Ok(at) = result {
-                encoder.copy_buffer_to_buffer(
-                    &self.tree,
-                    *at as u64 * r,
-                    &self.probe,
-                    k as u64 * 8,
-                    r,
-                );
-            }
+        for (k, &result) in results.iter().enumerate() {
+            self.copy_result(&mut encoder, result, k);
         }
+        self.read_copied(ctx, encoder, results)
+    }
+
+    /// Records copying a reduction's result into probe slot `slot` (now,
+    /// before a later reduction on its channel overwrites it).
+    pub fn copy_result(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        result: Result<usize, f64>,
+        slot: usize,
+    ) {
+        let r = real_size(self.precision) as u64;
+        if let Ok(at) = result {
+            encoder.copy_buffer_to_buffer(
+                &self.tree,
+                at as u64 * r,
+                &self.probe,
+                slot as u64 * 8,
+                r,
+            );
+        }
+    }
+
+    /// [`Device::read`] of `results` whose copies into the probe (slot k
+    /// for results[k]) are already recorded.
+    pub fn read_copied(
+        &self,
+        ctx: &GpuContext,
+        mut encoder: wgpu::CommandEncoder,
+        results: &[Result<usize, f64>],
+    ) -> Result<(Vec<f64>, [u32; STATUS_WORDS]), GpuError> {
+        let r = real_size(self.precision) as u64;
         let status_at = PROBE_REALS * 8;
         encoder.copy_buffer_to_buffer(
             &self.status,
@@ -507,8 +530,8 @@ impl Device {
             status_at,
             4 * STATUS_WORDS as u64,
         );
-        ctx.submit_and_wait(encoder)?;
-        let bytes = ctx.read(&self.probe, status_at + 4 * STATUS_WORDS as u64)?;
+        let bytes =
+            ctx.submit_and_read(encoder, &self.probe, status_at + 4 * STATUS_WORDS as u64)?;
         let status = status_words(&bytes[status_at as usize..]);
         super::material::refuse_cut_loops_of(&status)?;
         let values = results
@@ -574,8 +597,7 @@ impl Device {
             }
             at += len;
         }
-        ctx.submit_and_wait(encoder)?;
-        let bytes = ctx.read(&staging, total.max(4))?;
+        let bytes = ctx.submit_and_read(encoder, &staging, total.max(4))?;
         let mut out = Vec::new();
         let mut at = 0;
         for &(_, _, len) in spans {
