@@ -8,7 +8,8 @@
 //!                 takes) exactly once (context.rs), and
 //!                 `map_async` only where that poll completes it
 //! report = count  the report's count is the backend's counter over the step
-//! XPBD            one wait per step (the status/report read)
+//! XPBD            one wait per step (the status/report read; with contact
+//!                 the outcome read with it)
 //! IP barrier4d    ≤ 5 per frame (Newton's stop test on the device)
 //! coupled chain   ≤ 30 per frame, ≤ 20 on average over its first 10 frames
 //!                 (today 28 … 11; 46 per frame before): NOT yet the 5 (the line search,
@@ -107,6 +108,20 @@ fn an_xpbd_step_waits_once() {
     let (plan, state) = loaded("chain2d");
     let mut gpu = GpuBackend::with_adapter(&adapter, plan, &state, Precision::F64).expect("loads");
     assert_eq!(counts(&mut gpu, GpuBackend::host_waits, 5), vec![1; 5]);
+}
+
+#[test]
+fn a_contact_step_waits_once() {
+    let Some((adapter, _)) = adapter_or_skip("a_contact_step_waits_once", Precision::F32) else {
+        return;
+    };
+    let scene = hyperpbd::scenes::pit3d(8, 6);
+    let plan = Plan::compile(&scene).expect("compiles");
+    let state = State::from_scene(&scene);
+    let mut gpu = GpuBackend::with_adapter(&adapter, plan, &state, Precision::F32).expect("loads");
+    gpu.step()
+        .expect("first step (its lists may grow: a rerun, more waits)");
+    assert_eq!(counts(&mut gpu, GpuBackend::host_waits, 4), vec![1; 4]);
 }
 
 #[test]

@@ -154,6 +154,12 @@ impl GpuContext {
         crate::readback::read_mapped(self, buffer, len)
     }
 
+    /// Maps every (buffer, len) of `reads` (their copies submitted) and
+    /// returns them, with ONE wait for all.
+    pub fn read_all(&self, reads: &[(&wgpu::Buffer, u64)]) -> Result<Vec<Vec<u8>>, GpuError> {
+        crate::readback::read_mapped_all(self, reads)
+    }
+
     /// Submits `encoder` (which copies into `buffer`) and reads the first
     /// `len` bytes of `buffer` back: one wait, where `submit_and_wait`
     /// followed by `read` waits twice.

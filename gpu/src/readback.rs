@@ -17,33 +17,77 @@ pub(crate) fn read_mapped(
     buffer: &wgpu::Buffer,
     len: u64,
 ) -> Result<Vec<u8>, GpuError> {
-    if len == 0 {
-        return Ok(Vec::new());
+    let mut all = read_mapped_all(ctx, &[(buffer, len)])?;
+    Ok(all.pop().unwrap_or_default())
+}
+
+/// [`read_mapped`] of several buffers: every mapping started, then ONE
+/// wait for all of them; the copies in `reads` order.
+pub(crate) fn read_mapped_all(
+    ctx: &GpuContext,
+    reads: &[(&wgpu::Buffer, u64)],
+) -> Result<Vec<Vec<u8>>, GpuError> {
+    let pending: Vec<_> = reads
+        .iter()
+        .map(|&(buffer, len)| {
+            (len > 0).then(|| {
+                let (tx, rx) = std::sync::mpsc::channel();
+                buffer
+                    .slice(0..len)
+                    .map_async(wgpu::MapMode::Read, move |r| {
+                        let _ = tx.send(r);
+                    });
+                rx
+            })
+        })
+        .collect();
+    if pending.iter().any(Option::is_some) {
+        ctx.poll(None)?;
     }
-    let slice = buffer.slice(0..len);
-    let (tx, rx) = std::sync::mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    ctx.poll(None)?;
-    match rx.recv() {
-        Ok(Ok(())) => {}
-        Ok(Err(e)) => {
-            return Err(GpuError::Other {
+    let mut out = Vec::with_capacity(reads.len());
+    let mut failure = None;
+    for (&(buffer, len), rx) in reads.iter().zip(pending) {
+        let Some(rx) = rx else {
+            out.push(Vec::new());
+            continue;
+        };
+        let mapped = match rx.recv() {
+            Ok(Ok(())) => Ok(()),
+            Ok(Err(e)) => Err(GpuError::Other {
                 message: format!("buffer mapping failed: {e}"),
-            });
-        }
-        Err(_) => {
-            return Err(GpuError::DeviceLost {
+            }),
+            Err(_) => Err(GpuError::DeviceLost {
                 message: "buffer mapping was never answered".into(),
-            });
+            }),
+        };
+        // A mapped buffer is copied out, then unmapped whatever happened,
+        // so a failed read never leaves it mapped for the next one.
+        let bytes = mapped.and_then(|()| {
+            let bytes = buffer
+                .slice(0..len)
+                .get_mapped_range()
+                .map(|view| view.to_vec())
+                .map_err(|e| GpuError::Other {
+                    message: format!("mapped range: {e:?}"),
+                });
+            buffer.unmap();
+            bytes
+        });
+        match bytes {
+            Ok(bytes) => out.push(bytes),
+            Err(e) => {
+                failure.get_or_insert(e);
+                out.push(Vec::new());
+            }
         }
     }
-    // Copy out, then unmap whatever happened, so a failed read never
-    // leaves the buffer mapped for the next one.
-    let bytes = slice.get_mapped_range().map(|view| view.to_vec());
-    buffer.unmap();
-    bytes.map_err(|e| GpuError::Other {
-        message: format!("mapped range: {e:?}"),
-    })
+    match failure {
+        // A lost device (or an error it reported) says more than the
+        // failed mapping it caused.
+        Some(e) => {
+            ctx.check()?;
+            Err(e)
+        }
+        None => Ok(out),
+    }
 }
