@@ -256,7 +256,7 @@ impl GpuBackend {
         block: &[u8],
     ) -> Result<StepReport, BackendError> {
         self.refuse_cut_loops(block)?;
-        if let Some(failed) = self.failure(&block) {
+        if let Some(failed) = self.failure(block) {
             return Err(self.diagnosed_error(failed));
         }
         let report = crate::params::read_reals(&block[16..], self.precision);

@@ -503,13 +503,8 @@ impl Device {
     ) {
         let r = real_size(self.precision) as u64;
         if let Ok(at) = result {
-            encoder.copy_buffer_to_buffer(
-                &self.tree,
-                at as u64 * r,
-                &self.probe,
-                slot as u64 * 8,
-                r,
-            );
+            let (from, to) = (at as u64 * r, slot as u64 * 8);
+            encoder.copy_buffer_to_buffer(&self.tree, from, &self.probe, to, r);
         }
     }
 
@@ -522,16 +517,9 @@ impl Device {
         results: &[Result<usize, f64>],
     ) -> Result<(Vec<f64>, [u32; STATUS_WORDS]), GpuError> {
         let r = real_size(self.precision) as u64;
-        let status_at = PROBE_REALS * 8;
-        encoder.copy_buffer_to_buffer(
-            &self.status,
-            0,
-            &self.probe,
-            status_at,
-            4 * STATUS_WORDS as u64,
-        );
-        let bytes =
-            ctx.submit_and_read(encoder, &self.probe, status_at + 4 * STATUS_WORDS as u64)?;
+        let (status_at, words) = (PROBE_REALS * 8, 4 * STATUS_WORDS as u64);
+        encoder.copy_buffer_to_buffer(&self.status, 0, &self.probe, status_at, words);
+        let bytes = ctx.submit_and_read(encoder, &self.probe, status_at + words)?;
         let status = status_words(&bytes[status_at as usize..]);
         super::material::refuse_cut_loops_of(&status)?;
         let values = results
@@ -539,15 +527,10 @@ impl Device {
             .enumerate()
             .map(|(k, result)| match result {
                 Err(pad) => *pad,
-                Ok(_) => {
-                    let at = k * 8;
-                    let value = read_reals(&bytes[at..at + r as usize], self.precision)[0];
-                    if value >= f64::MAX {
-                        f64::INFINITY
-                    } else {
-                        value
-                    }
-                }
+                Ok(_) => match read_reals(&bytes[k * 8..k * 8 + r as usize], self.precision)[0] {
+                    value if value >= f64::MAX => f64::INFINITY,
+                    value => value,
+                },
             })
             .collect();
         Ok((values, status))
