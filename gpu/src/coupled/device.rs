@@ -114,7 +114,7 @@ pub(super) struct Params {
 }
 
 impl Params {
-    fn bytes(&self, precision: Precision) -> Vec<u8> {
+    pub fn bytes(&self, precision: Precision) -> Vec<u8> {
         let epsilon = match precision {
             Precision::F32 => f64::from(f32::EPSILON),
             Precision::F64 => f64::EPSILON,
@@ -163,8 +163,8 @@ pub(super) struct Device {
     slots: wgpu::Buffer,
     pub vectors: wgpu::Buffer,
     pub terms: wgpu::Buffer,
-    tree: wgpu::Buffer,
-    params_buffer: wgpu::Buffer,
+    pub tree: wgpu::Buffer,
+    pub params_buffer: wgpu::Buffer,
     /// PCG's scalar state (`CgState`, pcg.rs).
     pub cg: wgpu::Buffer,
     levels: wgpu::Buffer,

@@ -54,6 +54,7 @@ mod f32;
 mod material;
 mod newton;
 mod pcg;
+mod trials;
 
 use hyperpbd_core::broadphase::{Aabbs, Pair, grid_pairs};
 use hyperpbd_core::implicit::{CoupledPlan, PairLag};
@@ -76,6 +77,7 @@ use device::{Device, ElementUpload, Reduction};
 use entries::Entry;
 use material::Materials;
 use pcg::PcgProbe;
+use trials::TrialProbe;
 
 /// The GPU backend of the coupled implicit step.
 pub struct GpuCoupledBackend {
@@ -99,6 +101,8 @@ pub struct GpuCoupledBackend {
     exporter: Exporter,
     /// PCG's read-back buffer and chunk length (pcg.rs).
     pcg: PcgProbe,
+    /// Armijo's batch read-back and batch length (trials.rs).
+    trial_probe: TrialProbe,
 }
 
 /// Why the GPU does not run `plan`'s coupled step (yet), if it does not.
@@ -200,6 +204,7 @@ impl GpuCoupledBackend {
         device.params.h = plan.h;
         device.params.slip = coupled.slip_velocity * plan.h;
         let pcg = PcgProbe::new(&ctx, precision)?;
+        let trial_probe = TrialProbe::new(&ctx)?;
         let mut backend = GpuCoupledBackend {
             plan,
             ip,
@@ -217,6 +222,7 @@ impl GpuCoupledBackend {
             reports: Vec::new(),
             exporter: Exporter::default(),
             pcg,
+            trial_probe,
         };
         backend.upload_elements(Vec::new(), true)?;
         backend.ctx.check()?;

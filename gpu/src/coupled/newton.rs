@@ -5,7 +5,9 @@
 //! rounding floor.
 
 use hyperpbd_core::barrier::BarrierObstacles;
-use hyperpbd_core::implicit::line_search::{after_failed_search, armijo, before_search};
+use hyperpbd_core::implicit::line_search::{
+    MAX_HALVINGS, after_failed_search, armijo, before_search,
+};
 use hyperpbd_core::implicit::resolution::{
     ball_rounding, ball_rounding_at, change_resolution_at, particle_sums, spring_rounding,
     spring_rounding_at,
@@ -400,7 +402,7 @@ impl GpuCoupledBackend {
                 report.status = status;
                 break;
             }
-            let accepted = armijo(fraction, slope, |t| self.trial(t))?;
+            let accepted = self.search(fraction, slope)?;
             if accepted.is_none() {
                 report.iterations = iteration;
                 let resolution = self.resolution()?;
@@ -425,37 +427,39 @@ impl GpuCoupledBackend {
         Ok(v[0] != v[1])
     }
 
-    /// Trial x + tΔ into R_TRIAL: F's change there (particles + h²
-    /// elements, +∞ when not finite) and whether it differs from x.
-    fn trial(&mut self, t: f64) -> Result<(f64, bool), GpuError> {
-        let (n, e) = self.counts();
-        self.device.params.step = t;
-        self.device.write_params(&self.ctx);
-        self.device.reset_status(&self.ctx);
-        let mut encoder = self.encoder();
-        self.device.pass(&mut encoder, Entry::Trial, n);
-        self.device
-            .load_point(&mut encoder, &self.state, region::TRIAL);
-        let (own, coupled) = {
-            let mut pass = self.device.begin(&mut encoder);
-            self.device.dispatch(&mut pass, Entry::ParticleChanges, n);
-            self.device.dispatch(&mut pass, Entry::ElementChanges, e);
+    /// core's `armijo` from `fraction` over trials evaluated in batches
+    /// (trials.rs); R_TRIAL holds the accepted trial when there is one.
+    fn search(&mut self, fraction: f64, slope: f64) -> Result<Option<f64>, GpuError> {
+        let mut known: Vec<(f64, bool)> = Vec::new();
+        let mut batch = self.trial_probe.batch.max(1);
+        let mut asked = 0;
+        let accepted = armijo(fraction, slope, |t| {
+            if asked == known.len() {
+                // t and its halvings, exactly as armijo halves it.
+                let room = (MAX_HALVINGS as usize + 1 - asked).max(1);
+                let mut steps = vec![t];
+                while steps.len() < batch.min(room) {
+                    steps.push(steps[steps.len() - 1] * 0.5);
+                }
+                known.extend(self.trials(&steps)?);
+                batch = batch.saturating_mul(2);
+            }
+            asked += 1;
+            Ok::<_, GpuError>(known[asked - 1])
+        })?;
+        self.trial_probe.batch = asked;
+        if let Some(t) = accepted
+            && asked < known.len()
+        {
+            // A later trial of the batch left R_TRIAL: the accepted one again.
+            self.device.params.step = t;
+            self.device.write_params(&self.ctx);
+            let mut encoder = self.encoder();
             self.device
-                .dispatch(&mut pass, Entry::MaterialChanges, self.materials.len());
-            (
-                self.device.reduce_in(&mut pass, Reduction::SumA),
-                self.device.reduce_in(&mut pass, Reduction::SumE),
-            )
-        };
-        let (values, status) = self.device.read(&self.ctx, encoder, &[own, coupled])?;
-        let h2 = self.plan.h * self.plan.h;
-        let total = values[0] + h2 * values[1];
-        let change = if total.is_finite() {
-            total
-        } else {
-            f64::INFINITY
-        };
-        Ok((change, status[MOVED] != 0))
+                .pass(&mut encoder, Entry::Trial, self.plan.particle_count());
+            self.ctx.submit(encoder)?;
+        }
+        Ok(accepted)
     }
 }
 
