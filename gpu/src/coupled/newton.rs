@@ -431,7 +431,10 @@ impl GpuCoupledBackend {
     /// (trials.rs); R_TRIAL holds the accepted trial when there is one.
     fn search(&mut self, fraction: f64, slope: f64) -> Result<Option<f64>, GpuError> {
         let mut known: Vec<(f64, bool)> = Vec::new();
-        let mut batch = self.trial_probe.batch.max(1);
+        // 1, 2, 4, … trials per batch: at most as many trials run in all
+        // as the search asked for, doubled (the host-driven search's work),
+        // and ⌈log₂⌉ reads instead of one per trial.
+        let mut batch = 1;
         let mut asked = 0;
         let accepted = armijo(fraction, slope, |t| {
             if asked == known.len() {
@@ -447,7 +450,6 @@ impl GpuCoupledBackend {
             asked += 1;
             Ok::<_, GpuError>(known[asked - 1])
         })?;
-        self.trial_probe.batch = asked;
         if let Some(t) = accepted
             && asked < known.len()
         {

@@ -4,8 +4,10 @@
 //!
 //! ```text
 //! batch     t_c, t_c/2, …: the search's own halvings of the first trial it
-//!           has no value for, k of them (the last search's trial count, at
-//!           least 1, doubled per batch, never past MAX_HALVINGS + 1 in all)
+//!           has no value for, k of them (1, 2, 4, … per search, never past
+//!           MAX_HALVINGS + 1 in all: fewer than twice the trials the search
+//!           needs, ⌈log₂(trials + 1)⌉ reads; a first batch sized by the last
+//!           search would waste up to 60 trials after a failed search)
 //! per trial t_j copied into the params' step (a buffer copy in the encoder,
 //!           so every kernel sees exactly the t the host would write);
 //!           cp_trial, x_k + t_j Δ → point; changes; ΣA, ΣE copied out;
@@ -48,13 +50,11 @@ pub(super) fn step_offset(precision: Precision) -> u64 {
     (first / r * r) as u64
 }
 
-/// The batch read-back: 2 reals per trial (8 bytes each), MOST moved words,
-/// then the status words.
+/// The batch read-back (2 reals per trial, 8 bytes each, MOST moved
+/// words, then the status words) and the batch's steps.
 pub(super) struct TrialProbe {
     staging: wgpu::Buffer,
     steps: wgpu::Buffer,
-    /// Trials in the next first batch.
-    pub batch: usize,
 }
 
 const MOVED_AT: u64 = (2 * MOST * 8) as u64;
@@ -65,7 +65,6 @@ impl TrialProbe {
         Ok(TrialProbe {
             staging: ctx.staging("trial probe", STATUS_AT + 4 * STATUS_WORDS as u64)?,
             steps: ctx.storage("trial steps", &vec![0u8; MOST * 8])?,
-            batch: 1,
         })
     }
 }
