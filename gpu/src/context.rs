@@ -151,13 +151,18 @@ impl GpuContext {
     /// Maps the first `len` bytes of `buffer` (its copies submitted) and
     /// returns them (one wait; none for `len` 0).
     pub fn read(&self, buffer: &wgpu::Buffer, len: u64) -> Result<Vec<u8>, GpuError> {
-        crate::readback::read_mapped(self, buffer, len)
+        let mut all = self.read_all(&[(buffer, len)])?;
+        Ok(all.pop().unwrap_or_default())
     }
 
     /// Maps every (buffer, len) of `reads` (their copies submitted) and
     /// returns them, with ONE wait for all.
     pub fn read_all(&self, reads: &[(&wgpu::Buffer, u64)]) -> Result<Vec<Vec<u8>>, GpuError> {
-        crate::readback::read_mapped_all(self, reads)
+        let waiter = crate::readback::Waiter {
+            poll: &|| self.poll(None),
+            check: &|| self.check(),
+        };
+        crate::readback::read_mapped_all(&waiter, reads)
     }
 
     /// Submits `encoder` (which copies into `buffer`) and reads the first

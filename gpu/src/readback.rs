@@ -7,24 +7,18 @@
 
 use hyperpbd_core::GpuError;
 
-use crate::context::GpuContext;
-
-/// Maps the first `len` bytes of `buffer` (a `MAP_READ` buffer whose copies
-/// have been submitted), waits for the device (one counted
-/// [`GpuContext::poll`]), and returns a copy of them.
-pub(crate) fn read_mapped(
-    ctx: &GpuContext,
-    buffer: &wgpu::Buffer,
-    len: u64,
-) -> Result<Vec<u8>, GpuError> {
-    let mut all = read_mapped_all(ctx, &[(buffer, len)])?;
-    Ok(all.pop().unwrap_or_default())
+/// The device's side of a read: `poll` waits for it (the context's one
+/// counted poll), `check` names a lost device or a reported error.
+pub(crate) struct Waiter<'a> {
+    pub poll: &'a dyn Fn() -> Result<(), GpuError>,
+    pub check: &'a dyn Fn() -> Result<(), GpuError>,
 }
 
-/// [`read_mapped`] of several buffers: every mapping started, then ONE
-/// wait for all of them; the copies in `reads` order.
+/// Maps the first `len` bytes of every (buffer, len) of `reads` (`MAP_READ`
+/// buffers whose copies have been submitted), waits ONCE for all of them,
+/// and returns copies in `reads` order (no wait when every len is 0).
 pub(crate) fn read_mapped_all(
-    ctx: &GpuContext,
+    waiter: &Waiter<'_>,
     reads: &[(&wgpu::Buffer, u64)],
 ) -> Result<Vec<Vec<u8>>, GpuError> {
     let pending: Vec<_> = reads
@@ -42,7 +36,7 @@ pub(crate) fn read_mapped_all(
         })
         .collect();
     if pending.iter().any(Option::is_some) {
-        ctx.poll(None)?;
+        (waiter.poll)()?;
     }
     let mut out = Vec::with_capacity(reads.len());
     let mut failure = None;
@@ -85,7 +79,7 @@ pub(crate) fn read_mapped_all(
         // A lost device (or an error it reported) says more than the
         // failed mapping it caused.
         Some(e) => {
-            ctx.check()?;
+            (waiter.check)()?;
             Err(e)
         }
         None => Ok(out),

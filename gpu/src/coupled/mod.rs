@@ -20,10 +20,11 @@
 //!                      chunks of iterations, one read each; cp_material_slots after
 //!                      every cp_slots)
 //!                      pairs over [x_k, x_k + Δ]; filter and, at x_k, elements and
-//!                      slope (one read); trials (one read each); accept (no read) }
+//!                      slope (one read); trials in batches of 1, 2, 4, … (one read
+//!                      per batch, trials.rs); accept (no read) }
 //!               cp_finish: x = x_k, v = (x − x^t)/h (no read)
 //! host waits    per Newton iteration: the residual, PCG's chunks, filter + slope, the
-//!               trials (plus the swept pairs with collisions); per substep the start
+//!               trial batches (plus the swept pairs with collisions); per substep the start
 //!               (with the warm start's filter when there are no collisions)
 //! pairs         the broadphase over the swept boxes runs on the host over x_k and Δ read
 //!               back (only with `collisions`); the element list (springs, balls, pair
