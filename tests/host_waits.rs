@@ -157,3 +157,34 @@ fn a_coupled_frame_waits_within_its_ceiling() {
     assert!(waits.iter().all(|&w| (1..=30).contains(&w)), "{waits:?}");
     assert!(mean <= 20.0, "{waits:?}");
 }
+
+/// `hyperpbd run` prints the mean of its steps' counts: on the same
+/// adapter it is the library's mean over the same frames.
+#[test]
+fn run_prints_the_mean_host_waits_per_frame() {
+    let Some((adapter, _)) = adapter_or_skip("run_prints_host_waits", Precision::F64) else {
+        return;
+    };
+    let frames = 3;
+    let (plan, state) = loaded("chain2d_implicit");
+    let mut gpu =
+        GpuCoupledBackend::with_adapter(&adapter, plan, &state, Precision::F64).expect("loads");
+    let waits = counts(&mut gpu, GpuCoupledBackend::host_waits, frames);
+    let mean = waits.iter().sum::<u64>() as f64 / frames as f64;
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/chain2d_implicit.json");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_hyperpbd"))
+        .arg("run")
+        .arg(&scene)
+        .args(["--backend", "gpu-f64", "--frames", &frames.to_string()])
+        .output()
+        .expect("runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}");
+    let printed: f64 = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("host waits per frame: "))
+        .unwrap_or_else(|| panic!("no host waits line in:\n{stdout}"))
+        .parse()
+        .expect("a number");
+    assert_eq!(printed, mean, "{stdout}");
+}
