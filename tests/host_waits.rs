@@ -11,10 +11,12 @@
 //! XPBD            one wait per step (the status/report read; with contact
 //!                 the outcome read with it)
 //! IP barrier4d    ≤ 5 per frame (Newton's stop test on the device)
+//! run             `hyperpbd run` prints the library's mean over the same frames
 //! coupled chain   ≤ 30 per frame, ≤ 20 on average over its first 10 frames
-//!                 (today 28 … 11; 46 per frame before): NOT yet the issue's 5 (the line search,
-//!                 the filter and PCG's chunks still read back per Newton
-//!                 iteration; docs/performance.md)
+//!                 (today 28 … 11; 46 per frame before): NOT yet the issue's
+//!                 5 (the stop test, the filter, PCG's chunks and Armijo's
+//!                 acceptance still read back per Newton iteration;
+//!                 docs/performance.md)
 //! ```
 
 mod common;
