@@ -14,6 +14,13 @@
 //   ip_newton     Δ = −(m I + h² Σ b'' n nᵀ)⁻¹ g (Cholesky), t = filter,
 //                 Armijo halving on F(x + tΔ) − F(x) in difference form
 //                 (c = 1e-4, ≤ 60), x += tΔ; status: moved
+//   ip_decide     one invocation after each gradient reduction: Newton's stop
+//                 test on the device (gpu/src/ip_decision.rs): logs terms[0] and
+//                 status[0..4], stops on a refusal, a stall, value ≤ ip.threshold
+//                 or the budget ip.max_iterations, else clears status[0..4] for
+//                 the next ip_newton; once stopped, ip_gradient, the reductions,
+//                 ip_decide and ip_newton do nothing (exact no-ops), and
+//                 ip_velocity runs only after a stop that keeps the iterate
 //   ip_velocity   v = (x − x_prev) / h                       (free particles)
 //   every entry point ends with barrier.wgsl's check_loops (status[4])
 
@@ -21,10 +28,10 @@ struct IpParams {
     count: u32,     // particles
     stride: u32,    // reduction stride s
     criterion: u32, // 0: packed gradient, 1: max acceleration residual
-    pad: u32,
+    max_iterations: u32,
     h: real,
     armijo: real,
-    pad_a: real,
+    threshold: real, // the largest reduced value whose residual meets the tolerance
     pad_b: real,
 }
 
@@ -41,7 +48,18 @@ struct IpParams {
 @group(0) @binding(16) var<storage, read> force: array<real>;
 @group(0) @binding(17) var<storage, read_write> terms: array<real>;
 @group(0) @binding(18) var<storage, read> gravity: array<real>;
+// The stop decisions (ip_decide): [stopped, evaluations, stop code (0 none,
+// 1 converged, 2 budget, 3 rounding floor, 4 refused), 0], then status[0..4] of
+// each evaluation; `decided` holds each evaluation's reduced value.
+@group(0) @binding(19) var<storage, read_write> decision: array<u32>;
+@group(0) @binding(20) var<storage, read_write> decided: array<real>;
 @group(1) @binding(0) var<storage, read> ip: IpParams;
+
+const IP_NONE: u32 = 0xffffffffu;
+
+fn stopped() -> bool {
+    return decision[0] != 0u;
+}
 
 const MAX_HALVINGS: u32 = 60u;
 
@@ -134,7 +152,7 @@ fn ip_predict(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
 @compute @workgroup_size(WORKGROUP)
 fn ip_gradient(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
-    if (i >= ip.count) {
+    if (i >= ip.count || stopped()) {
         return;
     }
     if (inv_mass[i] == 0.0) {
@@ -187,7 +205,7 @@ fn gradient_particle(i: u32) {
 fn ip_reduce_sum(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let k = linear_index(gid, groups);
     let i = 2u * ip.stride * k;
-    if (i + ip.stride < ip.count) {
+    if (i + ip.stride < ip.count && !stopped()) {
         terms[i] = terms[i] + terms[i + ip.stride];
         check_loops(i);
     }
@@ -197,7 +215,7 @@ fn ip_reduce_sum(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
 fn ip_reduce_max(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let k = linear_index(gid, groups);
     let i = 2u * ip.stride * k;
-    if (i + ip.stride < ip.count) {
+    if (i + ip.stride < ip.count && !stopped()) {
         terms[i] = max(terms[i], terms[i + ip.stride]);
         check_loops(i);
     }
@@ -206,7 +224,7 @@ fn ip_reduce_max(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
 @compute @workgroup_size(WORKGROUP)
 fn ip_newton(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
-    if (i >= ip.count) {
+    if (i >= ip.count || stopped()) {
         return;
     }
     if (inv_mass[i] != 0.0) {
@@ -371,7 +389,8 @@ fn newton_particle(i: u32) {
 @compute @workgroup_size(WORKGROUP)
 fn ip_velocity(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
-    if (i >= ip.count || inv_mass[i] == 0.0) {
+    let code = decision[2];
+    if (i >= ip.count || inv_mass[i] == 0.0 || code == 0u || code == 4u) {
         return;
     }
     for (var a = 0u; a < DIM; a++) {
@@ -379,4 +398,46 @@ fn ip_velocity(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
         v[k] = (x[k] - x_prev[k]) / ip.h;
     }
     check_loops(i);
+}
+
+// Newton's stop test after evaluation k (one invocation; the host's loop of
+// gpu/src/incremental_potential.rs, decision for decision, replayed there
+// from the log): refused (infeasible, non-finite, or nothing moved at k > 0
+// although a search failed above the rounding), stalled at the rounding
+// floor (k > 0, nothing moved, status[3] = 0), converged (value ≤ threshold), budget (k = max), else on.
+@compute @workgroup_size(1)
+fn ip_decide() {
+    if (stopped()) {
+        return;
+    }
+    let k = decision[1];
+    var words: array<u32, 4>;
+    for (var j = 0u; j < 4u; j++) {
+        words[j] = atomicLoad(&status[j]);
+        decision[4u + 4u * k + j] = words[j];
+    }
+    let value = terms[0];
+    decided[k] = value;
+    decision[1] = k + 1u;
+    var code = 0u;
+    if (words[2] != IP_NONE || words[1] != IP_NONE) {
+        code = 4u;
+    } else if (k > 0u && words[0] == 0u && words[3] == 0u) {
+        code = 3u;
+    } else if (k > 0u && words[0] == 0u) {
+        code = 4u;
+    } else if (value <= ip.threshold) {
+        code = 1u;
+    } else if (k == ip.max_iterations) {
+        code = 2u;
+    }
+    if (code != 0u) {
+        decision[0] = 1u;
+        decision[2] = code;
+        return;
+    }
+    atomicStore(&status[0], 0u);
+    atomicStore(&status[1], IP_NONE);
+    atomicStore(&status[2], IP_NONE);
+    atomicStore(&status[3], 0u);
 }

@@ -22,7 +22,11 @@ pub struct FamilyResidual {
 }
 
 /// What one step did.
-#[derive(Debug, Clone, PartialEq, Default)]
+///
+/// Equality compares what the step computed and how it was scheduled;
+/// `host_waits` (a cost of the backend that ran it, like wall time) is
+/// left out, so a CPU and a GPU report of the same step compare equal.
+#[derive(Debug, Clone, Default)]
 pub struct StepReport {
     /// Kernel calls per stage in this step, in stage order.
     pub kernel_calls: Vec<(StageName, u64)>,
@@ -40,6 +44,31 @@ pub struct StepReport {
     /// attempt, or more when `adaptive` retried guard rejections
     /// (`adaptive.rs`).
     pub attempts: Vec<crate::Attempt>,
+    /// Times the host waited for the device during this step (every
+    /// `device.poll` of the GPU crate: submissions waited for and buffers
+    /// read back); 0 on the CPU.
+    pub host_waits: u64,
+}
+
+impl PartialEq for StepReport {
+    fn eq(&self, other: &Self) -> bool {
+        // Destructured, so a new field cannot be forgotten here.
+        let StepReport {
+            kernel_calls,
+            residuals,
+            active_contacts,
+            minimisation,
+            threads,
+            attempts,
+            host_waits: _,
+        } = self;
+        *kernel_calls == other.kernel_calls
+            && *residuals == other.residuals
+            && *active_contacts == other.active_contacts
+            && *minimisation == other.minimisation
+            && *threads == other.threads
+            && *attempts == other.attempts
+    }
 }
 
 impl StepReport {

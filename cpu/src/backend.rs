@@ -334,6 +334,7 @@ impl CpuBackend {
                 + self.contacts.active_count(),
             minimisation: std::mem::take(&mut self.minimisation),
             attempts: Vec::new(),
+            host_waits: 0,
         }
     }
 }

@@ -8,10 +8,13 @@
 //!                                       error sink, the device-lost flag
 //! check()           lost → DeviceLost; reported errors → OutOfMemory / Other
 //! submit_and_wait   submit, wait for that submission, check()
+//! submit_and_read   submit, map a read-back buffer: ONE wait for both, check()
 //! buffer            a buffer of the given bytes; over the device limits →
 //!                   BufferTooLarge naming it, before asking the device
 //! read              map a MAP_READ buffer, copy, unmap (readback.rs)
-//! host_waits        waits and reads so far (round trips, for tests/benches)
+//! poll              the one place the host waits for the device (every wait,
+//!                   every read-back, every snapshot), each call counted
+//! host_waits        the polls so far (round trips: StepReport::host_waits)
 //! building(f)       runs f inside out-of-memory and validation error scopes
 //! ```
 
@@ -31,8 +34,8 @@ pub(crate) struct GpuContext {
     pub summary: AdapterSummary,
     errors: Arc<Mutex<Vec<String>>>,
     lost: Arc<Mutex<Option<String>>>,
-    /// Times the host waited for the device ([`GpuContext::wait`],
-    /// [`GpuContext::read`]): the round trips a caller can count.
+    /// Times the host waited for the device: the calls of
+    /// [`GpuContext::poll`], the crate's only `device.poll`.
     waits: Arc<AtomicU64>,
 }
 
@@ -113,34 +116,68 @@ impl GpuContext {
         Ok(index)
     }
 
-    /// Times the host has waited for the device since it was created.
+    /// Times the host has waited for the device since it was created (the
+    /// calls of [`GpuContext::poll`]).
     pub fn host_waits(&self) -> u64 {
         self.waits.load(Ordering::Relaxed)
     }
 
-    /// Waits for the submission `index`.
-    pub fn wait(&self, index: wgpu::SubmissionIndex) -> Result<(), GpuError> {
+    /// Blocks until the device has finished `submission` (every submission
+    /// when `None`) and the map callbacks it completes have run: the crate's
+    /// one `device.poll`, counted in [`GpuContext::host_waits`].
+    pub fn poll(&self, submission: Option<wgpu::SubmissionIndex>) -> Result<(), GpuError> {
         self.waits.fetch_add(1, Ordering::Relaxed);
         self.device
             .poll(wgpu::PollType::Wait {
-                submission_index: Some(index),
+                submission_index: submission,
                 timeout: None,
             })
+            .map(|_| ())
             .map_err(|e| {
                 // The device-lost callback's reason, when it has fired, says
                 // more than the failed wait.
                 self.check().err().unwrap_or(GpuError::DeviceLost {
                     message: e.to_string(),
                 })
-            })?;
+            })
+    }
+
+    /// Waits for the submission `index`.
+    pub fn wait(&self, index: wgpu::SubmissionIndex) -> Result<(), GpuError> {
+        self.poll(Some(index))?;
         self.check()
     }
 
     /// Maps the first `len` bytes of `buffer` (its copies submitted) and
-    /// returns them.
+    /// returns them (one wait; none for `len` 0).
     pub fn read(&self, buffer: &wgpu::Buffer, len: u64) -> Result<Vec<u8>, GpuError> {
-        self.waits.fetch_add(1, Ordering::Relaxed);
-        crate::readback::read_mapped(&self.device, buffer, len)
+        let mut all = self.read_all(&[(buffer, len)])?;
+        Ok(all.pop().unwrap_or_default())
+    }
+
+    /// Maps every (buffer, len) of `reads` (their copies submitted) and
+    /// returns them, with ONE wait for all.
+    pub fn read_all(&self, reads: &[(&wgpu::Buffer, u64)]) -> Result<Vec<Vec<u8>>, GpuError> {
+        let waiter = crate::readback::Waiter {
+            poll: &|| self.poll(None),
+            check: &|| self.check(),
+        };
+        crate::readback::read_mapped_all(&waiter, reads)
+    }
+
+    /// Submits `encoder` (which copies into `buffer`) and reads the first
+    /// `len` bytes of `buffer` back: one wait, where `submit_and_wait`
+    /// followed by `read` waits twice.
+    pub fn submit_and_read(
+        &self,
+        encoder: wgpu::CommandEncoder,
+        buffer: &wgpu::Buffer,
+        len: u64,
+    ) -> Result<Vec<u8>, GpuError> {
+        self.submit(encoder)?;
+        let bytes = self.read(buffer, len)?;
+        self.check()?;
+        Ok(bytes)
     }
 
     /// A buffer holding `bytes` (at least 16 bytes), refusing sizes over the

@@ -5,18 +5,20 @@
 //! ```text
 //! step:   save (x, v) on the device
 //!         per substep:  ip_predict
-//!                       loop { ip_gradient; tree reduction (one dispatch per stride);
-//!                              read residual + status (a few bytes)
-//!                              refuse / converged / budget exhausted → stop
-//!                              ip_newton (filter before every trial, Armijo) }
-//!                       ip_velocity
+//!                       chunks of { ip_gradient; tree reduction (one dispatch per
+//!                              stride); ip_decide: refuse / stalled / converged /
+//!                              budget exhausted → stop (on the device);
+//!                              ip_newton (filter before every trial, Armijo) },
+//!                       ip_velocity (only after a stop that keeps the iterate);
+//!                       one read of the decision log per chunk (ip_decision.rs)
 //!         on a refusal: restore (x, v) byte for byte, return the typed error
 //! probe:  every kernel ends with barrier.wgsl's check_loops; the status
-//!         block read after each gradient pass (and after ip_velocity) names
-//!         the first particle whose loops llvmpipe cut short → the step is
-//!         refused (GpuError::Unsupported, state restored), never kept
+//!         block read with each chunk's log names the first particle whose
+//!         loops llvmpipe cut short → the step is refused
+//!         (GpuError::Unsupported, state restored), never kept
 //! ```
-//! The residual's sqrt (packed criterion) is taken on the host in f64.
+//! The residual's sqrt (packed criterion) is taken on the host in f64, on
+//! the logged values; the device compares them with the exact threshold.
 
 use hyperpbd_core::IncrementalPotentialPlan;
 use hyperpbd_core::{
@@ -30,8 +32,9 @@ use crate::barrier::{
 };
 use crate::context::{DeviceSource, GpuContext};
 use crate::export::Exporter;
+use crate::ip_decision::{Decisions, HEADER_WORDS, LOGGED_WORDS, disagreement};
 use crate::kernel_set::{BlockWriter, EntryPoint, KernelSet, KernelSetSpec, ParamBlocks};
-use crate::params::{push_reals, read_reals, real_size};
+use crate::params::{push_reals, real_size};
 use crate::resident::ResidentState;
 use crate::resident_backend::{minimising_backend, resident_backend};
 use crate::shader::{MAX_GPU_DIM, ShaderFile};
@@ -48,6 +51,7 @@ enum IpEntry {
     ReduceMax,
     Newton,
     Velocity,
+    Decide,
 }
 
 impl EntryPoint for IpEntry {
@@ -58,6 +62,7 @@ impl EntryPoint for IpEntry {
             IpEntry::ReduceSum => "ip_reduce_sum",
             IpEntry::ReduceMax => "ip_reduce_max",
             IpEntry::Newton => "ip_newton",
+            IpEntry::Decide => "ip_decide",
             IpEntry::Velocity => "ip_velocity",
         };
         (ShaderFile::IncrementalPotential, name)
@@ -67,10 +72,21 @@ impl EntryPoint for IpEntry {
 /// The status block before a pass: nothing moved, no failing particle,
 /// no stall, no loop cut short.
 const STATUS_RESET: [u32; STATUS_WORDS] = [0, NONE, NONE, 0, NONE];
-/// Bytes of the probe read back per Newton iteration: terms[0] (one real,
-/// at 0) and the status block at [`STATUS_AT`].
-const STATUS_AT: u64 = 16;
-const PROBE_BYTES: u64 = STATUS_AT + 4 * STATUS_WORDS as u64;
+/// Where the decision words start in the chunk's read-back (after the
+/// status words, 8-aligned); the logged values follow them, 8-aligned.
+const DECISION_AT: u64 = (4 * STATUS_WORDS as u64).next_multiple_of(8);
+
+/// ip_decide's words for `logged` evaluations.
+fn decision_words(logged: usize) -> usize {
+    HEADER_WORDS + LOGGED_WORDS * logged
+}
+
+/// Bytes of a chunk's read-back for `logged` evaluations.
+fn decision_bytes(logged: usize, precision: Precision) -> u64 {
+    DECISION_AT
+        + (4 * decision_words(logged) as u64).next_multiple_of(8)
+        + (logged * real_size(precision)) as u64
+}
 
 /// The GPU backend of the incremental-potential path.
 pub struct GpuBarrierBackend {
@@ -86,10 +102,14 @@ pub struct GpuBarrierBackend {
     /// x, v (dense layout: the barrier kernels index x[i·DIM + a]), saved
     /// copies, forces; positions relative to the scene origin.
     state: ResidentState,
-    terms: wgpu::Buffer,
     status: wgpu::Buffer,
-    /// terms[0], then the status words at [`STATUS_AT`].
-    probe: wgpu::Buffer,
+    /// ip_decide's words and logged values, and their read-back
+    /// (ip_decision.rs).
+    decision: wgpu::Buffer,
+    decided: wgpu::Buffer,
+    decision_probe: wgpu::Buffer,
+    /// The first chunk's evaluations: the last substep's count.
+    chunk: u32,
     /// Buffers only the kernels read or write.
     _rest: Vec<wgpu::Buffer>,
     substep: u32,
@@ -144,6 +164,7 @@ impl GpuBarrierBackend {
                     IpEntry::ReduceMax,
                     IpEntry::Newton,
                     IpEntry::Velocity,
+                    IpEntry::Decide,
                 ],
                 constants: &[],
                 generated: None,
@@ -165,7 +186,10 @@ impl GpuBarrierBackend {
         let terms = make("terms", &zeros(n))?;
         let status = make("status", bytemuck::cast_slice(&STATUS_RESET))?;
         let gravity = make("gravity", &reals(&plan.gravity))?;
-        let probe = ctx.staging("probe", PROBE_BYTES)?;
+        let logged = ip.max_iterations as usize + 1;
+        let decision = make("decision", &vec![0u8; 4 * decision_words(logged)])?;
+        let decided = make("decided", &zeros(logged))?;
+        let decision_probe = ctx.staging("decision probe", decision_bytes(logged, precision))?;
         let group = kernels.bind(
             &ctx.device,
             0,
@@ -189,6 +213,8 @@ impl GpuBarrierBackend {
                 &resident.force,
                 &terms,
                 &gravity,
+                &decision,
+                &decided,
             ],
             0,
         )?;
@@ -198,6 +224,7 @@ impl GpuBarrierBackend {
             Convergence::PackedGradient { .. } => 0u32,
             Convergence::MaxAccelerationResidual { .. } => 1,
         };
+        let threshold = crate::ip_decision::threshold(ip.convergence, precision);
         let mut strides = vec![0u32];
         let mut s = 1usize;
         while s < n {
@@ -210,8 +237,8 @@ impl GpuBarrierBackend {
             .map(|&stride| {
                 blocks.push(
                     &BlockWriter::new(precision)
-                        .words(&[n as u32, stride, criterion, 0])
-                        .reals(&[plan.h, ARMIJO, 0.0, 0.0])
+                        .words(&[n as u32, stride, criterion, ip.max_iterations])
+                        .reals(&[plan.h, ARMIJO, threshold, 0.0])
                         .finish(),
                 )
             })
@@ -229,9 +256,11 @@ impl GpuBarrierBackend {
             params_group,
             offsets,
             state: resident,
-            terms,
             status,
-            probe,
+            decision,
+            decided,
+            decision_probe,
+            chunk: 2,
             _rest: barrier
                 .into_iter()
                 .chain([
@@ -241,6 +270,7 @@ impl GpuBarrierBackend {
                     gravity_scale,
                     gravity,
                     params,
+                    terms,
                 ])
                 .collect(),
             substep: 0,
@@ -249,6 +279,12 @@ impl GpuBarrierBackend {
         };
         backend.ctx.check()?;
         Ok(backend)
+    }
+
+    /// Times the host has waited for this backend's device since it was
+    /// loaded (every `device.poll`: `GpuContext::poll`).
+    pub fn host_waits(&self) -> u64 {
+        self.ctx.host_waits()
     }
 
     /// Records `entry` over `invocations` with parameter block `block`.
@@ -269,46 +305,46 @@ impl GpuBarrierBackend {
         let n = self.plan.particle_count() as u32;
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         self.pass(&mut encoder, entry, 0, n);
-        self.ctx.submit_and_wait(encoder)
+        // No wait: the next submission runs after this one (queue order),
+        // and the host needs nothing from it.
+        self.ctx.submit(encoder).map(|_| ())
     }
 
-    /// Gradient pass, reduction, and the probe: (residual, status words),
-    /// refused when some kernel's loops were cut short since the last reset.
-    fn evaluate_residual(&self) -> Result<(f64, [u32; STATUS_WORDS]), GpuError> {
+    /// One chunk of `k` evaluations (module docs), ip_velocity after it,
+    /// submitted with one read of the status words and the decision log;
+    /// refused when some kernel's loops were cut short since the reset.
+    fn chunk(&self, k: u32) -> Result<Decisions, GpuError> {
         let n = self.plan.particle_count() as u32;
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        self.pass(&mut encoder, IpEntry::Gradient, 0, n);
         let reduce = match self.ip.convergence {
             Convergence::PackedGradient { .. } => IpEntry::ReduceSum,
             Convergence::MaxAccelerationResidual { .. } => IpEntry::ReduceMax,
         };
-        for level in 1..self.offsets.len() {
-            let stride = 1u32 << (level - 1);
-            let invocations = (n - stride).div_ceil(2 * stride);
-            self.pass(&mut encoder, reduce, level, invocations);
+        for _ in 0..k {
+            self.pass(&mut encoder, IpEntry::Gradient, 0, n);
+            for level in 1..self.offsets.len() {
+                let stride = 1u32 << (level - 1);
+                let invocations = (n - stride).div_ceil(2 * stride);
+                self.pass(&mut encoder, reduce, level, invocations);
+            }
+            self.pass(&mut encoder, IpEntry::Decide, 0, 1);
+            self.pass(&mut encoder, IpEntry::Newton, 0, n);
         }
-        let r = real_size(self.precision) as u64;
-        encoder.copy_buffer_to_buffer(&self.terms, 0, &self.probe, 0, r);
-        let bytes = self.read_status(encoder)?;
-        let value = read_reals(&bytes[..r as usize], self.precision)[0];
-        let words = status_words(&bytes[STATUS_AT as usize..]);
-        let residual = match self.ip.convergence {
-            Convergence::PackedGradient { .. } => value.sqrt(),
-            Convergence::MaxAccelerationResidual { .. } => value,
-        };
-        Ok((residual, words))
-    }
-
-    /// Submits `encoder` with a copy of the status block into the probe,
-    /// reads the probe back, and refuses it when some kernel's loops were
-    /// cut short since the last reset.
-    fn read_status(&self, mut encoder: wgpu::CommandEncoder) -> Result<Vec<u8>, GpuError> {
-        let words = 4 * STATUS_WORDS as u64;
-        encoder.copy_buffer_to_buffer(&self.status, 0, &self.probe, STATUS_AT, words);
-        self.ctx.submit_and_wait(encoder)?;
-        let bytes = self.ctx.read(&self.probe, PROBE_BYTES)?;
-        refuse_cut_loops(&status_words(&bytes[STATUS_AT as usize..]))?;
-        Ok(bytes)
+        self.pass(&mut encoder, IpEntry::Velocity, 0, n);
+        let logged = self.ip.max_iterations as usize + 1;
+        let words = 4 * decision_words(logged) as u64;
+        let at = DECISION_AT + words.next_multiple_of(8);
+        let status = 4 * STATUS_WORDS as u64;
+        let probe = &self.decision_probe;
+        encoder.copy_buffer_to_buffer(&self.status, 0, probe, 0, status);
+        encoder.copy_buffer_to_buffer(&self.decision, 0, probe, DECISION_AT, words);
+        let values = logged as u64 * real_size(self.precision) as u64;
+        encoder.copy_buffer_to_buffer(&self.decided, 0, probe, at, values);
+        let bytes = self.ctx.submit_and_read(encoder, probe, at + values)?;
+        refuse_cut_loops(&status_words(&bytes))?;
+        let words = &bytes[DECISION_AT as usize..(DECISION_AT + words) as usize];
+        let values = &bytes[at as usize..(at + values) as usize];
+        Ok(crate::ip_decision::parse(words, values, self.precision))
     }
 
     fn reset_status(&self) {
@@ -317,15 +353,47 @@ impl GpuBarrierBackend {
             .write_buffer(&self.status, 0, bytemuck::cast_slice(&STATUS_RESET));
     }
 
-    /// One minimisation on the resident state (CPU: `minimise`).
+    /// One minimisation on the resident state (CPU: `minimise`): the
+    /// device decides when Newton stops (ip_decide), the host replays its
+    /// loop over the device's log for the report.
     fn minimise(&mut self) -> Result<MinimisationReport, BackendError> {
-        let mut report = MinimisationReport::before_first_iteration(self.ip.convergence);
+        let logged = self.ip.max_iterations as usize + 1;
         self.reset_status();
+        let cleared = vec![0u8; 4 * decision_words(logged)];
+        self.ctx.queue.write_buffer(&self.decision, 0, &cleared);
         self.run(IpEntry::Predict)?;
+        let budget = logged as u32;
+        let (mut recorded, mut k) = (0, self.chunk.max(2));
+        let decisions = loop {
+            let k_now = k.min(budget - recorded);
+            let decisions = self.chunk(k_now)?;
+            recorded += k_now;
+            if decisions.stopped {
+                break decisions;
+            }
+            if recorded >= budget {
+                return Err(disagreement("no stop within max_iterations + 1 evaluations").into());
+            }
+            k = k.saturating_mul(2);
+        };
+        self.chunk = decisions.evaluations.len() as u32;
+        self.replay(&decisions)
+    }
+
+    /// The host's loop over the device's evaluations (the branches of the
+    /// host-decided loop, core's `record_residual`): the report, checked
+    /// to stop exactly at the device's last evaluation with its code.
+    fn replay(&mut self, decisions: &Decisions) -> Result<MinimisationReport, BackendError> {
+        let mut report = MinimisationReport::before_first_iteration(self.ip.convergence);
+        let count = decisions.evaluations.len();
         let mut iteration = 0;
-        loop {
-            let (residual, status) = self.evaluate_residual()?;
-            if status[2] != NONE {
+        for (j, e) in decisions.evaluations.iter().enumerate() {
+            let (status, value) = (e.status, e.value);
+            let residual = match self.ip.convergence {
+                Convergence::PackedGradient { .. } => value.sqrt(),
+                Convergence::MaxAccelerationResidual { .. } => value,
+            };
+            let code = if status[2] != NONE {
                 if report.initial_residual.is_none() {
                     report.status = MinimisationStatus::Refused(self.infeasible(status[2])?);
                 } else {
@@ -335,37 +403,48 @@ impl GpuBarrierBackend {
                 }
                 report.initial_residual = None;
                 report.final_residual = None;
-                return Ok(report);
-            }
-            if status[1] != NONE {
+                4
+            } else if status[1] != NONE {
                 report.status = MinimisationStatus::Refused(Refusal::NonFinite {
                     particle: status[1] as usize,
                 });
-                return Ok(report);
-            }
-            if iteration > 0 && status[0] == 0 && status[3] == 0 {
+                4
+            } else if iteration > 0 && status[0] == 0 && status[3] == 0 {
                 report.status = MinimisationStatus::RoundingFloor;
-                break;
-            }
-            if iteration > 0 && status[0] == 0 {
+                3
+            } else if iteration > 0 && status[0] == 0 {
                 report.status = MinimisationStatus::Refused(Refusal::NoDescent {
                     residual: report.final_residual.unwrap_or(residual),
                 });
+                4
+            } else if report.record_residual(residual, iteration, self.ip.max_iterations) {
+                if matches!(report.status, MinimisationStatus::Converged) {
+                    1
+                } else {
+                    2
+                }
+            } else {
+                0
+            };
+            if code != 0 {
+                let last = j + 1 == count;
+                if !last || code != decisions.code {
+                    return Err(disagreement(&format!(
+                        "the host stops at evaluation {j} (code {code}), the device at {} (code {})",
+                        count - 1,
+                        decisions.code
+                    ))
+                    .into());
+                }
                 return Ok(report);
-            }
-            if report.record_residual(residual, iteration, self.ip.max_iterations) {
-                break;
             }
             iteration += 1;
             report.iterations = iteration;
-            self.reset_status();
-            self.run(IpEntry::Newton)?;
         }
-        let n = self.plan.particle_count() as u32;
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        self.pass(&mut encoder, IpEntry::Velocity, 0, n);
-        self.read_status(encoder)?;
-        Ok(report)
+        Err(disagreement(&format!(
+            "the host does not stop within the device's {count} evaluations"
+        ))
+        .into())
     }
 
     /// The refusal for an infeasible start of `particle`

@@ -22,6 +22,7 @@ mod coupled;
 mod device_errors;
 pub mod export;
 mod incremental_potential;
+mod ip_decision;
 mod kernel_set;
 pub mod layout;
 mod loop_budget;

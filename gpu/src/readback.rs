@@ -7,44 +7,81 @@
 
 use hyperpbd_core::GpuError;
 
-/// Maps the first `len` bytes of `buffer` (a `MAP_READ` buffer whose copies
-/// have been submitted), waits for the device, and returns a copy of them.
-pub(crate) fn read_mapped(
-    device: &wgpu::Device,
-    buffer: &wgpu::Buffer,
-    len: u64,
-) -> Result<Vec<u8>, GpuError> {
-    if len == 0 {
-        return Ok(Vec::new());
+/// The device's side of a read: `poll` waits for it (the context's one
+/// counted poll), `check` names a lost device or a reported error.
+pub(crate) struct Waiter<'a> {
+    pub poll: &'a dyn Fn() -> Result<(), GpuError>,
+    pub check: &'a dyn Fn() -> Result<(), GpuError>,
+}
+
+/// Maps the first `len` bytes of every (buffer, len) of `reads` (`MAP_READ`
+/// buffers whose copies have been submitted), waits ONCE for all of them,
+/// and returns copies in `reads` order (no wait when every len is 0).
+pub(crate) fn read_mapped_all(
+    waiter: &Waiter<'_>,
+    reads: &[(&wgpu::Buffer, u64)],
+) -> Result<Vec<Vec<u8>>, GpuError> {
+    let pending: Vec<_> = reads
+        .iter()
+        .map(|&(buffer, len)| {
+            (len > 0).then(|| {
+                let (tx, rx) = std::sync::mpsc::channel();
+                buffer
+                    .slice(0..len)
+                    .map_async(wgpu::MapMode::Read, move |r| {
+                        let _ = tx.send(r);
+                    });
+                rx
+            })
+        })
+        .collect();
+    if pending.iter().any(Option::is_some) {
+        (waiter.poll)()?;
     }
-    let slice = buffer.slice(0..len);
-    let (tx, rx) = std::sync::mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| GpuError::DeviceLost {
-            message: e.to_string(),
-        })?;
-    match rx.recv() {
-        Ok(Ok(())) => {}
-        Ok(Err(e)) => {
-            return Err(GpuError::Other {
+    let mut out = Vec::with_capacity(reads.len());
+    let mut failure = None;
+    for (&(buffer, len), rx) in reads.iter().zip(pending) {
+        let Some(rx) = rx else {
+            out.push(Vec::new());
+            continue;
+        };
+        let mapped = match rx.recv() {
+            Ok(Ok(())) => Ok(()),
+            Ok(Err(e)) => Err(GpuError::Other {
                 message: format!("buffer mapping failed: {e}"),
-            });
-        }
-        Err(_) => {
-            return Err(GpuError::DeviceLost {
+            }),
+            Err(_) => Err(GpuError::DeviceLost {
                 message: "buffer mapping was never answered".into(),
-            });
+            }),
+        };
+        // A mapped buffer is copied out, then unmapped whatever happened,
+        // so a failed read never leaves it mapped for the next one.
+        let bytes = mapped.and_then(|()| {
+            let bytes = buffer
+                .slice(0..len)
+                .get_mapped_range()
+                .map(|view| view.to_vec())
+                .map_err(|e| GpuError::Other {
+                    message: format!("mapped range: {e:?}"),
+                });
+            buffer.unmap();
+            bytes
+        });
+        match bytes {
+            Ok(bytes) => out.push(bytes),
+            Err(e) => {
+                failure.get_or_insert(e);
+                out.push(Vec::new());
+            }
         }
     }
-    // Copy out, then unmap whatever happened, so a failed read never
-    // leaves the buffer mapped for the next one.
-    let bytes = slice.get_mapped_range().map(|view| view.to_vec());
-    buffer.unmap();
-    bytes.map_err(|e| GpuError::Other {
-        message: format!("mapped range: {e:?}"),
-    })
+    match failure {
+        // A lost device (or an error it reported) says more than the
+        // failed mapping it caused.
+        Some(e) => {
+            (waiter.check)()?;
+            Err(e)
+        }
+        None => Ok(out),
+    }
 }

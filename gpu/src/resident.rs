@@ -288,11 +288,7 @@ impl ResidentState {
                 let mapped = match s.mapped.try_recv() {
                     Ok(r) => r,
                     Err(_) => {
-                        ctx.device
-                            .poll(wgpu::PollType::wait_indefinitely())
-                            .map_err(|e| GpuError::DeviceLost {
-                                message: e.to_string(),
-                            })?;
+                        ctx.poll(None)?;
                         s.mapped.recv().map_err(|_| GpuError::DeviceLost {
                             message: "snapshot mapping was never answered".into(),
                         })?
@@ -318,13 +314,14 @@ impl ResidentState {
             }
             None => {
                 let staging = &self.staging[self.next];
-                if self.bytes > 0 {
+                if self.bytes == 0 {
+                    Vec::new()
+                } else {
                     let mut encoder = ctx.device.create_command_encoder(&Default::default());
                     encoder.copy_buffer_to_buffer(&self.x, 0, staging, 0, self.bytes);
                     encoder.copy_buffer_to_buffer(&self.v, 0, staging, self.bytes, self.bytes);
-                    ctx.submit_and_wait(encoder)?;
+                    ctx.submit_and_read(encoder, staging, 2 * self.bytes)?
                 }
-                ctx.read(staging, 2 * self.bytes)?
             }
         };
         let (xs, vs) = data.split_at(self.bytes as usize);

@@ -16,7 +16,8 @@
 //!              vertex buffer, one dispatch recorded into the caller's
 //!              encoder (crate::export)
 //! Backend      name "gpu-<precision>", plan, step = step_adaptive over the
-//!              type's Subdivided attempts, read/write state and set forces
+//!              type's Subdivided attempts (its report's host_waits: the
+//!              context's polls during the step), read/write state and set forces
 //!              through the ResidentState; the rest given per type
 //! ```
 //! The orphan rule keeps a blanket `impl Backend` out of this crate, so one
@@ -105,11 +106,14 @@ macro_rules! resident_backend {
             fn step(
                 &mut self,
             ) -> Result<::hyperpbd_core::StepReport, ::hyperpbd_core::BackendError> {
-                ::hyperpbd_core::adaptive::step_adaptive(
+                let before = self.ctx.host_waits();
+                let mut report = ::hyperpbd_core::adaptive::step_adaptive(
                     self.plan.substeps,
                     self.plan.adaptive,
                     self,
-                )
+                )?;
+                report.host_waits = self.ctx.host_waits() - before;
+                Ok(report)
             }
 
             fn read_state(
@@ -167,7 +171,8 @@ macro_rules! minimising_backend {
                 ::hyperpbd_core::check_kernel(&self.plan, kernel)?;
                 let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
                 self.state.save(&mut encoder);
-                self.ctx.submit_and_wait(encoder)?;
+                // No wait: the steps' submissions follow it in queue order.
+                self.ctx.submit(encoder)?;
                 match self.run_minimise() {
                     // Results the device could not finish (loops cut short, a
                     // lost device) are not kept: the state goes back to the
@@ -194,7 +199,8 @@ macro_rules! minimising_backend {
                 }
                 let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
                 self.state.save(&mut encoder);
-                self.ctx.submit_and_wait(encoder)?;
+                // No wait: the steps' submissions follow it in queue order.
+                self.ctx.submit(encoder)?;
                 self.reports.clear();
                 for substep in 0..self.plan.substeps {
                     self.substep = substep;

@@ -98,8 +98,10 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             .map_err(|e| cannot_write(file.path(), e))?;
     }
     let start = Instant::now();
+    let mut host_waits = 0u64;
     let last = simulate(backend.as_mut(), args.frames, |frame, b, report| {
         print_retries(frame, report);
+        host_waits += report.host_waits;
         if let Some(file) = &mut trajectory
             && frame % args.every == 0
         {
@@ -138,6 +140,12 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             Ok(path) => println!("{}", path.describe()),
             Err(e) => println!("shader path: unknown ({e})"),
         }
+        // The steps' own waits (StepReport::host_waits), not the reads of
+        // --out or --trajectory.
+        println!(
+            "host waits per frame: {}",
+            host_waits as f64 / args.frames.max(1) as f64
+        );
     }
     if let Some(report) = last {
         print_report(&report);

@@ -3,7 +3,8 @@
 //!
 //! ```text
 //! attempt 0       the step: one command buffer, one submit, one status
-//!                 readback (backend.rs's module doc)
+//!                 readback, which is the step's one host wait (backend.rs's
+//!                 module doc)
 //! guard kernels   a violation is the status word (guard call, first slot /
 //!                 particle); every later call of the step does nothing, so
 //!                 the resident state is the rejected substep's end: the
@@ -47,13 +48,15 @@ impl GpuBackend {
         self.reset_status();
         let mut encoder = self.record(|e| self.state.save(e), &self.fast, 1, true);
         let snapshot = self.state.record_snapshot(&mut encoder);
-        let index = self.ctx.submit(encoder)?;
+        self.ctx.submit(encoder)?;
         if let Some(slot) = snapshot {
             self.state.map_snapshot(slot);
         }
-        self.ctx.wait(index)?;
+        // One wait: mapping the report waits for the step, and completes
+        // the snapshot's mapping with it.
         let block =
             self.read_mapped(&self.buffers.report_staging, 16 + self.buffers.report_bytes)?;
+        self.ctx.check()?;
         self.refuse_cut_loops(&block)?;
         Ok(block)
     }

@@ -12,7 +12,8 @@
 //!   Collide     snapshot + collide on the resident x, p       (2 dispatches)
 //!   other       the plan's dispatch, as in the plain step
 //! residuals; contact report (deepest overlap, active pairs)  (2 dispatches)
-//! one wait; read status + report (backend) and the 32-byte contact outcome
+//! ONE wait: status + report (backend) and the 32-byte contact outcome mapped
+//!   together, read back with one device poll
 //!   a list longer than its slots → roll (x, v) back, grow the lists, rerun
 //!   a failed call → roll back, the CPU's error (a contact failure names the
 //!   particle the CPU names)
@@ -140,11 +141,10 @@ impl GpuBackend {
         self.contacts.as_ref().map(|stage| stage.buffers.slots())
     }
 
-    /// Times the host has waited for this backend's device (waits for a
-    /// submission and buffer reads) since it was loaded: a step with
-    /// contact costs the same count whatever its substeps (one wait, the
-    /// status/report read and the contact outcome read; no round trip
-    /// per substep).
+    /// Times the host has waited for this backend's device (every device
+    /// poll: `GpuContext::poll`) since it was loaded: a step costs one
+    /// wait whatever its substeps (with contact: the status/report block
+    /// and the contact outcome read together; no round trip per substep).
     pub fn host_waits(&self) -> u64 {
         self.ctx.host_waits()
     }
@@ -170,12 +170,12 @@ impl GpuBackend {
     /// One step of a plan with collisions (see the module doc).
     pub(super) fn step_with_contacts(&mut self) -> Result<StepReport, BackendError> {
         for _ in 0..=MAX_REGROWTHS {
-            let (outcome, snapshot) = self.submit_contact_step()?;
+            let (outcome, snapshot, block) = self.submit_contact_step()?;
             let Some(stage) = self.contacts.as_mut() else {
                 break;
             };
             match stage.regrow(&outcome) {
-                Ok(false) => return self.finish_contact_step(&outcome),
+                Ok(false) => return self.finish_contact_step(&outcome, &block),
                 Ok(true) => {
                     self.rollback()?;
                     if snapshot {
@@ -197,9 +197,9 @@ impl GpuBackend {
     }
 
     /// Records, submits and waits for one step in the schedule's mode;
-    /// returns the contact outcome and whether a state snapshot was taken
-    /// (the status and report block are in `report_staging`).
-    fn submit_contact_step(&mut self) -> Result<(Outcome, bool), BackendError> {
+    /// returns the contact outcome, whether a state snapshot was taken and
+    /// the status/report block.
+    fn submit_contact_step(&mut self) -> Result<(Outcome, bool, Vec<u8>), BackendError> {
         let Some(stage) = &self.contacts else {
             return Err(GpuError::Other {
                 message: "contact step without a contact stage".into(),
@@ -229,25 +229,34 @@ impl GpuBackend {
         }
         stage.buffers.copy_outcome(&mut encoder);
         let snapshot = self.state.record_snapshot(&mut encoder);
-        let index = self.ctx.submit(encoder)?;
+        self.ctx.submit(encoder)?;
         if let Some(slot) = snapshot {
             self.state.map_snapshot(slot);
         }
-        self.ctx.wait(index)?;
-        let outcome = match &self.contacts {
-            Some(stage) => stage.buffers.read_outcome()?,
-            None => unreachable_stage()?,
+        let Some(stage) = &self.contacts else {
+            return Ok(unreachable_stage()?);
         };
-        Ok((outcome, snapshot.is_some()))
+        // One wait: the outcome and the status/report block mapped together
+        // (the snapshot's mapping completes with them).
+        let report = (&self.buffers.report_staging, 16 + self.buffers.report_bytes);
+        let mut read = self
+            .ctx
+            .read_all(&[stage.buffers.outcome_staging(), report])?;
+        self.ctx.check()?;
+        let block = read.pop().unwrap_or_default();
+        let outcome = stage.buffers.outcome_of(&read.pop().unwrap_or_default());
+        Ok((outcome, snapshot.is_some(), block))
     }
 
-    /// The report of a submitted step whose lists fitted, or its error
-    /// (state rolled back).
-    fn finish_contact_step(&mut self, outcome: &Outcome) -> Result<StepReport, BackendError> {
-        let block =
-            self.read_mapped(&self.buffers.report_staging, 16 + self.buffers.report_bytes)?;
-        self.refuse_cut_loops(&block)?;
-        if let Some(failed) = self.failure(&block) {
+    /// The report of a submitted step whose lists fitted (its status/report
+    /// `block`), or its error (state rolled back).
+    fn finish_contact_step(
+        &mut self,
+        outcome: &Outcome,
+        block: &[u8],
+    ) -> Result<StepReport, BackendError> {
+        self.refuse_cut_loops(block)?;
+        if let Some(failed) = self.failure(block) {
             return Err(self.diagnosed_error(failed));
         }
         let report = crate::params::read_reals(&block[16..], self.precision);

@@ -298,14 +298,25 @@ impl ContactBuffers {
     /// Reads the outcome copied by the last waited-for submission.
     pub(crate) fn read_outcome(&self) -> Result<Outcome, GpuError> {
         let bytes = self.ctx.read(&self.staging, 32)?;
+        Ok(self.outcome_of(&bytes))
+    }
+
+    /// The outcome's staging buffer and its length, for a caller that
+    /// reads it together with its own buffers (one wait).
+    pub(crate) fn outcome_staging(&self) -> (&wgpu::Buffer, u64) {
+        (&self.staging, 32)
+    }
+
+    /// The outcome from the 32 bytes of [`Self::outcome_staging`].
+    pub(crate) fn outcome_of(&self, bytes: &[u8]) -> Outcome {
         let words: &[u32] = bytemuck::cast_slice(&bytes[..16]);
         let deepest = read_reals(&bytes[16..16 + real_size(self.precision)], self.precision);
-        Ok(Outcome {
+        Outcome {
             longest_list: words[0],
             active: words[2],
             deepest: deepest.first().copied().unwrap_or(0.0),
             cut_short: (words[1] != NONE).then_some(words[1]),
-        })
+        }
     }
 
     /// Writes given boxes (flat corners, `dim` per box) as the kernels

@@ -114,7 +114,7 @@ pub(super) struct Params {
 }
 
 impl Params {
-    fn bytes(&self, precision: Precision) -> Vec<u8> {
+    pub fn bytes(&self, precision: Precision) -> Vec<u8> {
         let epsilon = match precision {
             Precision::F32 => f64::from(f32::EPSILON),
             Precision::F64 => f64::EPSILON,
@@ -163,8 +163,8 @@ pub(super) struct Device {
     slots: wgpu::Buffer,
     pub vectors: wgpu::Buffer,
     pub terms: wgpu::Buffer,
-    tree: wgpu::Buffer,
-    params_buffer: wgpu::Buffer,
+    pub tree: wgpu::Buffer,
+    pub params_buffer: wgpu::Buffer,
     /// PCG's scalar state (`CgState`, pcg.rs).
     pub cg: wgpu::Buffer,
     levels: wgpu::Buffer,
@@ -487,28 +487,39 @@ impl Device {
         mut encoder: wgpu::CommandEncoder,
         results: &[Result<usize, f64>],
     ) -> Result<(Vec<f64>, [u32; STATUS_WORDS]), GpuError> {
-        let r = real_size(self.precision) as u64;
-        for (k, result) in results.iter().enumerate() {
-            if let Ok(at) = result {
-                encoder.copy_buffer_to_buffer(
-                    &self.tree,
-                    *at as u64 * r,
-                    &self.probe,
-                    k as u64 * 8,
-                    r,
-                );
-            }
+        for (k, &result) in results.iter().enumerate() {
+            self.copy_result(&mut encoder, result, k);
         }
-        let status_at = PROBE_REALS * 8;
-        encoder.copy_buffer_to_buffer(
-            &self.status,
-            0,
-            &self.probe,
-            status_at,
-            4 * STATUS_WORDS as u64,
-        );
-        ctx.submit_and_wait(encoder)?;
-        let bytes = ctx.read(&self.probe, status_at + 4 * STATUS_WORDS as u64)?;
+        self.read_copied(ctx, encoder, results)
+    }
+
+    /// Records copying a reduction's result into probe slot `slot` (now,
+    /// before a later reduction on its channel overwrites it).
+    pub fn copy_result(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        result: Result<usize, f64>,
+        slot: usize,
+    ) {
+        let r = real_size(self.precision) as u64;
+        if let Ok(at) = result {
+            let (from, to) = (at as u64 * r, slot as u64 * 8);
+            encoder.copy_buffer_to_buffer(&self.tree, from, &self.probe, to, r);
+        }
+    }
+
+    /// [`Device::read`] of `results` whose copies into the probe (slot k
+    /// for results[k]) are already recorded.
+    pub fn read_copied(
+        &self,
+        ctx: &GpuContext,
+        mut encoder: wgpu::CommandEncoder,
+        results: &[Result<usize, f64>],
+    ) -> Result<(Vec<f64>, [u32; STATUS_WORDS]), GpuError> {
+        let r = real_size(self.precision) as u64;
+        let (status_at, words) = (PROBE_REALS * 8, 4 * STATUS_WORDS as u64);
+        encoder.copy_buffer_to_buffer(&self.status, 0, &self.probe, status_at, words);
+        let bytes = ctx.submit_and_read(encoder, &self.probe, status_at + words)?;
         let status = status_words(&bytes[status_at as usize..]);
         super::material::refuse_cut_loops_of(&status)?;
         let values = results
@@ -516,15 +527,10 @@ impl Device {
             .enumerate()
             .map(|(k, result)| match result {
                 Err(pad) => *pad,
-                Ok(_) => {
-                    let at = k * 8;
-                    let value = read_reals(&bytes[at..at + r as usize], self.precision)[0];
-                    if value >= f64::MAX {
-                        f64::INFINITY
-                    } else {
-                        value
-                    }
-                }
+                Ok(_) => match read_reals(&bytes[k * 8..k * 8 + r as usize], self.precision)[0] {
+                    value if value >= f64::MAX => f64::INFINITY,
+                    value => value,
+                },
             })
             .collect();
         Ok((values, status))
@@ -574,8 +580,7 @@ impl Device {
             }
             at += len;
         }
-        ctx.submit_and_wait(encoder)?;
-        let bytes = ctx.read(&staging, total.max(4))?;
+        let bytes = ctx.submit_and_read(encoder, &staging, total.max(4))?;
         let mut out = Vec::new();
         let mut at = 0;
         for &(_, _, len) in spans {

@@ -13,14 +13,19 @@
 //! ```text
 //! per substep:  cp_start (x^t, x~, load, lags, d ≤ 0) → pairs at x^t (collisions) → warm start
 //!               loop { x_k → point; cp_elements + cp_material_elements; cp_gradient;
-//!                      Σ|max → residual (one read)
+//!                      Σ|max → residual (one read; without materials PCG's start
+//!                      rides in it)
 //!                      PCG on the device (pcg.rs: cp_material_frames (H_F⁺ at x_k, only
 //!                      with materials), the diagonal and start, one read; then
 //!                      chunks of iterations, one read each; cp_material_slots after
 //!                      every cp_slots)
-//!                      pairs over [x_k, x_k + Δ]; filter (min, one read); elements at x_k;
-//!                      slope (one read); trials (one read each); accept }
-//!               cp_finish: x = x_k, v = (x − x^t)/h
+//!                      pairs over [x_k, x_k + Δ]; filter and, at x_k, elements and
+//!                      slope (one read); trials in batches of 1, 2, 4, … (one read
+//!                      per batch, trials.rs); accept (no read) }
+//!               cp_finish: x = x_k, v = (x − x^t)/h (no read)
+//! host waits    per Newton iteration: the residual, PCG's chunks, filter + slope, the
+//!               trial batches (plus the swept pairs with collisions); per substep the start
+//!               (with the warm start's filter when there are no collisions)
 //! pairs         the broadphase over the swept boxes runs on the host over x_k and Δ read
 //!               back (only with `collisions`); the element list (springs, balls, pair
 //!               friction lags frozen at x^t) is re-uploaded when the pair set changes
@@ -50,6 +55,7 @@ mod f32;
 mod material;
 mod newton;
 mod pcg;
+mod trials;
 
 use hyperpbd_core::broadphase::{Aabbs, Pair, grid_pairs};
 use hyperpbd_core::implicit::{CoupledPlan, PairLag};
@@ -72,6 +78,7 @@ use device::{Device, ElementUpload, Reduction};
 use entries::Entry;
 use material::Materials;
 use pcg::PcgProbe;
+use trials::TrialProbe;
 
 /// The GPU backend of the coupled implicit step.
 pub struct GpuCoupledBackend {
@@ -95,6 +102,8 @@ pub struct GpuCoupledBackend {
     exporter: Exporter,
     /// PCG's read-back buffer and chunk length (pcg.rs).
     pcg: PcgProbe,
+    /// Armijo's batch read-back and batch length (trials.rs).
+    trial_probe: TrialProbe,
 }
 
 /// Why the GPU does not run `plan`'s coupled step (yet), if it does not.
@@ -196,6 +205,7 @@ impl GpuCoupledBackend {
         device.params.h = plan.h;
         device.params.slip = coupled.slip_velocity * plan.h;
         let pcg = PcgProbe::new(&ctx, precision)?;
+        let trial_probe = TrialProbe::new(&ctx)?;
         let mut backend = GpuCoupledBackend {
             plan,
             ip,
@@ -213,6 +223,7 @@ impl GpuCoupledBackend {
             reports: Vec::new(),
             exporter: Exporter::default(),
             pcg,
+            trial_probe,
         };
         backend.upload_elements(Vec::new(), true)?;
         backend.ctx.check()?;
@@ -330,10 +341,19 @@ impl GpuCoupledBackend {
         self.device.read(&self.ctx, encoder, &results)
     }
 
-    /// Copies vector region `from` into the point buffer (own submission).
-    fn point(&self, from: usize) -> Result<(), GpuError> {
+    /// Writes the params, records `entries` (kernels that write no status
+    /// word: cp_set_x, cp_finish) in one compute pass and submits it without
+    /// waiting: the next submission runs after it (queue order), and the
+    /// host needs nothing from it.
+    fn submit(&self, entries: &[(Entry, usize)]) -> Result<(), GpuError> {
+        self.device.write_params(&self.ctx);
         let mut encoder = self.encoder();
-        self.device.load_point(&mut encoder, &self.state, from);
+        {
+            let mut pass = self.device.begin(&mut encoder);
+            for &(entry, items) in entries {
+                self.device.dispatch(&mut pass, entry, items);
+            }
+        }
         self.ctx.submit(encoder).map(|_| ())
     }
 

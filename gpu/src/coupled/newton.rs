@@ -5,7 +5,9 @@
 //! rounding floor.
 
 use hyperpbd_core::barrier::BarrierObstacles;
-use hyperpbd_core::implicit::line_search::{after_failed_search, armijo, before_search};
+use hyperpbd_core::implicit::line_search::{
+    MAX_HALVINGS, after_failed_search, armijo, before_search,
+};
 use hyperpbd_core::implicit::resolution::{
     ball_rounding, ball_rounding_at, change_resolution_at, particle_sums, spring_rounding,
     spring_rounding_at,
@@ -21,7 +23,7 @@ use super::device::Reduction;
 use super::entries::status::{INFEASIBLE, MOVED, NON_FINITE_ELEMENT, NON_FINITE_PARTICLE};
 use super::entries::{Entry, region};
 use super::material;
-use super::pcg::Direction;
+use super::pcg::{Direction, PcgStart};
 use crate::Precision;
 use crate::barrier::{NONE, infeasible_start};
 
@@ -48,31 +50,99 @@ impl GpuCoupledBackend {
         Ok(certified_filter::fraction(values[0]))
     }
 
-    /// Elements and gradient at R_X; the residual (cpu `residual`).
-    fn gradient(&mut self) -> Result<Evaluated, GpuError> {
+    /// The certified fraction (as [`Self::filter`]), then the elements at
+    /// R_X and the slope g·Δ (cpu `slope`), with the status words, in one
+    /// submission and one read.
+    fn filter_and_slope(&mut self) -> Result<(f64, f64, [u32; 5]), GpuError> {
         let (n, e) = self.counts();
-        self.point(region::X)?;
+        let (pairs, m) = (self.pairs.len(), self.materials.len());
+        self.device.write_params(&self.ctx);
+        self.device.reset_status(&self.ctx);
+        let mut encoder = self.encoder();
+        let filter = {
+            let mut pass = self.device.begin(&mut encoder);
+            self.device.dispatch(&mut pass, Entry::FilterParticles, n);
+            self.device.dispatch(&mut pass, Entry::FilterPairs, pairs);
+            self.device.reduce_in(&mut pass, Reduction::MinT)
+        };
+        self.device.load_point(&mut encoder, &self.state, region::X);
+        let slope = {
+            let mut pass = self.device.begin(&mut encoder);
+            self.device.dispatch(&mut pass, Entry::Elements, e);
+            self.device.dispatch(&mut pass, Entry::MaterialElements, m);
+            self.device.dispatch(&mut pass, Entry::Slope, n);
+            self.device.reduce_in(&mut pass, Reduction::SumA)
+        };
+        let (values, status) = self.device.read(&self.ctx, encoder, &[filter, slope])?;
+        Ok((certified_filter::fraction(values[0]), values[1], status))
+    }
+
+    /// Elements and gradient at R_X; the residual (cpu `residual`).
+    ///
+    /// Without material elements PCG's start at x_k (which needs nothing
+    /// from the host: pcg.rs) is recorded in the same submission and read
+    /// with the residual (one wait for both); its values are returned for
+    /// [`GpuCoupledBackend::device_pcg`]. Its kernels write no status word
+    /// there (only cp_material_frames would), so the words are the
+    /// gradient's; when Newton stops here its writes (the CG vectors,
+    /// R_DIRECTION = 0) are never read.
+    fn gradient(&mut self) -> Result<(Evaluated, Option<PcgStart>), GpuError> {
+        let (n, e) = self.counts();
         let reduction = match self.ip.convergence {
             Convergence::PackedGradient { .. } => Reduction::SumA,
             Convergence::MaxAccelerationResidual { .. } => Reduction::MaxA,
         };
         let m = self.materials.len();
-        let entries = [
-            (Entry::Elements, e),
-            (Entry::MaterialElements, m),
-            (Entry::Gradient, n),
-        ];
-        let (values, status) = self.run(&entries, &[reduction])?;
+        let with_start = m == 0;
+        if with_start {
+            self.prepare_pcg_start();
+        }
+        self.device.write_params(&self.ctx);
+        self.device.reset_status(&self.ctx);
+        let mut encoder = self.encoder();
+        self.device.load_point(&mut encoder, &self.state, region::X);
+        let residual = {
+            let mut pass = self.device.begin(&mut encoder);
+            self.device.dispatch(&mut pass, Entry::Elements, e);
+            self.device.dispatch(&mut pass, Entry::MaterialElements, m);
+            self.device.dispatch(&mut pass, Entry::Gradient, n);
+            self.device.reduce_in(&mut pass, reduction)
+        };
+        // Copied out before PCG's r·r reuses the residual's channel.
+        self.device.copy_result(&mut encoder, residual, 0);
+        let mut results = vec![residual];
+        if with_start {
+            let start = {
+                let mut pass = self.device.begin(&mut encoder);
+                self.record_pcg_start(&mut pass)
+            };
+            for (k, &result) in start.iter().enumerate() {
+                self.device.copy_result(&mut encoder, result, k + 1);
+            }
+            results.extend(start);
+        }
+        let (values, status) = self.device.read_copied(&self.ctx, encoder, &results)?;
+        let started = with_start.then(|| PcgStart {
+            values: [values[1], values[2]],
+            status,
+        });
         if status[NON_FINITE_ELEMENT] != NONE {
-            return Ok(Evaluated::Element(status[NON_FINITE_ELEMENT] as usize));
+            return Ok((
+                Evaluated::Element(status[NON_FINITE_ELEMENT] as usize),
+                None,
+            ));
         }
         if status[NON_FINITE_PARTICLE] != NONE {
-            return Ok(Evaluated::Particle(status[NON_FINITE_PARTICLE] as usize));
+            return Ok((
+                Evaluated::Particle(status[NON_FINITE_PARTICLE] as usize),
+                None,
+            ));
         }
-        Ok(Evaluated::Residual(match reduction {
+        let residual = match reduction {
             Reduction::SumA => values[0].sqrt(),
             _ => values[0],
-        }))
+        };
+        Ok((Evaluated::Residual(residual), started))
     }
 
     /// The rounding floor of F's change over R_DIRECTION from R_X
@@ -155,7 +225,22 @@ impl GpuCoupledBackend {
     /// the warm start and its pairs. A refusal, if the start is refused.
     fn start(&mut self) -> Result<Option<Refusal>, BackendError> {
         let (n, _) = self.counts();
-        let (_, status) = self.run(&[(Entry::Start, n)], &[])?;
+        let inertial = self.coupled.warm_start == WarmStart::Inertial;
+        // Without collisions the inertial warm start's filter needs nothing
+        // from the host: it runs in the start's submission (one read; the
+        // filter writes no status word and is ignored on a refused start).
+        let early_filter = inertial && !self.coupled.collisions;
+        let (values, status) = if early_filter {
+            let pairs = self.pairs.len();
+            let entries = [
+                (Entry::Start, n),
+                (Entry::FilterParticles, n),
+                (Entry::FilterPairs, pairs),
+            ];
+            self.run(&entries, &[Reduction::MinT])?
+        } else {
+            self.run(&[(Entry::Start, n)], &[])?
+        };
         if status[INFEASIBLE] != NONE {
             let particle = status[INFEASIBLE] as usize;
             let state = self.read_state()?;
@@ -168,7 +253,6 @@ impl GpuCoupledBackend {
             )));
         }
         let dim = self.plan.dim;
-        let inertial = self.coupled.warm_start == WarmStart::Inertial;
         if self.coupled.collisions {
             // x^t (and x~ for the inertial warm start) in one read-back.
             let wanted: &[usize] = if inertial {
@@ -198,10 +282,14 @@ impl GpuCoupledBackend {
         if !inertial {
             return Ok(None);
         }
-        let tau = self.filter()?;
+        let tau = if early_filter {
+            certified_filter::fraction(values[0])
+        } else {
+            self.filter()?
+        };
         self.device.params.step = tau;
         self.device.params.mode = 0;
-        self.run(&[(Entry::SetX, n)], &[])?;
+        self.submit(&[(Entry::SetX, n)])?;
         Ok(None)
     }
 
@@ -237,14 +325,15 @@ impl GpuCoupledBackend {
         let mut fell_back = false;
         loop {
             // 5: gradient and residual.
-            let residual = match self.gradient()? {
+            let (evaluated, started) = self.gradient()?;
+            let residual = match evaluated {
                 Evaluated::Residual(r) => r,
                 Evaluated::Element(e) => {
                     if iteration == 0 && !fell_back && self.warm_start_moved()? {
                         // 3: a warm start the elements refuse falls back to x^t.
                         fell_back = true;
                         self.device.params.mode = 1;
-                        self.run(&[(Entry::SetX, n)], &[])?;
+                        self.submit(&[(Entry::SetX, n)])?;
                         continue;
                     }
                     report.status = MinimisationStatus::Refused(self.element_refusal(e)?);
@@ -273,7 +362,7 @@ impl GpuCoupledBackend {
                     self.plan.h,
                 ),
             };
-            let cg = match self.device_pcg(settings)? {
+            let cg = match self.device_pcg(settings, started)? {
                 Direction::Solved(cg) => cg,
                 Direction::FrameRefused(e) => {
                     // Refused by the law or not finite at x_k.
@@ -296,31 +385,24 @@ impl GpuCoupledBackend {
                 let pairs = self.sweep(&v[0], &reach);
                 self.upload_elements(pairs, false)?;
             }
-            let fraction = self.filter()?;
-            // 10–11: Armijo on the difference form of F's change.
-            let (_, e) = self.counts();
-            self.point(region::X)?;
-            let m = self.materials.len();
-            let entries = [
-                (Entry::Elements, e),
-                (Entry::MaterialElements, m),
-                (Entry::Slope, n),
-            ];
-            let (values, status) = self.run(&entries, &[Reduction::SumA])?;
+            // 10–11: Armijo on the difference form of F's change; the
+            // filter and the slope in one submission (one read): the filter
+            // writes no status word, and its minimum lands on its own channel.
+            let (fraction, values, status) = self.filter_and_slope()?;
             if status[NON_FINITE_ELEMENT] != NONE {
                 report.iterations = iteration;
                 let refusal = self.element_refusal(status[NON_FINITE_ELEMENT] as usize)?;
                 report.status = MinimisationStatus::Refused(refusal);
                 break;
             }
-            let slope = values[0];
+            let slope = values;
             let moved = status[MOVED] != 0;
             if let Some(status) = before_search(moved, slope) {
                 report.iterations = iteration;
                 report.status = status;
                 break;
             }
-            let accepted = armijo(fraction, slope, |t| self.trial(t))?;
+            let accepted = self.search(fraction, slope)?;
             if accepted.is_none() {
                 report.iterations = iteration;
                 let resolution = self.resolution()?;
@@ -328,10 +410,10 @@ impl GpuCoupledBackend {
                 break;
             }
             self.device.params.mode = 2;
-            self.run(&[(Entry::SetX, n)], &[])?;
+            self.submit(&[(Entry::SetX, n)])?;
         }
         if !matches!(report.status, MinimisationStatus::Refused(_)) {
-            self.run(&[(Entry::Finish, n)], &[])?;
+            self.submit(&[(Entry::Finish, n)])?;
         }
         Ok(report)
     }
@@ -345,37 +427,41 @@ impl GpuCoupledBackend {
         Ok(v[0] != v[1])
     }
 
-    /// Trial x + tΔ into R_TRIAL: F's change there (particles + h²
-    /// elements, +∞ when not finite) and whether it differs from x.
-    fn trial(&mut self, t: f64) -> Result<(f64, bool), GpuError> {
-        let (n, e) = self.counts();
-        self.device.params.step = t;
-        self.device.write_params(&self.ctx);
-        self.device.reset_status(&self.ctx);
-        let mut encoder = self.encoder();
-        self.device.pass(&mut encoder, Entry::Trial, n);
-        self.device
-            .load_point(&mut encoder, &self.state, region::TRIAL);
-        let (own, coupled) = {
-            let mut pass = self.device.begin(&mut encoder);
-            self.device.dispatch(&mut pass, Entry::ParticleChanges, n);
-            self.device.dispatch(&mut pass, Entry::ElementChanges, e);
+    /// core's `armijo` from `fraction` over trials evaluated in batches
+    /// (trials.rs); R_TRIAL holds the accepted trial when there is one.
+    fn search(&mut self, fraction: f64, slope: f64) -> Result<Option<f64>, GpuError> {
+        let mut known: Vec<(f64, bool)> = Vec::new();
+        // 1, 2, 4, … trials per batch: at most as many trials run in all
+        // as the search asked for, doubled (the host-driven search's work),
+        // and ⌈log₂⌉ reads instead of one per trial.
+        let mut batch = 1;
+        let mut asked = 0;
+        let accepted = armijo(fraction, slope, |t| {
+            if asked == known.len() {
+                // t and its halvings, exactly as armijo halves it.
+                let room = (MAX_HALVINGS as usize + 1 - asked).max(1);
+                let mut steps = vec![t];
+                while steps.len() < batch.min(room) {
+                    steps.push(steps[steps.len() - 1] * 0.5);
+                }
+                known.extend(self.trials(&steps)?);
+                batch = batch.saturating_mul(2);
+            }
+            asked += 1;
+            Ok::<_, GpuError>(known[asked - 1])
+        })?;
+        if let Some(t) = accepted
+            && asked < known.len()
+        {
+            // A later trial of the batch left R_TRIAL: the accepted one again.
+            self.device.params.step = t;
+            self.device.write_params(&self.ctx);
+            let mut encoder = self.encoder();
             self.device
-                .dispatch(&mut pass, Entry::MaterialChanges, self.materials.len());
-            (
-                self.device.reduce_in(&mut pass, Reduction::SumA),
-                self.device.reduce_in(&mut pass, Reduction::SumE),
-            )
-        };
-        let (values, status) = self.device.read(&self.ctx, encoder, &[own, coupled])?;
-        let h2 = self.plan.h * self.plan.h;
-        let total = values[0] + h2 * values[1];
-        let change = if total.is_finite() {
-            total
-        } else {
-            f64::INFINITY
-        };
-        Ok((change, status[MOVED] != 0))
+                .pass(&mut encoder, Entry::Trial, self.plan.particle_count());
+            self.ctx.submit(encoder)?;
+        }
+        Ok(accepted)
     }
 }
 

@@ -64,6 +64,13 @@ fn landed(result: Result<usize, f64>) -> Result<u32, GpuError> {
     })
 }
 
+/// PCG's start as read back: r·r and r·z (core's `pcg_start` inputs) and
+/// the status words of its submission.
+pub(super) struct PcgStart {
+    pub values: [f64; 2],
+    pub status: [u32; STATUS_WORDS],
+}
+
 /// How the Newton direction's solve ended.
 pub(super) enum Direction {
     /// PCG ran (its report).
@@ -74,27 +81,71 @@ pub(super) enum Direction {
 }
 
 impl GpuCoupledBackend {
-    /// The Newton direction into R_DIRECTION by PCG on the device (module
-    /// docs), for `settings`; the material elements' H_F⁺ at x_k (step 6)
-    /// are recorded ahead of PCG's start, in the same read.
-    pub(super) fn device_pcg(&mut self, settings: PcgSettings) -> Result<Direction, GpuError> {
-        let (n, e) = self.counts();
-        let m = self.materials.len();
-        let precision = self.precision;
-        let cleared = CgState::default().bytes(precision);
+    /// Clears CgState and sets the start's params (diagonal, mode 0):
+    /// before the submission that records PCG's start.
+    pub(super) fn prepare_pcg_start(&mut self) {
+        let cleared = CgState::default().bytes(self.precision);
         self.ctx.queue.write_buffer(&self.device.cg, 0, &cleared);
         self.device.params.diagonal = 1;
         self.device.params.mode = 0;
-        let (start, status) = self.run(
-            &[
-                (Entry::MaterialFrames, m),
-                (Entry::Slots, e),
-                (Entry::MaterialSlots, m),
-                (Entry::ParticleCurvature, n),
-                (Entry::CgResidual, n),
-            ],
-            &[Reduction::SumA, Reduction::SumB],
-        )?;
+    }
+
+    /// Records PCG's start into `pass` (submission 1 of the module docs);
+    /// its reductions r·r and r·z.
+    pub(super) fn record_pcg_start(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+    ) -> [Result<usize, f64>; 2] {
+        let (n, e) = self.counts();
+        let m = self.materials.len();
+        for (entry, items) in [
+            (Entry::MaterialFrames, m),
+            (Entry::Slots, e),
+            (Entry::MaterialSlots, m),
+            (Entry::ParticleCurvature, n),
+            (Entry::CgResidual, n),
+        ] {
+            self.device.dispatch(pass, entry, items);
+        }
+        [
+            self.device.reduce_in(pass, Reduction::SumA),
+            self.device.reduce_in(pass, Reduction::SumB),
+        ]
+    }
+
+    /// The Newton direction into R_DIRECTION by PCG on the device (module
+    /// docs), for `settings`; the material elements' H_F⁺ at x_k (step 6)
+    /// are recorded ahead of PCG's start, in the same read. `started`: the
+    /// start already read back (recorded with the gradient pass, newton.rs).
+    pub(super) fn device_pcg(
+        &mut self,
+        settings: PcgSettings,
+        started: Option<PcgStart>,
+    ) -> Result<Direction, GpuError> {
+        let (n, e) = self.counts();
+        let m = self.materials.len();
+        let precision = self.precision;
+        let PcgStart {
+            values: start,
+            status,
+        } = match started {
+            Some(start) => start,
+            None => {
+                self.prepare_pcg_start();
+                self.device.write_params(&self.ctx);
+                self.device.reset_status(&self.ctx);
+                let mut encoder = self.encoder();
+                let results = {
+                    let mut pass = self.device.begin(&mut encoder);
+                    self.record_pcg_start(&mut pass)
+                };
+                let (values, status) = self.device.read(&self.ctx, encoder, &results)?;
+                PcgStart {
+                    values: [values[0], values[1]],
+                    status,
+                }
+            }
+        };
         // Only cp_material_frames writes this word in that submission.
         if status[NON_FINITE_ELEMENT] != NONE {
             return Ok(Direction::FrameRefused(status[NON_FINITE_ELEMENT] as usize));
@@ -173,8 +224,7 @@ impl GpuCoupledBackend {
         let probe = &self.pcg.buffer;
         encoder.copy_buffer_to_buffer(&self.device.status, 0, probe, 0, 4 * STATUS_WORDS as u64);
         encoder.copy_buffer_to_buffer(&self.device.cg, 0, probe, STATE_AT, len);
-        self.ctx.submit_and_wait(encoder)?;
-        let bytes = self.ctx.read(probe, STATE_AT + len)?;
+        let bytes = self.ctx.submit_and_read(encoder, probe, STATE_AT + len)?;
         refuse_cut_loops_of(&status_words(&bytes))?;
         Ok(CgState::parse(&bytes[STATE_AT as usize..], self.precision))
     }
