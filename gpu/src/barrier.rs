@@ -28,14 +28,16 @@
 //!            count unknown to the compiler; 1 → status[LOOPS_CUT] =
 //!            smallest such particle → GpuError::Unsupported, results
 //!            refused (the step: x and v restored)
-//! cost here  per pass over the obstacles: 1 per plane, 11 per triangle
-//!            (measured; 147 before the closest-point solve's inner loops
-//!            got constant trip counts: the face loop's 2^k remains);
+//! cost here  per pass over the obstacles: 1 per plane, 11 per visited
+//!            triangle (measured; 147 before the closest-point solve's
+//!            inner loops got constant trip counts: the face loop's 2^k
+//!            remains), 1 per hierarchy node visited;
 //!            ip_gradient makes one pass, ip_newton one for the filter and
 //!            one per Armijo trial (it reuses ip_gradient's terms at x).
-//!            So a ball over 1 800 triangles (≈ 20 000 per pass) steps like
-//!            the CPU; 7 200 triangles are refused on llvmpipe
-//!            (tests/gpu_barrier_loop_budget.rs)
+//!            Only the simplices whose boxes overlap the particle's
+//!            candidate box are visited (core/src/barrier.rs): before the
+//!            hierarchy every simplex was, and 7 200 triangles were refused
+//!            on llvmpipe (tests/gpu_barrier_loop_budget.rs)
 //! ```
 //!
 //! Obstacle geometry is laid out for the device in one place,
@@ -92,18 +94,23 @@ pub fn local_obstacles(obstacles: &BarrierObstacles, origin: &SceneOrigin) -> Ba
         local.simplex_vertices[used].copy_from_slice(&shifted);
     }
     local.scale = scale;
+    local.hierarchy = obstacles.hierarchy.refit(&local.simplex_boxes(dim));
     local
 }
 
 /// The obstacle geometry as the kernels read it: reals
-/// `[plane normals | plane offsets | simplex vertices (4 slots each)]` and
-/// the arity of each simplex (at least one word, so the buffer is never
-/// empty).
+/// `[plane normals | plane offsets | simplex vertices (4 slots each) |
+/// hierarchy node boxes]` and words `[arity of each simplex | hierarchy
+/// node words]` (at least one word, so the buffer is never empty). Node
+/// boxes rounded to f32 are the boxes of the simplices' f32 vertices
+/// (rounding is monotone).
 pub fn obstacle_geometry(obstacles: &BarrierObstacles) -> (Vec<f64>, Vec<u32>) {
     let mut reals = obstacles.plane_normals.clone();
     reals.extend(&obstacles.plane_offsets);
     reals.extend(&obstacles.simplex_vertices);
+    reals.extend(obstacles.hierarchy.node_boxes());
     let mut arity = obstacles.simplex_arity.clone();
+    arity.extend(obstacles.hierarchy.node_words());
     if arity.is_empty() {
         arity.push(0);
     }
