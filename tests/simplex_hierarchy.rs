@@ -14,7 +14,9 @@ use hyperpbd::core::barrier::{
 };
 use hyperpbd::core::geometry::SimplexHierarchy;
 use hyperpbd::core::geometry::simplex_hierarchy::{NODE_WORDS, OrderedWalk, overlaps, push_box};
-use hyperpbd::core::implicit::certified_filter::{fraction, obstacle_time, plane_time, simplex_time};
+use hyperpbd::core::implicit::certified_filter::{
+    fraction, obstacle_time, plane_time, simplex_time,
+};
 use hyperpbd::{Obstacle, Scene};
 
 /// SplitMix64: a fixed, dependency-free stream.
@@ -122,7 +124,10 @@ fn candidates_are_the_exhaustive_list_in_every_dimension() {
             let depth = (count as f64).log2().ceil() as usize;
             assert!(height(&tree, 0) <= depth, "dim {dim} case {case}: too deep");
             for s in 0..count {
-                let points: Vec<f64> = simplices[s].iter().flat_map(|&v| vertices[v].clone()).collect();
+                let points: Vec<f64> = simplices[s]
+                    .iter()
+                    .flat_map(|&v| vertices[v].clone())
+                    .collect();
                 let mut b = Vec::new();
                 push_box(&mut b, &points, dim);
                 assert_eq!(tree.simplex_box(s), &b[..]);
@@ -138,7 +143,11 @@ fn candidates_are_the_exhaustive_list_in_every_dimension() {
                 assert!(visited <= tree.node_count());
                 let at = format!("dim {dim} case {case} box {lo:?}..{hi:?}");
                 assert_eq!(got, expected, "query, {at}");
-                assert_eq!(tree.walk(&lo, &hi).collect::<Vec<_>>(), expected, "walk, {at}");
+                assert_eq!(
+                    tree.walk(&lo, &hi).collect::<Vec<_>>(),
+                    expected,
+                    "walk, {at}"
+                );
                 assert_eq!(walked::<1>(&tree, &lo, &hi), expected, "walk 1, {at}");
                 assert_eq!(walked::<2>(&tree, &lo, &hi), expected, "walk 2, {at}");
                 assert_eq!(walked::<3>(&tree, &lo, &hi), expected, "walk 3, {at}");
@@ -166,7 +175,10 @@ fn candidates_are_the_exhaustive_list_in_every_dimension() {
             }
         }
     }
-    assert!(nonempty > queries / 4, "{nonempty} of {queries} queries selected a proper subset");
+    assert!(
+        nonempty > queries / 4,
+        "{nonempty} of {queries} queries selected a proper subset"
+    );
 }
 
 #[test]
@@ -257,7 +269,15 @@ fn barrier_terms_over_the_candidates_are_the_exhaustive_ones_bit_for_bit() {
                         plane_time(&obstacles, o, &x, r, &delta, f64::EPSILON)
                     } else {
                         let s = o - obstacles.plane_count();
-                        simplex_time(&obstacles, s, &x, r, &delta, f64::EPSILON, &mut offset[..dim])
+                        simplex_time(
+                            &obstacles,
+                            s,
+                            &x,
+                            r,
+                            &delta,
+                            f64::EPSILON,
+                            &mut offset[..dim],
+                        )
                     });
                     if d >= law.activation_distance {
                         continue;
@@ -281,8 +301,16 @@ fn barrier_terms_over_the_candidates_are_the_exhaustive_ones_bit_for_bit() {
                 assert_eq!(bits(&terms.gradient), bits(&gradient), "gradient, {at}");
                 assert_eq!(bits(&terms.hessian), bits(&hessian), "hessian, {at}");
                 let capped = smallest.min(law.activation_distance);
-                assert_eq!(terms.min_distance.to_bits(), capped.to_bits(), "distance, {at}");
-                let old = if feasible { (0.9 * t_old).min(1.0) } else { 0.0 };
+                assert_eq!(
+                    terms.min_distance.to_bits(),
+                    capped.to_bits(),
+                    "distance, {at}"
+                );
+                let old = if feasible {
+                    (0.9 * t_old).min(1.0)
+                } else {
+                    0.0
+                };
                 let got = filter_fraction(&obstacles, &x, r, &delta);
                 assert_eq!(got.to_bits(), old.to_bits(), "filter, {at}");
                 let certified = obstacle_time(&obstacles, &x, r, &delta, f64::EPSILON);
@@ -294,12 +322,25 @@ fn barrier_terms_over_the_candidates_are_the_exhaustive_ones_bit_for_bit() {
                 cut += usize::from(old < 1.0 && old > 0.0);
                 // How much the hierarchy skipped at the evaluation's reach.
                 let (mut lo, mut hi) = (vec![0.0; dim], vec![0.0; dim]);
-                let reach = law.activation_distance.max(filter_reach(step, dim, f64::EPSILON));
-                candidate_box(&x, r, reach, obstacles.scale, f64::EPSILON, &mut lo, &mut hi);
+                let reach = law
+                    .activation_distance
+                    .max(filter_reach(step, dim, f64::EPSILON));
+                candidate_box(
+                    &x,
+                    r,
+                    reach,
+                    obstacles.scale,
+                    f64::EPSILON,
+                    &mut lo,
+                    &mut hi,
+                );
                 skipped += obstacles.simplex_count() - obstacles.hierarchy.walk(&lo, &hi).count();
             }
         }
     }
     eprintln!("{active} active simplex terms, {cut} filters cut, {skipped} simplices skipped");
-    assert!(active > 100 && cut > 100 && skipped > 10_000, "{active} {cut} {skipped}");
+    assert!(
+        active > 100 && cut > 100 && skipped > 10_000,
+        "{active} {cut} {skipped}"
+    );
 }

@@ -254,8 +254,7 @@ pub(crate) fn minimise(
         }
     });
     if let Err(particle) = infeasible
-        && let Some((obstacle, distance)) =
-            infeasible_start(plan, ip, start, particle)
+        && let Some((obstacle, distance)) = infeasible_start(plan, ip, start, particle)
     {
         report.status = MinimisationStatus::Refused(Refusal::InfeasibleStart {
             particle,

@@ -59,7 +59,10 @@ impl SimplexHierarchy {
     pub fn build(dim: usize, vertices: &[Vec<f64>], simplices: &[Vec<usize>]) -> Self {
         let mut boxes = Vec::with_capacity(simplices.len() * 2 * dim);
         for simplex in simplices {
-            let points: Vec<f64> = simplex.iter().flat_map(|&v| vertices[v].iter().copied()).collect();
+            let points: Vec<f64> = simplex
+                .iter()
+                .flat_map(|&v| vertices[v].iter().copied())
+                .collect();
             push_box(&mut boxes, &points, dim);
         }
         Self::from_boxes(dim, &boxes)
@@ -69,7 +72,10 @@ impl SimplexHierarchy {
     /// Panics with 2^31 simplices or more (u32 indices, bounded stack).
     pub fn from_boxes(dim: usize, boxes: &[f64]) -> Self {
         let count = if dim == 0 { 0 } else { boxes.len() / (2 * dim) };
-        assert!(count < 1 << 31, "{count} simplices: at most 2^31 − 1 per hierarchy");
+        assert!(
+            count < 1 << 31,
+            "{count} simplices: at most 2^31 − 1 per hierarchy"
+        );
         let mut tree = SimplexHierarchy {
             dim,
             words: Vec::with_capacity(NODE_WORDS * (2 * count).saturating_sub(1)),
@@ -108,10 +114,12 @@ impl SimplexHierarchy {
         let mut axis = 0;
         let mut longest = f64::NEG_INFINITY;
         for a in 0..dim {
-            let (lo, hi) = set.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &s| {
-                let c = centres[s as usize * dim + a];
-                (lo.min(c), hi.max(c))
-            });
+            let (lo, hi) = set
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &s| {
+                    let c = centres[s as usize * dim + a];
+                    (lo.min(c), hi.max(c))
+                });
             if hi - lo > longest {
                 longest = hi - lo;
                 axis = a;
@@ -121,7 +129,10 @@ impl SimplexHierarchy {
         // halves are the same sets whatever order `set` arrived in.
         let half = set.len().div_ceil(2);
         set.select_nth_unstable_by(half - 1, |&s, &t| {
-            let (cs, ct) = (centres[s as usize * dim + axis], centres[t as usize * dim + axis]);
+            let (cs, ct) = (
+                centres[s as usize * dim + axis],
+                centres[t as usize * dim + axis],
+            );
             cs.total_cmp(&ct).then(s.cmp(&t))
         });
         let (left, right) = set.split_at_mut(half);

@@ -114,7 +114,15 @@ impl Setup {
             if particles.mass[i] > 0.0 {
                 let xi = &x[i * dim..(i + 1) * dim];
                 let (r, reach) = (plan.radius[i], ip.law.activation_distance);
-                candidate_box(xi, r, reach, ip.obstacles.scale, f64::EPSILON, &mut lo, &mut hi);
+                candidate_box(
+                    xi,
+                    r,
+                    reach,
+                    ip.obstacles.scale,
+                    f64::EPSILON,
+                    &mut lo,
+                    &mut hi,
+                );
                 for o in ip.obstacles.near(&lo, &hi) {
                     let d = ip.obstacles.distance(o, xi, r, &mut normal);
                     if d.is_nan() || d <= 0.0 {
