@@ -123,8 +123,8 @@ fn candidates_are_the_exhaustive_list_in_every_dimension() {
             assert_eq!(tree.node_count(), 2 * count - 1);
             let depth = (count as f64).log2().ceil() as usize;
             assert!(height(&tree, 0) <= depth, "dim {dim} case {case}: too deep");
-            for s in 0..count {
-                let points: Vec<f64> = simplices[s]
+            for (s, simplex) in simplices.iter().enumerate() {
+                let points: Vec<f64> = simplex
                     .iter()
                     .flat_map(|&v| vertices[v].clone())
                     .collect();

@@ -39,16 +39,16 @@
 //! reach          evaluation: d^;   filters: |Δ| (1 + γ)/η, γ = (N + 4) ε;
 //!                feasibility (d ≤ 0): 0
 //! ```
-//! A simplex whose box misses the candidate box is farther than r + reach
-//! + pad − (rounding of the box) from x in the ∞-norm, so in the Euclidean
-//! norm. Its computed distance |x − q̂| − r (q̂ a convex combination up to
-//! rounding) is within N ε (‖x‖∞ + G) of the exact one, and the certified
-//! filter's support bound (certified_filter.rs) within √(2 N (N + 4) ε)
-//! (‖x‖∞ + G) (the chosen face's point q̂ lies within √(|x − q̂|² −
-//! dist²) of the closest point): both far below pad. Such a simplex
-//! therefore has d ≥ d^ (no barrier term; the smallest distance is
-//! reported capped at d^) and η t* ≥ 1 (min(1, η min t*) is unchanged),
-//! and skipping it changes no bit of any result.
+//! A simplex whose box misses the candidate box lies farther from x than
+//! r + reach + pad, less the rounding of the box, in the ∞-norm and so in
+//! the Euclidean norm. Its computed distance |x − q̂| − r (q̂ a convex
+//! combination up to rounding) is within N ε (‖x‖∞ + G) of the exact one,
+//! and the certified filter's support bound (certified_filter.rs) within
+//! √(2 N (N + 4) ε) (‖x‖∞ + G): the chosen face's point q̂ lies within
+//! √(|x − q̂|² − dist²) of the closest point. Both are far below pad. Such
+//! a simplex therefore has d ≥ d^ (no barrier term; the smallest distance
+//! is reported capped at d^) and η t* ≥ 1 (min(1, η min t*) is unchanged),
+//! so skipping it changes no bit of any result.
 
 // Index loops mirror the math (and the WGSL port) line by line.
 #![allow(clippy::needless_range_loop)]
@@ -153,7 +153,7 @@ impl BarrierObstacles {
         boxes
     }
 
-    /// The obstacle slots to visit for the candidate box [`lo`, `hi`]
+    /// The obstacle slots to visit for the candidate box `[lo, hi]`
     /// ([`candidate_box`]): every plane, then the simplices whose boxes
     /// overlap it, in index order.
     pub fn near<'a>(&'a self, lo: &'a [f64], hi: &'a [f64]) -> Near<'a> {

@@ -47,7 +47,7 @@ pub struct SimplexHierarchy {
     dim: usize,
     /// (right, first, last) per node.
     words: Vec<u32>,
-    /// (lo[dim], hi[dim]) per node.
+    /// (`lo[dim]`, `hi[dim]`) per node.
     boxes: Vec<f64>,
     /// The leaf node of each simplex.
     leaf: Vec<u32>,
@@ -68,7 +68,7 @@ impl SimplexHierarchy {
         Self::from_boxes(dim, &boxes)
     }
 
-    /// The hierarchy of the boxes `boxes` (lo[dim], hi[dim] per simplex).
+    /// The hierarchy of the boxes `boxes` (`lo[dim]`, `hi[dim]` per simplex).
     /// Panics with 2^31 simplices or more (u32 indices, bounded stack).
     pub fn from_boxes(dim: usize, boxes: &[f64]) -> Self {
         let count = if dim == 0 { 0 } else { boxes.len() / (2 * dim) };
@@ -200,12 +200,12 @@ impl SimplexHierarchy {
         &self.words
     }
 
-    /// The node boxes, (lo[dim], hi[dim]) per node in preorder.
+    /// The node boxes, (`lo[dim]`, `hi[dim]`) per node in preorder.
     pub fn node_boxes(&self) -> &[f64] {
         &self.boxes
     }
 
-    /// The box of simplex `s` (lo[dim], hi[dim]).
+    /// The box of simplex `s` (`lo[dim]`, `hi[dim]`).
     pub fn simplex_box(&self, s: usize) -> &[f64] {
         self.node_box(self.leaf[s])
     }
@@ -219,7 +219,7 @@ impl SimplexHierarchy {
         self.words[n * NODE_WORDS + 1] == self.words[n * NODE_WORDS + 2]
     }
 
-    /// The candidates of the box [`lo`, `hi`]: every simplex whose box
+    /// The candidates of the box `[lo, hi]`: every simplex whose box
     /// overlaps it, sorted by index, into `out` (cleared first). Returns
     /// the nodes visited (the work; an operation count, not a result).
     pub fn query(&self, lo: &[f64], hi: &[f64], out: &mut Vec<u32>) -> usize {
@@ -246,7 +246,7 @@ impl SimplexHierarchy {
     }
 
     /// The oracle: every simplex in index order whose box overlaps
-    /// [`lo`, `hi`] (a scan of all of them).
+    /// `[lo, hi]` (a scan of all of them).
     pub fn exhaustive(&self, lo: &[f64], hi: &[f64], out: &mut Vec<u32>) {
         out.clear();
         for s in 0..self.simplex_count() {
@@ -256,7 +256,7 @@ impl SimplexHierarchy {
         }
     }
 
-    /// The candidates of [`lo`, `hi`] one at a time, in index order,
+    /// The candidates of `[lo, hi]` one at a time, in index order,
     /// without allocating (see the module docs).
     pub fn walk<'a>(&'a self, lo: &'a [f64], hi: &'a [f64]) -> OrderedWalk<'a, WALK_BATCH> {
         OrderedWalk::new(self, lo, hi)
@@ -277,7 +277,7 @@ pub fn push_box(out: &mut Vec<f64>, points: &[f64], dim: usize) {
     }
 }
 
-/// Closed-box overlap of `b` = (lo[N], hi[N]) with [`lo`, `hi`].
+/// Closed-box overlap of `b` = (`lo[N]`, `hi[N]`) with `[lo, hi]`.
 pub fn overlaps(b: &[f64], lo: &[f64], hi: &[f64]) -> bool {
     let dim = lo.len();
     (0..dim).all(|a| b[a] <= hi[a] && lo[a] <= b[dim + a])
@@ -300,7 +300,7 @@ pub struct OrderedWalk<'a, const K: usize> {
 }
 
 impl<'a, const K: usize> OrderedWalk<'a, K> {
-    /// A walk over the candidates of [`lo`, `hi`].
+    /// A walk over the candidates of `[lo, hi]`.
     pub fn new(tree: &'a SimplexHierarchy, lo: &'a [f64], hi: &'a [f64]) -> Self {
         OrderedWalk {
             tree,
