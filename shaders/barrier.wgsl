@@ -265,7 +265,9 @@ fn simplex_offset(s: u32, p: ptr<function, array<real, DIM>>, w: ptr<function, a
 // The simplex hierarchy walk (core/src/geometry/simplex_hierarchy.rs,
 // OrderedWalk; the candidate box: core/src/barrier.rs candidate_box):
 // every plane, then every simplex whose box overlaps x ± (r + reach + pad),
-// pad = 4 √(N (N + 4) ε) (‖x‖∞ + scale + r + reach), in index order: batches
+// pad = M (‖x‖∞ + scale + r + reach) with M = 16 N (N + 4) ε where computed
+// distances decide (walk_start), 4 √(N (N + 4) ε) for the certified
+// filter's support bound (walk_box with support_margin), in index order: batches
 // of the HIERARCHY_BATCH smallest indices ≥ floor from a stack traversal
 // (preorder nodes: left child n + 1, words (right, first, last)), each
 // handed out in order. The traversal costs one trip of llvmpipe's loop
@@ -299,14 +301,23 @@ fn filter_reach(length: real, epsilon: real) -> real {
     return length * (1.0 + (real(DIM) + 4.0) * epsilon) / bp.safety;
 }
 
+// The relative pad where the certified filter's support bound decides.
+fn support_margin(epsilon: real) -> real {
+    return 4.0 * sqrt(real(DIM) * (real(DIM) + 4.0) * epsilon);
+}
+
+// The walk where computed distances decide (evaluation, step filter).
 fn walk_start(p: ptr<function, array<real, DIM>>, r: real, reach: real) -> Walk {
+    return walk_box(p, r, reach, 16.0 * real(DIM) * (real(DIM) + 4.0) * REAL_EPS);
+}
+
+fn walk_box(p: ptr<function, array<real, DIM>>, r: real, reach: real, margin: real) -> Walk {
     var w: Walk;
     var largest: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
         largest = max(largest, abs((*p)[a]));
     }
     let extent = r + reach;
-    let margin = 4.0 * sqrt(real(DIM) * (real(DIM) + 4.0) * REAL_EPS);
     let half = extent + margin * (largest + bp.scale + extent);
     var finite = half <= REAL_MAX;
     for (var a = 0u; a < DIM; a++) {

@@ -297,7 +297,8 @@ fn cp_filter_particles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(n
         for (var a = 0u; a < DIM; a++) {
             length2 += step[a] * step[a];
         }
-        var walk = walk_start(&p, radius[i], filter_reach(sqrt(length2), cp.epsilon));
+        let reach = filter_reach(sqrt(length2), cp.epsilon);
+        var walk = walk_box(&p, radius[i], reach, support_margin(cp.epsilon));
         walk.plane = bp.planes;
         for (var o = walk_next(&walk); o != WALK_END; o = walk_next(&walk)) {
             t = min(t, simplex_time(o - bp.planes, i, &p, &step));

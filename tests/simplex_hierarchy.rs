@@ -9,8 +9,8 @@
 //! candidates is bit for bit the one over every simplex.
 
 use hyperpbd::core::barrier::{
-    BarrierLaw, BarrierObstacles, ParticleBarrier, candidate_box, evaluate_particle_barrier,
-    filter_fraction, filter_reach,
+    BarrierLaw, BarrierObstacles, ParticleBarrier, candidate_box, distance_margin,
+    evaluate_particle_barrier, filter_fraction, filter_reach,
 };
 use hyperpbd::core::geometry::SimplexHierarchy;
 use hyperpbd::core::geometry::simplex_hierarchy::{NODE_WORDS, OrderedWalk, overlaps, push_box};
@@ -124,10 +124,7 @@ fn candidates_are_the_exhaustive_list_in_every_dimension() {
             let depth = (count as f64).log2().ceil() as usize;
             assert!(height(&tree, 0) <= depth, "dim {dim} case {case}: too deep");
             for (s, simplex) in simplices.iter().enumerate() {
-                let points: Vec<f64> = simplex
-                    .iter()
-                    .flat_map(|&v| vertices[v].clone())
-                    .collect();
+                let points: Vec<f64> = simplex.iter().flat_map(|&v| vertices[v].clone()).collect();
                 let mut b = Vec::new();
                 push_box(&mut b, &points, dim);
                 assert_eq!(tree.simplex_box(s), &b[..]);
@@ -330,7 +327,7 @@ fn barrier_terms_over_the_candidates_are_the_exhaustive_ones_bit_for_bit() {
                     r,
                     reach,
                     obstacles.scale,
-                    f64::EPSILON,
+                    distance_margin(dim, f64::EPSILON),
                     &mut lo,
                     &mut hi,
                 );

@@ -33,21 +33,23 @@
 //! ([`crate::geometry::simplex_hierarchy`]): per particle, only those whose
 //! box overlaps the candidate box, in index order; every plane is visited.
 //! ```text
-//! candidate box  x ± (r + reach + pad),  pad = M (‖x‖∞ + G + r + reach),
-//!                M = 4 √(N (N + 4) ε)   (G: the obstacles' coordinate scale)
-//!                (everything, when that is not finite)
-//! reach          evaluation: d^;   filters: |Δ| (1 + γ)/η, γ = (N + 4) ε;
-//!                feasibility (d ≤ 0): 0
+//! candidate box  x ± (r + reach + pad),  pad = M (‖x‖∞ + G + r + reach)
+//!                (G: the obstacles' coordinate scale; everything, when not finite)
+//! reach, M       evaluation:        d^,               M = 16 N (N + 4) ε
+//!                step filter:       |Δ| (1 + γ)/η,    M = 16 N (N + 4) ε    γ = (N + 4) ε
+//!                feasibility d ≤ 0: 0,                M = 16 N (N + 4) ε
+//!                certified filter:  |Δ| (1 + γ)/η,    M = 4 √(N (N + 4) ε)
 //! ```
 //! A simplex whose box misses the candidate box lies farther from x than
 //! r + reach + pad, less the rounding of the box, in the ∞-norm and so in
 //! the Euclidean norm. Its computed distance |x − q̂| − r (q̂ a convex
-//! combination up to rounding) is within N ε (‖x‖∞ + G) of the exact one,
-//! and the certified filter's support bound (certified_filter.rs) within
-//! √(2 N (N + 4) ε) (‖x‖∞ + G): the chosen face's point q̂ lies within
-//! √(|x − q̂|² − dist²) of the closest point. Both are far below pad. Such
-//! a simplex therefore has d ≥ d^ (no barrier term; the smallest distance
-//! is reported capped at d^) and η t* ≥ 1 (min(1, η min t*) is unchanged),
+//! combination up to rounding) is within a few N ε (‖x‖∞ + G) of the
+//! exact one; the certified filter's support bound (certified_filter.rs)
+//! is within √(2 N (N + 4) ε) (‖x‖∞ + G), since the chosen face's point q̂
+//! lies within √(|x − q̂|² − dist²) of the closest point. Both are far
+//! below their pad. Such a simplex therefore has d ≥ d^ (no barrier term;
+//! the smallest distance is reported capped at d^) and η t* ≥ 1
+//! (min(1, η min t*) is unchanged),
 //! so skipping it changes no bit of any result.
 
 // Index loops mirror the math (and the WGSL port) line by line.
@@ -171,7 +173,8 @@ impl BarrierObstacles {
         let mut normal = [0.0f64; crate::MAX_DIM];
         let (mut lo, mut hi) = ([0.0f64; crate::MAX_DIM], [0.0f64; crate::MAX_DIM]);
         let (lo, hi) = (&mut lo[..dim], &mut hi[..dim]);
-        candidate_box(x, radius, 0.0, self.scale, f64::EPSILON, lo, hi);
+        let margin = distance_margin(dim, f64::EPSILON);
+        candidate_box(x, radius, 0.0, self.scale, margin, lo, hi);
         self.near(lo, hi).find_map(|o| {
             let distance = self.distance(o, x, radius, &mut normal[..dim]);
             (distance.is_nan() || distance <= 0.0).then_some((o, distance))
@@ -230,8 +233,15 @@ impl Iterator for Near<'_> {
     }
 }
 
-/// M = 4 √(N (N + 4) ε): the candidate box's relative pad (module docs).
-pub fn candidate_margin(dim: usize, epsilon: f64) -> f64 {
+/// M = 16 N (N + 4) ε: the candidate box's relative pad where computed
+/// distances decide (evaluation, the step filter, feasibility; module docs).
+pub fn distance_margin(dim: usize, epsilon: f64) -> f64 {
+    16.0 * dim as f64 * (dim as f64 + 4.0) * epsilon
+}
+
+/// M = 4 √(N (N + 4) ε): the relative pad where the certified filter's
+/// support bound decides (module docs).
+pub fn support_margin(dim: usize, epsilon: f64) -> f64 {
     4.0 * (dim as f64 * (dim as f64 + 4.0) * epsilon).sqrt()
 }
 
@@ -241,14 +251,15 @@ pub fn filter_reach(length: f64, dim: usize, epsilon: f64) -> f64 {
 }
 
 /// The candidate box x ± (r + reach + pad) of a particle at `x` with
-/// radius `radius` into `lo`, `hi` (module docs); ±f64::MAX on every axis
-/// when some bound is not finite (every simplex is then visited).
+/// radius `radius` into `lo`, `hi`, with pad = `margin` (‖x‖∞ + G + r +
+/// reach) and G = `scale` (module docs); ±f64::MAX on every axis when some
+/// bound is not finite (every simplex is then visited).
 pub fn candidate_box(
     x: &[f64],
     radius: f64,
     reach: f64,
     scale: f64,
-    epsilon: f64,
+    margin: f64,
     lo: &mut [f64],
     hi: &mut [f64],
 ) {
@@ -258,7 +269,7 @@ pub fn candidate_box(
         largest = largest.max(x[a].abs());
     }
     let extent = radius + reach;
-    let half = extent + candidate_margin(dim, epsilon) * (largest + scale + extent);
+    let half = extent + margin * (largest + scale + extent);
     let mut finite = half <= f64::MAX;
     for a in 0..dim {
         lo[a] = x[a] - half;
@@ -321,7 +332,8 @@ pub fn evaluate_particle_barrier(
     let (mut lo, mut hi) = ([0.0f64; crate::MAX_DIM], [0.0f64; crate::MAX_DIM]);
     let (lo, hi) = (&mut lo[..dim], &mut hi[..dim]);
     let reach = law.activation_distance;
-    candidate_box(x, radius, reach, obstacles.scale, f64::EPSILON, lo, hi);
+    let margin = distance_margin(dim, f64::EPSILON);
+    candidate_box(x, radius, reach, obstacles.scale, margin, lo, hi);
     for o in obstacles.near(lo, hi) {
         let d = obstacles.distance(o, x, radius, n);
         out.min_distance = out.min_distance.min(d);
@@ -351,7 +363,8 @@ pub fn filter_fraction(obstacles: &BarrierObstacles, x: &[f64], radius: f64, del
     let (mut lo, mut hi) = ([0.0f64; crate::MAX_DIM], [0.0f64; crate::MAX_DIM]);
     let (lo, hi) = (&mut lo[..dim], &mut hi[..dim]);
     let reach = filter_reach(length, dim, f64::EPSILON);
-    candidate_box(x, radius, reach, obstacles.scale, f64::EPSILON, lo, hi);
+    let margin = distance_margin(dim, f64::EPSILON);
+    candidate_box(x, radius, reach, obstacles.scale, margin, lo, hi);
     let mut t = f64::INFINITY;
     for o in obstacles.near(lo, hi) {
         let d0 = obstacles.distance(o, x, radius, n);

@@ -43,7 +43,9 @@
 //! distance) when q̂ is the true closest point. Both A/|w| ≤ max_v |x − v|
 //! and ℓ are local sizes, so far from the origin only ρ grows with |x|.
 
-use crate::barrier::{BarrierObstacles, FILTER_SAFETY, candidate_box, filter_reach};
+use crate::barrier::{
+    BarrierObstacles, FILTER_SAFETY, candidate_box, filter_reach, support_margin,
+};
 use crate::geometry::{closest_point_on_simplex, distance};
 
 /// min(1, η · `time`): the admissible step fraction for the smallest time
@@ -202,7 +204,8 @@ pub fn obstacle_time(
     let (lo, hi) = (&mut lo[..dim], &mut hi[..dim]);
     let length = delta.iter().map(|c| c * c).sum::<f64>().sqrt();
     let reach = filter_reach(length, dim, epsilon);
-    candidate_box(x, radius, reach, obstacles.scale, epsilon, lo, hi);
+    let margin = support_margin(dim, epsilon);
+    candidate_box(x, radius, reach, obstacles.scale, margin, lo, hi);
     let planes = obstacles.plane_count();
     let mut t = f64::INFINITY;
     for o in obstacles.near(lo, hi) {

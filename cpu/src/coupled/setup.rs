@@ -20,7 +20,7 @@ use crate::collide::{Contacts, broadphase_on};
 use crate::incremental_potential::PARTICLE_GRAIN;
 use crate::parallel::Workers;
 use hyperpbd_core::IncrementalPotentialPlan;
-use hyperpbd_core::barrier::candidate_box;
+use hyperpbd_core::barrier::{candidate_box, distance_margin};
 use hyperpbd_core::broadphase::{Aabbs, Pair};
 use hyperpbd_core::implicit::certified_filter::{fraction, obstacle_time, pair_time};
 use hyperpbd_core::implicit::{CoupledPlan, PairLag, normal_force, pair_lags};
@@ -119,7 +119,7 @@ impl Setup {
                     r,
                     reach,
                     ip.obstacles.scale,
-                    f64::EPSILON,
+                    distance_margin(dim, f64::EPSILON),
                     &mut lo,
                     &mut hi,
                 );
