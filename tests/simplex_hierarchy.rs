@@ -341,3 +341,29 @@ fn barrier_terms_over_the_candidates_are_the_exhaustive_ones_bit_for_bit() {
         "{active} {cut} {skipped}"
     );
 }
+
+/// A set assembled by hand (no hierarchy over its simplices) visits every
+/// simplex until `reindex`, then the walk's candidates.
+#[test]
+fn an_unindexed_set_visits_every_simplex_until_reindexed() {
+    let mut obstacles = BarrierObstacles {
+        plane_normals: vec![0.0, 1.0],
+        plane_offsets: vec![-5.0],
+        plane_source: vec![0],
+        ..BarrierObstacles::default()
+    };
+    for s in 0..3 {
+        let x = 10.0 * s as f64;
+        obstacles
+            .simplex_vertices
+            .extend([x, 0.0, x + 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        obstacles.simplex_arity.push(2);
+        obstacles.simplex_source.push((1, s));
+    }
+    let (lo, hi) = ([-0.5, -0.5], [0.5, 0.5]);
+    assert!(!obstacles.is_indexed());
+    assert_eq!(obstacles.near(&lo, &hi).collect::<Vec<_>>(), [0, 1, 2, 3]);
+    obstacles.reindex(2);
+    assert!(obstacles.is_indexed());
+    assert_eq!(obstacles.near(&lo, &hi).collect::<Vec<_>>(), [0, 1]);
+}

@@ -155,13 +155,29 @@ impl BarrierObstacles {
         boxes
     }
 
+    /// True when `hierarchy` indexes as many simplices as there are (as
+    /// [`BarrierObstacles::compile`] builds it). A set assembled or edited
+    /// by hand is indexed again by [`BarrierObstacles::reindex`]; until then
+    /// [`BarrierObstacles::near`] visits every simplex.
+    pub fn is_indexed(&self) -> bool {
+        self.hierarchy.simplex_count() == self.simplex_count()
+    }
+
+    /// Builds `hierarchy` anew over the current simplices.
+    pub fn reindex(&mut self, dim: usize) {
+        self.hierarchy = SimplexHierarchy::from_boxes(dim, &self.simplex_boxes(dim));
+    }
+
     /// The obstacle slots to visit for the candidate box `[lo, hi]`
     /// ([`candidate_box`]): every plane, then the simplices whose boxes
-    /// overlap it, in index order.
+    /// overlap it, in index order (every simplex when the set is not
+    /// indexed: [`BarrierObstacles::is_indexed`]).
     pub fn near<'a>(&'a self, lo: &'a [f64], hi: &'a [f64]) -> Near<'a> {
+        let indexed = self.is_indexed();
         Near {
             planes: 0..self.plane_count(),
-            simplices: self.hierarchy.walk(lo, hi),
+            simplices: indexed.then(|| self.hierarchy.walk(lo, hi)),
+            every: 0..if indexed { 0 } else { self.simplex_count() },
         }
     }
 
@@ -219,7 +235,8 @@ impl BarrierObstacles {
 #[derive(Debug, Clone)]
 pub struct Near<'a> {
     planes: std::ops::Range<usize>,
-    simplices: OrderedWalk<'a, WALK_BATCH>,
+    simplices: Option<OrderedWalk<'a, WALK_BATCH>>,
+    every: std::ops::Range<usize>,
 }
 
 impl Iterator for Near<'_> {
@@ -227,9 +244,13 @@ impl Iterator for Near<'_> {
 
     fn next(&mut self) -> Option<usize> {
         let planes = self.planes.end;
-        self.planes
-            .next()
-            .or_else(|| self.simplices.next().map(|s| planes + s as usize))
+        if let Some(o) = self.planes.next() {
+            return Some(o);
+        }
+        match self.simplices.as_mut() {
+            Some(walk) => walk.next().map(|s| planes + s as usize),
+            None => self.every.next().map(|s| planes + s),
+        }
     }
 }
 
@@ -421,7 +442,7 @@ impl BarrierObstacles {
             }
         }
         out.scale = scale;
-        out.hierarchy = SimplexHierarchy::from_boxes(dim, &out.simplex_boxes(dim));
+        out.reindex(dim);
         out
     }
 }

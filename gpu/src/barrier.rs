@@ -70,13 +70,18 @@ pub struct BarrierEvaluation {
 
 /// `obstacles` in device coordinates x − o (see [`SceneOrigin`]): plane
 /// offsets r − n·o, simplex vertices v − o, and the rounding scale
-/// recomputed from the shifted geometry. The identity when o = 0.
+/// recomputed from the shifted geometry, the hierarchy refitted to the
+/// shifted boxes (built first if the set is not indexed). The identity
+/// when o = 0 (but for that build).
 pub fn local_obstacles(obstacles: &BarrierObstacles, origin: &SceneOrigin) -> BarrierObstacles {
-    if origin.is_zero() {
-        return obstacles.clone();
-    }
     let dim = origin.as_slice().len();
     let mut local = obstacles.clone();
+    if !local.is_indexed() {
+        local.reindex(dim);
+    }
+    if origin.is_zero() {
+        return local;
+    }
     let mut scale: f64 = 0.0;
     for (offset, normal) in local
         .plane_offsets
@@ -94,14 +99,15 @@ pub fn local_obstacles(obstacles: &BarrierObstacles, origin: &SceneOrigin) -> Ba
         local.simplex_vertices[used].copy_from_slice(&shifted);
     }
     local.scale = scale;
-    local.hierarchy = obstacles.hierarchy.refit(&local.simplex_boxes(dim));
+    local.hierarchy = local.hierarchy.refit(&local.simplex_boxes(dim));
     local
 }
 
 /// The obstacle geometry as the kernels read it: reals
 /// `[plane normals | plane offsets | simplex vertices (4 slots each) |
 /// hierarchy node boxes]` and words `[arity of each simplex | hierarchy
-/// node words]` (at least one word, so the buffer is never empty). Node
+/// node words]` (at least one word, so the buffer is never empty), of an
+/// indexed set ([`BarrierObstacles::is_indexed`]). Node
 /// boxes rounded to f32 are the boxes of the simplices' f32 vertices
 /// (rounding is monotone).
 pub fn obstacle_geometry(obstacles: &BarrierObstacles) -> (Vec<f64>, Vec<u32>) {
@@ -311,7 +317,11 @@ impl BarrierKernels {
                 generated: None,
             },
         )?;
-        let (reals, arity) = obstacle_geometry(obstacles);
+        let mut obstacles = obstacles.clone();
+        if !obstacles.is_indexed() {
+            obstacles.reindex(dim);
+        }
+        let (reals, arity) = obstacle_geometry(&obstacles);
         let mut bytes = Vec::new();
         push_reals(&mut bytes, &reals, precision);
         let storage = wgpu::BufferUsages::STORAGE;
@@ -325,7 +335,7 @@ impl BarrierKernels {
             dim,
             geometry,
             arity,
-            obstacles: obstacles.clone(),
+            obstacles,
             law,
         })
     }
