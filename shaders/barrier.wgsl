@@ -1,6 +1,7 @@
 // Per-particle barrier evaluation and the certified step filter (the
 // incremental-potential path), one invocation per particle looping over
-// every obstacle: planes first, then simplices, in the order of
+// the obstacles: every plane, then the simplices whose boxes overlap the
+// particle's candidate box (the hierarchy walk below), in the order of
 // BarrierObstacles (core/src/barrier.rs). Same arithmetic, in the same
 // order, as the f64 golden path; ln_real is an arithmetic-only ln in both
 // precisions (ln_f32.wgsl, ln_f64.wgsl), because lavapipe's f64 log is
@@ -11,8 +12,8 @@
 //             (every face's affine projection with all barycentrics ≥ 0,
 //             smallest |x − q|², first on a tie; Gram solve without pivots)
 //   b = −κ (d − d^)² ln(d/d^),  b', b'' as in core/src/barrier.rs
-//   evaluate: energy Σ b, gradient Σ b' n, hessian Σ b'' n nᵀ, min d
-//   filter_fraction: t = min(1, η min_o t*_o),  t*_plane = d0/(−n·Δ) if n·Δ < 0,
+//   evaluate: energy Σ b, gradient Σ b' n, hessian Σ b'' n nᵀ, min(min d, d^)
+//   filter_fraction: t = min(1, η min_o t*_o) (simplices within reach |Δ|(1 + γ)/η),  t*_plane = d0/(−n·Δ) if n·Δ < 0,
 //             t*_simplex = d0/|Δ|;  0 if some d0 ≤ 0
 //   every entry point ends with check_loops (llvmpipe's loop budget):
 //             status[LOOPS_CUT] = smallest particle whose loops were cut
@@ -31,8 +32,10 @@ struct BarrierParams {
 
 @group(0) @binding(0) var<storage, read_write> x: array<real>;
 @group(0) @binding(1) var<storage, read> radius: array<real>;
-// [plane normals, planes·DIM | plane offsets, planes | simplex vertices, simplices·4·DIM]
+// [plane normals, planes·DIM | plane offsets, planes | simplex vertices, simplices·4·DIM |
+//  hierarchy node boxes (lo[DIM], hi[DIM]), (2 simplices − 1)·2·DIM]
 @group(0) @binding(2) var<storage, read> geometry: array<real>;
+// [arity, simplices | hierarchy node words (right, first, last), (2 simplices − 1)·3]
 @group(0) @binding(3) var<storage, read> arity: array<u32>;
 @group(0) @binding(4) var<storage, read> delta: array<real>;
 @group(0) @binding(5) var<storage, read_write> energy: array<real>;
@@ -259,6 +262,156 @@ fn simplex_offset(s: u32, p: ptr<function, array<real, DIM>>, w: ptr<function, a
     return best_squared;
 }
 
+// The simplex hierarchy walk (core/src/geometry/simplex_hierarchy.rs,
+// OrderedWalk; the candidate box: core/src/barrier.rs candidate_box):
+// every plane, then every simplex whose box overlaps x ± (r + reach + pad),
+// pad = M (‖x‖∞ + scale + r + reach) with M = 16 N (N + 4) ε where computed
+// distances decide (walk_start), 4 √(N (N + 4) ε) for the certified
+// filter's support bound (walk_box with support_margin), in index order: batches
+// of the HIERARCHY_BATCH smallest indices ≥ floor from a stack traversal
+// (preorder nodes: left child n + 1, words (right, first, last)), each
+// handed out in order. The traversal costs one trip of llvmpipe's loop
+// budget per node visited; the insertion's loop has a constant trip count.
+const HIERARCHY_BATCH: u32 = 32u;
+const HIERARCHY_STACK: u32 = 32u;
+const WALK_END: u32 = 0xffffffffu;
+
+struct Walk {
+    lo: array<real, DIM>,
+    hi: array<real, DIM>,
+    batch: array<u32, HIERARCHY_BATCH>,
+    count: u32,
+    next: u32,
+    floor: u32,
+    more: bool,
+    plane: u32,
+}
+
+fn node_word(n: u32, k: u32) -> u32 {
+    return arity[bp.simplices + n * 3u + k];
+}
+
+// Bound k < 2·DIM (lo then hi) of node n.
+fn node_bound(n: u32, k: u32) -> real {
+    return geometry[bp.planes * DIM + bp.planes + bp.simplices * SLOTS * DIM + n * 2u * DIM + k];
+}
+
+// The filters' reach |Δ| (1 + γ)/η, γ = (N + 4) ε.
+fn filter_reach(length: real, epsilon: real) -> real {
+    return length * (1.0 + (real(DIM) + 4.0) * epsilon) / bp.safety;
+}
+
+// The relative pad where the certified filter's support bound decides.
+fn support_margin(epsilon: real) -> real {
+    return 4.0 * sqrt(real(DIM) * (real(DIM) + 4.0) * epsilon);
+}
+
+// The walk where computed distances decide (evaluation, step filter).
+fn walk_start(p: ptr<function, array<real, DIM>>, r: real, reach: real) -> Walk {
+    return walk_box(p, r, reach, 16.0 * real(DIM) * (real(DIM) + 4.0) * REAL_EPS);
+}
+
+fn walk_box(p: ptr<function, array<real, DIM>>, r: real, reach: real, margin: real) -> Walk {
+    var w: Walk;
+    var largest: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        largest = max(largest, abs((*p)[a]));
+    }
+    let extent = r + reach;
+    let half = extent + margin * (largest + bp.scale + extent);
+    var finite = half <= REAL_MAX;
+    for (var a = 0u; a < DIM; a++) {
+        w.lo[a] = (*p)[a] - half;
+        w.hi[a] = (*p)[a] + half;
+        finite = finite && abs(w.lo[a]) <= REAL_MAX && abs(w.hi[a]) <= REAL_MAX;
+    }
+    if (!finite) {
+        for (var a = 0u; a < DIM; a++) {
+            w.lo[a] = -REAL_MAX;
+            w.hi[a] = REAL_MAX;
+        }
+    }
+    w.count = 0u;
+    w.next = 0u;
+    w.floor = 0u;
+    w.more = bp.simplices > 0u;
+    w.plane = 0u;
+    return w;
+}
+
+// Sorted insertion of s into the batch (absent from it, and below its
+// largest when full), shifting larger entries up.
+fn walk_insert(w: ptr<function, Walk>, s: u32) {
+    let top = min((*w).count, HIERARCHY_BATCH - 1u);
+    var at = top;
+    for (var j = 1u; j < HIERARCHY_BATCH; j++) {
+        let k = HIERARCHY_BATCH - j;
+        if (k == at && (*w).batch[k - 1u] > s) {
+            (*w).batch[k] = (*w).batch[k - 1u];
+            at = k - 1u;
+        }
+    }
+    (*w).batch[at] = s;
+    (*w).count = min((*w).count + 1u, HIERARCHY_BATCH);
+}
+
+// The HIERARCHY_BATCH smallest overlapping simplices ≥ floor, sorted.
+fn walk_refill(w: ptr<function, Walk>) {
+    (*w).count = 0u;
+    (*w).next = 0u;
+    var stack: array<u32, HIERARCHY_STACK>;
+    stack[0] = 0u;
+    var depth = 1u;
+    while (depth > 0u) {
+        depth--;
+        let n = stack[depth];
+        let first = node_word(n, 1u);
+        let last = node_word(n, 2u);
+        if (last < (*w).floor || ((*w).count == HIERARCHY_BATCH && first > (*w).batch[HIERARCHY_BATCH - 1u])) {
+            continue;
+        }
+        var hit = true;
+        for (var a = 0u; a < DIM; a++) {
+            if (!(node_bound(n, a) <= (*w).hi[a] && (*w).lo[a] <= node_bound(n, DIM + a))) {
+                hit = false;
+            }
+        }
+        if (!hit) {
+            continue;
+        }
+        if (first == last) {
+            walk_insert(w, first);
+        } else if (depth + 2u <= HIERARCHY_STACK) { // always: depth + 1 ≤ 32 (< 2^31 simplices)
+            stack[depth] = node_word(n, 0u);
+            stack[depth + 1u] = n + 1u;
+            depth += 2u;
+        }
+    }
+    (*w).more = (*w).count == HIERARCHY_BATCH;
+    if ((*w).more) {
+        (*w).floor = (*w).batch[HIERARCHY_BATCH - 1u] + 1u;
+    }
+}
+
+// The next obstacle slot of the walk (planes first), WALK_END after the last.
+fn walk_next(w: ptr<function, Walk>) -> u32 {
+    if ((*w).plane < bp.planes) {
+        (*w).plane++;
+        return (*w).plane - 1u;
+    }
+    if ((*w).next == (*w).count) {
+        if (!(*w).more) {
+            return WALK_END;
+        }
+        walk_refill(w);
+        if ((*w).count == 0u) {
+            return WALK_END;
+        }
+    }
+    (*w).next++;
+    return bp.planes + (*w).batch[(*w).next - 1u];
+}
+
 // (b, b', b'') of the clamped-log law at d (0 < d < d^).
 fn barrier_law(d: real) -> vec3<real> {
     let dh = bp.activation;
@@ -297,7 +450,8 @@ fn evaluate_particle(i: u32) {
     var smallest: real = REAL_MAX;
     var infeasible = false;
     var n: array<real, DIM>;
-    for (var o = 0u; o < bp.planes + bp.simplices; o++) {
+    var walk = walk_start(&p, radius[i], bp.activation);
+    for (var o = walk_next(&walk); o != WALK_END; o = walk_next(&walk)) {
         let d = obstacle_distance(o, &p, radius[i], &n);
         smallest = min(smallest, d);
         if (d >= bp.activation) {
@@ -323,7 +477,7 @@ fn evaluate_particle(i: u32) {
     for (var a = 0u; a < DIM; a++) {
         gradient[i * DIM + a] = g[a];
     }
-    scalar[i] = smallest;
+    scalar[i] = min(smallest, bp.activation);
 }
 
 @compute @workgroup_size(WORKGROUP)
@@ -348,7 +502,8 @@ fn particle_filter_fraction(i: u32) -> real {
     let length = sqrt(length2);
     var t: real = REAL_MAX;
     var n: array<real, DIM>;
-    for (var o = 0u; o < bp.planes + bp.simplices; o++) {
+    var walk = walk_start(&p, radius[i], filter_reach(length, REAL_EPS));
+    for (var o = walk_next(&walk); o != WALK_END; o = walk_next(&walk)) {
         let d0 = obstacle_distance(o, &p, radius[i], &n);
         if (!(d0 > 0.0)) {
             return 0.0;

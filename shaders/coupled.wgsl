@@ -522,7 +522,8 @@ fn obstacle_terms(i: u32, p: ptr<function, array<real, DIM>>, derivatives: bool)
         own.block[k] = 0.0;
     }
     var n: array<real, DIM>;
-    for (var o = 0u; o < bp.planes + bp.simplices; o++) {
+    var walk = walk_start(p, radius[i], bp.activation);
+    for (var o = walk_next(&walk); o != WALK_END; o = walk_next(&walk)) {
         let d = obstacle_distance(o, p, radius[i], &n);
         if (d >= bp.activation) {
             continue;
@@ -613,7 +614,8 @@ fn cp_start(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     }
     var p = load_point(i);
     var n: array<real, DIM>;
-    for (var o = 0u; o < bp.planes + bp.simplices; o++) {
+    var walk = walk_start(&p, radius[i], bp.activation);
+    for (var o = walk_next(&walk); o != WALK_END; o = walk_next(&walk)) {
         if (o < bp.planes) {
             lag_force[i * bp.planes + o] = 0.0;
         }

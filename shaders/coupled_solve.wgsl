@@ -293,8 +293,15 @@ fn cp_filter_particles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(n
         for (var o = 0u; o < bp.planes; o++) {
             t = min(t, plane_time(o, i, &p, &step));
         }
-        for (var s = 0u; s < bp.simplices; s++) {
-            t = min(t, simplex_time(s, i, &p, &step));
+        var length2: real = 0.0;
+        for (var a = 0u; a < DIM; a++) {
+            length2 += step[a] * step[a];
+        }
+        let reach = filter_reach(sqrt(length2), cp.epsilon);
+        var walk = walk_box(&p, radius[i], reach, support_margin(cp.epsilon));
+        walk.plane = bp.planes;
+        for (var o = walk_next(&walk); o != WALK_END; o = walk_next(&walk)) {
+            t = min(t, simplex_time(o - bp.planes, i, &p, &step));
         }
     }
     tree[cp.channel_t + i] = t;

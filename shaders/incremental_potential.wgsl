@@ -91,7 +91,8 @@ fn barrier_sum(p: ptr<function, array<real, DIM>>, r: real, e_out: ptr<function,
     }
     var feasible = true;
     var n: array<real, DIM>;
-    for (var o = 0u; o < bp.planes + bp.simplices; o++) {
+    var walk = walk_start(p, r, bp.activation);
+    for (var o = walk_next(&walk); o != WALK_END; o = walk_next(&walk)) {
         let d = obstacle_distance(o, p, r, &n);
         if (d >= bp.activation) {
             continue;
@@ -340,7 +341,8 @@ fn newton_particle(i: u32) {
     var t_star: real = REAL_MAX;
     var n: array<real, DIM>;
     var blocked = false;
-    for (var o = 0u; o < bp.planes + bp.simplices; o++) {
+    var walk = walk_start(&p, radius[i], filter_reach(length, REAL_EPS));
+    for (var o = walk_next(&walk); o != WALK_END; o = walk_next(&walk)) {
         let d0 = obstacle_distance(o, &p, radius[i], &n);
         if (!(d0 > 0.0)) {
             blocked = true;

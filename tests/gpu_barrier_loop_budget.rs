@@ -1,6 +1,7 @@
 //! llvmpipe's loop budget in the barrier / incremental-potential kernels
 //! (shaders/barrier.wgsl, shaders/incremental_potential.wgsl): one
-//! invocation per particle loops over every obstacle simplex and its faces,
+//! invocation per particle loops over every plane and over the obstacle
+//! simplices within reach of it (the hierarchy walk: core/src/barrier.rs),
 //! and llvmpipe ends all loops of a group of 8 invocations after 65 535
 //! iterations, silently (the measurement: gpu/src/barrier.rs). Every entry
 //! point ends with a probe; a cut is a typed error naming the budget, with
@@ -10,18 +11,20 @@
 //! 3 steps, f64, against the CPU golden path:
 //!
 //! ```text
-//! mesh                  before the probe (lavapipe)      now
-//! 200 triangles         bit-identical                    bit-identical (required)
-//! 1 800 triangles       through the mesh, no error       bit-identical (required)
-//! 7 200 triangles       "objective not finite"           bit-identical or refused
-//!                                                        (refused at step 0)
-//! 66 248 triangles      —                                refused on llvmpipe (more
-//!                                                        obstacles than the budget:
-//!                                                        the probe must trip)
+//! mesh                  d^     before the hierarchy             now
+//! 200 triangles         0.01   bit-identical                    bit-identical (required)
+//! 1 800 triangles       0.01   bit-identical                    bit-identical (required)
+//! 7 200 triangles       0.01   refused at step 0                bit-identical (required)
+//! 66 248 triangles      0.01   refused                          bit-identical (required)
+//! 66 248 triangles      30     refused                          refused on llvmpipe (every
+//!                                                               simplex within reach: more
+//!                                                               than the budget, the probe
+//!                                                               must trip)
 //! ```
 //! "Refused" means `GpuError::Unsupported` naming the 65 535 budget and
 //! the obstacle loops, x and v byte-identical to the state before the
-//! step; any other adapter must match the CPU at every size.
+//! step; any other adapter must match the CPU at every size. And many
+//! balls over a 100 352-triangle mesh step bit for bit as the CPU does.
 
 mod common;
 
@@ -36,8 +39,9 @@ use hyperpbd::{
 };
 
 /// A ball of radius 0.005 at height 0.02 over (at, at), falling at 1 m/s
-/// onto a flat `side` × `side` mesh of 2·side² triangles (cells 0.1).
-fn ball_over_mesh(side: usize, at: f64) -> Scene {
+/// onto a flat `side` × `side` mesh of 2·side² triangles (cells 0.1),
+/// barrier activation distance `reach`.
+fn ball_over_mesh(side: usize, at: f64, reach: f64) -> Scene {
     let mut vertices = Vec::new();
     for j in 0..=side {
         for i in 0..=side {
@@ -65,7 +69,7 @@ fn ball_over_mesh(side: usize, at: f64) -> Scene {
     });
     scene.solver = hyperpbd::Solver::IncrementalPotential(hyperpbd::IncrementalPotentialSettings {
         barrier_stiffness: 1e3,
-        activation_distance: 0.01,
+        activation_distance: reach,
         convergence: Convergence::PackedGradient { tolerance: 1e-8 },
         max_iterations: 50,
         cg_iterations: None,
@@ -76,12 +80,19 @@ fn ball_over_mesh(side: usize, at: f64) -> Scene {
     scene
 }
 
-/// (side, ball over (at, at)): 200, 1 800, 7 200 and 66 248 triangles.
-const MESHES: [(usize, f64); 4] = [(10, 0.95), (30, 2.95), (60, 0.05), (182, 18.15)];
-/// Meshes up to this many triangles fit llvmpipe's budget (11 iterations
-/// per triangle and pass: gpu/src/barrier.rs) and must match the CPU.
+/// (side, ball over (at, at), d^): 200, 1 800, 7 200 and 66 248 triangles
+/// with a handful within reach, then the last with every one within reach.
+const MESHES: [(usize, f64, f64); 5] = [
+    (10, 0.95, 0.01),
+    (30, 2.95, 0.01),
+    (60, 0.05, 0.01),
+    (182, 18.15, 0.01),
+    (182, 18.15, 30.0),
+];
+/// Simplices within reach up to this many fit llvmpipe's budget (11
+/// iterations per triangle and pass: gpu/src/barrier.rs) and must match the CPU.
 const WITHIN_THE_BUDGET: usize = 1_800;
-/// Meshes with more simplices than llvmpipe's whole budget: every
+/// More simplices within reach than llvmpipe's whole budget: every
 /// evaluation over them is cut there, whatever the per-simplex cost.
 const OVER_THE_BUDGET: usize = 65_535;
 
@@ -104,9 +115,13 @@ fn barrier_steps_over_large_meshes_match_the_cpu_or_are_refused() {
     };
     let llvmpipe = summary.name.contains("llvmpipe");
     let mut tripped = 0;
-    for (side, at) in MESHES {
+    for (side, at, reach) in MESHES {
         let triangles = 2 * side * side;
-        let scene = ball_over_mesh(side, at);
+        // Every triangle within reach when d^ spans the mesh's diagonal
+        // (cells 0.1); a few near the ball otherwise.
+        let diagonal = 0.1 * side as f64 * 2f64.sqrt();
+        let in_reach = if reach > diagonal { triangles } else { 16 };
+        let scene = ball_over_mesh(side, at, reach);
         let plan = Plan::compile(&scene).expect("valid");
         let state = State::from_scene(&scene);
         let mut cpu = CpuBackend::new(plan.clone(), &state).expect("cpu");
@@ -115,11 +130,11 @@ fn barrier_steps_over_large_meshes_match_the_cpu_or_are_refused() {
         for step in 0..3 {
             cpu.step().expect("cpu step");
             let before = gpu.read_state().expect("read");
-            let label = format!("{triangles} triangles, step {step}");
+            let label = format!("{triangles} triangles, d^ {reach}, step {step}");
             match gpu.step() {
                 Ok(_) => {
                     assert!(
-                        !(llvmpipe && triangles > OVER_THE_BUDGET),
+                        !(llvmpipe && in_reach > OVER_THE_BUDGET),
                         "{label}: llvmpipe cannot finish these loops, yet the step succeeded"
                     );
                     let (c, g) = (
@@ -140,7 +155,7 @@ fn barrier_steps_over_large_meshes_match_the_cpu_or_are_refused() {
                         summary.name
                     );
                     assert!(
-                        triangles > WITHIN_THE_BUDGET,
+                        in_reach > WITHIN_THE_BUDGET,
                         "{label}: a mesh the kernels fit in the budget was refused: {e}"
                     );
                     assert_unchanged(&label, &before, &gpu.read_state().expect("read"));
@@ -150,7 +165,7 @@ fn barrier_steps_over_large_meshes_match_the_cpu_or_are_refused() {
                         "—",
                         "never a silently cut step",
                     );
-                    tripped += usize::from(triangles > OVER_THE_BUDGET);
+                    tripped += usize::from(in_reach > OVER_THE_BUDGET);
                     break;
                 }
             }
@@ -175,8 +190,8 @@ fn cut_kernel_calls_are_refused_with_the_state_unchanged() {
             summary.name
         );
     }
-    let (side, at) = MESHES[3];
-    let scene = ball_over_mesh(side, at);
+    let (side, at, reach) = MESHES[4];
+    let scene = ball_over_mesh(side, at, reach);
     let plan = Plan::compile(&scene).expect("valid");
     let state = State::from_scene(&scene);
 
@@ -220,7 +235,8 @@ fn cut_kernel_calls_are_refused_with_the_state_unchanged() {
     let x = state.positions.clone();
     let radii = plan.radius.clone();
     let evaluated = kernels.evaluate(&x, &radii);
-    let filtered = kernels.filter_fractions(&x, &radii, &[0.0, -0.1, 0.0]);
+    // A step as long as the mesh: every triangle within the filter's reach.
+    let filtered = kernels.filter_fractions(&x, &radii, &[0.0, -30.0, 0.0]);
     if summary.name.contains("llvmpipe") {
         for (what, result) in [
             ("evaluate", evaluated.map(|_| ())),
@@ -241,4 +257,51 @@ fn cut_kernel_calls_are_refused_with_the_state_unchanged() {
             expected.min_distance.to_bits()
         );
     }
+}
+
+/// 1 024 balls falling onto a 100 352-triangle mesh (side 224): every
+/// evaluation walks a handful of triangles, so lavapipe steps the scene
+/// without a refusal, bit for bit as the CPU golden path.
+#[test]
+fn many_balls_over_a_100k_triangle_mesh_match_the_cpu() {
+    let Some((adapter, summary)) = adapter_or_skip("gpu_barrier_loop_budget", Precision::F64)
+    else {
+        return;
+    };
+    let side = 224;
+    let mut scene = ball_over_mesh(side, 0.05, 0.01);
+    for k in 1..1024 {
+        let (i, j) = (k % 32, k / 32);
+        let at = |c: usize| 0.05 + 0.7 * c as f64;
+        scene.particles.push(
+            Particle::new(vec![at(i), 0.02 + 0.001 * (k % 7) as f64, at(j)], 1.0)
+                .with_velocity(vec![0.0, -1.0, 0.0])
+                .with_radius(0.005),
+        );
+    }
+    scene.validate().expect("valid scene");
+    let plan = Plan::compile(&scene).expect("valid");
+    let state = State::from_scene(&scene);
+    let mut cpu = CpuBackend::new(plan.clone(), &state).expect("cpu");
+    let mut gpu =
+        GpuBarrierBackend::with_adapter(&adapter, plan, &state, Precision::F64).expect("gpu");
+    for step in 0..3 {
+        cpu.step().expect("cpu step");
+        gpu.step()
+            .unwrap_or_else(|e| panic!("step {step} on {}: {e}", summary.name));
+        let (c, g) = (
+            cpu.read_state().expect("read"),
+            gpu.read_state().expect("read"),
+        );
+        assert!(
+            bits(&c) == bits(&g),
+            "step {step}: x or v differ from the CPU"
+        );
+    }
+    let moved = cpu.read_state().expect("read");
+    assert!(
+        moved.positions[1] < 0.02 && moved.positions[1] > 0.005,
+        "the first ball fell onto the mesh and stopped above it: y = {}",
+        moved.positions[1]
+    );
 }

@@ -28,11 +28,35 @@
 //! so every trial point keeps d ≥ (1 − η) d0 > 0 — certified, never a
 //! collision time. A trial step is cut by this fraction before it is
 //! evaluated.
+//!
+//! Simplices are visited through the mesh hierarchy
+//! ([`crate::geometry::simplex_hierarchy`]): per particle, only those whose
+//! box overlaps the candidate box, in index order; every plane is visited.
+//! ```text
+//! candidate box  x ± (r + reach + pad),  pad = M (‖x‖∞ + G + r + reach)
+//!                (G: the obstacles' coordinate scale; everything, when not finite)
+//! reach, M       evaluation:        d^,               M = 16 N (N + 4) ε
+//!                step filter:       |Δ| (1 + γ)/η,    M = 16 N (N + 4) ε    γ = (N + 4) ε
+//!                feasibility d ≤ 0: 0,                M = 16 N (N + 4) ε
+//!                certified filter:  |Δ| (1 + γ)/η,    M = 4 √(N (N + 4) ε)
+//! ```
+//! A simplex whose box misses the candidate box lies farther from x than
+//! r + reach + pad, less the rounding of the box, in the ∞-norm and so in
+//! the Euclidean norm. Its computed distance |x − q̂| − r (q̂ a convex
+//! combination up to rounding) is within a few N ε (‖x‖∞ + G) of the
+//! exact one; the certified filter's support bound (certified_filter.rs)
+//! is within √(2 N (N + 4) ε) (‖x‖∞ + G), since the chosen face's point q̂
+//! lies within √(|x − q̂|² − dist²) of the closest point. Both are far
+//! below their pad. Such a simplex therefore has d ≥ d^ (no barrier term;
+//! the smallest distance is reported capped at d^) and η t* ≥ 1
+//! (min(1, η min t*) is unchanged),
+//! so skipping it changes no bit of any result.
 
 // Index loops mirror the math (and the WGSL port) line by line.
 #![allow(clippy::needless_range_loop)]
 
-use crate::geometry::{closest_point_on_simplex, unit_vector};
+use crate::geometry::simplex_hierarchy::{OrderedWalk, WALK_BATCH, push_box};
+use crate::geometry::{SimplexHierarchy, closest_point_on_simplex, unit_vector};
 use crate::{Obstacle, Scene};
 
 /// η: the filter admits this fraction of the certified distance, so a
@@ -88,6 +112,8 @@ pub struct BarrierObstacles {
     /// Largest |plane offset| or |simplex vertex coordinate| (0 with none):
     /// the scale of the rounding error of a computed distance.
     pub scale: f64,
+    /// The hierarchy over the simplices' boxes (simplex indices as here).
+    pub hierarchy: SimplexHierarchy,
 }
 
 /// Vertex slots stored per simplex.
@@ -118,6 +144,57 @@ impl BarrierObstacles {
     pub fn simplex(&self, s: usize, dim: usize) -> &[f64] {
         let start = s * SIMPLEX_SLOTS * dim;
         &self.simplex_vertices[start..start + self.simplex_arity[s] as usize * dim]
+    }
+
+    /// The boxes (lo, hi) of every simplex, in order.
+    pub fn simplex_boxes(&self, dim: usize) -> Vec<f64> {
+        let mut boxes = Vec::with_capacity(self.simplex_count() * 2 * dim);
+        for s in 0..self.simplex_count() {
+            push_box(&mut boxes, self.simplex(s, dim), dim);
+        }
+        boxes
+    }
+
+    /// True when `hierarchy` indexes as many simplices as there are (as
+    /// [`BarrierObstacles::compile`] builds it). A set assembled or edited
+    /// by hand is indexed again by [`BarrierObstacles::reindex`]; until then
+    /// [`BarrierObstacles::near`] visits every simplex.
+    pub fn is_indexed(&self) -> bool {
+        self.hierarchy.simplex_count() == self.simplex_count()
+    }
+
+    /// Builds `hierarchy` anew over the current simplices.
+    pub fn reindex(&mut self, dim: usize) {
+        self.hierarchy = SimplexHierarchy::from_boxes(dim, &self.simplex_boxes(dim));
+    }
+
+    /// The obstacle slots to visit for the candidate box `[lo, hi]`
+    /// ([`candidate_box`]): every plane, then the simplices whose boxes
+    /// overlap it, in index order (every simplex when the set is not
+    /// indexed: [`BarrierObstacles::is_indexed`]).
+    pub fn near<'a>(&'a self, lo: &'a [f64], hi: &'a [f64]) -> Near<'a> {
+        let indexed = self.is_indexed();
+        Near {
+            planes: 0..self.plane_count(),
+            simplices: indexed.then(|| self.hierarchy.walk(lo, hi)),
+            every: 0..if indexed { 0 } else { self.simplex_count() },
+        }
+    }
+
+    /// The first obstacle slot (planes, then simplices) at distance d ≤ 0
+    /// or NaN from a particle at `x` with radius `radius`, with d: only
+    /// simplices within reach 0 of the candidate box can be one.
+    pub fn first_infeasible(&self, x: &[f64], radius: f64) -> Option<(usize, f64)> {
+        let dim = x.len();
+        let mut normal = [0.0f64; crate::MAX_DIM];
+        let (mut lo, mut hi) = ([0.0f64; crate::MAX_DIM], [0.0f64; crate::MAX_DIM]);
+        let (lo, hi) = (&mut lo[..dim], &mut hi[..dim]);
+        let margin = distance_margin(dim, f64::EPSILON);
+        candidate_box(x, radius, 0.0, self.scale, margin, lo, hi);
+        self.near(lo, hi).find_map(|o| {
+            let distance = self.distance(o, x, radius, &mut normal[..dim]);
+            (distance.is_nan() || distance <= 0.0).then_some((o, distance))
+        })
     }
 
     /// Authored obstacle index of obstacle slot `o` (planes first).
@@ -154,6 +231,78 @@ impl BarrierObstacles {
     }
 }
 
+/// The obstacle slots of [`BarrierObstacles::near`].
+#[derive(Debug, Clone)]
+pub struct Near<'a> {
+    planes: std::ops::Range<usize>,
+    simplices: Option<OrderedWalk<'a, WALK_BATCH>>,
+    every: std::ops::Range<usize>,
+}
+
+impl Iterator for Near<'_> {
+    type Item = usize;
+
+    fn next(&mut self) -> Option<usize> {
+        let planes = self.planes.end;
+        if let Some(o) = self.planes.next() {
+            return Some(o);
+        }
+        match self.simplices.as_mut() {
+            Some(walk) => walk.next().map(|s| planes + s as usize),
+            None => self.every.next().map(|s| planes + s),
+        }
+    }
+}
+
+/// M = 16 N (N + 4) ε: the candidate box's relative pad where computed
+/// distances decide (evaluation, the step filter, feasibility; module docs).
+pub fn distance_margin(dim: usize, epsilon: f64) -> f64 {
+    16.0 * dim as f64 * (dim as f64 + 4.0) * epsilon
+}
+
+/// M = 4 √(N (N + 4) ε): the relative pad where the certified filter's
+/// support bound decides (module docs).
+pub fn support_margin(dim: usize, epsilon: f64) -> f64 {
+    4.0 * (dim as f64 * (dim as f64 + 4.0) * epsilon).sqrt()
+}
+
+/// The filters' reach |Δ| (1 + γ)/η, γ = (N + 4) ε, from |Δ| = `length`.
+pub fn filter_reach(length: f64, dim: usize, epsilon: f64) -> f64 {
+    length * (1.0 + (dim as f64 + 4.0) * epsilon) / FILTER_SAFETY
+}
+
+/// The candidate box x ± (r + reach + pad) of a particle at `x` with
+/// radius `radius` into `lo`, `hi`, with pad = `margin` (‖x‖∞ + G + r +
+/// reach) and G = `scale` (module docs); ±f64::MAX on every axis when some
+/// bound is not finite (every simplex is then visited).
+pub fn candidate_box(
+    x: &[f64],
+    radius: f64,
+    reach: f64,
+    scale: f64,
+    margin: f64,
+    lo: &mut [f64],
+    hi: &mut [f64],
+) {
+    let dim = x.len();
+    let mut largest: f64 = 0.0;
+    for a in 0..dim {
+        largest = largest.max(x[a].abs());
+    }
+    let extent = radius + reach;
+    let half = extent + margin * (largest + scale + extent);
+    let mut finite = half <= f64::MAX;
+    for a in 0..dim {
+        lo[a] = x[a] - half;
+        hi[a] = x[a] + half;
+        finite &= lo[a].abs() <= f64::MAX && hi[a].abs() <= f64::MAX;
+    }
+    if !finite {
+        lo[..dim].fill(-f64::MAX);
+        hi[..dim].fill(f64::MAX);
+    }
+}
+
 /// Barrier energy, gradient and PSD-projected Hessian block of one particle.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ParticleBarrier {
@@ -163,7 +312,8 @@ pub struct ParticleBarrier {
     pub gradient: Vec<f64>,
     /// Σ b'' n nᵀ (dim × dim, row-major).
     pub hessian: Vec<f64>,
-    /// Smallest d over all obstacles (+∞ with none).
+    /// Smallest d over all obstacles, capped at d^ (min(d, d^): simplices
+    /// beyond d^ are not visited).
     pub min_distance: f64,
     /// Σ |b'| over the active obstacles: how fast the energy moves with
     /// distance (the rounding floor of an energy difference scales with it).
@@ -200,7 +350,12 @@ pub fn evaluate_particle_barrier(
     out.force_sum = 0.0;
     let mut n = [0.0f64; crate::MAX_DIM];
     let n = &mut n[..dim];
-    for o in 0..obstacles.len() {
+    let (mut lo, mut hi) = ([0.0f64; crate::MAX_DIM], [0.0f64; crate::MAX_DIM]);
+    let (lo, hi) = (&mut lo[..dim], &mut hi[..dim]);
+    let reach = law.activation_distance;
+    let margin = distance_margin(dim, f64::EPSILON);
+    candidate_box(x, radius, reach, obstacles.scale, margin, lo, hi);
+    for o in obstacles.near(lo, hi) {
         let d = obstacles.distance(o, x, radius, n);
         out.min_distance = out.min_distance.min(d);
         if d >= law.activation_distance {
@@ -216,6 +371,7 @@ pub fn evaluate_particle_barrier(
             }
         }
     }
+    out.min_distance = out.min_distance.min(law.activation_distance);
 }
 
 /// Certified admissible fraction of the step `delta` from `x`: see the
@@ -225,8 +381,13 @@ pub fn filter_fraction(obstacles: &BarrierObstacles, x: &[f64], radius: f64, del
     let mut n = [0.0f64; crate::MAX_DIM];
     let n = &mut n[..dim];
     let length = delta.iter().map(|c| c * c).sum::<f64>().sqrt();
+    let (mut lo, mut hi) = ([0.0f64; crate::MAX_DIM], [0.0f64; crate::MAX_DIM]);
+    let (lo, hi) = (&mut lo[..dim], &mut hi[..dim]);
+    let reach = filter_reach(length, dim, f64::EPSILON);
+    let margin = distance_margin(dim, f64::EPSILON);
+    candidate_box(x, radius, reach, obstacles.scale, margin, lo, hi);
     let mut t = f64::INFINITY;
-    for o in 0..obstacles.len() {
+    for o in obstacles.near(lo, hi) {
         let d0 = obstacles.distance(o, x, radius, n);
         if d0 <= 0.0 {
             return 0.0;
@@ -281,6 +442,7 @@ impl BarrierObstacles {
             }
         }
         out.scale = scale;
+        out.reindex(dim);
         out
     }
 }

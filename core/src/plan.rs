@@ -166,8 +166,9 @@ pub struct Plan {
 pub enum SolverPlan {
     /// Substepped XPBD: predict, project by colour, velocity, responses.
     Xpbd,
-    /// One incremental-potential minimisation per substep.
-    IncrementalPotential(IncrementalPotentialPlan),
+    /// One incremental-potential minimisation per substep (boxed: its
+    /// obstacles carry the mesh hierarchy).
+    IncrementalPotential(Box<IncrementalPotentialPlan>),
 }
 
 impl Plan {
@@ -265,9 +266,9 @@ impl Plan {
         }
         let solver = match &scene.solver {
             Solver::Xpbd(_) => SolverPlan::Xpbd,
-            Solver::IncrementalPotential(settings) => {
-                SolverPlan::IncrementalPotential(IncrementalPotentialPlan::compile(scene, settings))
-            }
+            Solver::IncrementalPotential(settings) => SolverPlan::IncrementalPotential(Box::new(
+                IncrementalPotentialPlan::compile(scene, settings),
+            )),
         };
         // XPBD projects each hyperplane as a contact family; the barrier
         // path keeps its obstacles in its own plan.
@@ -439,7 +440,7 @@ impl Plan {
     /// The barrier path's settings and obstacles (`None` on the XPBD path).
     pub fn incremental_potential(&self) -> Option<&IncrementalPotentialPlan> {
         match &self.solver {
-            SolverPlan::IncrementalPotential(ip) => Some(ip),
+            SolverPlan::IncrementalPotential(ip) => Some(&**ip),
             SolverPlan::Xpbd => None,
         }
     }

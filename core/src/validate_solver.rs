@@ -118,20 +118,16 @@ impl Scene {
             }
         }
         let obstacles = BarrierObstacles::compile(self);
-        let mut normal = vec![0.0; self.dim];
         for (i, p) in self.particles.iter().enumerate() {
             if p.fixed {
                 continue;
             }
-            for o in 0..obstacles.len() {
-                let distance = obstacles.distance(o, &p.position, p.radius, &mut normal);
-                if distance.is_nan() || distance <= 0.0 {
-                    return Err(SceneError::BarrierInfeasible {
-                        path: format!("particles[{i}].position"),
-                        obstacle: obstacles.source(o) as usize,
-                        distance,
-                    });
-                }
+            if let Some((o, distance)) = obstacles.first_infeasible(&p.position, p.radius) {
+                return Err(SceneError::BarrierInfeasible {
+                    path: format!("particles[{i}].position"),
+                    obstacle: obstacles.source(o) as usize,
+                    distance,
+                });
             }
         }
         Ok(())

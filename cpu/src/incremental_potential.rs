@@ -245,18 +245,16 @@ pub(crate) fn minimise(
     let mut report = MinimisationReport::before_first_iteration(ip.convergence);
     let start = &*x;
     let infeasible = workers.try_for_chunks(count, PARTICLE_GRAIN, |r| {
-        let mut normal = vec![0.0; n];
         match r
             .filter(|&i| free(i))
-            .find(|&i| infeasible_start(plan, ip, start, i, &mut normal).is_some())
+            .find(|&i| infeasible_start(plan, ip, start, i).is_some())
         {
             Some(i) => Err(i),
             None => Ok(()),
         }
     });
     if let Err(particle) = infeasible
-        && let Some((obstacle, distance)) =
-            infeasible_start(plan, ip, start, particle, &mut vec![0.0; n])
+        && let Some((obstacle, distance)) = infeasible_start(plan, ip, start, particle)
     {
         report.status = MinimisationStatus::Refused(Refusal::InfeasibleStart {
             particle,
@@ -372,15 +370,10 @@ fn infeasible_start(
     ip: &IncrementalPotentialPlan,
     x: &[f64],
     i: usize,
-    normal: &mut [f64],
 ) -> Option<(usize, f64)> {
     let n = plan.dim;
-    (0..ip.obstacles.len()).find_map(|o| {
-        let distance = ip
-            .obstacles
-            .distance(o, &x[i * n..(i + 1) * n], plan.radius[i], normal);
-        (distance.is_nan() || distance <= 0.0).then_some((o, distance))
-    })
+    ip.obstacles
+        .first_infeasible(&x[i * n..(i + 1) * n], plan.radius[i])
 }
 
 /// What the line searches of a run of particles did.

@@ -28,14 +28,16 @@
 //!            count unknown to the compiler; 1 → status[LOOPS_CUT] =
 //!            smallest such particle → GpuError::Unsupported, results
 //!            refused (the step: x and v restored)
-//! cost here  per pass over the obstacles: 1 per plane, 11 per triangle
-//!            (measured; 147 before the closest-point solve's inner loops
-//!            got constant trip counts: the face loop's 2^k remains);
+//! cost here  per pass over the obstacles: 1 per plane, 11 per visited
+//!            triangle (measured; 147 before the closest-point solve's
+//!            inner loops got constant trip counts: the face loop's 2^k
+//!            remains), 1 per hierarchy node visited;
 //!            ip_gradient makes one pass, ip_newton one for the filter and
 //!            one per Armijo trial (it reuses ip_gradient's terms at x).
-//!            So a ball over 1 800 triangles (≈ 20 000 per pass) steps like
-//!            the CPU; 7 200 triangles are refused on llvmpipe
-//!            (tests/gpu_barrier_loop_budget.rs)
+//!            Only the simplices whose boxes overlap the particle's
+//!            candidate box are visited (core/src/barrier.rs): before the
+//!            hierarchy every simplex was, and 7 200 triangles were refused
+//!            on llvmpipe (tests/gpu_barrier_loop_budget.rs)
 //! ```
 //!
 //! Obstacle geometry is laid out for the device in one place,
@@ -68,13 +70,18 @@ pub struct BarrierEvaluation {
 
 /// `obstacles` in device coordinates x − o (see [`SceneOrigin`]): plane
 /// offsets r − n·o, simplex vertices v − o, and the rounding scale
-/// recomputed from the shifted geometry. The identity when o = 0.
+/// recomputed from the shifted geometry, the hierarchy refitted to the
+/// shifted boxes (built first if the set is not indexed). The identity
+/// when o = 0 (but for that build).
 pub fn local_obstacles(obstacles: &BarrierObstacles, origin: &SceneOrigin) -> BarrierObstacles {
-    if origin.is_zero() {
-        return obstacles.clone();
-    }
     let dim = origin.as_slice().len();
     let mut local = obstacles.clone();
+    if !local.is_indexed() {
+        local.reindex(dim);
+    }
+    if origin.is_zero() {
+        return local;
+    }
     let mut scale: f64 = 0.0;
     for (offset, normal) in local
         .plane_offsets
@@ -92,18 +99,24 @@ pub fn local_obstacles(obstacles: &BarrierObstacles, origin: &SceneOrigin) -> Ba
         local.simplex_vertices[used].copy_from_slice(&shifted);
     }
     local.scale = scale;
+    local.hierarchy = local.hierarchy.refit(&local.simplex_boxes(dim));
     local
 }
 
 /// The obstacle geometry as the kernels read it: reals
-/// `[plane normals | plane offsets | simplex vertices (4 slots each)]` and
-/// the arity of each simplex (at least one word, so the buffer is never
-/// empty).
+/// `[plane normals | plane offsets | simplex vertices (4 slots each) |
+/// hierarchy node boxes]` and words `[arity of each simplex | hierarchy
+/// node words]` (at least one word, so the buffer is never empty), of an
+/// indexed set ([`BarrierObstacles::is_indexed`]). Node
+/// boxes rounded to f32 are the boxes of the simplices' f32 vertices
+/// (rounding is monotone).
 pub fn obstacle_geometry(obstacles: &BarrierObstacles) -> (Vec<f64>, Vec<u32>) {
     let mut reals = obstacles.plane_normals.clone();
     reals.extend(&obstacles.plane_offsets);
     reals.extend(&obstacles.simplex_vertices);
+    reals.extend(obstacles.hierarchy.node_boxes());
     let mut arity = obstacles.simplex_arity.clone();
+    arity.extend(obstacles.hierarchy.node_words());
     if arity.is_empty() {
         arity.push(0);
     }
@@ -304,7 +317,11 @@ impl BarrierKernels {
                 generated: None,
             },
         )?;
-        let (reals, arity) = obstacle_geometry(obstacles);
+        let mut obstacles = obstacles.clone();
+        if !obstacles.is_indexed() {
+            obstacles.reindex(dim);
+        }
+        let (reals, arity) = obstacle_geometry(&obstacles);
         let mut bytes = Vec::new();
         push_reals(&mut bytes, &reals, precision);
         let storage = wgpu::BufferUsages::STORAGE;
@@ -318,7 +335,7 @@ impl BarrierKernels {
             dim,
             geometry,
             arity,
-            obstacles: obstacles.clone(),
+            obstacles,
             law,
         })
     }

@@ -14,6 +14,7 @@ mod edges;
 mod linalg;
 mod oriented_measure;
 mod overlap;
+pub mod simplex_hierarchy;
 mod simplex_measure;
 mod symmetric_eigen;
 
@@ -23,6 +24,7 @@ pub(crate) use edges::{edge_matrix, gram, scatter_edge_gradient};
 pub use linalg::{adjugate, determinant, separation, unit_vector};
 pub use oriented_measure::{oriented_measure, oriented_volume};
 pub use overlap::deepest_overlap;
+pub use simplex_hierarchy::SimplexHierarchy;
 pub use simplex_measure::simplex_squared_measure;
 pub use symmetric_eigen::{MAX_SWEEPS, SymmetricEigen, symmetric_eigen};
 

@@ -43,7 +43,9 @@
 //! distance) when q̂ is the true closest point. Both A/|w| ≤ max_v |x − v|
 //! and ℓ are local sizes, so far from the origin only ρ grows with |x|.
 
-use crate::barrier::{BarrierObstacles, FILTER_SAFETY};
+use crate::barrier::{
+    BarrierObstacles, FILTER_SAFETY, candidate_box, filter_reach, support_margin,
+};
 use crate::geometry::{closest_point_on_simplex, distance};
 
 /// min(1, η · `time`): the admissible step fraction for the smallest time
@@ -184,8 +186,9 @@ pub fn simplex_time(
     time(d0 - rounding, step_squared.sqrt() * (1.0 + gamma))
 }
 
-/// The smallest certified time over every obstacle (planes, then
-/// simplices) for one particle; ∞ with none. `fraction(obstacle_time(…))`
+/// The smallest certified time over every obstacle (planes, then the
+/// simplices within the filter's reach: barrier.rs, the candidate box;
+/// those beyond it have η t* ≥ 1) for one particle; ∞ with none. `fraction(obstacle_time(…))`
 /// is the certified replacement of `barrier::filter_fraction`.
 pub fn obstacle_time(
     obstacles: &BarrierObstacles,
@@ -194,16 +197,23 @@ pub fn obstacle_time(
     delta: &[f64],
     epsilon: f64,
 ) -> f64 {
+    let dim = x.len();
     let mut offset = [0.0f64; crate::MAX_DIM];
-    let offset = &mut offset[..x.len()];
+    let offset = &mut offset[..dim];
+    let (mut lo, mut hi) = ([0.0f64; crate::MAX_DIM], [0.0f64; crate::MAX_DIM]);
+    let (lo, hi) = (&mut lo[..dim], &mut hi[..dim]);
+    let length = delta.iter().map(|c| c * c).sum::<f64>().sqrt();
+    let reach = filter_reach(length, dim, epsilon);
+    let margin = support_margin(dim, epsilon);
+    candidate_box(x, radius, reach, obstacles.scale, margin, lo, hi);
+    let planes = obstacles.plane_count();
     let mut t = f64::INFINITY;
-    for p in 0..obstacles.plane_count() {
-        t = t.min(plane_time(obstacles, p, x, radius, delta, epsilon));
-    }
-    for s in 0..obstacles.simplex_count() {
-        t = t.min(simplex_time(
-            obstacles, s, x, radius, delta, epsilon, offset,
-        ));
+    for o in obstacles.near(lo, hi) {
+        t = t.min(if o < planes {
+            plane_time(obstacles, o, x, radius, delta, epsilon)
+        } else {
+            simplex_time(obstacles, o - planes, x, radius, delta, epsilon, offset)
+        });
     }
     t
 }

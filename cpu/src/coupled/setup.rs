@@ -7,6 +7,7 @@
 //!   (the collide broadphase): a pair within d^ anywhere on the segment has overlapping boxes
 //!   (the ∞-norm gap is at most the Euclidean one)
 //! lags at x^t:  plane p (μ_p > 0), 0 < d < d^:  n_p,                      F_max = μ_p (−b'(d))
+//!               (every plane; simplices within reach d^ of the candidate box, barrier.rs)
 //!               pair (μ_c > 0),    0 < d < d^:  n = (x_j − x_i)/|x_j − x_i|, F_max = μ_c (−b'(d))
 //! fraction(x, Δ) = min(1, η · min(obstacle_time over free particles, pair_time over the pairs))
 //! ```
@@ -19,6 +20,7 @@ use crate::collide::{Contacts, broadphase_on};
 use crate::incremental_potential::PARTICLE_GRAIN;
 use crate::parallel::Workers;
 use hyperpbd_core::IncrementalPotentialPlan;
+use hyperpbd_core::barrier::{candidate_box, distance_margin};
 use hyperpbd_core::broadphase::{Aabbs, Pair};
 use hyperpbd_core::implicit::certified_filter::{fraction, obstacle_time, pair_time};
 use hyperpbd_core::implicit::{CoupledPlan, PairLag, normal_force, pair_lags};
@@ -104,14 +106,25 @@ impl Setup {
         let dim = plan.dim;
         let x = &particles.start;
         let mut normal = vec![0.0; dim];
+        let (mut lo, mut hi) = (vec![0.0; dim], vec![0.0; dim]);
         particles.lags.clear();
         particles.lag_offsets.clear();
         particles.lag_offsets.push(0);
         for i in 0..plan.particle_count() {
             if particles.mass[i] > 0.0 {
                 let xi = &x[i * dim..(i + 1) * dim];
-                for o in 0..ip.obstacles.len() {
-                    let d = ip.obstacles.distance(o, xi, plan.radius[i], &mut normal);
+                let (r, reach) = (plan.radius[i], ip.law.activation_distance);
+                candidate_box(
+                    xi,
+                    r,
+                    reach,
+                    ip.obstacles.scale,
+                    distance_margin(dim, f64::EPSILON),
+                    &mut lo,
+                    &mut hi,
+                );
+                for o in ip.obstacles.near(&lo, &hi) {
+                    let d = ip.obstacles.distance(o, xi, r, &mut normal);
                     if d.is_nan() || d <= 0.0 {
                         return Err(Refusal::InfeasibleStart {
                             particle: i,

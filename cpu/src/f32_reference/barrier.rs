@@ -1,7 +1,7 @@
 //! The barrier kernels of `shaders/barrier.wgsl` in f32, line for line in
 //! the shader's operation order: `evaluate` (per particle, over every
 //! obstacle, planes then simplices: Σ b, Σ b' n, Σ b'' n nᵀ and the
-//! smallest d) and `filter_fraction` (the certified step fraction).
+//! smallest d capped at d^) and `filter_fraction` (the certified step fraction).
 //!
 //! ```text
 //! uploaded, each f64 rounded to f32 once (gpu/src/barrier.rs):
@@ -93,7 +93,7 @@ pub struct BarrierTerms {
     pub gradient: Vec<f32>,
     /// Σ b'' n nᵀ, `dim × dim` row-major.
     pub hessian: Vec<f32>,
-    /// Smallest d.
+    /// Smallest d, capped at d^ (the kernel visits no simplex beyond d^).
     pub min_distance: f32,
 }
 
@@ -276,7 +276,9 @@ pub fn barrier_law(inp: &BarrierInputs, d: f32) -> (f32, f32, f32) {
 }
 
 /// One particle's energy, gradient, Hessian block and smallest distance
-/// (`evaluate_particle`), at x = `p` with radius `r`.
+/// (`evaluate_particle`), at x = `p` with radius `r`. Every simplex is
+/// visited (the exhaustive oracle of the kernel's hierarchy walk: those it
+/// skips have d ≥ d^ and add nothing).
 pub fn evaluate(inp: &BarrierInputs, p: &[f32], r: f32) -> BarrierTerms {
     let dim = inp.dim;
     let mut g = vec![0.0f32; dim];
@@ -311,7 +313,7 @@ pub fn evaluate(inp: &BarrierInputs, p: &[f32], r: f32) -> BarrierTerms {
         energy: e_sum,
         gradient: g,
         hessian,
-        min_distance: smallest,
+        min_distance: smallest.min(inp.activation),
     }
 }
 
