@@ -8,12 +8,17 @@
 //! (where the module states one), every gap > 0 against the authored
 //! geometry in f64, every value finite.
 //! `cargo test --release --test gpu_coupled_f32 -- --nocapture | grep '^BOUND'`.
+//! Every GPU test runs on one lavapipe thread
+//! (`common::gpu::on_one_lavapipe_thread`): the coupled step waits on the
+//! host hundreds of times per step, and lavapipe's worker pool adds
+//! 35–63 µs to each small dispatch (20 s of CPU for this binary with the
+//! pool, 8.6 s with one thread, measured 2026-11-28 at load ≈ 8).
 
 mod common;
 
 use common::bound::print_bound;
 use common::coupled_f32::F32Check;
-use common::gpu::adapter_or_skip;
+use common::gpu::{adapter_or_skip, on_one_lavapipe_thread};
 use common::implicit_scenes::{
     alternating_chain, balls_in_a_v, glancing, head_on, incline, spring_tetrahedron, stack,
 };
@@ -97,16 +102,25 @@ fn f32_against_cpu(test: &str, scene: Scene, steps: usize) -> Option<f64> {
 
 #[test]
 fn alternating_chain_in_f32() {
+    if !on_one_lavapipe_thread("alternating_chain_in_f32") {
+        return;
+    }
     f32_against_cpu("chain 1:1e6", alternating_chain(), 20);
 }
 
 #[test]
 fn head_on_balls_in_f32() {
+    if !on_one_lavapipe_thread("head_on_balls_in_f32") {
+        return;
+    }
     f32_against_cpu("head-on", head_on(), 120);
 }
 
 #[test]
 fn inclines_in_f32() {
+    if !on_one_lavapipe_thread("inclines_in_f32") {
+        return;
+    }
     for (name, mu) in [("incline stick", 0.5), ("incline slide", 0.2)] {
         f32_against_cpu(name, incline(mu).0, 30);
     }
@@ -114,17 +128,26 @@ fn inclines_in_f32() {
 
 #[test]
 fn stack_of_ten_balls_in_f32() {
+    if !on_one_lavapipe_thread("stack_of_ten_balls_in_f32") {
+        return;
+    }
     f32_against_cpu("stack of 10", stack().0, 30);
 }
 
 #[test]
 fn glancing_balls_with_pair_friction_in_f32() {
+    if !on_one_lavapipe_thread("glancing_balls_with_pair_friction_in_f32") {
+        return;
+    }
     f32_against_cpu("glancing balls, pair friction", glancing(), 120);
 }
 
 /// Three balls on distance springs dropped into a V of two segments.
 #[test]
 fn simplex_mesh_obstacles_in_f32() {
+    if !on_one_lavapipe_thread("simplex_mesh_obstacles_in_f32") {
+        return;
+    }
     let scene = balls_in_a_v();
     f32_against_cpu("three balls in a V of segments", scene, 80);
 }
@@ -133,6 +156,9 @@ fn simplex_mesh_obstacles_in_f32() {
 /// frictional plane ("previous" warm start, packed criterion).
 #[test]
 fn measures_tethers_and_previous_warm_start_in_f32() {
+    if !on_one_lavapipe_thread("measures_tethers_and_previous_warm_start_in_f32") {
+        return;
+    }
     let scene = spring_tetrahedron();
     f32_against_cpu("tetrahedron of springs on a frictional plane", scene, 80);
 }

@@ -93,3 +93,61 @@ pub fn load_or_skip(
         cpu_or_auto => hyperpbd::load(plan, state, cpu_or_auto).map(Some),
     }
 }
+
+/// The libtest name of the test function `function` in the module
+/// `module` (`module_path!()`): the path without the crate's name.
+pub fn test_name(module: &str, function: &str) -> String {
+    match module.split_once("::") {
+        Some((_, path)) => format!("{path}::{function}"),
+        None => function.to_string(),
+    }
+}
+
+/// lavapipe's worker-thread variable (Mesa reads it when an instance is
+/// created).
+pub const LAVAPIPE_THREADS: &str = "LP_NUM_THREADS";
+
+/// Whether the calling test `test` (its full name in its binary,
+/// [`test_name`]) runs its
+/// body in this process; a test of many small dispatches starts with
+///
+/// ```ignore
+/// if !on_one_lavapipe_thread("my_test") {
+///     return; // a child process ran it with LP_NUM_THREADS=0
+/// }
+/// ```
+///
+/// lavapipe hands every dispatch to its worker pool, 35–63 µs each with
+/// its default threads, ~1 µs with `LP_NUM_THREADS=0` (the work runs on the
+/// submitting thread; docs/performance.md): a scene of a few hundred
+/// elements in 157 colours is dispatch-bound. A test cannot set the
+/// variable in its own process (other test threads may read the
+/// environment), so when it is unset the test runs itself again in a
+/// child process with `LP_NUM_THREADS=0` (`--exact`, its output printed
+/// here) and fails when the child fails or ran no test; it then returns
+/// `false`. A variable already set (by the user, or in that child) is
+/// kept: `true`, the body runs here. Other drivers never read it.
+pub fn on_one_lavapipe_thread(test: &str) -> bool {
+    if std::env::var_os(LAVAPIPE_THREADS).is_some() {
+        return true;
+    }
+    let exe = std::env::current_exe().expect("the test binary's path");
+    let out = std::process::Command::new(exe)
+        .args([test, "--exact", "--nocapture", "--test-threads=1"])
+        .env(LAVAPIPE_THREADS, "0")
+        .output()
+        .unwrap_or_else(|e| panic!("{test}: cannot run it again with {LAVAPIPE_THREADS}=0: {e}"));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    print!("{stdout}");
+    eprint!("{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{test} with {LAVAPIPE_THREADS}=0 failed ({}): its output is above",
+        out.status
+    );
+    assert!(
+        stdout.contains("test result: ok. 1 passed;"),
+        "{test} with {LAVAPIPE_THREADS}=0 ran no test (is the name exact?)"
+    );
+    false
+}

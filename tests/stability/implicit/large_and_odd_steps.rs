@@ -8,6 +8,9 @@ use super::*;
 /// ground and comes to rest (XPBD needs 200 substeps for 1 % of a link).
 #[test]
 fn implicit_dt_one_second() {
+    if !on_one_lavapipe_thread(&test_name(module_path!(), "implicit_dt_one_second")) {
+        return;
+    }
     let case = "implicit_dt_one_second";
     for (kind, m) in chain_case(case, &swinging_chain(1.0, 0.0), 30) {
         let lowest = (0..11)
@@ -28,6 +31,9 @@ fn implicit_dt_one_second() {
 /// 1e-12 × the forces; the acceleration criterion does not see h.
 #[test]
 fn implicit_dt_one_microsecond() {
+    if !on_one_lavapipe_thread(&test_name(module_path!(), "implicit_dt_one_microsecond")) {
+        return;
+    }
     chain_case(
         "implicit_dt_one_microsecond",
         &swinging_chain(1e-6, 0.0),
@@ -45,6 +51,9 @@ fn implicit_dt_one_microsecond() {
 /// this case allows and reports (docs/implicit.md §12).
 #[test]
 fn implicit_far_offset_1e5() {
+    if !on_one_lavapipe_thread(&test_name(module_path!(), "implicit_far_offset_1e5")) {
+        return;
+    }
     chain_case_with(
         "implicit_far_offset_1e5",
         &swinging_chain(1.0 / 60.0, 1e5),
@@ -60,6 +69,9 @@ fn implicit_far_offset_1e5() {
 /// bit on lavapipe after every step.
 #[test]
 fn implicit_eight_dimensions() {
+    if !on_one_lavapipe_thread(&test_name(module_path!(), "implicit_eight_dimensions")) {
+        return;
+    }
     let case = "implicit_eight_dimensions";
     let dim = 8;
     let mut b = SceneBuilder::new(dim).dt(1.0 / 60.0).gravity_along(1, 9.81);
@@ -199,6 +211,9 @@ fn implicit_on_hyperplane_is_refused() {
 /// gives a direction and the spring restores its length), 1 s.
 #[test]
 fn implicit_coincident_distance() {
+    if !on_one_lavapipe_thread(&test_name(module_path!(), "implicit_coincident_distance")) {
+        return;
+    }
     let case = "implicit_coincident_distance";
     let mut b = SceneBuilder::new(3).dt(1.0 / 60.0).gravity_along(1, 9.81);
     b.particle(Particle::new(vec![0.0, 1.0, 0.0], 1.0));
@@ -255,6 +270,9 @@ fn implicit_coincident_distance() {
 /// (material families are not built there yet).
 #[test]
 fn implicit_material_drop() {
+    if !on_one_lavapipe_thread(&test_name(module_path!(), "implicit_material_drop")) {
+        return;
+    }
     let case = "implicit_material_drop";
     let mut scene =
         common::guarded::material_block(2, 10.0, ConstraintKind::NeoHookean, None, None);
@@ -297,6 +315,12 @@ fn implicit_material_drop() {
 /// backward Euler says, x_n = x_0 − g h² n(n + 1)/2.
 #[test]
 fn implicit_empty_and_one_particle() {
+    if !on_one_lavapipe_thread(&test_name(
+        module_path!(),
+        "implicit_empty_and_one_particle",
+    )) {
+        return;
+    }
     let case = "implicit_one_particle";
     let solver = |warm_start| {
         let Solver::IncrementalPotential(mut s) = implicit(1e3, 1e-3, 1e-9) else {
