@@ -18,8 +18,10 @@
 //! thread may read it): a program applies [`Threads::wanted`] to its own
 //! environment before its first wgpu instance — the `hyperpbd` command line
 //! does, on its single thread — or the user sets `LP_NUM_THREADS`. Other
-//! drivers never read it. The test suite keeps lavapipe's default: its GPU
-//! test binaries took the same time either way (docs/performance.md).
+//! drivers never read it. The test suite keeps lavapipe's default, except
+//! the dispatch-bound tests that run themselves again in a child process
+//! on one thread (`tests/common/gpu.rs`, `on_one_lavapipe_thread`;
+//! docs/performance-log.md).
 
 use std::fmt;
 
