@@ -365,7 +365,7 @@ impl Backend for CpuBackend {
         self.revertible = false;
         self.x.clone_from(&state.positions);
         self.v.clone_from(&state.velocities);
-        self.carried.clear(&mut self.lambda);
+        self.carried.clear(&self.plan, &mut self.lambda);
         Ok(())
     }
 

@@ -102,10 +102,14 @@ impl CarriedForces {
         }
     }
 
-    /// Starts over from no force (a written state).
-    pub fn clear(&mut self, lambda: &mut [f64]) {
-        self.displacement.fill(0.0);
-        lambda.fill(0.0);
-        self.h = 0.0;
+    /// Starts over from no force (a written state). A no-op for the
+    /// standard update, whose multipliers a written state leaves alone
+    /// (a kernel run alone after `write_state` reads them, as on the GPU).
+    pub fn clear(&mut self, plan: &Plan, lambda: &mut [f64]) {
+        if plan.primal_residual {
+            self.displacement.fill(0.0);
+            lambda.fill(0.0);
+            self.h = 0.0;
+        }
     }
 }
