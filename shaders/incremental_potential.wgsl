@@ -402,14 +402,15 @@ fn ip_velocity(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     check_loops(i);
 }
 
-// Newton's stop test after evaluation k (one invocation; the host's loop of
+// Newton's stop test after evaluation k (one invocation decides; the host's loop of
 // gpu/src/incremental_potential.rs, decision for decision, replayed there
 // from the log): refused (infeasible, non-finite, or nothing moved at k > 0
 // although a search failed above the rounding), stalled at the rounding
 // floor (k > 0, nothing moved, status[3] = 0), converged (value ≤ threshold), budget (k = max), else on.
-@compute @workgroup_size(1)
-fn ip_decide() {
-    if (stopped()) {
+// One workgroup of the file's size; its first invocation decides.
+@compute @workgroup_size(WORKGROUP)
+fn ip_decide(@builtin(local_invocation_index) lane: u32) {
+    if (lane != 0u || stopped()) {
         return;
     }
     let k = decision[1];

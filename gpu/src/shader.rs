@@ -148,6 +148,7 @@ impl ShaderFile {
                 "ip_reduce_max",
                 "ip_newton",
                 "ip_velocity",
+                "ip_decide",
             ],
             ShaderFile::Coupled => &[
                 "evaluate",
