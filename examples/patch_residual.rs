@@ -24,10 +24,9 @@
 //! thread): median ms per step of the two updates, interleaved.
 
 use hyperpbd::builders::{Patch, PatchSpec};
-use hyperpbd::core::material::{MaterialScratch, energy_constraint};
 use hyperpbd::{
-    Backend, ConstraintKind, Convergence, CpuBackend, IncrementalPotentialSettings, Plan, Solver,
-    XpbdSettings, constraint_force,
+    Backend, ConstraintKind, CpuBackend, Plan, Solver, XpbdSettings, constraint_force,
+    elastic_force,
 };
 use std::time::Instant;
 
@@ -35,7 +34,6 @@ const FRAMES: usize = 120;
 
 struct Case {
     dim: usize,
-    cells: usize,
     law: ConstraintKind,
     substeps: u32,
     iterations: u32,
@@ -60,27 +58,14 @@ fn law_name(law: ConstraintKind) -> &'static str {
 }
 
 fn patch(case: &Case, implicit: bool) -> Patch {
-    let mut spec = PatchSpec::stressed(case.dim, case.cells, case.law);
+    let mut spec = PatchSpec::stressed(case.dim, case.law);
     spec.youngs_modulus = case.youngs;
-    let (substeps, iterations) = if implicit {
-        (1, 1)
-    } else {
-        (case.substeps, case.iterations)
-    };
-    let mut patch = Patch::new(&spec, 1.0 / 60.0, substeps, iterations);
     if implicit {
-        patch.scene.damping = None;
-        patch.scene.solver = Solver::IncrementalPotential(IncrementalPotentialSettings {
-            barrier_stiffness: 1e3,
-            activation_distance: 1e-3,
-            convergence: Convergence::MaxAccelerationResidual { tolerance: 1e-9 },
-            max_iterations: 50,
-            cg_iterations: None,
-            warm_start: None,
-            friction_slip_velocity: None,
-        });
+        let mut patch = Patch::new(&spec, 1.0 / 60.0, 1, 1);
+        patch.use_implicit_path();
+        return patch;
     }
-    patch
+    Patch::new(&spec, 1.0 / 60.0, case.substeps, case.iterations)
 }
 
 fn norm_at(v: &[f64], i: usize, dim: usize) -> f64 {
@@ -137,13 +122,7 @@ fn run(case: &Case, implicit: bool) -> Row {
             .map(|f| cpu.multipliers(f).expect("family"))
             .collect();
         let q = constraint_force(&plan, &state.positions, &lambda).expect("finite");
-        // The elastic force: the same sum with λ = −C / α~ (C = √(2W),
-        // α~ = 1/h²), i.e. ∇W = C ∇C.
-        let values: Vec<Vec<f64>> = (0..plan.families.len())
-            .map(|f| energy_multipliers(&plan, f, &state.positions))
-            .collect();
-        let values: Vec<&[f64]> = values.iter().map(Vec::as_slice).collect();
-        let elastic = constraint_force(&plan, &state.positions, &values).expect("finite");
+        let elastic = elastic_force(&plan, &state.positions).expect("not refused");
         (
             max_over(&q, &|_| 1.0 / (h * h)),
             max_over(&elastic, &|_| 1.0),
@@ -157,32 +136,6 @@ fn run(case: &Case, implicit: bool) -> Row {
         elastic,
         ms,
     }
-}
-
-/// λ_e = −C_e per element (C = √(2W) of the material law), so that
-/// Σ ∇C λ = −∇W: the elastic force of the elements at x.
-fn energy_multipliers(plan: &Plan, f: usize, x: &[f64]) -> Vec<f64> {
-    let family = &plan.families[f];
-    let (dim, arity) = (plan.dim, family.arity);
-    let mut points = vec![0.0; arity * dim];
-    let mut grad = vec![0.0; arity * dim];
-    let mut scratch = MaterialScratch::default();
-    (0..family.len())
-        .map(|e| {
-            for (j, &i) in family.elements[e * arity..(e + 1) * arity]
-                .iter()
-                .enumerate()
-            {
-                let i = i as usize;
-                points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
-            }
-            let element = family
-                .kind
-                .material_element(e, &points, dim)
-                .expect("a material");
-            -energy_constraint(element, &mut grad, &mut scratch).unwrap_or(f64::NAN)
-        })
-        .collect()
 }
 
 fn print_rows(title: &str, cases: &[(String, Case)]) {
@@ -203,13 +156,6 @@ fn print_rows(title: &str, cases: &[(String, Case)]) {
 fn base(dim: usize, law: ConstraintKind) -> Case {
     Case {
         dim,
-        cells: if dim == 4 {
-            2
-        } else if dim == 3 {
-            3
-        } else {
-            4
-        },
         law,
         substeps: 10,
         iterations: 10,

@@ -17,7 +17,7 @@ pub use hyperpbd_core::*;
 pub use hyperpbd_cpu::f32_reference::{F32Reference, ReferenceError};
 pub use hyperpbd_cpu::{
     CpuBackend, THREADS_VARIABLE, constraint_force, coupled_gradient, default_threads,
-    set_default_threads,
+    elastic_force, set_default_threads,
 };
 pub use hyperpbd_gpu as gpu;
 

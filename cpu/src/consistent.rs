@@ -68,7 +68,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::dim::{Dim, with_dim};
-use crate::project::{Batch, Workspace, gathered_value};
+use crate::project::{Batch, Workspace, gathered_value, static_friction};
 use hyperpbd_core::implicit::{
     MaterialHessianScratch, PsdScratch, material_hessian_block, material_term, project_psd,
 };
@@ -230,8 +230,14 @@ pub fn project(
                 x[i * dim + a] = sc.anchor[j * dim + a] + d[j * dim + a];
             }
         }
-        if let FamilyKind::HyperplaneContact { normal, friction } = &f.kind {
-            static_friction(batch, normal, *friction, element[0] as usize, l, x);
+        if let FamilyKind::HyperplaneContact { normal, friction } = &f.kind
+            && *friction > 0.0
+            && l > 0.0
+        {
+            let i = element[0] as usize;
+            let bound = *friction * batch.inverse_mass[i] * l;
+            let p = &batch.start[i * dim..(i + 1) * dim];
+            static_friction(normal, bound, p, &mut x[i * dim..(i + 1) * dim]);
         }
     }
     Ok(())
@@ -327,26 +333,6 @@ fn hyperplane(
         d[k] = w * normal[k] * l;
     }
     l
-}
-
-/// Static friction of an active contact (project.rs's rule), applied to x.
-fn static_friction(batch: &Batch, normal: &[f64], mu: f64, i: usize, l: f64, x: &mut [f64]) {
-    let n = batch.dim;
-    if !(mu > 0.0 && l > 0.0) {
-        return;
-    }
-    let (xi, p) = (&x[i * n..(i + 1) * n], &batch.start[i * n..(i + 1) * n]);
-    let dn: f64 = (0..n).map(|k| (xi[k] - p[k]) * normal[k]).sum();
-    let t2: f64 = (0..n)
-        .map(|k| (xi[k] - p[k]) - dn * normal[k])
-        .map(|t| t * t)
-        .sum();
-    if t2.sqrt() <= mu * batch.inverse_mass[i] * l {
-        for k in 0..n {
-            let t = (x[i * n + k] - p[k]) - dn * normal[k];
-            x[i * n + k] -= t;
-        }
-    }
 }
 
 /// One Gauss–Newton step of a nonlinear scalar constraint whose value at

@@ -9,12 +9,15 @@
 //! Standard XPBD assumes g = 0 when it projects (eq. 18); at its fixed
 //! point on a stressed material g is not 0 (docs/equilibria.md, measured
 //! by `cargo run --release --example patch_residual`). λ is in the backend's units (force · h²), so q / h²
-//! is a force. Used by that measurement and by the tests; not by a step.
+//! is a force; at backward Euler's equilibrium (λ = −C/α~, α~ = 1/h² for
+//! materials) it is [`elastic_force`]. Used by that measurement and by the
+//! tests; not by a step.
 
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
 
 use crate::project::{Workspace, gathered_value};
+use hyperpbd_core::material::{MaterialScratch, energy_constraint};
 use hyperpbd_core::{Family, FamilyKind, Plan};
 
 /// q = ∇C(x)ᵀλ (module docs), `plan.dim` values per particle; fixed
@@ -34,6 +37,35 @@ pub fn constraint_force(
             .map_err(|slot| (f, slot))?;
     }
     Ok(force)
+}
+
+/// The elastic force −∇W(x) of the material families, per particle (fixed
+/// particles 0): [`constraint_force`] with λ_e = −C_e, C = √(2W) (then
+/// Σ_e ∇C_e λ_e = −Σ_e ∇W_e). Other families contribute nothing. Err names
+/// the family and slot of an element the law refuses.
+pub fn elastic_force(plan: &Plan, x: &[f64]) -> Result<Vec<f64>, (usize, usize)> {
+    let (dim, mut scratch) = (plan.dim, MaterialScratch::default());
+    let mut multipliers = Vec::with_capacity(plan.families.len());
+    for (f, family) in plan.families.iter().enumerate() {
+        let arity = family.arity;
+        let (mut points, mut grad) = (vec![0.0; arity * dim], vec![0.0; arity * dim]);
+        let mut lambda = vec![0.0; family.len()];
+        for (e, l) in lambda.iter_mut().enumerate() {
+            for (j, &i) in family.elements[e * arity..(e + 1) * arity]
+                .iter()
+                .enumerate()
+            {
+                let i = i as usize;
+                points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
+            }
+            if let Some(element) = family.kind.material_element(e, &points, dim) {
+                *l = -energy_constraint(element, &mut grad, &mut scratch).map_err(|_| (f, e))?;
+            }
+        }
+        multipliers.push(lambda);
+    }
+    let multipliers: Vec<&[f64]> = multipliers.iter().map(Vec::as_slice).collect();
+    constraint_force(plan, x, &multipliers)
 }
 
 /// q += ∇C(x)ᵀλ over the slots of `family`, in order.

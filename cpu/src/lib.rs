@@ -29,7 +29,7 @@ mod residual;
 mod threads;
 
 pub use backend::CpuBackend;
-pub use constraint_force::constraint_force;
+pub use constraint_force::{constraint_force, elastic_force};
 pub use coupled::coupled_gradient;
 pub use threads::{
     THREADS_VARIABLE, all_cores, default_threads, parse_threads, set_default_threads,

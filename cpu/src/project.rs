@@ -390,25 +390,35 @@ fn contact_in<D: Dim, X: Coordinates + ?Sized>(
         }
         if friction > 0.0 && *lambda > 0.0 {
             let p = &batch.start[i * n..i * n + n];
-            let mut dn = 0.0;
-            for a in 0..n {
-                dn += (xi[a] - p[a]) * normal[a];
-            }
-            let mut t2 = 0.0;
-            for a in 0..n {
-                let t = (xi[a] - p[a]) - dn * normal[a];
-                t2 += t * t;
-            }
-            let bound = friction * w * *lambda;
-            if t2.sqrt() <= bound {
-                for a in 0..n {
-                    let t = (xi[a] - p[a]) - dn * normal[a];
-                    xi[a] -= t;
-                }
-            }
+            static_friction(normal, friction * w * *lambda, p, xi);
         }
     }
     Ok(())
+}
+
+/// Static friction of an active hyperplane contact (module docs): the
+/// particle's tangential motion since the substep's start `p` is cancelled
+/// whole if its length is at most `bound` = μ w λ (the normal correction).
+/// Shared by the standard update and the primal-residual one
+/// (`consistent.rs`).
+#[inline(always)]
+pub(crate) fn static_friction(normal: &[f64], bound: f64, p: &[f64], xi: &mut [f64]) {
+    let n = xi.len();
+    let mut dn = 0.0;
+    for a in 0..n {
+        dn += (xi[a] - p[a]) * normal[a];
+    }
+    let mut t2 = 0.0;
+    for a in 0..n {
+        let t = (xi[a] - p[a]) - dn * normal[a];
+        t2 += t * t;
+    }
+    if t2.sqrt() <= bound {
+        for a in 0..n {
+            let t = (xi[a] - p[a]) - dn * normal[a];
+            xi[a] -= t;
+        }
+    }
 }
 
 /// n·x.

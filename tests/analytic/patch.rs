@@ -22,50 +22,35 @@ use super::bound::{check_bound, print_bound};
 use super::*;
 
 use hyperpbd::builders::{Patch, PatchSpec};
-use hyperpbd::core::material::{MaterialScratch, energy_constraint};
-use hyperpbd::{
-    Backend, Convergence, CpuBackend, IncrementalPotentialSettings, Plan, Solver, XpbdSettings,
-    constraint_force,
-};
+use hyperpbd::{Backend, CpuBackend, Plan, Solver, XpbdSettings, constraint_force, elastic_force};
 
-fn cells(dim: usize) -> usize {
-    match dim {
-        2 => 4,
-        3 => 3,
-        _ => 2,
+/// `patch` stepped `frames` frames on one thread from its start (the
+/// interior at F X with `at_target`, else at X), with its plan.
+fn settled(patch: &Patch, at_target: bool, frames: usize) -> (CpuBackend, Plan) {
+    let plan = Plan::compile(&patch.scene).expect("compiles");
+    let mut cpu =
+        CpuBackend::with_threads(plan.clone(), &patch.state(at_target), 1).expect("loads");
+    for frame in 0..frames {
+        cpu.step()
+            .unwrap_or_else(|e| panic!("{}D frame {frame}: {e}", plan.dim));
     }
+    (cpu, plan)
 }
 
-fn implicit_patch(dim: usize, law: ConstraintKind) -> Patch {
-    let spec = PatchSpec::stressed(dim, cells(dim), law);
-    let mut patch = Patch::new(&spec, 1.0 / 60.0, 1, 1);
-    patch.scene.damping = None;
-    patch.scene.solver = Solver::IncrementalPotential(IncrementalPotentialSettings {
-        barrier_stiffness: 1e3,
-        activation_distance: 1e-3,
-        convergence: Convergence::MaxAccelerationResidual { tolerance: 1e-9 },
-        max_iterations: 50,
-        cg_iterations: None,
-        warm_start: None,
-        friction_slip_velocity: None,
-    });
-    patch
+/// The interior's offset from F X after `frames` frames from X.
+fn offset_after(patch: &Patch, frames: usize) -> f64 {
+    let (mut cpu, _) = settled(patch, false, frames);
+    patch.interior_error(&cpu.read_state().expect("state").positions)
 }
 
 #[test]
 fn the_implicit_path_passes_the_patch_test_in_every_dimension() {
     for dim in [2, 3, 4] {
         for law in [ConstraintKind::Stvk, ConstraintKind::NeoHookean] {
-            let patch = implicit_patch(dim, law);
-            let plan = Plan::compile(&patch.scene).expect("compiles");
-            let start = patch.state(false);
-            let first = patch.interior_error(&start.positions);
-            let mut cpu = CpuBackend::with_threads(plan, &start, 1).expect("loads");
-            for frame in 0..30 {
-                cpu.step()
-                    .unwrap_or_else(|e| panic!("{dim}D {law:?} frame {frame}: {e}"));
-            }
-            let error = patch.interior_error(&cpu.read_state().expect("state").positions);
+            let mut patch = Patch::new(&PatchSpec::stressed(dim, law), 1.0 / 60.0, 1, 1);
+            patch.use_implicit_path();
+            let first = patch.interior_error(&patch.state(false).positions);
+            let error = offset_after(&patch, 30);
             assert!(first > 1e-3, "{dim}D: the start is off F X by {first:e}");
             check_bound(
                 &format!(
@@ -79,51 +64,19 @@ fn the_implicit_path_passes_the_patch_test_in_every_dimension() {
     }
 }
 
-/// λ_e = −C_e (C = √(2W)) per element of material family `f`: with them
-/// `constraint_force` sums Σ_e ∇C_e (−C_e) = −∇W, the elastic force.
-fn elastic_multipliers(plan: &Plan, f: usize, x: &[f64]) -> Vec<f64> {
-    let family = &plan.families[f];
-    let (dim, arity) = (plan.dim, family.arity);
-    let (mut points, mut grad) = (vec![0.0; arity * dim], vec![0.0; arity * dim]);
-    let mut scratch = MaterialScratch::default();
-    (0..family.len())
-        .map(|e| {
-            for (j, &i) in family.elements[e * arity..(e + 1) * arity]
-                .iter()
-                .enumerate()
-            {
-                let i = i as usize;
-                points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
-            }
-            let element = family
-                .kind
-                .material_element(e, &points, dim)
-                .expect("material");
-            -energy_constraint(element, &mut grad, &mut scratch).expect("not refused")
-        })
-        .collect()
-}
-
 #[test]
 fn xpbd_misses_the_patch_by_its_primal_residual() {
     for (dim, law) in [(2, ConstraintKind::Stvk), (3, ConstraintKind::NeoHookean)] {
-        let spec = PatchSpec::stressed(dim, cells(dim), law);
-        let patch = Patch::new(&spec, 1.0 / 60.0, 10, 100);
-        let plan = Plan::compile(&patch.scene).expect("compiles");
+        let patch = Patch::new(&PatchSpec::stressed(dim, law), 1.0 / 60.0, 10, 100);
+        let (mut cpu, plan) = settled(&patch, true, 30);
         let h = plan.h;
-        let mut cpu = CpuBackend::with_threads(plan.clone(), &patch.state(true), 1).expect("loads");
-        for frame in 0..60 {
-            cpu.step()
-                .unwrap_or_else(|e| panic!("{dim}D frame {frame}: {e}"));
-        }
         let st = cpu.read_state().expect("state");
         let offset = patch.interior_error(&st.positions);
         let lambda: Vec<&[f64]> = (0..plan.families.len())
             .map(|f| cpu.multipliers(f).expect("family"))
             .collect();
         let q = constraint_force(&plan, &st.positions, &lambda).expect("finite");
-        let elastic_lambda = elastic_multipliers(&plan, 0, &st.positions);
-        let elastic = constraint_force(&plan, &st.positions, &[&elastic_lambda]).expect("finite");
+        let elastic = elastic_force(&plan, &st.positions).expect("not refused");
         let (mut force, mut imbalance, mut mismatch, mut inertia) =
             (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         for i in (0..patch.boundary.len()).filter(|&i| !patch.boundary[i]) {
@@ -147,10 +100,12 @@ fn xpbd_misses_the_patch_by_its_primal_residual() {
         // A real imbalance: more than 1 N at an interior node of 0.05 kg.
         assert!(imbalance > 1.0, "{dim}D: |∇W| = {imbalance:e} N");
         assert!(offset > 1e-5, "{dim}D: offset {offset:e} m");
-        // The constraint force is the elastic force to 5 % (λ = −C/α~ up
-        // to the last sweep's change), and the inertial term is ≪ both.
+        // With 100 sweeps the multipliers satisfy compliance (λ = −C/α~)
+        // to well under 1 %, so the constraint force is the elastic force
+        // to 1 %; the inertial term is ≪ both. (More sweeps do not move
+        // the offset: it is not an iteration count.)
         assert!(
-            mismatch <= 0.05 * imbalance,
+            mismatch <= 0.01 * imbalance,
             "{dim}D: |q/h² − ∇W| = {mismatch:e} of {imbalance:e} N"
         );
         assert!(
@@ -162,16 +117,9 @@ fn xpbd_misses_the_patch_by_its_primal_residual() {
 
 /// Interior offset from F X after `frames` from X with 10 × 10.
 fn xpbd_offset(dim: usize, law: ConstraintKind, primal_residual: bool, frames: usize) -> f64 {
-    let spec = PatchSpec::stressed(dim, cells(dim), law);
-    let mut patch = Patch::new(&spec, 1.0 / 60.0, 10, 10);
+    let mut patch = Patch::new(&PatchSpec::stressed(dim, law), 1.0 / 60.0, 10, 10);
     patch.scene.solver = Solver::Xpbd(XpbdSettings { primal_residual });
-    let plan = Plan::compile(&patch.scene).expect("compiles");
-    let mut cpu = CpuBackend::with_threads(plan, &patch.state(false), 1).expect("loads");
-    for frame in 0..frames {
-        cpu.step()
-            .unwrap_or_else(|e| panic!("{dim}D {law:?} frame {frame}: {e}"));
-    }
-    patch.interior_error(&cpu.read_state().expect("state").positions)
+    offset_after(&patch, frames)
 }
 
 #[test]
@@ -200,7 +148,7 @@ fn the_primal_residual_update_passes_the_patch_test() {
 /// the run that never tried it.
 #[test]
 fn a_failed_step_keeps_the_carried_forces() {
-    let spec = PatchSpec::stressed(2, 4, ConstraintKind::Stvk);
+    let spec = PatchSpec::stressed(2, ConstraintKind::Stvk);
     let mut patch = Patch::new(&spec, 1.0 / 60.0, 10, 10);
     patch.scene.solver = Solver::Xpbd(XpbdSettings {
         primal_residual: true,
@@ -261,7 +209,7 @@ fn a_failed_step_keeps_the_carried_forces() {
 /// expression take the update's Gauss–Newton step, the distances its closed
 /// form.
 fn geometric_patch(dim: usize, expression: bool, primal_residual: bool) -> Patch {
-    let spec = PatchSpec::stressed(dim, cells(dim), ConstraintKind::Stvk);
+    let spec = PatchSpec::stressed(dim, ConstraintKind::Stvk);
     let mut patch = Patch::new(&spec, 1.0 / 60.0, 10, 10);
     let simplices = patch.scene.constraints[0].elements.clone();
     let mut edges = Vec::new();
@@ -291,15 +239,7 @@ fn measures_distances_and_expressions_pass_the_patch_test_with_the_primal_residu
     for dim in [2, 3] {
         for expression in [false, true] {
             let offset = |primal_residual: bool| {
-                let patch = geometric_patch(dim, expression, primal_residual);
-                let plan = Plan::compile(&patch.scene).expect("compiles");
-                let mut cpu =
-                    CpuBackend::with_threads(plan, &patch.state(false), 1).expect("loads");
-                for frame in 0..60 {
-                    cpu.step()
-                        .unwrap_or_else(|e| panic!("{dim}D frame {frame}: {e}"));
-                }
-                patch.interior_error(&cpu.read_state().expect("state").positions)
+                offset_after(&geometric_patch(dim, expression, primal_residual), 60)
             };
             let standard = offset(false);
             let edges = if expression {
