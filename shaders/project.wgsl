@@ -234,10 +234,18 @@ fn project_elements(gid: vec3<u32>, groups: vec3<u32>, op: u32) {
         world_reals(op, here.first_call);
         switch (op) {
             case OP_PROJECT_DISTANCE: {
-                project_distance_element(e);
+                if ((call.flags & FLAG_PRIMAL) != 0u) {
+                    primal_distance_element(e);
+                } else {
+                    project_distance_element(e);
+                }
             }
             case OP_PROJECT_SIMPLEX, OP_PROJECT_ORIENTED, OP_PROJECT_MATERIAL: {
-                project_measure_element(e, op);
+                if ((call.flags & FLAG_PRIMAL) != 0u) {
+                    primal_measure_element(e, op);
+                } else {
+                    project_measure_element(e, op);
+                }
             }
             case OP_PROJECT_EXPRESSION: {
                 project_expression_element(e);

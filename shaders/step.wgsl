@@ -69,7 +69,7 @@ struct Call {
                       // material: offset of the family's rest data in `rest`
     chunk: u32,       // residual: first chunk of the family in `partials`
     io: u32,          // records this call reads and writes (IO_*), when run alone
-    pad0: u32,
+    carried: u32,     // FLAG_PRIMAL projection: offset of the family's displacements in `carried`
     pad1: u32,
     pad2: u32,
     alpha_tilde: real, // α / h²
@@ -122,6 +122,10 @@ const NONE: u32 = 0xffffffffu;
 // `elements` again, read two indices at a time (distance families start at
 // an even offset).
 @group(0) @binding(14) var<storage, read> pairs: array<vec2<u32>>;
+// FLAG_PRIMAL (primal.wgsl): per family, per slot, the displacement d_e its
+// force put on each of its particles (arity · DIM reals); one real
+// otherwise.
+@group(0) @binding(15) var<storage, read_write> carried: array<real>;
 @group(1) @binding(0) var<uniform> here: Dispatch;
 
 // The call running now.
@@ -280,9 +284,16 @@ fn run_op(op: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
     switch (op) {
         case OP_PREDICT: {
             predict_particle(i, rx, rv, rp);
+            if ((call.flags & FLAG_PRIMAL) != 0u) {
+                warm_start_particle(i, rx);
+            }
         }
         case OP_PROJECT_CONTACT: {
-            contact_particle(i, rx, rv, rp);
+            if ((call.flags & FLAG_PRIMAL) != 0u) {
+                primal_contact_particle(i, rx, rp);
+            } else {
+                contact_particle(i, rx, rv, rp);
+            }
         }
         case OP_VELOCITY: {
             velocity_particle(i, rx, rv, rp);
@@ -411,7 +422,11 @@ fn step_small(@builtin(local_invocation_index) lid: u32) {
         let count = call.count;
         if (call.op == OP_PROJECT_DISTANCE) {
             for (var t = lid; t < count; t += WORKGROUP) {
-                project_distance_element(t);
+                if ((call.flags & FLAG_PRIMAL) != 0u) {
+                    primal_distance_element(t);
+                } else {
+                    project_distance_element(t);
+                }
             }
         } else {
             let op = call.op;

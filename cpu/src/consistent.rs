@@ -243,12 +243,25 @@ pub fn project(
     Ok(())
 }
 
-/// λ clamped by the family's relation.
+/// λ clamped by the family's relation, by comparison (−0 and NaN go to
+/// +0, as shaders/primal.wgsl's select sends them).
 fn clamp(family: &Family, l: f64) -> f64 {
     match kinds::relation(&family.kind) {
         Relation::Equal => l,
-        Relation::AtLeast => l.max(0.0),
-        Relation::AtMost => l.min(0.0),
+        Relation::AtLeast => {
+            if l > 0.0 {
+                l
+            } else {
+                0.0
+            }
+        }
+        Relation::AtMost => {
+            if l < 0.0 {
+                l
+            } else {
+                0.0
+            }
+        }
     }
 }
 
@@ -328,7 +341,7 @@ fn hyperplane(
     for k in 0..n {
         c += normal[k] * sc.anchor[k];
     }
-    let l = (-c / (w + batch.alpha_tilde)).max(0.0);
+    let l = clamp(batch.family, -c / (w + batch.alpha_tilde));
     for k in 0..n {
         d[k] = w * normal[k] * l;
     }

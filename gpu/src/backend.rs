@@ -16,7 +16,8 @@
 //! per particle and per colour.
 
 use hyperpbd_core::{
-    BackendError, GpuError, Kernel, Plan, StageName, State, StepError, check_kernel, check_state,
+    BackendError, FamilyKind, GpuError, Kernel, Plan, StageName, State, StepError, check_kernel,
+    check_state,
 };
 
 use crate::Precision;
@@ -162,11 +163,7 @@ impl GpuBackend {
             .into());
         }
         if plan.primal_residual {
-            return Err(GpuError::Unsupported {
-                what: "XPBD with \"primal_residual\": true (the CPU runs it so far: --backend cpu)"
-                    .into(),
-            }
-            .into());
+            primal_supported(&plan, precision)?;
         }
         if plan.incremental_potential().is_some() {
             return Err(crate::incremental_potential::incremental_potential_unsupported().into());
@@ -264,8 +261,19 @@ impl GpuBackend {
         )?;
         let chunk_words: Vec<u32> = schedule.chunks.iter().flatten().copied().collect();
         let chunks = make("chunks", bytemuck::cast_slice(&chunk_words))?;
+        // One real at least: the binding exists in every plan.
+        let carried = make("carried", &reals(&vec![0.0; families.carried_len.max(1) * w]))?;
         let report_bytes = (report_len * real_size(precision)) as u64;
         let report_staging = ctx.staging("report_staging", 16 + report_bytes)?;
+        let mut resident = resident;
+        if plan.primal_residual {
+            // λ and d carry over from step to step: saved and rolled back
+            // with x and v, cleared by a written state.
+            for (buffer, label) in [(&lambda, "saved_lambda"), (&carried, "saved_carried")] {
+                let saved = make(label, &vec![0u8; buffer.size() as usize])?;
+                resident.carry(buffer.clone(), saved);
+            }
+        }
 
         let mut blocks = ParamBlocks::uniform(device);
         let mut place = |dispatches: &[Dispatch]| -> Vec<Placed> {
@@ -306,6 +314,7 @@ impl GpuBackend {
                 &partials,
                 &chunks,
                 &elements,
+                &carried,
             ],
             0,
         )?;
@@ -346,6 +355,7 @@ impl GpuBackend {
                     contact_slot,
                     partials,
                     chunks,
+                    carried,
                     dispatch_buffer,
                 ],
             },
@@ -511,9 +521,11 @@ impl GpuBackend {
         self.reset_status();
         self.state.forget_snapshot();
         let lambda = &self.buffers.lambda;
+        let primal = self.plan.primal_residual;
         let encoder = self.record(
             |encoder| {
-                if kernel == Kernel::Predict {
+                // With the primal residual λ carries over (as on the CPU).
+                if kernel == Kernel::Predict && !primal {
                     encoder.clear_buffer(lambda, 0, None);
                 }
             },
@@ -550,4 +562,28 @@ resident_backend! {
             self.run_alone(kernel, 1)
         }
     }
+}
+
+/// What the GPU runs of XPBD with the primal residual so far: f64, no
+/// material family, no adaptive step, one world (the rest is refused by
+/// name; the CPU runs every case).
+fn primal_supported(plan: &Plan, precision: Precision) -> Result<(), GpuError> {
+    let refused = |what: &str| {
+        Err(GpuError::Unsupported {
+            what: format!(
+                "XPBD with \"primal_residual\": true {what} (the CPU runs it: --backend cpu)"
+            ),
+        })
+    };
+    if precision == Precision::F32 {
+        return refused("in f32 (gpu-f64 runs it)");
+    }
+    if let Some(f) = (plan.families.iter()).find(|f| matches!(f.kind, FamilyKind::Material { .. }))
+    {
+        return refused(&format!("with a material family ({})", f.label));
+    }
+    if plan.adaptive.is_some() {
+        return refused("with adaptive steps");
+    }
+    Ok(())
 }

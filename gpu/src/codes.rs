@@ -77,6 +77,9 @@ codes! {
         FLAG_MATERIAL = 256;
         /// Predict: every dynamic particle's gravity scale is 1.
         FLAG_UNIT_SCALE = 512;
+        /// Projection: the update that carries the primal residual
+        /// (primal.wgsl); predict: its warm start x += Σ d.
+        FLAG_PRIMAL = 1024;
     }
 }
 

@@ -98,6 +98,11 @@ pub(crate) struct ResidentState {
     pub packing: Packing,
     /// Bytes of each of x and v.
     bytes: u64,
+    /// Further state a step carries over (XPBD with the primal residual:
+    /// the multipliers and the element displacements), each with its
+    /// saved copy: saved with x and v, put back with them, cleared by a
+    /// written state ([`ResidentState::carry`]).
+    carried: Vec<(wgpu::Buffer, wgpu::Buffer)>,
 }
 
 impl ResidentState {
@@ -139,7 +144,14 @@ impl ResidentState {
             snapshot: None,
             packing,
             bytes,
+            carried: Vec::new(),
         })
+    }
+
+    /// Makes `buffer` part of the state a step carries over, with `saved`
+    /// (its size) as its copy for the rollback.
+    pub fn carry(&mut self, buffer: wgpu::Buffer, saved: wgpu::Buffer) {
+        self.carried.push((buffer, saved));
     }
 
     /// The scene origin device positions are relative to.
@@ -165,6 +177,9 @@ impl ResidentState {
             encoder.copy_buffer_to_buffer(&self.x, 0, &self.saved_x, 0, self.bytes);
             encoder.copy_buffer_to_buffer(&self.v, 0, &self.saved_v, 0, self.bytes);
         }
+        for (buffer, saved) in &self.carried {
+            encoder.copy_buffer_to_buffer(buffer, 0, saved, 0, buffer.size());
+        }
     }
 
     /// Restores x and v from their saved copies, byte for byte.
@@ -174,6 +189,9 @@ impl ResidentState {
         if self.bytes > 0 {
             encoder.copy_buffer_to_buffer(&self.saved_x, 0, &self.x, 0, self.bytes);
             encoder.copy_buffer_to_buffer(&self.saved_v, 0, &self.v, 0, self.bytes);
+        }
+        for (buffer, saved) in &self.carried {
+            encoder.copy_buffer_to_buffer(saved, 0, buffer, 0, buffer.size());
         }
         ctx.submit_and_wait(encoder)
     }
@@ -207,6 +225,12 @@ impl ResidentState {
             ctx.queue.write_buffer(&self.x, at, &x);
             ctx.queue
                 .write_buffer(&self.v, at, &self.packing.vectors(&state.velocities));
+        }
+        // A written state starts the carried forces over (as the CPU's
+        // CarriedForces::clear): zeros.
+        for (buffer, _) in &self.carried {
+            ctx.queue
+                .write_buffer(buffer, 0, &vec![0u8; buffer.size() as usize]);
         }
         Ok(())
     }

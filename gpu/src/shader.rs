@@ -25,6 +25,7 @@ const MATERIAL: &str = include_str!("../../shaders/material.wgsl");
 const STEP: &str = include_str!("../../shaders/step.wgsl");
 const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
 const PROJECT: &str = include_str!("../../shaders/project.wgsl");
+const PRIMAL: &str = include_str!("../../shaders/primal.wgsl");
 const FRICTION: &str = include_str!("../../shaders/friction.wgsl");
 const RESIDUAL: &str = include_str!("../../shaders/residual.wgsl");
 const GUARD: &str = include_str!("../../shaders/guard.wgsl");
@@ -47,6 +48,7 @@ pub enum ShaderFile {
     /// The XPBD step: `step.wgsl` (bindings, call blocks, the schedule
     /// runners) composed with the kernels' own files — `integrate.wgsl`
     /// (predict, velocity, damping), `project.wgsl` (every constraint kind),
+    /// `primal.wgsl` (the update that carries the primal residual),
     /// `friction.wgsl` (dynamic Coulomb friction), `residual.wgsl`
     /// (constraint violation and its reduction), `guard.wgsl` (the
     /// read-only guards) — after `ln_f32.wgsl` / `ln_f64.wgsl`,
@@ -196,7 +198,8 @@ impl ShaderFile {
     fn body(self) -> &'static [&'static str] {
         match self {
             ShaderFile::Step => &[
-                PRELUDE, MEASURE, MATERIAL, STEP, INTEGRATE, PROJECT, FRICTION, RESIDUAL, GUARD,
+                PRELUDE, MEASURE, MATERIAL, STEP, INTEGRATE, PROJECT, PRIMAL, FRICTION, RESIDUAL,
+                GUARD,
             ],
             ShaderFile::Scan => &[PRELUDE, CONTACT, SCAN],
             ShaderFile::Grid => &[PRELUDE, CONTACT, GRID],

@@ -447,7 +447,8 @@ fn world_plan(plans: &[Plan], world: usize) -> Result<&Plan, BackendError> {
 
 /// What a batch does not run: particle contact (its broadphase is per
 /// scene), guards and adaptive steps (worlds would take different
-/// substeps), the incremental-potential solver.
+/// substeps), the incremental-potential solver, XPBD with the primal
+/// residual (its element displacements are per world).
 fn refuse_in_batch(plan: &Plan) -> Result<(), GpuError> {
     let what = if plan.contacts.is_some() {
         "collisions (particle contact)"
@@ -457,6 +458,8 @@ fn refuse_in_batch(plan: &Plan) -> Result<(), GpuError> {
         "adaptive"
     } else if plan.incremental_potential().is_some() {
         "the incremental-potential solver"
+    } else if plan.primal_residual {
+        "XPBD with the primal residual"
     } else {
         return Ok(());
     };

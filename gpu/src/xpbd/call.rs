@@ -4,7 +4,7 @@
 //!
 //! ```text
 //! Call   op count first family elem_base slot_base arity call      (u32)
-//!        flags kind slot_map chunk io pad pad pad                  (u32)
+//!        flags kind slot_map chunk io carried pad pad              (u32)
 //!        alpha_tilde h friction factor                             (real)
 //!        normal[4·VEC] gravity[4·VEC]     (real; lanes ≥ DIM zero)
 //! ```
@@ -24,7 +24,7 @@ pub(crate) const SEGMENT: usize = 8;
 
 pub(crate) use crate::codes::{
     FLAG_FIRST, FLAG_FORCE, FLAG_GRAVITY, FLAG_MATERIAL, FLAG_NEO_HOOKEAN, FLAG_ORIENTATION,
-    FLAG_RATIO, FLAG_TETHER, FLAG_UNIT_SCALE, FLAG_UNREAD, IO_LOAD_P, IO_LOAD_V, IO_LOAD_X,
+    FLAG_PRIMAL, FLAG_RATIO, FLAG_TETHER, FLAG_UNIT_SCALE, FLAG_UNREAD, IO_LOAD_P, IO_LOAD_V, IO_LOAD_X,
     IO_STORE_P, IO_STORE_V, IO_STORE_X, OP_DAMPING, OP_FRICTION, OP_GUARD_MEASURE, OP_GUARD_SPEED,
     OP_HOST, OP_NONE, OP_PREDICT, OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE, OP_PROJECT_EXPRESSION,
     OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX, OP_RESIDUAL, OP_VELOCITY,
@@ -46,6 +46,9 @@ pub(crate) struct Call {
     pub kind: u32,
     pub slot_map: u32,
     pub chunk: u32,
+    /// Primal-residual projection: offset of the family's element
+    /// displacements in `carried` (primal.wgsl).
+    pub carried: u32,
     pub alpha_tilde: f64,
     pub h: f64,
     pub friction: f64,
@@ -83,6 +86,7 @@ impl Call {
                 c.kind,
                 c.slot_map,
                 c.chunk,
+                c.carried,
             ]
         };
         words(self) == words(other)
@@ -112,7 +116,7 @@ impl Call {
                 self.slot_map,
                 self.chunk,
                 records_io(std::slice::from_ref(self)),
-                0,
+                self.carried,
                 0,
                 0,
             ])

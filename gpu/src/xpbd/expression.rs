@@ -10,6 +10,8 @@
 //!   expression{k}_value(x, opaque)    -> [C]
 //!   expression{k}_inputs(e)           the element's coordinates (particle j, axis a at j·DIM + a)
 //!   expression{k}_project(t)          the XPBD update of element first + t
+//!   expression{k}_primal(t)           the update that carries the primal residual
+//!                                     (FLAG_PRIMAL; primal.wgsl's Gauss–Newton step)
 //!   expression{k}_violation(e)        by the relation: |C|, max(−C, 0), max(C, 0)
 //! project_expression_element(t), expression_violation(e)   switch over k
 //! ```
@@ -86,6 +88,11 @@ pub(crate) fn generated_for(kinds: &[&ExpressionKind], dim: usize, precision: Pr
                 "    let next = select(0.0, t_new, t_new < 0.0);\n    let dl = next - l;"
             }
         };
+        let relation = match kind.relation {
+            Relation::Equal => 0,
+            Relation::AtLeast => 1,
+            Relation::AtMost => 2,
+        };
         let violation = match kind.relation {
             Relation::Equal => "abs(c)",
             Relation::AtLeast => "select(0.0, -c, -c > 0.0)",
@@ -157,6 +164,70 @@ fn expression{k}_project(t: u32) {{
     }}
 }}
 
+fn expression{k}_primal(t: u32) {{
+    let e = call.first + t;
+    let s = call.slot_base + e;
+    let base = call.carried + e * {n}u;
+    let inputs = expression{k}_inputs(e);
+    var out = expression{k}_gradient(inputs, call.call == NONE);
+    let value = out[0];
+    var anchor: array<{t}, {n}>;
+    var w: array<{t}, {arity}>;
+    for (var j = 0u; j < {arity}u; j++) {{
+        var r = load_x(elements[call.elem_base + e * {arity}u + j]);
+        w[j] = inverse_mass_of(&r);
+        for (var a = 0u; a < DIM; a++) {{
+            let k = j * DIM + a;
+            anchor[k] = inputs[k] - carried[base + k];
+        }}
+    }}
+    if (!finite(value)) {{
+        fail(e);
+        return;
+    }}
+    var wsum: real = 0.0;
+    var lin: real = value - rest_at(s);
+    for (var j = 0u; j < {arity}u; j++) {{
+        if (w[j] == 0.0) {{
+            continue;
+        }}
+        for (var a = 0u; a < DIM; a++) {{
+            let k = j * DIM + a;
+            wsum += w[j] * out[1u + k] * out[1u + k];
+            lin += out[1u + k] * (anchor[k] - inputs[k]);
+        }}
+    }}
+    var l: real = 0.0;
+    var ok = true;
+    var d: array<{t}, {n}>;
+    if (wsum != 0.0) {{
+        l = primal_clamp(-lin / (wsum + call.alpha_tilde), {relation}u);
+        for (var k = 0u; k < {n}u; k++) {{
+            d[k] = w[k / DIM] * out[1u + k] * l;
+            ok = ok && finite(d[k]);
+        }}
+    }}
+    if (!ok || !finite(l)) {{
+        fail(e);
+        return;
+    }}
+    for (var k = 0u; k < {n}u; k++) {{
+        carried[base + k] = d[k];
+    }}
+    store_lambda(s, l);
+    for (var j = 0u; j < {arity}u; j++) {{
+        if (w[j] == 0.0) {{
+            continue;
+        }}
+        let i = elements[call.elem_base + e * {arity}u + j];
+        var r = load_x(i);
+        for (var a = 0u; a < DIM; a++) {{
+            set_lane(&r, a, anchor[j * DIM + a] + d[j * DIM + a]);
+        }}
+        store_x(i, r);
+    }}
+}}
+
 fn expression{k}_violation(e: u32) -> real {{
     let inputs = expression{k}_inputs(e);
     let out = expression{k}_value(inputs, call.call == NONE);
@@ -167,7 +238,7 @@ fn expression{k}_violation(e: u32) -> real {{
         );
         let _ = writeln!(
             project_cases,
-            "        case {k}u: {{ expression{k}_project(t); }}"
+            "        case {k}u: {{ if ((call.flags & FLAG_PRIMAL) != 0u) {{ expression{k}_primal(t); }} else {{ expression{k}_project(t); }} }}"
         );
         let _ = writeln!(
             violation_cases,

@@ -9,16 +9,19 @@
 //! ```
 //! All three run per particle (`particles` in step.wgsl). Prediction does
 //! not reset the multipliers: the first projection of each family in the
-//! substep reads λ as 0 (project.rs).
+//! substep reads λ as 0 (project.rs). With the primal residual
+//! (FLAG_PRIMAL) it ends with the warm start x += Σ_e d_e (primal.wgsl).
 
 use hyperpbd_core::{Kernel, Plan};
 
+use super::Families;
 use super::call::{
-    Call, FLAG_FORCE, FLAG_GRAVITY, FLAG_UNIT_SCALE, OP_DAMPING, OP_PREDICT, OP_VELOCITY,
+    Call, FLAG_FORCE, FLAG_GRAVITY, FLAG_PRIMAL, FLAG_UNIT_SCALE, OP_DAMPING, OP_PREDICT,
+    OP_VELOCITY,
 };
 
 /// Prediction of every particle.
-pub(crate) fn predict(plan: &Plan, call: u32) -> Call {
+pub(crate) fn predict(plan: &Plan, families: &Families, call: u32) -> Call {
     let mut flags = 0;
     if plan.predict.gravity {
         flags |= FLAG_GRAVITY;
@@ -31,6 +34,11 @@ pub(crate) fn predict(plan: &Plan, call: u32) -> Call {
     if dynamic.filter(|(_, w)| **w != 0.0).all(|(s, _)| *s == 1.0) {
         flags |= FLAG_UNIT_SCALE;
     }
+    let mut slot_map = 0;
+    if plan.primal_residual {
+        flags |= FLAG_PRIMAL;
+        slot_map = families.warm_start;
+    }
     Call {
         op: OP_PREDICT,
         count: plan.particle_count() as u32,
@@ -38,6 +46,7 @@ pub(crate) fn predict(plan: &Plan, call: u32) -> Call {
         flags,
         h: plan.h,
         gravity: plan.gravity.clone(),
+        slot_map,
         kernel: Some(Kernel::Predict),
         ..Call::default()
     }

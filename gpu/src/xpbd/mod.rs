@@ -58,8 +58,18 @@ pub(crate) struct Families {
     /// Offset of each hyperplane family's particle → slot map in
     /// `slot_maps` (0 for the others).
     pub slot_map: Vec<u32>,
-    /// Per hyperplane family, per particle: its slot, or NONE.
+    /// Per hyperplane family, per particle: its slot, or NONE; then,
+    /// with the primal residual, the warm start's rows (at `warm_start`).
     pub slot_maps: Vec<u32>,
+    /// Primal residual: offset of each family's displacements in
+    /// `carried` (arity · DIM reals per slot), and their total.
+    pub carried_base: Vec<u32>,
+    pub carried_len: usize,
+    /// Primal residual: offset in `slot_maps` of the warm start's rows:
+    /// n + 1 row starts (absolute indices into `slot_maps`), then per
+    /// dynamic particle the offsets in `carried` of its displacements in
+    /// family, slot order — the order `cpu::consistent::apply` adds them.
+    pub warm_start: u32,
 }
 
 impl Families {
@@ -75,6 +85,9 @@ impl Families {
             slot_maps: Vec::new(),
             slots: 0,
             material_base: Vec::new(),
+            carried_base: Vec::new(),
+            carried_len: 0,
+            warm_start: 0,
         };
         for f in &plan.families {
             if f.arity == 2 && out.elements.len() % 2 == 1 {
@@ -122,7 +135,35 @@ impl Families {
             out.material_base.push(out.rest.len() as u32);
             material::push_rest_data(f, &mut out.rest);
         }
+        if plan.primal_residual {
+            out.lay_out_carried(plan);
+        }
         Ok(out)
+    }
+
+    /// The displacements' offsets and the warm start's rows (primal
+    /// residual).
+    fn lay_out_carried(&mut self, plan: &Plan) {
+        let (n, dim) = (plan.particle_count(), plan.dim);
+        let mut rows: Vec<Vec<u32>> = vec![Vec::new(); n];
+        for f in &plan.families {
+            let base = self.carried_len;
+            self.carried_base.push(base as u32);
+            for (k, &i) in f.elements.iter().enumerate() {
+                if plan.inverse_mass[i as usize] != 0.0 {
+                    rows[i as usize].push((base + k * dim) as u32);
+                }
+            }
+            self.carried_len += f.elements.len() * dim;
+        }
+        self.warm_start = self.slot_maps.len() as u32;
+        let mut at = self.warm_start + n as u32 + 1;
+        for row in &rows {
+            self.slot_maps.push(at);
+            at += row.len() as u32;
+        }
+        self.slot_maps.push(at);
+        self.slot_maps.extend(rows.into_iter().flatten());
     }
 
     /// A call over every element of family `family` of `plan` (`call`: its

@@ -17,7 +17,7 @@ use hyperpbd_core::{FamilyKind, Kernel, Plan};
 
 use super::Families;
 use super::call::{
-    Call, FLAG_FIRST, FLAG_TETHER, FLAG_UNREAD, OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE,
+    Call, FLAG_FIRST, FLAG_PRIMAL, FLAG_TETHER, FLAG_UNREAD, OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE,
     OP_PROJECT_EXPRESSION, OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX,
 };
 
@@ -64,6 +64,12 @@ pub(crate) fn project(
             c.normal = normal.clone();
             c.friction = *friction;
         }
+    }
+    if plan.primal_residual {
+        // The update of primal.wgsl: λ is a result (always stored), d_e
+        // at the family's offset in `carried`.
+        c.flags = (c.flags & !(FLAG_FIRST | FLAG_UNREAD)) | FLAG_PRIMAL;
+        c.carried = families.carried_base[family];
     }
     c
 }

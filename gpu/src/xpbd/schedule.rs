@@ -344,7 +344,7 @@ fn kernel_call(
     last: bool,
 ) -> Call {
     match kernel {
-        Kernel::Predict => integrate::predict(plan, call),
+        Kernel::Predict => integrate::predict(plan, families, call),
         Kernel::Velocity => integrate::velocity(plan, call),
         Kernel::Damping => integrate::damping(plan, call),
         Kernel::Project { family, color } => {
