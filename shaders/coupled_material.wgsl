@@ -214,3 +214,77 @@ fn cp_material_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num
     }
     check_material_loops(e);
 }
+
+// out = V_0 Sᵀ(R ⊗ I) H (Rᵀ ⊗ I) S p for the gathered element vector `p`
+// and the frame Hessian at `frames[block ..]`.
+fn material_curvature_product(e: u32, block: u32, p: ptr<function, array<real, POINTS>>,
+                              out: ptr<function, array<real, POINTS>>) {
+    let k = call.arity - 1u;
+    let size = DIM * k;
+    let base = call.slot_map + e * (k * k + 1u);
+    let v0 = rest_at(base + k * k);
+    var df: array<real, MAT>;
+    for (var a = 0u; a < DIM; a++) {
+        for (var j = 0u; j < k; j++) {
+            var v: real = 0.0;
+            for (var i = 0u; i <= j; i++) {
+                v += ((*p)[(i + 1u) * DIM + a] - (*p)[a]) * rest_at(base + i * k + j);
+            }
+            df[a * k + j] = v;
+        }
+    }
+    var yf: array<real, MAT>;
+    for (var row = 0u; row < size; row++) {
+        var v: real = 0.0;
+        for (var q = 0u; q < size; q++) {
+            v += frames[block + row * size + q] * df[q];
+        }
+        yf[row] = v;
+    }
+    for (var a = 0u; a < DIM; a++) {
+        var first: real = 0.0;
+        for (var i = 0u; i < k; i++) {
+            var v: real = 0.0;
+            for (var j = i; j < k; j++) {
+                v += yf[a * k + j] * rest_at(base + i * k + j);
+            }
+            let y = v0 * v;
+            (*out)[(i + 1u) * DIM + a] = y;
+            first -= y;
+        }
+        (*out)[a] = first;
+    }
+}
+
+// The diagonal of the vertex block of [`material_curvature_product`] into `out`.
+fn material_curvature_diagonal(e: u32, block: u32, out: ptr<function, array<real, POINTS>>) {
+    let k = call.arity - 1u;
+    let size = DIM * k;
+    let base = call.slot_map + e * (k * k + 1u);
+    let v0 = rest_at(base + k * k);
+    var rho: array<real, DIM>;
+    for (var vertex = 0u; vertex <= k; vertex++) {
+        for (var j = 0u; j < k; j++) {
+            if (vertex == 0u) {
+                var v: real = 0.0;
+                for (var i = 0u; i <= j; i++) {
+                    v -= rest_at(base + i * k + j);
+                }
+                rho[j] = v;
+            } else {
+                rho[j] = rest_at(base + (vertex - 1u) * k + j);
+            }
+        }
+        for (var a = 0u; a < DIM; a++) {
+            var v: real = 0.0;
+            for (var j = 0u; j < k; j++) {
+                var row: real = 0.0;
+                for (var m = 0u; m < k; m++) {
+                    row += frames[block + (a * k + j) * size + a * k + m] * rho[m];
+                }
+                v += rho[j] * row;
+            }
+            (*out)[vertex * DIM + a] = v0 * v;
+        }
+    }
+}

@@ -173,7 +173,7 @@ fn primal_gauss_newton(e: u32, value: real, pts: ptr<function, array<real, POINT
     }
 }
 
-// Simplex and oriented measures (equalities).
+// Simplex and oriented measures (equalities); materials: primal_material.wgsl.
 fn primal_measure_element(t: u32, op: u32) {
     let e = call.first + t;
     var pts: array<real, POINTS>;
@@ -185,9 +185,7 @@ fn primal_measure_element(t: u32, op: u32) {
     } else if (op == OP_PROJECT_ORIENTED) {
         value = oriented_measure(&pts, &grad);
     } else {
-        // Materials with the primal residual run on the CPU so far (the
-        // backend refuses them at load).
-        fail(e);
+        primal_material_element(t);
         return;
     }
     primal_gauss_newton(e, value, &pts, &grad, 0u);

@@ -70,7 +70,7 @@ struct Call {
     chunk: u32,       // residual: first chunk of the family in `partials`
     io: u32,          // records this call reads and writes (IO_*), when run alone
     carried: u32,     // FLAG_PRIMAL projection: offset of the family's displacements in `carried`
-    pad1: u32,
+    factors: u32,     // FLAG_PRIMAL material: offset of the family's Newton factors in `carried`
     pad2: u32,
     alpha_tilde: real, // α / h²
     h: real,           // substep length

@@ -99,7 +99,7 @@ fn symmetric_eigen(a: ptr<function, array<real, HESS>>, n: u32, values: ptr<func
         let x = (*a)[t] * scale;
         norm2 += x * x;
     }
-    let threshold = cp.epsilon * sqrt(norm2);
+    let threshold = REAL_EPSILON * sqrt(norm2);
     var sweeps = 0u;
     var off = eigen_off_diagonal(a, n, scale);
     while (off > threshold && sweeps < MAX_SWEEPS) {

@@ -12,10 +12,11 @@ mod common;
 use common::exact::{assert_identical_if_claimed, bits};
 use common::expressions::as_expressions;
 use common::gpu::adapter_or_skip;
+use hyperpbd::builders::{Patch, PatchSpec};
 use hyperpbd::kinds::Relation;
 use hyperpbd::{
-    Backend, BackendError, ConstraintFamily, ConstraintKind, CpuBackend, Plan, Scene,
-    Solver, State, XpbdSettings, scenes,
+    Backend, BackendError, ConstraintFamily, ConstraintKind, CpuBackend, Plan, Scene, Solver,
+    State, XpbdSettings, scenes,
 };
 use hyperpbd_gpu::{GpuBackend, Precision, StepMode};
 
@@ -56,7 +57,11 @@ fn triangle_areas() -> Scene {
         .iterations(2)
         .gravity_along(1, 9.81);
     for i in 0..10 {
-        let x = vec![0.1 * (i / 2) as f64, 1.0, 0.1 * (i % 2) as f64 + 0.01 * i as f64];
+        let x = vec![
+            0.1 * (i / 2) as f64,
+            1.0,
+            0.1 * (i % 2) as f64 + 0.01 * i as f64,
+        ];
         b.particle(match i {
             0 | 1 => hyperpbd::Particle::fixed(x),
             _ => hyperpbd::Particle::new(x, 0.05),
@@ -64,7 +69,11 @@ fn triangle_areas() -> Scene {
     }
     let triangles: Vec<Vec<usize>> = (0..8).map(|i| vec![i, i + 1, i + 2]).collect();
     let edges: Vec<Vec<usize>> = (0..9).map(|i| vec![i, i + 1]).collect();
-    b.family(ConstraintFamily::new(ConstraintKind::SimplexMeasure, 1e-7, triangles));
+    b.family(ConstraintFamily::new(
+        ConstraintKind::SimplexMeasure,
+        1e-7,
+        triangles,
+    ));
     b.family(ConstraintFamily::new(ConstraintKind::Distance, 1e-5, edges));
     b.build().expect("strip")
 }
@@ -97,7 +106,11 @@ fn cases() -> Vec<(&'static str, Scene, usize)> {
     );
     floor.constraints[1].rest = Some(vec![0.3; 12]);
     vec![
-        ("compliant distance chain", chain(ConstraintKind::Distance, 1e-4), 30),
+        (
+            "compliant distance chain",
+            chain(ConstraintKind::Distance, 1e-4),
+            30,
+        ),
         ("tether chain", tethers, 30),
         ("cloth 8² on a plane, friction 0.4", cloth, 30),
         ("tesseract (oriented measure)", tesseract, 12),
@@ -117,6 +130,52 @@ fn residual_bits(report: &hyperpbd::StepReport) -> Vec<u64> {
         .collect()
 }
 
+/// Runs `scene` from `state` on the CPU and on gpu-f64 in the exact and
+/// fused schedules for `frames` frames; asserts every frame's state and
+/// residuals bit for bit where the adapter claims it. Returns the frames
+/// checked.
+fn assert_golden(
+    adapter: &wgpu::Adapter,
+    summary: &hyperpbd_gpu::AdapterSummary,
+    (name, scene, state): (&str, &Scene, &State),
+    frames: usize,
+) -> usize {
+    let plan = Plan::compile(scene).expect("compiles");
+    let mut cpu = CpuBackend::new(plan.clone(), state).expect("cpu");
+    let mut gpus: Vec<(StepMode, GpuBackend)> = [StepMode::Exact, StepMode::Fused]
+        .into_iter()
+        .map(|mode| {
+            let gpu =
+                GpuBackend::with_step_mode(adapter, plan.clone(), state, Precision::F64, mode)
+                    .unwrap_or_else(|e| panic!("{name} {mode:?}: {e}"));
+            (mode, gpu)
+        })
+        .collect();
+    let mut checked = 0;
+    for frame in 0..frames {
+        let a = cpu
+            .step()
+            .unwrap_or_else(|e| panic!("{name} cpu {frame}: {e}"));
+        let sa = cpu.read_state().expect("cpu");
+        for (mode, gpu) in &mut gpus {
+            let b = gpu
+                .step()
+                .unwrap_or_else(|e| panic!("{name} {mode:?} {frame}: {e}"));
+            let sb = gpu.read_state().expect("gpu");
+            let what = format!("{name} {mode:?} frame {frame}");
+            if assert_identical_if_claimed(summary, &what, &sa, &sb) {
+                assert_eq!(residual_bits(&a), residual_bits(&b), "{what}: residuals");
+                checked += 1;
+            }
+        }
+    }
+    assert!(
+        bits(&cpu.read_state().expect("s")) != bits(state),
+        "{name}: moved"
+    );
+    checked
+}
+
 #[test]
 fn gpu_f64_is_the_golden_primal_update_bit_for_bit() {
     let Some((adapter, summary)) = adapter_or_skip("gpu_primal f64", Precision::F64) else {
@@ -124,41 +183,38 @@ fn gpu_f64_is_the_golden_primal_update_bit_for_bit() {
     };
     let mut frames_checked = 0;
     for (name, scene, frames) in cases() {
-        let plan = Plan::compile(&scene).expect("compiles");
         let state = State::from_scene(&scene);
-        let mut cpu = CpuBackend::new(plan.clone(), &state).expect("cpu");
-        let mut gpus: Vec<(StepMode, GpuBackend)> = [StepMode::Exact, StepMode::Fused]
-            .into_iter()
-            .map(|mode| {
-                let gpu = GpuBackend::with_step_mode(
-                    &adapter,
-                    plan.clone(),
-                    &state,
-                    Precision::F64,
-                    mode,
-                )
-                .unwrap_or_else(|e| panic!("{name} {mode:?}: {e}"));
-                (mode, gpu)
-            })
-            .collect();
-        for frame in 0..frames {
-            let a = cpu.step().unwrap_or_else(|e| panic!("{name} cpu {frame}: {e}"));
-            let sa = cpu.read_state().expect("cpu");
-            for (mode, gpu) in &mut gpus {
-                let b = gpu
-                    .step()
-                    .unwrap_or_else(|e| panic!("{name} {mode:?} {frame}: {e}"));
-                let sb = gpu.read_state().expect("gpu");
-                let what = format!("{name} {mode:?} frame {frame}");
-                if assert_identical_if_claimed(&summary, &what, &sa, &sb) {
-                    assert_eq!(residual_bits(&a), residual_bits(&b), "{what}: residuals");
-                    frames_checked += 1;
-                }
-            }
-        }
-        assert!(bits(&cpu.read_state().expect("s")) != bits(&state), "{name}: moved");
+        frames_checked += assert_golden(&adapter, &summary, (name, &scene, &state), frames);
     }
     println!("gpu_primal f64: {frames_checked} frames bit-identical");
+}
+
+/// Material elements: the Newton step with the law's Hessian, its factor
+/// kept over the substep's sweeps — the stressed patches of
+/// docs/equilibria.md (both laws, 2D and 3D) and the 4D jelly dropped on a
+/// floor with friction.
+#[test]
+fn gpu_f64_runs_the_golden_material_update_bit_for_bit() {
+    let Some((adapter, summary)) = adapter_or_skip("gpu_primal materials", Precision::F64) else {
+        return;
+    };
+    let mut frames_checked = 0;
+    for (dim, law) in [
+        (2, ConstraintKind::Stvk),
+        (2, ConstraintKind::NeoHookean),
+        (3, ConstraintKind::NeoHookean),
+    ] {
+        let spec = PatchSpec::stressed(dim, law);
+        let patch = Patch::new(&spec, 1.0 / 60.0, 10, 10);
+        let scene = primal(patch.scene.clone());
+        let name = format!("{dim}D {} patch", law.as_str());
+        let state = patch.state(false);
+        frames_checked += assert_golden(&adapter, &summary, (&name, &scene, &state), 8);
+    }
+    let jelly = primal(scenes::jelly4d());
+    let state = State::from_scene(&jelly);
+    frames_checked += assert_golden(&adapter, &summary, ("jelly4d", &jelly, &state), 3);
+    println!("gpu_primal materials: {frames_checked} frames bit-identical");
 }
 
 /// The carried forces are part of the state: a step that fails puts them
@@ -175,8 +231,8 @@ fn the_carried_forces_roll_back_and_restart_with_the_state() {
     let plan = Plan::compile(&scene).expect("compiles");
     let state = State::from_scene(&scene);
     let mut cpu = CpuBackend::new(plan.clone(), &state).expect("cpu");
-    let mut gpu = hyperpbd::load_on_adapter(&adapter, plan.clone(), &state, Precision::F64)
-        .expect("gpu");
+    let mut gpu =
+        hyperpbd::load_on_adapter(&adapter, plan.clone(), &state, Precision::F64).expect("gpu");
     let backends: [&mut dyn Backend; 2] = [&mut cpu, gpu.as_mut()];
     let mut after = Vec::new();
     for backend in backends {
@@ -228,10 +284,10 @@ fn what_the_gpu_does_not_run_yet_is_refused_by_name() {
         }
     };
     let f32 = load(&chain, Precision::F32);
-    assert!(f32.contains("primal_residual") && f32.contains("f32"), "{f32}");
-    let material = primal(scenes::jelly4d());
-    let refused = load(&material, Precision::F64);
-    assert!(refused.contains("material family"), "{refused}");
+    assert!(
+        f32.contains("primal_residual") && f32.contains("f32"),
+        "{f32}"
+    );
     let mut adaptive = chain.clone();
     adaptive.adaptive = Some(hyperpbd::Adaptive {
         max_subdivisions: 2,

@@ -461,8 +461,10 @@ fn material(
     for (r, &cr) in sc.dynamic.iter().enumerate() {
         d[cr] = ws.points[cr] + sc.rhs[r] - sc.anchor[cr];
     }
-    // (W may round to a hair below 0 at rest.)
-    Ok(-(2.0 * energy.max(0.0)).sqrt() / at)
+    // (W may round to a hair below 0 at rest; −0 and NaN go to +0, as
+    // shaders/primal_material.wgsl's select sends them.)
+    let energy = if energy > 0.0 { energy } else { 0.0 };
+    Ok(-(2.0 * energy).sqrt() / at)
 }
 
 /// b ← (L Lᵀ)⁻¹ b for the lower factor `l` (n × n, row-major).

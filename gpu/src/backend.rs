@@ -16,8 +16,7 @@
 //! per particle and per colour.
 
 use hyperpbd_core::{
-    BackendError, FamilyKind, GpuError, Kernel, Plan, StageName, State, StepError, check_kernel,
-    check_state,
+    BackendError, GpuError, Kernel, Plan, StageName, State, StepError, check_kernel, check_state,
 };
 
 use crate::Precision;
@@ -262,7 +261,10 @@ impl GpuBackend {
         let chunk_words: Vec<u32> = schedule.chunks.iter().flatten().copied().collect();
         let chunks = make("chunks", bytemuck::cast_slice(&chunk_words))?;
         // One real at least: the binding exists in every plan.
-        let carried = make("carried", &reals(&vec![0.0; families.carried_len.max(1) * w]))?;
+        let carried = make(
+            "carried",
+            &reals(&vec![0.0; families.carried_len.max(1) * w]),
+        )?;
         let report_bytes = (report_len * real_size(precision)) as u64;
         let report_staging = ctx.staging("report_staging", 16 + report_bytes)?;
         let mut resident = resident;
@@ -565,7 +567,7 @@ resident_backend! {
 }
 
 /// What the GPU runs of XPBD with the primal residual so far: f64, no
-/// material family, no adaptive step, one world (the rest is refused by
+/// adaptive step, one world (the rest is refused by
 /// name; the CPU runs every case).
 fn primal_supported(plan: &Plan, precision: Precision) -> Result<(), GpuError> {
     let refused = |what: &str| {
@@ -577,10 +579,6 @@ fn primal_supported(plan: &Plan, precision: Precision) -> Result<(), GpuError> {
     };
     if precision == Precision::F32 {
         return refused("in f32 (gpu-f64 runs it)");
-    }
-    if let Some(f) = (plan.families.iter()).find(|f| matches!(f.kind, FamilyKind::Material { .. }))
-    {
-        return refused(&format!("with a material family ({})", f.label));
     }
     if plan.adaptive.is_some() {
         return refused("with adaptive steps");

@@ -26,6 +26,7 @@ const STEP: &str = include_str!("../../shaders/step.wgsl");
 const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
 const PROJECT: &str = include_str!("../../shaders/project.wgsl");
 const PRIMAL: &str = include_str!("../../shaders/primal.wgsl");
+const PRIMAL_MATERIAL: &str = include_str!("../../shaders/primal_material.wgsl");
 const FRICTION: &str = include_str!("../../shaders/friction.wgsl");
 const RESIDUAL: &str = include_str!("../../shaders/residual.wgsl");
 const GUARD: &str = include_str!("../../shaders/guard.wgsl");
@@ -48,7 +49,9 @@ pub enum ShaderFile {
     /// The XPBD step: `step.wgsl` (bindings, call blocks, the schedule
     /// runners) composed with the kernels' own files — `integrate.wgsl`
     /// (predict, velocity, damping), `project.wgsl` (every constraint kind),
-    /// `primal.wgsl` (the update that carries the primal residual),
+    /// `primal.wgsl` and `primal_material.wgsl` (the update that carries
+    /// the primal residual, with `symmetric_eigen.wgsl` and
+    /// `material_hessian.wgsl`),
     /// `friction.wgsl` (dynamic Coulomb friction), `residual.wgsl`
     /// (constraint violation and its reduction), `guard.wgsl` (the
     /// read-only guards) — after `ln_f32.wgsl` / `ln_f64.wgsl`,
@@ -198,7 +201,18 @@ impl ShaderFile {
     fn body(self) -> &'static [&'static str] {
         match self {
             ShaderFile::Step => &[
-                PRELUDE, MEASURE, MATERIAL, STEP, INTEGRATE, PROJECT, PRIMAL, FRICTION, RESIDUAL,
+                PRELUDE,
+                MEASURE,
+                MATERIAL,
+                SYMMETRIC_EIGEN,
+                MATERIAL_HESSIAN,
+                STEP,
+                INTEGRATE,
+                PROJECT,
+                PRIMAL,
+                PRIMAL_MATERIAL,
+                FRICTION,
+                RESIDUAL,
                 GUARD,
             ],
             ShaderFile::Scan => &[PRELUDE, CONTACT, SCAN],
@@ -247,9 +261,11 @@ pub(crate) fn compose_with(
          const MAT: u32 = {mat}u;\n\
          const MINOR: u32 = {minor}u;\n\
          const REAL_MAX: real = {real_max};\n\
+         const REAL_EPSILON: real = {real_epsilon:e};\n\
          const WORKGROUP: u32 = {workgroup}u;\n\
          const VEC: u32 = {vec}u;\n\n{codes}\n",
         file = file.file_name(),
+        real_epsilon = precision.epsilon(),
         points = (dim + 1) * dim,
         mat = dim * dim,
         minor = (dim.saturating_sub(1) * dim.saturating_sub(1)).max(1),

@@ -4,7 +4,7 @@
 //!
 //! ```text
 //! Call   op count first family elem_base slot_base arity call      (u32)
-//!        flags kind slot_map chunk io carried pad pad              (u32)
+//!        flags kind slot_map chunk io carried factors pad          (u32)
 //!        alpha_tilde h friction factor                             (real)
 //!        normal[4·VEC] gravity[4·VEC]     (real; lanes ≥ DIM zero)
 //! ```
@@ -24,10 +24,11 @@ pub(crate) const SEGMENT: usize = 8;
 
 pub(crate) use crate::codes::{
     FLAG_FIRST, FLAG_FORCE, FLAG_GRAVITY, FLAG_MATERIAL, FLAG_NEO_HOOKEAN, FLAG_ORIENTATION,
-    FLAG_PRIMAL, FLAG_RATIO, FLAG_TETHER, FLAG_UNIT_SCALE, FLAG_UNREAD, IO_LOAD_P, IO_LOAD_V, IO_LOAD_X,
-    IO_STORE_P, IO_STORE_V, IO_STORE_X, OP_DAMPING, OP_FRICTION, OP_GUARD_MEASURE, OP_GUARD_SPEED,
-    OP_HOST, OP_NONE, OP_PREDICT, OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE, OP_PROJECT_EXPRESSION,
-    OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX, OP_RESIDUAL, OP_VELOCITY,
+    FLAG_PRIMAL, FLAG_RATIO, FLAG_TETHER, FLAG_UNIT_SCALE, FLAG_UNREAD, IO_LOAD_P, IO_LOAD_V,
+    IO_LOAD_X, IO_STORE_P, IO_STORE_V, IO_STORE_X, OP_DAMPING, OP_FRICTION, OP_GUARD_MEASURE,
+    OP_GUARD_SPEED, OP_HOST, OP_NONE, OP_PREDICT, OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE,
+    OP_PROJECT_EXPRESSION, OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX,
+    OP_RESIDUAL, OP_VELOCITY,
 };
 
 /// One kernel call, before encoding.
@@ -49,6 +50,9 @@ pub(crate) struct Call {
     /// Primal-residual projection: offset of the family's element
     /// displacements in `carried` (primal.wgsl).
     pub carried: u32,
+    /// Primal-residual material projection: offset of the family's
+    /// Newton factors in `carried` (primal_material.wgsl).
+    pub factors: u32,
     pub alpha_tilde: f64,
     pub h: f64,
     pub friction: f64,
@@ -87,6 +91,7 @@ impl Call {
                 c.slot_map,
                 c.chunk,
                 c.carried,
+                c.factors,
             ]
         };
         words(self) == words(other)
@@ -117,7 +122,7 @@ impl Call {
                 self.chunk,
                 records_io(std::slice::from_ref(self)),
                 self.carried,
-                0,
+                self.factors,
                 0,
             ])
             .reals(&[self.alpha_tilde, self.h, self.friction, self.factor])

@@ -62,8 +62,11 @@ pub(crate) struct Families {
     /// with the primal residual, the warm start's rows (at `warm_start`).
     pub slot_maps: Vec<u32>,
     /// Primal residual: offset of each family's displacements in
-    /// `carried` (arity · DIM reals per slot), and their total.
+    /// `carried` (arity · DIM reals per slot), of each material family's
+    /// Newton factors after them ((arity · DIM)² reals per slot; 0 for the
+    /// others), and the total.
     pub carried_base: Vec<u32>,
+    pub factor_base: Vec<u32>,
     pub carried_len: usize,
     /// Primal residual: offset in `slot_maps` of the warm start's rows:
     /// n + 1 row starts (absolute indices into `slot_maps`), then per
@@ -86,6 +89,7 @@ impl Families {
             slots: 0,
             material_base: Vec::new(),
             carried_base: Vec::new(),
+            factor_base: Vec::new(),
             carried_len: 0,
             warm_start: 0,
         };
@@ -155,6 +159,12 @@ impl Families {
                 }
             }
             self.carried_len += f.elements.len() * dim;
+        }
+        for f in &plan.families {
+            self.factor_base.push(self.carried_len as u32);
+            if matches!(f.kind, FamilyKind::Material { .. }) {
+                self.carried_len += f.len() * (f.arity * dim).pow(2);
+            }
         }
         self.warm_start = self.slot_maps.len() as u32;
         let mut at = self.warm_start + n as u32 + 1;

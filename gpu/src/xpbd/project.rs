@@ -17,8 +17,9 @@ use hyperpbd_core::{FamilyKind, Kernel, Plan};
 
 use super::Families;
 use super::call::{
-    Call, FLAG_FIRST, FLAG_PRIMAL, FLAG_TETHER, FLAG_UNREAD, OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE,
-    OP_PROJECT_EXPRESSION, OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX,
+    Call, FLAG_FIRST, FLAG_PRIMAL, FLAG_TETHER, FLAG_UNREAD, OP_PROJECT_CONTACT,
+    OP_PROJECT_DISTANCE, OP_PROJECT_EXPRESSION, OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED,
+    OP_PROJECT_SIMPLEX,
 };
 
 /// Projection of colour `color` of family `family`.
@@ -67,9 +68,13 @@ pub(crate) fn project(
     }
     if plan.primal_residual {
         // The update of primal.wgsl: λ is a result (always stored), d_e
-        // at the family's offset in `carried`.
-        c.flags = (c.flags & !(FLAG_FIRST | FLAG_UNREAD)) | FLAG_PRIMAL;
+        // at the family's offset in `carried`; a material element makes
+        // its Newton factor at its first update of the substep (FLAG_FIRST).
+        let material = matches!(f.kind, FamilyKind::Material { .. });
+        let first_flag = if material { 0 } else { FLAG_FIRST };
+        c.flags = (c.flags & !(first_flag | FLAG_UNREAD)) | FLAG_PRIMAL;
         c.carried = families.carried_base[family];
+        c.factors = families.factor_base[family];
     }
     c
 }

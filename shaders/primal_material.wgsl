@@ -1,0 +1,215 @@
+// XPBD with the primal residual, material elements (FLAG_PRIMAL; the
+// golden path is `material` in cpu/src/consistent.rs, the same arithmetic
+// in the same order): one Newton step from y0 = x on the element's
+// backward-Euler problem ½|y − a|²_M + W(y)/α~, a = x − d_e:
+//
+//   (M + K/α~) Δ = −(M (y0 − a) + ∇W(y0)/α~),  y = y0 + Δ,  d_e = y − a
+//   λ = −√(2 max(W, 0)) / α~
+//
+// over the element's dynamic coordinates (M = 1/w on the diagonal). K is
+// the vertex block of the law's frame Hessian H_F (material_hessian.wgsl),
+// built column by column as core's material_hessian_block does; where
+// M + K/α~ has no Cholesky factor, H_F is projected onto the PSD cone
+// (symmetric_eigen.wgsl) and the block built again. The factor is made at
+// the element's first update of the substep (FLAG_FIRST) and kept in
+// `carried` at call.factors + e · (arity · DIM)² (q × q of it, row-major),
+// and the later sweeps reuse it (a chord step: the same fixed point).
+
+const SYS: u32 = POINTS * POINTS;
+
+// Column `c` of element e's vertex block: core's apply_material_curvature
+// of the frame Hessian `h` with p = e_c.
+fn primal_block_column(e: u32, h: ptr<function, array<real, HESS>>, c: u32,
+                       out: ptr<function, array<real, POINTS>>) {
+    let k = call.arity - 1u;
+    let size = DIM * k;
+    let base = call.slot_map + e * (k * k + 1u);
+    let v0 = rest_at(base + k * k);
+    var p: array<real, POINTS>;
+    p[c] = 1.0;
+    var df: array<real, MAT>;
+    for (var a = 0u; a < DIM; a++) {
+        for (var j = 0u; j < k; j++) {
+            var v: real = 0.0;
+            for (var i = 0u; i <= j; i++) {
+                v += (p[(i + 1u) * DIM + a] - p[a]) * rest_at(base + i * k + j);
+            }
+            df[a * k + j] = v;
+        }
+    }
+    var yf: array<real, MAT>;
+    for (var row = 0u; row < size; row++) {
+        var v: real = 0.0;
+        for (var q = 0u; q < size; q++) {
+            v += (*h)[row * size + q] * df[q];
+        }
+        yf[row] = v;
+    }
+    for (var a = 0u; a < DIM; a++) {
+        var first: real = 0.0;
+        for (var i = 0u; i < k; i++) {
+            var v: real = 0.0;
+            for (var j = i; j < k; j++) {
+                v += yf[a * k + j] * rest_at(base + i * k + j);
+            }
+            let y = v0 * v;
+            (*out)[(i + 1u) * DIM + a] = y;
+            first -= y;
+        }
+        (*out)[a] = first;
+    }
+}
+
+// Cholesky factor of the symmetric n × n `a` into `l` (core::material::
+// cholesky); false when a pivot is not > 0 (or NaN).
+fn primal_cholesky(a: ptr<function, array<real, SYS>>, n: u32, l: ptr<function, array<real, SYS>>) -> bool {
+    for (var j = 0u; j < n; j++) {
+        var d = (*a)[j * n + j];
+        for (var m = 0u; m < j; m++) {
+            d -= (*l)[j * n + m] * (*l)[j * n + m];
+        }
+        if (!(d > 0.0)) {
+            return false;
+        }
+        let ljj = sqrt(d);
+        (*l)[j * n + j] = ljj;
+        for (var c = j + 1u; c < n; c++) {
+            (*l)[j * n + c] = 0.0;
+        }
+        for (var i = j + 1u; i < n; i++) {
+            var s = (*a)[i * n + j];
+            for (var m = 0u; m < j; m++) {
+                s -= (*l)[i * n + m] * (*l)[j * n + m];
+            }
+            (*l)[i * n + j] = s / ljj;
+        }
+    }
+    return true;
+}
+
+// Element e's factor (q × q) into `carried` at `at`; false: refused.
+fn primal_material_factor(e: u32, pts: ptr<function, array<real, POINTS>>,
+                          dynamic: ptr<function, array<u32, POINTS>>, q: u32,
+                          w: ptr<function, array<real, POINTS>>, at: u32) -> bool {
+    // (`w`: the inverse mass of each coordinate.)
+    var h: array<real, HESS>;
+    if (!material_frame_hessian(e, pts, &h)) {
+        return false;
+    }
+    var system: array<real, SYS>;
+    var factor: array<real, SYS>;
+    var column: array<real, POINTS>;
+    for (var attempt = 0u; attempt < 2u; attempt++) {
+        for (var c = 0u; c < q; c++) {
+            primal_block_column(e, &h, (*dynamic)[c], &column);
+            for (var r = 0u; r < q; r++) {
+                system[r * q + c] = column[(*dynamic)[r]] / call.alpha_tilde;
+            }
+        }
+        for (var r = 0u; r < q; r++) {
+            system[r * q + r] += 1.0 / (*w)[(*dynamic)[r]];
+        }
+        if (primal_cholesky(&system, q, &factor)) {
+            for (var t = 0u; t < q * q; t++) {
+                carried[at + t] = factor[t];
+            }
+            return true;
+        }
+        if (attempt == 1u || !project_psd(&h, DIM * (call.arity - 1u))) {
+            return false;
+        }
+    }
+    return false;
+}
+
+fn primal_material_element(t: u32) {
+    let e = call.first + t;
+    let s = call.slot_base + e;
+    let arity = call.arity;
+    let count = arity * DIM;
+    let base = call.carried + e * count;
+    let at = call.factors + e * count * count;
+    var pts: array<real, POINTS>;
+    gather(e, &pts);
+    var anchor: array<real, POINTS>;
+    var w: array<real, POINTS>;
+    for (var j = 0u; j < arity; j++) {
+        var r = load_x(elements[call.elem_base + e * arity + j]);
+        w[j] = inverse_mass_of(&r);
+        for (var a = 0u; a < DIM; a++) {
+            anchor[j * DIM + a] = pts[j * DIM + a] - carried[base + j * DIM + a];
+        }
+    }
+    var grad: array<real, POINTS>;
+    var refused = false;
+    let energy = material_energy(e, &pts, &grad, &refused);
+    if (refused) {
+        fail(e);
+        return;
+    }
+    // The dynamic coordinates, in order; w per coordinate from here on.
+    var dynamic: array<u32, POINTS>;
+    var wc: array<real, POINTS>;
+    var q = 0u;
+    for (var c = 0u; c < count; c++) {
+        wc[c] = w[c / DIM];
+        if (wc[c] != 0.0) {
+            dynamic[q] = c;
+            q++;
+        }
+    }
+    if ((call.flags & FLAG_FIRST) != 0u && !primal_material_factor(e, &pts, &dynamic, q, &wc, at)) {
+        fail(e);
+        return;
+    }
+    var rhs: array<real, POINTS>;
+    for (var r = 0u; r < q; r++) {
+        let cr = dynamic[r];
+        rhs[r] = -((pts[cr] - anchor[cr]) / wc[cr] + grad[cr] / call.alpha_tilde);
+    }
+    for (var i = 0u; i < q; i++) {
+        var v = rhs[i];
+        for (var m = 0u; m < i; m++) {
+            v -= carried[at + i * q + m] * rhs[m];
+        }
+        rhs[i] = v / carried[at + i * q + i];
+    }
+    for (var step = 0u; step < q; step++) {
+        let i = q - 1u - step;
+        var v = rhs[i];
+        for (var m = i + 1u; m < q; m++) {
+            v -= carried[at + m * q + i] * rhs[m];
+        }
+        rhs[i] = v / carried[at + i * q + i];
+    }
+    var d: array<real, POINTS>;
+    for (var r = 0u; r < q; r++) {
+        let cr = dynamic[r];
+        d[cr] = pts[cr] + rhs[r] - anchor[cr];
+    }
+    // (W may round to a hair below 0 at rest.)
+    let l = -sqrt(2.0 * select(0.0, energy, energy > 0.0)) / call.alpha_tilde;
+    var ok = finite(l);
+    for (var c = 0u; c < count; c++) {
+        ok = ok && finite(d[c]);
+    }
+    if (!ok) {
+        fail(e);
+        return;
+    }
+    for (var c = 0u; c < count; c++) {
+        carried[base + c] = d[c];
+    }
+    store_lambda(s, l);
+    for (var j = 0u; j < arity; j++) {
+        if (w[j] == 0.0) {
+            continue;
+        }
+        let i = elements[call.elem_base + e * arity + j];
+        var r = load_x(i);
+        for (var a = 0u; a < DIM; a++) {
+            set_lane(&r, a, anchor[j * DIM + a] + d[j * DIM + a]);
+        }
+        store_x(i, r);
+    }
+}
