@@ -9,14 +9,14 @@
 
 mod common;
 
-use common::exact::{assert_identical_if_claimed, bits};
+use common::exact::{assert_f32_reference_step, assert_identical_if_claimed, bits};
 use common::expressions::as_expressions;
 use common::gpu::adapter_or_skip;
 use hyperpbd::builders::{Patch, PatchSpec};
 use hyperpbd::kinds::Relation;
 use hyperpbd::{
-    Backend, BackendError, ConstraintFamily, ConstraintKind, CpuBackend, Plan, Scene, Solver,
-    State, XpbdSettings, scenes,
+    Backend, BackendError, ConstraintFamily, ConstraintKind, CpuBackend, F32Reference, Plan, Scene,
+    Solver, State, XpbdSettings, scenes,
 };
 use hyperpbd_gpu::{GpuBackend, Precision, StepMode};
 
@@ -189,6 +189,38 @@ fn gpu_f64_is_the_golden_primal_update_bit_for_bit() {
     println!("gpu_primal f64: {frames_checked} frames bit-identical");
 }
 
+/// gpu-f32 is the f32 reference (`cpu/src/f32_reference/primal.rs`) bit
+/// for bit: states, residuals and active contacts every frame.
+#[test]
+fn gpu_f32_is_the_f32_reference_primal_update_bit_for_bit() {
+    let Some((adapter, summary)) = adapter_or_skip("gpu_primal f32", Precision::F32) else {
+        return;
+    };
+    if !common::exact::f32_identical(&summary) {
+        eprintln!("gpu_primal f32: not an exact adapter ({summary}); nothing to assert");
+        return;
+    }
+    let mut frames_checked = 0;
+    for (name, scene, frames) in cases() {
+        let plan = Plan::compile(&scene).expect("compiles");
+        let state = State::from_scene(&scene);
+        let gpu = GpuBackend::with_adapter(&adapter, plan.clone(), &state, Precision::F32);
+        let mut gpu = gpu.unwrap_or_else(|e| panic!("{name}: {e}"));
+        let origin = gpu.origin().as_slice().to_vec();
+        let mut reference = F32Reference::new(plan, &state, &origin).expect("reference");
+        for frame in 0..frames as u64 {
+            let report = gpu
+                .step()
+                .unwrap_or_else(|e| panic!("{name} gpu {frame}: {e}"));
+            let s = gpu.read_state().expect("gpu");
+            assert_f32_reference_step(name, frame, &mut reference, &report, &s);
+            frames_checked += 1;
+        }
+    }
+    assert!(frames_checked >= 150, "{frames_checked}");
+    println!("gpu_primal f32: {frames_checked} frames bit-identical");
+}
+
 /// Material elements: the Newton step with the law's Hessian, its factor
 /// kept over the substep's sweeps — the stressed patches of
 /// docs/equilibria.md (both laws, 2D and 3D) and the 4D jelly dropped on a
@@ -283,11 +315,16 @@ fn what_the_gpu_does_not_run_yet_is_refused_by_name() {
             Err(e) => e.to_string(),
         }
     };
-    let f32 = load(&chain, Precision::F32);
+    let jelly = primal(scenes::jelly4d());
+    let f32 = load(&jelly, Precision::F32);
     assert!(
-        f32.contains("primal_residual") && f32.contains("f32"),
+        f32.contains("primal_residual") && f32.contains("material family"),
         "{f32}"
     );
+    let plan = Plan::compile(&jelly).expect("compiles");
+    let origin = vec![0.0; 4];
+    let reference = F32Reference::new(plan, &State::from_scene(&jelly), &origin);
+    assert!(reference.is_err_and(|e| e.to_string().contains("material family")));
     let mut adaptive = chain.clone();
     adaptive.adaptive = Some(hyperpbd::Adaptive {
         max_subdivisions: 2,

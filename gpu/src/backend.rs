@@ -16,7 +16,8 @@
 //! per particle and per colour.
 
 use hyperpbd_core::{
-    BackendError, GpuError, Kernel, Plan, StageName, State, StepError, check_kernel, check_state,
+    BackendError, FamilyKind, GpuError, Kernel, Plan, StageName, State, StepError, check_kernel,
+    check_state,
 };
 
 use crate::Precision;
@@ -566,8 +567,9 @@ resident_backend! {
     }
 }
 
-/// What the GPU runs of XPBD with the primal residual so far: f64, no
-/// adaptive step, one world (the rest is refused by
+/// What the GPU runs of XPBD with the primal residual so far: no
+/// adaptive step, no material family in f32 (its f32 reference is still
+/// to be written), one world (the rest is refused by
 /// name; the CPU runs every case).
 fn primal_supported(plan: &Plan, precision: Precision) -> Result<(), GpuError> {
     let refused = |what: &str| {
@@ -577,8 +579,14 @@ fn primal_supported(plan: &Plan, precision: Precision) -> Result<(), GpuError> {
             ),
         })
     };
-    if precision == Precision::F32 {
-        return refused("in f32 (gpu-f64 runs it)");
+    if precision == Precision::F32
+        && let Some(f) =
+            (plan.families.iter()).find(|f| matches!(f.kind, FamilyKind::Material { .. }))
+    {
+        return refused(&format!(
+            "in f32 with a material family ({}; gpu-f64 runs it)",
+            f.label
+        ));
     }
     if plan.adaptive.is_some() {
         return refused("with adaptive steps");

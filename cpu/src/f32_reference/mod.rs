@@ -55,6 +55,7 @@ mod integrate;
 pub mod ln;
 mod material;
 mod measure;
+mod primal;
 mod project;
 mod residual;
 
@@ -86,6 +87,9 @@ struct Stored {
     normal: Vec<f32>,
     mu: f32,
     material: Option<material::Law>,
+    /// XPBD with the primal residual: d_e of every slot (arity · N each;
+    /// empty otherwise).
+    carried: Vec<f32>,
 }
 
 /// The law of a material family as the GPU uploads it
@@ -176,10 +180,14 @@ impl F32Reference {
                 return Err(ReferenceError::Unsupported(format!("{k:?}")));
             }
         }
-        if plan.primal_residual {
-            return Err(ReferenceError::Unsupported(
-                "XPBD with \"primal_residual\": true (CPU f64 only so far)".into(),
-            ));
+        if plan.primal_residual
+            && let Some(f) = (plan.families.iter()).find(|f| material_law(&f.kind).is_some())
+        {
+            return Err(ReferenceError::Unsupported(format!(
+                "{} (a material family) with \"primal_residual\": true (gpu-f64 and the CPU \
+                 run it)",
+                f.label
+            )));
         }
         let shifted = origin.iter().any(|&o| o != 0.0);
         if shifted && let Some(f) = plan.families.iter().find(|f| f.kind.is_expression()) {
@@ -219,6 +227,10 @@ impl F32Reference {
                     normal: round(normal),
                     mu: mu as f32,
                     material: material_law(&f.kind),
+                    carried: match plan.primal_residual {
+                        true => vec![0.0; f.elements.len() * plan.dim],
+                        false => Vec::new(),
+                    },
                 }
             })
             .collect();
@@ -291,6 +303,13 @@ impl F32Reference {
             local.collect()
         };
         self.particles.v = round(&state.velocities);
+        if self.plan.primal_residual {
+            // A written state starts the carried forces over (as the GPU).
+            for f in &mut self.families {
+                f.lambda.fill(0.0);
+                f.carried.fill(0.0);
+            }
+        }
         Ok(())
     }
 
@@ -362,12 +381,23 @@ impl F32Reference {
     /// state is restored and the first failing kernel named.
     pub fn step(&mut self) -> Result<(), ReferenceError> {
         let (x, v) = (self.particles.x.clone(), self.particles.v.clone());
+        // The primal residual's multipliers and displacements carry over
+        // between steps: they roll back with the state.
+        let carried: Vec<(Vec<f32>, Vec<f32>)> = match self.plan.primal_residual {
+            true => (self.families.iter())
+                .map(|f| (f.lambda.clone(), f.carried.clone()))
+                .collect(),
+            false => Vec::new(),
+        };
         for substep in 0..self.plan.substeps {
             for k in 0..self.plan.substep_kernels.len() {
                 let kernel = self.plan.substep_kernels[k];
                 if let Err(index) = self.kernel(kernel) {
                     self.particles.x = x;
                     self.particles.v = v;
+                    for (f, (lambda, d)) in self.families.iter_mut().zip(carried) {
+                        (f.lambda, f.carried) = (lambda, d);
+                    }
                     return Err(ReferenceError::NonFinite {
                         substep,
                         kernel,
@@ -396,15 +426,56 @@ impl F32Reference {
         let s = &mut self.particles;
         match kernel {
             Kernel::Predict => {
-                for f in &mut self.families {
-                    f.lambda.fill(0.0);
+                let primal = self.plan.primal_residual;
+                if !primal {
+                    for f in &mut self.families {
+                        f.lambda.fill(0.0);
+                    }
                 }
                 let terms = integrate::Predict {
                     h: self.h,
                     gravity: self.plan.predict.gravity.then_some(&self.gravity[..]),
                     force: self.plan.predict.force,
                 };
-                integrate::predict(s, &terms)
+                let predicted = integrate::predict(s, &terms);
+                if primal {
+                    for (f, stored) in self.plan.families.iter().zip(&self.families) {
+                        primal::warm_start(s, &f.elements, &stored.carried);
+                    }
+                }
+                predicted
+            }
+            Kernel::Project { family, color } if self.plan.primal_residual => {
+                let f = &self.plan.families[family];
+                let stored = &mut self.families[family];
+                let colour = project::Colour {
+                    slots: f.color(color),
+                    arity: f.arity,
+                    elements: &f.elements,
+                    rest: &stored.rest,
+                    alpha_tilde: stored.alpha_tilde,
+                };
+                let (lambda, d) = (&mut stored.lambda, &mut stored.carried);
+                match &f.kind {
+                    FamilyKind::Distance => primal::distance(s, &colour, lambda, d, false),
+                    FamilyKind::Tether => primal::distance(s, &colour, lambda, d, true),
+                    FamilyKind::SimplexMeasure { k } => {
+                        primal::measure(s, &colour, lambda, d, Some(*k))
+                    }
+                    FamilyKind::OrientedMeasure => primal::measure(s, &colour, lambda, d, None),
+                    FamilyKind::HyperplaneContact { .. } => {
+                        let plane = project::Plane {
+                            normal: &stored.normal,
+                            mu: stored.mu,
+                        };
+                        primal::contact(s, &colour, &plane, lambda, d)
+                    }
+                    FamilyKind::Expression(kind) => {
+                        primal::expression(s, &colour, kind, (lambda, d), &mut self.columns)
+                    }
+                    // Refused in `new`.
+                    FamilyKind::Material { .. } => Err(colour.slots.start),
+                }
             }
             Kernel::Project { family, color } => {
                 let f = &self.plan.families[family];

@@ -1,0 +1,307 @@
+//! XPBD with the primal residual in f32, as `shaders/primal.wgsl` computes
+//! it (the golden path: `cpu/src/consistent.rs`).
+//!
+//! ```text
+//! a = x − d_e (x without element e's force), per kind:
+//! distance, tether  λ = (rest − |a₁ − a₀|) / (w₀ + w₁ + α~)   (tether: λ ≤ 0)
+//!                   d₀ = −w₀ u λ, d₁ = w₁ u λ, u = (a₁ − a₀) / |a₁ − a₀|
+//! hyperplane        λ = max(−(n·a − rest) / (w + α~), 0), d = w n λ;
+//!                   then static friction
+//! measures,         one Gauss–Newton step from x:
+//! expressions       λ = −(C + ∇C·(a − x)) / (Σ w |∇C|² + α~),  d = w ∇C λ
+//! then              x = a + d (dynamic particles), λ stored
+//! warm start        x += Σ_e d_e after the prediction, in family, slot order
+//! ```
+//! A clamp is a comparison (−0 and NaN go to +0, as the WGSL's select).
+//! A failing element writes nothing; the first one is returned.
+
+// Coordinate loops index several arrays at once, as a kernel does.
+#![allow(clippy::needless_range_loop)]
+
+use hyperpbd_core::expr::Columns;
+use hyperpbd_core::kinds::{ExpressionKind, Relation};
+
+use super::Particles;
+use super::measure::{oriented_measure, simplex_squared_measure};
+use super::project::{Colour, Plane};
+
+/// x += d over `elements` (one family's, `dim` reals of `d` per entry),
+/// dynamic particles only.
+pub fn warm_start(s: &mut Particles, elements: &[u32], d: &[f32]) {
+    let n = s.dim;
+    for (k, &i) in elements.iter().enumerate() {
+        let i = i as usize;
+        if s.w[i] == 0.0 {
+            continue;
+        }
+        for a in 0..n {
+            s.x[i * n + a] += d[k * n + a];
+        }
+    }
+}
+
+fn clamp(relation: Relation, l: f32) -> f32 {
+    match relation {
+        Relation::Equal => l,
+        Relation::AtLeast => {
+            if l > 0.0 {
+                l
+            } else {
+                0.0
+            }
+        }
+        Relation::AtMost => {
+            if l < 0.0 {
+                l
+            } else {
+                0.0
+            }
+        }
+    }
+}
+
+pub fn distance(
+    s: &mut Particles,
+    c: &Colour,
+    lambda: &mut [f32],
+    d: &mut [f32],
+    tether: bool,
+) -> Result<(), usize> {
+    let n = s.dim;
+    let mut failed = None;
+    let (mut ai, mut aj) = (vec![0.0f32; n], vec![0.0f32; n]);
+    let (mut di, mut dj) = (vec![0.0f32; n], vec![0.0f32; n]);
+    let relation = if tether {
+        Relation::AtMost
+    } else {
+        Relation::Equal
+    };
+    for e in c.slots.clone() {
+        let (i, j) = (c.elements[2 * e] as usize, c.elements[2 * e + 1] as usize);
+        let (wi, wj) = (s.w[i], s.w[j]);
+        let base = 2 * n * e;
+        let mut len2 = 0.0f32;
+        for a in 0..n {
+            ai[a] = s.x[i * n + a] - d[base + a];
+            aj[a] = s.x[j * n + a] - d[base + n + a];
+            let dk = aj[a] - ai[a];
+            len2 += dk * dk;
+        }
+        let len = len2.sqrt();
+        let wsum = wi + wj;
+        di.fill(0.0);
+        dj.fill(0.0);
+        let mut l = 0.0f32;
+        if len.is_nan() || len <= 0.0 || wsum == 0.0 {
+            if !len.is_finite() {
+                failed = failed.or(Some(e));
+                continue;
+            }
+        } else {
+            l = clamp(relation, (c.rest[e] - len) / (wsum + c.alpha_tilde));
+            if !l.is_finite() {
+                failed = failed.or(Some(e));
+                continue;
+            }
+            for a in 0..n {
+                let u = (aj[a] - ai[a]) / len;
+                di[a] = -wi * u * l;
+                dj[a] = wj * u * l;
+            }
+        }
+        d[base..base + n].copy_from_slice(&di);
+        d[base + n..base + 2 * n].copy_from_slice(&dj);
+        lambda[e] = l;
+        if wi != 0.0 {
+            for a in 0..n {
+                s.x[i * n + a] = ai[a] + di[a];
+            }
+        }
+        if wj != 0.0 {
+            for a in 0..n {
+                s.x[j * n + a] = aj[a] + dj[a];
+            }
+        }
+    }
+    failed.map_or(Ok(()), Err)
+}
+
+/// The Gauss–Newton step of element `e` (particles `element`, points
+/// `pts` = x, C = `value`, ∇C in `grad`); false: it failed.
+#[allow(clippy::too_many_arguments)]
+fn gauss_newton(
+    s: &mut Particles,
+    c: &Colour,
+    e: usize,
+    (value, pts, grad): (f32, &[f32], &[f32]),
+    relation: Relation,
+    lambda: &mut [f32],
+    d: &mut [f32],
+) -> bool {
+    let n = s.dim;
+    let count = c.arity * n;
+    let element = &c.elements[e * c.arity..(e + 1) * c.arity];
+    let base = e * count;
+    let anchor: Vec<f32> = (0..count).map(|k| pts[k] - d[base + k]).collect();
+    if !value.is_finite() {
+        return false;
+    }
+    let (mut wsum, mut lin) = (0.0f32, value - c.rest[e]);
+    for (j, &i) in element.iter().enumerate() {
+        let w = s.w[i as usize];
+        if w == 0.0 {
+            continue;
+        }
+        for k in j * n..(j + 1) * n {
+            wsum += w * grad[k] * grad[k];
+            lin += grad[k] * (anchor[k] - pts[k]);
+        }
+    }
+    let mut l = 0.0f32;
+    let mut out = vec![0.0f32; count];
+    if wsum != 0.0 {
+        l = clamp(relation, -lin / (wsum + c.alpha_tilde));
+        for k in 0..count {
+            out[k] = s.w[element[k / n] as usize] * grad[k] * l;
+        }
+    }
+    if !l.is_finite() || out.iter().any(|v| !v.is_finite()) {
+        return false;
+    }
+    d[base..base + count].copy_from_slice(&out);
+    lambda[e] = l;
+    for (j, &i) in element.iter().enumerate() {
+        let i = i as usize;
+        if s.w[i] == 0.0 {
+            continue;
+        }
+        for a in 0..n {
+            s.x[i * n + a] = anchor[j * n + a] + out[j * n + a];
+        }
+    }
+    true
+}
+
+/// Simplex (`Some(k)`) or oriented (`None`) measures.
+pub fn measure(
+    s: &mut Particles,
+    c: &Colour,
+    lambda: &mut [f32],
+    d: &mut [f32],
+    simplex: Option<usize>,
+) -> Result<(), usize> {
+    let n = s.dim;
+    let mut failed = None;
+    let mut pts = vec![0.0f32; c.arity * n];
+    let mut grad = vec![0.0f32; c.arity * n];
+    for e in c.slots.clone() {
+        for (j, &i) in c.elements[e * c.arity..(e + 1) * c.arity]
+            .iter()
+            .enumerate()
+        {
+            let i = i as usize;
+            pts[j * n..(j + 1) * n].copy_from_slice(&s.x[i * n..(i + 1) * n]);
+        }
+        let value = match simplex {
+            Some(k) => simplex_squared_measure(&pts, n, k, &mut grad),
+            None => oriented_measure(&pts, n, &mut grad),
+        };
+        let point = (value, &pts[..], &grad[..]);
+        if !gauss_newton(s, c, e, point, Relation::Equal, lambda, d) {
+            failed = failed.or(Some(e));
+        }
+    }
+    failed.map_or(Ok(()), Err)
+}
+
+/// An expression family's colour (its tape evaluated in f32 at x).
+pub fn expression(
+    s: &mut Particles,
+    c: &Colour,
+    kind: &ExpressionKind,
+    (lambda, d): (&mut [f32], &mut [f32]),
+    columns: &mut Columns<f32>,
+) -> Result<(), usize> {
+    let (n, arity) = (s.dim, kind.arity);
+    let tape = &kind.gradient;
+    let first = c.slots.start;
+    let x = &s.x;
+    tape.eval(
+        c.slots.len(),
+        |j, lane| x[c.elements[(first + lane) * arity + j / n] as usize * n + j % n],
+        columns,
+    );
+    let mut failed = None;
+    let mut pts = vec![0.0f32; arity * n];
+    let mut grad = vec![0.0f32; arity * n];
+    for (lane, e) in c.slots.clone().enumerate() {
+        for (j, &i) in c.elements[e * arity..(e + 1) * arity].iter().enumerate() {
+            let i = i as usize;
+            pts[j * n..(j + 1) * n].copy_from_slice(&s.x[i * n..(i + 1) * n]);
+        }
+        for (k, &slot) in tape.gradient.iter().enumerate() {
+            grad[k] = columns.column(slot)[lane];
+        }
+        let value = columns.column(tape.value)[lane];
+        let point = (value, &pts[..], &grad[..]);
+        if !gauss_newton(s, c, e, point, kind.relation, lambda, d) {
+            failed = failed.or(Some(e));
+        }
+    }
+    failed.map_or(Ok(()), Err)
+}
+
+pub fn contact(
+    s: &mut Particles,
+    c: &Colour,
+    plane: &Plane,
+    lambda: &mut [f32],
+    d: &mut [f32],
+) -> Result<(), usize> {
+    let n = s.dim;
+    let normal = plane.normal;
+    let mut failed = None;
+    let mut anchor = vec![0.0f32; n];
+    for e in c.slots.clone() {
+        let i = c.elements[e] as usize;
+        let w = s.w[i];
+        let (x, p) = (&mut s.x[i * n..(i + 1) * n], &s.p[i * n..(i + 1) * n]);
+        let de = &mut d[e * n..(e + 1) * n];
+        let mut cval = -c.rest[e];
+        for a in 0..n {
+            anchor[a] = x[a] - de[a];
+            cval += normal[a] * anchor[a];
+        }
+        let l = clamp(Relation::AtLeast, -cval / (w + c.alpha_tilde));
+        for a in 0..n {
+            de[a] = w * normal[a] * l;
+        }
+        if !l.is_finite() || de.iter().any(|v| !v.is_finite()) {
+            failed = failed.or(Some(e));
+            continue;
+        }
+        lambda[e] = l;
+        for a in 0..n {
+            x[a] = anchor[a] + de[a];
+        }
+        if plane.mu > 0.0 && l > 0.0 {
+            let bound = plane.mu * w * l;
+            let mut dn = 0.0f32;
+            for a in 0..n {
+                dn += (x[a] - p[a]) * normal[a];
+            }
+            let mut t2 = 0.0f32;
+            for a in 0..n {
+                let tan = (x[a] - p[a]) - dn * normal[a];
+                t2 += tan * tan;
+            }
+            if t2.sqrt() <= bound {
+                for a in 0..n {
+                    let tan = (x[a] - p[a]) - dn * normal[a];
+                    x[a] -= tan;
+                }
+            }
+        }
+    }
+    failed.map_or(Ok(()), Err)
+}
