@@ -179,15 +179,20 @@ fn what_it_does_not_run_is_refused_by_name() {
         "{:?}",
         refused.err()
     );
-    // XPBD with the primal residual (CPU f64 only so far).
+    // XPBD with the primal residual: run, but not with material families.
     let mut carried = chain(0.0);
     carried.solver = Solver::Xpbd(hyperpbd::XpbdSettings {
         primal_residual: true,
     });
     let plan = Plan::compile(&carried).expect("valid");
-    let refused = F32Reference::new(plan, &State::from_scene(&carried), &[0.0, 0.0]);
+    assert!(F32Reference::new(plan, &State::from_scene(&carried), &[0.0, 0.0]).is_ok());
+    let mut jelly = hyperpbd::scenes::jelly4d();
+    jelly.solver = carried.solver.clone();
+    let plan = Plan::compile(&jelly).expect("valid");
+    let refused = F32Reference::new(plan, &State::from_scene(&jelly), &[0.0; 4]);
     assert!(
-        matches!(&refused, Err(ReferenceError::Unsupported(what)) if what.contains("primal_residual")),
+        matches!(&refused, Err(ReferenceError::Unsupported(what))
+            if what.contains("primal_residual") && what.contains("material family")),
         "{:?}",
         refused.err()
     );

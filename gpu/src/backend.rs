@@ -567,29 +567,26 @@ resident_backend! {
     }
 }
 
-/// What the GPU runs of XPBD with the primal residual so far: no
-/// adaptive step, no material family in f32 (its f32 reference is still
-/// to be written), one world (the rest is refused by
-/// name; the CPU runs every case).
+/// What the GPU runs of XPBD with the primal residual so far: everything
+/// but adaptive steps, material families in f32 (their f32 reference is
+/// still to be written) and batches (batch.rs); the rest is refused by
+/// name, with the backends that run it.
 fn primal_supported(plan: &Plan, precision: Precision) -> Result<(), GpuError> {
-    let refused = |what: &str| {
+    let refused = |what: String, others: &str| {
         Err(GpuError::Unsupported {
-            what: format!(
-                "XPBD with \"primal_residual\": true {what} (the CPU runs it: --backend cpu)"
-            ),
+            what: format!("XPBD with \"primal_residual\": true {what} ({others} run it)"),
         })
     };
-    if precision == Precision::F32
-        && let Some(f) =
-            (plan.families.iter()).find(|f| matches!(f.kind, FamilyKind::Material { .. }))
-    {
-        return refused(&format!(
-            "in f32 with a material family ({}; gpu-f64 runs it)",
-            f.label
-        ));
+    let material = plan
+        .families
+        .iter()
+        .find(|f| matches!(f.kind, FamilyKind::Material { .. }));
+    if let (Precision::F32, Some(f)) = (precision, material) {
+        let what = format!("in f32 with a material family ({})", f.label);
+        return refused(what, "--backend gpu-f64 and cpu");
     }
     if plan.adaptive.is_some() {
-        return refused("with adaptive steps");
+        return refused("with adaptive steps".into(), "--backend cpu");
     }
     Ok(())
 }
