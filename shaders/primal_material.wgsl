@@ -3,7 +3,9 @@
 // in the same order): one Newton step from y0 = x on the element's
 // backward-Euler problem ½|y − a|²_M + W(y)/α~, a = x − d_e:
 //
-//   (M + K/α~) Δ = −(M (y0 − a) + ∇W(y0)/α~),  y = y0 + Δ,  d_e = y − a
+//   (M + K/α~) Δ = −(M (y0 − a) + ∇W(y0)/α~),  y = y0 + t Δ,  d_e = y − a
+//   t: the first of 1, ½, …, 2⁻⁶ at which the law accepts the element and
+//      φ(y) = ½|y − a|²_M + W(y)/α~ ≤ φ(y0); 0 when none does
 //   λ = −√(2 max(W, 0)) / α~
 //
 // over the element's dynamic coordinates (M = 1/w on the diagonal). K is
@@ -122,6 +124,48 @@ fn primal_material_factor(e: u32, pts: ptr<function, array<real, POINTS>>,
     return false;
 }
 
+// Halvings of the step before the element keeps its point.
+const PRIMAL_HALVINGS: u32 = 6u;
+
+// φ(y) = ½ Σ_dyn (y − a)²/w + W/α~ at `points` (W = `energy` there).
+fn primal_objective(points: ptr<function, array<real, POINTS>>, anchor: ptr<function, array<real, POINTS>>,
+                    dynamic: ptr<function, array<u32, POINTS>>, q: u32,
+                    w: ptr<function, array<real, POINTS>>, energy: real) -> real {
+    var m: real = 0.0;
+    for (var r = 0u; r < q; r++) {
+        let cr = (*dynamic)[r];
+        let u = (*points)[cr] - (*anchor)[cr];
+        m += u * u / (*w)[cr];
+    }
+    return 0.5 * m + energy / call.alpha_tilde;
+}
+
+// The step length t of y = y0 + t Δ (Δ in `step`): the first of 1, ½, …
+// at which the law accepts the element and φ(y) ≤ φ(y0); 0 when none does.
+fn primal_step_length(e: u32, energy: real, pts: ptr<function, array<real, POINTS>>,
+                      anchor: ptr<function, array<real, POINTS>>,
+                      dynamic: ptr<function, array<u32, POINTS>>, q: u32,
+                      w: ptr<function, array<real, POINTS>>,
+                      step: ptr<function, array<real, POINTS>>) -> real {
+    let start = primal_objective(pts, anchor, dynamic, q, w, energy);
+    var trial = *pts;
+    var grad: array<real, POINTS>;
+    var t: real = 1.0;
+    for (var halving = 0u; halving <= PRIMAL_HALVINGS; halving++) {
+        for (var r = 0u; r < q; r++) {
+            let cr = (*dynamic)[r];
+            trial[cr] = (*pts)[cr] + t * (*step)[r];
+        }
+        var refused = false;
+        let trial_energy = material_energy(e, &trial, &grad, &refused);
+        if (!refused && primal_objective(&trial, anchor, dynamic, q, w, trial_energy) <= start) {
+            return t;
+        }
+        t *= 0.5;
+    }
+    return 0.0;
+}
+
 fn primal_material_element(t: u32) {
     let e = call.first + t;
     let s = call.slot_base + e;
@@ -182,10 +226,11 @@ fn primal_material_element(t: u32) {
         }
         rhs[i] = v / carried[at + i * q + i];
     }
+    let length = primal_step_length(e, energy, &pts, &anchor, &dynamic, q, &wc, &rhs);
     var d: array<real, POINTS>;
     for (var r = 0u; r < q; r++) {
         let cr = dynamic[r];
-        d[cr] = pts[cr] + rhs[r] - anchor[cr];
+        d[cr] = pts[cr] + length * rhs[r] - anchor[cr];
     }
     // (W may round to a hair below 0 at rest.)
     let l = -sqrt(2.0 * select(0.0, energy, energy > 0.0)) / call.alpha_tilde;

@@ -107,8 +107,8 @@ fn a_gpu_kind_gets_the_backend_of_the_plans_solver() {
 }
 
 /// `"primal_residual": true` loads through the factory on every backend
-/// kind; what the GPU does not run of it yet (material families in f32)
-/// is refused by name, saying which backends run it.
+/// kind; what the GPU does not run of it yet (adaptive steps) is refused
+/// by name, saying which backend runs it.
 #[test]
 fn the_primal_residual_update_loads_everywhere_or_is_refused_by_name() {
     let primal = |mut scene: hyperpbd::Scene| {
@@ -127,13 +127,23 @@ fn the_primal_residual_update_loads_everywhere_or_is_refused_by_name() {
             Err(err) => panic!("{precision}: {err}"),
         }
     }
-    let (plan, state) = primal(scenes::jelly4d());
-    match common::gpu::load_or_skip(test, BackendKind::Gpu(Precision::F32), plan, &state) {
+    // Adaptive steps: the CPU runs them, the GPU refuses them by name.
+    let mut adaptive = scenes::chain2d();
+    adaptive.guards = Some(hyperpbd::Guards {
+        max_speed: Some(1e3),
+        ..hyperpbd::Guards::default()
+    });
+    adaptive.adaptive = Some(hyperpbd::Adaptive {
+        max_subdivisions: 2,
+    });
+    let (plan, state) = primal(adaptive);
+    assert!(hyperpbd::load(plan.clone(), &state, BackendKind::Cpu).is_ok());
+    match common::gpu::load_or_skip(test, BackendKind::Gpu(Precision::F64), plan, &state) {
         Ok(None) => {}
-        Ok(Some(_)) => panic!("f32 materials with the primal residual: loaded"),
+        Ok(Some(_)) => panic!("adaptive steps with the primal residual: loaded"),
         Err(err) => assert!(
             matches!(&err, hyperpbd::BackendError::Gpu(hyperpbd::GpuError::Unsupported { what })
-                if what.contains("primal_residual") && what.contains("--backend gpu-f64 and cpu")),
+                if what.contains("primal_residual") && what.contains("--backend cpu")),
             "{err:?}"
         ),
     }

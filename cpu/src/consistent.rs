@@ -39,12 +39,14 @@
 //! measures,          one Gauss–Newton step from y0 = x:
 //! expressions          λ = −(C(y0) + ∇C(y0)·(a − y0)) / (Σ w |∇C|² + α~)  (relation clamp)
 //!                      d = W ∇C(y0) λ
-//! materials          one Newton step from y0 = x on ½|y − a|²_M + W(y)/α~ with
-//!                    the law's Hessian K (implicit::material_term; its PSD
-//!                    projection K⁺ where M + K/α~ is not positive definite),
-//!                    factored at the element's first update of the substep
-//!                    and reused by the later sweeps ([`Factors`]):
-//!                      (M + K/α~) Δ = −(M (y0 − a) + ∇W(y0)/α~),  y = y0 + Δ
+//! materials          one Newton step from y0 = x on φ(y) = ½|y − a|²_M + W(y)/α~
+//!                    with the law's Hessian K (implicit::material_term; its
+//!                    PSD projection K⁺ where M + K/α~ is not positive
+//!                    definite), factored at the element's first update of the
+//!                    substep and reused by the later sweeps ([`Factors`]):
+//!                      (M + K/α~) Δ = −(M (y0 − a) + ∇W(y0)/α~),  y = y0 + t Δ
+//!                    t the first of 1, ½, …, 2⁻⁶ with φ(y) ≤ φ(y0) and the
+//!                    element accepted by its law, else 0
 //! ```
 //! (the nonlinear kinds' steps are exact at their fixed point: Δ = 0 there
 //! means the element's problem is solved). λ is kept per slot for the
@@ -86,6 +88,8 @@ pub struct Scratch {
     dynamic: Vec<usize>,
     system: Vec<f64>,
     rhs: Vec<f64>,
+    /// The points of a trial step.
+    trial: Vec<f64>,
     frame: Vec<f64>,
     block: Vec<f64>,
     hessian: MaterialHessianScratch,
@@ -457,14 +461,64 @@ fn material(
         sc.rhs[r] = -((ws.points[cr] - sc.anchor[cr]) / w + ws.grad[cr] / at);
     }
     solve_factored(factor, q, &mut sc.rhs);
+    let t = step_length(batch, (element, e), energy, ws, sc);
     d.fill(0.0);
     for (r, &cr) in sc.dynamic.iter().enumerate() {
-        d[cr] = ws.points[cr] + sc.rhs[r] - sc.anchor[cr];
+        d[cr] = ws.points[cr] + t * sc.rhs[r] - sc.anchor[cr];
     }
     // (W may round to a hair below 0 at rest; −0 and NaN go to +0, as
     // shaders/primal_material.wgsl's select sends them.)
     let energy = if energy > 0.0 { energy } else { 0.0 };
     Ok(-(2.0 * energy).sqrt() / at)
+}
+
+/// Halvings of the material step before the element keeps its point.
+const HALVINGS: u32 = 6;
+
+/// The element's objective φ(y) = ½ Σ_dyn (y − a)²/w + W/α~ at `points`
+/// (W = `energy` there).
+fn objective(batch: &Batch, element: &[u32], points: &[f64], energy: f64, sc: &Scratch) -> f64 {
+    let n = batch.dim;
+    let mut m = 0.0;
+    for &cr in &sc.dynamic {
+        let w = batch.inverse_mass[element[cr / n] as usize];
+        let u = points[cr] - sc.anchor[cr];
+        m += u * u / w;
+    }
+    0.5 * m + energy / batch.alpha_tilde
+}
+
+/// The step length t of y = y0 + t Δ (Δ in `sc.rhs`): the first of 1, ½,
+/// … (HALVINGS halvings) at which the law accepts the element and
+/// φ(y) ≤ φ(y0); 0 (the element keeps y0) when none does. A chord step
+/// with a factor made earlier in the substep, or a Newton step across the
+/// law's non-convex region, can overshoot: this keeps every update from
+/// raising its element's objective (docs/equilibria.md).
+fn step_length(
+    batch: &Batch,
+    (element, e): (&[u32], usize),
+    energy: f64,
+    ws: &mut Workspace,
+    sc: &mut Scratch,
+) -> f64 {
+    let (f, n) = (batch.family, batch.dim);
+    let start = objective(batch, element, &ws.points, energy, sc);
+    sc.trial.clone_from(&ws.points);
+    let mut t = 1.0;
+    for _ in 0..=HALVINGS {
+        for (r, &cr) in sc.dynamic.iter().enumerate() {
+            sc.trial[cr] = ws.points[cr] + t * sc.rhs[r];
+        }
+        let accepted = f.kind.material_element(e, &sc.trial, n).and_then(|m| {
+            let energy = element_energy(m, &mut ws.grad, &mut ws.material).ok()?;
+            Some(objective(batch, element, &sc.trial, energy, sc) <= start)
+        });
+        if accepted == Some(true) {
+            return t;
+        }
+        t *= 0.5;
+    }
+    0.0
 }
 
 /// b ← (L Lᵀ)⁻¹ b for the lower factor `l` (n × n, row-major).

@@ -16,8 +16,7 @@
 //! per particle and per colour.
 
 use hyperpbd_core::{
-    BackendError, FamilyKind, GpuError, Kernel, Plan, StageName, State, StepError, check_kernel,
-    check_state,
+    BackendError, GpuError, Kernel, Plan, StageName, State, StepError, check_kernel, check_state,
 };
 
 use crate::Precision;
@@ -163,7 +162,7 @@ impl GpuBackend {
             .into());
         }
         if plan.primal_residual {
-            primal_supported(&plan, precision)?;
+            primal_supported(&plan)?;
         }
         if plan.incremental_potential().is_some() {
             return Err(crate::incremental_potential::incremental_potential_unsupported().into());
@@ -568,25 +567,16 @@ resident_backend! {
 }
 
 /// What the GPU runs of XPBD with the primal residual so far: everything
-/// but adaptive steps, material families in f32 (their f32 reference is
-/// still to be written) and batches (batch.rs); the rest is refused by
-/// name, with the backends that run it.
-fn primal_supported(plan: &Plan, precision: Precision) -> Result<(), GpuError> {
-    let refused = |what: String, others: &str| {
-        Err(GpuError::Unsupported {
-            what: format!("XPBD with \"primal_residual\": true {what} ({others} run it)"),
-        })
-    };
-    let material = plan
-        .families
-        .iter()
-        .find(|f| matches!(f.kind, FamilyKind::Material { .. }));
-    if let (Precision::F32, Some(f)) = (precision, material) {
-        let what = format!("in f32 with a material family ({})", f.label);
-        return refused(what, "--backend gpu-f64 and cpu");
-    }
+/// but adaptive steps (a retry's subdivided backend would start without
+/// the carried forces) and batches (batch.rs); refused by name, with the
+/// backend that runs it.
+fn primal_supported(plan: &Plan) -> Result<(), GpuError> {
     if plan.adaptive.is_some() {
-        return refused("with adaptive steps".into(), "--backend cpu");
+        return Err(GpuError::Unsupported {
+            what: "XPBD with \"primal_residual\": true with adaptive steps (--backend cpu runs \
+                   it)"
+            .into(),
+        });
     }
     Ok(())
 }

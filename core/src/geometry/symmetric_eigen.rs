@@ -22,7 +22,12 @@
 //! ```
 //! The updates write both a_rp and a_pr, so the iterate stays exactly
 //! symmetric. Reused wherever a symmetric spectrum is needed: principal
-//! stretches of materials, PSD projection of Hessian blocks.
+//! stretches of materials, PSD projection of Hessian blocks. Generic over
+//! the precision: f64 is the golden path, f32 the f32 reference's (both
+//! `shaders/symmetric_eigen.wgsl`'s order; in f32 2^500 is +∞, so the
+//! large-θ branch never runs, as in the shader).
+
+use crate::kinds::ProjectionReal;
 
 /// Sweeps after which the iteration stops even if the off-diagonal part
 /// has not reached its threshold.
@@ -46,33 +51,36 @@ pub struct SymmetricEigen {
 /// of the row-major n×n `vectors`) of the symmetric row-major n×n `a`,
 /// which is used as scratch and holds the rotated matrix on return.
 /// Only the symmetric part of `a` is meaningful: pass a symmetric matrix.
-pub fn symmetric_eigen(
-    a: &mut [f64],
+pub fn symmetric_eigen<R: ProjectionReal>(
+    a: &mut [R],
     n: usize,
-    values: &mut [f64],
-    vectors: &mut [f64],
+    values: &mut [R],
+    vectors: &mut [R],
 ) -> SymmetricEigen {
+    let (zero, one) = (R::constant(0.0), R::constant(1.0));
     for r in 0..n {
         for c in 0..n {
-            vectors[r * n + c] = if r == c { 1.0 } else { 0.0 };
+            vectors[r * n + c] = if r == c { one } else { zero };
         }
     }
     // Norms are taken of A / m, m = max |a_ij| of the input, so that
-    // neither squares overflow nor underflow.
-    let mut m: f64 = 0.0;
-    for v in &a[..n * n] {
-        m = m.max(v.abs());
+    // neither squares overflow nor underflow (a NaN entry is passed over).
+    let mut m = zero;
+    for &v in &a[..n * n] {
+        if v.abs() > m {
+            m = v.abs();
+        }
     }
-    let scale = if (1.0 / m).is_finite() && m.is_finite() {
-        1.0 / m
+    let scale = if (one / m).finite() && m.finite() {
+        one / m
     } else {
-        1.0
+        one
     };
-    let mut norm2 = 0.0;
-    for v in &a[..n * n] {
-        norm2 += (v * scale) * (v * scale);
+    let mut norm2 = zero;
+    for &v in &a[..n * n] {
+        norm2 = norm2 + (v * scale) * (v * scale);
     }
-    let threshold = f64::EPSILON * norm2.sqrt();
+    let threshold = R::epsilon() * norm2.sqrt();
     let mut sweeps = 0;
     let mut off = off_diagonal(a, n, scale);
     while off > threshold && sweeps < MAX_SWEEPS {
@@ -90,42 +98,43 @@ pub fn symmetric_eigen(
     sort_ascending(values, vectors, n);
     SymmetricEigen {
         sweeps,
-        off_diagonal: off / scale,
+        off_diagonal: (off / scale).to_f64(),
         converged: off <= threshold,
     }
 }
 
 /// √(Σ_{p<q} (scale · a_pq)²).
-fn off_diagonal(a: &[f64], n: usize, scale: f64) -> f64 {
-    let mut s = 0.0;
+fn off_diagonal<R: ProjectionReal>(a: &[R], n: usize, scale: R) -> R {
+    let mut s = R::constant(0.0);
     for p in 0..n {
         for q in p + 1..n {
             let x = scale * a[p * n + q];
-            s += x * x;
+            s = s + x * x;
         }
     }
     s.sqrt()
 }
 
 /// One Jacobi rotation annihilating a_pq (p < q).
-fn rotate(a: &mut [f64], n: usize, v: &mut [f64], p: usize, q: usize) {
+fn rotate<R: ProjectionReal>(a: &mut [R], n: usize, v: &mut [R], p: usize, q: usize) {
+    let (zero, one) = (R::constant(0.0), R::constant(1.0));
     let apq = a[p * n + q];
-    if apq == 0.0 {
+    if apq == zero {
         return;
     }
-    let theta = (a[q * n + q] - a[p * n + p]) / (2.0 * apq);
-    let t = if theta.abs() > LARGE_THETA {
-        0.5 / theta
+    let theta = (a[q * n + q] - a[p * n + p]) / (R::constant(2.0) * apq);
+    let t = if theta.abs() > R::constant(LARGE_THETA) {
+        R::constant(0.5) / theta
     } else {
-        let sign = if theta < 0.0 { -1.0 } else { 1.0 };
-        sign / (theta.abs() + (theta * theta + 1.0).sqrt())
+        let sign = if theta < zero { -one } else { one };
+        sign / (theta.abs() + (theta * theta + one).sqrt())
     };
-    let c = 1.0 / (t * t + 1.0).sqrt();
+    let c = one / (t * t + one).sqrt();
     let s = t * c;
-    a[p * n + p] -= t * apq;
-    a[q * n + q] += t * apq;
-    a[p * n + q] = 0.0;
-    a[q * n + p] = 0.0;
+    a[p * n + p] = a[p * n + p] - t * apq;
+    a[q * n + q] = a[q * n + q] + t * apq;
+    a[p * n + q] = zero;
+    a[q * n + p] = zero;
     for r in 0..n {
         if r == p || r == q {
             continue;
@@ -149,7 +158,7 @@ fn rotate(a: &mut [f64], n: usize, v: &mut [f64], p: usize, q: usize) {
 
 /// Stable insertion sort of `values` ascending, moving eigenvector columns
 /// with them (NaN compares false and stays in place).
-fn sort_ascending(values: &mut [f64], vectors: &mut [f64], n: usize) {
+fn sort_ascending<R: ProjectionReal>(values: &mut [R], vectors: &mut [R], n: usize) {
     for i in 1..n {
         let mut j = i;
         while j > 0 && values[j] < values[j - 1] {

@@ -16,16 +16,28 @@
 //! raw eigenvalue.
 
 use crate::geometry::{SymmetricEigen, symmetric_eigen};
+use crate::kinds::ProjectionReal;
 
-/// Buffers of the projection, reused between blocks.
-#[derive(Debug, Default, Clone)]
-pub struct PsdScratch {
-    work: Vec<f64>,
-    values: Vec<f64>,
-    vectors: Vec<f64>,
+/// Buffers of the projection, reused between blocks (in precision `R`:
+/// f64 on the golden path, f32 in the f32 reference).
+#[derive(Debug, Clone)]
+pub struct PsdScratch<R = f64> {
+    work: Vec<R>,
+    values: Vec<R>,
+    vectors: Vec<R>,
 }
 
-impl PsdScratch {
+impl<R> Default for PsdScratch<R> {
+    fn default() -> Self {
+        PsdScratch {
+            work: Vec::new(),
+            values: Vec::new(),
+            vectors: Vec::new(),
+        }
+    }
+}
+
+impl<R> PsdScratch<R> {
     /// Empty scratch; buffers grow on first use.
     pub fn new() -> Self {
         PsdScratch::default()
@@ -47,13 +59,18 @@ pub struct PsdProjection {
 
 /// Projects the symmetric row-major n × n `block` onto the PSD cone in
 /// place.
-pub fn project_psd(block: &mut [f64], n: usize, scratch: &mut PsdScratch) -> PsdProjection {
+pub fn project_psd<R: ProjectionReal>(
+    block: &mut [R],
+    n: usize,
+    scratch: &mut PsdScratch<R>,
+) -> PsdProjection {
     let unrun = SymmetricEigen {
         sweeps: 0,
         off_diagonal: 0.0,
         converged: true,
     };
-    if block[..n * n].iter().any(|v| !v.is_finite()) {
+    let zero = R::constant(0.0);
+    if block[..n * n].iter().any(|v| !v.finite()) {
         return PsdProjection {
             finite: false,
             clipped: 0,
@@ -68,24 +85,24 @@ pub fn project_psd(block: &mut [f64], n: usize, scratch: &mut PsdScratch) -> Psd
     } = scratch;
     work.clear();
     work.extend_from_slice(&block[..n * n]);
-    values.resize(n, 0.0);
-    vectors.resize(n * n, 0.0);
+    values.resize(n, zero);
+    vectors.resize(n * n, zero);
     let eigen = symmetric_eigen(work, n, values, vectors);
     let mut clipped = 0;
     let mut smallest = f64::INFINITY;
     for &l in values.iter() {
-        smallest = smallest.min(l);
-        if l < 0.0 {
+        smallest = smallest.min(l.to_f64());
+        if l < zero {
             clipped += 1;
         }
     }
     if clipped > 0 {
         for i in 0..n {
             for j in i..n {
-                let mut s = 0.0;
+                let mut s = zero;
                 for l in 0..n {
-                    if values[l] > 0.0 {
-                        s += (values[l] * vectors[i * n + l]) * vectors[j * n + l];
+                    if values[l] > zero {
+                        s = s + (values[l] * vectors[i * n + l]) * vectors[j * n + l];
                     }
                 }
                 block[i * n + j] = s;

@@ -110,21 +110,38 @@ impl ExpressionKind {
     }
 }
 
-/// The precisions the projection runs in.
+/// The precisions the projection (and the numeric code both precisions
+/// share: geometry::symmetric_eigen, implicit::project_psd) runs in.
 pub trait ProjectionReal: Real {
     /// Neither NaN nor ±∞.
     fn finite(self) -> bool;
+    /// The machine epsilon (1 ulp of 1).
+    fn epsilon() -> Self;
+    /// The value in f64 (exact).
+    fn to_f64(self) -> f64;
 }
 
 impl ProjectionReal for f64 {
     fn finite(self) -> bool {
         self.is_finite()
     }
+    fn epsilon() -> Self {
+        f64::EPSILON
+    }
+    fn to_f64(self) -> f64 {
+        self
+    }
 }
 
 impl ProjectionReal for f32 {
     fn finite(self) -> bool {
         self.is_finite()
+    }
+    fn epsilon() -> Self {
+        f32::EPSILON
+    }
+    fn to_f64(self) -> f64 {
+        f64::from(self)
     }
 }
 

@@ -32,7 +32,7 @@ pub struct Law {
 
 /// Cholesky factor L of the symmetric n×n `a` into `l` (lower, strictly
 /// upper part 0); false when a pivot is not > 0 (or NaN).
-fn cholesky(a: &[f32], n: usize, l: &mut [f32]) -> bool {
+pub(super) fn cholesky(a: &[f32], n: usize, l: &mut [f32]) -> bool {
     for j in 0..n {
         let mut d = a[j * n + j];
         for m in 0..j {
@@ -115,6 +115,17 @@ impl Law {
     /// Compressible Neo-Hookean: Ψ, S into `stress`; None (refused) when
     /// J ≤ 0, NaN or C is not positive definite.
     fn neo_hookean(&self, dim: usize, d: &Deformation, stress: &mut [f32]) -> Option<f32> {
+        self.neo_hookean_parts(dim, d, stress)
+            .map(|(psi, _, _)| psi)
+    }
+
+    /// [`Law::neo_hookean`]'s Ψ with ln J and C⁻¹.
+    fn neo_hookean_parts(
+        &self,
+        dim: usize,
+        d: &Deformation,
+        stress: &mut [f32],
+    ) -> Option<(f32, f32, Vec<f32>)> {
         let (k, mu, lambda) = (self.k, self.mu, self.lambda);
         let c = &d.c;
         // J (material_ratio): det F̂ by elimination (k = N) or Π L_jj.
@@ -148,7 +159,142 @@ impl Law {
                 stress[i * k + j] = mu * (delta - cinv) + lambda * log_ratio * cinv;
             }
         }
-        Some(0.5 * mu * (trace - k as f32) - mu * log_ratio + 0.5 * lambda * log_ratio * log_ratio)
+        let psi =
+            0.5 * mu * (trace - k as f32) - mu * log_ratio + 0.5 * lambda * log_ratio * log_ratio;
+        Some((psi, log_ratio, inv))
+    }
+
+    /// The frame Hessian H_F = ∂²Ψ/∂F̂² (N k × N k, row-major, symmetrised)
+    /// of element `e` at `pts` into `h`, as `material_hessian.wgsl`'s
+    /// `material_frame_hessian`; false when the law refuses the element.
+    pub fn frame_hessian(&self, e: usize, pts: &[f32], dim: usize, h: &mut [f32]) -> bool {
+        let (k, mu, lambda) = (self.k, self.mu, self.lambda);
+        let size = dim * k;
+        let d = self.deform(e, pts, dim);
+        let f = &d.image;
+        let mut s = vec![0.0f32; k * k];
+        let (c_inv, log_ratio) = if self.neo_hookean {
+            match self.neo_hookean_parts(dim, &d, &mut s) {
+                Some((_, log_ratio, inv)) => (inv, log_ratio),
+                None => return false,
+            }
+        } else {
+            self.stvk(&d.c, &mut s);
+            (Vec::new(), 0.0)
+        };
+        let (mut dc, mut ds, mut w) = (vec![0.0f32; k * k], vec![0.0f32; k * k], vec![0.0f32; k]);
+        for b in 0..dim {
+            for m in 0..k {
+                if self.neo_hookean {
+                    for i in 0..k {
+                        let mut v = 0.0f32;
+                        for j in 0..k {
+                            v += c_inv[i * k + j] * f[b * k + j];
+                        }
+                        w[i] = v;
+                    }
+                    let shear = mu - lambda * log_ratio;
+                    let volume = lambda * w[m];
+                    for i in 0..k {
+                        for j in 0..k {
+                            let rank_two = c_inv[i * k + m] * w[j] + w[i] * c_inv[j * k + m];
+                            ds[i * k + j] = shear * rank_two + volume * c_inv[i * k + j];
+                        }
+                    }
+                } else {
+                    for i in 0..k {
+                        for j in 0..k {
+                            let mut v = 0.0f32;
+                            if i == m {
+                                v += f[b * k + j];
+                            }
+                            if j == m {
+                                v += f[b * k + i];
+                            }
+                            dc[i * k + j] = v;
+                        }
+                    }
+                    let trace = 2.0 * f[b * k + m];
+                    for i in 0..k {
+                        for j in 0..k {
+                            let identity = if i == j { 0.5 * lambda * trace } else { 0.0 };
+                            ds[i * k + j] = mu * dc[i * k + j] + identity;
+                        }
+                    }
+                }
+                let column = b * k + m;
+                for a in 0..dim {
+                    for j in 0..k {
+                        let mut v = if a == b { s[m * k + j] } else { 0.0 };
+                        for i in 0..k {
+                            v += f[a * k + i] * ds[i * k + j];
+                        }
+                        h[(a * k + j) * size + column] = v;
+                    }
+                }
+            }
+        }
+        for r in 0..size {
+            for q in r + 1..size {
+                let v = 0.5 * (h[r * size + q] + h[q * size + r]);
+                h[r * size + q] = v;
+                h[q * size + r] = v;
+            }
+        }
+        true
+    }
+
+    /// Column `c` of element `e`'s vertex block of the frame Hessian `h`
+    /// into `out` (primal_material.wgsl's `primal_block_column`).
+    pub fn block_column(&self, e: usize, h: &[f32], dim: usize, c: usize, out: &mut [f32]) {
+        let k = self.k;
+        let size = dim * k;
+        let base = e * (k * k + 1);
+        let (r, v0) = (&self.data[base..base + k * k], self.data[base + k * k]);
+        let mut p = vec![0.0f32; (k + 1) * dim];
+        p[c] = 1.0;
+        let mut df = vec![0.0f32; size];
+        for a in 0..dim {
+            for j in 0..k {
+                let mut v = 0.0f32;
+                for i in 0..=j {
+                    v += (p[(i + 1) * dim + a] - p[a]) * r[i * k + j];
+                }
+                df[a * k + j] = v;
+            }
+        }
+        let mut yf = vec![0.0f32; size];
+        for row in 0..size {
+            let mut v = 0.0f32;
+            for q in 0..size {
+                v += h[row * size + q] * df[q];
+            }
+            yf[row] = v;
+        }
+        for a in 0..dim {
+            let mut first = 0.0f32;
+            for i in 0..k {
+                let mut v = 0.0f32;
+                for j in i..k {
+                    v += yf[a * k + j] * r[i * k + j];
+                }
+                let y = v0 * v;
+                out[(i + 1) * dim + a] = y;
+                first -= y;
+            }
+            out[a] = first;
+        }
+    }
+
+    /// W = V_0 Ψ and ∇W of element `e` (material_energy); None: refused.
+    pub fn element_energy(
+        &self,
+        e: usize,
+        pts: &[f32],
+        dim: usize,
+        grad: &mut [f32],
+    ) -> Option<f32> {
+        self.energy(e, pts, dim, grad)
     }
 
     /// D, F̂ and C of element `e` at the gathered `pts`.

@@ -88,8 +88,12 @@ struct Stored {
     mu: f32,
     material: Option<material::Law>,
     /// XPBD with the primal residual: d_e of every slot (arity · N each;
-    /// empty otherwise).
+    /// empty otherwise), a material family's Newton factors
+    /// ((arity · N)² per slot), and whether the family's first sweep of
+    /// the substep is done (its later sweeps reuse the factors).
     carried: Vec<f32>,
+    factors: Vec<f32>,
+    swept: bool,
 }
 
 /// The law of a material family as the GPU uploads it
@@ -180,15 +184,6 @@ impl F32Reference {
                 return Err(ReferenceError::Unsupported(format!("{k:?}")));
             }
         }
-        if plan.primal_residual
-            && let Some(f) = (plan.families.iter()).find(|f| material_law(&f.kind).is_some())
-        {
-            return Err(ReferenceError::Unsupported(format!(
-                "{} (a material family) with \"primal_residual\": true (gpu-f64 and the CPU \
-                 run it)",
-                f.label
-            )));
-        }
         let shifted = origin.iter().any(|&o| o != 0.0);
         if shifted && let Some(f) = plan.families.iter().find(|f| f.kind.is_expression()) {
             // An expression need not be translation-invariant (a param may
@@ -231,6 +226,11 @@ impl F32Reference {
                         true => vec![0.0; f.elements.len() * plan.dim],
                         false => Vec::new(),
                     },
+                    factors: match plan.primal_residual && material_law(&f.kind).is_some() {
+                        true => vec![0.0; f.len() * (f.arity * plan.dim).pow(2)],
+                        false => Vec::new(),
+                    },
+                    swept: false,
                 }
             })
             .collect();
@@ -439,8 +439,9 @@ impl F32Reference {
                 };
                 let predicted = integrate::predict(s, &terms);
                 if primal {
-                    for (f, stored) in self.plan.families.iter().zip(&self.families) {
+                    for (f, stored) in self.plan.families.iter().zip(&mut self.families) {
                         primal::warm_start(s, &f.elements, &stored.carried);
+                        stored.swept = false;
                     }
                 }
                 predicted
@@ -456,6 +457,10 @@ impl F32Reference {
                     alpha_tilde: stored.alpha_tilde,
                 };
                 let (lambda, d) = (&mut stored.lambda, &mut stored.carried);
+                let first = !stored.swept;
+                if color + 1 == f.color_count() {
+                    stored.swept = true;
+                }
                 match &f.kind {
                     FamilyKind::Distance => primal::distance(s, &colour, lambda, d, false),
                     FamilyKind::Tether => primal::distance(s, &colour, lambda, d, true),
@@ -473,8 +478,13 @@ impl F32Reference {
                     FamilyKind::Expression(kind) => {
                         primal::expression(s, &colour, kind, (lambda, d), &mut self.columns)
                     }
-                    // Refused in `new`.
-                    FamilyKind::Material { .. } => Err(colour.slots.start),
+                    FamilyKind::Material { .. } => match &stored.material {
+                        Some(law) => {
+                            let factors = (&mut stored.factors[..], first);
+                            primal::material(s, &colour, law, (lambda, d), factors)
+                        }
+                        None => Ok(()),
+                    },
                 }
             }
             Kernel::Project { family, color } => {

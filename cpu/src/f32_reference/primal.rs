@@ -9,6 +9,10 @@
 //!                   then static friction
 //! measures,         one Gauss–Newton step from x:
 //! expressions       λ = −(C + ∇C·(a − x)) / (Σ w |∇C|² + α~),  d = w ∇C λ
+//! materials         one Newton step: (M + K/α~) Δ = −(M (x − a) + ∇W/α~),
+//!                   d = x + Δ − a, λ = −√(2W)/α~ (K: the frame Hessian's vertex
+//!                   block, PSD-projected on a failed factor; the factor made
+//!                   at the substep's first sweep and reused)
 //! then              x = a + d (dynamic particles), λ stored
 //! warm start        x += Σ_e d_e after the prediction, in family, slot order
 //! ```
@@ -19,9 +23,11 @@
 #![allow(clippy::needless_range_loop)]
 
 use hyperpbd_core::expr::Columns;
+use hyperpbd_core::implicit::{PsdScratch, project_psd};
 use hyperpbd_core::kinds::{ExpressionKind, Relation};
 
 use super::Particles;
+use super::material::{Law, cholesky};
 use super::measure::{oriented_measure, simplex_squared_measure};
 use super::project::{Colour, Plane};
 
@@ -304,4 +310,169 @@ pub fn contact(
         }
     }
     failed.map_or(Ok(()), Err)
+}
+
+/// A material family's colour: one Newton step per element
+/// (`shaders/primal_material.wgsl`); `first`: the family's first sweep of
+/// the substep, which makes each element's factor (kept in `factors`,
+/// (arity · N)² per slot) for the later sweeps.
+pub fn material(
+    s: &mut Particles,
+    c: &Colour,
+    law: &Law,
+    (lambda, d): (&mut [f32], &mut [f32]),
+    (factors, first): (&mut [f32], bool),
+) -> Result<(), usize> {
+    let n = s.dim;
+    let count = c.arity * n;
+    let size = n * (c.arity - 1);
+    let mut failed = None;
+    let (mut pts, mut grad) = (vec![0.0f32; count], vec![0.0f32; count]);
+    let mut anchor = vec![0.0f32; count];
+    let mut h = vec![0.0f32; size * size];
+    let mut column = vec![0.0f32; count];
+    for e in c.slots.clone() {
+        let element = &c.elements[e * c.arity..(e + 1) * c.arity];
+        let base = e * count;
+        let at = e * count * count;
+        for (j, &i) in element.iter().enumerate() {
+            let i = i as usize;
+            pts[j * n..(j + 1) * n].copy_from_slice(&s.x[i * n..(i + 1) * n]);
+        }
+        for k in 0..count {
+            anchor[k] = pts[k] - d[base + k];
+        }
+        let Some(energy) = law.element_energy(e, &pts, n, &mut grad) else {
+            failed = failed.or(Some(e));
+            continue;
+        };
+        let wc: Vec<f32> = (0..count).map(|k| s.w[element[k / n] as usize]).collect();
+        let dynamic: Vec<usize> = (0..count).filter(|&k| wc[k] != 0.0).collect();
+        let q = dynamic.len();
+        if first {
+            let factor = &mut factors[at..at + q * q];
+            let mut made = false;
+            if law.frame_hessian(e, &pts, n, &mut h) {
+                let mut scratch = PsdScratch::new();
+                let mut system = vec![0.0f32; q * q];
+                for attempt in 0..2 {
+                    for (col, &cc) in dynamic.iter().enumerate() {
+                        law.block_column(e, &h, n, cc, &mut column);
+                        for (r, &cr) in dynamic.iter().enumerate() {
+                            system[r * q + col] = column[cr] / c.alpha_tilde;
+                        }
+                    }
+                    for (r, &cr) in dynamic.iter().enumerate() {
+                        system[r * q + r] += 1.0 / wc[cr];
+                    }
+                    if cholesky(&system, q, factor) {
+                        made = true;
+                        break;
+                    }
+                    if attempt == 1 || !project_psd(&mut h, size, &mut scratch).finite {
+                        break;
+                    }
+                }
+            }
+            if !made {
+                failed = failed.or(Some(e));
+                continue;
+            }
+        }
+        let factor = &factors[at..at + q * q];
+        let mut rhs: Vec<f32> = dynamic
+            .iter()
+            .map(|&cr| -((pts[cr] - anchor[cr]) / wc[cr] + grad[cr] / c.alpha_tilde))
+            .collect();
+        for i in 0..q {
+            let mut v = rhs[i];
+            for m in 0..i {
+                v -= factor[i * q + m] * rhs[m];
+            }
+            rhs[i] = v / factor[i * q + i];
+        }
+        for i in (0..q).rev() {
+            let mut v = rhs[i];
+            for m in i + 1..q {
+                v -= factor[m * q + i] * rhs[m];
+            }
+            rhs[i] = v / factor[i * q + i];
+        }
+        let t = step_length(
+            law,
+            e,
+            (energy, &pts, &anchor),
+            (&dynamic, &wc),
+            &rhs,
+            c.alpha_tilde,
+        );
+        let mut out = vec![0.0f32; count];
+        for (r, &cr) in dynamic.iter().enumerate() {
+            out[cr] = pts[cr] + t * rhs[r] - anchor[cr];
+        }
+        let energy = if energy > 0.0 { energy } else { 0.0 };
+        let l = -(2.0 * energy).sqrt() / c.alpha_tilde;
+        if !l.is_finite() || out.iter().any(|v| !v.is_finite()) {
+            failed = failed.or(Some(e));
+            continue;
+        }
+        d[base..base + count].copy_from_slice(&out);
+        lambda[e] = l;
+        for (j, &i) in element.iter().enumerate() {
+            let i = i as usize;
+            if s.w[i] == 0.0 {
+                continue;
+            }
+            for a in 0..n {
+                s.x[i * n + a] = anchor[j * n + a] + out[j * n + a];
+            }
+        }
+    }
+    failed.map_or(Ok(()), Err)
+}
+
+/// φ(y) = ½ Σ_dyn (y − a)²/w + W/α~ at `points` (W = `energy` there).
+fn objective(
+    points: &[f32],
+    anchor: &[f32],
+    (dynamic, w): (&[usize], &[f32]),
+    energy: f32,
+    alpha_tilde: f32,
+) -> f32 {
+    let mut m = 0.0f32;
+    for &cr in dynamic {
+        let u = points[cr] - anchor[cr];
+        m += u * u / w[cr];
+    }
+    0.5 * m + energy / alpha_tilde
+}
+
+/// The material step's length (primal_material.wgsl's
+/// `primal_step_length`): the first of 1, ½, … (6 halvings) at which the
+/// law accepts the element and φ does not rise; 0 when none does.
+fn step_length(
+    law: &Law,
+    e: usize,
+    (energy, pts, anchor): (f32, &[f32], &[f32]),
+    (dynamic, w): (&[usize], &[f32]),
+    step: &[f32],
+    alpha_tilde: f32,
+) -> f32 {
+    let n = pts.len() / (law.k + 1);
+    let start = objective(pts, anchor, (dynamic, w), energy, alpha_tilde);
+    let mut trial = pts.to_vec();
+    let mut grad = vec![0.0f32; pts.len()];
+    let mut t = 1.0f32;
+    for _ in 0..=6 {
+        for (r, &cr) in dynamic.iter().enumerate() {
+            trial[cr] = pts[cr] + t * step[r];
+        }
+        if let Some(energy) = law.element_energy(e, &trial, n, &mut grad)
+            && objective(&trial, anchor, (dynamic, w), energy, alpha_tilde) <= start
+        {
+            return t;
+        }
+        t *= 0.5;
+    }
+    0.0
 }
