@@ -26,9 +26,9 @@
 //! one origin (the box of every world), within the single-world bound.
 //!
 //! The worlds run one schedule: the union of their stages (union.rs). A
-//! world whose gravity, forces, friction or damping are zero, stages its
-//! own plan compiles away, runs them as exact identities there: it skips
-//! the responses it lacks (`Call::absent`, per world) and its zero
+//! world whose gravity, forces, friction or damping are zero (stages its
+//! own plan compiles away) runs those stages as exact identities: it
+//! skips the responses it lacks (`Call::absent`, per world) and its zero
 //! gravity / forces leave prediction's sum as its own kernel computes it.
 //! Every other call must match world 0's (the same kernels, laws and
 //! flags: another law is refused, naming the world and the call).
