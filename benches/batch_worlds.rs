@@ -2,7 +2,9 @@
 //!
 //! ```text
 //! scenes   chain2d (20-link chain, 21 particles) and cloth(16) (16² sheet)
-//! W        1, 16, 256, 4096 worlds (cloth: up to 1024), gravity[0] swept
+//! W        1, 16, 256, 4096 worlds (cloth: up to 1024), gravity[0] swept;
+//!          and chain2d with damping.rate swept from 0 (world 0 has no
+//!          damping stage: the batch runs the union of the worlds' stages)
 //! batch    CpuBatch on every core, one thread per world
 //! alone    the same worlds one after another, each its own CpuBackend
 //!          on one thread (what a loop over single runs costs)
@@ -12,7 +14,7 @@
 //!          schedule, so W single runs cost W times one), and against the
 //!          CPU batch of the same W in this run
 //! ```
-//! `cargo bench --bench batch_worlds [-- chain|cloth]` (without `--bench`,
+//! `cargo bench --bench batch_worlds [-- chain|damping|cloth]` (without `--bench`,
 //! as under `cargo test --all-targets`: a smoke run of 1 and 16 worlds). The CPU variants step
 //! the same frames; the final states are asserted bit-identical, so a fast
 //! wrong answer cannot pass (the GPU batch's worlds are held to their own
@@ -44,9 +46,25 @@ fn worlds(base: &Scene, count: usize) -> Vec<Scene> {
         .collect()
 }
 
+/// `count` worlds of `base` with damping rates 0, 1/(count − 1), …, 1
+/// (`damping.rate=0:1:count`).
+fn damped_worlds(base: &Scene, count: usize) -> Vec<Scene> {
+    (0..count)
+        .map(|k| {
+            let mut scene = base.clone();
+            let rate = k as f64 / (count.max(2) - 1) as f64;
+            scene.damping = Some(hyperpbd::Damping { rate });
+            scene
+        })
+        .collect()
+}
+
+/// How a row's worlds are made from its scene.
+type Worlds = fn(&Scene, usize) -> Vec<Scene>;
+
 /// The CPU rows of `base` at each of `counts` worlds; the CPU batch's
 /// worlds·steps per second for each.
-fn measure(name: &str, base: &Scene, counts: &[usize]) -> Vec<f64> {
+fn measure(name: &str, (base, worlds): (&Scene, Worlds), counts: &[usize]) -> Vec<f64> {
     let mut batch_rates = Vec::new();
     let threads = hyperpbd::default_threads().expect("threads");
     for &w in counts {
@@ -117,7 +135,7 @@ fn seconds_per_step(mut step: impl FnMut()) -> f64 {
 
 /// The GPU rows of `base` at each of `counts` worlds (`cpu`: the CPU
 /// batch's rates of the same counts, from [`measure`]).
-fn measure_gpu(name: &str, base: &Scene, counts: &[usize], cpu: &[f64]) {
+fn measure_gpu(name: &str, (base, worlds): (&Scene, Worlds), counts: &[usize], cpu: &[f64]) {
     let precision = Precision::F32;
     let Ok((adapter, _)) = hyperpbd::gpu::request_adapter(precision) else {
         println!("SKIPPED gpu rows of {name}: no adapter");
@@ -166,12 +184,18 @@ fn main() {
     println!("|---|---:|---:|---:|---:|");
     let chain_counts: &[usize] = if full { &[1, 16, 256, 4096] } else { &[1, 16] };
     let cloth_counts: &[usize] = if full { &[1, 16, 256, 1024] } else { &[1, 16] };
-    let (mut chain_cpu, mut cloth_cpu) = (Vec::new(), Vec::new());
+    let (chain, cloth) = (scenes::chain2d(), scenes::cloth(16));
+    let gravity: Worlds = worlds;
+    let damped: Worlds = damped_worlds;
+    let (mut chain_cpu, mut damped_cpu, mut cloth_cpu) = (Vec::new(), Vec::new(), Vec::new());
     if wanted("chain") {
-        chain_cpu = measure("chain2d", &scenes::chain2d(), chain_counts);
+        chain_cpu = measure("chain2d", (&chain, gravity), chain_counts);
+    }
+    if wanted("damping") {
+        damped_cpu = measure("chain2d, damping 0..1", (&chain, damped), chain_counts);
     }
     if wanted("cloth") {
-        cloth_cpu = measure("cloth 16²", &scenes::cloth(16), cloth_counts);
+        cloth_cpu = measure("cloth 16²", (&cloth, gravity), cloth_counts);
     }
     let lp = std::env::var("LP_NUM_THREADS").unwrap_or_else(|_| "unset".into());
     println!();
@@ -180,10 +204,14 @@ fn main() {
     );
     println!("|---|---:|---|---:|---:|---:|---:|");
     if wanted("chain") {
-        measure_gpu("chain2d", &scenes::chain2d(), chain_counts, &chain_cpu);
+        measure_gpu("chain2d", (&chain, gravity), chain_counts, &chain_cpu);
+    }
+    if wanted("damping") {
+        let name = "chain2d, damping 0..1";
+        measure_gpu(name, (&chain, damped), chain_counts, &damped_cpu);
     }
     if wanted("cloth") {
-        measure_gpu("cloth 16²", &scenes::cloth(16), cloth_counts, &cloth_cpu);
+        measure_gpu("cloth 16²", (&cloth, gravity), cloth_counts, &cloth_cpu);
     }
     if !full {
         println!("smoke run; `cargo bench --bench batch_worlds` for the table");

@@ -7,6 +7,11 @@
 // Same arithmetic, in the same order, as cpu/src/friction.rs.
 
 fn friction_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+    // A world of a batch whose own μ is 0 has no friction call: skipped
+    // (run with μ = 0 it would compute v − t·0, and −0 − (−0) is +0).
+    if (skipped()) {
+        return;
+    }
     // Slot and λ as the contact of this family just left them on this
     // particle (project.wgsl), else from memory: on lavapipe a load some
     // lane takes costs ~10× one every lane skips (docs/performance.md).

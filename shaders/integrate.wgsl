@@ -64,7 +64,8 @@ fn velocity_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record
 }
 
 fn damping_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
-    if (inverse_mass_of(rx) == 0.0) {
+    // A world of a batch without damping has no damping call: skipped.
+    if (skipped() || inverse_mass_of(rx) == 0.0) {
         return;
     }
     let factor = call.factor;

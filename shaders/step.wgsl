@@ -71,7 +71,9 @@ struct Call {
     io: u32,          // records this call reads and writes (IO_*), when run alone
     carried: u32,     // FLAG_PRIMAL projection: offset of the family's displacements in `carried`
     factors: u32,     // FLAG_PRIMAL material: offset of the family's Newton factors in `carried`
-    pad2: u32,
+    absent: u32,      // batch: 1 where this world's own plan has no such call
+                      // (a friction or damping response of the union of the
+                      // worlds' stages): the world skips it (`skipped`)
     alpha_tilde: real, // α / h²
     h: real,           // substep length
     friction: real,    // Coulomb μ of a contact family; Lamé μ of a material family
@@ -177,10 +179,12 @@ fn world_reals(op: u32, c: u32) {
                 call.normal = calls[k].normal;
             }
             case OP_FRICTION: {
+                call.absent = calls[k].absent;
                 call.friction = calls[k].friction;
                 call.normal = calls[k].normal;
             }
             case OP_DAMPING: {
+                call.absent = calls[k].absent;
                 call.factor = calls[k].factor;
             }
             case OP_PROJECT_MATERIAL: {
@@ -197,6 +201,15 @@ fn world_reals(op: u32, c: u32) {
             default: {}
         }
     }
+}
+
+// Whether the running world skips the running call: a response (friction,
+// damping) its own plan compiles away, which the union of a batch's stages
+// runs for the other worlds (gpu/src/backend/union.rs). Skipping leaves
+// every record as the world's own step leaves it: exact by construction,
+// signed zeros included. Never with one world (folds to false).
+fn skipped() -> bool {
+    return WORLDS > 1u && call.absent != 0u;
 }
 
 // Rest value (or material rest datum) s of the running world.

@@ -16,8 +16,10 @@
 //! GpuBatch::step: every world in the same dispatches, one per kernel for
 //!   all worlds (the world part of the invocation index;
 //!   hyperpbd_gpu::GpuBatch); world k in f64 == world k alone, bit for
-//!   bit; all or nothing as above. Worlds must also compile the same
-//!   stages (see hyperpbd_gpu::GpuBatch for what a GPU batch refuses).
+//!   bit; all or nothing as above. The batch runs the union of the
+//!   worlds' stages, each world skipping the friction and damping its
+//!   own plan lacks (see hyperpbd_gpu::GpuBatch for that and for what a
+//!   GPU batch refuses).
 //! ```
 //! The CPU batch is the reference the GPU batch is held to
 //! (tests/gpu_batch.rs).

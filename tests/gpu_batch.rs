@@ -1,19 +1,25 @@
 //! Batches of worlds on the GPU: every world in the same dispatches, and
 //! world k of a batch is world k run alone — bit for bit in f64 on
-//! lavapipe (common::exact), against the CPU golden path — for a 15-world
-//! sweep of chain2d (gravity × plane offset), a 12-world sweep of the
-//! ground cloth (compliance, friction, damping, plane normal) and the
-//! shards of the first; f32 within the single-world per-frame bound, and
-//! on lavapipe bit for bit each world's own f32 reference. A
-//! failing world puts every world back and is named as its own run names
-//! it; worlds a GPU batch cannot share a schedule with are refused by
-//! world.
+//! lavapipe (common::exact), against the CPU golden path, every frame's
+//! state and residuals — for a 15-world sweep of chain2d (gravity × plane
+//! offset), a 12-world sweep of the ground cloth (compliance, friction,
+//! damping, plane normal), the shards of the first, and a 32-world sweep
+//! whose worlds compile different stages (damping from 0, gravity, plane
+//! friction and a force each including 0: one batch runs the union of the
+//! stages, backend/union.rs); f32 within the single-world per-frame bound,
+//! and on lavapipe bit for bit each world's own f32 reference. A failing
+//! world puts every world back and is named as its own run names it;
+//! worlds a GPU batch cannot share a schedule with (another law) are
+//! refused by world.
 
 mod common;
 
-use common::exact::{assert_f32_reference_step, check_f64, f32_identical, f64_rule};
+use common::exact::{
+    assert_f32_reference_step, assert_identical_if_claimed, check_f64, f32_identical, f64_rule,
+};
 use common::gpu::adapter_or_skip;
 use hyperpbd::batch::{Batch, BatchError, GpuBatch};
+use hyperpbd::material::Law;
 use hyperpbd::sweep::Sweep;
 use hyperpbd::{Backend, F32Reference, Precision, Scene, State, scenes};
 use hyperpbd_verify::compare::{DivergenceModel, Frame};
@@ -50,6 +56,23 @@ fn cloths() -> Vec<Scene> {
     )
 }
 
+/// 32 worlds of chain2d over a plane cutting through it (offset 1.5 or
+/// 1.55): damping rate 0 or 1, gravity 0 or −9.81, plane friction 0 or 0.3,
+/// a sideways force of 0 or 1 N on the middle bead. World 0 has none of
+/// the four stages, the last world all of them.
+fn zero_sweep() -> Vec<Scene> {
+    sweep(
+        CHAIN,
+        &[
+            "damping.rate=0:1:2",
+            "gravity[1]=0:-9.81:2",
+            "obstacles[0].friction=0:0.3:2",
+            "particles[10].force[0]=0:1:2",
+            "obstacles[0].offset=1.5:1.55:2",
+        ],
+    )
+}
+
 fn max_difference(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
@@ -58,11 +81,14 @@ fn max_difference(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// Every world of `scenes`, batched on gpu-f64, against its own CPU run
-/// after `frames` frames (and the reports' residuals likewise).
-fn f64_worlds_are_their_own_runs(test: &str, scenes: &[Scene], frames: usize) {
-    let Some((adapter, summary)) = adapter_or_skip(test, Precision::F64) else {
-        return;
-    };
+/// after `frames` frames (and the reports' residuals likewise); the
+/// worlds' final positions (`None`: no adapter, skipped).
+fn f64_worlds_are_their_own_runs(
+    test: &str,
+    scenes: &[Scene],
+    frames: usize,
+) -> Option<Vec<Vec<f64>>> {
+    let (adapter, summary) = adapter_or_skip(test, Precision::F64)?;
     let batch = Batch::new(scenes).expect("one topology");
     let mut gpu = GpuBatch::on_adapter(&adapter, &batch, Precision::F64).expect("gpu batch");
     assert_eq!(gpu.len(), scenes.len());
@@ -72,8 +98,18 @@ fn f64_worlds_are_their_own_runs(test: &str, scenes: &[Scene], frames: usize) {
         .collect();
     for frame in 0..frames {
         let reports = gpu.step().expect("batch step");
+        // On lavapipe every frame's state too, bit for bit (−0 ≠ +0).
+        let states = match common::exact::f64_identical(&summary) {
+            true => gpu.read_states().expect("states"),
+            false => Vec::new(),
+        };
         for (k, cpu) in cpus.iter_mut().enumerate() {
             let report = cpu.step().expect("cpu step");
+            if let Some(state) = states.get(k) {
+                let golden = cpu.read_state().expect("state");
+                let name = format!("{test}: world {k}, frame {frame}");
+                assert!(assert_identical_if_claimed(&summary, &name, &golden, state));
+            }
             for (a, b) in report.residuals.iter().zip(&reports[k].residuals) {
                 assert_eq!(
                     a.max_violation.to_bits(),
@@ -99,6 +135,7 @@ fn f64_worlds_are_their_own_runs(test: &str, scenes: &[Scene], frames: usize) {
     // The parameters reach the physics: worlds end in different places.
     assert!(finals.windows(2).any(|w| w[0] != w[1]));
     assert_ne!(finals[0], finals[finals.len() - 1]);
+    Some(finals)
 }
 
 #[test]
@@ -109,6 +146,40 @@ fn every_chain_of_a_gpu_batch_is_its_own_cpu_run() {
 #[test]
 fn every_cloth_of_a_gpu_batch_is_its_own_cpu_run() {
     f64_worlds_are_their_own_runs("gpu_batch cloths", &cloths(), 30);
+}
+
+#[test]
+fn every_world_of_a_sweep_from_zero_is_its_own_cpu_run() {
+    let scenes = zero_sweep();
+    // The worlds compile different stages: world 0 none of damping,
+    // gravity, friction and force, the last all of them.
+    let plans: Vec<_> = scenes
+        .iter()
+        .map(|s| hyperpbd::Plan::compile(s).expect("plan"))
+        .collect();
+    let last = &plans[plans.len() - 1];
+    assert!(plans[0].substep_kernels.len() < last.substep_kernels.len());
+    assert!(!plans[0].predict.gravity && !plans[0].predict.force);
+    assert!(last.predict.gravity && last.predict.force && last.damping.is_some());
+    let Some(finals) = f64_worlds_are_their_own_runs("gpu_batch sweep from zero", &scenes, 60)
+    else {
+        return;
+    };
+    // Each stage reaches the physics (so a world that skipped it, or ran
+    // it where it should not, would differ from its CPU run): the worlds
+    // that differ only in its parameter (world index bit `stride`) end in
+    // different places.
+    for (stage, stride) in [
+        ("damping", 16),
+        ("gravity", 8),
+        ("friction", 4),
+        ("force", 2),
+    ] {
+        let differ = (0..scenes.len())
+            .filter(|w| w & stride == 0)
+            .all(|w| finals[w] != finals[w + stride]);
+        assert!(differ, "{stage}: some worlds end alike with and without it");
+    }
 }
 
 #[test]
@@ -138,11 +209,22 @@ fn one_world_and_the_shards_of_a_sweep_are_the_whole_batch() {
 
 #[test]
 fn f32_worlds_stay_within_the_single_world_frame_bound() {
-    let Some((adapter, summary)) = adapter_or_skip("gpu_batch f32", Precision::F32) else {
+    f32_worlds_are_their_own_references("gpu_batch chains f32", &chains());
+}
+
+#[test]
+fn f32_worlds_of_a_sweep_from_zero_are_their_own_references() {
+    f32_worlds_are_their_own_references("gpu_batch sweep from zero f32", &zero_sweep());
+}
+
+/// Every world of `scenes`, batched on gpu-f32 for 30 frames: within the
+/// single-world per-frame bound of its CPU run each frame, and on lavapipe
+/// its own f32 reference (from the batch's origin) bit for bit.
+fn f32_worlds_are_their_own_references(test: &str, scenes: &[Scene]) {
+    let Some((adapter, summary)) = adapter_or_skip(test, Precision::F32) else {
         return;
     };
-    let scenes = chains();
-    let batch = Batch::new(&scenes).expect("batch");
+    let batch = Batch::new(scenes).expect("batch");
     let mut gpu = GpuBatch::on_adapter(&adapter, &batch, Precision::F32).expect("gpu batch");
     let origin = gpu.origin().as_slice().to_vec();
     let mut cpus: Vec<_> = scenes
@@ -175,7 +257,7 @@ fn f32_worlds_stay_within_the_single_world_frame_bound() {
         let reports = gpu.step().expect("batch step");
         let ends = gpu.read_states().expect("states");
         for (k, r) in references.iter_mut().enumerate() {
-            let name = format!("gpu_batch world {k}");
+            let name = format!("{test} world {k}");
             assert_f32_reference_step(&name, frame, r, &reports[k], &ends[k]);
         }
         for (k, cpu) in cpus.iter_mut().enumerate() {
@@ -199,15 +281,16 @@ fn f32_worlds_stay_within_the_single_world_frame_bound() {
             worst_v = worst_v.max(dv / bv);
         }
     }
+    let worlds = scenes.len();
     common::bound::print_bound(
-        "gpu_batch chains f32 (15 worlds, 30 frames), worst measured/bound",
+        format!("{test} ({worlds} worlds, 30 frames), worst measured/bound"),
         format_args!("position {worst_x:.3}, velocity {worst_v:.3}"),
         "1 (each frame, each world)",
         "the single-world per-frame model (DivergenceModel::frame_bounds)",
     );
     if !references.is_empty() {
         common::bound::print_bound(
-            "gpu_batch chains f32 (15 worlds, 30 frames) vs each world's f32 reference",
+            format!("{test} ({worlds} worlds, 30 frames) vs each world's f32 reference"),
             "0 (bit-identical: states, residuals, active contacts)",
             "exact",
             "llvmpipe (common::exact::f32_identical)",
@@ -311,14 +394,28 @@ fn worlds_that_cannot_share_a_schedule_are_refused_by_world() {
     let Some((adapter, _)) = adapter_or_skip("gpu_batch refusal", Precision::F32) else {
         return;
     };
-    // World 2 without damping compiles no damping stage.
-    let mut scenes = cloths();
-    scenes[2].damping = None;
+    // Four stretched bars of one topology; world 2's material obeys
+    // another law, which no parameter of a call block turns into StVK.
+    let bar = |law, traction| hyperpbd::scenes::stretched_bar(law, 2, traction, 4, 4);
+    let scenes = [
+        bar(Law::StVenantKirchhoff, 10.0),
+        bar(Law::StVenantKirchhoff, 20.0),
+        bar(Law::NeoHookean, 20.0),
+        bar(Law::StVenantKirchhoff, 30.0),
+    ];
     let batch = Batch::new(&scenes).expect("one topology");
     let e = match GpuBatch::on_adapter(&adapter, &batch, Precision::F32) {
         Err(e) => e.to_string(),
-        Ok(_) => panic!("a world without damping was accepted"),
+        Ok(_) => panic!("a world of another law was accepted"),
     };
     assert!(e.starts_with("worlds[2]: "), "{e}");
+    assert!(
+        e.contains("call 1 (Project { family: 0, color: 0 }): its kernel and flags differ"),
+        "{e}"
+    );
     assert!(e.contains("one schedule"), "{e}");
+    // Without it the three StVK bars (different forces) share one batch.
+    let same = [scenes[0].clone(), scenes[1].clone(), scenes[3].clone()];
+    let batch = Batch::new(&same).expect("one topology");
+    assert!(GpuBatch::on_adapter(&adapter, &batch, Precision::F32).is_ok());
 }

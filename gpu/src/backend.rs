@@ -37,6 +37,7 @@ pub(crate) mod batch;
 mod contact_step;
 use crate::context::DeviceSource;
 pub(crate) mod status;
+mod union;
 use batch::{WorldArrays, Worlds};
 use contact_step::ContactStage;
 

@@ -11,10 +11,12 @@
 //! The file is written atomically: a failed world leaves no file. On the
 //! CPU the worlds run in parallel (`--threads`), one thread each. On
 //! `--backend gpu` / `gpu-f64` they run as GPU batches (every world of a
-//! batch in the same dispatches, world k bit for bit its own run in f64),
-//! or, where the worlds cannot share one GPU schedule (a world that
-//! compiles other stages, particle contact, guards), one GPU backend each,
-//! with a notice saying why.
+//! batch in the same dispatches, the union of the worlds' stages — a world
+//! with zero damping, friction, gravity or force runs them as exact
+//! identities —, world k bit for bit its own run in f64), or, where the
+//! worlds cannot share one GPU schedule (another topology or law, particle
+//! contact, guards), one GPU backend each, with a notice naming the world
+//! and what differs.
 
 use super::error::{CliError, with_sources};
 use super::load::{load_backend, parse_backend};
@@ -224,11 +226,25 @@ fn run_batched(
         let mut gpu = match batch {
             Ok(gpu) => gpu,
             Err(e) => {
+                // Named by the world's index in the sweep, not in the batch.
                 let why = match e {
                     BatchError::Backend { world, source } => {
                         format!("worlds[{}]: {source}", group[world])
                     }
-                    other => other.to_string(),
+                    BatchError::Topology { world, field, what } => BatchError::Topology {
+                        world: group[world],
+                        field,
+                        what,
+                    }
+                    .to_string(),
+                    BatchError::Scene { world, source } => BatchError::Scene {
+                        world: group[world],
+                        source,
+                    }
+                    .to_string(),
+                    other @ (BatchError::Empty
+                    | BatchError::Device { .. }
+                    | BatchError::Threads { .. }) => other.to_string(),
                 };
                 eprintln!("sweep: the worlds run one GPU backend each: {why}");
                 return Ok(None);

@@ -140,8 +140,8 @@ fn shards_concatenate_to_the_whole_sweep() {
 }
 
 /// The gpu-f64 sweep of `axes` equals the CPU sweep line for line; what
-/// the GPU run printed on stderr.
-fn gpu_f64_equals_cpu(test: &str, axes: &[&str]) -> Option<String> {
+/// the GPU run printed (stdout, stderr).
+fn gpu_f64_equals_cpu(test: &str, axes: &[&str]) -> Option<(String, String)> {
     adapter_or_skip(test, Precision::F64)?;
     let dir = TempDir::new(test);
     assert_success(&sweep_axes(
@@ -162,29 +162,48 @@ fn gpu_f64_equals_cpu(test: &str, axes: &[&str]) -> Option<String> {
         }
     }
     assert_eq!(gpu.len(), 15);
-    Some(String::from_utf8_lossy(&run.stderr).into_owned())
+    Some((
+        String::from_utf8_lossy(&run.stdout).into_owned(),
+        String::from_utf8_lossy(&run.stderr).into_owned(),
+    ))
 }
 
 #[test]
 fn gpu_f64_sweep_equals_the_cpu_sweep() {
-    // damping.rate = 0 compiles no damping stage: that world cannot share
-    // the others' GPU schedule, so every world runs one backend each.
-    let Some(stderr) = gpu_f64_equals_cpu("sweep-gpu", &AXES) else {
+    // damping.rate = 0 compiles no damping stage; the batch runs the
+    // union of the worlds' stages, world 0 skipping damping: one batch.
+    let Some((stdout, stderr)) = gpu_f64_equals_cpu("sweep-gpu", &AXES) else {
         return;
     };
-    assert!(
-        stderr.contains("run one GPU backend each: worlds[1]"),
-        "{stderr}"
-    );
+    assert!(!stderr.contains("one GPU backend each"), "{stderr}");
+    assert!(stdout.contains("gpu-f64, 15 worlds per batch"), "{stdout}");
 }
 
 #[test]
 fn a_gpu_sweep_runs_its_worlds_as_one_batch() {
     let axes = ["gravity[0]=-3:3:3", "obstacles[0].offset=0:1.5:5"];
-    let Some(stderr) = gpu_f64_equals_cpu("sweep-gpu-batch", &axes) else {
+    let Some((stdout, stderr)) = gpu_f64_equals_cpu("sweep-gpu-batch", &axes) else {
         return;
     };
     assert!(!stderr.contains("one GPU backend each"), "{stderr}");
+    assert!(stdout.contains("gpu-f64, 15 worlds per batch"), "{stdout}");
+}
+
+#[test]
+fn worlds_of_another_topology_run_one_gpu_backend_each_with_a_notice() {
+    // World 1's first link is heavier: masses are the batch's topology.
+    let axes = ["gravity[0]=-1:1:3", "particles[1].mass=0.1:0.3:5"];
+    let Some((stdout, stderr)) = gpu_f64_equals_cpu("sweep-gpu-alone", &axes) else {
+        return;
+    };
+    assert!(
+        stderr.contains(
+            "sweep: the worlds run one GPU backend each: worlds[1].particles[1].mass: differs \
+             from worlds[0]"
+        ),
+        "{stderr}"
+    );
+    assert!(!stdout.contains("worlds per batch"), "{stdout}");
 }
 
 #[test]

@@ -25,16 +25,22 @@
 //! so the CPU golden path (tests/gpu_batch.rs). In f32 all worlds share
 //! one origin (the box of every world), within the single-world bound.
 //!
-//! Worlds must compile to the same schedule: the same stages with the
-//! same flags (a world without gravity, damping or friction where world 0
-//! has them is refused, naming the world and the call). Particle contact,
-//! guards, adaptive steps and the small schedule are refused in a batch.
+//! The worlds run one schedule: the union of their stages (union.rs). A
+//! world whose gravity, forces, friction or damping are zero (stages its
+//! own plan compiles away) runs those stages as exact identities: it
+//! skips the responses it lacks (`Call::absent`, per world) and its zero
+//! gravity / forces leave prediction's sum as its own kernel computes it.
+//! Every other call must match world 0's (the same kernels, laws and
+//! flags: another law is refused, naming the world and the call).
+//! Particle contact, guards, adaptive steps and the small schedule are
+//! refused in a batch.
 
 use std::borrow::Cow;
 
 use hyperpbd_core::{Backend, BackendError, GpuError, Plan, State, StepReport, check_state};
 
 use super::GpuBackend;
+use super::union::Union;
 use crate::context::DeviceSource;
 use crate::params::read_reals;
 use crate::xpbd::Families;
@@ -161,23 +167,29 @@ impl<'a> WorldArrays<'a> {
 
 /// Every world's rest values and call blocks, world after world, each
 /// laid out as world 0's (positions relative to `origin`; the fused
-/// schedule for kernels of `workgroup`, `software` as the adapter is):
-/// the first world whose particles, families or calls differ from world
-/// 0's is refused by name.
+/// schedule of `ran[k]`, world k's plan running the union of the stages,
+/// for kernels of `workgroup`, `software` as the adapter is; a response
+/// absent from its own `plans[k]` marked `absent`): the first world whose
+/// particles, families or calls differ from world 0's is refused by name.
 fn lay_out(
-    plans: &[Plan],
+    (plans, ran, union): (&[Plan], &[Plan], &Union),
     origin: &SceneOrigin,
     (workgroup, software): (u32, bool),
 ) -> Result<(Vec<f64>, Vec<Call>), WorldError> {
     let mut shared: Option<(Families, Schedule)> = None;
     let (mut rest, mut calls) = (Vec::new(), Vec::new());
-    for (k, plan) in plans.iter().enumerate() {
+    for (k, (own_plan, plan)) in plans.iter().zip(ran).enumerate() {
         let world = |source: BackendError| WorldError {
             world: Some(k),
             source,
         };
         let own = Families::new(plan, origin).map_err(|e| world(e.into()))?;
-        let steps = Schedule::new(plan, &own, workgroup, Some(StepMode::Fused), software);
+        let mut steps = Schedule::new(plan, &own, workgroup, Some(StepMode::Fused), software);
+        for call in &mut steps.calls {
+            if let Some(kernel) = &call.kernel {
+                call.absent = union.absent(own_plan, kernel);
+            }
+        }
         if let Some((families, schedule)) = &shared {
             if own.elements != families.elements
                 || own.slot_maps != families.slot_maps
@@ -192,7 +204,7 @@ fn lay_out(
             for (c, (a, b)) in steps.calls.iter().zip(&schedule.calls).enumerate() {
                 if !a.same_shape(b) {
                     let what = match b.kernel {
-                        Some(kernel) => format!("call {c} ({kernel:?}): its stages and flags"),
+                        Some(kernel) => format!("call {c} ({kernel:?}): its kernel and flags"),
                         None => format!("call {c} (residual): its families"),
                     };
                     return Err(world(differs(&what)));
@@ -213,8 +225,9 @@ fn differs(what: &str) -> BackendError {
     GpuError::Unsupported {
         what: format!(
             "{what} differ from worlds[0]'s; a GPU batch runs one schedule for all worlds (the \
-             same stages with the same flags: gravity, forces, friction and damping on or off \
-             alike)"
+             union of their stages, where a world skips the friction or damping it lacks and \
+             predicts with its zero gravity or forces; every other call the same kernel, law \
+             and flags)"
         ),
     }
     .into()
@@ -282,9 +295,14 @@ impl GpuBatch {
             .map_err(WorldError::batch)?;
         let software = ctx.summary.device_type == "Cpu";
         let workgroup = crate::shader::ShaderFile::Step.workgroup_size();
-        let (rest, calls) = lay_out(&plans, &origin, (workgroup, software))?;
+        let union = Union::of(&plans).map_err(|k| WorldError {
+            world: Some(k),
+            source: differs("its stages"),
+        })?;
+        let ran: Vec<Plan> = plans.iter().map(|p| union.plan_for(p)).collect();
+        let (rest, calls) = lay_out((&plans, &ran, &union), &origin, (workgroup, software))?;
         let worlds = Worlds {
-            plans: &plans,
+            plans: &ran,
             states,
             rest: &rest,
             calls: &calls,
@@ -293,7 +311,7 @@ impl GpuBatch {
             .building(|| {
                 GpuBackend::build(
                     ctx.clone(),
-                    plans[0].clone(),
+                    ran[0].clone(),
                     &states[0],
                     precision,
                     origin,

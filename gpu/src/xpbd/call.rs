@@ -4,7 +4,7 @@
 //!
 //! ```text
 //! Call   op count first family elem_base slot_base arity call      (u32)
-//!        flags kind slot_map chunk io carried factors pad          (u32)
+//!        flags kind slot_map chunk io carried factors absent       (u32)
 //!        alpha_tilde h friction factor                             (real)
 //!        normal[4·VEC] gravity[4·VEC]     (real; lanes ≥ DIM zero)
 //! ```
@@ -53,6 +53,11 @@ pub(crate) struct Call {
     /// Primal-residual material projection: offset of the family's
     /// Newton factors in `carried` (primal_material.wgsl).
     pub factors: u32,
+    /// In a batch: this world's own plan has no such call (a friction or
+    /// damping response the union of the worlds' stages added,
+    /// backend/union.rs); the world skips it. Per world, so not part of
+    /// [`Call::same_shape`].
+    pub absent: bool,
     pub alpha_tilde: f64,
     pub h: f64,
     pub friction: f64,
@@ -74,7 +79,8 @@ impl Call {
     }
 
     /// Whether `other` runs the same kernel on the same elements with the
-    /// same flags, its reals aside (the calls of two worlds of a batch).
+    /// same flags, its reals and `absent` aside (the calls of two worlds
+    /// of a batch).
     pub fn same_shape(&self, other: &Call) -> bool {
         let words = |c: &Call| {
             [
@@ -123,7 +129,7 @@ impl Call {
                 records_io(std::slice::from_ref(self)),
                 self.carried,
                 self.factors,
-                0,
+                u32::from(self.absent),
             ])
             .reals(&[self.alpha_tilde, self.h, self.friction, self.factor])
             .reals(&vector(&self.normal))
