@@ -23,9 +23,10 @@ fn out_dir() -> PathBuf {
     std::env::temp_dir().join(format!("hyperpbd-implicit-rows-{}", std::process::id()))
 }
 
-/// The one run every test reads, or `None` when the calling test `test` ran in the binary's
-/// child process on one lavapipe thread ([`gpu::binary_on_one_lavapipe_thread`]:
-/// the GPU rows are hundreds of small dispatches each).
+/// The one run every test reads, or `None` when the calling test `test`
+/// ran in the binary's child process on one lavapipe thread
+/// ([`gpu::binary_on_one_lavapipe_thread`]: the GPU rows are
+/// hundreds of small dispatches each).
 fn report(test: &str) -> Option<&'static (Report, Config)> {
     static RUN: OnceLock<(Report, Config)> = OnceLock::new();
     if !gpu::binary_on_one_lavapipe_thread(test) {

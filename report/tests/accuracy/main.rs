@@ -30,9 +30,10 @@ fn out_dir() -> PathBuf {
     std::env::temp_dir().join(format!("hyperpbd-accuracy-test-{}", std::process::id()))
 }
 
-/// The one tiny run every test reads, or `None` when the calling test `test` ran in the binary's
-/// child process on one lavapipe thread ([`common::gpu::binary_on_one_lavapipe_thread`]:
-/// the GPU rows are hundreds of small dispatches each).
+/// The one tiny run every test reads, or `None` when the calling test `test`
+/// ran in the binary's child process on one lavapipe thread
+/// ([`common::gpu::binary_on_one_lavapipe_thread`]: the GPU rows are
+/// hundreds of small dispatches each).
 fn report(test: &str) -> Option<&'static (Report, Config)> {
     static RUN: OnceLock<(Report, Config)> = OnceLock::new();
     if !common::gpu::binary_on_one_lavapipe_thread(test) {
