@@ -37,6 +37,13 @@
 //! The CPU golden step runs on one thread. lavapipe runs with the
 //! environment's LP_NUM_THREADS, else its default (printed first).
 //! GPU cases are skipped with a printed notice when no adapter exists.
+//!
+//! `cargo bench` passes `--bench`; `cargo test --all-targets` runs this
+//! binary without it (criterion's test mode: each routine once): then a
+//! smoke run ([`full`] false) runs every routine on the smallest of its
+//! sizes only (N = 64 for step/ and step_1m/, cloth 16² for kernel/,
+//! frame/, frame_cpu/ and dispatch/, N = 16 for threads/): the same
+//! code on scenes that load in a fraction of the time.
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -66,6 +73,24 @@ fn load(scene: &Scene, backend: BackendKind) -> Option<Box<dyn Backend>> {
     Some(b)
 }
 
+/// Whether this is a measuring run (`cargo bench` passes `--bench`), not
+/// the smoke run of `cargo test --all-targets`.
+fn full() -> bool {
+    std::env::args().any(|a| a == "--bench")
+}
+
+/// `sizes` in a measuring run, its first (smallest) alone in the smoke run.
+fn sizes<T: Copy>(sizes: &[T]) -> &[T] {
+    if full() { sizes } else { &sizes[..1] }
+}
+
+/// The ground cloth of the kernel, frame and dispatch cases: 256² when
+/// measuring, 16² in the smoke run; its name.
+fn ground_cloth() -> (String, Scene) {
+    let n = if full() { 256 } else { 16 };
+    (format!("cloth{n}"), scenes::cloth(n))
+}
+
 fn projections(plan: &Plan) -> u64 {
     plan.projections_per_step()
 }
@@ -76,7 +101,7 @@ fn step(c: &mut Criterion) {
         .sample_size(10)
         .warm_up_time(Duration::from_millis(300))
         .measurement_time(Duration::from_secs(3));
-    for n in [64, 128, 256, 512] {
+    for &n in sizes(&[64, 128, 256, 512]) {
         let scene = scenes::hanging_cloth(n);
         for backend in BackendKind::ALL {
             let Some(mut b) = load(&scene, backend) else {
@@ -95,10 +120,11 @@ fn step(c: &mut Criterion) {
         .sample_size(10)
         .warm_up_time(Duration::from_millis(100))
         .measurement_time(Duration::from_secs(10));
-    let scene = scenes::hanging_cloth(1024);
+    let n = if full() { 1024 } else { 64 };
+    let scene = scenes::hanging_cloth(n);
     if let Some(mut b) = load(&scene, GPU_F32) {
         group.throughput(Throughput::Elements(projections(b.plan())));
-        group.bench_function(BenchmarkId::new("gpu-f32", 1024), |bench| {
+        group.bench_function(BenchmarkId::new("gpu-f32", n), |bench| {
             bench.iter(|| black_box(b.step().expect("step")));
         });
     }
@@ -111,7 +137,7 @@ fn kernels(c: &mut Criterion) {
         .sample_size(20)
         .warm_up_time(Duration::from_millis(300))
         .measurement_time(Duration::from_secs(2));
-    let scene = scenes::hanging_cloth(256);
+    let scene = scenes::hanging_cloth(if full() { 256 } else { 16 });
     for backend in [BackendKind::Cpu, GPU_F32] {
         let Some(mut b) = load(&scene, backend) else {
             continue;
@@ -180,9 +206,9 @@ fn frames(c: &mut Criterion) {
         .sample_size(10)
         .warm_up_time(Duration::from_millis(300))
         .measurement_time(Duration::from_secs(3));
-    for (name, scene) in [("chain20", chain20()), ("cloth256", scenes::cloth(256))] {
+    for (name, scene) in [("chain20".to_string(), chain20()), ground_cloth()] {
         if let Some(mut b) = load(&scene, BackendKind::Cpu) {
-            group.bench_function(BenchmarkId::new("cpu-f64", name), |bench| {
+            group.bench_function(BenchmarkId::new("cpu-f64", &name), |bench| {
                 bench.iter(|| black_box(b.step().expect("step")));
             });
         }
@@ -196,7 +222,7 @@ fn frames(c: &mut Criterion) {
                     "frame/{id}/{name}: {} dispatches per step",
                     b.dispatches_per_step()
                 );
-                group.bench_function(BenchmarkId::new(id, name), |bench| {
+                group.bench_function(BenchmarkId::new(id, &name), |bench| {
                     bench.iter(|| black_box(b.step().expect("step")));
                 });
             }
@@ -235,9 +261,9 @@ fn frames_on_cpu(c: &mut Criterion) {
         }
         on_cpu().unwrap_or_default().saturating_sub(start)
     };
-    for (name, scene) in [("chain20", chain20()), ("cloth256", scenes::cloth(256))] {
+    for (name, scene) in [("chain20".to_string(), chain20()), ground_cloth()] {
         if let Some(mut b) = load(&scene, BackendKind::Cpu) {
-            group.bench_function(BenchmarkId::new("cpu-f64", name), |bench| {
+            group.bench_function(BenchmarkId::new("cpu-f64", &name), |bench| {
                 bench.iter_custom(|n| timed(&mut || drop(black_box(b.step().expect("step"))), n));
             });
         }
@@ -246,7 +272,7 @@ fn frames_on_cpu(c: &mut Criterion) {
                 continue;
             };
             group.bench_function(
-                BenchmarkId::new(format!("gpu-{precision}-fused"), name),
+                BenchmarkId::new(format!("gpu-{precision}-fused"), &name),
                 |bench| {
                     bench.iter_custom(|n| {
                         timed(&mut || drop(black_box(b.step().expect("step"))), n)
@@ -305,7 +331,7 @@ fn threads(c: &mut Criterion) {
         .sample_size(10)
         .warm_up_time(Duration::from_millis(300))
         .measurement_time(Duration::from_secs(2));
-    for n in [16, 32, 64, 90, 128, 181] {
+    for &n in sizes(&[16, 32, 64, 90, 128, 181]) {
         let scene = scenes::cloth(n);
         let Some(mut b) = load(&scene, GPU_F32) else {
             continue;
@@ -324,7 +350,7 @@ fn dispatches(c: &mut Criterion) {
         .sample_size(10)
         .warm_up_time(Duration::from_millis(300))
         .measurement_time(Duration::from_secs(3));
-    let scene = scenes::cloth(256);
+    let (_, scene) = ground_cloth();
     for precision in [Precision::F32, Precision::F64] {
         let plan = Plan::compile(&scene).expect("scene compiles");
         let state = State::from_scene(&scene);

@@ -13,6 +13,8 @@
 //!                                            reference is printed (ACCURACY lines)
 //! ```
 //! GPU cases are skipped with a printed notice when no adapter exists.
+//! Without `--bench` (`cargo test --all-targets`) a smoke run: N = 10 000
+//! and budgets 1 and 32 only, the same routines.
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -56,6 +58,12 @@ fn particles(n: usize) -> (Vec<f64>, Vec<f64>) {
     (x, vec![0.0; n])
 }
 
+/// Whether this is a measuring run (`cargo bench` passes `--bench`), not
+/// the smoke run of `cargo test --all-targets` (criterion's test mode).
+fn full() -> bool {
+    std::env::args().any(|a| a == "--bench")
+}
+
 fn barrier_eval(c: &mut Criterion) {
     let scene = obstacle_scene();
     let obstacles = BarrierObstacles::compile(&scene);
@@ -65,7 +73,12 @@ fn barrier_eval(c: &mut Criterion) {
         .sample_size(10)
         .warm_up_time(Duration::from_millis(200))
         .measurement_time(Duration::from_secs(2));
-    for n in [10_000usize, 100_000, 1_000_000] {
+    let sizes: &[usize] = if full() {
+        &[10_000, 100_000, 1_000_000]
+    } else {
+        &[10_000]
+    };
+    for &n in sizes {
         let (x, r) = particles(n);
         group.throughput(Throughput::Elements(n as u64 * per_particle));
         group.bench_with_input(BenchmarkId::new("cpu-f64", n), &n, |b, _| {
@@ -160,7 +173,12 @@ fn newton_budget(c: &mut Criterion) {
         .sample_size(10)
         .warm_up_time(Duration::from_millis(200))
         .measurement_time(Duration::from_secs(1));
-    for budget in [1u32, 2, 4, 8, 16, 32] {
+    let budgets: &[u32] = if full() {
+        &[1, 2, 4, 8, 16, 32]
+    } else {
+        &[1, 32]
+    };
+    for &budget in budgets {
         // Tolerance 1e-12 m/s²: the budget, not the criterion, stops it.
         let scene = drop_scene(budget, 1e-12);
         let after = run(&scene, 30);

@@ -21,6 +21,7 @@ docs/mutation.md from the list and the results.
     scripts/mutants.sh --baseline         unmutated scratch copy: all targets pass, their times
     scripts/mutants.sh --only M07,M12     run these mutants
     scripts/mutants.sh --from M20 --limit 10
+    scripts/mutants.sh --only M13 --targets stability   only these targets
     scripts/mutants.sh --report           write docs/mutation.md
 
 Not in CI: each mutant rebuilds hyperpbd-gpu (the WGSL is embedded with
@@ -100,7 +101,10 @@ def existing(root: Path, targets: list[str]) -> list[str]:
 
 def targets_for(data: dict, m: dict, root: Path) -> list[str]:
     """The test targets of a mutant: its own `tests`, else the first
-    [[order]] entry whose `files` pattern matches, then the defaults."""
+    [[order]] entry whose `files` pattern matches, then the defaults
+    (`--targets` narrows all of these to the targets it names)."""
+    if data.get("only_targets"):
+        return existing(root, data["only_targets"])
     default = existing(root, data["targets"]["default"])
     first: list[str] = list(m.get("tests", []))
     if not first:
@@ -257,6 +261,9 @@ def baseline(data: dict, scratch: Path, threads: int) -> None:
             sys.exit("baseline fails: fix the tree before mutating it")
         times[target] = t2 - t1
     results = load_results(scratch)
+    if data.get("only_targets"):
+        # --targets: the other targets keep their recorded times.
+        times = {**results.get("_baseline", {}).get("times", {}), **times}
     results["_baseline"] = {"times": times, "when": time.strftime("%Y-%m-%d %H:%M")}
     save_results(scratch, results)
 
@@ -423,8 +430,15 @@ def main() -> None:
     ap.add_argument("--pending", action="store_true", help="only mutants without a current result")
     ap.add_argument("--threads", type=int, default=2, help="libtest threads per binary")
     ap.add_argument("--budget-min", type=float, default=45.0, help="stop starting mutants after this long")
+    ap.add_argument(
+        "--targets",
+        help="comma-separated test targets: run (and, with --baseline, time) only these, in this order",
+    )
     args = ap.parse_args()
     data = load_list(args.list)
+    if args.targets:
+        data["only_targets"] = args.targets.split(",")
+        data["targets"]["default"] = data["only_targets"]
 
     if args.check:
         bad = 0

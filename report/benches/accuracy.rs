@@ -11,7 +11,9 @@
 //! ```
 //! The report command takes medians of its own repetitions; this bench
 //! gives the same step times with criterion's statistics. GPU cases are
-//! skipped with a printed notice when no adapter exists.
+//! skipped with a printed notice when no adapter exists. Without `--bench`
+//! (`cargo test --all-targets`) a smoke run: s1i1 and s4i4 only, and the
+//! ladder at 8 × 8, every rung.
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -34,16 +36,26 @@ fn load(scene: &Scene, backend: BackendKind) -> Option<Box<dyn Backend>> {
     }
 }
 
+/// Whether this is a measuring run (`cargo bench` passes `--bench`), not
+/// the smoke run of `cargo test --all-targets` (criterion's test mode).
+fn full() -> bool {
+    std::env::args().any(|a| a == "--bench")
+}
+
 fn sweep(c: &mut Criterion) {
     let mut group = c.benchmark_group("accuracy");
     group
         .sample_size(10)
         .warm_up_time(Duration::from_millis(200))
         .measurement_time(Duration::from_secs(2));
-    let configs = [(1, 1), (4, 1), (16, 1), (4, 4), (16, 4)];
+    let configs: &[(u32, u32)] = if full() {
+        &[(1, 1), (4, 1), (16, 1), (4, 4), (16, 4)]
+    } else {
+        &[(1, 1), (4, 4)]
+    };
     for case in [CaseId::Cloth, CaseId::Pendulum, CaseId::Tesseract] {
         for backend in BackendKind::ALL {
-            for (s, i) in configs {
+            for &(s, i) in configs {
                 if !case.uses_iterations() && i > 1 {
                     continue;
                 }
@@ -71,7 +83,7 @@ fn effect_ladder(c: &mut Criterion) {
         .sample_size(10)
         .warm_up_time(Duration::from_millis(200))
         .measurement_time(Duration::from_secs(2));
-    let ladder = effects::ladder(32);
+    let ladder = effects::ladder(if full() { 32 } else { 8 });
     for backend in BackendKind::ALL {
         for (k, (_, scene, _)) in ladder.iter().enumerate() {
             let Some(mut b) = load(scene, backend) else {

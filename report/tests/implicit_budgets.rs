@@ -4,7 +4,8 @@
 //! earlier report and README, then checks of its numbers against the
 //! cases' known answers and of the files it spliced.
 
-/// The skip count of scripts/test.sh (`record_skip`).
+/// The skip count of scripts/test.sh (`record_skip`) and the child on one
+/// lavapipe thread (`binary_on_one_lavapipe_thread`).
 #[allow(dead_code)]
 #[path = "../../tests/common/gpu.rs"]
 mod gpu;
@@ -22,10 +23,16 @@ fn out_dir() -> PathBuf {
     std::env::temp_dir().join(format!("hyperpbd-implicit-rows-{}", std::process::id()))
 }
 
-/// The one run every test reads.
-fn report() -> &'static (Report, Config) {
+/// The one run every test reads, or `None` when the calling test `test`
+/// ran in the binary's child process on one lavapipe thread
+/// ([`gpu::binary_on_one_lavapipe_thread`]: the GPU rows are
+/// hundreds of small dispatches each).
+fn report(test: &str) -> Option<&'static (Report, Config)> {
     static RUN: OnceLock<(Report, Config)> = OnceLock::new();
-    RUN.get_or_init(|| {
+    if !gpu::binary_on_one_lavapipe_thread(test) {
+        return None;
+    }
+    Some(RUN.get_or_init(|| {
         let dir = out_dir();
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).expect("temp dir");
@@ -42,7 +49,7 @@ fn report() -> &'static (Report, Config) {
         config.implicit_only = true;
         let report = run(&config).unwrap_or_else(|e| panic!("implicit rows failed: {e}"));
         (report, config)
-    })
+    }))
 }
 
 fn case(report: &Report, case: ImplicitCase) -> &ImplicitResult {
@@ -72,7 +79,12 @@ fn error(r: &ImplicitResult, newton: u32, cg: Option<u32>) -> f64 {
 
 #[test]
 fn every_budget_has_a_timed_row_within_its_budgets() {
-    let (report, config) = report();
+    let Some((report, config)) = report(&gpu::test_name(
+        module_path!(),
+        "every_budget_has_a_timed_row_within_its_budgets",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     let running = running_gpu_backends(report);
     for c in CASES {
         let r = case(report, c);
@@ -129,7 +141,12 @@ fn every_budget_has_a_timed_row_within_its_budgets() {
 
 #[test]
 fn converged_rows_meet_the_known_answers() {
-    let (report, _) = report();
+    let Some((report, _)) = report(&gpu::test_name(
+        module_path!(),
+        "converged_rows_meet_the_known_answers",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     let incline = case(report, ImplicitCase::Incline);
     let p = point(incline, 16, None);
     let e = p.error.unwrap_or(f64::NAN);
@@ -154,7 +171,9 @@ fn converged_rows_meet_the_known_answers() {
 
 #[test]
 fn budgets_discriminate() {
-    let (report, _) = report();
+    let Some((report, _)) = report(&gpu::test_name(module_path!(), "budgets_discriminate")) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     // Two CG iterations per direction cannot solve the 24-coordinate
     // hanging chain with its 1:1e6 masses: one Newton step of them is far
     // off, and more Newton steps close the gap.
@@ -183,7 +202,12 @@ fn budgets_discriminate() {
 
 #[test]
 fn the_section_is_spliced_into_the_earlier_files() {
-    let (report, config) = report();
+    let Some((report, config)) = report(&gpu::test_name(
+        module_path!(),
+        "the_section_is_spliced_into_the_earlier_files",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     let md = std::fs::read_to_string(config.out.join("accuracy.md")).expect("accuracy.md");
     let (a, b) = (
         md.find(IMPLICIT_BEGIN).expect("begin marker"),
@@ -260,7 +284,12 @@ fn running_gpu_backends(report: &Report) -> Vec<&'static str> {
 
 #[test]
 fn the_gpu_rows_say_what_each_gpu_backend_does_with_the_coupled_step() {
-    let (report, _) = report();
+    let Some((report, _)) = report(&gpu::test_name(
+        module_path!(),
+        "the_gpu_rows_say_what_each_gpu_backend_does_with_the_coupled_step",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     let section = report.implicit.as_ref().expect("section");
     let require = std::env::var_os("HYPERPBD_REQUIRE_GPU").is_some();
     if require {
@@ -285,7 +314,12 @@ fn the_gpu_rows_say_what_each_gpu_backend_does_with_the_coupled_step() {
 
 #[test]
 fn gpu_f64_rows_are_the_cpu_rows_on_lavapipe() {
-    let (report, config) = report();
+    let Some((report, config)) = report(&gpu::test_name(
+        module_path!(),
+        "gpu_f64_rows_are_the_cpu_rows_on_lavapipe",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     if !running_gpu_backends(report).contains(&"gpu-f64") {
         assert!(
             std::env::var_os("HYPERPBD_REQUIRE_GPU").is_none(),

@@ -151,3 +151,47 @@ pub fn on_one_lavapipe_thread(test: &str) -> bool {
     );
     false
 }
+
+/// [`on_one_lavapipe_thread`] for a binary whose tests share one run (a
+/// `OnceLock` every test reads: a report's sweep), where a child per test
+/// would repeat the run: whether the calling test `test` ([`test_name`])
+/// runs its body in this process.
+///
+/// With `LP_NUM_THREADS` set (by the user, or in the child): `true`.
+/// Unset: the first caller runs the whole binary once in a child process
+/// with `LP_NUM_THREADS=0` (this process's arguments, less
+/// `--nocapture` / `--show-output`; its output printed here), and every
+/// caller asserts that its own test printed `test <test> ... ok` there —
+/// a test that failed, or did not run, in the child fails here — and
+/// returns `false`.
+pub fn binary_on_one_lavapipe_thread(test: &str) -> bool {
+    use std::sync::OnceLock;
+    if std::env::var_os(LAVAPIPE_THREADS).is_some() {
+        return true;
+    }
+    static CHILD: OnceLock<String> = OnceLock::new();
+    let stdout = CHILD.get_or_init(|| {
+        let exe = std::env::current_exe().expect("the test binary's path");
+        let args = std::env::args_os()
+            .skip(1)
+            .filter(|a| a != "--nocapture" && a != "--show-output");
+        let out = std::process::Command::new(exe)
+            .args(args)
+            .env(LAVAPIPE_THREADS, "0")
+            .output()
+            .unwrap_or_else(|e| {
+                panic!("{test}: cannot run the binary again with {LAVAPIPE_THREADS}=0: {e}")
+            });
+        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+        print!("{stdout}");
+        eprint!("{}", String::from_utf8_lossy(&out.stderr));
+        println!("(the binary with {LAVAPIPE_THREADS}=0: {})", out.status);
+        stdout
+    });
+    let passed = format!("test {test} ... ok");
+    assert!(
+        stdout.lines().any(|l| l == passed),
+        "{test} did not pass in the binary's run with {LAVAPIPE_THREADS}=0 (its output is above)"
+    );
+    false
+}

@@ -6,7 +6,12 @@ use super::*;
 
 #[test]
 fn effect_controls_compile_away_and_effects_add_kernels() {
-    let (report, _) = report();
+    let Some((report, _)) = report(&common::gpu::test_name(
+        module_path!(),
+        "effect_controls_compile_away_and_effects_add_kernels",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     let rows: Vec<_> = report
         .effects
         .iter()
@@ -63,7 +68,12 @@ fn ball_row<'a>(report: &'a Report, starts: &str) -> &'a EffectRow {
 /// as a different solver; explicit "xpbd" is the same plan as omitting it.
 #[test]
 fn collision_and_barrier_rows_are_measured_with_controls() {
-    let (report, _) = report();
+    let Some((report, _)) = report(&common::gpu::test_name(
+        module_path!(),
+        "collision_and_barrier_rows_are_measured_with_controls",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     let balls: Vec<&EffectRow> = report
         .effects
         .iter()
@@ -189,7 +199,12 @@ fn effects_only_run_leaves_the_rest_of_the_report_alone() {
 
 #[test]
 fn scaling_is_measured_and_fitted() {
-    let (report, _) = report();
+    let Some((report, _)) = report(&common::gpu::test_name(
+        module_path!(),
+        "scaling_is_measured_and_fitted",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     let cpu: Vec<_> = report
         .scaling
         .iter()
@@ -248,7 +263,12 @@ fn zero_crossings_of_a_sampled_sine_are_exact_to_interpolation_order() {
 
 #[test]
 fn frontier_keeps_only_undominated_points() {
-    let (report, _) = report();
+    let Some((report, _)) = report(&common::gpu::test_name(
+        module_path!(),
+        "frontier_keeps_only_undominated_points",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     let template = report.cases[0].points[0].clone();
     let mk = |t: f64, e: f64| Point {
         ms_per_sim_second: t,

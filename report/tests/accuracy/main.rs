@@ -30,10 +30,16 @@ fn out_dir() -> PathBuf {
     std::env::temp_dir().join(format!("hyperpbd-accuracy-test-{}", std::process::id()))
 }
 
-/// The one tiny run every test reads.
-fn report() -> &'static (Report, Config) {
+/// The one tiny run every test reads, or `None` when the calling test `test`
+/// ran in the binary's child process on one lavapipe thread
+/// ([`common::gpu::binary_on_one_lavapipe_thread`]: the GPU rows are
+/// hundreds of small dispatches each).
+fn report(test: &str) -> Option<&'static (Report, Config)> {
     static RUN: OnceLock<(Report, Config)> = OnceLock::new();
-    RUN.get_or_init(|| {
+    if !common::gpu::binary_on_one_lavapipe_thread(test) {
+        return None;
+    }
+    Some(RUN.get_or_init(|| {
         let dir = out_dir();
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).expect("temp dir");
@@ -61,7 +67,7 @@ fn report() -> &'static (Report, Config) {
         config.cg_budgets = vec![None];
         let report = run(&config).unwrap_or_else(|e| panic!("accuracy run failed: {e}"));
         (report, config)
-    })
+    }))
 }
 
 fn points(report: &Report, case: CaseId, backend: BackendKind) -> Vec<&Point> {
@@ -83,7 +89,11 @@ fn gpu_ran(report: &Report) -> bool {
 
 #[test]
 fn writes_every_file() {
-    let (report, config) = report();
+    let Some((report, config)) =
+        report(&common::gpu::test_name(module_path!(), "writes_every_file"))
+    else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     let dir = &config.out;
     for f in [
         "accuracy.md",
@@ -117,7 +127,12 @@ fn writes_every_file() {
 
 #[test]
 fn markdown_names_machine_adapter_and_headlines() {
-    let (report, config) = report();
+    let Some((report, config)) = report(&common::gpu::test_name(
+        module_path!(),
+        "markdown_names_machine_adapter_and_headlines",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     let md = std::fs::read_to_string(config.out.join("accuracy.md")).expect("markdown");
     assert!(md.contains(&report.machine.cpu_model), "CPU model missing");
     assert!(md.contains(&format!("| nproc | {} |", report.machine.nproc)));
@@ -164,7 +179,12 @@ fn markdown_names_machine_adapter_and_headlines() {
 
 #[test]
 fn readme_section_is_replaced_in_place_and_idempotently() {
-    let (report, config) = report();
+    let Some((report, config)) = report(&common::gpu::test_name(
+        module_path!(),
+        "readme_section_is_replaced_in_place_and_idempotently",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     let readme = config.readme.as_ref().expect("readme configured");
     let text = std::fs::read_to_string(readme).expect("readme");
     assert!(!text.contains("old text"), "the old section survived");
@@ -198,7 +218,12 @@ fn readme_section_is_replaced_in_place_and_idempotently() {
 /// substeps (XPBD is at least first order; measured ≈ second order).
 #[test]
 fn pendulum_error_decreases_with_substeps() {
-    let (report, _) = report();
+    let Some((report, _)) = report(&common::gpu::test_name(
+        module_path!(),
+        "pendulum_error_decreases_with_substeps",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     let cpu = points(report, CaseId::Pendulum, BackendKind::Cpu);
     assert_eq!(cpu.len(), 3);
     for pair in cpu.windows(2) {
@@ -237,7 +262,12 @@ fn pendulum_error_decreases_with_substeps() {
 /// rounding.
 #[test]
 fn free_fall_error_is_the_closed_form_discretisation_error() {
-    let (report, _) = report();
+    let Some((report, _)) = report(&common::gpu::test_name(
+        module_path!(),
+        "free_fall_error_is_the_closed_form_discretisation_error",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     let t: f64 = 1.0;
     let exact = [1.0 * t, 5.0 * t - 0.5 * G * t * t, 0.5 * t];
     let travel = exact.iter().map(|x| x * x).sum::<f64>().sqrt();
@@ -260,7 +290,12 @@ fn free_fall_error_is_the_closed_form_discretisation_error() {
 /// reference's own error estimate is below every point's error.
 #[test]
 fn converged_cases_approach_their_reference() {
-    let (report, _) = report();
+    let Some((report, _)) = report(&common::gpu::test_name(
+        module_path!(),
+        "converged_cases_approach_their_reference",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     for case in [CaseId::Chain2d, CaseId::Cloth] {
         let result = report
             .cases
@@ -301,7 +336,12 @@ fn converged_cases_approach_their_reference() {
 
 #[test]
 fn every_point_is_timed_and_frontiers_exist() {
-    let (report, _) = report();
+    let Some((report, _)) = report(&common::gpu::test_name(
+        module_path!(),
+        "every_point_is_timed_and_frontiers_exist",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     for c in &report.cases {
         for p in &c.points {
             assert!(
@@ -336,7 +376,12 @@ fn every_point_is_timed_and_frontiers_exist() {
 /// the CPU to well within its own size.
 #[test]
 fn gpu_points_agree_with_cpu_where_discretisation_dominates() {
-    let (report, _) = report();
+    let Some((report, _)) = report(&common::gpu::test_name(
+        module_path!(),
+        "gpu_points_agree_with_cpu_where_discretisation_dominates",
+    )) else {
+        return; // run in the child with LP_NUM_THREADS=0
+    };
     if !gpu_ran(report) {
         common::gpu::record_skip(
             "gpu_points_agree_with_cpu_where_discretisation_dominates",
