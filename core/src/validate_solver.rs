@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! xpbd:                   no simplex_mesh obstacle (XPBD has no simplex contact)
-//! incremental_potential:  κ > 0, d^ > 0, tolerance > 0, max_iterations ≥ 1;
+//! incremental_potential:  no `motion` (obstacles or pins), κ > 0, d^ > 0, tolerance > 0, max_iterations ≥ 1;
 //!                         cg_iterations ≥ 1, friction_slip_velocity > 0 (when given);
 //!                         geometric constraint families with compliance α > 0
 //!                         (springs C²/(2α); α = 0 is no energy; material families
@@ -19,6 +19,10 @@ use crate::geometry::{DEGENERATE_VOLUME_RATIO, determinant, factorial};
 use crate::{Obstacle, Scene, SceneError, Solver};
 
 const IP: &str = "incremental_potential";
+
+/// Why the implicit paths refuse a `motion` key.
+const MOTION_ON_XPBD_ONLY: &str = "prescribed motion runs on the XPBD path only so far (the \
+     barrier's step filter and the implicit friction assume static obstacles)";
 
 fn positive(path: &str, value: f64) -> Result<(), SceneError> {
     if !value.is_finite() {
@@ -114,6 +118,22 @@ impl Scene {
                 return Err(unsupported(
                     format!("obstacles[{o}].compliance"),
                     "a barrier obstacle has no compliance (κ and d^ set its stiffness)",
+                ));
+            }
+            if let Obstacle::Hyperplane { motion, .. } = obstacle
+                && !motion.is_empty()
+            {
+                return Err(unsupported(
+                    format!("obstacles[{o}].motion"),
+                    MOTION_ON_XPBD_ONLY,
+                ));
+            }
+        }
+        for (i, p) in self.particles.iter().enumerate() {
+            if !p.motion.is_empty() {
+                return Err(unsupported(
+                    format!("particles[{i}].motion"),
+                    MOTION_ON_XPBD_ONLY,
                 ));
             }
         }

@@ -171,6 +171,12 @@ impl GpuBackend {
         if plan.incremental_potential().is_some() {
             return Err(crate::incremental_potential::incremental_potential_unsupported().into());
         }
+        if plan.motion.is_some() {
+            return Err(GpuError::Unsupported {
+                what: "prescribed \"motion\" (the CPU runs it so far: --backend cpu)".into(),
+            }
+            .into());
+        }
         let ctx = device.context(precision)?;
         ctx.building(|| Self::build(ctx.clone(), plan, state, precision, origin, mode, None))
     }

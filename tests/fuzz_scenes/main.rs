@@ -136,6 +136,7 @@ fn hyperplane(dim: usize) -> impl Strategy<Value = Obstacle> {
                 offset,
                 friction,
                 compliance,
+                motion: Vec::new(),
             }
         })
 }

@@ -60,6 +60,7 @@ fn plane(normal: Vec<f64>) -> Obstacle {
         offset: 0.0,
         friction: 0.5,
         compliance: 0.0,
+        motion: Vec::new(),
     }
 }
 
@@ -70,6 +71,7 @@ fn hyperplane(s: &mut Scene) -> (&mut Vec<f64>, &mut f64, &mut f64, &mut f64) {
         offset,
         friction,
         compliance,
+        ..
     } = &mut s.obstacles[0]
     else {
         panic!("the base scene's obstacle is a hyperplane");

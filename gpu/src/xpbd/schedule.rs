@@ -359,7 +359,7 @@ fn kernel_call(
         Kernel::Friction { family } => friction::friction(plan, families, family, call),
         Kernel::GuardMeasure { family } => guard::measure(plan, families, family, call),
         Kernel::GuardSpeed => guard::speed(plan, call),
-        Kernel::Broadphase | Kernel::Collide | Kernel::Minimise => Call {
+        Kernel::Broadphase | Kernel::Collide | Kernel::Minimise | Kernel::Motion => Call {
             op: OP_HOST,
             call,
             kernel: Some(kernel),
