@@ -41,8 +41,32 @@ fn positive(path: &str, value: f64) -> Result<(), SceneError> {
 }
 
 impl Scene {
+    /// The path of the first `motion` key (particles first, then obstacles).
+    fn first_motion(&self) -> Option<String> {
+        if let Some(i) = self.particles.iter().position(|p| !p.motion.is_empty()) {
+            return Some(format!("particles[{i}].motion"));
+        }
+        let obstacle = self
+            .obstacles
+            .iter()
+            .position(|o| matches!(o, Obstacle::Hyperplane { motion, .. } if !motion.is_empty()));
+        obstacle.map(|o| format!("obstacles[{o}].motion"))
+    }
+
     pub(crate) fn validate_solver(&self) -> Result<(), SceneError> {
         let Solver::IncrementalPotential(settings) = &self.solver else {
+            if let Solver::Xpbd(xpbd) = &self.solver
+                && xpbd.primal_residual
+                && let Some(path) = self.first_motion()
+            {
+                return Err(SceneError::UnsupportedBySolver {
+                    path,
+                    solver: "xpbd",
+                    why: "prescribed motion does not run with \"primal_residual\": true yet (its \
+                          carried forces assume static planes)"
+                        .into(),
+                });
+            }
             for (o, obstacle) in self.obstacles.iter().enumerate() {
                 if matches!(obstacle, Obstacle::SimplexMesh { .. }) {
                     return Err(SceneError::UnsupportedBySolver {
@@ -120,22 +144,9 @@ impl Scene {
                     "a barrier obstacle has no compliance (κ and d^ set its stiffness)",
                 ));
             }
-            if let Obstacle::Hyperplane { motion, .. } = obstacle
-                && !motion.is_empty()
-            {
-                return Err(unsupported(
-                    format!("obstacles[{o}].motion"),
-                    MOTION_ON_XPBD_ONLY,
-                ));
-            }
         }
-        for (i, p) in self.particles.iter().enumerate() {
-            if !p.motion.is_empty() {
-                return Err(unsupported(
-                    format!("particles[{i}].motion"),
-                    MOTION_ON_XPBD_ONLY,
-                ));
-            }
+        if let Some(path) = self.first_motion() {
+            return Err(unsupported(path, MOTION_ON_XPBD_ONLY));
         }
         let obstacles = BarrierObstacles::compile(self);
         for (i, p) in self.particles.iter().enumerate() {
