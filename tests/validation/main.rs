@@ -12,6 +12,7 @@
 mod constraints;
 mod errors_doc;
 mod known_gaps;
+mod motion;
 mod non_finite;
 mod obstacles_and_damping;
 mod order_and_valid_scenes;
