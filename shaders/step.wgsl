@@ -188,7 +188,7 @@ fn world_reals(op: u32, c: u32) {
                  OP_PROJECT_EXPRESSION, OP_RESIDUAL, OP_GUARD_MEASURE, OP_GUARD_SPEED: {
                 call.alpha_tilde = calls[k].alpha_tilde;
             }
-            case OP_VELOCITY, OP_HOST, OP_NONE: {}
+            case OP_VELOCITY, OP_MOTION, OP_HOST, OP_NONE: {}
             // Every op is named above (tests/shaders.rs); an unknown one loads nothing.
             default: {}
         }
@@ -282,13 +282,24 @@ fn run_op(op: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
             predict_particle(i, rx, rv, rp);
         }
         case OP_PROJECT_CONTACT: {
-            contact_particle(i, rx, rv, rp);
+            if ((call.flags & FLAG_MOVING) != 0u) {
+                moving_contact_particle(i, rx, rv, rp);
+            } else {
+                contact_particle(i, rx, rv, rp);
+            }
         }
         case OP_VELOCITY: {
             velocity_particle(i, rx, rv, rp);
         }
         case OP_FRICTION: {
-            friction_particle(i, rx, rv, rp);
+            if ((call.flags & FLAG_MOVING) != 0u) {
+                moving_friction_particle(i, rx, rv, rp);
+            } else {
+                friction_particle(i, rx, rv, rp);
+            }
+        }
+        case OP_MOTION: {
+            motion_particle(i, rx, rv, rp);
         }
         case OP_DAMPING: {
             damping_particle(i, rx, rv, rp);

@@ -397,6 +397,51 @@ impl MotionPlan {
     }
 }
 
+/// n·o (f64, in order), 0 with no origin.
+fn along(normal: &[f64], origin: &[f64]) -> Option<f64> {
+    if origin.iter().all(|&o| o == 0.0) {
+        return None;
+    }
+    let mut s = 0.0;
+    for (n, o) in normal.iter().zip(origin) {
+        s += n * o;
+    }
+    Some(s)
+}
+
+/// A moving plane's values in coordinates relative to `origin` (the GPU
+/// backend's scene origin; f64, before any rounding): (shift s − n·o,
+/// carry offset c + Ā o). With no origin (empty or zero) both are the
+/// world values, unchanged.
+pub fn local_plane(plane: &PlaneAt, origin: &[f64]) -> (f64, Vec<f64>) {
+    let Some(no) = along(&plane.normal, origin) else {
+        return (plane.shift, plane.carry.offset.clone());
+    };
+    let n = origin.len();
+    let offset = match &plane.carry.matrix {
+        None => plane.carry.offset.clone(),
+        Some(m) => (0..n)
+            .map(|a| {
+                let mut s = 0.0;
+                for b in 0..n {
+                    s += m[a * n + b] * origin[b];
+                }
+                plane.carry.offset[a] + s
+            })
+            .collect(),
+    };
+    (plane.shift - no, offset)
+}
+
+/// A pin coordinate relative to origin coordinate `o` (f64; unchanged
+/// without one).
+pub fn local_position(x: f64, o: Option<&f64>) -> f64 {
+    match o {
+        Some(&o) if o != 0.0 => x - o,
+        _ => x,
+    }
+}
+
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut s = 0.0;
     for (x, y) in a.iter().zip(b) {

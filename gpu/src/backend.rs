@@ -35,6 +35,7 @@ use crate::xpbd::{Families, NONE, Placed, XpbdEntry};
 mod attempt;
 pub(crate) mod batch;
 mod contact_step;
+mod motion_step;
 use crate::context::DeviceSource;
 pub(crate) mod status;
 use batch::{WorldArrays, Worlds};
@@ -79,6 +80,8 @@ pub struct GpuBackend {
     exporter: Exporter,
     /// Worlds every dispatch runs (1 but in a batch, batch.rs).
     worlds: u32,
+    /// Prescribed motion: where each step's values go (motion_step.rs).
+    motion: Option<motion_step::Moving>,
 }
 
 impl GpuBackend {
@@ -170,12 +173,6 @@ impl GpuBackend {
         }
         if plan.incremental_potential().is_some() {
             return Err(crate::incremental_potential::incremental_potential_unsupported().into());
-        }
-        if plan.motion.is_some() {
-            return Err(GpuError::Unsupported {
-                what: "prescribed \"motion\" (the CPU runs it so far: --backend cpu)".into(),
-            }
-            .into());
         }
         let ctx = device.context(precision)?;
         ctx.building(|| Self::build(ctx.clone(), plan, state, precision, origin, mode, None))
@@ -316,6 +313,13 @@ impl GpuBackend {
             0,
         )?;
         let blocks_group = kernels.bind(device, 1, &[&dispatch_buffer], block)?;
+        let motion = families.motion.clone().map(|layout| motion_step::Moving {
+            layout,
+            rest: rest.clone(),
+            calls: calls.clone(),
+            dispatches: dispatch_buffer.clone(),
+            step: 0,
+        });
         let worlds = world.count;
         drop(world);
         let contacts = match plan.contacts {
@@ -366,6 +370,7 @@ impl GpuBackend {
             subdivided: Vec::new(),
             exporter: Exporter::default(),
             worlds,
+            motion,
         })
     }
 
@@ -542,6 +547,7 @@ impl GpuBackend {
     /// (benchmarks: the per-element cost of a kernel without a round trip
     /// per call). The state changes as `repeats` calls would change it.
     pub fn repeat_kernel(&mut self, kernel: Kernel, repeats: u32) -> Result<(), BackendError> {
+        self.refuse_alone_with_motion(kernel)?;
         self.run_alone(kernel, repeats)
     }
 }
@@ -553,6 +559,7 @@ resident_backend! {
         }
 
         fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
+            self.refuse_alone_with_motion(kernel)?;
             self.run_alone(kernel, 1)
         }
     }

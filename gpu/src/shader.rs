@@ -26,6 +26,7 @@ const STEP: &str = include_str!("../../shaders/step.wgsl");
 const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
 const PROJECT: &str = include_str!("../../shaders/project.wgsl");
 const FRICTION: &str = include_str!("../../shaders/friction.wgsl");
+const MOTION: &str = include_str!("../../shaders/motion.wgsl");
 const RESIDUAL: &str = include_str!("../../shaders/residual.wgsl");
 const GUARD: &str = include_str!("../../shaders/guard.wgsl");
 const CONTACT: &str = include_str!("../../shaders/contact.wgsl");
@@ -47,7 +48,8 @@ pub enum ShaderFile {
     /// The XPBD step: `step.wgsl` (bindings, call blocks, the schedule
     /// runners) composed with the kernels' own files — `integrate.wgsl`
     /// (predict, velocity, damping), `project.wgsl` (every constraint kind),
-    /// `friction.wgsl` (dynamic Coulomb friction), `residual.wgsl`
+    /// `friction.wgsl` (dynamic Coulomb friction), `motion.wgsl` (pins
+    /// and moving hyperplanes), `residual.wgsl`
     /// (constraint violation and its reduction), `guard.wgsl` (the
     /// read-only guards) — after `ln_f32.wgsl` / `ln_f64.wgsl`,
     /// `measure.wgsl` and `material.wgsl` (the material energy constraint).
@@ -196,7 +198,8 @@ impl ShaderFile {
     fn body(self) -> &'static [&'static str] {
         match self {
             ShaderFile::Step => &[
-                PRELUDE, MEASURE, MATERIAL, STEP, INTEGRATE, PROJECT, FRICTION, RESIDUAL, GUARD,
+                PRELUDE, MEASURE, MATERIAL, STEP, INTEGRATE, PROJECT, FRICTION, MOTION, RESIDUAL,
+                GUARD,
             ],
             ShaderFile::Scan => &[PRELUDE, CONTACT, SCAN],
             ShaderFile::Grid => &[PRELUDE, CONTACT, GRID],

@@ -17,7 +17,7 @@
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
 
-use hyperpbd_core::motion::{PlaneAt, SubstepMotion};
+use hyperpbd_core::motion::{SubstepMotion, local_plane, local_position};
 
 use super::Particles;
 
@@ -37,48 +37,6 @@ pub struct Motion32 {
     pub planes: Vec<Plane32>,
     pub pin_positions: Vec<f32>,
     pub pin_velocities: Vec<f32>,
-}
-
-/// n·o (f64, in order), 0 with no origin.
-fn along(normal: &[f64], origin: &[f64]) -> Option<f64> {
-    if origin.iter().all(|&o| o == 0.0) {
-        return None;
-    }
-    let mut s = 0.0;
-    for (n, o) in normal.iter().zip(origin) {
-        s += n * o;
-    }
-    Some(s)
-}
-
-/// A moving plane's values in device coordinates (f64, before rounding):
-/// (shift, carry offset). With no origin both are the world values.
-pub fn local_plane(plane: &PlaneAt, origin: &[f64]) -> (f64, Vec<f64>) {
-    let Some(no) = along(&plane.normal, origin) else {
-        return (plane.shift, plane.carry.offset.clone());
-    };
-    let n = origin.len();
-    let offset = match &plane.carry.matrix {
-        None => plane.carry.offset.clone(),
-        Some(m) => (0..n)
-            .map(|a| {
-                let mut s = 0.0;
-                for b in 0..n {
-                    s += m[a * n + b] * origin[b];
-                }
-                plane.carry.offset[a] + s
-            })
-            .collect(),
-    };
-    (plane.shift - no, offset)
-}
-
-/// A pin position in device coordinates (f64).
-pub fn local_position(x: f64, o: Option<&f64>) -> f64 {
-    match o {
-        Some(&o) if o != 0.0 => x - o,
-        _ => x,
-    }
 }
 
 /// `now` rounded to f32 in coordinates relative to `origin` (empty: none).
