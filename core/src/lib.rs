@@ -35,6 +35,7 @@ mod state;
 mod validate;
 mod validate_guards;
 mod validate_material;
+mod validate_motion;
 mod validate_solver;
 pub mod violation;
 

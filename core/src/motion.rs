@@ -29,8 +29,6 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::SceneError;
-
 /// One rigid motion of a list (`"motion": [...]` on a hyperplane or a
 /// fixed particle).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -58,84 +56,6 @@ pub enum Motion {
         /// One translation (length `dim`) per time.
         translations: Vec<Vec<f64>>,
     },
-}
-
-/// Checks a motion list at `path` (`obstacles[0].motion`).
-pub(crate) fn validate(path: &str, motions: &[Motion], dim: usize) -> Result<(), SceneError> {
-    let finite = |path: String, value: f64| {
-        if value.is_finite() {
-            Ok(())
-        } else {
-            Err(SceneError::NonFinite { path, value })
-        }
-    };
-    for (m, motion) in motions.iter().enumerate() {
-        let at = |field: &str| format!("{path}[{m}].{field}");
-        match motion {
-            Motion::Translate { velocity } => {
-                crate::validate::vector(&at("velocity"), velocity, dim)?
-            }
-            Motion::Rotate {
-                plane,
-                center,
-                rate,
-            } => {
-                for (k, &axis) in plane.iter().enumerate() {
-                    if axis >= dim {
-                        return Err(SceneError::Inconsistent {
-                            path: at(&format!("plane[{k}]")),
-                            why: format!("axis {axis} is not below the dimension {dim}"),
-                        });
-                    }
-                }
-                if plane[0] == plane[1] {
-                    return Err(SceneError::Inconsistent {
-                        path: at("plane"),
-                        why: format!("the two axes must differ, both are {}", plane[0]),
-                    });
-                }
-                crate::validate::vector(&at("center"), center, dim)?;
-                finite(at("rate"), *rate)?;
-            }
-            Motion::Keyframes {
-                times,
-                translations,
-            } => {
-                if times.is_empty() {
-                    return Err(SceneError::Inconsistent {
-                        path: at("times"),
-                        why: "keyframes need at least one time".into(),
-                    });
-                }
-                for (k, &t) in times.iter().enumerate() {
-                    finite(at(&format!("times[{k}]")), t)?;
-                    if k > 0 && t <= times[k - 1] {
-                        return Err(SceneError::Inconsistent {
-                            path: at(&format!("times[{k}]")),
-                            why: format!(
-                                "keyframe times must increase strictly, {t} follows {}",
-                                times[k - 1]
-                            ),
-                        });
-                    }
-                }
-                if translations.len() != times.len() {
-                    return Err(SceneError::Inconsistent {
-                        path: at("translations"),
-                        why: format!(
-                            "{} translations for {} times (one per time)",
-                            translations.len(),
-                            times.len()
-                        ),
-                    });
-                }
-                for (k, v) in translations.iter().enumerate() {
-                    crate::validate::vector(&at(&format!("translations[{k}]")), v, dim)?;
-                }
-            }
-        }
-    }
-    Ok(())
 }
 
 /// A rigid map x ↦ R x + b of R^N.

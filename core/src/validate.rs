@@ -140,7 +140,7 @@ impl Scene {
                         .into(),
                 });
             }
-            crate::motion::validate(&at("motion"), &p.motion, dim)?;
+            self.validate_motion(&at("motion"), &p.motion)?;
         }
         Ok(())
     }
@@ -297,7 +297,7 @@ impl Scene {
                         });
                     }
                     compliance(at("compliance"), *alpha)?;
-                    crate::motion::validate(&at("motion"), motion, self.dim)?;
+                    self.validate_motion(&at("motion"), motion)?;
                 }
                 Obstacle::SimplexMesh {
                     vertices,

@@ -23,8 +23,8 @@ use crate::integrate::{Failed, Motion};
 use crate::parallel::Workers;
 use crate::project::{Batch, Workspace, project};
 use crate::{
-    colours, consistent, coupled, friction, guard, incremental_potential, integrate, motion,
-    project, residual, threads,
+    colours, consistent, coupled, guard, incremental_potential, integrate, motion, project,
+    residual, threads,
 };
 use hyperpbd_core::broadphase::Aabbs;
 use hyperpbd_core::motion::SubstepMotion;
@@ -178,14 +178,8 @@ impl CpuBackend {
         let workers = &self.workers;
         match kernel {
             Kernel::Motion => {
-                let placed = motion::place(
-                    plan,
-                    self.step_count,
-                    self.substep,
-                    &mut self.x,
-                    &mut self.v,
-                );
-                self.motion_now = placed;
+                let clock = (self.step_count, self.substep);
+                self.motion_now = motion::place(plan, clock, &mut self.x, &mut self.v);
                 Ok(())
             }
             Kernel::Predict => {
@@ -251,23 +245,9 @@ impl CpuBackend {
             Kernel::Friction { family } => {
                 let lambda =
                     &self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]];
-                let fam = &plan.families[family];
-                match motion::plane(plan, &self.motion_now, family) {
-                    Some(plane) => {
-                        let mass = (&plan.inverse_mass[..], plan.h);
-                        motion::friction(plane, fam, mass, lambda, &self.p, &mut self.v)
-                    }
-                    None => friction::friction(
-                        workers,
-                        plan.dim,
-                        plan.h,
-                        &plan.inverse_mass,
-                        fam,
-                        lambda,
-                        &mut self.v,
-                    ),
-                }
-                .map_err(|i| self.particle_error(StageName::Friction, i))
+                let moving = (&self.motion_now, &self.p[..]);
+                motion::friction_of(workers, plan, family, lambda, moving, &mut self.v)
+                    .map_err(|i| self.particle_error(StageName::Friction, i))
             }
             Kernel::Damping => {
                 integrate::damping(workers, plan, &mut self.v);
@@ -344,13 +324,7 @@ impl CpuBackend {
             .families
             .iter()
             .enumerate()
-            .map(|(k, f)| match motion::plane(plan, &self.motion_now, k) {
-                Some(plane) => FamilyResidual {
-                    label: f.label.clone(),
-                    max_violation: motion::residual(plane, f, &self.x),
-                },
-                None => residual::residual(workers, plan.dim, f, &self.x),
-            })
+            .map(|(k, f)| motion::residual_of(workers, plan, &self.motion_now, k, f, &self.x))
             .collect();
         if plan.contacts.is_some() {
             // The coupled step's balls are barriers with pair sets of its

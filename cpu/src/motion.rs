@@ -23,13 +23,19 @@
 #![allow(clippy::needless_range_loop)]
 
 use hyperpbd_core::motion::{PlaneAt, SubstepMotion, substep_time};
-use hyperpbd_core::{Family, FamilyKind, Plan};
+use hyperpbd_core::{Family, FamilyKind, FamilyResidual, Plan};
 
+use crate::parallel::Workers;
 use crate::project::{dot, static_friction};
 
 /// The Motion kernel of substep `substep` of step `step`: the substep's
 /// prescribed values, pins placed in `x` with their velocities in `v`.
-pub fn place(plan: &Plan, step: u64, substep: u32, x: &mut [f64], v: &mut [f64]) -> SubstepMotion {
+pub fn place(
+    plan: &Plan,
+    (step, substep): (u64, u32),
+    x: &mut [f64],
+    v: &mut [f64],
+) -> SubstepMotion {
     let Some(motion) = &plan.motion else {
         return SubstepMotion::default();
     };
@@ -94,6 +100,45 @@ pub fn project(
         }
     }
     Ok(())
+}
+
+/// The Friction kernel of family `family`: `friction.rs` for a static
+/// plane, [`friction`] for a moving one (`moving`: the substep's values
+/// and start positions).
+pub fn friction_of(
+    workers: &Workers,
+    plan: &Plan,
+    family: usize,
+    lambda: &[f64],
+    (now, start): (&SubstepMotion, &[f64]),
+    v: &mut [f64],
+) -> Result<(), usize> {
+    let f = &plan.families[family];
+    match plane(plan, now, family) {
+        Some(moving) => friction(moving, f, (&plan.inverse_mass, plan.h), lambda, start, v),
+        None => {
+            crate::friction::friction(workers, plan.dim, plan.h, &plan.inverse_mass, f, lambda, v)
+        }
+    }
+}
+
+/// The report's residual of family `family` (`f`): `residual.rs` for
+/// every family but a moving plane's, [`residual`] for that.
+pub fn residual_of(
+    workers: &Workers,
+    plan: &Plan,
+    now: &SubstepMotion,
+    family: usize,
+    f: &Family,
+    x: &[f64],
+) -> FamilyResidual {
+    match plane(plan, now, family) {
+        Some(moving) => FamilyResidual {
+            label: f.label.clone(),
+            max_violation: residual(moving, f, x),
+        },
+        None => crate::residual::residual(workers, plan.dim, f, x),
+    }
 }
 
 /// Dynamic friction of moving-plane family `family`; the first particle

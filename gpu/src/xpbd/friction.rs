@@ -38,7 +38,7 @@ pub(crate) fn friction(plan: &Plan, families: &Families, family: usize, call: u3
         ..Call::default()
     };
     if let Some(layout) = &families.motion {
-        let substep = super::schedule::substep_of(plan, call);
+        let substep = super::motion::substep_of(plan, call);
         layout.mark(plan, family, substep, false, &mut c);
     }
     c

@@ -25,6 +25,12 @@ use super::NONE;
 use super::call::{Call, FLAG_MOVING, FLAG_ROTATES, OP_MOTION, OP_RESIDUAL};
 use crate::SceneOrigin;
 
+/// The substep of step call `call` (0 for the run-alone copies).
+pub(crate) fn substep_of(plan: &Plan, call: u32) -> usize {
+    let per = plan.substep_kernels.len().max(1);
+    (call as usize / per).min(plan.substeps.saturating_sub(1) as usize)
+}
+
 /// Where a plan's motion values live on the device.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct MotionLayout {

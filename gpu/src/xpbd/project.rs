@@ -64,7 +64,7 @@ pub(crate) fn project(
             c.normal = normal.clone();
             c.friction = *friction;
             if let Some(layout) = &families.motion {
-                let substep = super::schedule::substep_of(plan, call);
+                let substep = super::motion::substep_of(plan, call);
                 layout.mark(plan, family, substep, false, &mut c);
             }
         }

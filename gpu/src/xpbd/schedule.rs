@@ -360,7 +360,7 @@ fn kernel_call(
         Kernel::GuardMeasure { family } => guard::measure(plan, families, family, call),
         Kernel::GuardSpeed => guard::speed(plan, call),
         Kernel::Motion => match &families.motion {
-            Some(layout) => layout.motion_call(plan, call, substep_of(plan, call)),
+            Some(layout) => layout.motion_call(plan, call, super::motion::substep_of(plan, call)),
             None => Call {
                 call,
                 kernel: Some(kernel),
@@ -374,12 +374,6 @@ fn kernel_call(
             ..Call::default()
         },
     }
-}
-
-/// The substep of step call `call` (0 for the run-alone copies).
-pub(crate) fn substep_of(plan: &Plan, call: u32) -> usize {
-    let per = plan.substep_kernels.len().max(1);
-    (call as usize / per).min(plan.substeps.saturating_sub(1) as usize)
 }
 
 /// The dispatch of call `index` alone.
