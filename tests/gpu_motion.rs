@@ -87,6 +87,7 @@ fn gpu_f32_is_the_f32_reference_with_motion() {
         let mut gpu =
             GpuBackend::with_adapter(&adapter, plan.clone(), &state, Precision::F32).expect("gpu");
         let origin = gpu.origin().as_slice().to_vec();
+        println!("{name}: f32 scene origin {origin:?}");
         let mut reference = F32Reference::new(plan, &state, &origin).expect("reference");
         for step in 1..=STEPS {
             let report = gpu.step().expect("gpu step");

@@ -65,7 +65,8 @@ pub fn spin(plane: [usize; 2], center: Vec<f64>, rate: f64) -> Vec<Motion> {
 /// Every kind of motion on both kinds of mover, in R^2, R^3 and R^4
 /// (the differential tests' cases): a belt, a rising plane, a turntable,
 /// a plane tilting in (e1, e3) of R^4 with a keyframed lift, a pin on a
-/// circle, and the shipped conveyor (three balls on a belt, a rope between
+/// circle, a plane tilting 1 km from the world origin (a shifted scene
+/// origin in f32), and the shipped conveyor (three balls on a belt, a rope between
 /// two turning pins, one keyframed).
 pub fn cases() -> Vec<(&'static str, Scene)> {
     let mut turntable = resting(3, 0.8, spin([0, 2], vec![0.0; 3], 1.0), 20);
@@ -85,6 +86,10 @@ pub fn cases() -> Vec<(&'static str, Scene)> {
         }],
         10,
     );
+    // Far from the world origin: the f32 kernels store x − o, and the
+    // tilting plane's shift and carry move by n·o and Ā o.
+    let mut far = resting(3, 1.0, spin([1, 2], vec![0.0, 0.0, 1000.0], 0.2), 20);
+    far.particles[0].position = vec![0.3, 0.1, 1000.2];
     let conveyor = Scene::from_json_str(include_str!("../../scenes/conveyor.json"))
         .expect("the shipped conveyor loads");
     vec![
