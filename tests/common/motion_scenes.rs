@@ -101,6 +101,7 @@ pub fn cases() -> Vec<(&'static str, Scene)> {
             "pin on a circle 2D",
             circling_pin(spin([0, 1], vec![0.0, 2.0], 3.0)),
         ),
+        ("tilting plane 1 km out 3D", far),
         ("conveyor.json", conveyor),
     ]
 }
