@@ -10,6 +10,7 @@ mod common;
 use common::exact::{assert_f32_reference_step, bits, f64_identical};
 use common::gpu::adapter_or_skip;
 use common::motion_scenes::cases;
+use hyperpbd::batch::{Batch, GpuBatch};
 use hyperpbd::{Backend, CpuBackend, F32Reference, Kernel, Plan, State};
 use hyperpbd_gpu::{GpuBackend, Precision};
 
@@ -112,6 +113,14 @@ fn kernels_alone_and_batches_refuse_motion_by_name() {
     let refused = gpu.run_kernel(Kernel::Predict).expect_err("refused");
     assert!(
         refused.to_string().contains("prescribed motion"),
+        "{refused}"
+    );
+    let batch = Batch::new(&[scene.clone(), scene]).expect("one topology");
+    let refused = GpuBatch::on_adapter(&adapter, &batch, Precision::F32)
+        .err()
+        .expect("a batch refuses motion");
+    assert!(
+        refused.to_string().contains("prescribed \"motion\""),
         "{refused}"
     );
 }
