@@ -3,13 +3,11 @@
 //! tilting plane in R^4, and pins that follow their motion exactly at
 //! every step; the plan pays nothing without motion.
 
-use hyperpbd::motion::{Motion, rigid_at};
-use hyperpbd::{
-    Backend, ConstraintFamily, ConstraintKind, CpuBackend, F32Reference, Obstacle, Particle, Plan,
-    Scene, StageName, State,
-};
+mod common;
 
-const G: f64 = 9.81;
+use common::motion_scenes::{G, circling_pin, resting};
+use hyperpbd::motion::{Motion, rigid_at};
+use hyperpbd::{Backend, CpuBackend, F32Reference, Plan, Scene, StageName, State};
 
 fn backend(scene: &Scene) -> CpuBackend {
     let plan = Plan::compile(scene).expect("valid scene");
@@ -21,32 +19,6 @@ fn run(sim: &mut CpuBackend, steps: usize) -> State {
         sim.step().expect("step");
     }
     sim.read_state().expect("state")
-}
-
-fn moving_plane(normal: Vec<f64>, offset: f64, friction: f64, motion: Vec<Motion>) -> Obstacle {
-    Obstacle::Hyperplane {
-        normal,
-        offset,
-        friction,
-        compliance: 0.0,
-        motion,
-    }
-}
-
-/// One ball of radius 0.1 resting on the plane y = 0 of R^dim (gravity
-/// −y), the plane with `motion` and friction μ.
-fn resting(dim: usize, mu: f64, motion: Vec<Motion>, substeps: u32) -> Scene {
-    let mut s = Scene::new(dim, 1.0 / 60.0, substeps, 1);
-    let mut g = vec![0.0; dim];
-    g[1] = -G;
-    s.gravity = Some(g);
-    let mut x = vec![0.0; dim];
-    x[1] = 0.1;
-    s.particles = vec![Particle::new(x, 1.0).with_radius(0.1)];
-    let mut n = vec![0.0; dim];
-    n[1] = 1.0;
-    s.obstacles = vec![moving_plane(n, 0.0, mu, motion)];
-    s
 }
 
 #[test]
@@ -175,22 +147,6 @@ fn a_plane_tilting_in_plane_1_3_of_r4_carries_a_particle_with_it() {
     let n = rigid_at(&tilt, 4, t).rotate(&[0.0, 1.0, 0.0, 0.0]);
     let gap: f64 = n.iter().zip(&st.positions).map(|(a, b)| a * b).sum::<f64>() - 0.1;
     assert!(gap.abs() <= 1e-9, "gap {gap}");
-}
-
-/// A pendulum hung from a pin that circles in (e0, e1) about c.
-fn circling_pin(motion: Vec<Motion>) -> Scene {
-    let mut s = Scene::new(2, 1.0 / 60.0, 8, 2);
-    s.gravity = Some(vec![0.0, -G]);
-    s.particles = vec![
-        Particle::fixed(vec![1.0, 2.0]).with_motion(motion),
-        Particle::new(vec![1.0, 1.0], 1.0),
-    ];
-    s.constraints = vec![ConstraintFamily::new(
-        ConstraintKind::Distance,
-        0.0,
-        vec![vec![0, 1]],
-    )];
-    s
 }
 
 #[test]
