@@ -144,6 +144,7 @@ fn drop_scene(max_iterations: u32, tolerance: f64) -> Scene {
         offset: 0.0,
         friction: 0.0,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene.solver = Solver::IncrementalPotential(IncrementalPotentialSettings {
         barrier_stiffness: 1e3,

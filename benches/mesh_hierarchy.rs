@@ -101,6 +101,7 @@ fn main() {
         offset: 0.0,
         friction: 0.0,
         compliance: 0.0,
+        motion: Vec::new(),
     }));
     let (x, r) = particles(side, rows);
     let n = r.len();

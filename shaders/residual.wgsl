@@ -57,6 +57,9 @@ fn violation(e: u32) -> real {
     for (var a = 0u; a < DIM; a++) {
         nx += normal(a) * pts[a];
     }
+    if ((call.flags & FLAG_MOVING) != 0u) {
+        return moving_contact_violation(s, nx);
+    }
     return max(rest_at(s) - nx, 0.0);
 }
 

@@ -196,7 +196,7 @@ fn world_reals(op: u32, c: u32) {
                  OP_PROJECT_EXPRESSION, OP_RESIDUAL, OP_GUARD_MEASURE, OP_GUARD_SPEED: {
                 call.alpha_tilde = calls[k].alpha_tilde;
             }
-            case OP_VELOCITY, OP_HOST, OP_NONE: {}
+            case OP_VELOCITY, OP_MOTION, OP_HOST, OP_NONE: {}
             // Every op is named above (tests/shaders.rs); an unknown one loads nothing.
             default: {}
         }
@@ -304,6 +304,8 @@ fn run_op(op: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
         case OP_PROJECT_CONTACT: {
             if ((call.flags & FLAG_PRIMAL) != 0u) {
                 primal_contact_particle(i, rx, rp);
+            } else if ((call.flags & FLAG_MOVING) != 0u) {
+                moving_contact_particle(i, rx, rv, rp);
             } else {
                 contact_particle(i, rx, rv, rp);
             }
@@ -312,7 +314,14 @@ fn run_op(op: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
             velocity_particle(i, rx, rv, rp);
         }
         case OP_FRICTION: {
-            friction_particle(i, rx, rv, rp);
+            if ((call.flags & FLAG_MOVING) != 0u) {
+                moving_friction_particle(i, rx, rv, rp);
+            } else {
+                friction_particle(i, rx, rv, rp);
+            }
+        }
+        case OP_MOTION: {
+            motion_particle(i, rx, rv, rp);
         }
         case OP_DAMPING: {
             damping_particle(i, rx, rv, rp);

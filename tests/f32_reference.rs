@@ -35,6 +35,7 @@ fn chain(shift: f64) -> Scene {
         offset: 0.5,
         friction: 0.5,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene
 }
@@ -281,6 +282,7 @@ fn barrier_kernels_are_the_golden_path_within_f32_rounding() {
         offset: -0.1,
         friction: 0.0,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene.obstacles.push(Obstacle::SimplexMesh {
         vertices: vec![

@@ -177,12 +177,14 @@ fn full_chain() -> Scene {
         offset: -1.0,
         friction: 0.4,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene.obstacles.push(hyperpbd::Obstacle::Hyperplane {
         normal: vec![1.0, 0.0],
         offset: -1.0,
         friction: 0.0,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene.validate().expect("valid");
     scene

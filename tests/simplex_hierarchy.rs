@@ -211,6 +211,7 @@ fn barrier_scene(rng: &mut Stream, dim: usize, count: usize) -> Scene {
         offset: -2.0,
         friction: 0.0,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene.obstacles.push(Obstacle::SimplexMesh {
         vertices,

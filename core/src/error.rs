@@ -183,6 +183,8 @@ pub enum SceneError {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[non_exhaustive]
 pub enum StageName {
+    /// Prescribed motion: moving obstacles and pins placed (`motion.rs`).
+    Motion,
     /// Prediction: v += h (s g + w f); x += h v.
     Predict,
     /// Constraint projection (families and contacts).
@@ -205,6 +207,7 @@ impl StageName {
     /// Lower-case name as printed by the CLI and used in JSON reports.
     pub fn as_str(self) -> &'static str {
         match self {
+            StageName::Motion => "motion",
             StageName::Predict => "predict",
             StageName::Project => "project",
             StageName::Velocity => "velocity",

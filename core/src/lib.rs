@@ -26,6 +26,7 @@ pub mod kinds;
 pub mod material;
 mod material_plan;
 mod minimisation;
+pub mod motion;
 mod plan;
 mod precision;
 mod scene;
@@ -34,6 +35,7 @@ mod state;
 mod validate;
 mod validate_guards;
 mod validate_material;
+mod validate_motion;
 mod validate_solver;
 pub mod violation;
 
@@ -47,6 +49,7 @@ pub use guards::{Adaptive, Attempt, GuardKind, GuardRejection, GuardSubject, Gua
 pub use incremental_potential_plan::IncrementalPotentialPlan;
 pub use material_plan::{FamilyMass, element_refusal, particle_masses};
 pub use minimisation::{MinimisationReport, MinimisationStatus, Refusal};
+pub use motion::{Motion, MotionPlan};
 pub use plan::{Kernel, ParticleContacts, Plan, PredictTerms, SolverPlan};
 pub use precision::Precision;
 pub use scene::{

@@ -2,6 +2,8 @@
 //!
 //! ```text
 //! per step, substeps × {
+//!   Motion                       moving planes and pins at the substep's
+//!                                end time (only with a `motion`; motion.rs)
 //!   Predict                      v += h (s g + w f); p = x; x += h v; λ = 0
 //!                                (gravity / force terms only if authored)
 //!   iterations × for family in order, for color in family:
@@ -28,6 +30,7 @@ use crate::geometry::{Scratch, unit_vector};
 use crate::guard_rules::{Adaptive, Guards, guarded_families};
 use crate::kinds;
 use crate::material_plan::{self, FamilyMass};
+use crate::motion::{MotionPlan, MovingPlane, Pin};
 use crate::{Family, FamilyKind, Obstacle, Scene, SceneError, Solver, StageName, XpbdSettings};
 
 /// Which terms prediction includes.
@@ -43,6 +46,10 @@ pub struct PredictTerms {
 /// [`Plan::substep_kernels`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kernel {
+    /// Prescribed motion (`motion.rs`): the moving hyperplanes and the
+    /// animated pins placed at the substep's end time; first kernel of
+    /// the substep, only when the scene has a `motion`.
+    Motion,
     /// Prediction, saving p = x and resetting every multiplier.
     Predict,
     /// XPBD update of every element of one color of one family.
@@ -82,6 +89,7 @@ impl Kernel {
     /// The stage this kernel belongs to.
     pub fn stage(self) -> StageName {
         match self {
+            Kernel::Motion => StageName::Motion,
             Kernel::Predict => StageName::Predict,
             Kernel::Project { .. } => StageName::Project,
             Kernel::Velocity => StageName::Velocity,
@@ -154,6 +162,8 @@ pub struct Plan {
     pub guards: Option<Guards>,
     /// The retry policy of a guard-rejected step.
     pub adaptive: Option<Adaptive>,
+    /// Prescribed motions (`None`: the scene has none; nothing evaluates).
+    pub motion: Option<MotionPlan>,
 }
 
 /// The solver a plan's substeps run: one variant per solver path.
@@ -203,6 +213,16 @@ impl Plan {
         let radius: Vec<f64> = scene.particles.iter().map(|p| p.radius).collect();
 
         let mut families = Vec::new();
+        let mut moving = MotionPlan::default();
+        for (i, p) in scene.particles.iter().enumerate() {
+            if !p.motion.is_empty() {
+                moving.pins.push(Pin {
+                    particle: i,
+                    position: p.position.clone(),
+                    motion: p.motion.clone(),
+                });
+            }
+        }
         let mut scratch = Scratch::new();
         let mut columns = Columns::new();
         for (f, authored) in scene.constraints.iter().enumerate() {
@@ -282,6 +302,7 @@ impl Plan {
                 offset,
                 friction,
                 compliance,
+                motion,
             } = obstacle
             else {
                 continue;
@@ -292,6 +313,13 @@ impl Plan {
                 continue;
             }
             let rest: Vec<f64> = particles.iter().map(|&i| offset + radius[i]).collect();
+            if !motion.is_empty() {
+                moving.planes.push(MovingPlane {
+                    family: families.len(),
+                    normal: unit.clone(),
+                    motion: motion.clone(),
+                });
+            }
             families.push(colored_family(
                 format!("obstacles[{o}]"),
                 FamilyKind::HyperplaneContact {
@@ -321,7 +349,11 @@ impl Plan {
                     friction: c.friction,
                     margin: c.margin,
                 });
+        let motion = (!moving.planes.is_empty() || !moving.pins.is_empty()).then_some(moving);
         let mut substep_kernels = Vec::new();
+        if motion.is_some() {
+            substep_kernels.push(Kernel::Motion);
+        }
         if !any_dynamic {
             // Nothing moves: no kernel runs.
         } else if let SolverPlan::IncrementalPotential(_) = solver {
@@ -394,6 +426,7 @@ impl Plan {
             solver,
             guards: scene.guards.clone(),
             adaptive: scene.adaptive,
+            motion,
         })
     }
 

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::Solver;
 use crate::guard_rules::{Adaptive, Guards};
+use crate::motion::Motion;
 
 /// Builder setters: `fn name(mut self, field: T) -> Self` that store
 /// `value` (the argument, or `Some` of it) in `self.field`.
@@ -120,6 +121,10 @@ pub struct Particle {
     /// Constant external force (length `dim`); omitted means zero.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub force: Option<Vec<f64>>,
+    /// Prescribed motion of a fixed particle (an animated pin): its
+    /// position at time t is M(t) applied to `position` (`motion.rs`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub motion: Vec<Motion>,
 }
 
 impl Particle {
@@ -133,6 +138,7 @@ impl Particle {
             radius: 0.0,
             gravity_scale: 1.0,
             force: None,
+            motion: Vec::new(),
         }
     }
 
@@ -154,6 +160,8 @@ impl Particle {
         with_force(force: Vec<f64>) = Some(force);
         /// Sets the gravity scale.
         with_gravity_scale(gravity_scale: f64) = gravity_scale;
+        /// Sets the prescribed motion (fixed particles only).
+        with_motion(motion: Vec<Motion>) = motion;
     }
 }
 
@@ -335,6 +343,9 @@ pub enum Obstacle {
         friction: f64,
         /// Contact compliance α ≥ 0.
         compliance: f64,
+        /// Prescribed motion (`motion.rs`); empty: static.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        motion: Vec<Motion>,
     },
     /// A static mesh of k-simplices (segments, triangles, tetrahedra:
     /// k = 1, 2, 3) in R^N. Used by the incremental-potential path only:
@@ -374,6 +385,8 @@ pub struct ObstacleDocument {
     compliance: f64,
     vertices: Option<Vec<Vec<f64>>>,
     simplices: Option<Vec<Vec<usize>>>,
+    #[serde(default)]
+    motion: Vec<Motion>,
 }
 
 impl TryFrom<ObstacleDocument> for Obstacle {
@@ -390,11 +403,18 @@ impl TryFrom<ObstacleDocument> for Obstacle {
                     offset: doc.offset,
                     friction: doc.friction,
                     compliance: doc.compliance,
+                    motion: doc.motion,
                 })
             }
             ObstacleKind::SimplexMesh => {
                 if doc.normal.is_some() {
                     return Err("unknown field `normal` for a simplex_mesh".into());
+                }
+                if !doc.motion.is_empty() {
+                    return Err(
+                        "a simplex_mesh takes no `motion` yet (moving obstacles are hyperplanes)"
+                            .into(),
+                    );
                 }
                 if doc.offset != 0.0 || doc.friction != 0.0 || doc.compliance != 0.0 {
                     return Err(

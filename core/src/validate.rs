@@ -132,6 +132,15 @@ impl Scene {
             }
             non_negative(|| at("radius"), p.radius)?;
             finite(|| at("gravity_scale"), p.gravity_scale)?;
+            if !p.motion.is_empty() && !p.fixed {
+                return Err(SceneError::Inconsistent {
+                    path: at("motion"),
+                    why: "only a fixed particle (\"fixed\": true) follows a prescribed motion; \
+                          a dynamic particle moves by the solver"
+                        .into(),
+                });
+            }
+            self.validate_motion(&at("motion"), &p.motion)?;
         }
         Ok(())
     }
@@ -273,6 +282,7 @@ impl Scene {
                     offset,
                     friction,
                     compliance: alpha,
+                    motion,
                 } => {
                     vector(&at("normal"), normal, self.dim)?;
                     if normal.iter().all(|&x| x == 0.0) {
@@ -287,6 +297,7 @@ impl Scene {
                         });
                     }
                     compliance(at("compliance"), *alpha)?;
+                    self.validate_motion(&at("motion"), motion)?;
                 }
                 Obstacle::SimplexMesh {
                     vertices,

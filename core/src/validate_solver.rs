@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! xpbd:                   no simplex_mesh obstacle (XPBD has no simplex contact)
-//! incremental_potential:  κ > 0, d^ > 0, tolerance > 0, max_iterations ≥ 1;
+//! incremental_potential:  no `motion` (obstacles or pins), κ > 0, d^ > 0, tolerance > 0, max_iterations ≥ 1;
 //!                         cg_iterations ≥ 1, friction_slip_velocity > 0 (when given);
 //!                         geometric constraint families with compliance α > 0
 //!                         (springs C²/(2α); α = 0 is no energy; material families
@@ -19,6 +19,10 @@ use crate::geometry::{DEGENERATE_VOLUME_RATIO, determinant, factorial};
 use crate::{Obstacle, Scene, SceneError, Solver};
 
 const IP: &str = "incremental_potential";
+
+/// Why the implicit paths refuse a `motion` key.
+const MOTION_ON_XPBD_ONLY: &str = "prescribed motion runs on the XPBD path only so far (the \
+     barrier's step filter and the implicit friction assume static obstacles)";
 
 fn positive(path: &str, value: f64) -> Result<(), SceneError> {
     if !value.is_finite() {
@@ -37,8 +41,32 @@ fn positive(path: &str, value: f64) -> Result<(), SceneError> {
 }
 
 impl Scene {
+    /// The path of the first `motion` key (particles first, then obstacles).
+    fn first_motion(&self) -> Option<String> {
+        if let Some(i) = self.particles.iter().position(|p| !p.motion.is_empty()) {
+            return Some(format!("particles[{i}].motion"));
+        }
+        let obstacle = self
+            .obstacles
+            .iter()
+            .position(|o| matches!(o, Obstacle::Hyperplane { motion, .. } if !motion.is_empty()));
+        obstacle.map(|o| format!("obstacles[{o}].motion"))
+    }
+
     pub(crate) fn validate_solver(&self) -> Result<(), SceneError> {
         let Solver::IncrementalPotential(settings) = &self.solver else {
+            if let Solver::Xpbd(xpbd) = &self.solver
+                && xpbd.primal_residual
+                && let Some(path) = self.first_motion()
+            {
+                return Err(SceneError::UnsupportedBySolver {
+                    path,
+                    solver: "xpbd",
+                    why: "prescribed motion does not run with \"primal_residual\": true yet (its \
+                          carried forces assume static planes)"
+                        .into(),
+                });
+            }
             for (o, obstacle) in self.obstacles.iter().enumerate() {
                 if matches!(obstacle, Obstacle::SimplexMesh { .. }) {
                     return Err(SceneError::UnsupportedBySolver {
@@ -116,6 +144,9 @@ impl Scene {
                     "a barrier obstacle has no compliance (κ and d^ set its stiffness)",
                 ));
             }
+        }
+        if let Some(path) = self.first_motion() {
+            return Err(unsupported(path, MOTION_ON_XPBD_ONLY));
         }
         let obstacles = BarrierObstacles::compile(self);
         for (i, p) in self.particles.iter().enumerate() {

@@ -23,10 +23,11 @@ use crate::integrate::{Failed, Motion};
 use crate::parallel::Workers;
 use crate::project::{Batch, Workspace, project};
 use crate::{
-    colours, consistent, coupled, friction, guard, incremental_potential, integrate, project,
+    colours, consistent, coupled, guard, incremental_potential, integrate, motion, project,
     residual, threads,
 };
 use hyperpbd_core::broadphase::Aabbs;
+use hyperpbd_core::motion::SubstepMotion;
 
 /// Values per chunk of a reset or copy (multipliers, the saved state).
 const VALUE_GRAIN: usize = 16_384;
@@ -76,6 +77,10 @@ pub struct CpuBackend {
     subdivided: Vec<Plan>,
     /// The element forces of `primal_residual` (empty without it).
     carried: CarriedForces,
+    /// Steps completed (the clock of prescribed motion: t = step·dt).
+    step_count: u64,
+    /// The prescribed values of the current substep (`motion.rs`).
+    motion_now: SubstepMotion,
 }
 
 impl CpuBackend {
@@ -120,6 +125,8 @@ impl CpuBackend {
             fused_tail: None,
             subdivided: Vec::new(),
             carried,
+            step_count: 0,
+            motion_now: SubstepMotion::default(),
         }
         .with_pool_choice())
     }
@@ -170,6 +177,11 @@ impl CpuBackend {
         let plan = &self.plan;
         let workers = &self.workers;
         match kernel {
+            Kernel::Motion => {
+                let clock = (self.step_count, self.substep);
+                self.motion_now = motion::place(plan, clock, &mut self.x, &mut self.v);
+                Ok(())
+            }
             Kernel::Predict => {
                 let predicted = self.predicting(integrate::predict);
                 predicted.map_err(|i| self.particle_error(StageName::Predict, i))?;
@@ -187,7 +199,11 @@ impl CpuBackend {
                 };
                 let lambda =
                     &mut self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]];
-                let projected = if plan.primal_residual {
+                let moving = motion::plane(plan, &self.motion_now, family);
+                let projected = if let Some(plane) = moving {
+                    let (w, alpha_tilde) = (&plan.inverse_mass[..], batch.alpha_tilde);
+                    motion::project(plane, fam, w, alpha_tilde, &self.p, &mut self.x, lambda)
+                } else if plan.primal_residual {
                     let (carried, scratch) = self.carried.family(family, lambda);
                     consistent::project(
                         &batch,
@@ -226,16 +242,13 @@ impl CpuBackend {
             }
             Kernel::Velocity => integrate::velocity(workers, plan, &self.x, &mut self.v, &self.p)
                 .map_err(|i| self.particle_error(StageName::Velocity, i)),
-            Kernel::Friction { family } => friction::friction(
-                workers,
-                plan.dim,
-                plan.h,
-                &plan.inverse_mass,
-                &plan.families[family],
-                &self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]],
-                &mut self.v,
-            )
-            .map_err(|i| self.particle_error(StageName::Friction, i)),
+            Kernel::Friction { family } => {
+                let lambda =
+                    &self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]];
+                let moving = (&self.motion_now, &self.p[..]);
+                motion::friction_of(workers, plan, family, lambda, moving, &mut self.v)
+                    .map_err(|i| self.particle_error(StageName::Friction, i))
+            }
             Kernel::Damping => {
                 integrate::damping(workers, plan, &mut self.v);
                 Ok(())
@@ -310,7 +323,8 @@ impl CpuBackend {
         let mut residuals: Vec<FamilyResidual> = plan
             .families
             .iter()
-            .map(|f| residual::residual(workers, plan.dim, f, &self.x))
+            .enumerate()
+            .map(|(k, f)| motion::residual_of(workers, plan, &self.motion_now, k, f, &self.x))
             .collect();
         if plan.contacts.is_some() {
             // The coupled step's balls are barriers with pair sets of its
@@ -434,6 +448,7 @@ impl CpuBackend {
             return Err(e);
         }
         self.revertible = true;
+        self.step_count += 1;
         Ok(self.report())
     }
 
@@ -449,6 +464,7 @@ impl CpuBackend {
             ));
         }
         self.revertible = false;
+        self.step_count -= 1;
         self.x.clone_from(&self.saved_x);
         self.v.clone_from(&self.saved_v);
         self.carried.restore(&self.plan, &mut self.lambda);

@@ -23,6 +23,7 @@ mod guard;
 pub mod incremental_potential;
 mod integrate;
 mod material;
+mod motion;
 mod parallel;
 mod project;
 mod residual;

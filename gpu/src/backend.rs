@@ -35,6 +35,7 @@ use crate::xpbd::{Families, NONE, Placed, XpbdEntry};
 mod attempt;
 pub(crate) mod batch;
 mod contact_step;
+mod motion_step;
 use crate::context::DeviceSource;
 pub(crate) mod status;
 mod union;
@@ -80,6 +81,8 @@ pub struct GpuBackend {
     exporter: Exporter,
     /// Worlds every dispatch runs (1 but in a batch, batch.rs).
     worlds: u32,
+    /// Prescribed motion: where each step's values go (motion_step.rs).
+    motion: Option<motion_step::Moving>,
 }
 
 impl GpuBackend {
@@ -322,6 +325,13 @@ impl GpuBackend {
             0,
         )?;
         let blocks_group = kernels.bind(device, 1, &[&dispatch_buffer], block)?;
+        let motion = families.motion.clone().map(|layout| motion_step::Moving {
+            layout,
+            rest: rest.clone(),
+            calls: calls.clone(),
+            dispatches: dispatch_buffer.clone(),
+            step: 0,
+        });
         let worlds = world.count;
         drop(world);
         let contacts = match plan.contacts {
@@ -373,6 +383,7 @@ impl GpuBackend {
             subdivided: Vec::new(),
             exporter: Exporter::default(),
             worlds,
+            motion,
         })
     }
 
@@ -551,6 +562,7 @@ impl GpuBackend {
     /// (benchmarks: the per-element cost of a kernel without a round trip
     /// per call). The state changes as `repeats` calls would change it.
     pub fn repeat_kernel(&mut self, kernel: Kernel, repeats: u32) -> Result<(), BackendError> {
+        self.refuse_alone_with_motion(kernel)?;
         self.run_alone(kernel, repeats)
     }
 }
@@ -562,6 +574,7 @@ resident_backend! {
         }
 
         fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
+            self.refuse_alone_with_motion(kernel)?;
             self.run_alone(kernel, 1)
         }
     }

@@ -46,6 +46,8 @@ codes! {
         OP_PROJECT_MATERIAL = 11;
         /// An expression family (xpbd/expression.rs).
         OP_PROJECT_EXPRESSION = 12;
+        /// Prescribed motion: animated pins placed (xpbd/motion.rs).
+        OP_MOTION = 13;
         /// A kernel the host runs itself between dispatches (broadphase,
         /// particle contact): no block of its own is ever executed.
         OP_HOST = 0xff;
@@ -77,9 +79,13 @@ codes! {
         FLAG_MATERIAL = 256;
         /// Predict: every dynamic particle's gravity scale is 1.
         FLAG_UNIT_SCALE = 512;
+        /// Contact, friction, residual: a moving hyperplane (motion.wgsl).
+        FLAG_MOVING = 1024;
+        /// A moving hyperplane whose motion rotates (its carry has Ā).
+        FLAG_ROTATES = 2048;
         /// Projection: the update that carries the primal residual
         /// (primal.wgsl); predict: its warm start x += Σ d.
-        FLAG_PRIMAL = 1024;
+        FLAG_PRIMAL = 4096;
     }
 }
 

@@ -28,6 +28,7 @@ const PROJECT: &str = include_str!("../../shaders/project.wgsl");
 const PRIMAL: &str = include_str!("../../shaders/primal.wgsl");
 const PRIMAL_MATERIAL: &str = include_str!("../../shaders/primal_material.wgsl");
 const FRICTION: &str = include_str!("../../shaders/friction.wgsl");
+const MOTION: &str = include_str!("../../shaders/motion.wgsl");
 const RESIDUAL: &str = include_str!("../../shaders/residual.wgsl");
 const GUARD: &str = include_str!("../../shaders/guard.wgsl");
 const CONTACT: &str = include_str!("../../shaders/contact.wgsl");
@@ -52,7 +53,8 @@ pub enum ShaderFile {
     /// `primal.wgsl` and `primal_material.wgsl` (the update that carries
     /// the primal residual, with `symmetric_eigen.wgsl` and
     /// `material_hessian.wgsl`),
-    /// `friction.wgsl` (dynamic Coulomb friction), `residual.wgsl`
+    /// `friction.wgsl` (dynamic Coulomb friction), `motion.wgsl` (pins
+    /// and moving hyperplanes), `residual.wgsl`
     /// (constraint violation and its reduction), `guard.wgsl` (the
     /// read-only guards) — after `ln_f32.wgsl` / `ln_f64.wgsl`,
     /// `measure.wgsl` and `material.wgsl` (the material energy constraint).
@@ -212,6 +214,7 @@ impl ShaderFile {
                 PRIMAL,
                 PRIMAL_MATERIAL,
                 FRICTION,
+                MOTION,
                 RESIDUAL,
                 GUARD,
             ],

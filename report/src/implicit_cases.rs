@@ -215,6 +215,7 @@ fn incline(newton: u32, cg: Option<u32>) -> Scene {
         offset: 0.0,
         friction: INCLINE_MU,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene.solver = settings(law.stiffness, law.activation_distance, 1e-4, newton, cg);
     scene

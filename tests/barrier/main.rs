@@ -46,6 +46,7 @@ fn plane(normal: Vec<f64>, offset: f64) -> Obstacle {
         offset,
         friction: 0.0,
         compliance: 0.0,
+        motion: Vec::new(),
     }
 }
 

@@ -161,6 +161,7 @@ fn barrier_validation_names_the_field() {
         offset: 0.0,
         friction: 0.3,
         compliance: 0.0,
+        motion: Vec::new(),
     };
     // Lagged friction is a term of the coupled step (issue 16).
     assert!(coupled(&s));

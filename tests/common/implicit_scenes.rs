@@ -112,6 +112,7 @@ pub fn incline(mu: f64) -> (Scene, f64) {
         offset: 0.0,
         friction: mu,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene.solver =
         Solver::IncrementalPotential(settings(law.stiffness, law.activation_distance, 1e-4, 50));
@@ -140,6 +141,7 @@ pub fn stack() -> (Scene, Vec<f64>) {
         offset: 0.0,
         friction: 0.0,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene.collisions = Some(Collisions {
         friction: 0.0,
@@ -236,6 +238,7 @@ pub fn spring_tetrahedron() -> Scene {
         offset: 0.0,
         friction: 0.4,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     let mut s = settings(1e4, 0.01, 1e-3, 40);
     s.convergence = Convergence::PackedGradient { tolerance: 1e-9 };

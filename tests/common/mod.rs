@@ -13,6 +13,7 @@ pub mod gpu;
 pub mod guarded;
 pub mod implicit_scenes;
 pub mod materials;
+pub mod motion_scenes;
 // support.rs (CPU-only helpers of tests/analytic/ and tests/determinism.rs)
 // is included on its own by those binaries, not through this module.
 

@@ -10,12 +10,15 @@ const DOCUMENT: &str = include_str!("../../scenes/example.json");
 /// Every document the mutations start from: the example (constraints,
 /// friction, damping), balls with particle contact, the barrier path
 /// with a hyperplane and segment / triangle / tetrahedron meshes, and
-/// bending with an expression family (ln, exp, a param, a relation).
-const DOCUMENTS: [&str; 4] = [
+/// bending with an expression family (ln, exp, a param, a relation), and
+/// the conveyor with prescribed motion (a belt, pins on a circle and
+/// keyframes).
+const DOCUMENTS: [&str; 5] = [
     DOCUMENT,
     include_str!("../../fuzz/seeds/scene_json/balls.json"),
     include_str!("../../fuzz/seeds/scene_json/barrier_mesh.json"),
     include_str!("../../fuzz/seeds/scene_json/bending.json"),
+    include_str!("../../fuzz/seeds/scene_json/motion.json"),
 ];
 
 /// Replacement tokens: numbers at and beyond the edges of every type, and
@@ -69,6 +72,15 @@ const TOKENS: &[&str] = &[
     "{\"friction\": 0.5, \"margin\": 0.1}",
     "[[0,1,2]]",
     "[[0,0,0],[1,0,0]]",
+    // Motions: each kind, a plane with equal axes, times out of order.
+    "[{\"type\": \"translate\", \"velocity\": [1, 0, 0]}]",
+    "[{\"type\": \"rotate\", \"plane\": [0, 0], \"center\": [0, 0, 0], \"rate\": 1}]",
+    "[{\"type\": \"rotate\", \"plane\": [1, 9], \"center\": [0, 0, 0], \"rate\": 1e308}]",
+    "[{\"type\": \"keyframes\", \"times\": [1, 0], \"translations\": [[0, 0, 0], [1, 0, 0]]}]",
+    "[{\"type\": \"keyframes\", \"times\": [], \"translations\": []}]",
+    "\"translate\"",
+    "\"rotate\"",
+    "\"keyframes\"",
 ];
 
 const KEYS: &[&str] = &[
@@ -107,6 +119,11 @@ const KEYS: &[&str] = &[
     "max_iterations",
     "vertices",
     "simplices",
+    "motion",
+    "plane",
+    "center",
+    "times",
+    "translations",
     "bogus",
     "",
 ];

@@ -136,6 +136,7 @@ fn hyperplane(dim: usize) -> impl Strategy<Value = Obstacle> {
                 offset,
                 friction,
                 compliance,
+                motion: Vec::new(),
             }
         })
 }
@@ -256,7 +257,19 @@ fn run_checked(scene: &Scene, steps: usize) -> Result<State, TestCaseError> {
                     );
                 }
                 for (i, p) in scene.particles.iter().enumerate() {
-                    if p.fixed {
+                    if !p.motion.is_empty() {
+                        // An animated pin is where its motion puts it at
+                        // the step's end time.
+                        let h = scene.dt / f64::from(scene.substeps);
+                        let t = hyperpbd::motion::substep_time(
+                            step as u64,
+                            scene.dt,
+                            scene.substeps,
+                            h,
+                        );
+                        let want = hyperpbd::motion::rigid_at(&p.motion, scene.dim, t);
+                        prop_assert_eq!(after.position(i), &want.apply(&p.position)[..]);
+                    } else if p.fixed {
                         // Compared as values, not bits: −0.0 may become
                         // +0.0 (see `fixed_negative_zero_keeps_its_sign`).
                         prop_assert_eq!(

@@ -62,12 +62,14 @@ fn obstacles(dim: usize) -> Scene {
         offset: -0.4,
         friction: 0.0,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene.obstacles.push(Obstacle::Hyperplane {
         normal: (0..dim).map(|a| if a == 0 { -1.0 } else { 0.3 }).collect(),
         offset: -1.5,
         friction: 0.0,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     let point =
         |c: &[f64]| -> Vec<f64> { (0..dim).map(|a| c.get(a).copied().unwrap_or(0.0)).collect() };

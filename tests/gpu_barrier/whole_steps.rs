@@ -119,6 +119,7 @@ fn drop_scene(count: usize, speed: f64, convergence: Convergence) -> Scene {
         offset: 0.0,
         friction: 0.0,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene.solver = solver(convergence, 1e3, 0.01, 200);
     scene

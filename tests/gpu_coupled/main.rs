@@ -332,6 +332,7 @@ fn an_anchor_sunk_into_the_floor_is_the_golden_path() {
         offset: 0.0,
         friction: 0.3,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene.solver = Solver::IncrementalPotential(settings(1e4, 1e-2, 1e-2, 50));
     let above = |s: &State| {

@@ -83,6 +83,7 @@ fn on_the_plane(dim: usize) -> Scene {
         offset: 0.125,
         friction: 0.5,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     valid(scene)
 }

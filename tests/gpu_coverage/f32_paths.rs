@@ -54,12 +54,14 @@ fn bridge(shift: [f64; 3]) -> Scene {
         offset: -0.25 + shift[1],
         friction: 0.375,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene.obstacles.push(Obstacle::Hyperplane {
         normal: vec![-1.0, 0.0, 0.0],
         offset: -0.625 - shift[0],
         friction: 0.125,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     valid(scene)
 }

@@ -78,6 +78,7 @@ fn violated(dim: usize) -> Scene {
         offset: 0.0,
         friction: 0.6,
         compliance: 1e-7,
+        motion: Vec::new(),
     });
     valid(scene)
 }

@@ -69,6 +69,7 @@ fn drop(kappa: f64, tolerance: f64) -> Scene {
         offset: 0.0,
         friction: 0.0,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene.solver = Solver::IncrementalPotential(IncrementalPotentialSettings {
         barrier_stiffness: kappa,

@@ -121,18 +121,21 @@ fn fields(dim: usize) -> Scene {
         offset: -0.02,
         friction: 0.7,
         compliance: 1e-8,
+        motion: Vec::new(),
     });
     scene.obstacles.push(Obstacle::Hyperplane {
         normal: unit(dim, &[1.0, 0.3, -0.1, 0.1]),
         offset: -0.75,
         friction: 0.2,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene.obstacles.push(Obstacle::Hyperplane {
         normal: unit(dim, &[-1.0, 0.25, 0.1]),
         offset: -0.85,
         friction: 0.0,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     valid(scene)
 }
@@ -242,6 +245,7 @@ fn barrier_fields(tolerance: f64) -> Scene {
         offset: 0.0,
         friction: 0.0,
         compliance: 0.0,
+        motion: Vec::new(),
     });
     scene.obstacles.push(Obstacle::SimplexMesh {
         vertices: vec![

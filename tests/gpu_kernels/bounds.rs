@@ -135,6 +135,9 @@ pub(super) fn kernel_bounds(
         Kernel::Minimise => {
             unreachable!("XPBD scenes only; the barrier path has tests/gpu_barrier.rs")
         }
+        Kernel::Motion => {
+            unreachable!("these cases have no prescribed motion (tests/motion.rs has it)")
+        }
         Kernel::GuardMeasure { .. } | Kernel::GuardSpeed => {
             unreachable!("these cases have no guards (tests/gpu_guards.rs has them)")
         }

@@ -87,7 +87,8 @@ fn full_example_loads_with_every_value() {
             normal: vec![0.0, 1.0, 0.0],
             offset: 0.0,
             friction: 0.5,
-            compliance: 0.0
+            compliance: 0.0,
+            motion: Vec::new(),
         }]
     );
     assert_eq!(s.damping, Some(Damping { rate: 0.5 }));
@@ -150,7 +151,8 @@ fn optional_keys_take_their_defaults() {
             normal: vec![0.0, 2.0],
             offset: 0.0,
             friction: 0.0,
-            compliance: 0.0
+            compliance: 0.0,
+            motion: Vec::new(),
         }
     );
 

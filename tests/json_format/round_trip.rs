@@ -32,6 +32,7 @@ fn bits(s: &Scene) -> Vec<u64> {
             offset,
             friction,
             compliance,
+            ..
         } = o
         else {
             continue;
@@ -138,12 +139,14 @@ fn round_trip_is_bit_exact() {
             offset: -1.0 / 3.0,
             friction: std::f64::consts::FRAC_1_SQRT_2,
             compliance: 1e-9 / 7.0,
+            motion: Vec::new(),
         },
         Obstacle::Hyperplane {
             normal: vec![0.0, 0.0, 0.0, 1.0],
             offset: 0.0,
             friction: 0.0,
             compliance: 0.0,
+            motion: Vec::new(),
         },
     ];
     s.damping = Some(Damping { rate: 0.1 + 0.7 });

@@ -102,6 +102,7 @@ fn catalogue() -> Vec<String> {
     ]);
     out.extend(barrier_catalogue());
     out.extend(expression_catalogue());
+    out.extend(super::motion::catalogue());
     let missing = std::path::Path::new("no-such-scene.json");
     out.push(
         Scene::from_json_file(missing)

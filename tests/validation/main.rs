@@ -12,6 +12,7 @@
 mod constraints;
 mod errors_doc;
 mod known_gaps;
+mod motion;
 mod non_finite;
 mod obstacles_and_damping;
 mod order_and_valid_scenes;
@@ -60,6 +61,7 @@ fn plane(normal: Vec<f64>) -> Obstacle {
         offset: 0.0,
         friction: 0.5,
         compliance: 0.0,
+        motion: Vec::new(),
     }
 }
 
@@ -70,6 +72,7 @@ fn hyperplane(s: &mut Scene) -> (&mut Vec<f64>, &mut f64, &mut f64, &mut f64) {
         offset,
         friction,
         compliance,
+        ..
     } = &mut s.obstacles[0]
     else {
         panic!("the base scene's obstacle is a hyperplane");

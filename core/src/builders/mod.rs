@@ -90,6 +90,7 @@ impl SceneBuilder {
             offset,
             friction,
             compliance: 0.0,
+            motion: Vec::new(),
         });
         self.scene.obstacles.len() - 1
     }

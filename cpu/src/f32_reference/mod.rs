@@ -55,6 +55,7 @@ mod integrate;
 pub mod ln;
 mod material;
 mod measure;
+mod motion;
 mod primal;
 mod project;
 mod residual;
@@ -169,6 +170,12 @@ pub struct F32Reference {
     contacts: Option<Contacts>,
     /// An expression family's columns.
     columns: Columns<f32>,
+    /// Steps completed (the clock of prescribed motion).
+    step_count: u64,
+    /// The substep being run.
+    substep: u32,
+    /// The prescribed values of the current substep (with `motion`).
+    motion_now: motion::Motion32,
 }
 
 fn round(values: &[f64]) -> Vec<f32> {
@@ -196,7 +203,8 @@ impl F32Reference {
         let families = plan
             .families
             .iter()
-            .map(|f| {
+            .enumerate()
+            .map(|(index, f)| {
                 let (normal, mu) = match &f.kind {
                     FamilyKind::HyperplaneContact { normal, friction } => {
                         (normal.as_slice(), *friction)
@@ -208,8 +216,13 @@ impl F32Reference {
                     | FamilyKind::Material { .. }
                     | FamilyKind::Expression(_) => (&[][..], 0.0),
                 };
+                // A moving plane's origin term is in its per-substep shift.
+                let moving = plan
+                    .motion
+                    .as_ref()
+                    .is_some_and(|m| m.plane_of(index).is_some());
                 let rest = f.rest.iter().map(|&r| {
-                    if normal.is_empty() || !shifted {
+                    if normal.is_empty() || !shifted || moving {
                         return r as f32;
                     }
                     let shift: f64 = normal.iter().zip(origin).map(|(n, o)| n * o).sum();
@@ -222,14 +235,8 @@ impl F32Reference {
                     normal: round(normal),
                     mu: mu as f32,
                     material: material_law(&f.kind),
-                    carried: match plan.primal_residual {
-                        true => vec![0.0; f.elements.len() * plan.dim],
-                        false => Vec::new(),
-                    },
-                    factors: match plan.primal_residual && material_law(&f.kind).is_some() {
-                        true => vec![0.0; f.len() * (f.arity * plan.dim).pow(2)],
-                        false => Vec::new(),
-                    },
+                    carried: primal::displacements(&plan, f),
+                    factors: primal::factors(&plan, f),
                     swept: false,
                 }
             })
@@ -270,6 +277,9 @@ impl F32Reference {
             contacts,
             plan,
             columns: Columns::new(),
+            step_count: 0,
+            substep: 0,
+            motion_now: motion::Motion32::default(),
         };
         reference.write_state(state)?;
         Ok(reference)
@@ -303,13 +313,8 @@ impl F32Reference {
             local.collect()
         };
         self.particles.v = round(&state.velocities);
-        if self.plan.primal_residual {
-            // A written state starts the carried forces over (as the GPU).
-            for f in &mut self.families {
-                f.lambda.fill(0.0);
-                f.carried.fill(0.0);
-            }
-        }
+        // A written state starts the carried forces over (as the GPU).
+        primal::clear(&self.plan, &mut self.families);
         Ok(())
     }
 
@@ -350,7 +355,24 @@ impl F32Reference {
             .families
             .iter()
             .zip(&self.families)
-            .map(|(f, stored)| {
+            .enumerate()
+            .map(|(index, (f, stored))| {
+                let plane = self
+                    .plan
+                    .motion
+                    .as_ref()
+                    .and_then(|m| m.plane_of(index))
+                    .and_then(|k| self.motion_now.planes.get(k));
+                if let Some(plane) = plane {
+                    let contact = motion::Contact {
+                        plane,
+                        mu: stored.mu,
+                        elements: &f.elements,
+                        rest: &stored.rest,
+                        alpha_tilde: stored.alpha_tilde,
+                    };
+                    return f64::from(motion::residual(&contact, n, &self.particles.x));
+                }
                 let stored_family = residual::StoredFamily {
                     rest: &stored.rest,
                     normal: &stored.normal,
@@ -381,23 +403,16 @@ impl F32Reference {
     /// state is restored and the first failing kernel named.
     pub fn step(&mut self) -> Result<(), ReferenceError> {
         let (x, v) = (self.particles.x.clone(), self.particles.v.clone());
-        // The primal residual's multipliers and displacements carry over
-        // between steps: they roll back with the state.
-        let carried: Vec<(Vec<f32>, Vec<f32>)> = match self.plan.primal_residual {
-            true => (self.families.iter())
-                .map(|f| (f.lambda.clone(), f.carried.clone()))
-                .collect(),
-            false => Vec::new(),
-        };
+        // The primal residual's λ and d roll back with the state.
+        let carried = primal::save(&self.plan, &self.families);
         for substep in 0..self.plan.substeps {
+            self.substep = substep;
             for k in 0..self.plan.substep_kernels.len() {
                 let kernel = self.plan.substep_kernels[k];
                 if let Err(index) = self.kernel(kernel) {
                     self.particles.x = x;
                     self.particles.v = v;
-                    for (f, (lambda, d)) in self.families.iter_mut().zip(carried) {
-                        (f.lambda, f.carried) = (lambda, d);
-                    }
+                    primal::restore(&mut self.families, carried);
                     return Err(ReferenceError::NonFinite {
                         substep,
                         kernel,
@@ -406,6 +421,7 @@ impl F32Reference {
                 }
             }
         }
+        self.step_count += 1;
         Ok(())
     }
 
@@ -423,8 +439,28 @@ impl F32Reference {
 
     /// One kernel call; the first failing index.
     fn kernel(&mut self, kernel: Kernel) -> Result<(), usize> {
+        let moving = |family: usize| {
+            let k = self.plan.motion.as_ref()?.plane_of(family)?;
+            self.motion_now.planes.get(k)
+        };
         let s = &mut self.particles;
         match kernel {
+            Kernel::Motion => {
+                let Some(m) = &self.plan.motion else {
+                    return Ok(());
+                };
+                let now = hyperpbd_core::motion::substep_time;
+                let (step, dt, h) = (self.step_count, self.plan.dt, self.plan.h);
+                let (t0, t1) = (
+                    now(step, dt, self.substep, h),
+                    now(step, dt, self.substep + 1, h),
+                );
+                let values = m.substep(self.plan.dim, t0, t1, h);
+                self.motion_now = motion::round(&values, &self.origin, self.plan.dim);
+                let pins: Vec<usize> = m.pins.iter().map(|p| p.particle).collect();
+                motion::place(s, &pins, &self.motion_now);
+                Ok(())
+            }
             Kernel::Predict => {
                 let primal = self.plan.primal_residual;
                 if !primal {
@@ -448,44 +484,7 @@ impl F32Reference {
             }
             Kernel::Project { family, color } if self.plan.primal_residual => {
                 let f = &self.plan.families[family];
-                let stored = &mut self.families[family];
-                let colour = project::Colour {
-                    slots: f.color(color),
-                    arity: f.arity,
-                    elements: &f.elements,
-                    rest: &stored.rest,
-                    alpha_tilde: stored.alpha_tilde,
-                };
-                let (lambda, d) = (&mut stored.lambda, &mut stored.carried);
-                let first = !stored.swept;
-                if color + 1 == f.color_count() {
-                    stored.swept = true;
-                }
-                match &f.kind {
-                    FamilyKind::Distance => primal::distance(s, &colour, lambda, d, false),
-                    FamilyKind::Tether => primal::distance(s, &colour, lambda, d, true),
-                    FamilyKind::SimplexMeasure { k } => {
-                        primal::measure(s, &colour, lambda, d, Some(*k))
-                    }
-                    FamilyKind::OrientedMeasure => primal::measure(s, &colour, lambda, d, None),
-                    FamilyKind::HyperplaneContact { .. } => {
-                        let plane = project::Plane {
-                            normal: &stored.normal,
-                            mu: stored.mu,
-                        };
-                        primal::contact(s, &colour, &plane, lambda, d)
-                    }
-                    FamilyKind::Expression(kind) => {
-                        primal::expression(s, &colour, kind, (lambda, d), &mut self.columns)
-                    }
-                    FamilyKind::Material { .. } => match &stored.material {
-                        Some(law) => {
-                            let factors = (&mut stored.factors[..], first);
-                            primal::material(s, &colour, law, (lambda, d), factors)
-                        }
-                        None => Ok(()),
-                    },
-                }
+                primal::project(s, (f, color), &mut self.families[family], &mut self.columns)
             }
             Kernel::Project { family, color } => {
                 let f = &self.plan.families[family];
@@ -507,13 +506,25 @@ impl F32Reference {
                     FamilyKind::OrientedMeasure => {
                         project::measure(s, &colour, lambda, project::Measure::Oriented)
                     }
-                    FamilyKind::HyperplaneContact { .. } => {
-                        let plane = project::Plane {
-                            normal: &stored.normal,
-                            mu: stored.mu,
-                        };
-                        project::contact(s, &colour, &plane, lambda)
-                    }
+                    FamilyKind::HyperplaneContact { .. } => match moving(family) {
+                        Some(plane) => {
+                            let contact = motion::Contact {
+                                plane,
+                                mu: stored.mu,
+                                elements: &f.elements,
+                                rest: &stored.rest,
+                                alpha_tilde: stored.alpha_tilde,
+                            };
+                            motion::contact(s, &contact, lambda)
+                        }
+                        None => {
+                            let plane = project::Plane {
+                                normal: &stored.normal,
+                                mu: stored.mu,
+                            };
+                            project::contact(s, &colour, &plane, lambda)
+                        }
+                    },
                     FamilyKind::Expression(kind) => {
                         let colour = kinds::Colour {
                             kind,
@@ -538,6 +549,16 @@ impl F32Reference {
             Kernel::Velocity => integrate::velocity(s, self.h),
             Kernel::Friction { family } => {
                 let stored = &self.families[family];
+                if let Some(plane) = moving(family) {
+                    let contact = motion::Contact {
+                        plane,
+                        mu: stored.mu,
+                        elements: &self.plan.families[family].elements,
+                        rest: &stored.rest,
+                        alpha_tilde: stored.alpha_tilde,
+                    };
+                    return motion::friction(s, &contact, self.h, &stored.lambda);
+                }
                 let friction = integrate::Friction {
                     normal: &stored.normal,
                     mu: stored.mu,
@@ -568,8 +589,8 @@ impl F32Reference {
                 }
                 None => Ok(()),
             },
-            // Read-only checks; refused in `new` for the rest.
-            _ => Ok(()),
+            // Read-only checks (not run here); Minimise is refused in `new`.
+            Kernel::GuardMeasure { .. } | Kernel::GuardSpeed | Kernel::Minimise => Ok(()),
         }
     }
 }

@@ -25,11 +25,103 @@
 use hyperpbd_core::expr::Columns;
 use hyperpbd_core::implicit::{PsdScratch, project_psd};
 use hyperpbd_core::kinds::{ExpressionKind, Relation};
+use hyperpbd_core::{Family, FamilyKind, Plan};
 
-use super::Particles;
 use super::material::{Law, cholesky};
 use super::measure::{oriented_measure, simplex_squared_measure};
 use super::project::{Colour, Plane};
+use super::{Particles, Stored};
+
+/// d of every slot of `f` (arity · N each) with the primal residual;
+/// nothing otherwise.
+pub(super) fn displacements(plan: &Plan, f: &Family) -> Vec<f32> {
+    match plan.primal_residual {
+        true => vec![0.0; f.elements.len() * plan.dim],
+        false => Vec::new(),
+    }
+}
+
+/// A material family's Newton factors ((arity · N)² per slot) with the
+/// primal residual; nothing otherwise.
+pub(super) fn factors(plan: &Plan, f: &Family) -> Vec<f32> {
+    match (plan.primal_residual, &f.kind) {
+        (true, FamilyKind::Material { .. }) => vec![0.0; f.len() * (f.arity * plan.dim).pow(2)],
+        _ => Vec::new(),
+    }
+}
+
+/// λ and d of every family, for the step's rollback (primal residual).
+pub(super) fn save(plan: &Plan, families: &[Stored]) -> Vec<(Vec<f32>, Vec<f32>)> {
+    match plan.primal_residual {
+        true => (families.iter())
+            .map(|f| (f.lambda.clone(), f.carried.clone()))
+            .collect(),
+        false => Vec::new(),
+    }
+}
+
+/// Puts back what [`save`] kept.
+pub(super) fn restore(families: &mut [Stored], saved: Vec<(Vec<f32>, Vec<f32>)>) {
+    for (f, (lambda, d)) in families.iter_mut().zip(saved) {
+        (f.lambda, f.carried) = (lambda, d);
+    }
+}
+
+/// λ and d start over from 0 (a written state; primal residual).
+pub(super) fn clear(plan: &Plan, families: &mut [Stored]) {
+    if plan.primal_residual {
+        for f in families {
+            f.lambda.fill(0.0);
+            f.carried.fill(0.0);
+        }
+    }
+}
+
+/// Colour `color` of family `f` (its stored data `stored`): the family's
+/// kind's update below.
+pub(super) fn project(
+    s: &mut Particles,
+    (f, color): (&Family, usize),
+    stored: &mut Stored,
+    columns: &mut Columns<f32>,
+) -> Result<(), usize> {
+    let colour = Colour {
+        slots: f.color(color),
+        arity: f.arity,
+        elements: &f.elements,
+        rest: &stored.rest,
+        alpha_tilde: stored.alpha_tilde,
+    };
+    let (lambda, d) = (&mut stored.lambda, &mut stored.carried);
+    let first = !stored.swept;
+    if color + 1 == f.color_count() {
+        stored.swept = true;
+    }
+    match &f.kind {
+        FamilyKind::Distance => distance(s, &colour, lambda, d, false),
+        FamilyKind::Tether => distance(s, &colour, lambda, d, true),
+        FamilyKind::SimplexMeasure { k } => measure(s, &colour, lambda, d, Some(*k)),
+        FamilyKind::OrientedMeasure => measure(s, &colour, lambda, d, None),
+        FamilyKind::HyperplaneContact { .. } => {
+            let plane = Plane {
+                normal: &stored.normal,
+                mu: stored.mu,
+            };
+            contact(s, &colour, &plane, lambda, d)
+        }
+        FamilyKind::Expression(kind) => expression(s, &colour, kind, (lambda, d), columns),
+        FamilyKind::Material { .. } => match &stored.material {
+            Some(law) => material(
+                s,
+                &colour,
+                law,
+                (lambda, d),
+                (&mut stored.factors[..], first),
+            ),
+            None => Ok(()),
+        },
+    }
+}
 
 /// x += d over `elements` (one family's, `dim` reals of `d` per entry),
 /// dynamic particles only.

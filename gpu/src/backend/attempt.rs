@@ -29,6 +29,7 @@ impl GpuBackend {
     /// One step of the plan's own substeps (attempt 0 of the adaptive
     /// step).
     pub(super) fn step_once(&mut self) -> Result<StepReport, BackendError> {
+        self.upload_motion()?;
         if self.contacts.is_some() {
             return self.step_with_contacts();
         }
@@ -154,7 +155,11 @@ impl GpuBackend {
             })?;
             self.subdivided.push(built);
         }
+        let clock = self.motion.as_ref().map(|m| m.step);
         let refined = &mut self.subdivided[j - 1];
+        if let (Some(step), Some(moving)) = (clock, refined.motion.as_mut()) {
+            moving.step = step;
+        }
         copy_state(&self.ctx, &self.state, &refined.state, true)?;
         let report = refined.step_once()?;
         let refined = &self.subdivided[j - 1];
@@ -185,10 +190,14 @@ fn copy_state(
 
 impl Subdivided for GpuBackend {
     fn attempt(&mut self, subdivision: u32) -> Result<StepReport, BackendError> {
-        if subdivision == 0 {
+        let attempt = if subdivision == 0 {
             self.step_once()
         } else {
             self.subdivided_attempt(subdivision)
+        };
+        if attempt.is_ok() {
+            self.motion_step_done();
         }
+        attempt
     }
 }

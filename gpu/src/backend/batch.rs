@@ -117,6 +117,13 @@ impl<'a> WorldArrays<'a> {
             }
             .into());
         }
+        if worlds.plans.iter().any(|p| p.motion.is_some()) {
+            return Err(GpuError::Unsupported {
+                what: "prescribed \"motion\" in a batch of worlds (one world at a time runs it)"
+                    .into(),
+            }
+            .into());
+        }
         if w.saturating_mul(largest.max(n)) > (u32::MAX / 2) as usize {
             return Err(GpuError::Unsupported {
                 what: format!("{w} worlds of {n} particles: over 2^31 invocations per dispatch"),

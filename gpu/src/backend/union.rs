@@ -47,7 +47,8 @@ fn response_rank(kernel: &Kernel) -> Option<usize> {
         | Kernel::Collide
         | Kernel::Minimise
         | Kernel::GuardMeasure { .. }
-        | Kernel::GuardSpeed => None,
+        | Kernel::GuardSpeed
+        | Kernel::Motion => None,
     }
 }
 

@@ -23,12 +23,12 @@ use crate::kernel_set::BlockWriter;
 pub(crate) const SEGMENT: usize = 8;
 
 pub(crate) use crate::codes::{
-    FLAG_FIRST, FLAG_FORCE, FLAG_GRAVITY, FLAG_MATERIAL, FLAG_NEO_HOOKEAN, FLAG_ORIENTATION,
-    FLAG_PRIMAL, FLAG_RATIO, FLAG_TETHER, FLAG_UNIT_SCALE, FLAG_UNREAD, IO_LOAD_P, IO_LOAD_V,
-    IO_LOAD_X, IO_STORE_P, IO_STORE_V, IO_STORE_X, OP_DAMPING, OP_FRICTION, OP_GUARD_MEASURE,
-    OP_GUARD_SPEED, OP_HOST, OP_NONE, OP_PREDICT, OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE,
-    OP_PROJECT_EXPRESSION, OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX,
-    OP_RESIDUAL, OP_VELOCITY,
+    FLAG_FIRST, FLAG_FORCE, FLAG_GRAVITY, FLAG_MATERIAL, FLAG_MOVING, FLAG_NEO_HOOKEAN,
+    FLAG_ORIENTATION, FLAG_PRIMAL, FLAG_RATIO, FLAG_ROTATES, FLAG_TETHER, FLAG_UNIT_SCALE,
+    FLAG_UNREAD, IO_LOAD_P, IO_LOAD_V, IO_LOAD_X, IO_STORE_P, IO_STORE_V, IO_STORE_X, OP_DAMPING,
+    OP_FRICTION, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST, OP_MOTION, OP_NONE, OP_PREDICT,
+    OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE, OP_PROJECT_EXPRESSION, OP_PROJECT_MATERIAL,
+    OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX, OP_RESIDUAL, OP_VELOCITY,
 };
 
 /// One kernel call, before encoding.
@@ -74,7 +74,7 @@ impl Call {
     pub fn per_particle(&self) -> bool {
         matches!(
             self.op,
-            OP_PREDICT | OP_PROJECT_CONTACT | OP_VELOCITY | OP_FRICTION | OP_DAMPING
+            OP_PREDICT | OP_PROJECT_CONTACT | OP_VELOCITY | OP_FRICTION | OP_DAMPING | OP_MOTION
         )
     }
 
@@ -160,14 +160,18 @@ pub(crate) fn dispatch_block(
     out
 }
 
-/// (read, written) records of a per-particle op, as IO_LOAD_* bits.
-fn access(op: u32) -> (u32, u32) {
+/// (read, written) records of a per-particle call, as IO_LOAD_* bits.
+fn access(call: &Call) -> (u32, u32) {
     let (x, v, p) = (IO_LOAD_X, IO_LOAD_V, IO_LOAD_P);
-    match op {
+    match call.op {
+        // A turning plane's friction reads its carry at p (motion.wgsl).
+        OP_FRICTION if call.flags & FLAG_ROTATES != 0 => (x | v | p, v),
         OP_PREDICT => (x | v, x | v | p),
         OP_PROJECT_CONTACT => (x | p, x),
         OP_VELOCITY => (x | p, v),
         OP_FRICTION | OP_DAMPING => (x | v, v),
+        // Pins are fixed: the op stores their records itself (motion.wgsl).
+        OP_MOTION => (x | v, 0),
         // Not per-particle: no records of their own.
         OP_PROJECT_DISTANCE
         | OP_PROJECT_SIMPLEX
@@ -189,7 +193,7 @@ fn access(op: u32) -> (u32, u32) {
 pub(crate) fn records_io(calls: &[Call]) -> u32 {
     let (mut written, mut io) = (0, 0);
     for call in calls {
-        let (reads, writes) = access(call.op);
+        let (reads, writes) = access(call);
         io |= reads & !written;
         written |= writes;
     }

@@ -24,7 +24,7 @@ pub(crate) fn friction(plan: &Plan, families: &Families, family: usize, call: u3
         | FamilyKind::Material { .. }
         | FamilyKind::Expression(_) => (Vec::new(), 0.0),
     };
-    Call {
+    let mut c = Call {
         op: OP_FRICTION,
         count: plan.particle_count() as u32,
         family: family as u32,
@@ -36,5 +36,10 @@ pub(crate) fn friction(plan: &Plan, families: &Families, family: usize, call: u3
         normal,
         kernel: Some(Kernel::Friction { family }),
         ..Call::default()
+    };
+    if let Some(layout) = &families.motion {
+        let substep = super::motion::substep_of(plan, call);
+        layout.mark(plan, family, substep, false, &mut c);
     }
+    c
 }

@@ -23,6 +23,7 @@ mod friction;
 mod guard;
 mod integrate;
 pub(crate) mod material;
+pub(crate) mod motion;
 mod project;
 mod residual;
 pub(crate) mod schedule;
@@ -58,9 +59,12 @@ pub(crate) struct Families {
     /// Offset of each hyperplane family's particle → slot map in
     /// `slot_maps` (0 for the others).
     pub slot_map: Vec<u32>,
-    /// Per hyperplane family, per particle: its slot, or NONE; then,
-    /// with the primal residual, the warm start's rows (at `warm_start`).
+    /// Per hyperplane family, per particle: its slot, or NONE (then the
+    /// pins' particle → pin map, with prescribed motion; then, with the
+    /// primal residual, the warm start's rows at `warm_start`).
     pub slot_maps: Vec<u32>,
+    /// Where the prescribed motion's values live (motion.rs).
+    pub motion: Option<motion::MotionLayout>,
     /// Primal residual: offset of each family's displacements in
     /// `carried` (arity · DIM reals per slot), of each material family's
     /// Newton factors after them ((arity · DIM)² reals per slot; 0 for the
@@ -92,8 +96,9 @@ impl Families {
             factor_base: Vec::new(),
             carried_len: 0,
             warm_start: 0,
+            motion: None,
         };
-        for f in &plan.families {
+        for (family, f) in plan.families.iter().enumerate() {
             if f.arity == 2 && out.elements.len() % 2 == 1 {
                 // Pairs are read as vec2<u32>: an even offset.
                 out.elements.push(0);
@@ -103,8 +108,16 @@ impl Families {
             out.elements.extend_from_slice(&f.elements);
             match &f.kind {
                 FamilyKind::HyperplaneContact { normal, .. } => {
-                    out.rest
-                        .extend(f.rest.iter().map(|&r| origin.local_offset(normal, r)));
+                    // A moving plane's origin term is in its per-substep
+                    // shift (motion.rs).
+                    let moving = plan
+                        .motion
+                        .as_ref()
+                        .is_some_and(|m| m.plane_of(family).is_some());
+                    out.rest.extend(f.rest.iter().map(|&r| match moving {
+                        true => r,
+                        false => origin.local_offset(normal, r),
+                    }));
                     // Run per particle: one colour, one slot per particle.
                     let mut map = vec![NONE; n];
                     for (e, &i) in f.elements.iter().enumerate() {
@@ -139,6 +152,7 @@ impl Families {
             out.material_base.push(out.rest.len() as u32);
             material::push_rest_data(f, &mut out.rest);
         }
+        out.motion = motion::MotionLayout::new(plan, &mut out.slot_maps, &mut out.rest);
         if plan.primal_residual {
             out.lay_out_carried(plan);
         }

@@ -64,6 +64,10 @@ pub(crate) fn project(
             c.slot_map = families.slot_map[family];
             c.normal = normal.clone();
             c.friction = *friction;
+            if let Some(layout) = &families.motion {
+                let substep = super::motion::substep_of(plan, call);
+                layout.mark(plan, family, substep, false, &mut c);
+            }
         }
     }
     if plan.primal_residual {

@@ -30,10 +30,10 @@
 use hyperpbd_core::{Family, FamilyKind, Kernel, Plan};
 
 use super::call::{
-    Call, OP_DAMPING, OP_FRICTION, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST, OP_NONE, OP_PREDICT,
-    OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE, OP_PROJECT_EXPRESSION, OP_PROJECT_MATERIAL,
-    OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX, OP_RESIDUAL, OP_VELOCITY, SEGMENT, dispatch_block,
-    records_io,
+    Call, OP_DAMPING, OP_FRICTION, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST, OP_MOTION, OP_NONE,
+    OP_PREDICT, OP_PROJECT_CONTACT, OP_PROJECT_DISTANCE, OP_PROJECT_EXPRESSION,
+    OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED, OP_PROJECT_SIMPLEX, OP_RESIDUAL, OP_VELOCITY,
+    SEGMENT, dispatch_block, records_io,
 };
 use super::{Families, friction, guard, integrate, project, residual};
 use crate::Precision;
@@ -359,6 +359,14 @@ fn kernel_call(
         Kernel::Friction { family } => friction::friction(plan, families, family, call),
         Kernel::GuardMeasure { family } => guard::measure(plan, families, family, call),
         Kernel::GuardSpeed => guard::speed(plan, call),
+        Kernel::Motion => match &families.motion {
+            Some(layout) => layout.motion_call(plan, call, super::motion::substep_of(plan, call)),
+            None => Call {
+                call,
+                kernel: Some(kernel),
+                ..Call::default()
+            },
+        },
         Kernel::Broadphase | Kernel::Collide | Kernel::Minimise => Call {
             op: OP_HOST,
             call,
@@ -371,7 +379,7 @@ fn kernel_call(
 /// The dispatch of call `index` alone.
 fn single(call: &Call, index: usize) -> Dispatch {
     let run = match call.op {
-        OP_PREDICT | OP_PROJECT_CONTACT | OP_VELOCITY | OP_FRICTION | OP_DAMPING => {
+        OP_PREDICT | OP_PROJECT_CONTACT | OP_VELOCITY | OP_FRICTION | OP_DAMPING | OP_MOTION => {
             Run::Particles(Segment::of(std::slice::from_ref(call)))
         }
         OP_HOST => Run::Host(call.kernel.unwrap_or(Kernel::Broadphase)),

@@ -1,0 +1,204 @@
+//! Prescribed motion on the golden path (`hyperpbd_core::motion` has the
+//! definitions): the Motion kernel, and the contact projection, friction
+//! and residual of a moving hyperplane.
+//!
+//! ```text
+//! Motion     t0 = step·dt + s·h,  t1 = t0's successor (s + 1)
+//!            planes: n(t1), s(t1), carry D over [t0, t1]
+//!            pins:   x = x(t1),  v = (x(t1) − x(t0)) / h
+//! contact    C = n·x − rest − s   (rest = d_0 + r)
+//!            Δλ, clamp, x += w n Δλ                   (as project.rs)
+//!            static friction (λ > 0): q = p + D(p), the obstacle point
+//!            under p at t0, now at q; the tangential part of x − q is
+//!            cancelled whole if |·| ≤ μ w λ
+//! friction   u = D(p) / h;  v_rel = v − u;  v_t = v_rel − (n·v_rel) n
+//!            v −= v_t · min(μ w λ / h, |v_t|) / |v_t|
+//! residual   max_e max(0, rest + s − n·x)
+//! ```
+//! A static plane takes `project.rs` and `friction.rs` unchanged. Moving
+//! planes run serially (one contact family per plane; their particles are
+//! independent, so a split would give the same bytes).
+
+// Coordinate loops index several arrays at once, as a kernel does.
+#![allow(clippy::needless_range_loop)]
+
+use hyperpbd_core::motion::{PlaneAt, SubstepMotion, substep_time};
+use hyperpbd_core::{Family, FamilyKind, FamilyResidual, Plan};
+
+use crate::parallel::Workers;
+use crate::project::{dot, static_friction};
+
+/// The Motion kernel of substep `substep` of step `step`: the substep's
+/// prescribed values, pins placed in `x` with their velocities in `v`.
+pub fn place(
+    plan: &Plan,
+    (step, substep): (u64, u32),
+    x: &mut [f64],
+    v: &mut [f64],
+) -> SubstepMotion {
+    let Some(motion) = &plan.motion else {
+        return SubstepMotion::default();
+    };
+    let t0 = substep_time(step, plan.dt, substep, plan.h);
+    let t1 = substep_time(step, plan.dt, substep + 1, plan.h);
+    let now = motion.substep(plan.dim, t0, t1, plan.h);
+    let n = plan.dim;
+    for (k, pin) in motion.pins.iter().enumerate() {
+        let i = pin.particle;
+        x[i * n..(i + 1) * n].copy_from_slice(&now.pin_positions[k * n..(k + 1) * n]);
+        v[i * n..(i + 1) * n].copy_from_slice(&now.pin_velocities[k * n..(k + 1) * n]);
+    }
+    now
+}
+
+/// The plane of family `family` in this substep, if it moves.
+pub fn plane<'a>(plan: &Plan, now: &'a SubstepMotion, family: usize) -> Option<&'a PlaneAt> {
+    let k = plan.motion.as_ref()?.plane_of(family)?;
+    now.planes.get(k)
+}
+
+/// Projection of moving-plane family `family` (every element; one
+/// colour). Returns the first slot whose update was non-finite.
+#[allow(clippy::too_many_arguments)]
+pub fn project(
+    plane: &PlaneAt,
+    family: &Family,
+    inverse_mass: &[f64],
+    alpha_tilde: f64,
+    start: &[f64],
+    x: &mut [f64],
+    lambda: &mut [f64],
+) -> Result<(), usize> {
+    let FamilyKind::HyperplaneContact { friction, .. } = &family.kind else {
+        return Ok(());
+    };
+    let n = plane.normal.len();
+    let normal = &plane.normal[..];
+    let mut q = vec![0.0; n];
+    for e in 0..family.len() {
+        let i = family.elements[e] as usize;
+        let w = inverse_mass[i];
+        let xi = &mut x[i * n..(i + 1) * n];
+        let c = dot(normal, xi) - family.rest[e] - plane.shift;
+        let l = lambda[e];
+        let raw = (-c - alpha_tilde * l) / (w + alpha_tilde);
+        if !raw.is_finite() {
+            return Err(e);
+        }
+        let dl = (l + raw).max(0.0) - l;
+        lambda[e] = l + dl;
+        for a in 0..n {
+            xi[a] += w * normal[a] * dl;
+        }
+        if *friction > 0.0 && lambda[e] > 0.0 {
+            let p = &start[i * n..(i + 1) * n];
+            plane.carry.at(p, &mut q);
+            for a in 0..n {
+                q[a] += p[a];
+            }
+            static_friction(normal, friction * w * lambda[e], &q, xi);
+        }
+    }
+    Ok(())
+}
+
+/// The Friction kernel of family `family`: `friction.rs` for a static
+/// plane, [`friction`] for a moving one (`moving`: the substep's values
+/// and start positions).
+pub fn friction_of(
+    workers: &Workers,
+    plan: &Plan,
+    family: usize,
+    lambda: &[f64],
+    (now, start): (&SubstepMotion, &[f64]),
+    v: &mut [f64],
+) -> Result<(), usize> {
+    let f = &plan.families[family];
+    match plane(plan, now, family) {
+        Some(moving) => friction(moving, f, (&plan.inverse_mass, plan.h), lambda, start, v),
+        None => {
+            crate::friction::friction(workers, plan.dim, plan.h, &plan.inverse_mass, f, lambda, v)
+        }
+    }
+}
+
+/// The report's residual of family `family` (`f`): `residual.rs` for
+/// every family but a moving plane's, [`residual`] for that.
+pub fn residual_of(
+    workers: &Workers,
+    plan: &Plan,
+    now: &SubstepMotion,
+    family: usize,
+    f: &Family,
+    x: &[f64],
+) -> FamilyResidual {
+    match plane(plan, now, family) {
+        Some(moving) => FamilyResidual {
+            label: f.label.clone(),
+            max_violation: residual(moving, f, x),
+        },
+        None => crate::residual::residual(workers, plan.dim, f, x),
+    }
+}
+
+/// Dynamic friction of moving-plane family `family`; the first particle
+/// whose velocity became non-finite.
+pub fn friction(
+    plane: &PlaneAt,
+    family: &Family,
+    (inverse_mass, h): (&[f64], f64),
+    lambda: &[f64],
+    start: &[f64],
+    v: &mut [f64],
+) -> Result<(), usize> {
+    let FamilyKind::HyperplaneContact { friction, .. } = &family.kind else {
+        return Ok(());
+    };
+    let n = plane.normal.len();
+    let normal = &plane.normal[..];
+    let mut rel = vec![0.0; n];
+    for e in 0..family.len() {
+        let l = lambda[e];
+        if l <= 0.0 {
+            continue;
+        }
+        let i = family.elements[e] as usize;
+        let vi = &mut v[i * n..(i + 1) * n];
+        plane.carry.at(&start[i * n..(i + 1) * n], &mut rel);
+        for a in 0..n {
+            rel[a] = vi[a] - rel[a] / h;
+        }
+        let vn = dot(normal, &rel);
+        let mut t2 = 0.0;
+        for a in 0..n {
+            let t = rel[a] - vn * normal[a];
+            t2 += t * t;
+        }
+        let vt = t2.sqrt();
+        if vt == 0.0 {
+            continue;
+        }
+        let limit = friction * inverse_mass[i] * l / h;
+        let scale = limit.min(vt) / vt;
+        for a in 0..n {
+            let t = rel[a] - vn * normal[a];
+            vi[a] -= t * scale;
+        }
+        if !vi.iter().all(|c| c.is_finite()) {
+            return Err(i);
+        }
+    }
+    Ok(())
+}
+
+/// max_e max(0, rest + s − n·x) of a moving-plane family.
+pub fn residual(plane: &PlaneAt, family: &Family, x: &[f64]) -> f64 {
+    let n = plane.normal.len();
+    let mut worst: f64 = 0.0;
+    for e in 0..family.len() {
+        let i = family.elements[e] as usize;
+        let gap = dot(&plane.normal, &x[i * n..(i + 1) * n]) - family.rest[e] - plane.shift;
+        worst = worst.max(-gap);
+    }
+    worst
+}

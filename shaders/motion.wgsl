@@ -1,0 +1,154 @@
+// Prescribed motion on the device: animated pins, and the contact,
+// friction and residual of a moving hyperplane (FLAG_MOVING). The host
+// evaluates every motion in f64 once per step for all its substeps
+// (core/src/motion.rs) and hands the values over in the call blocks and
+// in `rest` (gpu/src/xpbd/motion.rs):
+//
+//   OP_MOTION  pin k of particle i (contact_slot[slot_map + i] = k):
+//              x = rest[slot_base + 2 DIM k + a],  v = rest[… + DIM + a]
+//   moving plane call   normal = n(t1), factor = s (shift), gravity = c,
+//              FLAG_ROTATES: Ā row-major at rest[chunk …]
+//   contact    C = n·x − rest − s;  static friction against q = D(p) + p,
+//              D(p) = Σ_b Ā_ab p_b + c_a  (c_a without a rotation)
+//   friction   rel = v − D(p) / h, clamped as friction.wgsl clamps v
+//   residual   max(−(n·x − rest − s), 0)
+//
+// Same arithmetic, in the same order, as cpu/src/motion.rs (f64) and
+// cpu/src/f32_reference/motion.rs (f32). A pin is fixed (w = 0), so the
+// runner's store skips it: OP_MOTION stores its records itself.
+
+// Animated pin on particle i, if it is one.
+fn motion_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+    let k = contact_slot[call.slot_map + i];
+    if (k == NONE) {
+        return;
+    }
+    let base = call.slot_base + 2u * DIM * k;
+    for (var a = 0u; a < DIM; a++) {
+        set_lane(rx, a, rest_at(base + a));
+        set_lane(rv, a, rest_at(base + DIM + a));
+    }
+    store_x(i, *rx);
+    store_v(i, *rv);
+}
+
+// Coordinate a of D(p) of the running moving-plane call.
+fn carry_at(a: u32, rp: ptr<function, Record>) -> real {
+    if ((call.flags & FLAG_ROTATES) == 0u) {
+        return gravity(a);
+    }
+    var s: real = 0.0;
+    for (var b = 0u; b < DIM; b++) {
+        s += rest_at(call.chunk + a * DIM + b) * lane(rp, b);
+    }
+    return kept(s) + gravity(a);
+}
+
+// A moving hyperplane's contact of particle i (contact_particle's
+// bookkeeping; project.wgsl).
+fn moving_contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+    let e = contact_slot[call.slot_map + i];
+    contact_family = call.family;
+    contact_particle_index = i;
+    contact_e = e;
+    if (e == NONE) {
+        return;
+    }
+    let s = call.slot_base + e;
+    let w = inverse_mass_of(rx);
+    var nx: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        nx += normal(a) * lane(rx, a);
+    }
+    let cval = kept(kept(nx) - rest_at(s)) - call.factor;
+    let l = lambda_before(s);
+    let alpha_tilde = call.alpha_tilde;
+    let raw = (-cval - alpha_tilde * l) / (w + alpha_tilde);
+    if (!finite(raw)) {
+        contact_family = NONE;
+        fail(e);
+        return;
+    }
+    let dl = max(l + raw, 0.0) - l;
+    let l_new = l + dl;
+    store_lambda(s, l_new);
+    contact_l = l_new;
+    for (var a = 0u; a < DIM; a++) {
+        set_lane(rx, a, lane(rx, a) + w * normal(a) * dl);
+    }
+    let mu = call.friction;
+    if (mu > 0.0 && l_new > 0.0) {
+        var q: Record;
+        for (var a = 0u; a < DIM; a++) {
+            set_lane(&q, a, kept(carry_at(a, rp)) + lane(rp, a));
+        }
+        var dn: real = 0.0;
+        for (var a = 0u; a < DIM; a++) {
+            dn += (lane(rx, a) - lane(&q, a)) * normal(a);
+        }
+        var t2: real = 0.0;
+        for (var a = 0u; a < DIM; a++) {
+            let tan = (lane(rx, a) - lane(&q, a)) - dn * normal(a);
+            t2 += tan * tan;
+        }
+        if (sqrt(t2) <= mu * w * l_new) {
+            for (var a = 0u; a < DIM; a++) {
+                let tan = (lane(rx, a) - lane(&q, a)) - dn * normal(a);
+                set_lane(rx, a, lane(rx, a) - tan);
+            }
+        }
+    }
+}
+
+// Dynamic friction against a moving hyperplane (friction_particle's slot
+// and λ lookup; friction.wgsl).
+fn moving_friction_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+    var e = contact_e;
+    var l = contact_l;
+    if (contact_family != call.family || contact_particle_index != i) {
+        e = contact_slot[call.slot_map + i];
+        if (e != NONE) {
+            l = lambda_at(call.slot_base + e);
+        }
+    }
+    if (e == NONE) {
+        return;
+    }
+    if (l <= 0.0) {
+        return;
+    }
+    var rel: Record;
+    for (var a = 0u; a < DIM; a++) {
+        set_lane(&rel, a, lane(rv, a) - kept(carry_at(a, rp)) / call.h);
+    }
+    var vn: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        vn += normal(a) * lane(&rel, a);
+    }
+    var t2: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        let t = lane(&rel, a) - vn * normal(a);
+        t2 += t * t;
+    }
+    let vt = sqrt(t2);
+    if (vt == 0.0) {
+        return;
+    }
+    let limit = call.friction * inverse_mass_of(rx) * l / call.h;
+    let scale = min(limit, vt) / vt;
+    var ok = true;
+    for (var a = 0u; a < DIM; a++) {
+        let t = lane(&rel, a) - vn * normal(a);
+        let vk = lane(rv, a) - t * scale;
+        set_lane(rv, a, vk);
+        ok = ok && finite(vk);
+    }
+    if (!ok) {
+        fail(i);
+    }
+}
+
+// The violation of a moving plane's slot s at the gathered point `pts`.
+fn moving_contact_violation(s: u32, nx: real) -> real {
+    return max(-(kept(kept(nx) - rest_at(s)) - call.factor), 0.0);
+}
