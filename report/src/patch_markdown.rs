@@ -128,19 +128,31 @@ pub fn case_summary(r: &PatchResult, target: f64) -> String {
         .into_iter()
         .map(|m| match (cheapest(r, Some(m), target), best(r, m)) {
             (Some((p, e)), _) => format!("{} {}", m.name(), at(p, e)),
-            (None, Some((p, e))) => format!("{} never (best {})", m.name(), at(p, e)),
+            (None, Some((p, e))) => format!("{} never, best {}", m.name(), at(p, e)),
             (None, None) => format!("{} no finite point", m.name()),
         })
         .collect();
     parts.push(format!(
         "cheapest ≤ {} per method: {}",
         sci_short(target),
-        per.join(", ")
+        per.join("; ")
     ));
     if let Some(floor) = floor_sentence(r) {
         parts.push(floor);
     }
     for m in PatchMethod::ALL {
+        let away: Vec<String> = finite(&r.points)
+            .filter(|(p, e)| p.method == m && *e > r.start_error)
+            .map(|(p, _)| budget(p))
+            .collect();
+        if !away.is_empty() {
+            parts.push(format!(
+                "{} ends farther from F X than it started ({} m) at {}",
+                m.name(),
+                sci(r.start_error),
+                away.join(", ")
+            ));
+        }
         let failed = failed(r, m);
         if !failed.is_empty() {
             parts.push(format!(
@@ -173,14 +185,16 @@ fn table(s: &mut String, r: &PatchResult, seconds: f64) {
     for p in &r.points {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {}–{} ({}) | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} |",
             p.method.name(),
             p.substeps,
             p.budget,
             ms(p.ms_per_sim_second),
-            ms(p.ms_min),
-            ms(p.ms_max),
-            p.reps,
+            if p.reps == 0 {
+                "–".into()
+            } else {
+                format!("{}–{} ({})", ms(p.ms_min), ms(p.ms_max), p.reps)
+            },
             error_cell(p.error, p.note.as_deref()),
             p.error_half.map_or("–".into(), sci),
             frontier_cell(p)

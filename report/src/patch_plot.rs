@@ -140,7 +140,7 @@ fn panel(area: &Area<'_>, r: &PatchResult, target: f64) -> Result<(), String> {
         .legend(|(x, y)| Circle::new((x + 10, y), 6, BLACK.stroke_width(2)));
     chart
         .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
+        .position(SeriesLabelPosition::LowerLeft)
         .background_style(WHITE.mix(0.85))
         .border_style(RGBColor(200, 200, 200))
         .label_font((FONT, 13))
