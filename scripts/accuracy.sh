@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Regenerates the accuracy report from measurements on this machine:
 #   docs/accuracy.md, docs/effects.md, docs/figures/{accuracy_pareto,
-#   accuracy_cloth,scaling}.png and docs/figures/{accuracy,effects,implicit}.json
+#   accuracy_cloth,accuracy_patch,scaling}.png and
+#   docs/figures/{accuracy,effects,implicit,patch}.json
 #   (docs only: the README's summary table reads docs/accuracy.md, see
 #   scripts/readme-summary.py).
 #
@@ -11,6 +12,10 @@
 #   scripts/accuracy.sh --only-implicit # only the implicit rows (Newton × CG budgets):
 #                                       # figures/implicit.json, their section of
 #                                       # docs/accuracy.md (a minute)
+#   scripts/accuracy.sh --only-patch    # only the patch test (standard XPBD, the
+#                                       # primal residual, the implicit path):
+#                                       # figures/patch.json, accuracy_patch.png,
+#                                       # their section of docs/accuracy.md (minutes)
 #   scripts/accuracy.sh --reps 5        # extra options go to `hyperpbd-report`
 #
 # For a smoke test that leaves docs/ alone (under two minutes):

@@ -7,6 +7,7 @@
 //! ```
 
 use crate::cases::{self, CaseId};
+use crate::patch_study::{PatchCase, PatchLaw};
 use hyperpbd::BackendKind;
 use std::path::PathBuf;
 
@@ -77,6 +78,26 @@ pub struct Config {
     /// splices their section into OUT/accuracy.md and (with a README) their
     /// lines into the README; everything else is left as it is.
     pub implicit_only: bool,
+    /// Stressed patches of the patch study (patch_study.rs).
+    pub patch_cases: Vec<PatchCase>,
+    /// Simulated seconds of each patch run (from the interior at rest on X).
+    pub patch_seconds: f64,
+    /// XPBD substeps of the patch study.
+    pub patch_substeps: Vec<u32>,
+    /// XPBD iterations of the patch study.
+    pub patch_iterations: Vec<u32>,
+    /// Implicit-path substeps of the patch study.
+    pub patch_implicit_substeps: Vec<u32>,
+    /// Implicit-path Newton budgets (`max_iterations`) of the patch study.
+    pub patch_newton_budgets: Vec<u32>,
+    /// The error the patch summary asks for (m).
+    pub patch_target: f64,
+    /// Run the patch study.
+    pub patch: bool,
+    /// Measure only the patch study: writes OUT/figures/patch.json and
+    /// OUT/figures/accuracy_patch.png and splices its section into
+    /// OUT/accuracy.md; everything else is left as it is.
+    pub patch_only: bool,
     /// Run the sweep.
     pub sweep: bool,
     /// Run the scaling section.
@@ -127,6 +148,28 @@ impl Config {
             gpu_cg_budgets: vec![Some(8), None],
             implicit: true,
             implicit_only: false,
+            patch_cases: vec![
+                PatchCase {
+                    dim: 2,
+                    law: PatchLaw::Stvk,
+                },
+                PatchCase {
+                    dim: 2,
+                    law: PatchLaw::NeoHookean,
+                },
+                PatchCase {
+                    dim: 3,
+                    law: PatchLaw::Stvk,
+                },
+            ],
+            patch_seconds: 1.0,
+            patch_substeps: vec![1, 2, 5, 10, 20],
+            patch_iterations: vec![1, 3, 10, 30],
+            patch_implicit_substeps: vec![1, 2],
+            patch_newton_budgets: vec![1, 2, 4, 8, 16, 50],
+            patch_target: 1e-6,
+            patch: true,
+            patch_only: false,
             sweep: true,
             scaling: true,
             effects: true,
@@ -161,6 +204,20 @@ impl Config {
             cg_budgets: vec![Some(2), None],
             gpu_newton_budgets: vec![1, 4],
             gpu_cg_budgets: vec![Some(2), None],
+            patch_cases: vec![
+                PatchCase {
+                    dim: 2,
+                    law: PatchLaw::Stvk,
+                },
+                PatchCase {
+                    dim: 2,
+                    law: PatchLaw::NeoHookean,
+                },
+            ],
+            patch_substeps: vec![1, 10],
+            patch_iterations: vec![1, 10],
+            patch_implicit_substeps: vec![1],
+            patch_newton_budgets: vec![1, 16],
             ..Config::full(out)
         }
     }

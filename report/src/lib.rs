@@ -24,14 +24,22 @@
 //!           budget, iterations used, how the minimisations ended, GPU end
 //!           states against cpu-f64's      implicit_budgets.rs (scenes and
 //!           answers: implicit_cases.rs, markdown: implicit_markdown.rs)
+//! patch     the stressed patch test (2D StVK and Neo-Hookean, 3D StVK):
+//!           max |x − F X| after 1 s from X against ms per simulated second
+//!           for standard XPBD, XPBD with the primal residual (substeps ×
+//!           iterations) and the implicit path (substeps × Newton budget),
+//!           cpu-f64 on one thread          patch_study.rs (markdown:
+//!           patch_markdown.rs, figure: patch_plot.rs)
 //! output    OUT/accuracy.md, OUT/effects.md, OUT/figures/{accuracy_pareto,
 //!           accuracy_cloth,scaling}.png, OUT/figures/{accuracy,effects,
-//!           implicit}.json;
+//!           implicit,patch}.json, OUT/figures/accuracy_patch.png;
 //!           optionally the README section between the accuracy markers
 //!           (effects-only runs: effects.md, effects.json and the README's
 //!           effect lines only; implicit-only runs: figures/implicit.json
 //!           and the implicit section spliced into accuracy.md and the
-//!           README)                          write.rs (outputs.rs: the files)
+//!           README; patch-only runs: figures/patch.json,
+//!           figures/accuracy_patch.png and the patch section spliced into
+//!           accuracy.md)                          write.rs (outputs.rs: the files)
 //!           accuracy.md markdown.rs, effects.md effects_markdown.rs,
 //!           the README splice readme.rs, shared wording format.rs and
 //!           headlines.rs
@@ -55,6 +63,9 @@ pub mod markdown;
 pub mod measured;
 pub mod outputs;
 pub mod pareto;
+pub mod patch_markdown;
+pub mod patch_plot;
+pub mod patch_study;
 pub mod plot;
 pub mod point;
 pub mod progress;
@@ -95,7 +106,21 @@ pub fn run(config: &Config) -> Result<Report, AccuracyError> {
             "Newton and CG budgets must be non-empty and ≥ 1".into(),
         ));
     }
-    let others = !config.effects_only && !config.implicit_only;
+    let patch_grids = [
+        &config.patch_substeps,
+        &config.patch_iterations,
+        &config.patch_implicit_substeps,
+        &config.patch_newton_budgets,
+    ];
+    if (config.patch || config.patch_only)
+        && patch_grids.iter().any(|g| g.is_empty() || g.contains(&0))
+    {
+        return Err(AccuracyError::Config(
+            "the patch study's substeps, iterations and Newton budgets must be non-empty and ≥ 1"
+                .into(),
+        ));
+    }
+    let others = !config.effects_only && !config.implicit_only && !config.patch_only;
     let start = Instant::now();
     let mut machine = Machine::probe();
     let mut progress = Progress {
@@ -161,6 +186,8 @@ pub fn run(config: &Config) -> Result<Report, AccuracyError> {
     };
     let implicit = ((config.implicit && others) || config.implicit_only)
         .then(|| implicit_budgets::run(config, &mut progress));
+    let patch = ((config.patch && others) || config.patch_only)
+        .then(|| patch_study::run(config, &mut progress));
     machine.load_end = machine::load_average();
     let mut report = Report {
         mode: if config.quick { "quick" } else { "full" }.into(),
@@ -177,6 +204,7 @@ pub fn run(config: &Config) -> Result<Report, AccuracyError> {
         effect_reps: effects::reps(config),
         effects: effect_rows,
         implicit,
+        patch,
         notices: progress.notes,
         files: Vec::new(),
         wall_seconds: 0.0,

@@ -2,7 +2,8 @@
 //!
 //! ```text
 //! cargo run --release -p hyperpbd-report -- --quick        smoke test → target/accuracy/
-//! scripts/accuracy.sh [--only-effects | --only-implicit]   docs/ and README.md
+//! scripts/accuracy.sh [--only-effects | --only-implicit | --only-patch]
+//!                                                          docs/ and README.md
 //! ```
 //! Exit codes as the `hyperpbd` command: 2 bad options, 3 a failed run,
 //! 4 an output that could not be written.
@@ -68,6 +69,16 @@ pub struct AccuracyArgs {
     /// their lines into the README); everything else is left as it is.
     #[arg(long, conflicts_with_all = ["only_effects", "no_implicit", "no_effects", "no_scaling", "cases", "substeps", "iterations", "backends"])]
     only_implicit: bool,
+    /// Skip the patch test (error against time of standard XPBD, XPBD
+    /// with the primal residual and the implicit path).
+    #[arg(long)]
+    no_patch: bool,
+    /// Measure only the patch test: writes DIR/figures/patch.json and
+    /// DIR/figures/accuracy_patch.png and splices its section into
+    /// DIR/accuracy.md; everything else (the README included) is left as
+    /// it is.
+    #[arg(long, conflicts_with_all = ["only_effects", "only_implicit", "no_patch", "no_implicit", "no_effects", "no_scaling", "cases", "substeps", "iterations", "backends"])]
+    only_patch: bool,
 }
 
 fn accuracy(args: &AccuracyArgs) -> Result<(), AccuracyError> {
@@ -127,6 +138,8 @@ fn accuracy(args: &AccuracyArgs) -> Result<(), AccuracyError> {
     config.effects_only = args.only_effects;
     config.implicit = !args.no_implicit;
     config.implicit_only = args.only_implicit;
+    config.patch = !args.no_patch;
+    config.patch_only = args.only_patch;
     if let Some(readme) = &config.readme
         && !readme.is_file()
     {

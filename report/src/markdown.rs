@@ -1,5 +1,6 @@
 //! OUT/accuracy.md: the machine, the headline answers, every sweep point
-//! case by case, the scaling table, notices and how it was measured.
+//! case by case, the implicit rows and the patch test (each between its
+//! markers), the scaling table, notices and how it was measured.
 //! Every number comes from the [`Report`]: nothing is typed by hand.
 
 use crate::cases::CaseId;
@@ -8,7 +9,8 @@ use crate::format::{cell, error_cell, load_average, ms, noise_note, sci, sci_sho
 use crate::headlines::{headline_cell, headline_for, headline_sentence};
 use crate::implicit_markdown::{IMPLICIT_BEGIN, IMPLICIT_END, implicit_section};
 use crate::measured::Report;
-use crate::outputs::{CLOTH, EFFECTS_MARKDOWN, JSON, PARETO, SCALING};
+use crate::outputs::{CLOTH, EFFECTS_MARKDOWN, JSON, PARETO, PATCH_PNG, SCALING};
+use crate::patch_markdown::{PATCH_BEGIN, PATCH_END, patch_section};
 use hyperpbd::BackendKind;
 use std::fmt::Write as _;
 
@@ -164,6 +166,15 @@ pub fn markdown(report: &Report, config: &Config) -> String {
             s,
             "{IMPLICIT_BEGIN}\n{}{IMPLICIT_END}\n",
             implicit_section(report, section)
+        );
+    }
+
+    if let Some(section) = &report.patch {
+        let figure = report.files.iter().any(|f| f == PATCH_PNG);
+        let _ = writeln!(
+            s,
+            "{PATCH_BEGIN}\n{}{PATCH_END}\n",
+            patch_section(report, section, figure)
         );
     }
 

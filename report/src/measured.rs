@@ -5,6 +5,7 @@ use crate::cases::CaseId;
 use crate::effects::EffectRow;
 use crate::implicit_budgets::ImplicitSection;
 use crate::machine::Machine;
+use crate::patch_study::PatchSection;
 use crate::scaling::{Fit, ScalingPoint};
 use crate::sweep::CaseResult;
 use hyperpbd::BackendKind;
@@ -59,6 +60,9 @@ pub struct Report {
     /// The implicit path against its Newton and CG budgets (None when not
     /// run).
     pub implicit: Option<ImplicitSection>,
+    /// The patch test: equilibrium error against time per method (None
+    /// when not run).
+    pub patch: Option<PatchSection>,
     /// Skips and other notices.
     pub notices: Vec<String>,
     /// Files written, relative to the output directory.

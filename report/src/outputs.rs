@@ -11,6 +11,8 @@
 //! OUT/effects.md                   the effect-cost tables
 //! OUT/figures/effects.json         their numbers
 //! OUT/figures/implicit.json        the implicit rows (Newton × CG budgets)
+//! OUT/figures/patch.json           the patch study (patch_study.rs)
+//! OUT/figures/accuracy_patch.png   its error against time, per law
 //! ```
 
 use crate::measured::AccuracyError;
@@ -36,6 +38,11 @@ pub const EFFECTS_JSON: &str = "figures/effects.json";
 
 /// The implicit rows' numbers.
 pub const IMPLICIT_JSON: &str = "figures/implicit.json";
+
+/// The patch study's numbers.
+pub const PATCH_JSON: &str = "figures/patch.json";
+/// The patch study's figure.
+pub const PATCH_PNG: &str = "figures/accuracy_patch.png";
 
 /// Writes `bytes` to `path` atomically, creating its directory first.
 pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), AccuracyError> {

@@ -22,7 +22,11 @@ pub fn color(backend: BackendKind) -> RGBColor {
 }
 
 /// Title on top, footer lines at the bottom; returns the middle.
-fn frame<'a>(root: &Area<'a>, title: &str, footer: &[String]) -> Result<Area<'a>, String> {
+pub(crate) fn frame<'a>(
+    root: &Area<'a>,
+    title: &str,
+    footer: &[String],
+) -> Result<Area<'a>, String> {
     let (_, h) = root.dim_in_pixel();
     let footer_h = 8 + 20 * footer.len() as u32;
     let (top, rest) = root.split_vertically(44);
@@ -45,7 +49,7 @@ fn frame<'a>(root: &Area<'a>, title: &str, footer: &[String]) -> Result<Area<'a>
     Ok(middle)
 }
 
-fn log_bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
+pub(crate) fn log_bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (lo, hi) = values
         .filter(|v| v.is_finite() && *v > 0.0)
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
@@ -59,7 +63,7 @@ fn log_bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo, if hi > lo { hi } else { lo * 10.0 })
 }
 
-fn sci(v: f64) -> String {
+pub(crate) fn sci(v: f64) -> String {
     let e = v.log10().round();
     if (v.log10() - e).abs() < 1e-6 {
         if (-2.0..=3.0).contains(&e) {
@@ -198,7 +202,7 @@ fn pareto_panel(
     Ok(())
 }
 
-fn sci_any(v: f64) -> String {
+pub(crate) fn sci_any(v: f64) -> String {
     let s = sci(v);
     if s.is_empty() { format!("{v:.1e}") } else { s }
 }

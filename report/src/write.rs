@@ -10,7 +10,11 @@
 //!                accuracy.md between its markers (inserted before the
 //!                first later section when absent) and the README's
 //!                implicit lines; nothing else is touched
-//! full run       also implicit.json beside accuracy.json
+//! patch only     patch.json and accuracy_patch.png; the patch section
+//!                spliced into accuracy.md like the implicit one (after
+//!                it when both are absent); the README is not touched
+//! full run       also implicit.json, patch.json and accuracy_patch.png
+//!                beside accuracy.json
 //! ```
 
 use crate::cases::CaseId;
@@ -21,9 +25,10 @@ use crate::implicit_markdown::{IMPLICIT_BEGIN, IMPLICIT_END, implicit_section, r
 use crate::markdown::markdown;
 use crate::measured::{AccuracyError, Report};
 use crate::outputs::{
-    CLOTH, EFFECTS_JSON, EFFECTS_MARKDOWN, IMPLICIT_JSON, JSON, MARKDOWN, PARETO, SCALING,
-    write_file,
+    CLOTH, EFFECTS_JSON, EFFECTS_MARKDOWN, IMPLICIT_JSON, JSON, MARKDOWN, PARETO, PATCH_JSON,
+    PATCH_PNG, SCALING, write_file,
 };
+use crate::patch_markdown::{PATCH_BEGIN, PATCH_END, patch_section};
 use crate::plot;
 use crate::readme::{
     readme_effects, readme_section, relative, splice, update_effects, update_implicit,
@@ -72,8 +77,30 @@ fn write_implicit_json(report: &mut Report, out: &Path) -> Result<(), AccuracyEr
     Ok(())
 }
 
-/// Sections of accuracy.md that follow the implicit one, in order: an
-/// implicit section without markers goes before the first of them.
+/// Writes OUT/figures/patch.json and OUT/figures/accuracy_patch.png (when
+/// the patch study ran).
+fn write_patch_files(report: &mut Report, out: &Path) -> Result<(), AccuracyError> {
+    let Some(section) = &report.patch else {
+        return Ok(());
+    };
+    let json = serde_json::json!({
+        "mode": report.mode,
+        "machine": report.machine,
+        "patch": section,
+    });
+    let json = serde_json::to_string_pretty(&json)
+        .map_err(|e| AccuracyError::Output(format!("cannot serialise the patch study: {e}")))?;
+    let figure =
+        crate::patch_plot::patch_figure(section, &footer(report)).map_err(AccuracyError::Output)?;
+    write_file(&out.join(PATCH_JSON), (json + "\n").as_bytes())?;
+    write_file(&out.join(PATCH_PNG), &figure)?;
+    report.files.push(PATCH_JSON.into());
+    report.files.push(PATCH_PNG.into());
+    Ok(())
+}
+
+/// Sections of accuracy.md that follow the implicit and patch ones, in
+/// order: a section without markers goes before the first of them.
 const LATER_SECTIONS: [&str; 4] = [
     "\n## Scaling",
     "\n## What each effect costs",
@@ -81,15 +108,15 @@ const LATER_SECTIONS: [&str; 4] = [
     "\n## How it was measured",
 ];
 
-/// An implicit-only run: implicit.json, the section spliced into
-/// OUT/accuracy.md (created when missing) and the README's lines.
-fn write_implicit_only(report: &mut Report, config: &Config) -> Result<(), AccuracyError> {
-    let out = &config.out;
-    report.files.clear();
-    write_implicit_json(report, out)?;
-    let Some(section) = &report.implicit else {
-        return Ok(());
-    };
+/// Splices `body` between `markers` into OUT/accuracy.md (created when
+/// missing; without the markers, the block goes before the first of
+/// [`LATER_SECTIONS`], or at the end).
+fn splice_markdown(
+    report: &mut Report,
+    out: &Path,
+    markers: (&str, &str),
+    body: &str,
+) -> Result<(), AccuracyError> {
     let path = out.join(MARKDOWN);
     let text = match std::fs::read_to_string(&path) {
         Ok(text) => text,
@@ -101,18 +128,31 @@ fn write_implicit_only(report: &mut Report, config: &Config) -> Result<(), Accur
             )));
         }
     };
-    let body = implicit_section(report, section);
-    let text = splice(
-        &text,
-        (IMPLICIT_BEGIN, IMPLICIT_END),
-        &body,
-        |text, block| match LATER_SECTIONS.iter().find_map(|h| text.find(h)) {
+    let text = splice(&text, markers, body, |text, block| {
+        match LATER_SECTIONS.iter().find_map(|h| text.find(h)) {
             Some(at) => format!("{}\n{block}\n{}", &text[..at], &text[at..]),
             None => format!("{}\n\n{block}\n", text.trim_end()),
-        },
-    );
+        }
+    });
     write_file(&path, text.as_bytes())?;
     report.files.push(MARKDOWN.into());
+    Ok(())
+}
+
+/// An implicit-only run: implicit.json, the section spliced into
+/// OUT/accuracy.md (created when missing) and the README's lines.
+fn write_implicit_only(report: &mut Report, config: &Config) -> Result<(), AccuracyError> {
+    let out = &config.out;
+    report.files.clear();
+    write_implicit_json(report, out)?;
+    let Some(section) = &report.implicit else {
+        return Ok(());
+    };
+    let body = implicit_section(report, section);
+    splice_markdown(report, out, (IMPLICIT_BEGIN, IMPLICIT_END), &body)?;
+    let Some(section) = &report.implicit else {
+        return Ok(());
+    };
     if let Some(readme) = &config.readme {
         let dir = readme.parent().unwrap_or(Path::new("."));
         update_implicit(readme, &readme_implicit(section, &relative(dir, out)))?;
@@ -136,6 +176,15 @@ pub fn write(report: &mut Report, config: &Config) -> Result<(), AccuracyError> 
     }
     if config.implicit_only {
         return write_implicit_only(report, config);
+    }
+    if config.patch_only {
+        report.files.clear();
+        write_patch_files(report, out)?;
+        let Some(section) = &report.patch else {
+            return Ok(());
+        };
+        let body = patch_section(report, section, true);
+        return splice_markdown(report, out, (PATCH_BEGIN, PATCH_END), &body);
     }
     let foot = footer(report);
     let draw = |e: String| AccuracyError::Output(e);
@@ -165,6 +214,7 @@ pub fn write(report: &mut Report, config: &Config) -> Result<(), AccuracyError> 
         write_effects(report, out)?;
     }
     write_implicit_json(report, out)?;
+    write_patch_files(report, out)?;
     report.files.push(JSON.into());
     report.files.push(MARKDOWN.into());
     let json = serde_json::to_string_pretty(&*report)

@@ -101,6 +101,8 @@ fn writes_every_file() {
         "figures/accuracy_cloth.png",
         "figures/scaling.png",
         "figures/accuracy.json",
+        "figures/patch.json",
+        "figures/accuracy_patch.png",
     ] {
         let path = dir.join(f);
         let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
@@ -150,6 +152,15 @@ fn markdown_names_machine_adapter_and_headlines() {
         "accuracy.md must carry the implicit rows"
     );
     assert!(report.files.iter().any(|f| f == "figures/implicit.json"));
+    let (implicit_end, patch, scaling) = (
+        md.find("<!-- implicit-budgets:end -->"),
+        md.find("## The patch test: equilibrium error against wall time"),
+        md.find("## Scaling"),
+    );
+    assert!(
+        implicit_end < patch && patch < scaling && md.contains("### patch 2D Neo-Hookean"),
+        "accuracy.md must carry the patch test between the implicit rows and Scaling"
+    );
     assert!(
         md.contains("[effects.md](effects.md)"),
         "accuracy.md must link the effect tables"
