@@ -4,10 +4,12 @@
 //! regenerated with `hyperpbd scene NAME --out scenes/NAME.json` and a test
 //! checks that they still match.
 
+mod demo;
 mod granular;
 mod peer_cloth;
 mod stretched_bar;
 
+pub use demo::{BELT_SPEED, demo};
 pub use granular::{ballpit4d, column3d, pit3d, sandpile2d};
 use hyperpbd_core::builders::{BlockSpec, GridSpec};
 use hyperpbd_core::{Scene, SceneBuilder};
@@ -25,6 +27,7 @@ pub const NAMES: &[&str] = &[
     "sandpile2d",
     "barrier4d",
     "jelly4d",
+    "demo",
 ];
 
 /// Built-in scenes too large to ship as files; generate them with
@@ -45,6 +48,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "sandpile2d" => Some(sandpile2d()),
         "barrier4d" => Some(barrier4d()),
         "jelly4d" => Some(jelly4d()),
+        "demo" => Some(demo()),
         _ => None,
     }
 }

@@ -7,7 +7,7 @@
 //! ```
 
 use crate::cases::{self, CaseId};
-use crate::patch_study::{PatchCase, PatchLaw};
+use crate::patch_cases::{PatchCase, PatchLaw};
 use hyperpbd::BackendKind;
 use std::path::PathBuf;
 

@@ -63,6 +63,7 @@ pub mod markdown;
 pub mod measured;
 pub mod outputs;
 pub mod pareto;
+pub mod patch_cases;
 pub mod patch_markdown;
 pub mod patch_plot;
 pub mod patch_study;

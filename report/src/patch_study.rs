@@ -37,52 +37,11 @@ use crate::pareto::undominated;
 use crate::progress::Progress;
 use crate::timing::{median, simulate};
 use hyperpbd::builders::{Patch, PatchSpec};
-use hyperpbd::{ConstraintKind, CpuBackend, Plan, Solver, XpbdSettings};
+use hyperpbd::{CpuBackend, Plan, Solver, XpbdSettings};
 use serde::Serialize;
 use std::time::Instant;
 
-/// The hyperelastic law of a patch.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-pub enum PatchLaw {
-    /// St. Venant–Kirchhoff.
-    Stvk,
-    /// Compressible Neo-Hookean.
-    NeoHookean,
-}
-
-impl PatchLaw {
-    /// The material family's kind.
-    pub fn kind(self) -> ConstraintKind {
-        match self {
-            PatchLaw::Stvk => ConstraintKind::Stvk,
-            PatchLaw::NeoHookean => ConstraintKind::NeoHookean,
-        }
-    }
-
-    /// As written in tables.
-    pub fn name(self) -> &'static str {
-        match self {
-            PatchLaw::Stvk => "StVK",
-            PatchLaw::NeoHookean => "Neo-Hookean",
-        }
-    }
-}
-
-/// A stressed patch: dimension and law.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-pub struct PatchCase {
-    /// N.
-    pub dim: usize,
-    /// The law.
-    pub law: PatchLaw,
-}
-
-impl PatchCase {
-    /// "2D StVK".
-    pub fn name(self) -> String {
-        format!("{}D {}", self.dim, self.law.name())
-    }
-}
+pub use crate::patch_cases::{PatchCase, PatchLaw};
 
 /// How the patch is stepped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

@@ -40,7 +40,8 @@ enum Command {
     },
     /// List GPU adapters.
     Info,
-    /// Run the built-in demo (a 32×32 cloth falling on a plane) and report.
+    /// Run the built-in demo (a 32×32 cloth with bending lowered by two
+    /// moving hands onto a moving conveyor belt) and report.
     Demo {
         /// Frames (steps of 1/60 s) to simulate.
         #[arg(long, default_value_t = 120)]

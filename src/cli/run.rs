@@ -195,30 +195,47 @@ fn lowest(state: &State, axis: usize) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+/// The mean of velocity coordinate `axis` over the dynamic particles.
+fn mean_velocity(scene: &hyperpbd::Scene, state: &State, axis: usize) -> f64 {
+    let dim = state.dim;
+    let dynamic: Vec<usize> = (0..scene.particles.len())
+        .filter(|&i| !scene.particles[i].fixed)
+        .collect();
+    let sum: f64 = dynamic
+        .iter()
+        .map(|&i| state.velocities[i * dim + axis])
+        .sum();
+    sum / dynamic.len().max(1) as f64
+}
+
 pub fn demo(frames: u64, choice: BackendKind) -> Result<(), CliError> {
-    let scene = hyperpbd::scenes::cloth(32);
+    let scene = hyperpbd::scenes::demo();
     let plan = Plan::compile(&scene).map_err(|e| CliError::Input(e.to_string()))?;
     println!(
-        "hyperpbd demo: a 32x32 cloth (1 m square, rigid edges and shear springs) dropped onto a ground plane with friction 0.4"
+        "hyperpbd demo: a 32x32 cloth (1 m square, rigid edges and shear links, cosine bending) held at two \
+         corners by hands that lower it onto a conveyor belt (the ground plane, moving at {} m/s along x, \
+         friction 0.6)",
+        hyperpbd::scenes::BELT_SPEED
     );
     print!("{}", super::describe::describe(&plan));
     let dt = plan.dt;
     let mut backend = load_backend(choice, plan, &State::from_scene(&scene))?;
     println!("backend: {}", backend.name());
     println!(
-        "{:>6} {:>7} {:>12} {:>14} {:>10} {:>12}",
-        "frame", "time", "lowest y", "max |C| edge", "contacts", "kinetic J"
+        "{:>6} {:>7} {:>12} {:>14} {:>10} {:>12} {:>12}",
+        "frame", "time", "lowest y", "max |C| edge", "contacts", "mean vx m/s", "kinetic J"
     );
     let start = Instant::now();
     simulate(backend.as_mut(), frames, |frame, b, report| {
         if frame % 20 == 0 || frame == frames {
             let state = read(b)?;
             println!(
-                "{frame:>6} {:>7.3} {:>12.5} {:>14.3e} {:>10} {:>12.5e}",
+                "{frame:>6} {:>7.3} {:>12.5} {:>14.3e} {:>10} {:>12.4} {:>12.5e}",
                 frame as f64 * dt,
                 lowest(&state, 1),
                 report.residuals.first().map_or(0.0, |r| r.max_violation),
                 report.active_contacts,
+                mean_velocity(&scene, &state, 0),
                 Metric::KineticEnergy.value(&scene, &state, None),
             );
         }
@@ -235,7 +252,7 @@ pub fn demo(frames: u64, choice: BackendKind) -> Result<(), CliError> {
     let picture = std::path::Path::new("out").join("demo.png");
     super::render::demo_picture(&scene, &state, frames as f64 * dt, &picture)?;
     println!(
-        "picture of the last frame: {} (more: hyperpbd render cloth --perspective)",
+        "picture of the last frame: {} (more: hyperpbd render demo --perspective)",
         picture.display()
     );
     Ok(())
