@@ -78,6 +78,52 @@ fn triangle_areas() -> Scene {
     b.build().expect("strip")
 }
 
+/// Particles resting on a plane z = 0 under gravity tilted just past
+/// their friction angle (tan θ = 1.0005 μ, μ = 0.4): each substep's
+/// tangential move is 1.0005 times the static bound μ w λ, so they slide
+/// (a bound off by 1e-3 would hold them).
+fn friction_boundary() -> Scene {
+    let mu: f64 = 0.4;
+    let theta = (1.0005 * mu).atan();
+    let mut b = hyperpbd::SceneBuilder::new(3)
+        .dt(1.0 / 60.0)
+        .substeps(4)
+        .iterations(2);
+    b.scene_mut().gravity = Some(vec![9.81 * theta.sin(), 0.0, -9.81 * theta.cos()]);
+    for i in 0..4 {
+        b.particle(hyperpbd::Particle::new(vec![0.3 * i as f64, 0.0, 0.0], 0.1));
+    }
+    b.hyperplane(vec![0.0, 0.0, 1.0], 0.0, mu);
+    b.build().expect("valid")
+}
+
+/// StVK triangles crushed to a tenth of their height, one free node
+/// each, at one long substep: M + K/α~ is indefinite at the first update,
+/// so the Newton matrix is built again from the PSD-projected frame
+/// Hessian.
+fn crushed_triangles() -> Scene {
+    let mut b = hyperpbd::SceneBuilder::new(2)
+        .dt(1.0 / 60.0)
+        .substeps(1)
+        .iterations(3);
+    let (mut triangles, mut upright) = (Vec::new(), Vec::new());
+    for t in 0..3 {
+        let x = 0.5 * t as f64;
+        let first = b.scene_mut().particles.len();
+        b.particle(hyperpbd::Particle::fixed(vec![x, 0.0]));
+        b.particle(hyperpbd::Particle::fixed(vec![x + 0.1, 0.0]));
+        b.particle(hyperpbd::Particle::new(vec![x + 0.05, 0.0087], 0.05));
+        triangles.push(vec![first, first + 1, first + 2]);
+        upright.extend([vec![x, 0.0], vec![x + 0.1, 0.0], vec![x + 0.05, 0.087]]);
+    }
+    let mut family = ConstraintFamily::new(ConstraintKind::Stvk, 0.0, triangles);
+    family.youngs_modulus = Some(1e5);
+    family.poisson_ratio = Some(0.3);
+    family.rest_positions = Some(upright);
+    b.family(family);
+    b.build().expect("valid")
+}
+
 fn cases() -> Vec<(&'static str, Scene, usize)> {
     // A cloth (distance, fixed corners) falling on a plane with friction.
     let mut cloth = scenes::cloth(8);
@@ -118,6 +164,16 @@ fn cases() -> Vec<(&'static str, Scene, usize)> {
         ("cloth 6² distance expressions", plane, 20),
         ("tether expressions", tether_expression, 20),
         ("chain on an x1 ≥ 0.3 expression floor", floor, 30),
+        (
+            "particles past their friction angle",
+            friction_boundary(),
+            20,
+        ),
+        (
+            "crushed StVK triangles (PSD projection)",
+            crushed_triangles(),
+            6,
+        ),
     ]
     .into_iter()
     .map(|(name, scene, frames)| (name, primal(scene), frames))
