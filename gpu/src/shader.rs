@@ -27,6 +27,7 @@ const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
 const PROJECT: &str = include_str!("../../shaders/project.wgsl");
 const PRIMAL: &str = include_str!("../../shaders/primal.wgsl");
 const PRIMAL_MATERIAL: &str = include_str!("../../shaders/primal_material.wgsl");
+const PRIMAL_OFF: &str = include_str!("../../shaders/primal_off.wgsl");
 const FRICTION: &str = include_str!("../../shaders/friction.wgsl");
 const MOTION: &str = include_str!("../../shaders/motion.wgsl");
 const RESIDUAL: &str = include_str!("../../shaders/residual.wgsl");
@@ -203,19 +204,7 @@ impl ShaderFile {
     fn body(self) -> &'static [&'static str] {
         match self {
             ShaderFile::Step => &[
-                PRELUDE,
-                MEASURE,
-                MATERIAL,
-                SYMMETRIC_EIGEN,
-                MATERIAL_HESSIAN,
-                STEP,
-                INTEGRATE,
-                PROJECT,
-                PRIMAL,
-                PRIMAL_MATERIAL,
-                FRICTION,
-                MOTION,
-                RESIDUAL,
+                PRELUDE, MEASURE, MATERIAL, STEP, INTEGRATE, PROJECT, FRICTION, MOTION, RESIDUAL,
                 GUARD,
             ],
             ShaderFile::Scan => &[PRELUDE, CONTACT, SCAN],
@@ -304,7 +293,15 @@ pub(crate) fn compose_with(
     if file == ShaderFile::Step {
         match generated {
             Some(generated) => source.push_str(generated),
-            None => source.push_str(&crate::xpbd::expression::generated_for(&[], dim, precision)),
+            None => {
+                source.push_str(&crate::xpbd::expression::generated_for(
+                    &[],
+                    dim,
+                    precision,
+                    false,
+                ));
+                source.push_str(&primal_source(false, false));
+            }
         }
     }
     source
@@ -324,4 +321,23 @@ pub fn validate(
         .validate(&module)
         .map_err(|e| e.emit_to_string(source))?;
     Ok((module, info))
+}
+
+/// The step module's part of the update that carries the primal residual
+/// (`primal`: the plan uses it; `materials`: it has material families):
+/// `primal.wgsl`, with `symmetric_eigen.wgsl`, `material_hessian.wgsl` and
+/// `primal_material.wgsl` for materials; else the stand-ins of
+/// `primal_off.wgsl` (and a failing `primal_material_element`), so a
+/// plan's pipelines compile only what its calls can reach.
+pub(crate) fn primal_source(primal: bool, materials: bool) -> String {
+    let mut s = String::from(if primal { PRIMAL } else { PRIMAL_OFF });
+    if primal && materials {
+        for part in [SYMMETRIC_EIGEN, MATERIAL_HESSIAN, PRIMAL_MATERIAL] {
+            s.push('\n');
+            s.push_str(part);
+        }
+    } else {
+        s.push_str("\nfn primal_material_element(t: u32) {\n    fail(call.first + t);\n}\n");
+    }
+    s
 }

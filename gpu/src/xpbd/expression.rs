@@ -53,12 +53,24 @@ pub(crate) fn generated(plan: &Plan, precision: Precision) -> String {
     let kinds: Vec<&ExpressionKind> = (expression_families(plan).into_iter())
         .map(|(_, kind)| kind)
         .collect();
-    generated_for(&kinds, plan.dim, precision)
+    let mut s = generated_for(&kinds, plan.dim, precision, plan.primal_residual);
+    let materials = (plan.families.iter()).any(|f| matches!(f.kind, FamilyKind::Material { .. }));
+    s.push_str(&crate::shader::primal_source(
+        plan.primal_residual,
+        materials,
+    ));
+    s
 }
 
 /// The generated WGSL of expression families `kinds` in R^`dim` (the two
-/// dispatchers alone for none: every step module has them).
-pub(crate) fn generated_for(kinds: &[&ExpressionKind], dim: usize, precision: Precision) -> String {
+/// dispatchers alone for none: every step module has them); with
+/// `primal`, each family's primal-residual update too.
+pub(crate) fn generated_for(
+    kinds: &[&ExpressionKind],
+    dim: usize,
+    precision: Precision,
+    primal: bool,
+) -> String {
     let mut s = String::new();
     let mut project_cases = String::new();
     let mut violation_cases = String::new();
@@ -164,6 +176,18 @@ fn expression{k}_project(t: u32) {{
     }}
 }}
 
+fn expression{k}_violation(e: u32) -> real {{
+    let inputs = expression{k}_inputs(e);
+    let out = expression{k}_value(inputs, call.call == NONE);
+    let c = out[0] - rest_at(call.slot_base + e);
+    return {violation};
+}}
+"#
+        );
+        if primal {
+            let _ = write!(
+                s,
+                r#"
 fn expression{k}_primal(t: u32) {{
     let e = call.first + t;
     let s = call.slot_base + e;
@@ -227,19 +251,18 @@ fn expression{k}_primal(t: u32) {{
         store_x(i, r);
     }}
 }}
-
-fn expression{k}_violation(e: u32) -> real {{
-    let inputs = expression{k}_inputs(e);
-    let out = expression{k}_value(inputs, call.call == NONE);
-    let c = out[0] - rest_at(call.slot_base + e);
-    return {violation};
-}}
 "#
-        );
-        let _ = writeln!(
-            project_cases,
-            "        case {k}u: {{ if ((call.flags & FLAG_PRIMAL) != 0u) {{ expression{k}_primal(t); }} else {{ expression{k}_project(t); }} }}"
-        );
+            );
+            let _ = writeln!(
+                project_cases,
+                "        case {k}u: {{ if ((call.flags & FLAG_PRIMAL) != 0u) {{ expression{k}_primal(t); }} else {{ expression{k}_project(t); }} }}"
+            );
+        } else {
+            let _ = writeln!(
+                project_cases,
+                "        case {k}u: {{ expression{k}_project(t); }}"
+            );
+        }
         let _ = writeln!(
             violation_cases,
             "        case {k}u: {{ return expression{k}_violation(e); }}"
