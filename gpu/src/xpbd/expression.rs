@@ -53,13 +53,7 @@ pub(crate) fn generated(plan: &Plan, precision: Precision) -> String {
     let kinds: Vec<&ExpressionKind> = (expression_families(plan).into_iter())
         .map(|(_, kind)| kind)
         .collect();
-    let mut s = generated_for(&kinds, plan.dim, precision, plan.primal_residual);
-    let materials = (plan.families.iter()).any(|f| matches!(f.kind, FamilyKind::Material { .. }));
-    s.push_str(&crate::shader::primal_source(
-        plan.primal_residual,
-        materials,
-    ));
-    s
+    generated_for(&kinds, plan.dim, precision, plan.primal_residual)
 }
 
 /// The generated WGSL of expression families `kinds` in R^`dim` (the two

@@ -37,6 +37,19 @@ use call::Call;
 pub(crate) use residual::step_report;
 use schedule::Dispatch;
 
+/// The WGSL a plan adds to the step module: its expression families, and
+/// the primal-residual update where the plan uses it (failing stand-ins
+/// otherwise: `shader::primal_source`).
+pub(crate) fn generated(plan: &Plan, precision: crate::Precision) -> String {
+    let mut source = expression::generated(plan, precision);
+    let materials = (plan.families.iter()).any(|f| matches!(f.kind, FamilyKind::Material { .. }));
+    source.push_str(&crate::shader::primal_source(
+        plan.primal_residual,
+        materials,
+    ));
+    source
+}
+
 /// No slot (a fixed particle in a hyperplane family's slot map).
 pub(crate) const NONE: u32 = u32::MAX;
 
