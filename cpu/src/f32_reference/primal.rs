@@ -44,9 +44,18 @@ pub(super) fn displacements(plan: &Plan, f: &Family) -> Vec<f32> {
 /// A material family's Newton factors ((arity · N)² per slot) with the
 /// primal residual; nothing otherwise.
 pub(super) fn factors(plan: &Plan, f: &Family) -> Vec<f32> {
-    match (plan.primal_residual, &f.kind) {
-        (true, FamilyKind::Material { .. }) => vec![0.0; f.len() * (f.arity * plan.dim).pow(2)],
-        _ => Vec::new(),
+    let material = match &f.kind {
+        FamilyKind::Material { .. } => true,
+        FamilyKind::Distance
+        | FamilyKind::Tether
+        | FamilyKind::SimplexMeasure { .. }
+        | FamilyKind::OrientedMeasure
+        | FamilyKind::HyperplaneContact { .. }
+        | FamilyKind::Expression(_) => false,
+    };
+    match plan.primal_residual && material {
+        true => vec![0.0; f.len() * (f.arity * plan.dim).pow(2)],
+        false => Vec::new(),
     }
 }
 
