@@ -303,21 +303,20 @@ fn bad_expressions_are_scene_errors_naming_the_field_and_position() {
 }
 
 #[test]
-fn the_implicit_path_refuses_expression_families_by_name() {
+fn the_implicit_path_takes_expression_families() {
+    // Their springs' ∇²C is derived at load (tests/implicit_expressions.rs
+    // runs them).
     let mut scene = chain_with("norm(x1 - x0)", None);
     for family in &mut scene.constraints {
         family.compliance = 1e-6;
     }
+    scene.damping = None;
     scene.solver = serde_json::from_str(
         r#"{"type": "incremental_potential", "barrier_stiffness": 1, "activation_distance": 0.1,
             "convergence": {"kind": "packed_gradient", "tolerance": 1e-9}, "max_iterations": 20}"#,
     )
     .expect("solver");
-    let error = scene.validate().unwrap_err().to_string();
-    assert!(
-        error.contains("run on the XPBD path only so far"),
-        "{error}"
-    );
+    scene.validate().expect("valid on the implicit path");
 }
 
 #[test]

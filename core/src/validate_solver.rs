@@ -5,7 +5,8 @@
 //! incremental_potential:  no `motion` (obstacles or pins), κ > 0, d^ > 0, tolerance > 0, max_iterations ≥ 1;
 //!                         cg_iterations ≥ 1, friction_slip_velocity > 0 (when given);
 //!                         geometric constraint families with compliance α > 0
-//!                         (springs C²/(2α); α = 0 is no energy; material families
+//!                         (springs C²/(2α); expression families with a ∇²C within
+//!                         the tape limits; α = 0 is no energy; material families
 //!                         carry their law's energy), no damping, hyperplanes
 //!                         without compliance;
 //!                         every free particle starts at d > 0 from every obstacle
@@ -105,16 +106,20 @@ impl Scene {
             why: why.into(),
         };
         for (f, family) in self.constraints.iter().enumerate() {
-            if matches!(
-                family.kind,
-                crate::ConstraintKind::Expression | crate::ConstraintKind::Bending
-            ) {
-                return Err(unsupported(
-                    format!("constraints[{f}]"),
-                    "expression families (and bending, one) run on the XPBD path only so far \
-                     (their ∇²C for the implicit springs is derived, but not yet wired into the \
-                     implicit steps)",
-                ));
+            // An expression family's spring needs its ∇²C: derived here, once,
+            // so a tape over the limits is refused at load with its path.
+            let arity = family.elements.first().map_or(0, Vec::len);
+            if arity > 0
+                && let Some(expression) = crate::kinds::expression_of(f, family, arity, self.dim)?
+                && let Err(source) = expression.hessian_tape()
+            {
+                // Bending is an expression the kind defines, not the scene.
+                let bending = family.kind == crate::ConstraintKind::Bending;
+                let field = if bending { "type" } else { "value" };
+                return Err(SceneError::Expression {
+                    path: format!("constraints[{f}].{field}"),
+                    source: Box::new(source),
+                });
             }
             // A material family's energy is its law's (compliance is not read).
             if family.kind.law().is_none()

@@ -24,6 +24,7 @@ mod common;
 mod ball_barrier;
 mod certified_filters;
 mod closed_forms;
+mod expression_springs;
 mod friction;
 mod materials;
 mod pcg;

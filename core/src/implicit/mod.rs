@@ -36,6 +36,7 @@ mod ball_barrier;
 pub mod certified_filter;
 pub mod closed_forms;
 mod element_lists;
+mod expression_spring;
 mod friction;
 pub mod line_search;
 mod material_hessian;
@@ -50,6 +51,10 @@ mod step_plan;
 
 pub use ball_barrier::{BallPair, ball_pair_barrier};
 pub use element_lists::ElementLists;
+pub use expression_spring::{
+    ExpressionScratch, ExpressionSpring, apply_dense, expression_curvature, expression_rounding,
+    expression_spring,
+};
 pub use friction::{
     FrictionRegime, FrictionTerm, PairLag, TangentCurvature, mollifier, normal_force,
     obstacle_friction, pair_friction, pair_lags,

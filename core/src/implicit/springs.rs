@@ -117,7 +117,7 @@ pub fn evaluate_spring(
             weight: 1.0 / compliance,
         },
         ConstraintKind::Expression | ConstraintKind::Bending => {
-            unreachable!("the implicit path refuses expression families (validate_solver.rs)")
+            unreachable!("expression springs are expression_spring.rs's (their ∇²C is the tape's)")
         }
     };
     Spring {

@@ -21,6 +21,7 @@
 //! ```
 
 use std::ops::Range;
+use std::sync::OnceLock;
 
 use super::relation::Relation;
 use crate::expr::{self, Columns, Compiled, Outputs, ParamValue, Real, Stats, Tape};
@@ -42,6 +43,8 @@ pub struct ExpressionKind {
     /// C and ∇C (the projection).
     pub gradient: Tape,
     compiled: Compiled,
+    /// C, ∇C and ∇²C, derived on first request (the implicit paths).
+    hessian: OnceLock<Result<Tape, expr::ExprError>>,
 }
 
 impl PartialEq for ExpressionKind {
@@ -77,6 +80,7 @@ impl ExpressionKind {
             value,
             gradient,
             compiled,
+            hessian: OnceLock::new(),
         })
     }
 
@@ -85,9 +89,20 @@ impl ExpressionKind {
         self.compiled.stats()
     }
 
-    /// C, ∇C and ∇²C (the implicit path), derived on request.
-    pub fn hessian_tape(&self) -> Result<Tape, expr::ExprError> {
-        self.compiled.tape(Outputs::ValueGradientHessian)
+    /// C, ∇C and ∇²C (the implicit paths), derived once on first request;
+    /// an error when the derivatives exceed the tape limits.
+    pub fn hessian_tape(&self) -> Result<&Tape, expr::ExprError> {
+        let tape = self
+            .hessian
+            .get_or_init(|| self.compiled.tape(Outputs::ValueGradientHessian));
+        tape.as_ref().map_err(Clone::clone)
+    }
+
+    /// [`ExpressionKind::hessian_tape`] of a family that validation let onto
+    /// an implicit path (it derives the tape there and refuses a failure).
+    pub fn hessian(&self) -> &Tape {
+        self.hessian_tape()
+            .expect("validation derives ∇²C of every implicit plan's expression family")
     }
 
     /// C at `points` (arity × `dim`, one element), in precision `R`.

@@ -7,7 +7,8 @@
 //!           (pair order), pair-friction lags (pair order at x^t)
 //! record e  [E_e, c_0, c_1, ∇E_e (S values), aux_e (S values)],   S = max arity · N
 //!           spring:    c = (along, across) radial | (1/α, ·) Gauss–Newton;  aux = ∇C
-//!           material:  c, aux unused; H_F⁺ in `frames` (materials.rs), one block per material
+//!           material:  c, aux unused; H_F⁺ in `blocks` (materials.rs), one block per material
+//!           expression: c, aux unused; K⁺ ((arity·N)², core's expression_spring) in `blocks`
 //!           ball:      c = (along, across) of K⁺;                            aux = ∇d = (−n, n)
 //!           friction:  c = (along, across) of the tangent K;                 aux = (û, ·)
 //! gather    particle k: Σ over its slots (element order, then the slot within the element)
@@ -27,8 +28,9 @@ use hyperpbd_core::broadphase::Pair;
 use hyperpbd_core::geometry::Scratch;
 use hyperpbd_core::implicit::resolution::{ball_rounding, spring_rounding};
 use hyperpbd_core::implicit::{
-    ElementLists, PairLag, RadialCurvature, Spring, SpringCurvature, TangentCurvature,
-    ball_pair_barrier, evaluate_spring, pair_friction,
+    ElementLists, ExpressionScratch, PairLag, RadialCurvature, Spring, SpringCurvature,
+    TangentCurvature, apply_dense, ball_pair_barrier, evaluate_spring, expression_rounding,
+    expression_spring, pair_friction,
 };
 use hyperpbd_core::{ConstraintKind, FamilyKind, Plan};
 use materials::MaterialBuffers;
@@ -43,8 +45,15 @@ enum Kind {
     /// Element `element` of family `family`.
     Spring { family: u32, element: u32 },
     /// Element `element` of the material family `family`, its H_F⁺ block
-    /// the `block`-th of `frames`.
+    /// the `block`-th of `blocks`.
     Material {
+        family: u32,
+        element: u32,
+        block: u32,
+    },
+    /// Element `element` of the expression family `family`, its K⁺ the
+    /// `block`-th of `blocks`.
+    Expression {
         family: u32,
         element: u32,
         block: u32,
@@ -65,11 +74,12 @@ pub struct Elements {
     pub records: Vec<f64>,
     /// Product / diagonal values per slot (`arity_max · N` per element).
     slots: Vec<f64>,
-    /// Element index of each material block.
-    materials: Vec<u32>,
-    /// H_F⁺ per material block, `frame_stride` values each.
-    frames: Vec<f64>,
-    frame_stride: usize,
+    /// Element index of each dense block (material and expression elements).
+    blocks: Vec<u32>,
+    /// Per block: H_F⁺ of a material, K⁺ of an expression; `block_stride`
+    /// values each.
+    block_values: Vec<f64>,
+    block_stride: usize,
 }
 
 /// Buffers of one chunk of element evaluations.
@@ -77,6 +87,7 @@ pub struct Elements {
 struct Buffers {
     geometry: Scratch,
     material: MaterialBuffers,
+    expression: ExpressionScratch,
 }
 
 impl Elements {
@@ -101,18 +112,24 @@ impl Elements {
         let arity_max = plan.families.iter().map(|f| f.arity).fold(2, usize::max);
         self.kinds.clear();
         self.lists.clear(arity_max);
-        self.materials.clear();
-        self.frame_stride = materials::frame_stride(&plan.families, plan.dim);
+        self.blocks.clear();
+        self.block_stride = block_stride(plan);
         let mut next = 0u32;
         for (f, family) in plan.families.iter().enumerate() {
             let material = family.kind.rest_view(0).is_some();
+            let expression = matches!(family.kind, FamilyKind::Expression(_));
             for e in 0..family.len() {
                 let members = &family.elements[e * family.arity..(e + 1) * family.arity];
                 let (family, element) = (f as u32, e as u32);
+                let block = self.blocks.len() as u32;
                 let kind = if material {
-                    let block = self.materials.len() as u32;
-                    self.materials.push(next);
                     Kind::Material {
+                        family,
+                        element,
+                        block,
+                    }
+                } else if expression {
+                    Kind::Expression {
                         family,
                         element,
                         block,
@@ -120,6 +137,9 @@ impl Elements {
                 } else {
                     Kind::Spring { family, element }
                 };
+                if material || expression {
+                    self.blocks.push(next);
+                }
                 self.kinds.push(kind);
                 self.lists.push(members);
                 next += 1;
@@ -246,6 +266,20 @@ impl Elements {
                     &mut scratch.material,
                 );
             }
+            Kind::Expression {
+                family, element, ..
+            } => {
+                let family = &terms.plan.families[family as usize];
+                let spring = expression_spring(
+                    expression_kind(&family.kind),
+                    family.compliance,
+                    family.rest[element as usize],
+                    points,
+                    &mut gradient[..arity * dim],
+                    &mut scratch.expression,
+                );
+                head[0] = spring.energy;
+            }
             Kind::Ball => {
                 let (i, j) = self.pair(e);
                 let radii = (terms.plan.radius[i], terms.plan.radius[j]);
@@ -333,17 +367,23 @@ impl Elements {
                 element,
                 block,
             } => {
-                let stride = self.frame_stride;
+                let stride = self.block_stride;
                 let start = block as usize * stride;
                 materials::curvature(
                     &terms.plan.families[family as usize],
                     element as usize,
-                    &self.frames[start..start + stride],
+                    &self.block_values[start..start + stride],
                     dim,
                     p,
                     out,
                     buffers,
                 );
+            }
+            Kind::Expression { block, .. } => {
+                let n = arity * dim;
+                let start = block as usize * self.block_stride;
+                let block = &self.block_values[start..start + n * n];
+                apply_dense(block, p.map(|p| &p[..n]), &mut out[..n]);
             }
             Kind::Ball => {
                 let normal = &aux[dim..2 * dim];
@@ -475,6 +515,17 @@ impl Elements {
                     force +=
                         materials::rounding(family, element as usize, points, dim, &mut buffers);
                 }
+                Kind::Expression {
+                    family, element, ..
+                } => {
+                    let family = &terms.plan.families[family as usize];
+                    force += expression_rounding(
+                        expression_kind(&family.kind),
+                        self.records[e * stride],
+                        family.compliance,
+                        family.rest[element as usize],
+                    );
+                }
                 Kind::Ball => {
                     let (i, j) = self.pair(e);
                     self.gather_points(e, x, dim, &mut points);
@@ -498,13 +549,41 @@ fn constraint_kind(kind: &FamilyKind) -> ConstraintKind {
         FamilyKind::OrientedMeasure | FamilyKind::HyperplaneContact { .. } => {
             ConstraintKind::OrientedMeasure
         }
-        // The implicit path refuses expression families (validate_solver.rs).
-        FamilyKind::Expression(_) => ConstraintKind::Expression,
+        // Expression families are `Kind::Expression` elements.
+        FamilyKind::Expression(_) => {
+            unreachable!("an expression family is an expression element (Elements::rebuild)")
+        }
         // Material families are `Kind::Material` elements, never springs.
         FamilyKind::Material { .. } => {
             unreachable!("a material family is no spring (Elements::rebuild)")
         }
     }
+}
+
+/// The compiled expression of an expression family.
+fn expression_kind(kind: &FamilyKind) -> &hyperpbd_core::kinds::ExpressionKind {
+    match kind {
+        FamilyKind::Expression(expression) => expression,
+        FamilyKind::Distance
+        | FamilyKind::Tether
+        | FamilyKind::SimplexMeasure { .. }
+        | FamilyKind::OrientedMeasure
+        | FamilyKind::HyperplaneContact { .. }
+        | FamilyKind::Material { .. } => {
+            unreachable!("expression elements come from expression families (Elements::rebuild)")
+        }
+    }
+}
+
+/// Values per dense block: H_F⁺ of the largest material ((N k)²) or K⁺ of
+/// the largest expression element ((arity·N)²).
+fn block_stride(plan: &Plan) -> usize {
+    let expressions = (plan.families.iter())
+        .filter(|f| matches!(f.kind, FamilyKind::Expression(_)))
+        .map(|f| (f.arity * plan.dim).pow(2))
+        .max()
+        .unwrap_or(0);
+    materials::frame_stride(&plan.families, plan.dim).max(expressions)
 }
 
 /// What element evaluation reads besides the element list.

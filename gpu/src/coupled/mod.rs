@@ -120,6 +120,12 @@ fn unsupported(plan: &Plan, ip: &IncrementalPotentialPlan, precision: Precision)
             plan.dim
         ));
     }
+    if let Some(f) = (plan.families.iter()).find(|f| matches!(f.kind, FamilyKind::Expression(_))) {
+        return not_yet(format!(
+            "the expression family {} (its ∇²C spring)",
+            f.label
+        ));
+    }
     if precision == Precision::F32
         && let Some(f) = plan
             .families

@@ -15,11 +15,12 @@
 //! PSD with the translations in its null space; it equals the exact
 //! Hessian whenever that is PSD. No finite difference is taken anywhere.
 
-use super::{Elements, Kind, Terms};
+use super::{Elements, Kind, Terms, expression_kind};
 use crate::parallel::Workers;
 use hyperpbd_core::implicit::{
-    MaterialHessianScratch, PsdScratch, apply_material_curvature, material_curvature_diagonal,
-    material_energy_rounding, material_term, project_psd,
+    ExpressionScratch, MaterialHessianScratch, PsdScratch, apply_material_curvature,
+    expression_curvature, material_curvature_diagonal, material_energy_rounding, material_term,
+    project_psd,
 };
 use hyperpbd_core::material::{LawRefusal, MaterialScratch, element_energy};
 use hyperpbd_core::{Family, Plan};
@@ -135,9 +136,10 @@ pub fn rounding(
 }
 
 impl Elements {
-    /// H_F⁺ of every material element at `x` into `frames` (step 6, once
-    /// per Newton iteration); the first element whose law refuses or whose
-    /// block is not finite.
+    /// The dense curvature blocks at `x` (step 6, once per Newton
+    /// iteration): H_F⁺ of every material element, K⁺ of every expression
+    /// element (core's `expression_curvature`); the first element whose law
+    /// refuses or whose block is not finite.
     pub fn curvatures(
         &mut self,
         workers: &Workers,
@@ -145,34 +147,50 @@ impl Elements {
         x: &[f64],
     ) -> Result<(), usize> {
         let dim = terms.plan.dim;
-        let stride = self.frame_stride;
-        let len = self.materials.len();
+        let stride = self.block_stride;
+        let len = self.blocks.len();
         self.fill_blocks(
-            |e| &mut e.frames,
+            |e| &mut e.block_values,
             workers,
             len,
             stride,
             |this, r, out| {
                 let mut buffers = MaterialBuffers::default();
+                let mut expression = ExpressionScratch::default();
                 let mut points = vec![0.0; this.lists.arity_max * dim];
                 for m in r.clone() {
-                    let e = this.materials[m] as usize;
-                    let Kind::Material {
-                        family, element, ..
-                    } = this.kinds[e]
-                    else {
-                        unreachable!("materials lists material elements only")
-                    };
+                    let e = this.blocks[m] as usize;
                     let arity = this.gather_points(e, x, dim, &mut points);
+                    let points = &points[..arity * dim];
                     let block = &mut out[(m - r.start) * stride..(m - r.start + 1) * stride];
-                    let ok = projected_frame_hessian(
-                        &terms.plan.families[family as usize],
-                        element as usize,
-                        &points[..arity * dim],
-                        dim,
-                        block,
-                        &mut buffers,
-                    );
+                    let ok = match this.kinds[e] {
+                        Kind::Material {
+                            family, element, ..
+                        } => projected_frame_hessian(
+                            &terms.plan.families[family as usize],
+                            element as usize,
+                            points,
+                            dim,
+                            block,
+                            &mut buffers,
+                        ),
+                        Kind::Expression {
+                            family, element, ..
+                        } => {
+                            let family = &terms.plan.families[family as usize];
+                            expression_curvature(
+                                expression_kind(&family.kind),
+                                family.compliance,
+                                family.rest[element as usize],
+                                points,
+                                block,
+                                &mut expression,
+                            )
+                        }
+                        Kind::Spring { .. } | Kind::Ball | Kind::Friction { .. } => {
+                            unreachable!("blocks list material and expression elements only")
+                        }
+                    };
                     if !ok {
                         return Err(e);
                     }
