@@ -13,7 +13,8 @@
 //     ball    c = (along, across) of K⁺ = b'' n nᵀ;                              aux = ∇d = (−n, n)
 //     lag     c = (along, across) of the tangent K (friction.rs);                aux = (û, 0)
 //     material  c = 0, aux = 0: its record, slots and change are written by
-//             coupled_material.wgsl (the passes here skip code ELEMENT_MATERIAL)
+//             coupled_material.wgsl (the passes here skip the dense-block codes ELEMENT_MATERIAL and
+//             ELEMENT_EXPRESSION)
 //   gather  particle k adds its slots (element order, member order): no atomics
 //   tree    per-item terms written at a channel's offset, reduced by cp_reduce:
 //           blocks of 64 halved in place (s[t] ⊕= s[t + stride], 32 … 1), the
@@ -132,6 +133,13 @@ fn record_len() -> u32 {
 
 fn code_of(e: u32) -> u32 {
     return element_words[e];
+}
+
+// Element e is a dense block of coupled_material.wgsl (a material or an
+// expression element).
+fn dense_block(e: u32) -> bool {
+    let code = code_of(e);
+    return code == ELEMENT_MATERIAL || code == ELEMENT_EXPRESSION;
 }
 
 fn arity_of(e: u32) -> u32 {
@@ -334,7 +342,7 @@ fn evaluate_element(e: u32) -> Element {
 @compute @workgroup_size(WORKGROUP)
 fn cp_elements(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let e = linear_index(gid, groups);
-    if (e >= cp.elements || code_of(e) == ELEMENT_MATERIAL) {
+    if (e >= cp.elements || dense_block(e)) {
         return;
     }
     let value = evaluate_element(e);
@@ -360,7 +368,7 @@ fn cp_elements(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
 @compute @workgroup_size(WORKGROUP)
 fn cp_element_changes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let e = linear_index(gid, groups);
-    if (e >= cp.elements || code_of(e) == ELEMENT_MATERIAL) {
+    if (e >= cp.elements || dense_block(e)) {
         return;
     }
     let value = evaluate_element(e);
@@ -376,7 +384,7 @@ fn cp_element_changes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
 @compute @workgroup_size(WORKGROUP)
 fn cp_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let e = linear_index(gid, groups);
-    if (e >= cp.elements || cg.stopped != 0u || code_of(e) == ELEMENT_MATERIAL) {
+    if (e >= cp.elements || cg.stopped != 0u || dense_block(e)) {
         return;
     }
     let code = code_of(e);

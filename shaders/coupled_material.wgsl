@@ -6,8 +6,15 @@
 // these elements (code ELEMENT_MATERIAL), these passes write their records, slots
 // and changes in the same layout.
 //
+// Expression elements (their family's ∇²C spring; golden:
+// core/src/implicit/expression_spring.rs) are dense blocks here too: code
+// ELEMENT_EXPRESSION, their K⁺ ((arity·N)²) in `frames`, their energy,
+// block and family index k from the generated coupled_expression_energy /
+// coupled_expression_block (gpu/src/coupled/expression.rs).
+//
 //   material_words  [frame stride, blocks M, then per block: element e,
-//                    rest offset of its family, slot in the family, flags]
+//                    rest offset of its family (an expression: k), slot in
+//                    the family, flags]
 //   material_rest   per family, per slot: R (k × k), V_0   (material.wgsl's layout)
 //   element_reals   [μ, λ] of a material element
 //   frames          H_F⁺ per block, `frame stride` reals ((N k_max)²), written by
@@ -55,6 +62,15 @@ struct MaterialCall {
 }
 
 var<private> call: MaterialCall;
+// The running block's expression family index k (NO_EXPRESSION: a material).
+var<private> block_expression: u32;
+const NO_EXPRESSION: u32 = 0xffffffffu;
+
+// False at run time, unknown to the compiler: the generated tapes' guard
+// against regrouping and fusing (core/src/expr/wgsl.rs).
+fn coupled_opaque() -> bool {
+    return material_words[1] == 0xffffffffu;
+}
 
 fn rest_at(s: u32) -> real {
     return material_rest[s];
@@ -73,6 +89,11 @@ fn take_material(m: u32) -> u32 {
     call.flags = material_words[at + 3u];
     call.friction = element_reals[e * ELEMENT_REALS];
     call.factor = element_reals[e * ELEMENT_REALS + 1u];
+    block_expression = NO_EXPRESSION;
+    if (code_of(e) == ELEMENT_EXPRESSION) {
+        // [compliance, rest] in `friction`, `factor`.
+        block_expression = material_words[at + 1u];
+    }
     return e;
 }
 
@@ -102,6 +123,9 @@ fn material_term_at_point(m: u32, e: u32, grad: ptr<function, array<real, POINTS
     var pts = material_points(e);
     for (var c = 0u; c < POINTS; c++) {
         (*grad)[c] = 0.0;
+    }
+    if (block_expression != NO_EXPRESSION) {
+        return coupled_expression_energy(block_expression, call.friction, call.factor, &pts, grad);
     }
     var refused = false;
     let energy = material_energy(material_slot(m), &pts, grad, &refused);
@@ -170,10 +194,16 @@ fn cp_material_frames(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
     let e = take_material(m);
     var pts = material_points(e);
     var h: array<real, HESS>;
-    let size = DIM * (call.arity - 1u);
-    var ok = material_frame_hessian(material_slot(m), &pts, &h);
-    if (ok) {
-        ok = project_psd(&h, size);
+    var size = DIM * (call.arity - 1u);
+    var ok = false;
+    if (block_expression != NO_EXPRESSION) {
+        size = DIM * call.arity;
+        ok = coupled_expression_block(block_expression, call.friction, call.factor, &pts, &h);
+    } else {
+        ok = material_frame_hessian(material_slot(m), &pts, &h);
+        if (ok) {
+            ok = project_psd(&h, size);
+        }
     }
     let block = m * material_words[0];
     for (var t = 0u; t < size * size; t++) {
@@ -195,16 +225,20 @@ fn cp_material_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num
     let block = m * material_words[0];
     let slot = material_slot(m);
     var out: array<real, POINTS>;
-    if (cp.diagonal == 1u) {
-        material_curvature_diagonal(slot, block, &out);
-    } else {
-        var p: array<real, POINTS>;
+    var p: array<real, POINTS>;
+    if (cp.diagonal != 1u) {
         for (var j = 0u; j < call.arity; j++) {
             let i = member(e, j);
             for (var a = 0u; a < DIM; a++) {
                 p[j * DIM + a] = vectors[at(R_P, i * DIM + a)];
             }
         }
+    }
+    if (block_expression != NO_EXPRESSION) {
+        dense_curvature(block, call.arity * DIM, &p, &out);
+    } else if (cp.diagonal == 1u) {
+        material_curvature_diagonal(slot, block, &out);
+    } else {
         material_curvature_product(slot, block, &p, &out);
     }
     let width = cp.arity_max * DIM;
@@ -213,6 +247,23 @@ fn cp_material_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num
         slots[e * width + k] = out[k];
     }
     check_material_loops(e);
+}
+
+// out = K⁺ p (an expression element's dense n × n block at `frames[block ..]`,
+// s ascending per row), or its diagonal (cp.diagonal; core's apply_dense).
+fn dense_curvature(block: u32, n: u32, p: ptr<function, array<real, POINTS>>,
+                   out: ptr<function, array<real, POINTS>>) {
+    for (var r = 0u; r < n; r++) {
+        if (cp.diagonal == 1u) {
+            (*out)[r] = frames[block + r * n + r];
+        } else {
+            var y: real = 0.0;
+            for (var s = 0u; s < n; s++) {
+                y += frames[block + r * n + s] * (*p)[s];
+            }
+            (*out)[r] = y;
+        }
+    }
 }
 
 // out = V_0 Sᵀ(R ⊗ I) H (Rᵀ ⊗ I) S p for the gathered element vector `p`

@@ -19,36 +19,12 @@ mod common;
 
 use common::bound::print_bound;
 use common::expressions::as_expressions;
-use common::implicit_scenes::{G, particle, settings};
-use hyperpbd::builders::GridSpec;
-use hyperpbd::kinds::Relation;
-use hyperpbd::{
-    Backend, ConstraintFamily, ConstraintKind, MinimisationStatus, Scene, SceneBuilder, Solver,
-    State,
+use common::implicit_scenes::{
+    CHAIN_TOLERANCE as TOLERANCE, bending_cloth as cloth_with_bending, chain_of as chain,
+    folded_hinge,
 };
-
-/// Stopping tolerance of the chains (m/s²).
-const TOLERANCE: f64 = 1e-5;
-
-/// A horizontal chain of `links` 0.1 m links (1 kg beads, the first fixed)
-/// released under gravity, as a `kind` family of compliance 1e-4 m/N.
-fn chain(kind: ConstraintKind, links: usize) -> Scene {
-    let mut scene = Scene::new(2, 1.0 / 60.0, 1, 1);
-    scene.gravity = Some(vec![0.0, -G]);
-    scene.particles.push(particle(vec![0.0, 0.0], None, 0.0));
-    for k in 1..=links {
-        scene
-            .particles
-            .push(particle(vec![0.1 * k as f64, 0.0], Some(1.0), 0.0));
-    }
-    scene.constraints.push(ConstraintFamily::new(
-        kind,
-        1e-4,
-        (0..links).map(|k| vec![k, k + 1]).collect(),
-    ));
-    scene.solver = Solver::IncrementalPotential(settings(1e3, 1e-3, TOLERANCE, 200));
-    scene
-}
+use hyperpbd::kinds::Relation;
+use hyperpbd::{Backend, ConstraintKind, MinimisationStatus, Scene, State};
 
 /// Every minimisation of `report` converged.
 fn converged(report: &hyperpbd::StepReport, what: &str, step: usize) {
@@ -138,30 +114,6 @@ fn a_tether_expression_takes_the_built_in_tether_minimisations() {
     );
 }
 
-/// One hinge in R³: the shared edge x0x1 and the wing x2 fixed, the wing x3
-/// (1 kg, held to x0 and x1 by stiff links) folded to 90°, rest flat
-/// (c_rest = −u_A·u_B = 1), no gravity.
-fn folded_hinge() -> Scene {
-    let mut scene = Scene::new(3, 1.0 / 60.0, 1, 1);
-    for p in [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 1.0, 0.0]] {
-        scene.particles.push(particle(p.to_vec(), None, 0.0));
-    }
-    scene
-        .particles
-        .push(particle(vec![0.5, 0.0, 1.0], Some(1.0), 0.0));
-    let mut bending = ConstraintFamily::new(ConstraintKind::Bending, 1e-3, vec![vec![0, 1, 2, 3]]);
-    bending.rest = Some(vec![1.0]);
-    scene.constraints.push(bending);
-    // The wing's edges hold x3 at its distances from the hinge's edge.
-    scene.constraints.push(ConstraintFamily::new(
-        ConstraintKind::Distance,
-        1e-6,
-        vec![vec![0, 3], vec![1, 3]],
-    ));
-    scene.solver = Solver::IncrementalPotential(settings(1e3, 1e-3, 1e-4, 100));
-    scene
-}
-
 #[test]
 fn a_folded_hinge_unfolds_to_flat_on_the_implicit_path() {
     let scene = folded_hinge();
@@ -183,21 +135,6 @@ fn a_folded_hinge_unfolds_to_flat_on_the_implicit_path() {
         "from 90°",
     );
     assert!(from_flat <= 10.0, "x3 = {:?}", &x[9..12]);
-}
-
-/// A 6 × 6 cloth (0.1 m, compliance 1e-6 m/N) with cosine bending, two
-/// corners fixed, under gravity, on the coupled step.
-fn cloth_with_bending() -> Scene {
-    let mut b = SceneBuilder::new(3).dt(1.0 / 60.0).gravity_along(1, G);
-    let mut spec = GridSpec::cloth(6, 6, 0.1, 0.0);
-    spec.compliance = 1e-6;
-    let grid = b.grid(&spec);
-    b.grid_bending(&grid, 1e-2).expect("hinges");
-    b.fix(grid.index(&[0, 0]));
-    b.fix(grid.index(&[5, 0]));
-    let mut scene = b.build().expect("valid");
-    scene.solver = Solver::IncrementalPotential(settings(1e3, 1e-3, 1e-4, 100));
-    scene
 }
 
 #[test]

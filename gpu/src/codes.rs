@@ -124,6 +124,7 @@ codes! {
         ELEMENT_BALL = 4;
         ELEMENT_LAG = 5;
         ELEMENT_MATERIAL = 6;
+        ELEMENT_EXPRESSION = 7;
     }
 }
 
@@ -145,8 +146,8 @@ pub fn residual_code(kind: &FamilyKind) -> u32 {
 
 /// The coupled step's element code of a constraint family's elements;
 /// `None` for hyperplane contact, which the coupled step treats as an
-/// obstacle barrier, never as an element, and for expression families,
-/// which the implicit path refuses (validate_solver.rs).
+/// obstacle barrier, never as an element. Material and expression
+/// elements are dense blocks (coupled_material.wgsl).
 pub fn element_code(kind: &FamilyKind) -> Option<u32> {
     match kind {
         FamilyKind::Distance => Some(ELEMENT_DISTANCE),
@@ -154,7 +155,8 @@ pub fn element_code(kind: &FamilyKind) -> Option<u32> {
         FamilyKind::SimplexMeasure { .. } => Some(ELEMENT_SIMPLEX),
         FamilyKind::OrientedMeasure => Some(ELEMENT_ORIENTED),
         FamilyKind::Material { .. } => Some(ELEMENT_MATERIAL),
-        FamilyKind::HyperplaneContact { .. } | FamilyKind::Expression(_) => None,
+        FamilyKind::Expression(_) => Some(ELEMENT_EXPRESSION),
+        FamilyKind::HyperplaneContact { .. } => None,
     }
 }
 

@@ -234,7 +234,9 @@ pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
 }
 
 /// [`compose`], the step module followed by `generated` (a plan's
-/// expression families, `xpbd/expression.rs`; `None`: none).
+/// expression families, `xpbd/expression.rs`; `None`: none), or the
+/// coupled module followed by its expression springs
+/// (`coupled/expression.rs`).
 pub(crate) fn compose_with(
     file: ShaderFile,
     dim: usize,
@@ -259,7 +261,13 @@ pub(crate) fn compose_with(
         file = file.file_name(),
         real_epsilon = precision.epsilon(),
         points = (dim + 1) * dim,
-        mat = dim * dim,
+        // A coupled module with expression families keeps their dense
+        // (arity·N)² blocks (arity ≤ N + 1) in the HESS = MAT² arrays.
+        mat = if file == ShaderFile::Coupled && generated.is_some() {
+            (dim + 1) * dim
+        } else {
+            dim * dim
+        },
         minor = (dim.saturating_sub(1) * dim.saturating_sub(1)).max(1),
         workgroup = file.workgroup_size(),
         vec = crate::layout::record_words(dim),
@@ -288,6 +296,16 @@ pub(crate) fn compose_with(
                 RECORDS
             });
             source.push('\n');
+        }
+    }
+    if file == ShaderFile::Coupled {
+        match generated {
+            Some(generated) => source.push_str(generated),
+            None => source.push_str(&crate::coupled::expression::generated_for(
+                &[],
+                dim,
+                precision,
+            )),
         }
     }
     if file == ShaderFile::Step {

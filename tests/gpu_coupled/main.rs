@@ -344,6 +344,7 @@ fn an_anchor_sunk_into_the_floor_is_the_golden_path() {
     differential("anchor sunk into the floor", &scene, 40, above);
 }
 
+mod expressions;
 mod materials;
 
 use materials::hanging_block;

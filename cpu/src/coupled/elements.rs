@@ -113,7 +113,7 @@ impl Elements {
         self.kinds.clear();
         self.lists.clear(arity_max);
         self.blocks.clear();
-        self.block_stride = block_stride(plan);
+        self.block_stride = materials::block_stride(plan);
         let mut next = 0u32;
         for (f, family) in plan.families.iter().enumerate() {
             let material = family.kind.rest_view(0).is_some();
@@ -573,17 +573,6 @@ fn expression_kind(kind: &FamilyKind) -> &hyperpbd_core::kinds::ExpressionKind {
             unreachable!("expression elements come from expression families (Elements::rebuild)")
         }
     }
-}
-
-/// Values per dense block: H_F⁺ of the largest material ((N k)²) or K⁺ of
-/// the largest expression element ((arity·N)²).
-fn block_stride(plan: &Plan) -> usize {
-    let expressions = (plan.families.iter())
-        .filter(|f| matches!(f.kind, FamilyKind::Expression(_)))
-        .map(|f| (f.arity * plan.dim).pow(2))
-        .max()
-        .unwrap_or(0);
-    materials::frame_stride(&plan.families, plan.dim).max(expressions)
 }
 
 /// What element evaluation reads besides the element list.

@@ -1,20 +1,24 @@
-//! Material families (StVK, Neo-Hookean) in the GPU coupled step, host
-//! side: the data `shaders/coupled_material.wgsl` reads, and the two
+//! Material families (StVK, Neo-Hookean) and expression families (their
+//! ∇²C springs, expression.rs) in the GPU coupled step — the dense blocks —
+//! host side: the data `shaders/coupled_material.wgsl` reads, and the two
 //! things the host decides from read-back values as the golden path does
 //! (cpu/src/coupled/elements/materials.rs): why an element is refused,
-//! and an element's rounding δW for the rounding floor.
+//! and an element's rounding (δW; an expression's `expression_rounding`)
+//! for the rounding floor.
 //!
 //! ```text
-//! blocks          the material elements in element order (families first in the
-//!                 element list, family order, slot order), block m ↔ element e
-//! material_words  [frame stride (N k_max)², M, per block: e, rest offset of its
-//!                 family, slot in the family, flags (FLAG_NEO_HOOKEAN)]
+//! blocks          the material and expression elements in element order (families
+//!                 first in the element list, family order, slot order), block m ↔ e
+//! material_words  [stride: max of (N k_max)² and (arity·N)², M, per block: e, rest
+//!                 offset of its family (an expression: its index k), slot in the
+//!                 family, flags (FLAG_NEO_HOOKEAN)]
 //! material_rest   per material family, per slot: R (k × k), V_0 (xpbd's layout)
-//! frames          M × stride reals: H_F⁺ per block, written on the device
-//! element_reals   [μ, λ] of a material element (mod.rs `upload_elements`)
+//! frames          M × stride reals: H_F⁺ (K⁺) per block, written on the device
+//! element_reals   [μ, λ] of a material element, [α, rest] of an expression's
+//!                 (mod.rs `upload_elements`)
 //! ```
 
-use hyperpbd_core::implicit::material_energy_rounding;
+use hyperpbd_core::implicit::{expression_rounding, material_energy_rounding};
 use hyperpbd_core::material::{Law, MaterialScratch, element_energy};
 use hyperpbd_core::{FamilyKind, GpuError, Plan, Refusal};
 
@@ -25,8 +29,8 @@ use crate::context::GpuContext;
 use crate::params::push_reals;
 use crate::xpbd::material::push_rest_data;
 
-/// The material elements of a plan: (family, slot) per block, and each
-/// block's element index.
+/// The dense-block elements of a plan (material and expression): (family,
+/// slot) per block, and each block's element index.
 #[derive(Debug, Default)]
 pub(super) struct Materials {
     /// (family, slot in the family) of each block.
@@ -41,7 +45,10 @@ impl Materials {
         let mut out = Materials::default();
         let mut e = 0;
         for (f, family) in plan.families.iter().enumerate() {
-            let material = matches!(family.kind, FamilyKind::Material { .. });
+            let material = matches!(
+                family.kind,
+                FamilyKind::Material { .. } | FamilyKind::Expression(_)
+            );
             for slot in 0..family.len() {
                 if material {
                     out.blocks.push((f, slot));
@@ -72,13 +79,19 @@ impl Materials {
         plan: &Plan,
         precision: Precision,
     ) -> Result<[wgpu::Buffer; 3], GpuError> {
-        let stride = plan
-            .families
-            .iter()
-            .filter(|f| matches!(f.kind, FamilyKind::Material { .. }))
-            .map(|f| (plan.dim * (f.arity - 1)).pow(2))
+        let stride = (plan.families.iter())
+            .filter_map(|f| match f.kind {
+                FamilyKind::Material { .. } => Some((plan.dim * (f.arity - 1)).pow(2)),
+                FamilyKind::Expression(_) => Some((plan.dim * f.arity).pow(2)),
+                FamilyKind::Distance
+                | FamilyKind::Tether
+                | FamilyKind::SimplexMeasure { .. }
+                | FamilyKind::OrientedMeasure
+                | FamilyKind::HyperplaneContact { .. } => None,
+            })
             .max()
             .unwrap_or(0);
+        let expression_index = |f: usize| crate::xpbd::expression::expression_index(plan, f);
         let mut rest = Vec::new();
         let mut offsets = Vec::new();
         for family in &plan.families {
@@ -92,7 +105,12 @@ impl Materials {
                 FamilyKind::Material { material, .. } if material.law == Law::NeoHookean
             );
             let flags = if neo_hookean { FLAG_NEO_HOOKEAN } else { 0 };
-            words.extend([e as u32, offsets[f], slot as u32, flags]);
+            let second = if plan.families[f].kind.is_expression() {
+                expression_index(f)
+            } else {
+                offsets[f]
+            };
+            words.extend([e as u32, second, slot as u32, flags]);
         }
         let mut rest_bytes = Vec::new();
         push_reals(&mut rest_bytes, &rest, precision);
@@ -126,9 +144,20 @@ pub(super) fn refusal(
     })
 }
 
-/// δW of material element (`family`, `slot`) at its `points` (0 where the
-/// law refuses; cpu `materials::rounding`).
-pub(super) fn rounding(plan: &Plan, (family, slot): (usize, usize), points: &[f64]) -> f64 {
+/// The rounding of dense-block element (`family`, `slot`) whose energy is
+/// `energy`: an expression's `expression_rounding` (cpu `energy_scale`),
+/// a material's δW at its `points` (0 where the law refuses; cpu
+/// `materials::rounding`).
+pub(super) fn rounding(
+    plan: &Plan,
+    (family, slot): (usize, usize),
+    points: &[f64],
+    energy: f64,
+) -> f64 {
+    let f = &plan.families[family];
+    if let FamilyKind::Expression(kind) = &f.kind {
+        return expression_rounding(kind, energy, f.compliance, f.rest[slot]);
+    }
     let Some(m) = plan.families[family]
         .kind
         .material_element(slot, points, plan.dim)

@@ -51,6 +51,7 @@
 mod cg_state;
 mod device;
 mod entries;
+pub(crate) mod expression;
 mod f32;
 mod material;
 mod newton;
@@ -120,11 +121,22 @@ fn unsupported(plan: &Plan, ip: &IncrementalPotentialPlan, precision: Precision)
             plan.dim
         ));
     }
-    if let Some(f) = (plan.families.iter()).find(|f| matches!(f.kind, FamilyKind::Expression(_))) {
-        return not_yet(format!(
-            "the expression family {} (its ∇²C spring)",
-            f.label
-        ));
+    for f in &plan.families {
+        if !f.kind.is_expression() {
+            continue;
+        }
+        if precision == Precision::F32 {
+            return not_yet(format!("the expression family {} in f32", f.label));
+        }
+        if f.arity > plan.dim + 1 {
+            return not_yet(format!(
+                "the expression family {} of arity {} (the GPU's dense blocks hold N + 1 = {} \
+                 particles)",
+                f.label,
+                f.arity,
+                plan.dim + 1
+            ));
+        }
     }
     if precision == Precision::F32
         && let Some(f) = plan
@@ -163,6 +175,7 @@ impl GpuCoupledBackend {
         let (n, dim) = (plan.particle_count(), plan.dim);
         let ctx = device.context(precision)?;
         let materials = Materials::of(&plan);
+        let generated = expression::generated(&plan, precision);
         let kernels = KernelSet::new(
             &ctx.device,
             &KernelSetSpec {
@@ -172,7 +185,7 @@ impl GpuCoupledBackend {
                 precision,
                 entries: &Entry::needed(materials.len() > 0),
                 constants: &[],
-                generated: None,
+                generated: generated.as_deref(),
             },
         )?;
         let reals = |values: &[f64]| {

@@ -197,7 +197,7 @@ impl GpuCoupledBackend {
             energy += value.abs();
             if let Some(block) = self.materials.of_element(e) {
                 let arity = gather_points(up.lists.members(e), &v[0], dim, &mut points);
-                force += material::rounding(&self.plan, block, &points[..arity * dim]);
+                force += material::rounding(&self.plan, block, &points[..arity * dim], value);
             } else if e < up.first_ball {
                 let reals = &up.reals[e * (dim + 1)..];
                 force += spring(value, reals[0], reals[1]);

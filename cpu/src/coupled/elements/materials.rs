@@ -23,7 +23,7 @@ use hyperpbd_core::implicit::{
     project_psd,
 };
 use hyperpbd_core::material::{LawRefusal, MaterialScratch, element_energy};
-use hyperpbd_core::{Family, Plan};
+use hyperpbd_core::{Family, FamilyKind, Plan};
 
 /// Buffers of one chunk of material evaluations.
 #[derive(Debug, Default)]
@@ -40,6 +40,17 @@ pub fn frame_stride(families: &[Family], dim: usize) -> usize {
         .filter_map(|f| f.kind.rest_view(0).map(|_| (dim * (f.arity - 1)).pow(2)))
         .max()
         .unwrap_or(0)
+}
+
+/// Values per dense block: H_F⁺ of the largest material ((N k)²) or K⁺ of
+/// the largest expression element ((arity·N)²).
+pub fn block_stride(plan: &Plan) -> usize {
+    let expressions = (plan.families.iter())
+        .filter(|f| matches!(f.kind, FamilyKind::Expression(_)))
+        .map(|f| (f.arity * plan.dim).pow(2))
+        .max()
+        .unwrap_or(0);
+    frame_stride(&plan.families, plan.dim).max(expressions)
 }
 
 /// W of slot `element` of the material family `family` at `points`, ∇W
