@@ -15,10 +15,15 @@
 //!               tiny (1e-200) nor huge (1e200) normals under- or overflow)
 //! ```
 
-/// Determinant of the `n`×`n` row-major matrix `a` (overwritten).
-pub fn determinant(a: &mut [f64], n: usize) -> f64 {
+use crate::kinds::ProjectionReal;
+
+/// Determinant of the `n`×`n` row-major matrix `a` (overwritten), in
+/// precision `R` (f64: the golden path; f32: the f32 reference, as
+/// `shaders/measure.wgsl` computes it).
+pub fn determinant<R: ProjectionReal>(a: &mut [R], n: usize) -> R {
     debug_assert!(a.len() >= n * n);
-    let mut det = 1.0;
+    let zero = R::constant(0.0);
+    let mut det = R::constant(1.0);
     for col in 0..n {
         let mut pivot_row = col;
         let mut pivot_abs = a[col * n + col].abs();
@@ -29,8 +34,8 @@ pub fn determinant(a: &mut [f64], n: usize) -> f64 {
                 pivot_row = row;
             }
         }
-        if pivot_abs == 0.0 {
-            return 0.0;
+        if pivot_abs == zero {
+            return zero;
         }
         if pivot_row != col {
             for c in 0..n {
@@ -39,12 +44,12 @@ pub fn determinant(a: &mut [f64], n: usize) -> f64 {
             det = -det;
         }
         let pivot = a[col * n + col];
-        det *= pivot;
+        det = det * pivot;
         for row in col + 1..n {
             let factor = a[row * n + col] / pivot;
-            if factor != 0.0 {
+            if factor != zero {
                 for c in col + 1..n {
-                    a[row * n + c] -= factor * a[col * n + c];
+                    a[row * n + c] = a[row * n + c] - factor * a[col * n + c];
                 }
             }
         }
@@ -54,9 +59,9 @@ pub fn determinant(a: &mut [f64], n: usize) -> f64 {
 
 /// Adjugate of the `n`×`n` row-major matrix `a` into `out`; `minor` is
 /// scratch of at least (n−1)² entries.
-pub fn adjugate(a: &[f64], n: usize, out: &mut [f64], minor: &mut [f64]) {
+pub fn adjugate<R: ProjectionReal>(a: &[R], n: usize, out: &mut [R], minor: &mut [R]) {
     if n == 1 {
-        out[0] = 1.0;
+        out[0] = R::constant(1.0);
         return;
     }
     let m = n - 1;
@@ -69,7 +74,7 @@ pub fn adjugate(a: &[f64], n: usize, out: &mut [f64], minor: &mut [f64]) {
                     idx += 1;
                 }
             }
-            let sign = if (i + j) % 2 == 0 { 1.0 } else { -1.0 };
+            let sign = R::constant(if (i + j) % 2 == 0 { 1.0 } else { -1.0 });
             out[j * n + i] = sign * determinant(&mut minor[..m * m], m);
         }
     }

@@ -38,6 +38,7 @@
 //!                                 V_0 Σ_j Σ_m ρ_J[j] H_F⁺[(a,j),(a,m)] ρ_J[m]
 //! ```
 
+use crate::kinds::ProjectionReal;
 use crate::material::{
     Law, LawRefusal, MaterialElement, MaterialScratch, RestView, element_energy, ln, measure_ratio,
 };
@@ -91,75 +92,115 @@ pub fn material_term(
         }
     };
     hs.resize(k, dim);
-    let mu = element.material.lame.mu;
-    let lambda = element.material.lame.lambda;
-    let size = dim * k;
-    let f = &scratch.image;
-    let s = &scratch.stress;
-    let c_inv = &scratch.c_inverse;
+    let law = FrameLaw {
+        neo_hookean: element.material.law == Law::NeoHookean,
+        mu: element.material.lame.mu,
+        lambda: element.material.lame.lambda,
+        log_ratio,
+    };
     let MaterialHessianScratch { dc, ds, w, .. } = hs;
+    frame_hessian_of(
+        &law,
+        dim,
+        k,
+        [&scratch.image, &scratch.stress, &scratch.c_inverse],
+        [dc, ds, w],
+        frame_hessian,
+    );
+    Ok(energy)
+}
+
+/// The law of one element as the frame Hessian reads it, in precision `R`.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameLaw<R> {
+    /// Neo-Hookean (else StVK).
+    pub neo_hookean: bool,
+    /// Lamé μ.
+    pub mu: R,
+    /// Lamé λ.
+    pub lambda: R,
+    /// ln J (Neo-Hookean; the caller's own precision's ln).
+    pub log_ratio: R,
+}
+
+/// H_F = ∂²Ψ/∂F̂² (Nk × Nk, row-major, symmetrised; module docs) into
+/// `out` from `[F̂ (N × k), S, C⁻¹ (Neo-Hookean)]`, with scratch
+/// `[dC, dS (k × k), w (k)]`, in precision `R` (f64: the golden path;
+/// f32: the f32 reference, as `shaders/material_hessian.wgsl`).
+pub fn frame_hessian_of<R: ProjectionReal>(
+    law: &FrameLaw<R>,
+    dim: usize,
+    k: usize,
+    [f, s, c_inv]: [&[R]; 3],
+    [dc, ds, w]: [&mut [R]; 3],
+    out: &mut [R],
+) {
+    let FrameLaw {
+        neo_hookean,
+        mu,
+        lambda,
+        log_ratio,
+    } = *law;
+    let (zero, half, two) = (R::constant(0.0), R::constant(0.5), R::constant(2.0));
+    let size = dim * k;
     for b in 0..dim {
         for m in 0..k {
-            match element.material.law {
-                Law::StVenantKirchhoff => {
-                    for i in 0..k {
-                        for j in 0..k {
-                            let mut v = 0.0;
-                            if i == m {
-                                v += f[b * k + j];
-                            }
-                            if j == m {
-                                v += f[b * k + i];
-                            }
-                            dc[i * k + j] = v;
-                        }
+            if neo_hookean {
+                for i in 0..k {
+                    let mut v = zero;
+                    for j in 0..k {
+                        v = v + c_inv[i * k + j] * f[b * k + j];
                     }
-                    let trace = 2.0 * f[b * k + m];
-                    for i in 0..k {
-                        for j in 0..k {
-                            let identity = if i == j { 0.5 * lambda * trace } else { 0.0 };
-                            ds[i * k + j] = mu * dc[i * k + j] + identity;
-                        }
+                    w[i] = v;
+                }
+                let shear = mu - lambda * log_ratio;
+                let volume = lambda * w[m];
+                for i in 0..k {
+                    for j in 0..k {
+                        let rank_two = c_inv[i * k + m] * w[j] + w[i] * c_inv[j * k + m];
+                        ds[i * k + j] = shear * rank_two + volume * c_inv[i * k + j];
                     }
                 }
-                Law::NeoHookean => {
-                    for i in 0..k {
-                        let mut v = 0.0;
-                        for j in 0..k {
-                            v += c_inv[i * k + j] * f[b * k + j];
+            } else {
+                for i in 0..k {
+                    for j in 0..k {
+                        let mut v = zero;
+                        if i == m {
+                            v = v + f[b * k + j];
                         }
-                        w[i] = v;
+                        if j == m {
+                            v = v + f[b * k + i];
+                        }
+                        dc[i * k + j] = v;
                     }
-                    let shear = mu - lambda * log_ratio;
-                    let volume = lambda * w[m];
-                    for i in 0..k {
-                        for j in 0..k {
-                            let rank_two = c_inv[i * k + m] * w[j] + w[i] * c_inv[j * k + m];
-                            ds[i * k + j] = shear * rank_two + volume * c_inv[i * k + j];
-                        }
+                }
+                let trace = two * f[b * k + m];
+                for i in 0..k {
+                    for j in 0..k {
+                        let identity = if i == j { half * lambda * trace } else { zero };
+                        ds[i * k + j] = mu * dc[i * k + j] + identity;
                     }
                 }
             }
             let column = b * k + m;
             for a in 0..dim {
                 for j in 0..k {
-                    let mut v = if a == b { s[m * k + j] } else { 0.0 };
+                    let mut v = if a == b { s[m * k + j] } else { zero };
                     for i in 0..k {
-                        v += f[a * k + i] * ds[i * k + j];
+                        v = v + f[a * k + i] * ds[i * k + j];
                     }
-                    frame_hessian[(a * k + j) * size + column] = v;
+                    out[(a * k + j) * size + column] = v;
                 }
             }
         }
     }
     for r in 0..size {
         for c in r + 1..size {
-            let v = 0.5 * (frame_hessian[r * size + c] + frame_hessian[c * size + r]);
-            frame_hessian[r * size + c] = v;
-            frame_hessian[c * size + r] = v;
+            let v = half * (out[r * size + c] + out[c * size + r]);
+            out[r * size + c] = v;
+            out[c * size + r] = v;
         }
     }
-    Ok(energy)
 }
 
 /// out = V_0 Sᵀ (R ⊗ I) H (Rᵀ ⊗ I) S p for the gathered element vector `p`

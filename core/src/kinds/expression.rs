@@ -130,6 +130,8 @@ impl ExpressionKind {
 pub trait ProjectionReal: Real {
     /// Neither NaN nor ±∞.
     fn finite(self) -> bool;
+    /// NaN.
+    fn is_nan(self) -> bool;
     /// The machine epsilon (1 ulp of 1).
     fn epsilon() -> Self;
     /// The value in f64 (exact).
@@ -139,6 +141,9 @@ pub trait ProjectionReal: Real {
 impl ProjectionReal for f64 {
     fn finite(self) -> bool {
         self.is_finite()
+    }
+    fn is_nan(self) -> bool {
+        f64::is_nan(self)
     }
     fn epsilon() -> Self {
         f64::EPSILON
@@ -151,6 +156,9 @@ impl ProjectionReal for f64 {
 impl ProjectionReal for f32 {
     fn finite(self) -> bool {
         self.is_finite()
+    }
+    fn is_nan(self) -> bool {
+        f32::is_nan(self)
     }
     fn epsilon() -> Self {
         f32::EPSILON

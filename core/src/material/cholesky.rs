@@ -12,6 +12,8 @@
 //! det A = Π L_jj²
 //! ```
 
+use crate::kinds::ProjectionReal;
+
 /// A pivot d = a_jj − Σ L_jm² that is not > 0: the matrix is not positive
 /// definite to rounding (or holds a NaN).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -23,29 +25,35 @@ pub struct NotPositiveDefinite {
 }
 
 /// The lower Cholesky factor of the symmetric `a` (n×n) into `l` (the
-/// strictly upper part of `l` is set to 0). Only the lower part of `a` is
-/// read.
-pub fn cholesky(a: &[f64], n: usize, l: &mut [f64]) -> Result<(), NotPositiveDefinite> {
+/// strictly upper part of `l` is set to 0), in precision `R` (f64: the
+/// golden path; f32: the f32 reference, as `shaders/material.wgsl`). Only
+/// the lower part of `a` is read.
+pub fn cholesky<R: ProjectionReal>(
+    a: &[R],
+    n: usize,
+    l: &mut [R],
+) -> Result<(), NotPositiveDefinite> {
+    let zero = R::constant(0.0);
     for j in 0..n {
         let mut d = a[j * n + j];
         for m in 0..j {
-            d -= l[j * n + m] * l[j * n + m];
+            d = d - l[j * n + m] * l[j * n + m];
         }
-        if d.is_nan() || d <= 0.0 {
+        if d.is_nan() || d <= zero {
             return Err(NotPositiveDefinite {
                 column: j,
-                pivot: d,
+                pivot: d.to_f64(),
             });
         }
         let ljj = d.sqrt();
         l[j * n + j] = ljj;
         for c in j + 1..n {
-            l[j * n + c] = 0.0;
+            l[j * n + c] = zero;
         }
         for i in j + 1..n {
             let mut s = a[i * n + j];
             for m in 0..j {
-                s -= l[i * n + m] * l[j * n + m];
+                s = s - l[i * n + m] * l[j * n + m];
             }
             l[i * n + j] = s / ljj;
         }
@@ -55,16 +63,17 @@ pub fn cholesky(a: &[f64], n: usize, l: &mut [f64]) -> Result<(), NotPositiveDef
 
 /// Y = L⁻¹ of the lower-triangular `l` with nonzero diagonal into `y`
 /// (strictly upper part 0).
-pub fn lower_triangular_inverse(l: &[f64], n: usize, y: &mut [f64]) {
+pub fn lower_triangular_inverse<R: ProjectionReal>(l: &[R], n: usize, y: &mut [R]) {
+    let zero = R::constant(0.0);
     for j in 0..n {
         for i in 0..j {
-            y[i * n + j] = 0.0;
+            y[i * n + j] = zero;
         }
-        y[j * n + j] = 1.0 / l[j * n + j];
+        y[j * n + j] = R::constant(1.0) / l[j * n + j];
         for i in j + 1..n {
-            let mut s = 0.0;
+            let mut s = zero;
             for m in j..i {
-                s += l[i * n + m] * y[m * n + j];
+                s = s + l[i * n + m] * y[m * n + j];
             }
             y[i * n + j] = -s / l[i * n + i];
         }
@@ -72,12 +81,12 @@ pub fn lower_triangular_inverse(l: &[f64], n: usize, y: &mut [f64]) {
 }
 
 /// A⁻¹ = Yᵀ Y from Y = L⁻¹ into `inverse`.
-pub fn inverse_from_factor_inverse(y: &[f64], n: usize, inverse: &mut [f64]) {
+pub fn inverse_from_factor_inverse<R: ProjectionReal>(y: &[R], n: usize, inverse: &mut [R]) {
     for i in 0..n {
         for j in 0..n {
-            let mut s = 0.0;
+            let mut s = R::constant(0.0);
             for m in i.max(j)..n {
-                s += y[m * n + i] * y[m * n + j];
+                s = s + y[m * n + i] * y[m * n + j];
             }
             inverse[i * n + j] = s;
         }

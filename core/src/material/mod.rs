@@ -66,7 +66,9 @@ pub use ln::{ATANH_SERIES, ATANH_TERMS_F32, ln};
 pub use ln_f32::ln_f32;
 pub use mass::{LumpedMass, lump_masses};
 pub use measures::{DeformationMeasures, deformation_measures};
+pub use neo_hookean::neo_hookean_stress;
 pub use rest::{DegenerateRest, RestShapes, rest_element};
+pub use stvk::stvk_stress;
 pub use uniaxial::{UniaxialState, uniaxial_state, uniaxial_stretch_under_stress};
 
 /// The constitutive law of a material family.

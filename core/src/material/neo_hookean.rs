@@ -21,6 +21,7 @@
 use super::cholesky::{inverse_from_factor_inverse, lower_triangular_inverse};
 use super::deformation::ratio_and_factor;
 use super::{Lame, LawRefusal, MaterialScratch, ln};
+use crate::kinds::ProjectionReal;
 
 /// Ψ of the element [`super::deformation::deform`] left in `s`; S into
 /// `s.stress`, or the refusal.
@@ -53,16 +54,36 @@ pub(crate) fn neo_hookean(
     lower_triangular_inverse(factor, k, factor_inverse);
     inverse_from_factor_inverse(factor_inverse, k, c_inverse);
     let log_ratio = ln(ratio);
-    let mut trace = 0.0;
+    Ok(neo_hookean_stress(
+        mu, lambda, k, c, c_inverse, log_ratio, stress,
+    ))
+}
+
+/// Ψ and S (into `stress`) of the k × k `c` given C⁻¹ and ln J, in
+/// precision `R` (f64: the golden path; f32: the f32 reference with its
+/// own arithmetic ln, as `shaders/material.wgsl`):
+/// S = μ(I − C⁻¹) + λ ln J C⁻¹,  Ψ = ½μ(tr C − k) − μ ln J + ½λ (ln J)².
+pub fn neo_hookean_stress<R: ProjectionReal>(
+    mu: R,
+    lambda: R,
+    k: usize,
+    c: &[R],
+    c_inverse: &[R],
+    log_ratio: R,
+    stress: &mut [R],
+) -> R {
+    let (zero, one, half) = (R::constant(0.0), R::constant(1.0), R::constant(0.5));
+    let mut trace = zero;
     for i in 0..k {
-        trace += c[i * k + i];
+        trace = trace + c[i * k + i];
     }
     for i in 0..k {
         for j in 0..k {
-            let delta = if i == j { 1.0 } else { 0.0 };
+            let delta = if i == j { one } else { zero };
             let inv = c_inverse[i * k + j];
             stress[i * k + j] = mu * (delta - inv) + lambda * log_ratio * inv;
         }
     }
-    Ok(0.5 * mu * (trace - k as f64) - mu * log_ratio + 0.5 * lambda * log_ratio * log_ratio)
+    half * mu * (trace - R::constant(k as f64)) - mu * log_ratio
+        + half * lambda * log_ratio * log_ratio
 }

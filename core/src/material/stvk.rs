@@ -11,28 +11,36 @@
 //! K_k = λ + 2μ/k > 0 (Cauchy–Schwarz: tr(E²) ≥ (tr E)²/k).
 
 use super::{Lame, MaterialScratch};
+use crate::kinds::ProjectionReal;
 
 /// Ψ of the C in `s.cauchy_green`; S into `s.stress`.
 pub(crate) fn stvk(lame: Lame, k: usize, s: &mut MaterialScratch) -> f64 {
     let Lame { mu, lambda } = lame;
-    let MaterialScratch {
-        cauchy_green: c,
-        stress,
-        ..
-    } = s;
-    let mut trace = 0.0;
-    let mut square = 0.0;
+    stvk_stress(mu, lambda, k, &s.cauchy_green, &mut s.stress)
+}
+
+/// Ψ of the k × k `c` and S into `stress`, in precision `R` (f64: the
+/// golden path; f32: the f32 reference, as `shaders/material.wgsl`).
+pub fn stvk_stress<R: ProjectionReal>(mu: R, lambda: R, k: usize, c: &[R], stress: &mut [R]) -> R {
+    let (zero, one, half, two) = (
+        R::constant(0.0),
+        R::constant(1.0),
+        R::constant(0.5),
+        R::constant(2.0),
+    );
+    let mut trace = zero;
+    let mut square = zero;
     for i in 0..k {
         for j in 0..k {
-            let delta = if i == j { 1.0 } else { 0.0 };
-            let e = 0.5 * (c[i * k + j] - delta);
-            square += e * e;
-            stress[i * k + j] = 2.0 * mu * e;
+            let delta = if i == j { one } else { zero };
+            let e = half * (c[i * k + j] - delta);
+            square = square + e * e;
+            stress[i * k + j] = two * mu * e;
         }
-        trace += 0.5 * (c[i * k + i] - 1.0);
+        trace = trace + half * (c[i * k + i] - one);
     }
     for i in 0..k {
-        stress[i * k + i] += lambda * trace;
+        stress[i * k + i] = stress[i * k + i] + lambda * trace;
     }
-    mu * square + 0.5 * lambda * trace * trace
+    mu * square + half * lambda * trace * trace
 }

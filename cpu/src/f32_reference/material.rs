@@ -18,6 +18,8 @@
 
 use super::ln::ln;
 use super::measure::determinant;
+use hyperpbd_core::implicit::{FrameLaw, frame_hessian_of};
+use hyperpbd_core::material;
 
 /// One material family as the device stores it: the law, Lamé μ and λ
 /// (the call's friction and factor) and the rest data, all rounded to f32.
@@ -30,58 +32,18 @@ pub struct Law {
     pub data: Vec<f32>,
 }
 
-/// Cholesky factor L of the symmetric n×n `a` into `l` (lower, strictly
-/// upper part 0); false when a pivot is not > 0 (or NaN).
+/// Cholesky factor L of the symmetric n×n `a` into `l` (core's, in f32);
+/// false when a pivot is not > 0 (or NaN).
 pub(super) fn cholesky(a: &[f32], n: usize, l: &mut [f32]) -> bool {
-    for j in 0..n {
-        let mut d = a[j * n + j];
-        for m in 0..j {
-            d -= l[j * n + m] * l[j * n + m];
-        }
-        if d.is_nan() || d <= 0.0 {
-            return false;
-        }
-        let ljj = d.sqrt();
-        l[j * n + j] = ljj;
-        for c in j + 1..n {
-            l[j * n + c] = 0.0;
-        }
-        for i in j + 1..n {
-            let mut s = a[i * n + j];
-            for m in 0..j {
-                s -= l[i * n + m] * l[j * n + m];
-            }
-            l[i * n + j] = s / ljj;
-        }
-    }
-    true
+    material::cholesky(a, n, l).is_ok()
 }
 
-/// C⁻¹ = Yᵀ Y, Y = L⁻¹ (L lower triangular, nonzero diagonal), into `inv`.
+/// C⁻¹ = Yᵀ Y, Y = L⁻¹ (L lower triangular, nonzero diagonal), into `inv`
+/// (core's, in f32).
 fn inverse(l: &[f32], n: usize, inv: &mut [f32]) {
     let mut y = vec![0.0f32; n * n];
-    for j in 0..n {
-        for i in 0..j {
-            y[i * n + j] = 0.0;
-        }
-        y[j * n + j] = 1.0 / l[j * n + j];
-        for i in j + 1..n {
-            let mut s = 0.0f32;
-            for m in j..i {
-                s += l[i * n + m] * y[m * n + j];
-            }
-            y[i * n + j] = -s / l[i * n + i];
-        }
-    }
-    for i in 0..n {
-        for j in 0..n {
-            let mut s = 0.0f32;
-            for m in i.max(j)..n {
-                s += y[m * n + i] * y[m * n + j];
-            }
-            inv[i * n + j] = s;
-        }
-    }
+    material::lower_triangular_inverse(l, n, &mut y);
+    material::inverse_from_factor_inverse(&y, n, inv);
 }
 
 /// The deformation of one element: edges D (N × k), F̂ = D R, C = F̂ᵀF̂.
@@ -92,24 +54,9 @@ struct Deformation {
 }
 
 impl Law {
-    /// St. Venant–Kirchhoff: Ψ of C, S into `stress`.
+    /// St. Venant–Kirchhoff: Ψ of C, S into `stress` (core's, in f32).
     fn stvk(&self, c: &[f32], stress: &mut [f32]) -> f32 {
-        let (k, mu, lambda) = (self.k, self.mu, self.lambda);
-        let mut trace = 0.0f32;
-        let mut square = 0.0f32;
-        for i in 0..k {
-            for j in 0..k {
-                let delta = if i == j { 1.0f32 } else { 0.0 };
-                let e = 0.5 * (c[i * k + j] - delta);
-                square += e * e;
-                stress[i * k + j] = 2.0 * mu * e;
-            }
-            trace += 0.5 * (c[i * k + i] - 1.0);
-        }
-        for i in 0..k {
-            stress[i * k + i] += lambda * trace;
-        }
-        mu * square + 0.5 * lambda * trace * trace
+        material::stvk_stress(self.mu, self.lambda, self.k, c, stress)
     }
 
     /// Compressible Neo-Hookean: Ψ, S into `stress`; None (refused) when
@@ -148,19 +95,7 @@ impl Law {
         let mut inv = vec![0.0f32; k * k];
         inverse(&factor, k, &mut inv);
         let log_ratio = ln(ratio);
-        let mut trace = 0.0f32;
-        for i in 0..k {
-            trace += c[i * k + i];
-        }
-        for i in 0..k {
-            for j in 0..k {
-                let delta = if i == j { 1.0f32 } else { 0.0 };
-                let cinv = inv[i * k + j];
-                stress[i * k + j] = mu * (delta - cinv) + lambda * log_ratio * cinv;
-            }
-        }
-        let psi =
-            0.5 * mu * (trace - k as f32) - mu * log_ratio + 0.5 * lambda * log_ratio * log_ratio;
+        let psi = material::neo_hookean_stress(mu, lambda, k, c, &inv, log_ratio, stress);
         Some((psi, log_ratio, inv))
     }
 
@@ -183,64 +118,20 @@ impl Law {
             (Vec::new(), 0.0)
         };
         let (mut dc, mut ds, mut w) = (vec![0.0f32; k * k], vec![0.0f32; k * k], vec![0.0f32; k]);
-        for b in 0..dim {
-            for m in 0..k {
-                if self.neo_hookean {
-                    for i in 0..k {
-                        let mut v = 0.0f32;
-                        for j in 0..k {
-                            v += c_inv[i * k + j] * f[b * k + j];
-                        }
-                        w[i] = v;
-                    }
-                    let shear = mu - lambda * log_ratio;
-                    let volume = lambda * w[m];
-                    for i in 0..k {
-                        for j in 0..k {
-                            let rank_two = c_inv[i * k + m] * w[j] + w[i] * c_inv[j * k + m];
-                            ds[i * k + j] = shear * rank_two + volume * c_inv[i * k + j];
-                        }
-                    }
-                } else {
-                    for i in 0..k {
-                        for j in 0..k {
-                            let mut v = 0.0f32;
-                            if i == m {
-                                v += f[b * k + j];
-                            }
-                            if j == m {
-                                v += f[b * k + i];
-                            }
-                            dc[i * k + j] = v;
-                        }
-                    }
-                    let trace = 2.0 * f[b * k + m];
-                    for i in 0..k {
-                        for j in 0..k {
-                            let identity = if i == j { 0.5 * lambda * trace } else { 0.0 };
-                            ds[i * k + j] = mu * dc[i * k + j] + identity;
-                        }
-                    }
-                }
-                let column = b * k + m;
-                for a in 0..dim {
-                    for j in 0..k {
-                        let mut v = if a == b { s[m * k + j] } else { 0.0 };
-                        for i in 0..k {
-                            v += f[a * k + i] * ds[i * k + j];
-                        }
-                        h[(a * k + j) * size + column] = v;
-                    }
-                }
-            }
-        }
-        for r in 0..size {
-            for q in r + 1..size {
-                let v = 0.5 * (h[r * size + q] + h[q * size + r]);
-                h[r * size + q] = v;
-                h[q * size + r] = v;
-            }
-        }
+        let law = FrameLaw {
+            neo_hookean: self.neo_hookean,
+            mu,
+            lambda,
+            log_ratio,
+        };
+        frame_hessian_of(
+            &law,
+            dim,
+            k,
+            [f, &s, &c_inv],
+            [&mut dc, &mut ds, &mut w],
+            &mut h[..size * size],
+        );
         true
     }
 

@@ -1,5 +1,6 @@
 //! The simplex measures in f32, as `shaders/measure.wgsl` computes them
-//! (the same algorithms as `core/src/geometry`, in the shader's order).
+//! (the same algorithms as `core/src/geometry`, in the shader's order;
+//! det and adj are core's, generic over the precision).
 //!
 //! ```text
 //! det(A)        Gaussian elimination, partial pivoting (first largest
@@ -13,6 +14,8 @@
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
 
+pub use hyperpbd_core::geometry::determinant;
+
 /// k! accumulated in f32 from 1.
 fn factorial(k: usize) -> f32 {
     let mut f = 1.0f32;
@@ -22,63 +25,10 @@ fn factorial(k: usize) -> f32 {
     f
 }
 
-/// Determinant of the `n`×`n` row-major matrix `a` (overwritten).
-pub fn determinant(a: &mut [f32], n: usize) -> f32 {
-    let mut det = 1.0f32;
-    for col in 0..n {
-        let mut pivot_row = col;
-        let mut pivot_abs = a[col * n + col].abs();
-        for row in col + 1..n {
-            let value = a[row * n + col].abs();
-            if value > pivot_abs {
-                pivot_abs = value;
-                pivot_row = row;
-            }
-        }
-        if pivot_abs == 0.0 {
-            return 0.0;
-        }
-        if pivot_row != col {
-            for c in 0..n {
-                a.swap(col * n + c, pivot_row * n + c);
-            }
-            det = -det;
-        }
-        let pivot = a[col * n + col];
-        det *= pivot;
-        for row in col + 1..n {
-            let factor = a[row * n + col] / pivot;
-            if factor != 0.0 {
-                for c in col + 1..n {
-                    a[row * n + c] -= factor * a[col * n + c];
-                }
-            }
-        }
-    }
-    det
-}
-
-/// Adjugate of the `n`×`n` row-major matrix `a` into `out`.
+/// adj(A) of the `n`×`n` `a` into `out` (core's `adjugate` in f32).
 fn adjugate(a: &[f32], n: usize, out: &mut [f32]) {
-    if n == 1 {
-        out[0] = 1.0;
-        return;
-    }
-    let m = n - 1;
-    let mut minor = vec![0.0f32; m * m];
-    for i in 0..n {
-        for j in 0..n {
-            let mut idx = 0;
-            for r in (0..n).filter(|&r| r != i) {
-                for c in (0..n).filter(|&c| c != j) {
-                    minor[idx] = a[r * n + c];
-                    idx += 1;
-                }
-            }
-            let sign = if (i + j) % 2 == 1 { -1.0f32 } else { 1.0 };
-            out[j * n + i] = sign * determinant(&mut minor, m);
-        }
-    }
+    let mut minor = vec![0.0f32; n.saturating_sub(1).pow(2)];
+    hyperpbd_core::geometry::adjugate(a, n, out, &mut minor);
 }
 
 /// Squared k-measure of the k-simplex `pts` (k + 1 points of `dim`
