@@ -368,3 +368,43 @@ fn a_request_can_be_withdrawn() {
     b.request_contact_forces(false).expect("withdrawn");
     assert!(b.step().expect("step").contact_forces.is_none());
 }
+
+#[test]
+fn gpu_backends_refuse_the_request_with_a_typed_reason() {
+    use common::gpu::adapter_or_skip;
+    // (GpuCoupledBackend shares the refusal: gpu/src/resident_backend.rs
+    // writes it once for every resident GPU backend.)
+    use hyperpbd::gpu::{GpuBackend, GpuBarrierBackend};
+    use hyperpbd::{BackendError, GpuError, Precision};
+    let xpbd = stack(on_floor(2, 10, 4, 0.0));
+    let mut barrier = on_floor(2, 1, 1, 0.0);
+    barrier.solver = Solver::IncrementalPotential(settings(1e8, 1e-4, 1e-10, 100));
+    barrier
+        .particles
+        .push(particle(vec![0.0, 0.10005], Some(1.0), 0.1));
+    for precision in [Precision::F32, Precision::F64] {
+        let Some((adapter, _)) = adapter_or_skip("gpu_backends_refuse_forces", precision) else {
+            continue;
+        };
+        let load = |s: &Scene| (Plan::compile(s).expect("valid"), State::from_scene(s));
+        let (p, st) = load(&xpbd);
+        let mut backends: Vec<Box<dyn Backend>> = vec![Box::new(
+            GpuBackend::with_adapter(&adapter, p, &st, precision).expect("xpbd"),
+        )];
+        let (p, st) = load(&barrier);
+        backends.push(Box::new(
+            GpuBarrierBackend::with_adapter(&adapter, p, &st, precision).expect("barrier"),
+        ));
+        for b in &mut backends {
+            match b.request_contact_forces(true) {
+                Err(BackendError::Gpu(GpuError::Unsupported { what })) => {
+                    assert!(what.contains("contact multipliers"), "{what}");
+                }
+                other => panic!("{}: {other:?}", b.name()),
+            }
+            b.request_contact_forces(false).expect("nothing to stop");
+            let report = b.step().expect("steps as before");
+            assert!(report.contact_forces.is_none());
+        }
+    }
+}
