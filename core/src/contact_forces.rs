@@ -18,6 +18,9 @@
 //! Where only obstacle contacts act, Σ_i F_i = −Σ_o F_o (every impulse is
 //! counted once on each side).
 
+// Coordinate loops index several arrays at once, as a kernel does.
+#![allow(clippy::needless_range_loop)]
+
 use crate::barrier::{BarrierLaw, BarrierObstacles, candidate_box, distance_margin};
 
 /// The contact forces of one step (each the step's impulse over dt).
