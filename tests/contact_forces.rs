@@ -206,6 +206,11 @@ fn check_incline(what: &str, f: &ContactForces, n: &[f64], theta: f64, bound: f6
         bound,
     );
     assert_close(&format!("{what}: total"), push, &weight(2, m), bound);
+    let sum = imbalance(f);
+    assert!(
+        sum.iter().all(|c| c.abs() <= 1e-12 * m * G),
+        "{what}: {sum:?}"
+    );
 }
 
 #[test]
@@ -248,6 +253,10 @@ fn a_belt_drags_a_sliding_box_with_mu_m_g() {
     let f = forces_after(&mut asking(&s, 1), 5);
     // The box pulls the belt back with μ m g and presses down with m g.
     assert_close("belt", f.obstacle(0), &[-mu * m * G, -m * G], 1e-9);
+    assert!(
+        imbalance(&f).iter().all(|c| c.abs() <= 1e-12 * m * G),
+        "{f:?}"
+    );
 }
 
 /// A scene on the incremental-potential path with a tight stop test.
@@ -407,4 +416,33 @@ fn gpu_backends_refuse_the_request_with_a_typed_reason() {
             assert!(report.contact_forces.is_none());
         }
     }
+}
+
+#[test]
+fn a_retried_step_reports_the_forces_of_its_accepted_attempt() {
+    // The adaptive drop of tests/guards.rs is accepted at 8 substeps; its
+    // forces are those of the same step run with 8 substeps from the
+    // start (the rejected attempts leave nothing behind).
+    let guards = common::guarded::orientation();
+    let retried = common::guarded::dropped_block(2, 40.0, Some(guards), Some(4));
+    let mut b = asking(&retried, 1);
+    let report = b.step().expect("accepted after retries");
+    let substeps = report.attempts.last().expect("attempts").substeps;
+    assert!(
+        report.retries() > 0 && substeps > retried.substeps,
+        "{report:?}"
+    );
+    let mut direct = common::guarded::dropped_block(2, 40.0, None, None);
+    direct.substeps = substeps;
+    let want = asking(&direct, 1).step().expect("step").contact_forces;
+    let bits = |f: &ContactForces| -> Vec<u64> {
+        f.obstacles
+            .iter()
+            .chain(&f.particles)
+            .map(|v| v.to_bits())
+            .collect()
+    };
+    let (got, want) = (report.contact_forces.expect("got"), want.expect("want"));
+    assert!(got.obstacle(0)[1] < 0.0, "the block lands: {got:?}");
+    assert_eq!(bits(&got), bits(&want));
 }
