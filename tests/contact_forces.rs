@@ -68,6 +68,15 @@ fn imbalance(f: &ContactForces) -> Vec<f64> {
     sum
 }
 
+/// Every force's bits, obstacles then particles.
+fn bits(f: &ContactForces) -> Vec<u64> {
+    f.obstacles
+        .iter()
+        .chain(&f.particles)
+        .map(|v| v.to_bits())
+        .collect()
+}
+
 /// m g of total mass `m` along −y in R^dim.
 fn weight(dim: usize, m: f64) -> Vec<f64> {
     let mut w = vec![0.0; dim];
@@ -350,13 +359,6 @@ fn forces_are_the_same_bytes_on_one_and_two_threads_and_change_nothing() {
         for _ in 0..30 {
             let (a, b, c) = (one.step(), two.step(), quiet.step().expect("quiet"));
             let (a, b) = (a.expect("one"), b.expect("two"));
-            let bits = |f: &ContactForces| -> Vec<u64> {
-                f.obstacles
-                    .iter()
-                    .chain(&f.particles)
-                    .map(|v| v.to_bits())
-                    .collect()
-            };
             let (fa, fb) = (
                 a.contact_forces.expect("one"),
                 b.contact_forces.expect("two"),
@@ -435,13 +437,6 @@ fn a_retried_step_reports_the_forces_of_its_accepted_attempt() {
     let mut direct = common::guarded::dropped_block(2, 40.0, None, None);
     direct.substeps = substeps;
     let want = asking(&direct, 1).step().expect("step").contact_forces;
-    let bits = |f: &ContactForces| -> Vec<u64> {
-        f.obstacles
-            .iter()
-            .chain(&f.particles)
-            .map(|v| v.to_bits())
-            .collect()
-    };
     let (got, want) = (report.contact_forces.expect("got"), want.expect("want"));
     assert!(got.obstacle(0)[1] < 0.0, "the block lands: {got:?}");
     assert_eq!(bits(&got), bits(&want));
