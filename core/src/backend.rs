@@ -48,6 +48,10 @@ pub struct StepReport {
     /// `device.poll` of the GPU crate: submissions waited for and buffers
     /// read back); 0 on the CPU.
     pub host_waits: u64,
+    /// Contact forces of the step (docs/collisions.md#contact-forces),
+    /// when requested with [`Backend::request_contact_forces`]; `None`
+    /// otherwise.
+    pub contact_forces: Option<crate::ContactForces>,
 }
 
 impl PartialEq for StepReport {
@@ -61,6 +65,7 @@ impl PartialEq for StepReport {
             threads,
             attempts,
             host_waits: _,
+            contact_forces,
         } = self;
         *kernel_calls == other.kernel_calls
             && *residuals == other.residuals
@@ -68,6 +73,7 @@ impl PartialEq for StepReport {
             && *minimisation == other.minimisation
             && *threads == other.threads
             && *attempts == other.attempts
+            && *contact_forces == other.contact_forces
     }
 }
 
@@ -118,6 +124,20 @@ pub trait Backend {
     /// state out inside that step's own submission, so the read waits for
     /// nothing more; the others ignore it. Results do not change.
     fn prefetch_state(&mut self) {}
+
+    /// Asks every following step to report its contact forces
+    /// ([`StepReport::contact_forces`]; `false` stops it). A backend that
+    /// cannot refuses with a typed error saying why; the default refuses.
+    /// Results do not change, and a step that was not asked pays nothing.
+    fn request_contact_forces(&mut self, on: bool) -> Result<(), BackendError> {
+        if !on {
+            return Ok(());
+        }
+        Err(BackendError::InvalidCall(format!(
+            "{} does not report contact forces (the CPU golden path does: --backend cpu)",
+            self.name()
+        )))
+    }
 }
 
 /// Checks that a replacement state fits the plan.

@@ -164,6 +164,11 @@ pub struct Plan {
     pub adaptive: Option<Adaptive>,
     /// Prescribed motions (`None`: the scene has none; nothing evaluates).
     pub motion: Option<MotionPlan>,
+    /// Per authored obstacle, the contact family that projects it on the
+    /// XPBD path (`None` on the barrier path, whose obstacles live in its
+    /// own plan, and for a plane with no dynamic particle to touch): where
+    /// contact forces are credited.
+    pub obstacle_families: Vec<Option<usize>>,
 }
 
 /// The solver a plan's substeps run: one variant per solver path.
@@ -296,6 +301,7 @@ impl Plan {
             SolverPlan::Xpbd => scene.obstacles.as_slice(),
             SolverPlan::IncrementalPotential(_) => &[],
         };
+        let mut obstacle_families = vec![None; scene.obstacles.len()];
         for (o, obstacle) in xpbd_planes.iter().enumerate() {
             let Obstacle::Hyperplane {
                 normal,
@@ -320,6 +326,7 @@ impl Plan {
                     motion: motion.clone(),
                 });
             }
+            obstacle_families[o] = Some(families.len());
             families.push(colored_family(
                 format!("obstacles[{o}]"),
                 FamilyKind::HyperplaneContact {
@@ -427,6 +434,7 @@ impl Plan {
             guards: scene.guards.clone(),
             adaptive: scene.adaptive,
             motion,
+            obstacle_families,
         })
     }
 

@@ -19,12 +19,13 @@ use hyperpbd_core::{
 
 use crate::carried::CarriedForces;
 use crate::collide::{self, Contacts};
+use crate::contact_forces::Recorder;
 use crate::integrate::{Failed, Motion};
 use crate::parallel::Workers;
 use crate::project::{Batch, Workspace, project};
+use crate::schedule::{fused_tail, splits_somewhere};
 use crate::{
-    colours, consistent, coupled, guard, incremental_potential, integrate, motion, project,
-    residual, threads,
+    colours, consistent, coupled, guard, incremental_potential, integrate, motion, threads,
 };
 use hyperpbd_core::broadphase::Aabbs;
 use hyperpbd_core::motion::SubstepMotion;
@@ -81,6 +82,8 @@ pub struct CpuBackend {
     step_count: u64,
     /// The prescribed values of the current substep (`motion.rs`).
     motion_now: SubstepMotion,
+    /// Contact forces, when requested (`contact_forces.rs`).
+    forces: Option<Recorder>,
 }
 
 impl CpuBackend {
@@ -127,6 +130,7 @@ impl CpuBackend {
             carried,
             step_count: 0,
             motion_now: SubstepMotion::default(),
+            forces: None,
         }
         .with_pool_choice())
     }
@@ -349,6 +353,7 @@ impl CpuBackend {
             minimisation: std::mem::take(&mut self.minimisation),
             attempts: Vec::new(),
             host_waits: 0,
+            contact_forces: self.forces.as_ref().map(|r| r.forces(plan.dt)),
         }
     }
 }
@@ -401,6 +406,11 @@ impl Backend for CpuBackend {
         let workers = self.workers.clone();
         workers.install(|| self.kernel(kernel))
     }
+
+    fn request_contact_forces(&mut self, on: bool) -> Result<(), BackendError> {
+        self.forces = on.then(|| Recorder::new(&self.plan));
+        Ok(())
+    }
 }
 
 impl Subdivided for CpuBackend {
@@ -441,6 +451,9 @@ impl CpuBackend {
         self.carried.save(&self.plan, &self.lambda);
         self.minimisation.clear();
         self.revertible = false;
+        if let Some(forces) = &mut self.forces {
+            forces.clear();
+        }
         if let Err(e) = self.substeps() {
             self.x.clone_from(&self.saved_x);
             self.v.clone_from(&self.saved_v);
@@ -489,13 +502,35 @@ impl CpuBackend {
             let first = usize::from(substep > 0 && self.fused_tail.is_some());
             let last = kernels - fuse_next.unwrap_or(0);
             for k in first..last {
-                self.kernel(self.plan.substep_kernels[k])?;
+                self.recorded(self.plan.substep_kernels[k])?;
+            }
+            if let Some(forces) = &mut self.forces {
+                let (lambda, starts) = (&self.lambda, &self.lambda_starts);
+                forces.end_substep(&self.plan, &self.motion_now, lambda, starts);
             }
             if fuse_next.is_some() {
                 self.velocity_then_predict()?;
             }
         }
         Ok(())
+    }
+
+    /// A kernel of the step, its contact impulses measured when requested
+    /// (`contact_forces.rs`).
+    fn recorded(&mut self, kernel: Kernel) -> Result<(), BackendError> {
+        let Some(mut forces) = self.forces.take() else {
+            return self.kernel(kernel);
+        };
+        forces.before(&self.plan, kernel, &self.x, &self.v);
+        let result = self.kernel(kernel);
+        if result.is_ok() {
+            forces.after(&self.plan, &self.motion_now, kernel, &self.x, &self.v);
+            if kernel == Kernel::Minimise {
+                forces.minimised(&self.plan, &self.coupled, &self.x);
+            }
+        }
+        self.forces = Some(forces);
+        result
     }
 
     /// `pass` (a prediction) over the particles' [`Motion`], the
@@ -536,40 +571,6 @@ impl CpuBackend {
                 Err(self.particle_error(StageName::Predict, i))
             }
         }
-    }
-}
-
-/// Whether any loop of `plan` is longer than its kernel's chunk on
-/// `workers` (so that it runs on several threads).
-fn splits_somewhere(plan: &Plan, workers: &Workers) -> bool {
-    let count = plan.particle_count();
-    let colours = plan
-        .families
-        .iter()
-        .flat_map(|f| (0..f.color_count()).map(|c| f.color(c).len()));
-    let splits = |len: usize, grain: usize| workers.splits(len, grain);
-    splits(count, integrate::PARTICLE_GRAIN)
-        || colours
-            .into_iter()
-            .any(|len| splits(len, project::ELEMENT_GRAIN))
-        || plan
-            .families
-            .iter()
-            .any(|f| splits(f.len(), residual::RESIDUAL_GRAIN))
-        || (plan.contacts.is_some() && splits(count, collide::BOX_GRAIN))
-        || (plan.incremental_potential().is_some()
-            && splits(count, incremental_potential::PARTICLE_GRAIN))
-}
-
-/// How many kernels at the end of the plan's substep fuse with the next
-/// substep's prediction: velocity (1) or velocity and damping (2), when
-/// the substep begins with the prediction and nothing else follows the
-/// velocity (friction works per contact, not per particle).
-fn fused_tail(plan: &Plan) -> Option<usize> {
-    match plan.substep_kernels.as_slice() {
-        [Kernel::Predict, .., Kernel::Velocity] => Some(1),
-        [Kernel::Predict, .., Kernel::Velocity, Kernel::Damping] => Some(2),
-        _ => None,
     }
 }
 

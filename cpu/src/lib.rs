@@ -15,6 +15,7 @@ pub mod collide;
 mod colours;
 mod consistent;
 mod constraint_force;
+mod contact_forces;
 mod coupled;
 mod dim;
 pub mod f32_reference;
@@ -27,6 +28,7 @@ mod motion;
 mod parallel;
 mod project;
 mod residual;
+mod schedule;
 mod threads;
 
 pub use backend::CpuBackend;

@@ -133,6 +133,25 @@ macro_rules! resident_backend {
                 self.state.set_forces(&self.ctx, &self.plan, forces)
             }
 
+            /// Refused: the kernels keep their contact multipliers on the
+            /// device and do not read them back (the CPU golden path
+            /// reports contact forces).
+            fn request_contact_forces(
+                &mut self,
+                on: bool,
+            ) -> Result<(), ::hyperpbd_core::BackendError> {
+                if !on {
+                    return Ok(());
+                }
+                Err(::hyperpbd_core::GpuError::Unsupported {
+                    what: format!(
+                        "contact forces on {}: the kernels do not read their contact multipliers back yet; the CPU golden path reports them (--backend cpu)",
+                        ::hyperpbd_core::Backend::name(self)
+                    ),
+                }
+                .into())
+            }
+
             $($own)*
         }
     };

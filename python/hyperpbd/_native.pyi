@@ -2,7 +2,7 @@
 
 import os
 from types import TracebackType
-from typing import Literal, Mapping, Sequence, TypedDict, Union
+from typing import Literal, Mapping, NotRequired, Sequence, TypedDict, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -35,6 +35,16 @@ class StepReport(TypedDict):
     """Attempts a guard rejected before the accepted one."""
     kernel_calls: dict[str, int]
     minimisation: list[Minimisation]
+    contact_forces: NotRequired[ContactForces]
+    """Only after `Simulation.request_contact_forces()`."""
+
+class ContactForces(TypedDict):
+    """The last frame's contact forces (impulses over dt)."""
+
+    obstacles: Float64Rows
+    """(obstacles, dim): the force the particles press on each obstacle."""
+    particles: Float64Rows
+    """(particles, dim): each particle's total contact force."""
 
 class SweepRow(TypedDict):
     """One world of `sweep`."""
@@ -113,6 +123,9 @@ class Simulation:
     def write_state(self, positions: ArrayLike, velocities: ArrayLike | None = None) -> None:
         """Replaces the state; wrong shape or a non-finite value raises
         ValueError and changes nothing."""
+    def request_contact_forces(self, on: bool = True) -> None:
+        """Every following step reports "contact_forces"; GpuError on a
+        GPU backend."""
     def set_forces(self, forces: ArrayLike) -> None:
         """Replaces the constant external forces, shape (particles, dim)."""
     def state_hash(self) -> str:

@@ -8,9 +8,13 @@
 //!  "retries": int,                         guard rejections retried
 //!  "kernel_calls": {stage: int, …},        per stage in this step
 //!  "minimisation": [{"iterations", "initial_residual", "final_residual",
-//!                    "status"}, …]}        barrier path, one per substep
+//!                    "status"}, …],        barrier path, one per substep
+//!  "contact_forces": {"obstacles": (O, N), "particles": (P, N)}
+//!                                          float64 arrays, only when requested
+//!                                          (Simulation.request_contact_forces)
 //! ```
 
+use crate::arrays::rows;
 use hyperpbd::{MinimisationStatus, StepReport};
 use pyo3::intern;
 use pyo3::prelude::*;
@@ -44,6 +48,12 @@ pub fn report_dict<'py>(py: Python<'py>, report: &StepReport) -> PyResult<Bound<
         minimisation.append(entry)?;
     }
     dict.set_item(intern!(py, "minimisation"), minimisation)?;
+    if let Some(f) = &report.contact_forces {
+        let forces = PyDict::new(py);
+        forces.set_item(intern!(py, "obstacles"), rows(py, f.obstacles.clone(), f.dim)?)?;
+        forces.set_item(intern!(py, "particles"), rows(py, f.particles.clone(), f.dim)?)?;
+        dict.set_item(intern!(py, "contact_forces"), forces)?;
+    }
     Ok(dict)
 }
 

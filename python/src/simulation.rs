@@ -7,6 +7,7 @@
 //! positions, …       Backend::read_state, one copy into numpy
 //! write_state(x, v)  checked here (shape, finite), then Backend::write_state
 //! state_hash()       State::hash as `hyperpbd run` prints it ({:016x})
+//! request_contact_forces(on)  Backend::request_contact_forces
 //! close()            drops the backend (a GPU backend's device with it)
 //! ```
 //! Locking: the backend sits behind a mutex that is only ever taken with
@@ -181,6 +182,20 @@ impl Simulation {
                 Err(err)
             }
         }
+    }
+
+    /// Asks every following step to report its contact forces (`on`:
+    /// False stops it): the report of `step` then has "contact_forces":
+    /// {"obstacles": (obstacles, dim), "particles": (particles, dim)} —
+    /// the force the particles press on each obstacle and each particle's
+    /// total contact force over the last frame. Raises GpuError on a GPU
+    /// backend (they do not report them).
+    #[pyo3(signature = (on = true))]
+    fn request_contact_forces(&self, py: Python<'_>, on: bool) -> PyResult<()> {
+        self.with_backend(py, "request_contact_forces", |b| {
+            b.request_contact_forces(on)
+        })?
+        .map_err(|e| backend_error(&e, "request_contact_forces: "))
     }
 
     /// Positions, a numpy float64 array of shape (particles, dim) (a copy).

@@ -217,3 +217,30 @@ def test_another_thread_reads_while_a_step_runs():
     worker.join()
     assert sim.frames == 30
     assert sim.positions.shape == (32 * 32, 3)
+
+
+RESTING = json.dumps(
+    {
+        "dim": 2,
+        "dt": 1.0 / 60.0,
+        "substeps": 10,
+        "iterations": 2,
+        "gravity": [0.0, -9.81],
+        "particles": [{"position": [0.0, 0.1], "mass": 2.0, "radius": 0.1}],
+        "obstacles": [{"type": "hyperplane", "normal": [0, 1], "offset": 0.0, "friction": 0.5}],
+    }
+)
+
+
+def test_contact_forces_on_request():
+    scene = hp.Scene.from_json(RESTING)
+    sim = hp.Simulation(scene, backend="cpu")
+    assert "contact_forces" not in sim.step(frames=1)
+    sim.request_contact_forces()
+    forces = sim.step(frames=30)["contact_forces"]
+    assert forces["obstacles"].shape == (1, 2) and forces["particles"].shape == (1, 2)
+    # At rest: the plane carries m g; the particle receives −m g.
+    assert abs(forces["obstacles"][0, 1] + 2.0 * 9.81) <= 1e-9 * 2.0 * 9.81
+    assert np.array_equal(forces["particles"], -forces["obstacles"])
+    sim.request_contact_forces(False)
+    assert "contact_forces" not in sim.step(frames=1)

@@ -3,8 +3,8 @@
 //! never leaves a partial file behind.
 
 use super::error::CliError;
-use hyperpbd::State;
 use hyperpbd::atomic_file::write_atomically;
+use hyperpbd::{ContactForces, State};
 use std::path::Path;
 
 /// One state record: `{"time", "frames", "positions", "velocities"}`.
@@ -14,6 +14,26 @@ pub fn state_json(time: f64, frames: u64, state: &State) -> String {
         "frames": frames,
         "positions": rows(state, &state.positions),
         "velocities": rows(state, &state.velocities),
+    })
+    .to_string()
+}
+
+/// One frame of contact forces: `{"frame", "time", "obstacles": [{"force"}],
+/// "particles"}` (round-trip f64).
+pub fn forces_json(time: f64, frame: u64, forces: &ContactForces) -> String {
+    let n = forces.dim;
+    let obstacles: Vec<serde_json::Value> = (0..forces.obstacle_count())
+        .map(|o| serde_json::json!({ "force": forces.obstacle(o) }))
+        .collect();
+    let particles: Vec<Vec<f64>> = match n {
+        0 => Vec::new(),
+        _ => forces.particles.chunks(n).map(<[f64]>::to_vec).collect(),
+    };
+    serde_json::json!({
+        "frame": frame,
+        "time": time,
+        "obstacles": obstacles,
+        "particles": particles,
     })
     .to_string()
 }

@@ -2,7 +2,7 @@
 
 use super::error::{CliError, with_sources};
 use super::load::{load_backend, load_scene, parse_backend};
-use super::output::{state_json, write_file};
+use super::output::{forces_json, state_json, write_file};
 use hyperpbd::atomic_file::AtomicFile;
 use hyperpbd::sweep::Metric;
 use hyperpbd::{Backend, BackendKind, Plan, State, StepReport};
@@ -35,6 +35,11 @@ pub struct RunArgs {
     /// Trajectory stride in frames.
     #[arg(long, default_value_t = 1, requires = "trajectory")]
     every: u64,
+    /// Write each frame's contact forces here, one JSON object per line:
+    /// per obstacle the force the particles press on it, per particle its
+    /// total contact force (docs/collisions.md#contact-forces).
+    #[arg(long)]
+    forces: Option<PathBuf>,
 }
 
 /// Steps `backend` for `frames` frames, calling `on_frame` after each.
@@ -81,6 +86,11 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let plan = Plan::compile(&scene).map_err(|e| CliError::Input(e.to_string()))?;
     let dt = plan.dt;
     let mut backend = load_backend(args.backend, plan, &State::from_scene(&scene))?;
+    if args.forces.is_some() {
+        backend
+            .request_contact_forces(true)
+            .map_err(|e| CliError::Input(format!("--forces: {}", with_sources(&e))))?;
+    }
 
     // The trajectory is written under a temporary name and committed only
     // when the whole run and `--out` succeeded: any failure drops it, and
@@ -89,6 +99,10 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         CliError::Output(format!("cannot write {}: {e}", path.display()))
     };
     let mut trajectory = match &args.trajectory {
+        Some(path) => Some(AtomicFile::create(path).map_err(|e| cannot_write(path, e))?),
+        None => None,
+    };
+    let mut forces = match &args.forces {
         Some(path) => Some(AtomicFile::create(path).map_err(|e| cannot_write(path, e))?),
         None => None,
     };
@@ -109,6 +123,10 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             writeln!(file, "{}", state_json(frame as f64 * dt, frame, &state))
                 .map_err(|e| cannot_write(file.path(), e))?;
         }
+        if let (Some(file), Some(f)) = (&mut forces, &report.contact_forces) {
+            writeln!(file, "{}", forces_json(frame as f64 * dt, frame, f))
+                .map_err(|e| cannot_write(file.path(), e))?;
+        }
         Ok(())
     })?;
     let wall = start.elapsed().as_secs_f64();
@@ -120,7 +138,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             (state_json(time, args.frames, &state) + "\n").as_bytes(),
         )?;
     }
-    if let Some(file) = trajectory {
+    for file in [trajectory, forces].into_iter().flatten() {
         let path = file.path().to_path_buf();
         file.commit().map_err(|e| cannot_write(&path, e))?;
     }

@@ -9,6 +9,7 @@ mod common;
 mod bad_input;
 mod commands;
 mod compare;
+mod forces;
 mod output_errors;
 mod run;
 mod sweep;

@@ -463,6 +463,23 @@ impl Elements {
         }
     }
 
+    /// The contact elements' (ball barriers', pair friction's) gradients
+    /// from the records: `each` receives (particle, ∇_k E_e), element by
+    /// element, member by member.
+    pub fn contact_gradients(&self, dim: usize, mut each: impl FnMut(usize, &[f64])) {
+        let stride = self.record_len(dim);
+        for (e, kind) in self.kinds.iter().enumerate() {
+            match kind {
+                Kind::Ball | Kind::Friction { .. } => {}
+                Kind::Spring { .. } | Kind::Material { .. } => continue,
+            }
+            for (local, &k) in self.lists.members(e).iter().enumerate() {
+                let at = e * stride + 3 + local * dim;
+                each(k as usize, &self.records[at..at + dim]);
+            }
+        }
+    }
+
     /// E_e(y) − E_e(x) per element into `changes` (length `len()`), from
     /// the records at x. A non-finite change means y is infeasible.
     pub fn changes(&self, workers: &Workers, terms: &Terms<'_>, y: &[f64], changes: &mut Vec<f64>) {

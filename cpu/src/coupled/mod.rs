@@ -29,6 +29,7 @@
 // Index loops mirror the math line by line.
 #![allow(clippy::needless_range_loop)]
 
+mod contacts;
 mod elements;
 mod gradient_at;
 mod particles;
@@ -37,6 +38,7 @@ mod setup;
 mod tests;
 
 use crate::parallel::Workers;
+pub(crate) use contacts::contact_impulses;
 use elements::{Elements, Terms};
 pub use gradient_at::coupled_gradient;
 use hyperpbd_core::IncrementalPotentialPlan;

@@ -1,0 +1,264 @@
+//! Contact forces on the golden path, when a step is asked for them
+//! (core's `contact_forces.rs` has the definition). Nothing here runs
+//! otherwise, and nothing here writes the state: the kernels are the
+//! same calls with or without it.
+//!
+//! ```text
+//! XPBD, per substep (h):
+//!   hyperplane family of obstacle o, element e (particle i), at the substep's end:
+//!     J_i += n λ_e / h,  F_o −= n λ_e / h           (λ_e: the substep's multiplier; n the
+//!                                                   plane's normal in this substep)
+//!   around each Project call of a plane with μ > 0 (static friction in the position solve):
+//!     Δ = x_i(after) − x_i(before);  J_i += m_i (Δ − (n·Δ) n) / h   (its tangential move;
+//!     the normal move is w n Δλ, counted by λ above), reaction on o
+//!   around each Friction call (dynamic friction, a velocity change):
+//!     J_i += m_i (v_i(after) − v_i(before)), reaction on o
+//!   around each Collide call (particle–particle, averaged Jacobi moves):
+//!     J_i += m_i (x_i(after) − x_i(before)) / h    (dynamic particles)
+//! barrier path, per substep at the accepted iterate x:
+//!   J_i += −b'(d_io) ∇d_io h for every active obstacle o, reaction on o
+//! the step's end:  F = J / dt
+//! ```
+//! Fixed particles never move, so on the XPBD path their particle contacts
+//! report 0 (obstacle families hold dynamic particles only).
+
+use hyperpbd_core::contact_forces::barrier_forces;
+use hyperpbd_core::motion::SubstepMotion;
+use hyperpbd_core::{ContactForces, FamilyKind, IncrementalPotentialPlan, Kernel, Plan};
+
+/// The impulses of the step so far, and the snapshot of the kernel
+/// being measured.
+#[derive(Debug, Clone)]
+pub(crate) struct Recorder {
+    impulses: ContactForces,
+    before: Vec<f64>,
+}
+
+/// What a kernel moves that the recorder measures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Measured {
+    /// Positions of a plane family with friction (static friction).
+    PlanePositions { family: usize },
+    /// Velocities of a plane family (dynamic friction).
+    PlaneVelocities { family: usize },
+    /// Every position (particle contact).
+    Positions,
+}
+
+impl Recorder {
+    /// Zero impulses for `plan`'s obstacles and particles.
+    pub fn new(plan: &Plan) -> Self {
+        Recorder {
+            impulses: ContactForces::zeros(
+                plan.dim,
+                plan.obstacle_families.len(),
+                plan.particle_count(),
+            ),
+            before: Vec::new(),
+        }
+    }
+
+    /// Starts a step (an attempt of one).
+    pub fn clear(&mut self) {
+        self.impulses.clear();
+    }
+
+    /// The forces of the step that just ended (impulses over `dt`).
+    pub fn forces(&self, dt: f64) -> ContactForces {
+        let mut forces = self.impulses.clone();
+        forces.per_time(dt);
+        forces
+    }
+
+    /// Snapshots what `kernel` will move, when it is measured.
+    pub fn before(&mut self, plan: &Plan, kernel: Kernel, x: &[f64], v: &[f64]) {
+        let n = plan.dim;
+        self.before.clear();
+        match measured(plan, kernel) {
+            Some(Measured::PlanePositions { family }) => {
+                gather(&plan.families[family].elements, n, x, &mut self.before)
+            }
+            Some(Measured::PlaneVelocities { family }) => {
+                gather(&plan.families[family].elements, n, v, &mut self.before)
+            }
+            Some(Measured::Positions) => self.before.extend_from_slice(x),
+            None => {}
+        }
+    }
+
+    /// Adds the impulses `kernel` applied (after [`Recorder::before`]).
+    pub fn after(
+        &mut self,
+        plan: &Plan,
+        now: &SubstepMotion,
+        kernel: Kernel,
+        x: &[f64],
+        v: &[f64],
+    ) {
+        let (n, h) = (plan.dim, plan.h);
+        let mut j = vec![0.0; n];
+        match measured(plan, kernel) {
+            Some(Measured::PlanePositions { family }) => {
+                let (o, normal) = (obstacle_of(plan, family), normal_of(plan, now, family));
+                for (e, &i) in plan.families[family].elements.iter().enumerate() {
+                    let i = i as usize;
+                    let m = 1.0 / plan.inverse_mass[i];
+                    let moved = |a: usize| x[i * n + a] - self.before[e * n + a];
+                    let along: f64 = (0..n).map(|a| moved(a) * normal[a]).sum();
+                    for a in 0..n {
+                        j[a] = m * (moved(a) - along * normal[a]) / h;
+                    }
+                    add(&mut self.impulses, o, i, &j);
+                }
+            }
+            Some(Measured::PlaneVelocities { family }) => {
+                let o = obstacle_of(plan, family);
+                for (e, &i) in plan.families[family].elements.iter().enumerate() {
+                    let i = i as usize;
+                    let m = 1.0 / plan.inverse_mass[i];
+                    for a in 0..n {
+                        j[a] = m * (v[i * n + a] - self.before[e * n + a]);
+                    }
+                    add(&mut self.impulses, o, i, &j);
+                }
+            }
+            Some(Measured::Positions) => {
+                for (i, &w) in plan.inverse_mass.iter().enumerate() {
+                    if w == 0.0 {
+                        continue;
+                    }
+                    for a in 0..n {
+                        j[a] = (x[i * n + a] - self.before[i * n + a]) / w / h;
+                    }
+                    self.impulses.add_particle_impulse(i, &j);
+                }
+            }
+            None => {}
+        }
+    }
+
+    /// The normal impulses n λ / h of the substep that just ended, from
+    /// every plane family's multipliers (`lambda` of family f at
+    /// `lambda[starts[f]..starts[f + 1]]`).
+    pub fn end_substep(
+        &mut self,
+        plan: &Plan,
+        now: &SubstepMotion,
+        lambda: &[f64],
+        starts: &[usize],
+    ) {
+        let (n, h) = (plan.dim, plan.h);
+        let mut j = vec![0.0; n];
+        for (o, family) in plan.obstacle_families.iter().enumerate() {
+            let Some(family) = *family else { continue };
+            let normal = normal_of(plan, now, family);
+            let elements = &plan.families[family].elements;
+            for (&i, &l) in elements
+                .iter()
+                .zip(&lambda[starts[family]..starts[family + 1]])
+            {
+                if l == 0.0 {
+                    continue;
+                }
+                for a in 0..n {
+                    j[a] = normal[a] * l / h;
+                }
+                self.impulses.add_obstacle_impulse(o, i as usize, &j);
+            }
+        }
+    }
+
+    /// The barrier path's contact impulses at the accepted iterate `x` of
+    /// a substep (`coupled`: the coupled step's scratch, which holds its
+    /// lags and element records at `x`).
+    pub fn minimised(&mut self, plan: &Plan, coupled: &crate::coupled::Workspace, x: &[f64]) {
+        let Some(ip) = plan.incremental_potential() else {
+            return;
+        };
+        self.barriers(plan, ip, x);
+        if ip.coupled.is_some() {
+            crate::coupled::contact_impulses(plan, ip, coupled, x, &mut self.impulses);
+        }
+    }
+
+    /// The barrier path's obstacle impulses −∇B h at the accepted iterate
+    /// `x` of a substep (every dynamic particle).
+    fn barriers(&mut self, plan: &Plan, ip: &IncrementalPotentialPlan, x: &[f64]) {
+        let (n, h) = (plan.dim, plan.h);
+        let mut j = vec![0.0; n];
+        for (i, &w) in plan.inverse_mass.iter().enumerate() {
+            if w == 0.0 {
+                continue;
+            }
+            let xi = &x[i * n..(i + 1) * n];
+            barrier_forces(&ip.law, &ip.obstacles, xi, plan.radius[i], |o, force| {
+                for a in 0..n {
+                    j[a] = force[a] * h;
+                }
+                self.impulses.add_obstacle_impulse(o, i, &j);
+            });
+        }
+    }
+}
+
+/// What `kernel` moves that is measured, if anything.
+fn measured(plan: &Plan, kernel: Kernel) -> Option<Measured> {
+    match kernel {
+        Kernel::Project { family, .. } => match &plan.families[family].kind {
+            FamilyKind::HyperplaneContact { friction, .. } if *friction > 0.0 => {
+                Some(Measured::PlanePositions { family })
+            }
+            _ => None,
+        },
+        Kernel::Friction { family } => Some(Measured::PlaneVelocities { family }),
+        Kernel::Collide => Some(Measured::Positions),
+        Kernel::Motion
+        | Kernel::Predict
+        | Kernel::Velocity
+        | Kernel::Damping
+        | Kernel::Broadphase
+        | Kernel::Minimise
+        | Kernel::GuardMeasure { .. }
+        | Kernel::GuardSpeed => None,
+    }
+}
+
+/// The authored obstacle of plane family `family` (every plane family
+/// has one in a compiled plan).
+fn obstacle_of(plan: &Plan, family: usize) -> Option<usize> {
+    plan.obstacle_families
+        .iter()
+        .position(|&f| f == Some(family))
+}
+
+/// The unit normal of plane family `family` in this substep.
+fn normal_of<'a>(plan: &'a Plan, now: &'a SubstepMotion, family: usize) -> &'a [f64] {
+    if let Some(plane) = crate::motion::plane(plan, now, family) {
+        return &plane.normal;
+    }
+    match &plan.families[family].kind {
+        FamilyKind::HyperplaneContact { normal, .. } => normal,
+        FamilyKind::Distance
+        | FamilyKind::Tether
+        | FamilyKind::SimplexMeasure { .. }
+        | FamilyKind::OrientedMeasure
+        | FamilyKind::Material { .. }
+        | FamilyKind::Expression(_) => &[],
+    }
+}
+
+/// Impulse `j` on particle i from obstacle `o` (its reaction on o).
+fn add(impulses: &mut ContactForces, o: Option<usize>, i: usize, j: &[f64]) {
+    match o {
+        Some(o) => impulses.add_obstacle_impulse(o, i, j),
+        None => impulses.add_particle_impulse(i, j),
+    }
+}
+
+/// The values of `particles` (N each) from `values` into `out`.
+fn gather(particles: &[u32], n: usize, values: &[f64], out: &mut Vec<f64>) {
+    for &i in particles {
+        let i = i as usize;
+        out.extend_from_slice(&values[i * n..(i + 1) * n]);
+    }
+}
