@@ -57,12 +57,18 @@ fn assert_close(what: &str, got: &[f64], want: &[f64], bound: f64) {
     assert!(r <= bound, "{what}: {got:?} vs {want:?}, relative {r:.3e}");
 }
 
-/// Σ_i F_i + Σ_o F_o (0 where only obstacle contacts act).
+/// Σ_i F_i − Σ_o F_o (0 where only obstacle contacts act: every
+/// particle's contact force is some obstacle's force on it).
 fn imbalance(f: &ContactForces) -> Vec<f64> {
     let mut sum = vec![0.0; f.dim];
-    for chunk in f.particles.chunks(f.dim).chain(f.obstacles.chunks(f.dim)) {
+    for chunk in f.particles.chunks(f.dim) {
         for (s, c) in sum.iter_mut().zip(chunk) {
             *s += c;
+        }
+    }
+    for chunk in f.obstacles.chunks(f.dim) {
+        for (s, c) in sum.iter_mut().zip(chunk) {
+            *s -= c;
         }
     }
     sum
@@ -82,6 +88,11 @@ fn weight(dim: usize, m: f64) -> Vec<f64> {
     let mut w = vec![0.0; dim];
     w[1] = -m * G;
     w
+}
+
+/// The force holding up a total mass `m` at rest: −m g (along +y).
+fn support(dim: usize, m: f64) -> Vec<f64> {
+    weight(dim, m).iter().map(|c| -c).collect()
 }
 
 /// Gravity −G along y, the plane y = 0 (friction μ), no particles.
@@ -120,13 +131,13 @@ fn a_box_at_rest_on_a_plane_presses_on_it_with_its_weight_xpbd() {
     assert_close(
         "xpbd box: obstacle force = m g",
         f.obstacle(0),
-        &weight(2, 2.0),
+        &support(2, 2.0),
         1e-9,
     );
     let top: f64 = (2..4).map(|i| f.particle(i)[1].abs()).sum();
     assert_eq!(top, 0.0, "the top corners touch nothing: {f:?}");
     let sum = imbalance(&f);
-    println!("xpbd box: Σ particles + Σ obstacles = {sum:?}");
+    println!("xpbd box: Σ particles − Σ obstacles = {sum:?}");
     assert!(sum.iter().all(|c| c.abs() <= 1e-12 * 2.0 * G), "{sum:?}");
 }
 
@@ -141,7 +152,7 @@ fn one_particle_at_rest_reports_m_g_in_every_dimension_xpbd() {
         assert_close(
             &format!("R^{dim} particle"),
             f.obstacle(0),
-            &weight(dim, 3.0),
+            &support(dim, 3.0),
             1e-9,
         );
         let minus: Vec<f64> = weight(dim, 3.0).iter().map(|c| -c).collect();
@@ -171,7 +182,7 @@ fn check_stack(what: &str, f: &ContactForces) {
     assert_close(
         &format!("{what}: floor"),
         f.obstacle(0),
-        &weight(2, 3.0),
+        &support(2, 3.0),
         1e-9,
     );
     assert_close(&format!("{what}: B"), f.particle(1), &[0.0, 2.0 * G], 1e-9);
@@ -197,9 +208,11 @@ fn incline(s: Scene, theta: f64, mu: f64) -> (Scene, Vec<f64>) {
 }
 
 fn check_incline(what: &str, f: &ContactForces, n: &[f64], theta: f64, bound: f64) {
+    // The plane's force on the particle: n m g cos θ, and friction up the
+    // slope m g sin θ.
     let (m, push) = (1.5, f.obstacle(0));
-    let normal = -(push[0] * n[0] + push[1] * n[1]);
-    let along = [-n[1], n[0]]; // down the slope
+    let normal = push[0] * n[0] + push[1] * n[1];
+    let along = [n[1], -n[0]]; // up the slope
     let friction = push[0] * along[0] + push[1] * along[1];
     println!("{what}: normal {normal}, friction {friction}");
     assert_close(
@@ -214,7 +227,7 @@ fn check_incline(what: &str, f: &ContactForces, n: &[f64], theta: f64, bound: f6
         &[m * G * theta.sin()],
         bound,
     );
-    assert_close(&format!("{what}: total"), push, &weight(2, m), bound);
+    assert_close(&format!("{what}: total"), push, &support(2, m), bound);
     let sum = imbalance(f);
     assert!(
         sum.iter().all(|c| c.abs() <= 1e-12 * m * G),
@@ -246,7 +259,7 @@ fn a_plane_rising_at_constant_speed_carries_the_weight_xpbd() {
     s.obstacles = vec![plane(vec![0.0, 1.0], 0.0, lift)];
     s.particles.push(particle(vec![0.0, 0.1], Some(2.0), 0.1));
     let f = forces_after(&mut asking(&s, 1), 60);
-    assert_close("rising plane", f.obstacle(0), &weight(2, 2.0), 1e-9);
+    assert_close("rising plane", f.obstacle(0), &support(2, 2.0), 1e-9);
 }
 
 #[test]
@@ -260,8 +273,8 @@ fn a_belt_drags_a_sliding_box_with_mu_m_g() {
     s.obstacles = vec![plane(vec![0.0, 1.0], mu, belt)];
     s.particles.push(particle(vec![0.0, 0.1], Some(m), 0.1));
     let f = forces_after(&mut asking(&s, 1), 5);
-    // The box pulls the belt back with μ m g and presses down with m g.
-    assert_close("belt", f.obstacle(0), &[-mu * m * G, -m * G], 1e-9);
+    // The belt drags the box forward with μ m g and holds it up with m g.
+    assert_close("belt", f.obstacle(0), &[mu * m * G, m * G], 1e-9);
     assert!(
         imbalance(&f).iter().all(|c| c.abs() <= 1e-12 * m * G),
         "{f:?}"
@@ -287,7 +300,7 @@ fn a_particle_at_rest_on_a_barrier_reports_m_g() {
         .push(particle(vec![0.0, 0.10005, 0.0], Some(m), 0.1));
     let mut b = asking(&s, 1);
     let f = forces_after(&mut b, 120);
-    assert_close("barrier particle", f.obstacle(0), &weight(3, m), 1e-9);
+    assert_close("barrier particle", f.obstacle(0), &support(3, m), 1e-9);
     assert_close(
         "barrier particle's own",
         f.particle(0),
@@ -297,7 +310,7 @@ fn a_particle_at_rest_on_a_barrier_reports_m_g() {
     let report = b.step().expect("step");
     let stop = report.minimisation[0].final_residual.expect("a residual");
     let f = report.contact_forces.expect("forces");
-    let error = (f.obstacle(0)[1] + m * G).abs();
+    let error = (f.obstacle(0)[1] - m * G).abs();
     println!("|F − m g| = {error:.3e} N, m r_final = {:.3e} N", m * stop);
     assert!(
         error <= m * stop * (1.0 + 1e-6) + 1e-13 * m * G,
@@ -313,7 +326,7 @@ fn a_spring_box_at_rest_reports_m_g_on_the_coupled_path() {
         p.position[1] += 0.005;
     }
     let f = forces_after(&mut asking(&s, 1), 240);
-    assert_close("coupled box", f.obstacle(0), &weight(2, 2.0), 1e-9);
+    assert_close("coupled box", f.obstacle(0), &support(2, 2.0), 1e-9);
     assert!(
         imbalance(&f).iter().all(|c| c.abs() <= 1e-9 * 2.0 * G),
         "{f:?}"
@@ -438,6 +451,6 @@ fn a_retried_step_reports_the_forces_of_its_accepted_attempt() {
     direct.substeps = substeps;
     let want = asking(&direct, 1).step().expect("step").contact_forces;
     let (got, want) = (report.contact_forces.expect("got"), want.expect("want"));
-    assert!(got.obstacle(0)[1] < 0.0, "the block lands: {got:?}");
+    assert!(got.obstacle(0)[1] > 0.0, "the block lands: {got:?}");
     assert_eq!(bits(&got), bits(&want));
 }

@@ -4,9 +4,10 @@
 //! ```text
 //! particle i   F_i = (Σ over the step's substeps of the contact impulse J_i,s) / dt
 //!              J = every obstacle contact and particle–particle contact, normal and friction
-//! obstacle o   F_o = −Σ_i (obstacle o's part of J_i,s) / dt
-//!              the force the particles press on the obstacle (its reaction):
-//!              a mass m at rest on a plane gives F_o = m g, F_i = −m g
+//! obstacle o   F_o = Σ_i (obstacle o's part of J_i,s) / dt
+//!              obstacle o's total contact force on the particles (issue 31):
+//!              a mass m at rest on a plane gives F_o = F_i = −m g (up; the
+//!              particles press on the obstacle with −F_o)
 //! XPBD         hyperplane contact, per substep:  J = ∇C λ / h = n λ / h   (λ the substep's
 //!              accumulated multiplier: x moved by w n λ, so m Δx / h = n λ / h)
 //!              static friction (position solve) J += m Δx_t / h (the tangential move it made)
@@ -15,7 +16,7 @@
 //! barrier      per substep at the accepted iterate x:  J = −∇E(x) h, E the barriers'
 //!              and the lagged friction's energy (U's contact part; F = ½‖x − x~‖²_M + h² U)
 //! ```
-//! Where only obstacle contacts act, Σ_i F_i = −Σ_o F_o (every impulse is
+//! Where only obstacle contacts act, Σ_i F_i = Σ_o F_o (every impulse is
 //! counted once on each side).
 
 // Coordinate loops index several arrays at once, as a kernel does.
@@ -28,8 +29,8 @@ use crate::barrier::{BarrierLaw, BarrierObstacles, candidate_box, distance_margi
 pub struct ContactForces {
     /// Dimension N.
     pub dim: usize,
-    /// Obstacle o's force (the particles' push on it) at `o·N..(o + 1)·N`,
-    /// one per authored obstacle.
+    /// Obstacle o's force on the particles at `o·N..(o + 1)·N`, one per
+    /// authored obstacle (the particles push on it with the opposite).
     pub obstacles: Vec<f64>,
     /// Particle i's total contact force at `i·N..(i + 1)·N`.
     pub particles: Vec<f64>,
@@ -60,12 +61,12 @@ impl ContactForces {
         &self.particles[i * self.dim..(i + 1) * self.dim]
     }
 
-    /// Adds impulse `j` to particle i and its reaction to obstacle o.
+    /// Adds impulse `j` of obstacle o on particle i to both.
     pub fn add_obstacle_impulse(&mut self, o: usize, i: usize, j: &[f64]) {
         let n = self.dim;
         for a in 0..n {
             self.particles[i * n + a] += j[a];
-            self.obstacles[o * n + a] -= j[a];
+            self.obstacles[o * n + a] += j[a];
         }
     }
 

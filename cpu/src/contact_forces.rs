@@ -10,13 +10,13 @@
 //!                                                   plane's normal in this substep)
 //!   around each Project call of a plane with μ > 0 (static friction in the position solve):
 //!     Δ = x_i(after) − x_i(before);  J_i += m_i (Δ − (n·Δ) n) / h   (its tangential move;
-//!     the normal move is w n Δλ, counted by λ above), reaction on o
+//!     the normal move is w n Δλ, counted by λ above), also on o
 //!   around each Friction call (dynamic friction, a velocity change):
-//!     J_i += m_i (v_i(after) − v_i(before)), reaction on o
+//!     J_i += m_i (v_i(after) − v_i(before)), also on o
 //!   around each Collide call (particle–particle, averaged Jacobi moves):
 //!     J_i += m_i (x_i(after) − x_i(before)) / h    (dynamic particles)
 //! barrier path, per substep at the accepted iterate x:
-//!   J_i += −b'(d_io) ∇d_io h for every active obstacle o, reaction on o
+//!   J_i += −b'(d_io) ∇d_io h for every active obstacle o, also on o
 //! the step's end:  F = J / dt
 //! ```
 //! Fixed particles never move, so on the XPBD path their particle contacts
@@ -247,7 +247,7 @@ fn normal_of<'a>(plan: &'a Plan, now: &'a SubstepMotion, family: usize) -> &'a [
     }
 }
 
-/// Impulse `j` on particle i from obstacle `o` (its reaction on o).
+/// Impulse `j` on particle i from obstacle `o` (counted on both).
 fn add(impulses: &mut ContactForces, o: Option<usize>, i: usize, j: &[f64]) {
     match o {
         Some(o) => impulses.add_obstacle_impulse(o, i, j),

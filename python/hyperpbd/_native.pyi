@@ -42,7 +42,7 @@ class ContactForces(TypedDict):
     """The last frame's contact forces (impulses over dt)."""
 
     obstacles: Float64Rows
-    """(obstacles, dim): the force the particles press on each obstacle."""
+    """(obstacles, dim): each obstacle's total contact force on the particles."""
     particles: Float64Rows
     """(particles, dim): each particle's total contact force."""
 

@@ -36,7 +36,7 @@ pub struct RunArgs {
     #[arg(long, default_value_t = 1, requires = "trajectory")]
     every: u64,
     /// Write each frame's contact forces here, one JSON object per line:
-    /// per obstacle the force the particles press on it, per particle its
+    /// per obstacle its total contact force on the particles, per particle its
     /// total contact force (docs/collisions.md#contact-forces).
     #[arg(long)]
     forces: Option<PathBuf>,

@@ -72,10 +72,10 @@ fn run_writes_each_frames_contact_forces() {
             assert_eq!(numbers(row), want, "frame {k} particle {i}");
         }
     }
-    // At rest on the floor: the floor carries 2 kg · g; the wall nothing.
+    // At rest on the floor: the floor holds up 2 kg · g; the wall nothing.
     let last: Value = serde_json::from_str(lines[29]).expect("JSON");
     let floor = last["obstacles"][0]["force"][1].as_f64().expect("number");
-    assert!((floor + 2.0 * 9.81).abs() <= 1e-9 * 2.0 * 9.81, "{floor}");
+    assert!((floor - 2.0 * 9.81).abs() <= 1e-9 * 2.0 * 9.81, "{floor}");
     assert_eq!(last["obstacles"][1]["force"][0].as_f64(), Some(0.0));
 }
 

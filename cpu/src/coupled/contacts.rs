@@ -4,7 +4,7 @@
 //!
 //! ```text
 //! plane lag (particle i, plane o):  J_i += −∇D(x_i) h    (D the lagged friction energy),
-//!                                   its reaction on o
+//!                                   also on o
 //! ball / pair-friction element e:   J_k += −∇_k E_e(x) h for each member k
 //! ```
 //! The records hold every element at the accepted iterate: the minimiser

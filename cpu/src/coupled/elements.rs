@@ -20,6 +20,7 @@
 // Index loops mirror the math line by line.
 #![allow(clippy::needless_range_loop)]
 
+mod contact_gradients;
 mod materials;
 
 use crate::parallel::Workers;
@@ -459,23 +460,6 @@ impl Elements {
             };
             for a in 0..dim {
                 out[a] += values[a];
-            }
-        }
-    }
-
-    /// The contact elements' (ball barriers', pair friction's) gradients
-    /// from the records: `each` receives (particle, ∇_k E_e), element by
-    /// element, member by member.
-    pub fn contact_gradients(&self, dim: usize, mut each: impl FnMut(usize, &[f64])) {
-        let stride = self.record_len(dim);
-        for (e, kind) in self.kinds.iter().enumerate() {
-            match kind {
-                Kind::Ball | Kind::Friction { .. } => {}
-                Kind::Spring { .. } | Kind::Material { .. } => continue,
-            }
-            for (local, &k) in self.lists.members(e).iter().enumerate() {
-                let at = e * stride + 3 + local * dim;
-                each(k as usize, &self.records[at..at + dim]);
             }
         }
     }
