@@ -8,7 +8,7 @@ mod common;
 use common::Lcg;
 use hyperpbd::builders::GridSpec;
 use hyperpbd::core::expr::Columns;
-use hyperpbd::kinds::ExpressionKind;
+use hyperpbd::kinds::{BendingModel, ExpressionKind};
 use hyperpbd::{
     Backend, ConstraintFamily, ConstraintKind, CpuBackend, FamilyKind, Particle, Plan, Scene,
     SceneBuilder, State,
@@ -206,7 +206,9 @@ fn the_cloth_builder_adds_one_hinge_per_interior_edge() {
         .substeps(10)
         .gravity_along(1, 9.81);
     let grid = b.grid(&GridSpec::cloth(5, 4, 0.1, 1.0));
-    let family = b.grid_bending(&grid, 1e-3).expect("a 2-grid has hinges");
+    let family = b
+        .grid_bending(&grid, 1e-3, BendingModel::Cosine)
+        .expect("a 2-grid has hinges");
     let scene = b.build().expect("valid");
     let elements = &scene.constraints[family].elements;
     // (na−1)(nb−1) diagonals + (na−1)(nb−2) + (na−2)(nb−1) grid edges.
