@@ -141,7 +141,7 @@ pub(super) fn rest_problem(model: BendingModel, rest: f64) -> Option<&'static st
             (!(-1.0..=1.0).contains(&rest)).then_some("a fold's rest cosine must be in [-1, 1]")
         }
         BendingModel::Quadratic => {
-            (rest < 0.0).then_some("a quadratic hinge's rest |v| is a norm: it must be >= 0")
+            (rest < 0.0).then_some("a quadratic hinge's rest is a norm (of v): it must be >= 0")
         }
     }
 }
