@@ -44,9 +44,7 @@ const REFINEMENTS: [usize; 4] = [8, 16, 32, 64];
 /// `model` at compliance `alpha`; (scene, bending family index).
 fn strip(n: usize, model: BendingModel, alpha: f64) -> (Scene, usize) {
     let h = LENGTH / n as f64;
-    let mut b = SceneBuilder::new(3)
-        .dt(1.0 / 60.0)
-        .gravity_along(1, 9.81);
+    let mut b = SceneBuilder::new(3).dt(1.0 / 60.0).gravity_along(1, 9.81);
     let grid = b.grid(&GridSpec {
         counts: vec![n + 1, 2],
         axes: vec![0, 2],
@@ -103,7 +101,11 @@ fn on_cylinder(scene: &Scene, kappa: f64) -> Vec<f64> {
         let t = kappa * p[0];
         [t.sin() / kappa, (1.0 - t.cos()) / kappa, p[2]]
     };
-    scene.particles.iter().flat_map(|p| bend(&p.position)).collect()
+    scene
+        .particles
+        .iter()
+        .flat_map(|p| bend(&p.position))
+        .collect()
 }
 
 /// The static equilibrium of the clamped strip under gravity, found by
@@ -128,7 +130,11 @@ fn cantilever(n: usize, model: BendingModel, alpha: f64) -> (f64, f64, usize, f6
             free += 3;
         }
     }
-    let mut x: Vec<f64> = scene.particles.iter().flat_map(|p| p.position.clone()).collect();
+    let mut x: Vec<f64> = scene
+        .particles
+        .iter()
+        .flat_map(|p| p.position.clone())
+        .collect();
     let FamilyKind::Expression(kind) = &plan.families[family].kind else {
         panic!("bending is an expression family")
     };
@@ -142,7 +148,10 @@ fn cantilever(n: usize, model: BendingModel, alpha: f64) -> (f64, f64, usize, f6
         if norm < 1e-8 {
             break;
         }
-        assert!(iterations < 1000, "n {n} {model:?}: |∇U| = {norm:e} after 1000 steps");
+        assert!(
+            iterations < 1000,
+            "n {n} {model:?}: |∇U| = {norm:e} after 1000 steps"
+        );
         iterations += 1;
         let mut damped = hessian.clone();
         for d in 0..free {
@@ -170,7 +179,12 @@ fn cantilever(n: usize, model: BendingModel, alpha: f64) -> (f64, f64, usize, f6
         .filter(|&i| (scene.particles[i].position[0] - LENGTH).abs() < 1e-9)
         .collect();
     let drop = -tip.iter().map(|&i| x[3 * i + 1]).sum::<f64>() / tip.len() as f64;
-    (drop, bending_energy(&plan, family, &x, alpha), iterations, ms)
+    (
+        drop,
+        bending_energy(&plan, family, &x, alpha),
+        iterations,
+        ms,
+    )
 }
 
 /// Stiffness of the links' penalty, N/m (the strip weighs 0.98 N: links
@@ -230,7 +244,9 @@ fn assemble(
                     K_S * (n[a] * n[b] + t.max(0.0) * (eye - n[a] * n[b]))
                 };
                 let sign = |p: usize| if p < 3 { -1.0 } else { 1.0 };
-                add(members, &ge, &|p, q| sign(p) * sign(q) * block(p % 3, q % 3));
+                add(members, &ge, &|p, q| {
+                    sign(p) * sign(q) * block(p % 3, q % 3)
+                });
                 continue;
             }
             let FamilyKind::Expression(kind) = &fam.kind else {
@@ -321,10 +337,7 @@ fn settling(ns: &[usize], ys: &[f64]) -> f64 {
 }
 
 fn main() {
-    let models = [
-        (BendingModel::Cosine, 1e-4),
-        (BendingModel::Quadratic, 0.2),
-    ];
+    let models = [(BendingModel::Cosine, 1e-4), (BendingModel::Quadratic, 0.2)];
     println!("## Bent in place: κ = 1/m, energy per unit stiffness Σ ½ (C − rest)²\n");
     println!("| n | hinges | cosine | quadratic | quadratic limit ½·3w·L·κ² |");
     println!("|---|---|---|---|---|");
@@ -336,7 +349,12 @@ fn main() {
             let (scene, family) = strip(n, model, 1.0);
             let plan = Plan::compile(&scene).expect("compiles");
             hinges = plan.families[family].len();
-            columns[m].push(bending_energy(&plan, family, &on_cylinder(&scene, 1.0), 1.0));
+            columns[m].push(bending_energy(
+                &plan,
+                family,
+                &on_cylinder(&scene, 1.0),
+                1.0,
+            ));
         }
         let k = columns[0].len() - 1;
         println!(

@@ -380,7 +380,9 @@ fn gauss_newton(
             lin += ws.grad[k] * (sc.anchor[k] - ws.points[k]);
         }
     }
-    if wsum == 0.0 {
+    // ∇C zero or undefined (an expression's norm at 0): no response, the
+    // standard update's rule.
+    if wsum == 0.0 || !wsum.is_finite() {
         return 0.0;
     }
     let l = clamp(batch.family, -lin / (wsum + batch.alpha_tilde));

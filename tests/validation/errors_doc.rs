@@ -287,15 +287,20 @@ fn expression_catalogue() -> Vec<String> {
                 "elements": [[0, 1, 2, 3]]{extra}}}]}}"#
         )
     };
-    for (x2, extra) in [
-        ("[0.5, 0, 0]", ""),
-        ("[0.5, 1, 0]", r#", "rest": [-0.5]"#),
-    ] {
+    for (x2, extra) in [("[0.5, 0, 0]", ""), ("[0.5, 1, 0]", r#", "rest": [-0.5]"#)] {
         let text = hinge(x2, extra);
-        out.push(Scene::from_json_str(&text).expect_err("rejected").to_string());
+        out.push(
+            Scene::from_json_str(&text)
+                .expect_err("rejected")
+                .to_string(),
+        );
     }
     let text = hinge("[0.5, 1, 0]", "").replace("quadratic", "linear");
-    out.push(Scene::from_json_str(&text).expect_err("rejected").to_string());
+    out.push(
+        Scene::from_json_str(&text)
+            .expect_err("rejected")
+            .to_string(),
+    );
     // A value that turns non-finite during a step.
     use hyperpbd::Backend;
     let mut s = base();

@@ -269,7 +269,7 @@ fn gauss_newton(
     }
     let mut l = 0.0f32;
     let mut out = vec![0.0f32; count];
-    if wsum != 0.0 {
+    if wsum != 0.0 && wsum.is_finite() {
         l = clamp(relation, -lin / (wsum + c.alpha_tilde));
         for k in 0..count {
             out[k] = s.w[element[k / n] as usize] * grad[k] * l;

@@ -233,7 +233,7 @@ fn expression{k}_primal(t: u32) {{
     var l: real = 0.0;
     var ok = true;
     var d: array<{t}, {n}>;
-    if (wsum != 0.0) {{
+    if (wsum != 0.0 && finite(wsum)) {{
         l = primal_clamp(-lin / (wsum + call.alpha_tilde), {relation}u);
         for (var k = 0u; k < {n}u; k++) {{
             d[k] = w[k / DIM] * out[1u + k] * l;
