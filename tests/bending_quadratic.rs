@@ -9,6 +9,7 @@
 mod common;
 
 use common::Lcg;
+use common::hinges::{assert_no_rigid_force, opened, random_hinge};
 use hyperpbd::builders::GridSpec;
 use hyperpbd::core::expr::{Columns, Tape};
 use hyperpbd::kinds::{BendingModel, ExpressionKind, quadratic_weights};
@@ -123,55 +124,21 @@ fn rigid_motions_carry_no_force() {
     let mut checked = 0;
     for dim in 3..=5 {
         for _ in 0..200 {
-            let points: Vec<Vec<f64>> = (0..4)
-                .map(|_| (0..dim).map(|_| rng.next()).collect())
-                .collect();
+            let points = random_hinge(&mut rng, dim);
             let plan = Plan::compile(&hinge(&points)).expect("compiles");
             let kind = kind_of(&plan);
             let x = points.concat();
             let out = outputs(kind, &kind.gradient, &x);
             let g = &out[1..];
             assert!(out[0] > 0.0 && g.iter().all(|v| v.is_finite()));
-            let scale: f64 = (0..4)
-                .map(|j| {
-                    let norm = |s: &[f64]| s.iter().map(|v| v * v).sum::<f64>().sqrt();
-                    (1.0 + norm(&x[j * dim..(j + 1) * dim])) * norm(&g[j * dim..(j + 1) * dim])
-                })
-                .sum();
-            let bound = 256.0 * U * scale;
-            for a in 0..dim {
-                let net: f64 = (0..4).map(|j| g[j * dim + a]).sum();
-                assert!(
-                    net.abs() <= bound,
-                    "dim {dim}: net force {net:e} > {bound:e}"
-                );
-                for b in 0..dim {
-                    let moment: f64 = (0..4)
-                        .map(|j| x[j * dim + a] * g[j * dim + b] - g[j * dim + a] * x[j * dim + b])
-                        .sum();
-                    assert!(
-                        moment.abs() <= bound,
-                        "dim {dim}: moment {moment:e} > {bound:e}"
-                    );
-                }
-            }
+            assert_no_rigid_force(dim, &x, g);
             checked += 1;
         }
     }
     assert_eq!(checked, 600);
 }
 
-/// The hinge of edge (0,0,0)–(1,0,0), wing A in the x–y plane, wing B at
-/// angle `theta` from wing A about the edge (θ = π: flat, θ = 0: shut);
-/// |e| = h_A = h_B = 1, so s = √(6/(|e|(h_A + h_B))) = √3.
-fn opened(theta: f64) -> Vec<Vec<f64>> {
-    vec![
-        vec![0.0, 0.0, 0.0],
-        vec![1.0, 0.0, 0.0],
-        vec![0.4, 1.0, 0.0],
-        vec![0.6, theta.cos(), theta.sin()],
-    ]
-}
+// `opened(θ)`: |e| = h_A = h_B = 1, so s = √(6/(|e|(h_A + h_B))) = √3.
 
 #[test]
 fn the_fold_is_the_closed_form_and_finite_near_flat_and_near_shut() {

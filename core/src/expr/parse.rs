@@ -205,26 +205,7 @@ impl<'a> Parser<'a> {
     fn bind_constants(&mut self, constants: &[&'a str]) -> Parsed<()> {
         let base = self.arity * self.dim;
         for (m, &name) in constants.iter().enumerate() {
-            let at = self
-                .toks
-                .iter()
-                .find(|(t, _)| matches!(t, Token::Name(n) if n == name))
-                .map_or(0, |&(_, at)| at);
-            let invalid = |reason| ExprErrorKind::InvalidParam {
-                name: name.to_string(),
-                reason,
-            };
-            if !is_identifier(name) {
-                return Err(self.error_at(at, invalid("not a name ([A-Za-z_][A-Za-z0-9_]*)")));
-            }
-            if reserved(name) {
-                return Err(
-                    self.error_at(at, invalid("reserved (a particle, a function or `let`)"))
-                );
-            }
-            if self.params.contains_key(name) {
-                return Err(self.error_at(at, invalid("given twice")));
-            }
+            self.check_name(name)?;
             let s = self.graph.push(Op::Input(base + m));
             let slot = self.built(s)?;
             self.params.insert(name, Val::S(slot));
@@ -232,29 +213,38 @@ impl<'a> Parser<'a> {
         Ok(())
     }
 
+    /// Where `name` is first used, and an error if it cannot name a param
+    /// or a per-element constant (not an identifier, reserved, given twice).
+    fn check_name(&self, name: &str) -> Parsed<usize> {
+        let at = self
+            .toks
+            .iter()
+            .find(|(t, _)| matches!(t, Token::Name(n) if n == name))
+            .map_or(0, |&(_, at)| at);
+        let invalid = |reason| ExprErrorKind::InvalidParam {
+            name: name.to_string(),
+            reason,
+        };
+        if !is_identifier(name) {
+            return Err(self.error_at(at, invalid("not a name ([A-Za-z_][A-Za-z0-9_]*)")));
+        }
+        if reserved(name) {
+            return Err(self.error_at(at, invalid("reserved (a particle, a function or `let`)")));
+        }
+        if self.params.contains_key(name) {
+            return Err(self.error_at(at, invalid("given twice")));
+        }
+        Ok(at)
+    }
+
     /// Params become constants; their errors point at their first use.
     fn bind_params(&mut self, params: &'a [(String, ParamValue)]) -> Parsed<()> {
         for (name, value) in params {
-            let at = self
-                .toks
-                .iter()
-                .find(|(t, _)| matches!(t, Token::Name(n) if n == name))
-                .map_or(0, |&(_, at)| at);
+            let at = self.check_name(name)?;
             let invalid = |reason| ExprErrorKind::InvalidParam {
                 name: name.clone(),
                 reason,
             };
-            if !is_identifier(name) {
-                return Err(self.error_at(at, invalid("not a name ([A-Za-z_][A-Za-z0-9_]*)")));
-            }
-            if reserved(name) {
-                return Err(
-                    self.error_at(at, invalid("reserved (a particle, a function or `let`)"))
-                );
-            }
-            if self.params.contains_key(name.as_str()) {
-                return Err(self.error_at(at, invalid("given twice")));
-            }
             let val = match value {
                 ParamValue::Scalar(v) => {
                     if !v.is_finite() {
