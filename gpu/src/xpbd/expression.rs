@@ -299,3 +299,53 @@ fn expression_violation(e: u32) -> real {{
     );
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::SceneOrigin;
+    use hyperpbd_core::builders::GridSpec;
+    use hyperpbd_core::kinds::BendingModel;
+    use hyperpbd_core::{ConstraintFamily, ConstraintKind, SceneBuilder};
+
+    /// The per-element constants of a quadratic bending family lie in
+    /// `rest` at its `constants_base`, after every slot and the material
+    /// data, in the plan's colour order, and the generated WGSL reads them
+    /// from there; a cosine family carries none.
+    #[test]
+    fn quadratic_weights_reach_rest_where_the_generated_code_reads_them() {
+        let mut b = SceneBuilder::new(3).gravity_along(1, 9.81);
+        let grid = b.grid(&GridSpec::cloth(4, 3, 0.1, 1.0));
+        let cosine = b.grid_bending(&grid, 1e-3, BendingModel::Cosine);
+        let quadratic = b.grid_bending(&grid, 1e-3, BendingModel::Quadratic);
+        let strut = vec![vec![0, grid.index(&[3, 2])]];
+        b.family(ConstraintFamily::new(ConstraintKind::Distance, 0.0, strut));
+        let plan = Plan::compile(&b.build().expect("valid")).expect("plan");
+        let families = Families::new(&plan, &SceneOrigin::zero(3)).expect("families");
+        let (cosine, quadratic) = (cosine.expect("hinges"), quadratic.expect("hinges"));
+        let FamilyKind::Expression(kind) = &plan.families[quadratic].kind else {
+            panic!("bending is an expression family")
+        };
+        let base = families.constants_base[quadratic] as usize;
+        assert!(base >= families.slots);
+        assert_eq!(kind.constants.len(), 3 * plan.families[quadratic].len());
+        assert_eq!(
+            &families.rest[base..base + kind.constants.len()],
+            &kind.constants[..]
+        );
+        assert_eq!(
+            families.constants_base[cosine], families.constants_base[quadratic],
+            "the cosine family before it carries no constants"
+        );
+        let source = generated(&plan, &families, Precision::F64);
+        let k = expression_index(&plan, quadratic);
+        assert!(source.contains(&format!("inputs[12u + c] = rest_at({base}u + e * 3u + c);")));
+        assert!(source.contains(&format!(
+            "fn expression{k}_inputs(e: u32) -> array<f64, 15>"
+        )));
+        let c = expression_index(&plan, cosine);
+        assert!(source.contains(&format!(
+            "fn expression{c}_inputs(e: u32) -> array<f64, 12>"
+        )));
+    }
+}
