@@ -13,8 +13,9 @@
 // coupled_expression_block (gpu/src/coupled/expression.rs).
 //
 //   material_words  [frame stride, blocks M, then per block: element e,
-//                    rest offset of its family (an expression: k), slot in
-//                    the family, flags]
+//                    rest offset of its family, slot in the family, flags];
+//                    an expression block: [e, offset of its per-element
+//                    constants in material_rest, slot, its family index k]
 //   material_rest   per family, per slot: R (k × k), V_0   (material.wgsl's layout)
 //   element_reals   [μ, λ] of a material element
 //   frames          H_F⁺ per block, `frame stride` reals ((N k_max)²), written by
@@ -62,8 +63,10 @@ struct MaterialCall {
 }
 
 var<private> call: MaterialCall;
-// The running block's expression family index k (NO_EXPRESSION: a material).
+// The running block's expression family index k (NO_EXPRESSION: a
+// material) and the offset of its per-element constants in material_rest.
 var<private> block_expression: u32;
+var<private> block_constants: u32;
 const NO_EXPRESSION: u32 = 0xffffffffu;
 
 // False at run time, unknown to the compiler: the generated tapes' guard
@@ -92,7 +95,8 @@ fn take_material(m: u32) -> u32 {
     block_expression = NO_EXPRESSION;
     if (code_of(e) == ELEMENT_EXPRESSION) {
         // [compliance, rest] in `friction`, `factor`.
-        block_expression = material_words[at + 1u];
+        block_expression = material_words[at + 3u];
+        block_constants = material_words[at + 1u];
     }
     return e;
 }

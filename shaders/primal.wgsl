@@ -145,7 +145,8 @@ fn primal_gauss_newton(e: u32, value: real, pts: ptr<function, array<real, POINT
     var l: real = 0.0;
     var ok = true;
     var d: array<real, POINTS>;
-    if (wsum != 0.0) {
+    // ∇C zero or undefined: no response (cpu/src/consistent.rs).
+    if (wsum != 0.0 && finite(wsum)) {
         l = primal_clamp(-lin / (wsum + call.alpha_tilde), relation);
         for (var k = 0u; k < arity * DIM; k++) {
             d[k] = w[k / DIM] * (*grad)[k] * l;

@@ -6,15 +6,14 @@
 mod common;
 
 use common::Lcg;
+use common::hinges::{assert_no_rigid_force, opened, random_hinge};
 use hyperpbd::builders::GridSpec;
 use hyperpbd::core::expr::Columns;
-use hyperpbd::kinds::ExpressionKind;
+use hyperpbd::kinds::{BendingModel, ExpressionKind};
 use hyperpbd::{
     Backend, ConstraintFamily, ConstraintKind, CpuBackend, FamilyKind, Particle, Plan, Scene,
     SceneBuilder, State,
 };
-
-const U: f64 = f64::EPSILON / 2.0;
 
 /// One bending element over `points` (4 particles in R^dim, all dynamic).
 fn hinge(points: &[Vec<f64>], rest: Option<f64>) -> Scene {
@@ -49,12 +48,6 @@ fn fold(kind: &ExpressionKind, points: &[f64]) -> (f64, Vec<f64>) {
         .map(|&s| columns.get(s, 0))
         .collect();
     (value, gradient)
-}
-
-fn random_hinge(rng: &mut Lcg, dim: usize) -> Vec<Vec<f64>> {
-    (0..4)
-        .map(|_| (0..dim).map(|_| rng.next()).collect())
-        .collect()
 }
 
 #[test]
@@ -97,55 +90,11 @@ fn rigid_motions_carry_no_force() {
             assert!((-1.0..=1.0).contains(&c), "{c}");
             // c is invariant under translation (Σ_j ∇_j c = 0) and rotation
             // (Σ_j x_j ∇_j cᵀ − ∇_j c x_jᵀ = 0): both at roundoff scale.
-            let scale: f64 = (0..4)
-                .map(|j| {
-                    let x: f64 = flat[j * dim..(j + 1) * dim]
-                        .iter()
-                        .map(|v| v * v)
-                        .sum::<f64>()
-                        .sqrt();
-                    let gn: f64 = g[j * dim..(j + 1) * dim]
-                        .iter()
-                        .map(|v| v * v)
-                        .sum::<f64>()
-                        .sqrt();
-                    (1.0 + x) * gn
-                })
-                .sum();
-            let bound = 256.0 * U * scale;
-            for a in 0..dim {
-                let net: f64 = (0..4).map(|j| g[j * dim + a]).sum();
-                assert!(
-                    net.abs() <= bound,
-                    "dim {dim}: net force {net:e} > {bound:e}"
-                );
-                for b in 0..dim {
-                    let moment: f64 = (0..4)
-                        .map(|j| {
-                            flat[j * dim + a] * g[j * dim + b] - g[j * dim + a] * flat[j * dim + b]
-                        })
-                        .sum();
-                    assert!(
-                        moment.abs() <= bound,
-                        "dim {dim}: moment {moment:e} > {bound:e}"
-                    );
-                }
-            }
+            assert_no_rigid_force(dim, &flat, &g);
             checked += 1;
         }
     }
     assert_eq!(checked, 600);
-}
-
-/// The hinge of edge (0,0,0)–(1,0,0), wing A in the x–y plane, wing B at
-/// angle `theta` from wing A about the edge (θ = π: flat, θ = 0: shut).
-fn opened(theta: f64) -> Vec<Vec<f64>> {
-    vec![
-        vec![0.0, 0.0, 0.0],
-        vec![1.0, 0.0, 0.0],
-        vec![0.4, 1.0, 0.0],
-        vec![0.6, theta.cos(), theta.sin()],
-    ]
 }
 
 #[test]
@@ -206,7 +155,9 @@ fn the_cloth_builder_adds_one_hinge_per_interior_edge() {
         .substeps(10)
         .gravity_along(1, 9.81);
     let grid = b.grid(&GridSpec::cloth(5, 4, 0.1, 1.0));
-    let family = b.grid_bending(&grid, 1e-3).expect("a 2-grid has hinges");
+    let family = b
+        .grid_bending(&grid, 1e-3, BendingModel::Cosine)
+        .expect("a 2-grid has hinges");
     let scene = b.build().expect("valid");
     let elements = &scene.constraints[family].elements;
     // (na−1)(nb−1) diagonals + (na−1)(nb−2) + (na−2)(nb−1) grid edges.

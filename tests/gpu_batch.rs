@@ -6,7 +6,10 @@
 //! damping, plane normal), the shards of the first, and a 32-world sweep
 //! whose worlds compile different stages (damping from 0, gravity, plane
 //! friction and a force each including 0: one batch runs the union of the
-//! stages, backend/union.rs); f32 within the single-world per-frame bound,
+//! stages, backend/union.rs), and a 4-world sweep of a quadratic-bending
+//! cloth whose worlds' authored shapes, hence hinge weights (per-element
+//! constants, per world in `rest`), differ; f32 within the single-world
+//! per-frame bound,
 //! and on lavapipe bit for bit each world's own f32 reference. A failing
 //! world puts every world back and is named as its own run names it;
 //! worlds a GPU batch cannot share a schedule with (another law) are
@@ -52,6 +55,28 @@ fn cloths() -> Vec<Scene> {
             "constraints[0].compliance=0:1e-4:2",
             "obstacles[0].friction=0.1:0.8:2",
             "damping.rate=0.05:0.5:3",
+        ],
+    )
+}
+
+/// 4 worlds of an 8² cloth with quadratic bending over a plane, two
+/// interior particles authored at 2 heights each: each world's hinge
+/// weights are computed from its own authored positions.
+fn quadratic_cloths() -> Vec<Scene> {
+    let mut b = hyperpbd::SceneBuilder::new(3)
+        .dt(1.0 / 60.0)
+        .substeps(10)
+        .gravity_along(1, 9.81);
+    let grid = b.grid(&hyperpbd::builders::GridSpec::cloth(8, 8, 0.1, 0.3));
+    let model = hyperpbd::kinds::BendingModel::Quadratic;
+    b.grid_bending(&grid, 1e-4, model).expect("hinges");
+    b.hyperplane(vec![0.0, 1.0, 0.0], 0.0, 0.3);
+    let text = serde_json::to_string(&b.build().expect("valid")).expect("json");
+    sweep(
+        &text,
+        &[
+            "particles[27].position[1]=0.3:0.36:2",
+            "particles[36].position[1]=0.3:0.33:2",
         ],
     )
 }
@@ -205,6 +230,24 @@ fn one_world_and_the_shards_of_a_sweep_are_the_whole_batch() {
     for (k, (a, b)) in whole.iter().zip(&shards).enumerate() {
         assert_eq!(a.hash(), b.hash(), "world {k}");
     }
+}
+
+#[test]
+fn every_quadratic_bending_cloth_of_a_gpu_batch_is_its_own_cpu_run() {
+    let worlds = quadratic_cloths();
+    let weights = |s: &Scene| {
+        let plan = hyperpbd::Plan::compile(s).expect("compiles");
+        match &plan.families[1].kind {
+            hyperpbd::FamilyKind::Expression(kind) => kind.constants.clone(),
+            other => panic!("bending is an expression family, not {other:?}"),
+        }
+    };
+    assert_ne!(
+        weights(&worlds[0]),
+        weights(&worlds[3]),
+        "the worlds' weights differ"
+    );
+    f64_worlds_are_their_own_runs("gpu_batch quadratic bending", &worlds, 20);
 }
 
 #[test]

@@ -3,14 +3,16 @@
 //! so on lavapipe gpu-f64 is the golden path and gpu-f32 the f32 reference
 //! bit for bit — states, residuals and active contacts, every frame from
 //! the start — for distance, tether, plane, Gram and oriented-measure
-//! expressions and one that uses ln, exp, min, max and abs.
+//! expressions, one that uses ln, exp, min, max and abs, and both bending
+//! models (the quadratic one reads per-element constants from `rest`,
+//! on the standard update and on the primal-residual one).
 
 mod common;
 
 use common::exact::{assert_f32_reference_step, assert_identical_if_claimed, bits};
 use common::expressions::as_expressions;
 use common::gpu::adapter_or_skip;
-use hyperpbd::kinds::Relation;
+use hyperpbd::kinds::{BendingModel, Relation};
 use hyperpbd::{
     Backend, ConstraintFamily, ConstraintKind, CpuBackend, F32Reference, Obstacle, Plan, Scene,
     State, scenes,
@@ -77,18 +79,47 @@ fn cases() -> Vec<(&'static str, Scene, usize)> {
     )]));
     sheet.constraints.push(soft);
     sheet.constraints.push(plane);
-    // A cloth with bending (the cosine fold: a built-in kind written as an
-    // expression) draped over a plane.
-    let mut b = hyperpbd::SceneBuilder::new(3)
-        .dt(1.0 / 60.0)
-        .substeps(10)
-        .gravity_along(1, 9.81);
-    let grid = b.grid(&hyperpbd::builders::GridSpec::cloth(8, 8, 0.1, 0.3));
-    b.grid_bending(&grid, 1e-4).expect("hinges");
-    b.hyperplane(vec![0.0, 1.0, 0.0], 0.0, 0.3);
-    let draped = b.build().expect("valid");
+    // A cloth with bending (a built-in kind written as an expression)
+    // draped over a plane; the quadratic model also on the primal-residual
+    // update, and with a tilted cloth so that no two hinges' weights agree.
+    let draped = |model: BendingModel, primal: bool| {
+        let mut b = hyperpbd::SceneBuilder::new(3)
+            .dt(1.0 / 60.0)
+            .substeps(10)
+            .gravity_along(1, 9.81);
+        let grid = b.grid(&hyperpbd::builders::GridSpec::cloth(8, 8, 0.1, 0.3));
+        b.grid_bending(&grid, 1e-4, model).expect("hinges");
+        b.hyperplane(vec![0.0, 1.0, 0.0], 0.0, 0.3);
+        let mut scene = b.build().expect("valid");
+        if primal {
+            scene.solver = hyperpbd::Solver::Xpbd(hyperpbd::XpbdSettings {
+                primal_residual: true,
+            });
+            for p in &mut scene.particles {
+                let [x, y, z] = p.position[..] else {
+                    panic!("R^3")
+                };
+                p.position = vec![x + 0.05 * z * z, y + 0.2 * x + 0.1 * x * z, z];
+            }
+        }
+        scene
+    };
     vec![
-        ("cloth 8² bending on a plane", draped, 25),
+        (
+            "cloth 8² bending on a plane",
+            draped(BendingModel::Cosine, false),
+            25,
+        ),
+        (
+            "cloth 8² quadratic bending on a plane",
+            draped(BendingModel::Quadratic, false),
+            25,
+        ),
+        (
+            "curved cloth 8² quadratic bending, primal residual",
+            draped(BendingModel::Quadratic, true),
+            12,
+        ),
         ("cloth 8² distance", cloth, 25),
         ("chain2d tether", chain, 25),
         ("tesseract det", tesseract, 12),

@@ -23,7 +23,7 @@ use common::implicit_scenes::{
     CHAIN_TOLERANCE as TOLERANCE, bending_cloth as cloth_with_bending, chain_of as chain,
     folded_hinge,
 };
-use hyperpbd::kinds::Relation;
+use hyperpbd::kinds::{BendingModel, Relation};
 use hyperpbd::{Backend, ConstraintKind, MinimisationStatus, Scene, State};
 
 /// Every minimisation of `report` converged.
@@ -139,15 +139,21 @@ fn a_folded_hinge_unfolds_to_flat_on_the_implicit_path() {
 
 #[test]
 fn a_cloth_with_bending_steps_converged_with_the_same_bytes_on_any_thread_count() {
-    let scene = cloth_with_bending();
-    let run = |threads: usize| -> State {
-        let mut cpu = common::cpu_backend(&scene, threads);
-        for step in 0..30 {
-            converged(&cpu.step().expect("steps"), "cloth", step);
-        }
-        cpu.read_state().expect("state")
-    };
-    let one = run(1);
-    assert!(one.positions.iter().all(|v| v.is_finite()));
-    assert_eq!(one.hash(), run(2).hash(), "1 and 2 threads differ");
+    for model in [BendingModel::Cosine, BendingModel::Quadratic] {
+        let scene = cloth_with_bending(model);
+        let run = |threads: usize| -> State {
+            let mut cpu = common::cpu_backend(&scene, threads);
+            for step in 0..30 {
+                converged(&cpu.step().expect("steps"), "cloth", step);
+            }
+            cpu.read_state().expect("state")
+        };
+        let one = run(1);
+        assert!(one.positions.iter().all(|v| v.is_finite()));
+        assert_eq!(
+            one.hash(),
+            run(2).hash(),
+            "{model:?}: 1 and 2 threads differ"
+        );
+    }
 }

@@ -236,7 +236,8 @@ impl Plan {
             }
             let arity = authored.elements[0].len();
             let material = materials.shapes[f].as_ref().map(|(material, _)| *material);
-            let expression = kinds::expression_of(f, authored, arity, dim)?;
+            let expression =
+                kinds::expression_of(f, authored, arity, dim, |i| &scene.particles[i].position)?;
             let kind = kinds::family_kind(authored.kind, arity, material, expression);
             let flat: Vec<usize> = authored.elements.iter().flatten().copied().collect();
             let rest: Vec<f64> = match &authored.rest {
@@ -245,13 +246,16 @@ impl Plan {
                     let mut points = vec![0.0; arity * dim];
                     let mut grad = vec![0.0; arity * dim];
                     flat.chunks_exact(arity)
-                        .map(|element| {
+                        .enumerate()
+                        .map(|(e, element)| {
                             for (j, &i) in element.iter().enumerate() {
                                 points[j * dim..(j + 1) * dim]
                                     .copy_from_slice(&scene.particles[i].position);
                             }
                             match &kind {
-                                FamilyKind::Expression(e) => e.value_at(&points, &mut columns),
+                                FamilyKind::Expression(kind) => {
+                                    kind.default_rest(e, &points, &mut columns)
+                                }
                                 FamilyKind::Distance
                                 | FamilyKind::Tether
                                 | FamilyKind::SimplexMeasure { .. }
@@ -275,7 +279,7 @@ impl Plan {
             } else {
                 authored.compliance
             };
-            let family = colored_family(
+            let mut family = colored_family(
                 format!("constraints[{f}]"),
                 kind,
                 compliance,
@@ -284,6 +288,13 @@ impl Plan {
                 &rest,
                 &inverse_mass,
             );
+            // Per-element constants follow their elements into colour order.
+            if let FamilyKind::Expression(kind) = &family.kind
+                && kind.element_constants > 0
+            {
+                let reordered = kind.reordered(&family.source);
+                family.kind = FamilyKind::Expression(std::sync::Arc::new(reordered));
+            }
             families.push(match &materials.shapes[f] {
                 Some((_, shapes)) => material_plan::with_rest_shapes(family, shapes),
                 None => family,

@@ -189,8 +189,9 @@ pub enum ConstraintKind {
     /// C = value − rest for a user's `value` expression of the element's
     /// particles `x0 … x{arity−1}` (docs/expressions.md): ∇C is derived.
     Expression,
-    /// The cosine fold of two triangles sharing an edge (4 particles,
-    /// N ≥ 3): C = −u_A·u_B − rest over the conormals (kinds/bending.rs).
+    /// A fold of two triangles sharing an edge (4 particles, N ≥ 3):
+    /// `"model"` cosine (C = −u_A·u_B − rest over the conormals) or
+    /// quadratic (C = |Σ_j k_j x_j|, Bergou et al. 2006; kinds/bending.rs).
     Bending,
 }
 
@@ -268,6 +269,10 @@ pub struct ConstraintFamily {
     /// Expression families: `"=="` (default), `">="` or `"<="`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub relation: Option<crate::kinds::Relation>,
+    /// Bending families: `"cosine"` (default) or `"quadratic"`
+    /// (kinds/bending.rs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<crate::kinds::BendingModel>,
 }
 
 impl ConstraintFamily {
@@ -285,6 +290,7 @@ impl ConstraintFamily {
             value: None,
             params: None,
             relation: None,
+            model: None,
         }
     }
 
@@ -320,6 +326,8 @@ impl ConstraintFamily {
         with_density(density: f64) = Some(density);
         /// Sets an expression family's relation.
         with_relation(relation: crate::kinds::Relation) = Some(relation);
+        /// Sets a bending family's model.
+        with_model(model: crate::kinds::BendingModel) = Some(model);
     }
 }
 

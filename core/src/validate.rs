@@ -222,7 +222,8 @@ impl Scene {
                 0 => crate::expr::limits::MAX_ARITY,
                 arity => arity,
             };
-            let expression = kinds::expression_of(f, family, arity, dim)?;
+            let expression =
+                kinds::expression_of(f, family, arity, dim, |i| &self.particles[i].position)?;
             if family.kind.law().is_some() {
                 self.validate_material(f, family)?;
             } else if let Some(rest) = &family.rest {
@@ -236,7 +237,7 @@ impl Scene {
                 for (e, &r) in rest.iter().enumerate() {
                     let path = format!("constraints[{f}].rest[{e}]");
                     finite(|| path.clone(), r)?;
-                    if let Some(why) = kinds::rest_problem(family.kind, r) {
+                    if let Some(why) = kinds::rest_problem(family, r) {
                         return Err(SceneError::DegenerateRest {
                             path,
                             why: why.into(),
@@ -251,7 +252,7 @@ impl Scene {
                     }
                     grad.resize(points.len(), 0.0);
                     let value = match &expression {
-                        Some(expression) => expression.value_at(&points, &mut columns),
+                        Some(expression) => expression.value_at(e, &points, &mut columns),
                         None => kinds::value(family.kind, &points, dim, &mut grad, &mut scratch),
                     };
                     let path = || format!("constraints[{f}].elements[{e}]");

@@ -45,6 +45,9 @@ impl Scene {
         {
             return Err(not_for(field, "only expression families take it"));
         }
+        if family.kind != ConstraintKind::Bending && family.model.is_some() {
+            return Err(not_for("model", "only bending families take it"));
+        }
         if family.kind.law().is_none() {
             let material_keys = [
                 ("youngs_modulus", family.youngs_modulus.is_some()),

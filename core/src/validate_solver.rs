@@ -110,7 +110,10 @@ impl Scene {
             // so a tape over the limits is refused at load with its path.
             let arity = family.elements.first().map_or(0, Vec::len);
             if arity > 0
-                && let Some(expression) = crate::kinds::expression_of(f, family, arity, self.dim)?
+                && let Some(expression) =
+                    crate::kinds::expression_of(f, family, arity, self.dim, |i| {
+                        &self.particles[i].position
+                    })?
                 && let Err(source) = expression.hessian_tape()
             {
                 // Bending is an expression the kind defines, not the scene.

@@ -22,12 +22,12 @@ use crate::geometry::{
 use crate::material::{MaterialScratch, energy_constraint};
 use crate::{Family, FamilyKind, FamilyResidual, Plan, kinds};
 
-/// The violation of one element of a geometric family at `points` (its
-/// members' coordinates, arity × `dim`); `None` for contact and material
-/// kinds. `grad` (arity × `dim`) is scratch.
+/// The violation of element `e` (colour-ordered slot) of a geometric
+/// family at `points` (its members' coordinates, arity × `dim`); `None`
+/// for contact and material kinds. `grad` (arity × `dim`) is scratch.
 pub fn geometric_violation(
     kind: &FamilyKind,
-    rest: f64,
+    (e, rest): (usize, f64),
     points: &[f64],
     dim: usize,
     grad: &mut [f64],
@@ -37,7 +37,7 @@ pub fn geometric_violation(
         FamilyKind::Distance | FamilyKind::Tether => distance(points, dim, grad),
         FamilyKind::SimplexMeasure { .. } => simplex_squared_measure(points, dim, grad, scratch),
         FamilyKind::OrientedMeasure => oriented_measure(points, dim, grad, scratch),
-        FamilyKind::Expression(expression) => expression.value_at(points, &mut scratch.columns),
+        FamilyKind::Expression(expression) => expression.value_at(e, points, &mut scratch.columns),
         FamilyKind::HyperplaneContact { .. } | FamilyKind::Material { .. } => return None,
     };
     kinds::violation(kind, value, rest)
@@ -72,8 +72,15 @@ pub fn family_residuals(families: &[Family], dim: usize, x: &[f64]) -> Vec<Famil
                 }
                 None => {
                     let rest = family.rest[e];
-                    geometric_violation(&family.kind, rest, &points, dim, &mut grad, &mut scratch)
-                        .unwrap_or(0.0)
+                    geometric_violation(
+                        &family.kind,
+                        (e, rest),
+                        &points,
+                        dim,
+                        &mut grad,
+                        &mut scratch,
+                    )
+                    .unwrap_or(0.0)
                 }
             };
             worst = worst.max(v);

@@ -178,13 +178,14 @@ pub fn project(
         return with_dim!(dim, distances(batch, range, x, displacement, lambda));
     }
     if let FamilyKind::Expression(kind) = &f.kind {
-        let first = range.start;
-        kind.gradient.eval(
-            range.len(),
-            |j, lane| {
-                let i = f.elements[(first + lane) * arity + j / dim] as usize;
-                x[i * dim + j % dim]
-            },
+        let (tape, slots) = (&kind.gradient, range.clone());
+        kind.eval_slots(
+            tape,
+            dim,
+            &f.elements,
+            &kind.constants,
+            slots,
+            |k| x[k],
             &mut ws.columns,
         );
     }
@@ -379,7 +380,9 @@ fn gauss_newton(
             lin += ws.grad[k] * (sc.anchor[k] - ws.points[k]);
         }
     }
-    if wsum == 0.0 {
+    // ∇C zero or undefined (an expression's norm at 0): no response, the
+    // standard update's rule.
+    if wsum == 0.0 || !wsum.is_finite() {
         return 0.0;
     }
     let l = clamp(batch.family, -lin / (wsum + batch.alpha_tilde));

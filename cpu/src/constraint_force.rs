@@ -80,12 +80,15 @@ fn accumulate(
     let (dim, arity) = (plan.dim, family.arity);
     let w = &plan.inverse_mass;
     if let FamilyKind::Expression(kind) = &family.kind {
-        kind.gradient.eval(
-            family.len(),
-            |j, slot| {
-                let i = family.elements[slot * arity + j / dim] as usize;
-                x[i * dim + j % dim]
-            },
+        let (tape, elements) = (&kind.gradient, &family.elements);
+        let slots = 0..family.len();
+        kind.eval_slots(
+            tape,
+            dim,
+            elements,
+            &kind.constants,
+            slots,
+            |k| x[k],
             &mut ws.columns,
         );
     }

@@ -179,6 +179,7 @@ fn project_elements<X: Coordinates + ?Sized>(
                 dim: batch.dim,
                 elements: &batch.family.elements,
                 rest: &batch.family.rest,
+                constants: &kind.constants,
                 alpha_tilde: batch.alpha_tilde,
                 inverse_mass: batch.inverse_mass,
                 slots: elements,

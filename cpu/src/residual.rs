@@ -67,7 +67,7 @@ fn violation<D: Dim>(
             points[j * dim..(j + 1) * dim].copy_from_slice(&x[i * dim..(i + 1) * dim]);
         }
         let kind = &family.kind;
-        let geometric = geometric_violation(kind, family.rest[e], points, dim, grad, scratch);
+        let geometric = geometric_violation(kind, (e, family.rest[e]), points, dim, grad, scratch);
         let violation = match (geometric, kind) {
             (Some(v), _) => v,
             (None, FamilyKind::HyperplaneContact { normal, .. }) => {

@@ -208,7 +208,7 @@ impl GpuBackend {
         // Pipelines for the entry points this plan's schedules use only
         // (lavapipe compiles each one: seconds for the measure kernels).
         let entries = schedule.entries();
-        let generated = crate::xpbd::generated(&plan, precision);
+        let generated = crate::xpbd::generated(&plan, &families, precision);
         let kernels = KernelSet::new(
             device,
             &KernelSetSpec {

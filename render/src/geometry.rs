@@ -93,7 +93,8 @@ impl SceneGeometry {
                 continue;
             };
             // The scene is validated: its expressions compile.
-            let Ok(expression) = kinds::expression_of(f, family, arity, dim) else {
+            let position = |i: usize| scene.particles[i].position.as_slice();
+            let Ok(expression) = kinds::expression_of(f, family, arity, dim, position) else {
                 continue;
             };
             let particles: Vec<usize> = family.elements.iter().flatten().copied().collect();
@@ -103,13 +104,14 @@ impl SceneGeometry {
                 Some(rest) => rest.clone(),
                 None => particles
                     .chunks_exact(arity)
-                    .map(|element| {
+                    .enumerate()
+                    .map(|(e, element)| {
                         for (j, &i) in element.iter().enumerate() {
                             points[j * dim..(j + 1) * dim]
                                 .copy_from_slice(&scene.particles[i].position);
                         }
                         match &expression {
-                            Some(e) => e.value_at(&points, &mut columns),
+                            Some(kind) => kind.default_rest(e, &points, &mut columns),
                             None => {
                                 kinds::value(family.kind, &points, dim, &mut grad, &mut scratch)
                             }
@@ -223,7 +225,7 @@ impl SceneGeometry {
                     points[j * dim..(j + 1) * dim].copy_from_slice(state.position(i));
                 }
                 let c = match &f.expression {
-                    Some(e) => e.value_at(&points, &mut columns),
+                    Some(kind) => kind.value_at(e, &points, &mut columns),
                     None => kinds::value(f.kind, &points, dim, &mut grad, &mut scratch),
                 };
                 let r = ((c - f.rest[e]) / f.scale[e]).abs();

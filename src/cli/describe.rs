@@ -86,6 +86,9 @@ pub fn describe(plan: &Plan) -> String {
                 stats.gradient_size,
                 stats.hessian_size
             );
+            if kind.element_constants > 0 {
+                let _ = write!(s, ", {} constants per element", kind.element_constants);
+            }
         }
         s.push('\n');
     }

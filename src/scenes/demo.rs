@@ -13,6 +13,7 @@
 //! folds where the belt pulls it.
 
 use hyperpbd_core::builders::GridSpec;
+use hyperpbd_core::kinds::BendingModel;
 use hyperpbd_core::motion::Motion;
 use hyperpbd_core::{Obstacle, Scene, SceneBuilder};
 
@@ -30,7 +31,7 @@ pub fn demo() -> Scene {
         .gravity_along(1, 9.81)
         .damping(0.1);
     let grid = b.grid(&GridSpec::cloth(n, n, spacing, 0.6));
-    b.grid_bending(&grid, 1e-3)
+    b.grid_bending(&grid, 1e-3, BendingModel::Cosine)
         .unwrap_or_else(|| unreachable!("a 2-grid has hinges"));
     b.hyperplane(vec![0.0, 1.0, 0.0], 0.0, 0.6);
     let lowered = Motion::Keyframes {

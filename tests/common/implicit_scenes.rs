@@ -6,6 +6,7 @@
 use hyperpbd::builders::GridSpec;
 use hyperpbd::core::barrier::BarrierLaw;
 use hyperpbd::core::implicit::closed_forms::{barrier_gap_under_load, stacked_ball_heights};
+use hyperpbd::kinds::BendingModel;
 use hyperpbd::{
     Collisions, ConstraintFamily, ConstraintKind, Convergence, IncrementalPotentialSettings,
     Obstacle, Particle, Scene, SceneBuilder, Solver, WarmStart,
@@ -297,14 +298,14 @@ pub fn folded_hinge() -> Scene {
     scene
 }
 
-/// A 6 × 6 cloth (0.1 m, compliance 1e-6 m/N) with cosine bending, two
-/// corners fixed, under gravity, on the coupled step.
-pub fn bending_cloth() -> Scene {
+/// A 6 × 6 cloth (0.1 m, compliance 1e-6 m/N) with bending of `model`,
+/// two corners fixed, under gravity, on the coupled step.
+pub fn bending_cloth(model: BendingModel) -> Scene {
     let mut b = SceneBuilder::new(3).dt(1.0 / 60.0).gravity_along(1, G);
     let mut spec = GridSpec::cloth(6, 6, 0.1, 0.0);
     spec.compliance = 1e-6;
     let grid = b.grid(&spec);
-    b.grid_bending(&grid, 1e-2).expect("hinges");
+    b.grid_bending(&grid, 1e-2, model).expect("hinges");
     b.fix(grid.index(&[0, 0]));
     b.fix(grid.index(&[5, 0]));
     let mut scene = b.build().expect("valid");

@@ -11,6 +11,7 @@ pub mod exact;
 pub mod expressions;
 pub mod gpu;
 pub mod guarded;
+pub mod hinges;
 pub mod implicit_scenes;
 pub mod materials;
 pub mod motion_scenes;

@@ -10,7 +10,8 @@ const DOCUMENT: &str = include_str!("../../scenes/example.json");
 /// Every document the mutations start from: the example (constraints,
 /// friction, damping), balls with particle contact, the barrier path
 /// with a hyperplane and segment / triangle / tetrahedron meshes, and
-/// bending with an expression family (ln, exp, a param, a relation), and
+/// bending (both models) with an expression family (ln, exp, a param, a
+/// relation), and
 /// the conveyor with prescribed motion (a belt, pins on a circle and
 /// keyframes).
 const DOCUMENTS: [&str; 5] = [

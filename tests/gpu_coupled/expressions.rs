@@ -9,7 +9,7 @@
 use super::*;
 use common::expressions::as_expressions;
 use common::implicit_scenes::{bending_cloth, chain_of, folded_hinge};
-use hyperpbd::kinds::Relation;
+use hyperpbd::kinds::{BendingModel, Relation};
 
 /// Every coordinate finite (the evidence off lavapipe: the bits are the
 /// evidence there).
@@ -36,7 +36,19 @@ fn distance_and_tether_expressions_are_the_golden_path() {
 #[test]
 fn a_folded_hinge_and_a_cloth_with_bending_are_the_golden_path() {
     differential("folded hinge (cosine bending)", &folded_hinge(), 24, finite);
-    differential("cloth 6² with bending", &bending_cloth(), 4, finite);
+    differential(
+        "cloth 6² with cosine bending",
+        &bending_cloth(BendingModel::Cosine),
+        4,
+        finite,
+    );
+    // Quadratic bending: per-element constants (material_rest).
+    differential(
+        "cloth 6² with quadratic bending",
+        &bending_cloth(BendingModel::Quadratic),
+        4,
+        finite,
+    );
 }
 
 #[test]

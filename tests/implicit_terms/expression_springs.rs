@@ -8,7 +8,7 @@ use super::*;
 use hyperpbd::core::implicit::{
     ExpressionScratch, apply_dense, expression_curvature, expression_spring,
 };
-use hyperpbd::kinds::{ExpressionKind, Relation};
+use hyperpbd::kinds::{BendingModel, ExpressionKind, Relation};
 
 fn compiled(source: &str, relation: Relation, arity: usize, dim: usize) -> ExpressionKind {
     ExpressionKind::new("expression", source, &[], relation, arity, dim).expect("compiles")
@@ -17,13 +17,15 @@ fn compiled(source: &str, relation: Relation, arity: usize, dim: usize) -> Expre
 /// (E, ∇E) of the spring at `x`.
 fn energy_at(kind: &ExpressionKind, alpha: f64, rest: f64, x: &[f64]) -> (f64, Vec<f64>) {
     let mut gradient = vec![0.0; x.len()];
+    let constants = kind.constants(0);
+    let mut scratch = ExpressionScratch::default();
     let s = expression_spring(
         kind,
-        alpha,
-        rest,
+        (alpha, rest),
         x,
+        constants,
         &mut gradient,
-        &mut ExpressionScratch::default(),
+        &mut scratch,
     );
     (s.energy, gradient)
 }
@@ -32,13 +34,14 @@ fn energy_at(kind: &ExpressionKind, alpha: f64, rest: f64, x: &[f64]) -> (f64, V
 fn block_at(kind: &ExpressionKind, alpha: f64, rest: f64, x: &[f64]) -> Vec<f64> {
     let n = x.len();
     let mut block = vec![0.0; n * n];
+    let mut scratch = ExpressionScratch::default();
     let ok = expression_curvature(
         kind,
-        alpha,
-        rest,
+        (alpha, rest),
         x,
+        kind.constants(0),
         &mut block,
-        &mut ExpressionScratch::default(),
+        &mut scratch,
     );
     assert!(ok, "finite block");
     block
@@ -134,15 +137,26 @@ fn the_bending_spring_matches_finite_differences() {
     let mut rng = Lcg(2902);
     let alpha = 0.1;
     let (mut worst_g, mut worst_k, mut worst_apply) = (0.0f64, 0.0f64, 0.0f64);
-    for dim in [3, 4, 5] {
-        let family =
-            hyperpbd::ConstraintFamily::new(ConstraintKind::Bending, alpha, vec![vec![0, 1, 2, 3]]);
-        let bending = hyperpbd::kinds::expression_of(0, &family, 4, dim)
-            .expect("compiles")
-            .expect("bending is an expression");
+    let models = [BendingModel::Cosine, BendingModel::Quadratic];
+    for (dim, model) in [3, 4, 5].into_iter().flat_map(|d| models.map(|m| (d, m))) {
         for _ in 0..4 {
             let x = hinge(dim, &mut rng);
-            let rest = 0.9;
+            let mut family = hyperpbd::ConstraintFamily::new(
+                ConstraintKind::Bending,
+                alpha,
+                vec![vec![0, 1, 2, 3]],
+            );
+            family.model = Some(model);
+            // The quadratic weights come from these (authored) positions.
+            let bending =
+                hyperpbd::kinds::expression_of(0, &family, 4, dim, |i| &x[i * dim..(i + 1) * dim])
+                    .expect("compiles")
+                    .expect("bending is an expression");
+            // The cosine's rest value, the quadratic's (a norm: ≥ 0).
+            let rest = match model {
+                BendingModel::Cosine => 0.9,
+                BendingModel::Quadratic => 0.05,
+            };
             let n = x.len();
             let (_, gradient) = energy_at(&bending, alpha, rest, &x);
             worst_g = worst_g.max(jacobian_worst(

@@ -274,6 +274,33 @@ fn expression_catalogue() -> Vec<String> {
         .expect_err("rejected")
         .to_string(),
     );
+    // Quadratic bending: the model key, a hinge without size, a negative rest.
+    let mut s = base();
+    s.constraints[0].model = Some(hyperpbd::kinds::BendingModel::Quadratic);
+    out.push(s.validate().expect_err("rejected").to_string());
+    let hinge = |x2: &str, extra: &str| {
+        format!(
+            r#"{{"dim": 3, "dt": 0.1, "particles": [{{"position": [0, 0, 0], "mass": 1}},
+                {{"position": [1, 0, 0], "mass": 1}}, {{"position": {x2}, "mass": 1}},
+                {{"position": [0.5, -1, 0], "mass": 1}}],
+                "constraints": [{{"type": "bending", "model": "quadratic",
+                "elements": [[0, 1, 2, 3]]{extra}}}]}}"#
+        )
+    };
+    for (x2, extra) in [("[0.5, 0, 0]", ""), ("[0.5, 1, 0]", r#", "rest": [-0.5]"#)] {
+        let text = hinge(x2, extra);
+        out.push(
+            Scene::from_json_str(&text)
+                .expect_err("rejected")
+                .to_string(),
+        );
+    }
+    let text = hinge("[0.5, 1, 0]", "").replace("quadratic", "linear");
+    out.push(
+        Scene::from_json_str(&text)
+            .expect_err("rejected")
+            .to_string(),
+    );
     // A value that turns non-finite during a step.
     use hyperpbd::Backend;
     let mut s = base();

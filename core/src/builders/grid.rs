@@ -10,6 +10,7 @@
 //! ```
 
 use super::SceneBuilder;
+use crate::kinds::BendingModel;
 use crate::{ConstraintFamily, ConstraintKind, Particle};
 
 /// A grid to add.
@@ -159,14 +160,19 @@ impl SceneBuilder {
 }
 
 impl SceneBuilder {
-    /// Adds a bending family (`compliance`) over the hinges of a 2-grid
+    /// Adds a bending family (`compliance`, `model`) over the hinges of a 2-grid
     /// `grid` (as [`SceneBuilder::grid`] returned it), each unit square
     /// split along its diagonal c → c + a + b into the triangles
     /// (c, c+a, c+a+b) and (c, c+b, c+a+b). One element per interior edge
     /// [x0, x1, x2, x3]: the edge x0x1 and the third vertices of its two
     /// triangles (kinds/bending.rs). `None` for a grid that is not 2-D or
     /// has no interior edge.
-    pub fn grid_bending(&mut self, grid: &Grid, compliance: f64) -> Option<usize> {
+    pub fn grid_bending(
+        &mut self,
+        grid: &Grid,
+        compliance: f64,
+        model: BendingModel,
+    ) -> Option<usize> {
         let [na, nb] = grid.counts[..] else {
             return None;
         };
@@ -191,11 +197,11 @@ impl SceneBuilder {
             }
         }
         (!elements.is_empty()).then(|| {
-            self.family(ConstraintFamily::new(
-                ConstraintKind::Bending,
-                compliance,
-                elements,
-            ))
+            // The default model is written by omission (scenes stay as they were).
+            self.family(ConstraintFamily {
+                model: (model != BendingModel::default()).then_some(model),
+                ..ConstraintFamily::new(ConstraintKind::Bending, compliance, elements)
+            })
         })
     }
 }

@@ -73,6 +73,7 @@ pub enum ParamValue {
 pub struct Compiled {
     graph: graph::Graph,
     inputs: usize,
+    constants: usize,
     value: Slot,
     gradient: Vec<Option<Slot>>,
 }
@@ -102,6 +103,19 @@ pub fn compile(
     arity: usize,
     dim: usize,
 ) -> Result<Compiled, ExprError> {
+    compile_with_constants(src, params, &[], arity, dim)
+}
+
+/// [`compile`] with per-element constants: scalar names whose values each
+/// element carries (tape inputs arity·dim + m, [`Tape::constants`]; the
+/// derivatives are taken by the coordinates only).
+pub fn compile_with_constants(
+    src: &str,
+    params: &[(String, ParamValue)],
+    constants: &[&str],
+    arity: usize,
+    dim: usize,
+) -> Result<Compiled, ExprError> {
     for (what, value, max) in [
         ("arity", arity, limits::MAX_ARITY),
         ("dim", dim, limits::MAX_DIM),
@@ -114,12 +128,13 @@ pub fn compile(
             ));
         }
     }
-    let (mut graph, value) = parse::lower(src, params, arity, dim)?;
+    let (mut graph, value) = parse::lower(src, params, constants, arity, dim)?;
     let inputs = arity * dim;
     let gradient = diff::gradient(&mut graph, value, inputs).map_err(tape::exhausted)?;
     let compiled = Compiled {
         graph,
         inputs,
+        constants: constants.len(),
         value,
         gradient,
     };
@@ -134,13 +149,18 @@ impl Compiled {
         self.inputs
     }
 
+    /// Per-element constants m (tape inputs n … n + m − 1).
+    pub fn constants(&self) -> usize {
+        self.constants
+    }
+
     /// The tape of `outputs`, dead code removed. Only the Hessian can fail
     /// (over [`limits::MAX_GRAPH_NODES`] or [`limits::MAX_TAPE_OPS`]).
     pub fn tape(&self, outputs: Outputs) -> Result<Tape, ExprError> {
         match outputs {
-            Outputs::Value => tape::extract(&self.graph, self.inputs, self.value, &[], &[]),
+            Outputs::Value => tape::extract(&self.graph, self.shape(), self.value, &[], &[]),
             Outputs::ValueGradient => {
-                tape::extract(&self.graph, self.inputs, self.value, &self.gradient, &[])
+                tape::extract(&self.graph, self.shape(), self.value, &self.gradient, &[])
             }
             Outputs::ValueGradientHessian => {
                 let mut graph = self.graph.clone();
@@ -155,9 +175,14 @@ impl Compiled {
                         None => hessian.extend(std::iter::repeat_n(None, n - j)),
                     }
                 }
-                tape::extract(&graph, n, self.value, &self.gradient, &hessian)
+                tape::extract(&graph, self.shape(), self.value, &self.gradient, &hessian)
             }
         }
+    }
+
+    /// (inputs, constants) of every tape.
+    fn shape(&self) -> (usize, usize) {
+        (self.inputs, self.constants)
     }
 
     /// Op counts and derivative sizes.
@@ -191,6 +216,6 @@ fn diff_full_hessian(c: &Compiled, x: &[f64]) -> Vec<f64> {
             None => entries.extend(std::iter::repeat_n(None, n)),
         }
     }
-    let t = tape::extract(&graph, n, c.value, &[], &entries).expect("fits");
+    let t = tape::extract(&graph, c.shape(), c.value, &[], &entries).expect("fits");
     tests::eval_one(&t, x)[1..].to_vec()
 }

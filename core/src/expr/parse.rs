@@ -77,11 +77,13 @@ pub(super) struct Parser<'a> {
 
 pub(super) type Parsed<T> = Result<T, ExprError>;
 
-/// The graph of `src` (inputs are nodes 0 … arity·dim − 1) and the slot
-/// of its scalar result.
+/// The graph of `src` (inputs are nodes 0 … arity·dim − 1, then the
+/// per-element constants `constants`, scalars, at arity·dim + m) and the
+/// slot of its scalar result.
 pub(crate) fn lower(
     src: &str,
     params: &[(String, ParamValue)],
+    constants: &[&str],
     arity: usize,
     dim: usize,
 ) -> Parsed<(Graph, Slot)> {
@@ -102,6 +104,7 @@ pub(crate) fn lower(
         p.built(s)?;
     }
     p.bind_params(params)?;
+    p.bind_constants(constants)?;
     let mut count = 0;
     while p.peek() == &Token::Name("let".into()) {
         count += 1;
@@ -197,29 +200,51 @@ impl<'a> Parser<'a> {
         }
     }
 
+    /// Per-element constants become inputs arity·dim + m (scalars, read
+    /// per element like the coordinates; no derivative is taken by them).
+    fn bind_constants(&mut self, constants: &[&'a str]) -> Parsed<()> {
+        let base = self.arity * self.dim;
+        for (m, &name) in constants.iter().enumerate() {
+            self.check_name(name)?;
+            let s = self.graph.push(Op::Input(base + m));
+            let slot = self.built(s)?;
+            self.params.insert(name, Val::S(slot));
+        }
+        Ok(())
+    }
+
+    /// Where `name` is first used, and an error if it cannot name a param
+    /// or a per-element constant (not an identifier, reserved, given twice).
+    fn check_name(&self, name: &str) -> Parsed<usize> {
+        let at = self
+            .toks
+            .iter()
+            .find(|(t, _)| matches!(t, Token::Name(n) if n == name))
+            .map_or(0, |&(_, at)| at);
+        let invalid = |reason| ExprErrorKind::InvalidParam {
+            name: name.to_string(),
+            reason,
+        };
+        if !is_identifier(name) {
+            return Err(self.error_at(at, invalid("not a name ([A-Za-z_][A-Za-z0-9_]*)")));
+        }
+        if reserved(name) {
+            return Err(self.error_at(at, invalid("reserved (a particle, a function or `let`)")));
+        }
+        if self.params.contains_key(name) {
+            return Err(self.error_at(at, invalid("given twice")));
+        }
+        Ok(at)
+    }
+
     /// Params become constants; their errors point at their first use.
     fn bind_params(&mut self, params: &'a [(String, ParamValue)]) -> Parsed<()> {
         for (name, value) in params {
-            let at = self
-                .toks
-                .iter()
-                .find(|(t, _)| matches!(t, Token::Name(n) if n == name))
-                .map_or(0, |&(_, at)| at);
+            let at = self.check_name(name)?;
             let invalid = |reason| ExprErrorKind::InvalidParam {
                 name: name.clone(),
                 reason,
             };
-            if !is_identifier(name) {
-                return Err(self.error_at(at, invalid("not a name ([A-Za-z_][A-Za-z0-9_]*)")));
-            }
-            if reserved(name) {
-                return Err(
-                    self.error_at(at, invalid("reserved (a particle, a function or `let`)"))
-                );
-            }
-            if self.params.contains_key(name.as_str()) {
-                return Err(self.error_at(at, invalid("given twice")));
-            }
             let val = match value {
                 ParamValue::Scalar(v) => {
                     if !v.is_finite() {

@@ -28,9 +28,13 @@ pub enum Outputs {
 pub struct Tape {
     /// The operations; slot i is the result of `ops[i]`.
     pub ops: Vec<Op>,
-    /// Inputs the tape reads: `Op::Input(j)` has j < `inputs` = arity·dim
-    /// (coordinate a of particle p is j = p·dim + a).
+    /// Coordinates the tape reads: `Op::Input(j)` with j < `inputs` =
+    /// arity·dim is coordinate a of particle p at j = p·dim + a; the
+    /// derivatives are taken by these.
     pub inputs: usize,
+    /// Per-element constants: `Op::Input(inputs + m)`, m < `constants`
+    /// (no derivative is taken by them).
+    pub constants: usize,
     /// The slot of C.
     pub value: Slot,
     /// ∂C/∂input_j at `gradient[j]` (empty unless asked for).
@@ -72,7 +76,7 @@ pub(crate) fn exhausted(_: Exhausted) -> ExprError {
 /// The tape of `value`, `gradient` and `hessian` (graph slots; `None` = 0).
 pub(crate) fn extract(
     graph: &Graph,
-    inputs: usize,
+    (inputs, constants): (usize, usize),
     value: Slot,
     gradient: &[Option<Slot>],
     hessian: &[Option<Slot>],
@@ -111,6 +115,7 @@ pub(crate) fn extract(
     Ok(Tape {
         ops,
         inputs,
+        constants,
         value: rank[roots[0]],
         gradient: roots[1..1 + n_grad].iter().map(|&r| rank[r]).collect(),
         hessian: roots[1 + n_grad..].iter().map(|&r| rank[r]).collect(),

@@ -4,7 +4,7 @@
 //! results are theirs bit for bit.
 //!
 //! ```text
-//! fn NAME(x: array<T, K>, opaque: bool) -> array<T, M>   K = arity·dim,  M = 1 + |∇C| + |∇²C|
+//! fn NAME(x: array<T, K>, opaque: bool) -> array<T, M>   K = arity·dim + constants,  M = 1 + |∇C| + |∇²C|
 //!   let v<i>: T = <op of earlier v's>;       generated identifiers only
 //!   arithmetic:  let r<i> = <op>;  let v<i> = select(r<i>, −r<i>, opaque)
 //!   (the host passes an `opaque` that is false at run time but unknown to
@@ -69,7 +69,7 @@ pub fn emit_wgsl(tape: &Tape, fn_name: &str, precision: Precision) -> String {
         tape.ops.len(),
         tape.gradient.len(),
         tape.hessian.len(),
-        k = tape.inputs.max(1),
+        k = (tape.inputs + tape.constants).max(1),
         m = outputs.len(),
     );
     for (i, op) in tape.ops.iter().enumerate() {

@@ -8,7 +8,9 @@
 //! ```text
 //! per colour: evaluate the value+gradient tape over every element (a
 //!   column per slot: elements of a colour share no dynamic particle, so
-//!   this equals evaluating them one after another)
+//!   this equals evaluating them one after another); the tape's inputs are
+//!   the element's coordinates, then its per-element constants (m per
+//!   element, computed at load: bending's quadratic weights)
 //! per element, in slot order:
 //!   C non-finite                         → the element fails (typed step error)
 //!   wsum = Σ_j [w_j ≠ 0] w_j Σ_a g_ja²    (j, then a ascending; fixed particles skipped)
@@ -42,6 +44,17 @@ pub struct ExpressionKind {
     pub value: Tape,
     /// C and ∇C (the projection).
     pub gradient: Tape,
+    /// Per-element constants m (tape inputs arity·dim … + m − 1).
+    pub element_constants: usize,
+    /// The constants, m per element in the family's element order
+    /// (authored order as [`crate::kinds::expression_of`] builds them,
+    /// colour order in a [`crate::Plan`]); read them with
+    /// [`ExpressionKind::constants`].
+    pub constants: Vec<f64>,
+    /// The rest value an element takes when the family gives none
+    /// (`None`: C at the authored positions, the rule of every family;
+    /// quadratic bending: 0, flat).
+    pub fixed_rest: Option<f64>,
     compiled: Compiled,
     /// C, ∇C and ∇²C, derived on first request (the implicit paths).
     hessian: OnceLock<Result<Tape, expr::ExprError>>,
@@ -54,6 +67,11 @@ impl PartialEq for ExpressionKind {
             && self.relation == other.relation
             && self.arity == other.arity
             && self.gradient == other.gradient
+            && self.element_constants == other.element_constants
+            && self.fixed_rest == other.fixed_rest
+            && self.constants.len() == other.constants.len()
+            && (self.constants.iter().zip(&other.constants))
+                .all(|(a, b)| a.to_bits() == b.to_bits())
     }
 }
 
@@ -69,7 +87,24 @@ impl ExpressionKind {
         arity: usize,
         dim: usize,
     ) -> Result<ExpressionKind, expr::ExprError> {
-        let compiled = expr::compile(source, params, arity, dim)?;
+        Self::with_constants(name, source, params, &[], Vec::new(), relation, arity, dim)
+    }
+
+    /// [`ExpressionKind::new`] with per-element constants named `names`
+    /// (scalars in `source`), `constants` holding `names.len()` values per
+    /// element (authored order).
+    #[allow(clippy::too_many_arguments)]
+    pub fn with_constants(
+        name: &'static str,
+        source: &str,
+        params: &[(String, ParamValue)],
+        names: &[&str],
+        constants: Vec<f64>,
+        relation: Relation,
+        arity: usize,
+        dim: usize,
+    ) -> Result<ExpressionKind, expr::ExprError> {
+        let compiled = expr::compile_with_constants(source, params, names, arity, dim)?;
         let value = compiled.tape(Outputs::Value)?;
         let gradient = compiled.tape(Outputs::ValueGradient)?;
         Ok(ExpressionKind {
@@ -79,9 +114,63 @@ impl ExpressionKind {
             arity,
             value,
             gradient,
+            element_constants: names.len(),
+            constants,
+            fixed_rest: None,
             compiled,
             hessian: OnceLock::new(),
         })
+    }
+
+    /// The constants of element `e` (the family's element order: colour
+    /// order in a plan); empty for a kind without per-element constants.
+    pub fn constants(&self, e: usize) -> &[f64] {
+        let m = self.element_constants;
+        &self.constants[e * m..(e + 1) * m]
+    }
+
+    /// This kind with its elements' constants in the order `source`
+    /// (`source[slot]` = the element's index in the current order: the
+    /// plan's colour order from the authored one).
+    pub fn reordered(&self, source: &[u32]) -> ExpressionKind {
+        let mut out = self.clone();
+        out.constants = (source.iter())
+            .flat_map(|&e| self.constants(e as usize).iter().copied())
+            .collect();
+        out
+    }
+
+    /// Evaluates `tape` (one of this kind's) over slots `slots` of a family
+    /// whose particle indices are `elements` (arity per slot), in
+    /// precision `R`: coordinate k of the flat positions is `x(k)`, constant
+    /// m of slot e is `constants[e·m_count + m]`. Lane l is slot
+    /// `slots.start + l`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn eval_slots<R: Real>(
+        &self,
+        tape: &Tape,
+        dim: usize,
+        elements: &[u32],
+        constants: &[R],
+        slots: Range<usize>,
+        x: impl Fn(usize) -> R,
+        columns: &mut Columns<R>,
+    ) {
+        let (arity, m) = (self.arity, self.element_constants);
+        let n = arity * dim;
+        let first = slots.start;
+        tape.eval(
+            slots.len(),
+            |j, lane| {
+                let e = first + lane;
+                if j < n {
+                    x(elements[e * arity + j / dim] as usize * dim + j % dim)
+                } else {
+                    constants[e * m + (j - n)]
+                }
+            },
+            columns,
+        );
     }
 
     /// Op counts and derivative sizes (`hyperpbd plan`).
@@ -105,10 +194,29 @@ impl ExpressionKind {
             .expect("validation derives ∇²C of every implicit plan's expression family")
     }
 
-    /// C at `points` (arity × `dim`, one element), in precision `R`.
-    pub fn value_at<R: Real>(&self, points: &[R], columns: &mut Columns<R>) -> R {
-        self.value.eval(1, |j, _| points[j], columns);
+    /// C of element `e` (its constants: [`ExpressionKind::constants`]) at
+    /// `points` (arity × `dim`), in precision `R` (constants rounded once).
+    pub fn value_at<R: Real>(&self, e: usize, points: &[R], columns: &mut Columns<R>) -> R {
+        let n = self.value.inputs;
+        let constants = self.constants(e);
+        self.value.eval(
+            1,
+            |j, _| match j < n {
+                true => points[j],
+                false => R::constant(constants[j - n]),
+            },
+            columns,
+        );
         columns.get(self.value.value, 0)
+    }
+
+    /// The rest value of element `e` at its authored `points` when the
+    /// family gives none.
+    pub fn default_rest(&self, e: usize, points: &[f64], columns: &mut Columns<f64>) -> f64 {
+        match self.fixed_rest {
+            Some(rest) => rest,
+            None => self.value_at(e, points, columns),
+        }
     }
 
     /// The violation of an element whose value is `value` and rest `rest`,
@@ -197,6 +305,9 @@ pub struct Colour<'a, R> {
     pub elements: &'a [u32],
     /// The family's rest values, per slot.
     pub rest: &'a [R],
+    /// The family's per-element constants, `kind.element_constants` per
+    /// slot (the kind's [`ExpressionKind::constants`] in precision `R`).
+    pub constants: &'a [R],
     /// α / h².
     pub alpha_tilde: R,
     /// Inverse mass per particle.
@@ -216,16 +327,11 @@ pub fn project<R: ProjectionReal, X: Positions<R> + ?Sized>(
 ) -> Result<(), usize> {
     let (dim, arity) = (c.dim, c.kind.arity);
     let tape = &c.kind.gradient;
-    let first = c.slots.start;
     let zero = R::constant(0.0);
-    tape.eval(
-        c.slots.len(),
-        |j, lane| {
-            let i = c.elements[(first + lane) * arity + j / dim] as usize;
-            x.get(i * dim + j % dim)
-        },
-        columns,
-    );
+    let (elements, slots) = (c.elements, c.slots.clone());
+    let read = |k: usize| x.get(k);
+    c.kind
+        .eval_slots(tape, dim, elements, c.constants, slots, read, columns);
     let mut failed = None;
     // The columns read per element, looked up once per call.
     let values = columns.column(tape.value);

@@ -14,6 +14,8 @@
 //! hyperplane contact 1 (obstacle)   offset + radius                               C ≥ 0     by the backend's normals  hyperplane_contact.rs
 //! expression         any, per family any                                          relation  by relation expression.rs
 //! bending (cosine)   4, N ≥ 3       in [−1, 1]                                    C = 0     |C|         bending.rs (an expression)
+//! bending (quadratic) 4, N ≥ 3      ≥ 0; omitted: 0 (flat)                        C = 0     |C|         bending.rs (an expression
+//!                                                                                                      with per-element weights)
 //! ```
 //! Adding a kind: one file here, a variant of [`ConstraintKind`] (and of
 //! [`FamilyKind`] if it compiles to its own), one line in each function
@@ -31,6 +33,7 @@ mod relation;
 mod simplex_measure;
 mod tether;
 
+pub use bending::{BendingModel, quadratic_weights};
 pub use expression::{Colour, ExpressionKind, Positions, ProjectionReal, project};
 pub use relation::Relation;
 
@@ -66,16 +69,16 @@ pub fn arity(kind: ConstraintKind) -> Arity {
     }
 }
 
-/// Why an authored rest value `rest` (finite) is refused by `kind`, if it
-/// is. Material kinds take no rest values (their validation refuses the
-/// key).
-pub fn rest_problem(kind: ConstraintKind, rest: f64) -> Option<&'static str> {
-    match kind {
+/// Why an authored rest value `rest` (finite) is refused by `family`'s
+/// kind, if it is. Material kinds take no rest values (their validation
+/// refuses the key).
+pub fn rest_problem(family: &ConstraintFamily, rest: f64) -> Option<&'static str> {
+    match family.kind {
         ConstraintKind::Distance => distance::rest_problem(rest),
         ConstraintKind::Tether => tether::rest_problem(rest),
         ConstraintKind::SimplexMeasure => simplex_measure::rest_problem(rest),
         ConstraintKind::OrientedMeasure => oriented_measure::rest_problem(rest),
-        ConstraintKind::Bending => bending::rest_problem(rest),
+        ConstraintKind::Bending => bending::rest_problem(family.model.unwrap_or_default(), rest),
         ConstraintKind::Stvk | ConstraintKind::NeoHookean | ConstraintKind::Expression => None,
     }
 }
@@ -102,12 +105,16 @@ pub fn dimension_problem(kind: ConstraintKind, dim: usize) -> Option<String> {
 /// The compiled expression of constraint family `f` when its kind is
 /// defined by one — a user's `value`, or a built-in kind written as an
 /// expression (bending) — for elements of `arity` particles in
-/// R^`dim`; `None` for the kinds with kernels of their own.
-pub fn expression_of(
+/// R^`dim`; `None` for the kinds with kernels of their own. `position(i)`
+/// is particle i's authored position (the per-element constants of
+/// quadratic bending are computed from them; the family's indices must
+/// be in range).
+pub fn expression_of<'p>(
     f: usize,
     family: &ConstraintFamily,
     arity: usize,
     dim: usize,
+    position: impl Fn(usize) -> &'p [f64],
 ) -> Result<Option<ExpressionKind>, SceneError> {
     Ok(match family.kind {
         ConstraintKind::Expression => {
@@ -127,20 +134,64 @@ pub fn expression_of(
                 source: Box::new(source),
             })?)
         }
-        ConstraintKind::Bending => {
-            let compiled =
-                ExpressionKind::new("bending", bending::COSINE, &[], Relation::Equal, arity, dim);
-            Some(compiled.map_err(|source| SceneError::Expression {
-                path: format!("constraints[{f}].type"),
-                source: Box::new(source),
-            })?)
-        }
+        ConstraintKind::Bending => Some(bending_of(f, family, arity, dim, position)?),
         ConstraintKind::Distance
         | ConstraintKind::Tether
         | ConstraintKind::SimplexMeasure
         | ConstraintKind::OrientedMeasure
         | ConstraintKind::Stvk
         | ConstraintKind::NeoHookean => None,
+    })
+}
+
+/// The bending family `f` of `family.model` (the quadratic weights from
+/// the authored positions `position`).
+fn bending_of<'p>(
+    f: usize,
+    family: &ConstraintFamily,
+    arity: usize,
+    dim: usize,
+    position: impl Fn(usize) -> &'p [f64],
+) -> Result<ExpressionKind, SceneError> {
+    let compiled = match family.model.unwrap_or_default() {
+        BendingModel::Cosine => {
+            ExpressionKind::new("bending", bending::COSINE, &[], Relation::Equal, arity, dim)
+        }
+        BendingModel::Quadratic => {
+            let mut weights = Vec::with_capacity(3 * family.elements.len());
+            let mut points = Vec::with_capacity(4 * dim);
+            for (e, element) in family.elements.iter().enumerate() {
+                points.clear();
+                for &i in element {
+                    points.extend_from_slice(position(i));
+                }
+                let k = bending::quadratic_weights(&points, dim).map_err(|why| {
+                    SceneError::DegenerateRest {
+                        path: format!("constraints[{f}].elements[{e}]"),
+                        why: why.into(),
+                    }
+                })?;
+                weights.extend_from_slice(&k);
+            }
+            let kind = ExpressionKind::with_constants(
+                "bending",
+                bending::QUADRATIC,
+                &[],
+                &bending::QUADRATIC_CONSTANTS,
+                weights,
+                Relation::Equal,
+                arity,
+                dim,
+            );
+            kind.map(|mut kind| {
+                kind.fixed_rest = Some(0.0);
+                kind
+            })
+        }
+    };
+    compiled.map_err(|source| SceneError::Expression {
+        path: format!("constraints[{f}].type"),
+        source: Box::new(source),
     })
 }
 

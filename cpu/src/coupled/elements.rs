@@ -271,11 +271,12 @@ impl Elements {
                 family, element, ..
             } => {
                 let family = &terms.plan.families[family as usize];
+                let kind = expression_kind(&family.kind);
                 let spring = expression_spring(
-                    expression_kind(&family.kind),
-                    family.compliance,
-                    family.rest[element as usize],
+                    kind,
+                    (family.compliance, family.rest[element as usize]),
                     points,
+                    kind.constants(element as usize),
                     &mut gradient[..arity * dim],
                     &mut scratch.expression,
                 );

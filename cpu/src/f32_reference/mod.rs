@@ -83,6 +83,8 @@ pub struct Particles {
 /// multipliers, the reals of its calls, and a material family's law.
 struct Stored {
     rest: Vec<f32>,
+    /// An expression family's per-element constants (f32, rounded once).
+    constants: Vec<f32>,
     lambda: Vec<f32>,
     alpha_tilde: f32,
     normal: Vec<f32>,
@@ -230,6 +232,7 @@ impl F32Reference {
                 });
                 Stored {
                     rest: rest.collect(),
+                    constants: project::expression_constants(&f.kind),
                     lambda: vec![0.0; f.len()],
                     alpha_tilde: f.alpha_tilde(plan.h) as f32,
                     normal: round(normal),
@@ -531,6 +534,7 @@ impl F32Reference {
                             dim: s.dim,
                             elements: &f.elements,
                             rest: &stored.rest,
+                            constants: &stored.constants,
                             alpha_tilde: stored.alpha_tilde,
                             inverse_mass: &s.w,
                             slots: f.color(color),

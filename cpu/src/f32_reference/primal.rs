@@ -118,7 +118,10 @@ pub(super) fn project(
             };
             contact(s, &colour, &plane, lambda, d)
         }
-        FamilyKind::Expression(kind) => expression(s, &colour, kind, (lambda, d), columns),
+        FamilyKind::Expression(kind) => {
+            let kind = (kind.as_ref(), &stored.constants[..]);
+            expression(s, &colour, kind, (lambda, d), columns)
+        }
         FamilyKind::Material { .. } => match &stored.material {
             Some(law) => material(
                 s,
@@ -266,7 +269,7 @@ fn gauss_newton(
     }
     let mut l = 0.0f32;
     let mut out = vec![0.0f32; count];
-    if wsum != 0.0 {
+    if wsum != 0.0 && wsum.is_finite() {
         l = clamp(relation, -lin / (wsum + c.alpha_tilde));
         for k in 0..count {
             out[k] = s.w[element[k / n] as usize] * grad[k] * l;
@@ -325,19 +328,15 @@ pub fn measure(
 pub fn expression(
     s: &mut Particles,
     c: &Colour,
-    kind: &ExpressionKind,
+    (kind, constants): (&ExpressionKind, &[f32]),
     (lambda, d): (&mut [f32], &mut [f32]),
     columns: &mut Columns<f32>,
 ) -> Result<(), usize> {
     let (n, arity) = (s.dim, kind.arity);
     let tape = &kind.gradient;
-    let first = c.slots.start;
     let x = &s.x;
-    tape.eval(
-        c.slots.len(),
-        |j, lane| x[c.elements[(first + lane) * arity + j / n] as usize * n + j % n],
-        columns,
-    );
+    let slots = c.slots.clone();
+    kind.eval_slots(tape, n, c.elements, constants, slots, |k| x[k], columns);
     let mut failed = None;
     let mut pts = vec![0.0f32; arity * n];
     let mut grad = vec![0.0f32; arity * n];

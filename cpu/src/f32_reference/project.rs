@@ -21,6 +21,22 @@ use super::Particles;
 use super::material::Law;
 use super::measure::{oriented_measure, simplex_squared_measure};
 
+/// An expression family's per-element constants, rounded once to f32
+/// (as the GPU uploads them); empty for the other kinds.
+pub fn expression_constants(kind: &hyperpbd_core::FamilyKind) -> Vec<f32> {
+    match kind {
+        hyperpbd_core::FamilyKind::Expression(kind) => {
+            kind.constants.iter().map(|&c| c as f32).collect()
+        }
+        hyperpbd_core::FamilyKind::Distance
+        | hyperpbd_core::FamilyKind::Tether
+        | hyperpbd_core::FamilyKind::SimplexMeasure { .. }
+        | hyperpbd_core::FamilyKind::OrientedMeasure
+        | hyperpbd_core::FamilyKind::Material { .. }
+        | hyperpbd_core::FamilyKind::HyperplaneContact { .. } => Vec::new(),
+    }
+}
+
 /// One colour of one family: its elements (`arity` particle indices per
 /// slot), rest values and multipliers, and α / h².
 pub struct Colour<'a> {

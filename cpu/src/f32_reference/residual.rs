@@ -67,7 +67,7 @@ pub fn residual(f: &Family, n: usize, x: &[f32], stored: &StoredFamily) -> f32 {
                 (rest[e] - nx).max(0.0)
             }
             FamilyKind::Expression(kind) => {
-                kind.violation(kind.value_at(&pts, &mut columns), rest[e])
+                kind.violation(kind.value_at(e, &pts, &mut columns), rest[e])
             }
             FamilyKind::Material { .. } => match stored.material {
                 Some(law) => law

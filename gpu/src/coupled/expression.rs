@@ -6,6 +6,8 @@
 //!
 //! ```text
 //! per expression family k (plan order; a block's material word holds k):
+//!   coupled_expression{k}_inputs(pts)         the coordinates, then the element's
+//!                                             constants (material_rest at block_constants)
 //!   coupled_expression{k}_gradient(x, opaque) -> [C, ∇C]          the tape
 //!   coupled_expression{k}_hessian(x, opaque)  -> [C, ∇C, ∇²C]     the tape
 //!   coupled_expression{k}_energy(α, rest, pts, grad) -> E          ∇E into grad
@@ -60,14 +62,19 @@ pub(crate) fn generated_for(kinds: &[&ExpressionKind], dim: usize, precision: Pr
             precision,
         ));
         let n = kind.arity * dim;
+        let m = kind.element_constants;
+        let width = (n + m).max(1);
         let phi = active_part(kind.relation);
         let _ = write!(
             s,
             r#"
-fn coupled_expression{k}_inputs(pts: ptr<function, array<real, POINTS>>) -> array<{t}, {n}> {{
-    var inputs: array<{t}, {n}>;
+fn coupled_expression{k}_inputs(pts: ptr<function, array<real, POINTS>>) -> array<{t}, {width}> {{
+    var inputs: array<{t}, {width}>;
     for (var c = 0u; c < {n}u; c++) {{
         inputs[c] = (*pts)[c];
+    }}
+    for (var c = 0u; c < {m}u; c++) {{
+        inputs[{n}u + c] = material_rest[block_constants + c];
     }}
     return inputs;
 }}

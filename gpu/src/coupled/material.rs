@@ -10,9 +10,11 @@
 //! blocks          the material and expression elements in element order (families
 //!                 first in the element list, family order, slot order), block m ↔ e
 //! material_words  [stride: max of (N k_max)² and (arity·N)², M, per block: e, rest
-//!                 offset of its family (an expression: its index k), slot in the
-//!                 family, flags (FLAG_NEO_HOOKEAN)]
-//! material_rest   per material family, per slot: R (k × k), V_0 (xpbd's layout)
+//!                 offset of its family, slot in the family, flags (FLAG_NEO_HOOKEAN)];
+//!                 an expression block: [e, offset of its per-element constants in
+//!                 material_rest, slot, the family's expression index k]
+//! material_rest   per material family, per slot: R (k × k), V_0 (xpbd's layout); then
+//!                 per expression family with per-element constants, m per slot
 //! frames          M × stride reals: H_F⁺ (K⁺) per block, written on the device
 //! element_reals   [μ, λ] of a material element, [α, rest] of an expression's
 //!                 (mod.rs `upload_elements`)
@@ -98,6 +100,15 @@ impl Materials {
             offsets.push(rest.len() as u32);
             push_rest_data(family, &mut rest);
         }
+        // Expression families' per-element constants (slot order), after
+        // every material's rest data.
+        let mut constants = vec![0u32; plan.families.len()];
+        for (f, family) in plan.families.iter().enumerate() {
+            if let FamilyKind::Expression(kind) = &family.kind {
+                constants[f] = rest.len() as u32;
+                rest.extend_from_slice(&kind.constants);
+            }
+        }
         let mut words = vec![stride as u32, self.len() as u32];
         for (&(f, slot), &e) in self.blocks.iter().zip(&self.elements) {
             let neo_hookean = matches!(
@@ -105,12 +116,12 @@ impl Materials {
                 FamilyKind::Material { material, .. } if material.law == Law::NeoHookean
             );
             let flags = if neo_hookean { FLAG_NEO_HOOKEAN } else { 0 };
-            let second = if plan.families[f].kind.is_expression() {
-                expression_index(f)
+            if let FamilyKind::Expression(kind) = &plan.families[f].kind {
+                let at = constants[f] + (slot * kind.element_constants) as u32;
+                words.extend([e as u32, at, slot as u32, expression_index(f)]);
             } else {
-                offsets[f]
-            };
-            words.extend([e as u32, second, slot as u32, flags]);
+                words.extend([e as u32, offsets[f], slot as u32, flags]);
+            }
         }
         let mut rest_bytes = Vec::new();
         push_reals(&mut rest_bytes, &rest, precision);

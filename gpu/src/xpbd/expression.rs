@@ -8,7 +8,9 @@
 //! per expression family k (plan order; the call's slot_map holds k):
 //!   expression{k}_gradient(x, opaque) -> [C, ∇C]   the tape (emit_wgsl)
 //!   expression{k}_value(x, opaque)    -> [C]
-//!   expression{k}_inputs(e)           the element's coordinates (particle j, axis a at j·DIM + a)
+//!   expression{k}_inputs(e)           the element's coordinates (particle j, axis a at j·DIM + a),
+//!                                     then its m per-element constants, read from `rest` at
+//!                                     base_k + e·m (Families::constants_base; per world)
 //!   expression{k}_project(t)          the XPBD update of element first + t
 //!   expression{k}_primal(t)           the update that carries the primal residual
 //!                                     (FLAG_PRIMAL; primal.wgsl's Gauss–Newton step)
@@ -24,6 +26,8 @@ use std::fmt::Write;
 use hyperpbd_core::expr::emit_wgsl;
 use hyperpbd_core::kinds::{ExpressionKind, Relation};
 use hyperpbd_core::{FamilyKind, Plan, Precision};
+
+use super::Families;
 
 /// The expression families of `plan`, in plan order: (family index, kind).
 pub(crate) fn expression_families(plan: &Plan) -> Vec<(usize, &ExpressionKind)> {
@@ -48,19 +52,21 @@ pub(crate) fn expression_index(plan: &Plan, family: usize) -> u32 {
         .count() as u32
 }
 
-/// The generated WGSL of `plan`'s expression families for the step module.
-pub(crate) fn generated(plan: &Plan, precision: Precision) -> String {
-    let kinds: Vec<&ExpressionKind> = (expression_families(plan).into_iter())
-        .map(|(_, kind)| kind)
+/// The generated WGSL of `plan`'s expression families for the step module
+/// (their constants where `families` put them in `rest`).
+pub(crate) fn generated(plan: &Plan, families: &Families, precision: Precision) -> String {
+    let kinds: Vec<(&ExpressionKind, u32)> = (expression_families(plan).into_iter())
+        .map(|(f, kind)| (kind, families.constants_base[f]))
         .collect();
     generated_for(&kinds, plan.dim, precision, plan.primal_residual)
 }
 
-/// The generated WGSL of expression families `kinds` in R^`dim` (the two
+/// The generated WGSL of expression families `kinds` (each with the
+/// offset of its per-element constants in `rest`) in R^`dim` (the two
 /// dispatchers alone for none: every step module has them); with
 /// `primal`, each family's primal-residual update too.
 pub(crate) fn generated_for(
-    kinds: &[&ExpressionKind],
+    kinds: &[(&ExpressionKind, u32)],
     dim: usize,
     precision: Precision,
     primal: bool,
@@ -69,7 +75,7 @@ pub(crate) fn generated_for(
     let mut project_cases = String::new();
     let mut violation_cases = String::new();
     // Writing to a String cannot fail.
-    for (k, kind) in kinds.iter().enumerate() {
+    for (k, &(kind, base)) in kinds.iter().enumerate() {
         s.push_str(&emit_wgsl(
             &kind.gradient,
             &format!("expression{k}_gradient"),
@@ -82,6 +88,15 @@ pub(crate) fn generated_for(
         ));
         let arity = kind.arity;
         let n = arity * dim;
+        let m = kind.element_constants;
+        // The tapes' input array: coordinates, then the constants.
+        let inputs = n + m;
+        let constants = match m {
+            0 => String::new(),
+            m => format!(
+                "    for (var c = 0u; c < {m}u; c++) {{\n        inputs[{n}u + c] = rest_at({base}u + e * {m}u + c);\n    }}\n"
+            ),
+        };
         // The emitted tapes name the precision, and naga tells an array of
         // the `real` alias from one of the type it names.
         let t = precision.as_str();
@@ -107,15 +122,15 @@ pub(crate) fn generated_for(
         let _ = write!(
             s,
             r#"
-fn expression{k}_inputs(e: u32) -> array<{t}, {n}> {{
-    var inputs: array<{t}, {n}>;
+fn expression{k}_inputs(e: u32) -> array<{t}, {inputs}> {{
+    var inputs: array<{t}, {inputs}>;
     for (var j = 0u; j < {arity}u; j++) {{
         var r = load_x(elements[call.elem_base + e * {arity}u + j]);
         for (var a = 0u; a < DIM; a++) {{
             inputs[j * DIM + a] = lane(&r, a);
         }}
     }}
-    return inputs;
+{constants}    return inputs;
 }}
 
 fn expression{k}_project(t: u32) {{
@@ -218,7 +233,7 @@ fn expression{k}_primal(t: u32) {{
     var l: real = 0.0;
     var ok = true;
     var d: array<{t}, {n}>;
-    if (wsum != 0.0) {{
+    if (wsum != 0.0 && finite(wsum)) {{
         l = primal_clamp(-lin / (wsum + call.alpha_tilde), {relation}u);
         for (var k = 0u; k < {n}u; k++) {{
             d[k] = w[k / DIM] * out[1u + k] * l;
@@ -283,4 +298,54 @@ fn expression_violation(e: u32) -> real {{
 "#
     );
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::SceneOrigin;
+    use hyperpbd_core::builders::GridSpec;
+    use hyperpbd_core::kinds::BendingModel;
+    use hyperpbd_core::{ConstraintFamily, ConstraintKind, SceneBuilder};
+
+    /// The per-element constants of a quadratic bending family lie in
+    /// `rest` at its `constants_base`, after every slot and the material
+    /// data, in the plan's colour order, and the generated WGSL reads them
+    /// from there; a cosine family carries none.
+    #[test]
+    fn quadratic_weights_reach_rest_where_the_generated_code_reads_them() {
+        let mut b = SceneBuilder::new(3).gravity_along(1, 9.81);
+        let grid = b.grid(&GridSpec::cloth(4, 3, 0.1, 1.0));
+        let cosine = b.grid_bending(&grid, 1e-3, BendingModel::Cosine);
+        let quadratic = b.grid_bending(&grid, 1e-3, BendingModel::Quadratic);
+        let strut = vec![vec![0, grid.index(&[3, 2])]];
+        b.family(ConstraintFamily::new(ConstraintKind::Distance, 0.0, strut));
+        let plan = Plan::compile(&b.build().expect("valid")).expect("plan");
+        let families = Families::new(&plan, &SceneOrigin::zero(3)).expect("families");
+        let (cosine, quadratic) = (cosine.expect("hinges"), quadratic.expect("hinges"));
+        let FamilyKind::Expression(kind) = &plan.families[quadratic].kind else {
+            panic!("bending is an expression family")
+        };
+        let base = families.constants_base[quadratic] as usize;
+        assert!(base >= families.slots);
+        assert_eq!(kind.constants.len(), 3 * plan.families[quadratic].len());
+        assert_eq!(
+            &families.rest[base..base + kind.constants.len()],
+            &kind.constants[..]
+        );
+        assert_eq!(
+            families.constants_base[cosine], families.constants_base[quadratic],
+            "the cosine family before it carries no constants"
+        );
+        let source = generated(&plan, &families, Precision::F64);
+        let k = expression_index(&plan, quadratic);
+        assert!(source.contains(&format!("inputs[12u + c] = rest_at({base}u + e * 3u + c);")));
+        assert!(source.contains(&format!(
+            "fn expression{k}_inputs(e: u32) -> array<f64, 15>"
+        )));
+        let c = expression_index(&plan, cosine);
+        assert!(source.contains(&format!(
+            "fn expression{c}_inputs(e: u32) -> array<f64, 12>"
+        )));
+    }
 }

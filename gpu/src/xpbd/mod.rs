@@ -14,7 +14,9 @@
 //! ```
 //! Group 0: x v p force (particle records, prelude.wgsl) gravity_scale
 //! elements rest lambda status report calls contact_slot partials chunks
-//! pairs (= elements, read as vec2);
+//! pairs (= elements, read as vec2); `rest` holds every slot's rest value,
+//! then the material rest data, the expression families' per-element
+//! constants and the prescribed motion's values;
 //! group 1: the `Dispatch` block of each dispatch (dynamic offset).
 
 pub(crate) mod call;
@@ -40,8 +42,8 @@ use schedule::Dispatch;
 /// The WGSL a plan adds to the step module: its expression families, and
 /// the primal-residual update where the plan uses it (failing stand-ins
 /// otherwise: `shader::primal_source`).
-pub(crate) fn generated(plan: &Plan, precision: crate::Precision) -> String {
-    let mut source = expression::generated(plan, precision);
+pub(crate) fn generated(plan: &Plan, families: &Families, precision: crate::Precision) -> String {
+    let mut source = expression::generated(plan, families, precision);
     let materials = (plan.families.iter()).any(|f| matches!(f.kind, FamilyKind::Material { .. }));
     source.push_str(&crate::shader::primal_source(
         plan.primal_residual,
@@ -65,6 +67,10 @@ pub(crate) struct Families {
     /// Offset of each material family's rest data in `rest` (0 for the
     /// others).
     pub material_base: Vec<u32>,
+    /// Offset of each family's per-element expression constants in `rest`
+    /// (after the material data; `element_constants` per slot, none for
+    /// the other kinds).
+    pub constants_base: Vec<u32>,
     /// Offset of each family's particle indices in `elements`.
     pub elem_base: Vec<u32>,
     /// Offset of each family's slots in `rest` and `lambda`.
@@ -105,6 +111,7 @@ impl Families {
             slot_maps: Vec::new(),
             slots: 0,
             material_base: Vec::new(),
+            constants_base: Vec::new(),
             carried_base: Vec::new(),
             factor_base: Vec::new(),
             carried_len: 0,
@@ -164,6 +171,12 @@ impl Families {
         for f in &plan.families {
             out.material_base.push(out.rest.len() as u32);
             material::push_rest_data(f, &mut out.rest);
+        }
+        for f in &plan.families {
+            out.constants_base.push(out.rest.len() as u32);
+            if let FamilyKind::Expression(kind) = &f.kind {
+                out.rest.extend_from_slice(&kind.constants);
+            }
         }
         out.motion = motion::MotionLayout::new(plan, &mut out.slot_maps, &mut out.rest);
         if plan.primal_residual {

@@ -189,11 +189,12 @@ impl Elements {
                             family, element, ..
                         } => {
                             let family = &terms.plan.families[family as usize];
+                            let kind = expression_kind(&family.kind);
                             expression_curvature(
-                                expression_kind(&family.kind),
-                                family.compliance,
-                                family.rest[element as usize],
+                                kind,
+                                (family.compliance, family.rest[element as usize]),
                                 points,
+                                kind.constants(element as usize),
                                 block,
                                 &mut expression,
                             )
