@@ -1,12 +1,15 @@
 //! Criterion benchmark of the expression evaluator against the built-in
 //! kernel it replaces: C and ∇C of `norm(x1 − x0)` over 16 384 elements in
-//! R^3, column-wise (`Tape::eval_f64`, one op over all lanes at a time)
-//! vs `geometry::distance` element by element — each side gathering its
-//! element's coordinates from one particle array, one thread.
+//! R^3, block-wise as the projection runs it (`Tape::eval_block`, one op
+//! over 64 lanes at a time) vs `geometry::distance` element by element —
+//! each side gathering its element's coordinates from one particle array
+//! and writing C (summed) and ∇C (to an array), one thread.
 //!
 //! ```text
-//! expression/builtin      distance() per element, gradient written to an array
-//! expression/expression   eval_f64 over the 16 384 lanes (outputs left in the columns)
+//! expression/builtin      distance() per element
+//! expression/expression   eval_block over blocks of 64 lanes
+//! (interleaved only)       eval_f64 over all 16 384 lanes at once (the
+//!                          column evaluator; outputs left in the columns)
 //! ```
 //! Before criterion runs, both are timed interleaved (A, B, A, B, … 201
 //! rounds, so drift of the machine hits both alike) and the ratio of the
@@ -21,7 +24,7 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, Throughput, criterion_group};
-use hyperpbd::core::expr::{Columns, Outputs, Tape, compile};
+use hyperpbd::core::expr::{BLOCK, Block, Columns, Outputs, Tape, compile};
 use hyperpbd::core::geometry::distance;
 
 const DIM: usize = 3;
@@ -79,7 +82,27 @@ fn builtin(d: &Data, grad: &mut [f64]) -> f64 {
     sum
 }
 
-fn expression(d: &Data, tape: &Tape, cols: &mut Columns<f64>) -> f64 {
+fn expression(d: &Data, tape: &Tape, cols: &mut Block<f64>, grad: &mut [f64]) -> f64 {
+    let mut sum = 0.0;
+    for (b, elements) in d.elements.chunks(BLOCK).enumerate() {
+        tape.eval_block(cols, |j, column| {
+            for (l, el) in elements.iter().enumerate() {
+                column[l] = d.positions[el[j / DIM] * DIM + j % DIM];
+            }
+        });
+        let value = cols.column(tape.value);
+        for (l, v) in value[..elements.len()].iter().enumerate() {
+            sum += v;
+            let e = b * BLOCK + l;
+            for (k, &g) in tape.gradient.iter().enumerate() {
+                grad[e * 2 * DIM + k] = cols.column(g)[l];
+            }
+        }
+    }
+    sum
+}
+
+fn columns(d: &Data, tape: &Tape, cols: &mut Columns<f64>) -> f64 {
     let lanes = d.elements.len();
     tape.eval_f64(
         lanes,
@@ -96,24 +119,30 @@ fn median(mut v: Vec<Duration>) -> Duration {
 
 fn interleaved(d: &Data, tape: &Tape) {
     let mut grad = vec![0.0; d.elements.len() * 2 * DIM];
-    let mut cols = Columns::new();
-    let (mut a, mut b) = (Vec::new(), Vec::new());
+    let mut cols = Block::new();
+    let mut all = Columns::new();
+    let (mut a, mut b, mut c) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..201 {
         let t = Instant::now();
         black_box(builtin(black_box(d), &mut grad));
         a.push(t.elapsed());
         let t = Instant::now();
-        black_box(expression(black_box(d), tape, &mut cols));
+        black_box(expression(black_box(d), tape, &mut cols, &mut grad));
         b.push(t.elapsed());
+        let t = Instant::now();
+        black_box(columns(black_box(d), tape, &mut all));
+        c.push(t.elapsed());
     }
-    let (ma, mb) = (median(a), median(b));
+    let (ma, mb, mc) = (median(a), median(b), median(c));
     println!(
-        "expression/builtin median ratio: {:.3} (built-in {:?}, expression {:?}, {} elements, dim {DIM}, {} ops)",
+        "expression/builtin median ratio: {:.3} (built-in {:?}, expression {:?}, {} elements, dim {DIM}, {} ops; all lanes at once {:?}, ratio {:.3})",
         mb.as_secs_f64() / ma.as_secs_f64(),
         ma,
         mb,
         d.elements.len(),
-        tape.ops.len()
+        tape.ops.len(),
+        mc,
+        mc.as_secs_f64() / ma.as_secs_f64(),
     );
 }
 
@@ -202,9 +231,9 @@ fn bench(c: &mut Criterion) {
     group.throughput(Throughput::Elements(d.elements.len() as u64));
     let mut grad = vec![0.0; d.elements.len() * 2 * DIM];
     group.bench_function("builtin", |b| b.iter(|| builtin(black_box(&d), &mut grad)));
-    let mut cols = Columns::new();
+    let mut cols = Block::new();
     group.bench_function("expression", |b| {
-        b.iter(|| expression(black_box(&d), &tape, &mut cols))
+        b.iter(|| expression(black_box(&d), &tape, &mut cols, &mut grad))
     });
     group.finish();
 }

@@ -31,7 +31,9 @@ mod relation;
 mod simplex_measure;
 mod tether;
 
-pub use expression::{Colour, ExpressionKind, Positions, ProjectionReal, project};
+pub use expression::{
+    Colour, ExpressionKind, Positions, ProjectionReal, ProjectionScratch, project,
+};
 pub use relation::Relation;
 
 use crate::expr::ParamValue;

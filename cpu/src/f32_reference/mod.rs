@@ -168,8 +168,9 @@ pub struct F32Reference {
     gravity: Vec<f32>,
     factor: f32,
     contacts: Option<Contacts>,
-    /// An expression family's columns.
+    /// An expression family's columns, and its projection's scratch.
     columns: Columns<f32>,
+    projection: kinds::ProjectionScratch<f32>,
     /// Steps completed (the clock of prescribed motion).
     step_count: u64,
     /// The substep being run.
@@ -277,6 +278,7 @@ impl F32Reference {
             contacts,
             plan,
             columns: Columns::new(),
+            projection: kinds::ProjectionScratch::new(),
             step_count: 0,
             substep: 0,
             motion_now: motion::Motion32::default(),
@@ -536,7 +538,12 @@ impl F32Reference {
                             slots: f.color(color),
                         };
                         let slots = f.color(color);
-                        kinds::project(&colour, &mut s.x[..], &mut lambda[slots], &mut self.columns)
+                        kinds::project(
+                            &colour,
+                            &mut s.x[..],
+                            &mut lambda[slots],
+                            &mut self.projection,
+                        )
                     }
                     FamilyKind::Material { .. } => match &stored.material {
                         Some(law) => {

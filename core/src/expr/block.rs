@@ -1,0 +1,147 @@
+//! Block evaluation of a [`Tape`]: the column evaluator ([`super::Columns`])
+//! over a fixed [`BLOCK`] of lanes, for the projection's inner loop. Each op
+//! runs over one block at a time (dispatch paid once per op and block); a
+//! column is a `[R; BLOCK]`, so the loops have a constant trip count (no
+//! bounds checks, vectorised), and ops × `BLOCK` reals stay in the first
+//! level cache while the caller gathers the inputs before and reads the
+//! outputs after.
+//!
+//! ```text
+//! block b = lanes b·BLOCK … b·BLOCK + BLOCK − 1
+//! Input j:  filled by the caller (coordinate j of each lane's element)
+//! every other op: as Tape::eval, lane by lane, the same IEEE operation
+//! ```
+//! Every lane runs the same operations in the same order as
+//! [`Tape::eval`], so the results are bit for bit those of the column
+//! evaluator (lanes past the caller's count hold stale values; they are
+//! computed and never read).
+
+use super::eval::Real;
+use super::graph::{Cmp, Op, Slot};
+use super::tape::Tape;
+use multiversion::multiversion;
+
+/// Lanes of one block: a 30-op tape's columns take 15 KiB in f64.
+pub const BLOCK: usize = 64;
+
+/// One column of a block.
+pub type Column<R> = [R; BLOCK];
+
+/// The columns of one block (scratch reused across blocks and calls: after
+/// the first call of a tape, a call allocates nothing).
+#[derive(Debug, Clone, Default)]
+pub struct Block<R> {
+    data: Vec<Column<R>>,
+}
+
+impl<R: Real> Block<R> {
+    /// Empty scratch.
+    pub fn new() -> Self {
+        Block { data: Vec::new() }
+    }
+
+    /// Slot `slot` in every lane of the block.
+    pub fn column(&self, slot: Slot) -> &Column<R> {
+        &self.data[slot]
+    }
+
+    /// Sizes the block for `tape` (one column per op; values kept), so
+    /// that a caller can fill the input columns with [`Block::column_mut`].
+    pub fn fit(&mut self, tape: &Tape) {
+        self.data.resize(tape.ops.len(), [R::default(); BLOCK]);
+    }
+
+    /// Slot `slot` to write (after [`Block::fit`]).
+    pub fn column_mut(&mut self, slot: Slot) -> &mut Column<R> {
+        &mut self.data[slot]
+    }
+}
+
+impl Tape {
+    /// The slot of `Op::Input(j)` for every input j (`None`: the tape does
+    /// not read it).
+    pub fn input_slots(&self) -> Vec<Option<Slot>> {
+        let mut slots = vec![None; self.inputs];
+        for (slot, op) in self.ops.iter().enumerate() {
+            if let Op::Input(j) = *op {
+                slots[j] = Some(slot);
+            }
+        }
+        slots
+    }
+}
+
+fn unary<R: Real>(out: &mut Column<R>, a: &Column<R>, f: impl Fn(R) -> R) {
+    for l in 0..BLOCK {
+        out[l] = f(a[l]);
+    }
+}
+
+fn binary<R: Real>(out: &mut Column<R>, a: &Column<R>, b: &Column<R>, f: impl Fn(R, R) -> R) {
+    for l in 0..BLOCK {
+        out[l] = f(a[l], b[l]);
+    }
+}
+
+impl Tape {
+    /// Evaluates every slot in precision `R` over one block (with AVX where
+    /// the CPU has it: the same IEEE operations, four lanes per
+    /// instruction); `input(j,
+    /// column)` fills coordinate j of each lane's element (a caller that
+    /// filled the input columns already, [`Block::column_mut`], passes a
+    /// closure that does nothing). Read the outputs with [`Block::column`].
+    pub fn eval_block<R: Real>(
+        &self,
+        block: &mut Block<R>,
+        input: impl FnMut(usize, &mut Column<R>),
+    ) {
+        block.fit(self);
+        run(&self.ops, &mut block.data, input);
+    }
+}
+
+/// The ops over one block (`data`: a column per op, sized).
+#[multiversion(targets("x86_64+avx"))]
+fn run<R: Real, F: FnMut(usize, &mut Column<R>)>(ops: &[Op], data: &mut [Column<R>], mut input: F) {
+    {
+        for (i, op) in ops.iter().enumerate() {
+            let (done, rest) = data.split_at_mut(i);
+            let out = &mut rest[0];
+            let col = |s: Slot| &done[s];
+            match *op {
+                Op::Input(j) => input(j, out),
+                Op::Const(c) => *out = [R::constant(c); BLOCK],
+                Op::Add(a, b) => binary(out, col(a), col(b), |x, y| x + y),
+                Op::Sub(a, b) => binary(out, col(a), col(b), |x, y| x - y),
+                Op::Mul(a, b) => binary(out, col(a), col(b), |x, y| x * y),
+                Op::Div(a, b) => binary(out, col(a), col(b), |x, y| x / y),
+                Op::Neg(a) => unary(out, col(a), |x| -x),
+                Op::Sqrt(a) => unary(out, col(a), R::sqrt),
+                Op::Abs(a) => unary(out, col(a), R::abs),
+                Op::Ln(a) => unary(out, col(a), R::ln),
+                Op::Exp(a) => unary(out, col(a), R::exp),
+                Op::Select {
+                    cmp,
+                    lhs,
+                    rhs,
+                    then,
+                    otherwise,
+                } => {
+                    let (l, r, t, f) = (col(lhs), col(rhs), col(then), col(otherwise));
+                    match cmp {
+                        Cmp::Lt => {
+                            for k in 0..BLOCK {
+                                out[k] = if l[k] < r[k] { t[k] } else { f[k] };
+                            }
+                        }
+                        Cmp::Le => {
+                            for k in 0..BLOCK {
+                                out[k] = if l[k] <= r[k] { t[k] } else { f[k] };
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
