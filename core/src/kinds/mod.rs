@@ -24,6 +24,8 @@
 mod bending;
 mod distance;
 mod expression;
+#[cfg(test)]
+mod expression_tests;
 mod hyperplane_contact;
 mod material;
 mod oriented_measure;

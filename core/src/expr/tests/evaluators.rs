@@ -166,3 +166,45 @@ fn f32_is_f64_within_f32_rounding() {
         "{unbounded} of {lanes_total}"
     );
 }
+
+#[test]
+fn blocks_equal_all_lanes_at_once_bit_for_bit() {
+    use crate::expr::{BLOCK, Block};
+    let mut rng = Rng(29);
+    let mut compared = 0usize;
+    for case in 0..24 {
+        let (dim, arity) = (1 + case % 4, 1 + case % 3);
+        let tape = full(&compiled(
+            &program(&mut rng, 3, arity, dim),
+            &params(dim),
+            arity,
+            dim,
+        ));
+        let n = arity * dim;
+        // Whole blocks, a partial last block, and fewer lanes than a block.
+        let lanes = [BLOCK + 37, 2 * BLOCK, 5][case % 3];
+        let x: Vec<f64> = (0..n * lanes).map(|_| rng.uniform(-1.5, 1.5)).collect();
+        let mut all = Columns::new();
+        tape.eval_f64(lanes, |j, l| x[l * n + j], &mut all);
+        let mut block = Block::<f64>::new();
+        for first in (0..lanes).step_by(BLOCK) {
+            let len = BLOCK.min(lanes - first);
+            tape.eval_block(&mut block, |j, column| {
+                for (l, c) in column[..len].iter_mut().enumerate() {
+                    *c = x[(first + l) * n + j];
+                }
+            });
+            for s in tape.outputs() {
+                for l in 0..len {
+                    let (a, b) = (block.column(s)[l], all.get(s, first + l));
+                    assert!(
+                        a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                        "{a:e} {b:e}"
+                    );
+                    compared += 1;
+                }
+            }
+        }
+    }
+    assert!(compared > 10_000, "{compared}");
+}
