@@ -18,7 +18,8 @@
 //! Then whole steps: the 128² peer cloth (`scenes::peer_cloth(128)`) with
 //! its distance families as built-ins and as `norm(x1 - x0)` expressions,
 //! interleaved, medians: on the CPU (one thread) and, when an adapter is
-//! there, gpu-f32 (`step ratio` lines).
+//! there, gpu-f32 (`step ratio` lines; on Linux also of the thread's CPU
+//! time, which a loaded machine inflates less than wall time).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -163,23 +164,44 @@ fn expressed(scene: &hyperpbd::Scene) -> hyperpbd::Scene {
     out
 }
 
+/// This thread's time on a core so far, in ns (Linux:
+/// `/proc/thread-self/schedstat`, first field; `None` elsewhere): unlike
+/// wall time, it leaves out the time the thread waited for a core on a
+/// loaded machine.
+fn cpu_ns() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    text.split_whitespace().next()?.parse().ok()
+}
+
 /// Interleaved whole steps of `a` and `b` (`rounds` each after one warm-up
-/// step), the median ratio b / a printed as `label`.
+/// step), the median ratio b / a printed as `label`, of wall time and, with
+/// `cpu_time` (a backend that steps on this thread) where the OS reports
+/// it, of this thread's CPU time.
 fn step_ratio(
     label: &str,
     a: &mut dyn hyperpbd::Backend,
     b: &mut dyn hyperpbd::Backend,
     rounds: usize,
+    cpu_time: bool,
 ) {
     let (mut ta, mut tb) = (Vec::new(), Vec::new());
+    let (mut ca, mut cb) = (Vec::new(), Vec::new());
     let ok = a.step().is_ok() && b.step().is_ok();
     for _ in 0..rounds {
-        let t = Instant::now();
+        let (t, c) = (Instant::now(), cpu_ns());
         let ra = a.step();
         ta.push(t.elapsed());
-        let t = Instant::now();
+        ca.extend(
+            c.zip(cpu_ns())
+                .map(|(c0, c1)| Duration::from_nanos(c1 - c0)),
+        );
+        let (t, c) = (Instant::now(), cpu_ns());
         let rb = b.step();
         tb.push(t.elapsed());
+        cb.extend(
+            c.zip(cpu_ns())
+                .map(|(c0, c1)| Duration::from_nanos(c1 - c0)),
+        );
         if ra.is_err() || rb.is_err() || !ok {
             println!("{label}: a step failed");
             return;
@@ -192,6 +214,15 @@ fn step_ratio(
         ma,
         mb
     );
+    if cpu_time && ca.len() == rounds && cb.len() == rounds {
+        let (ma, mb) = (median(ca), median(cb));
+        println!(
+            "{label} step ratio, CPU time: {:.3} (built-in {:?}, expression {:?})",
+            mb.as_secs_f64() / ma.as_secs_f64(),
+            ma,
+            mb
+        );
+    }
 }
 
 fn whole_steps() {
@@ -207,12 +238,22 @@ fn whole_steps() {
         hyperpbd::CpuBackend::with_threads(plan, &State::from_scene(s), 1).expect("cpu")
     };
     let (mut a, mut b) = (cpu(&scene), cpu(&other));
-    step_ratio("peer cloth 128², cpu-f64 one thread", &mut a, &mut b, 31);
+    step_ratio(
+        "peer cloth 128², cpu-f64 one thread",
+        &mut a,
+        &mut b,
+        31,
+        true,
+    );
     let gpu = BackendKind::Gpu(hyperpbd::gpu::Precision::F32);
     match (load(&scene, gpu), load(&other, gpu)) {
-        (Ok(mut a), Ok(mut b)) => {
-            step_ratio("peer cloth 128², gpu-f32", a.as_mut(), b.as_mut(), 11)
-        }
+        (Ok(mut a), Ok(mut b)) => step_ratio(
+            "peer cloth 128², gpu-f32",
+            a.as_mut(),
+            b.as_mut(),
+            11,
+            false,
+        ),
         (a, b) => println!(
             "peer cloth 128², gpu-f32: skipped ({:?})",
             a.err().or(b.err()).map(|e| e.to_string())

@@ -63,7 +63,8 @@ fn blocks_project_as_slot_by_slot_bit_for_bit() {
         b[..3].copy_from_slice(&a[30..33]);
         let mut lambda: Vec<f64> = (0..count).map(|e| 1e-3 * (e % 5) as f64 - 2e-3).collect();
         let (mut x1, mut lambda1) = (x.clone(), lambda.clone());
-        let blocks = run(&kind, &mut x, &mut lambda, &[0..count]);
+        let whole = 0..count;
+        let blocks = run(&kind, &mut x, &mut lambda, std::slice::from_ref(&whole));
         let singles: Vec<_> = (0..count).map(|e| e..e + 1).collect();
         let one_by_one = run(&kind, &mut x1, &mut lambda1, &singles);
         assert_eq!(blocks.first(), one_by_one.first(), "{source}");
