@@ -16,8 +16,8 @@
 //! evaluator (lanes past the caller's count hold stale values; they are
 //! computed and never read).
 
-use super::eval::Real;
-use super::graph::{Cmp, Op, Slot};
+use super::eval::{Real, apply};
+use super::graph::{Op, Slot};
 use super::tape::Tape;
 use multiversion::multiversion;
 
@@ -71,25 +71,13 @@ impl Tape {
     }
 }
 
-fn unary<R: Real>(out: &mut Column<R>, a: &Column<R>, f: impl Fn(R) -> R) {
-    for l in 0..BLOCK {
-        out[l] = f(a[l]);
-    }
-}
-
-fn binary<R: Real>(out: &mut Column<R>, a: &Column<R>, b: &Column<R>, f: impl Fn(R, R) -> R) {
-    for l in 0..BLOCK {
-        out[l] = f(a[l], b[l]);
-    }
-}
-
 impl Tape {
     /// Evaluates every slot in precision `R` over one block (with AVX where
     /// the CPU has it: the same IEEE operations, four lanes per
-    /// instruction); `input(j,
-    /// column)` fills coordinate j of each lane's element (a caller that
-    /// filled the input columns already, [`Block::column_mut`], passes a
-    /// closure that does nothing). Read the outputs with [`Block::column`].
+    /// instruction); `input(j, column)` fills coordinate j of each lane's
+    /// element (a caller that filled the input columns already,
+    /// [`Block::column_mut`], passes a closure that does nothing). Read the
+    /// outputs with [`Block::column`].
     pub fn eval_block<R: Real>(
         &self,
         block: &mut Block<R>,
@@ -103,45 +91,11 @@ impl Tape {
 /// The ops over one block (`data`: a column per op, sized).
 #[multiversion(targets("x86_64+avx"))]
 fn run<R: Real, F: FnMut(usize, &mut Column<R>)>(ops: &[Op], data: &mut [Column<R>], mut input: F) {
-    {
-        for (i, op) in ops.iter().enumerate() {
-            let (done, rest) = data.split_at_mut(i);
-            let out = &mut rest[0];
-            let col = |s: Slot| &done[s];
-            match *op {
-                Op::Input(j) => input(j, out),
-                Op::Const(c) => *out = [R::constant(c); BLOCK],
-                Op::Add(a, b) => binary(out, col(a), col(b), |x, y| x + y),
-                Op::Sub(a, b) => binary(out, col(a), col(b), |x, y| x - y),
-                Op::Mul(a, b) => binary(out, col(a), col(b), |x, y| x * y),
-                Op::Div(a, b) => binary(out, col(a), col(b), |x, y| x / y),
-                Op::Neg(a) => unary(out, col(a), |x| -x),
-                Op::Sqrt(a) => unary(out, col(a), R::sqrt),
-                Op::Abs(a) => unary(out, col(a), R::abs),
-                Op::Ln(a) => unary(out, col(a), R::ln),
-                Op::Exp(a) => unary(out, col(a), R::exp),
-                Op::Select {
-                    cmp,
-                    lhs,
-                    rhs,
-                    then,
-                    otherwise,
-                } => {
-                    let (l, r, t, f) = (col(lhs), col(rhs), col(then), col(otherwise));
-                    match cmp {
-                        Cmp::Lt => {
-                            for k in 0..BLOCK {
-                                out[k] = if l[k] < r[k] { t[k] } else { f[k] };
-                            }
-                        }
-                        Cmp::Le => {
-                            for k in 0..BLOCK {
-                                out[k] = if l[k] <= r[k] { t[k] } else { f[k] };
-                            }
-                        }
-                    }
-                }
-            }
-        }
+    for (i, op) in ops.iter().enumerate() {
+        let (done, rest) = data.split_at_mut(i);
+        let col = |s: Slot| &done[s][..];
+        apply(*op, &mut rest[0][..], col, |j, out| {
+            input(j, out.try_into().expect("a block column"))
+        });
     }
 }

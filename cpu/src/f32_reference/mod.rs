@@ -537,13 +537,8 @@ impl F32Reference {
                             inverse_mass: &s.w,
                             slots: f.color(color),
                         };
-                        let slots = f.color(color);
-                        kinds::project(
-                            &colour,
-                            &mut s.x[..],
-                            &mut lambda[slots],
-                            &mut self.projection,
-                        )
+                        let (lambda, ws) = (&mut lambda[f.color(color)], &mut self.projection);
+                        kinds::project(&colour, &mut s.x[..], lambda, ws)
                     }
                     FamilyKind::Material { .. } => match &stored.material {
                         Some(law) => {
