@@ -1,12 +1,15 @@
 //! Criterion benchmark of the expression evaluator against the built-in
 //! kernel it replaces: C and ∇C of `norm(x1 − x0)` over 16 384 elements in
-//! R^3, column-wise (`Tape::eval_f64`, one op over all lanes at a time)
-//! vs `geometry::distance` element by element — each side gathering its
-//! element's coordinates from one particle array, one thread.
+//! R^3, block-wise as the projection runs it (`Tape::eval_block`, one op
+//! over 64 lanes at a time) vs `geometry::distance` element by element —
+//! each side gathering its element's coordinates from one particle array
+//! and writing C (summed) and ∇C (to an array), one thread.
 //!
 //! ```text
-//! expression/builtin      distance() per element, gradient written to an array
-//! expression/expression   eval_f64 over the 16 384 lanes (outputs left in the columns)
+//! expression/builtin      distance() per element
+//! expression/expression   eval_block over blocks of 64 lanes
+//! (interleaved only)       eval_f64 over all 16 384 lanes at once (the
+//!                          column evaluator; outputs left in the columns)
 //! ```
 //! Before criterion runs, both are timed interleaved (A, B, A, B, … 201
 //! rounds, so drift of the machine hits both alike) and the ratio of the
@@ -15,13 +18,14 @@
 //! Then whole steps: the 128² peer cloth (`scenes::peer_cloth(128)`) with
 //! its distance families as built-ins and as `norm(x1 - x0)` expressions,
 //! interleaved, medians: on the CPU (one thread) and, when an adapter is
-//! there, gpu-f32 (`step ratio` lines).
+//! there, gpu-f32 (`step ratio` lines; on Linux also of the thread's CPU
+//! time, which a loaded machine inflates less than wall time).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, Throughput, criterion_group};
-use hyperpbd::core::expr::{Columns, Outputs, Tape, compile};
+use hyperpbd::core::expr::{BLOCK, Block, Columns, Outputs, Tape, compile};
 use hyperpbd::core::geometry::distance;
 
 const DIM: usize = 3;
@@ -79,7 +83,27 @@ fn builtin(d: &Data, grad: &mut [f64]) -> f64 {
     sum
 }
 
-fn expression(d: &Data, tape: &Tape, cols: &mut Columns<f64>) -> f64 {
+fn expression(d: &Data, tape: &Tape, cols: &mut Block<f64>, grad: &mut [f64]) -> f64 {
+    let mut sum = 0.0;
+    for (b, elements) in d.elements.chunks(BLOCK).enumerate() {
+        tape.eval_block(cols, |j, column| {
+            for (l, el) in elements.iter().enumerate() {
+                column[l] = d.positions[el[j / DIM] * DIM + j % DIM];
+            }
+        });
+        let value = cols.column(tape.value);
+        for (l, v) in value[..elements.len()].iter().enumerate() {
+            sum += v;
+            let e = b * BLOCK + l;
+            for (k, &g) in tape.gradient.iter().enumerate() {
+                grad[e * 2 * DIM + k] = cols.column(g)[l];
+            }
+        }
+    }
+    sum
+}
+
+fn columns(d: &Data, tape: &Tape, cols: &mut Columns<f64>) -> f64 {
     let lanes = d.elements.len();
     tape.eval_f64(
         lanes,
@@ -96,24 +120,30 @@ fn median(mut v: Vec<Duration>) -> Duration {
 
 fn interleaved(d: &Data, tape: &Tape) {
     let mut grad = vec![0.0; d.elements.len() * 2 * DIM];
-    let mut cols = Columns::new();
-    let (mut a, mut b) = (Vec::new(), Vec::new());
+    let mut cols = Block::new();
+    let mut all = Columns::new();
+    let (mut a, mut b, mut c) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..201 {
         let t = Instant::now();
         black_box(builtin(black_box(d), &mut grad));
         a.push(t.elapsed());
         let t = Instant::now();
-        black_box(expression(black_box(d), tape, &mut cols));
+        black_box(expression(black_box(d), tape, &mut cols, &mut grad));
         b.push(t.elapsed());
+        let t = Instant::now();
+        black_box(columns(black_box(d), tape, &mut all));
+        c.push(t.elapsed());
     }
-    let (ma, mb) = (median(a), median(b));
+    let (ma, mb, mc) = (median(a), median(b), median(c));
     println!(
-        "expression/builtin median ratio: {:.3} (built-in {:?}, expression {:?}, {} elements, dim {DIM}, {} ops)",
+        "expression/builtin median ratio: {:.3} (built-in {:?}, expression {:?}, {} elements, dim {DIM}, {} ops; all lanes at once {:?}, ratio {:.3})",
         mb.as_secs_f64() / ma.as_secs_f64(),
         ma,
         mb,
         d.elements.len(),
-        tape.ops.len()
+        tape.ops.len(),
+        mc,
+        mc.as_secs_f64() / ma.as_secs_f64(),
     );
 }
 
@@ -134,23 +164,44 @@ fn expressed(scene: &hyperpbd::Scene) -> hyperpbd::Scene {
     out
 }
 
+/// This thread's time on a core so far, in ns (Linux:
+/// `/proc/thread-self/schedstat`, first field; `None` elsewhere): unlike
+/// wall time, it leaves out the time the thread waited for a core on a
+/// loaded machine.
+fn cpu_ns() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    text.split_whitespace().next()?.parse().ok()
+}
+
 /// Interleaved whole steps of `a` and `b` (`rounds` each after one warm-up
-/// step), the median ratio b / a printed as `label`.
+/// step), the median ratio b / a printed as `label`, of wall time and, with
+/// `cpu_time` (a backend that steps on this thread) where the OS reports
+/// it, of this thread's CPU time.
 fn step_ratio(
     label: &str,
     a: &mut dyn hyperpbd::Backend,
     b: &mut dyn hyperpbd::Backend,
     rounds: usize,
+    cpu_time: bool,
 ) {
     let (mut ta, mut tb) = (Vec::new(), Vec::new());
+    let (mut ca, mut cb) = (Vec::new(), Vec::new());
     let ok = a.step().is_ok() && b.step().is_ok();
     for _ in 0..rounds {
-        let t = Instant::now();
+        let (t, c) = (Instant::now(), cpu_ns());
         let ra = a.step();
         ta.push(t.elapsed());
-        let t = Instant::now();
+        ca.extend(
+            c.zip(cpu_ns())
+                .map(|(c0, c1)| Duration::from_nanos(c1 - c0)),
+        );
+        let (t, c) = (Instant::now(), cpu_ns());
         let rb = b.step();
         tb.push(t.elapsed());
+        cb.extend(
+            c.zip(cpu_ns())
+                .map(|(c0, c1)| Duration::from_nanos(c1 - c0)),
+        );
         if ra.is_err() || rb.is_err() || !ok {
             println!("{label}: a step failed");
             return;
@@ -163,6 +214,15 @@ fn step_ratio(
         ma,
         mb
     );
+    if cpu_time && ca.len() == rounds && cb.len() == rounds {
+        let (ma, mb) = (median(ca), median(cb));
+        println!(
+            "{label} step ratio, CPU time: {:.3} (built-in {:?}, expression {:?})",
+            mb.as_secs_f64() / ma.as_secs_f64(),
+            ma,
+            mb
+        );
+    }
 }
 
 fn whole_steps() {
@@ -178,12 +238,22 @@ fn whole_steps() {
         hyperpbd::CpuBackend::with_threads(plan, &State::from_scene(s), 1).expect("cpu")
     };
     let (mut a, mut b) = (cpu(&scene), cpu(&other));
-    step_ratio("peer cloth 128², cpu-f64 one thread", &mut a, &mut b, 31);
+    step_ratio(
+        "peer cloth 128², cpu-f64 one thread",
+        &mut a,
+        &mut b,
+        31,
+        true,
+    );
     let gpu = BackendKind::Gpu(hyperpbd::gpu::Precision::F32);
     match (load(&scene, gpu), load(&other, gpu)) {
-        (Ok(mut a), Ok(mut b)) => {
-            step_ratio("peer cloth 128², gpu-f32", a.as_mut(), b.as_mut(), 11)
-        }
+        (Ok(mut a), Ok(mut b)) => step_ratio(
+            "peer cloth 128², gpu-f32",
+            a.as_mut(),
+            b.as_mut(),
+            11,
+            false,
+        ),
         (a, b) => println!(
             "peer cloth 128², gpu-f32: skipped ({:?})",
             a.err().or(b.err()).map(|e| e.to_string())
@@ -202,9 +272,9 @@ fn bench(c: &mut Criterion) {
     group.throughput(Throughput::Elements(d.elements.len() as u64));
     let mut grad = vec![0.0; d.elements.len() * 2 * DIM];
     group.bench_function("builtin", |b| b.iter(|| builtin(black_box(&d), &mut grad)));
-    let mut cols = Columns::new();
+    let mut cols = Block::new();
     group.bench_function("expression", |b| {
-        b.iter(|| expression(black_box(&d), &tape, &mut cols))
+        b.iter(|| expression(black_box(&d), &tape, &mut cols, &mut grad))
     });
     group.finish();
 }

@@ -75,6 +75,8 @@ pub struct Workspace {
     pub material: MaterialScratch,
     /// An expression family's columns (one per tape slot).
     pub columns: Columns<f64>,
+    /// An expression family's projection scratch.
+    pub projection: kinds::ProjectionScratch<f64>,
 }
 
 /// Coordinates as an expression projection reads and writes them.
@@ -184,7 +186,7 @@ fn project_elements<X: Coordinates + ?Sized>(
                 inverse_mass: batch.inverse_mass,
                 slots: elements,
             };
-            kinds::project(&colour, &mut Positions(x), lambda, &mut ws.columns)
+            kinds::project(&colour, &mut Positions(x), lambda, &mut ws.projection)
         }
     }
 }

@@ -12,6 +12,8 @@
 use crate::dim::{Dim, with_dim};
 use crate::parallel::Workers;
 use crate::project::Workspace;
+use hyperpbd_core::expr::Block;
+use hyperpbd_core::kinds::ExpressionKind;
 use hyperpbd_core::violation::geometric_violation;
 use hyperpbd_core::{Family, FamilyKind, FamilyResidual};
 use std::ops::Range;
@@ -25,6 +27,8 @@ pub fn residual(workers: &Workers, dim: usize, family: &Family, x: &[f64]) -> Fa
         .map_chunks(family.len(), RESIDUAL_GRAIN, |elements| {
             if family.kind == FamilyKind::Distance {
                 with_dim!(dim, distance_violation(family, elements, x))
+            } else if let FamilyKind::Expression(kind) = &family.kind {
+                expression_violation(kind, dim, family, elements, x)
             } else {
                 with_dim!(
                     dim,
@@ -80,6 +84,31 @@ fn violation<D: Dim>(
         };
         worst = worst.max(violation);
     }
+    worst
+}
+
+/// The largest violation of expression elements `elements`: C over
+/// blocks of elements (`ExpressionKind::values`, bit for bit C element by
+/// element), each violation formed as the generic path forms it.
+fn expression_violation(
+    kind: &ExpressionKind,
+    dim: usize,
+    family: &Family,
+    elements: Range<usize>,
+    x: &[f64],
+) -> f64 {
+    let mut worst: f64 = 0.0;
+    let mut block = Block::new();
+    kind.values(
+        dim,
+        &family.elements,
+        elements,
+        x,
+        &mut block,
+        |e, value| {
+            worst = worst.max(kind.violation(value, family.rest[e]));
+        },
+    );
     worst
 }
 

@@ -155,44 +155,56 @@ impl Tape {
         let data = &mut scratch.data[..];
         for (i, op) in self.ops.iter().enumerate() {
             let (done, rest) = data.split_at_mut(i * lanes);
-            let out = &mut rest[..lanes];
             let col = |s: Slot| &done[s * lanes..(s + 1) * lanes];
-            match *op {
-                Op::Input(j) => {
-                    for (lane, o) in out.iter_mut().enumerate() {
-                        *o = input(j, lane);
+            apply(*op, &mut rest[..lanes], col, |j, out| {
+                for (lane, o) in out.iter_mut().enumerate() {
+                    *o = input(j, lane);
+                }
+            });
+        }
+    }
+}
+
+/// `op` over the lanes of `out`, its operands' columns read with `col`
+/// (`Input(j)`: `input(j, out)`): the one place each op's arithmetic is
+/// written, for the column and the block evaluator.
+#[inline(always)]
+pub(super) fn apply<'a, R: Real + 'a>(
+    op: Op,
+    out: &mut [R],
+    col: impl Fn(Slot) -> &'a [R],
+    input: impl FnOnce(usize, &mut [R]),
+) {
+    match op {
+        Op::Input(j) => input(j, out),
+        Op::Const(c) => out.fill(R::constant(c)),
+        Op::Add(a, b) => binary(out, col(a), col(b), |x, y| x + y),
+        Op::Sub(a, b) => binary(out, col(a), col(b), |x, y| x - y),
+        Op::Mul(a, b) => binary(out, col(a), col(b), |x, y| x * y),
+        Op::Div(a, b) => binary(out, col(a), col(b), |x, y| x / y),
+        Op::Neg(a) => unary(out, col(a), |x| -x),
+        Op::Sqrt(a) => unary(out, col(a), R::sqrt),
+        Op::Abs(a) => unary(out, col(a), R::abs),
+        Op::Ln(a) => unary(out, col(a), R::ln),
+        Op::Exp(a) => unary(out, col(a), R::exp),
+        Op::Select {
+            cmp,
+            lhs,
+            rhs,
+            then,
+            otherwise,
+        } => {
+            let (l, r, t, f) = (col(lhs), col(rhs), col(then), col(otherwise));
+            let lanes_iter = out.iter_mut().zip(l).zip(r).zip(t).zip(f);
+            match cmp {
+                Cmp::Lt => {
+                    for ((((o, &l), &r), &t), &f) in lanes_iter {
+                        *o = if l < r { t } else { f };
                     }
                 }
-                Op::Const(c) => out.fill(R::constant(c)),
-                Op::Add(a, b) => binary(out, col(a), col(b), |x, y| x + y),
-                Op::Sub(a, b) => binary(out, col(a), col(b), |x, y| x - y),
-                Op::Mul(a, b) => binary(out, col(a), col(b), |x, y| x * y),
-                Op::Div(a, b) => binary(out, col(a), col(b), |x, y| x / y),
-                Op::Neg(a) => unary(out, col(a), |x| -x),
-                Op::Sqrt(a) => unary(out, col(a), R::sqrt),
-                Op::Abs(a) => unary(out, col(a), R::abs),
-                Op::Ln(a) => unary(out, col(a), R::ln),
-                Op::Exp(a) => unary(out, col(a), R::exp),
-                Op::Select {
-                    cmp,
-                    lhs,
-                    rhs,
-                    then,
-                    otherwise,
-                } => {
-                    let (l, r, t, f) = (col(lhs), col(rhs), col(then), col(otherwise));
-                    let lanes_iter = out.iter_mut().zip(l).zip(r).zip(t).zip(f);
-                    match cmp {
-                        Cmp::Lt => {
-                            for ((((o, &l), &r), &t), &f) in lanes_iter {
-                                *o = if l < r { t } else { f };
-                            }
-                        }
-                        Cmp::Le => {
-                            for ((((o, &l), &r), &t), &f) in lanes_iter {
-                                *o = if l <= r { t } else { f };
-                            }
-                        }
+                Cmp::Le => {
+                    for ((((o, &l), &r), &t), &f) in lanes_iter {
+                        *o = if l <= r { t } else { f };
                     }
                 }
             }

@@ -14,6 +14,7 @@
 //! and bounded by [`limits`]: a hostile expression is refused with
 //! [`ExprErrorKind::TooLarge`], never compiled in exponential time or memory.
 
+mod block;
 mod diff;
 mod error;
 mod eval;
@@ -25,6 +26,7 @@ mod parse;
 mod tape;
 mod wgsl;
 
+pub use block::{BLOCK, Block, Column};
 pub use error::{ExprError, ExprErrorKind, ValueType};
 pub use eval::{Columns, Real};
 pub use exp::{

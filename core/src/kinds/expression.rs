@@ -6,11 +6,13 @@
 //! the WGSL kernel performs the same operations in the same order.
 //!
 //! ```text
-//! per colour: evaluate the value+gradient tape over every element (a
-//!   column per slot: elements of a colour share no dynamic particle, so
-//!   this equals evaluating them one after another); the tape's inputs are
-//!   the element's coordinates, then its per-element constants (m per
-//!   element, computed at load: bending's quadratic weights)
+//! per block of BLOCK = 64 slots of a colour: gather the coordinates, evaluate
+//!   the value+gradient tape over the block (a column per tape slot) and the
+//!   wsum and Δλ below lane-wise (the same operations per lane), then update
+//!   (elements of a colour share no dynamic particle, so this equals
+//!   evaluating them one after another); the tape's inputs are the element's
+//!   coordinates, then its per-element constants (m per element, computed at
+//!   load: bending's quadratic weights)
 //! per element, in slot order:
 //!   C non-finite                         → the element fails (typed step error)
 //!   wsum = Σ_j [w_j ≠ 0] w_j Σ_a g_ja²    (j, then a ascending; fixed particles skipped)
@@ -25,8 +27,12 @@
 use std::ops::Range;
 use std::sync::OnceLock;
 
+use multiversion::multiversion;
+
 use super::relation::Relation;
-use crate::expr::{self, Columns, Compiled, Outputs, ParamValue, Real, Stats, Tape};
+use crate::expr::{
+    self, BLOCK, Block, Column, Columns, Compiled, Outputs, ParamValue, Real, Slot, Stats, Tape,
+};
 
 /// A compiled expression family.
 #[derive(Debug, Clone)]
@@ -55,6 +61,8 @@ pub struct ExpressionKind {
     /// (`None`: C at the authored positions, the rule of every family;
     /// quadratic bending: 0, flat).
     pub fixed_rest: Option<f64>,
+    /// The slot of each input in [`ExpressionKind::gradient`].
+    gradient_inputs: Vec<Option<Slot>>,
     compiled: Compiled,
     /// C, ∇C and ∇²C, derived on first request (the implicit paths).
     hessian: OnceLock<Result<Tape, expr::ExprError>>,
@@ -107,6 +115,7 @@ impl ExpressionKind {
         let compiled = expr::compile_with_constants(source, params, names, arity, dim)?;
         let value = compiled.tape(Outputs::Value)?;
         let gradient = compiled.tape(Outputs::ValueGradient)?;
+        let gradient_inputs = gradient.input_slots();
         Ok(ExpressionKind {
             name,
             source: source.into(),
@@ -117,6 +126,7 @@ impl ExpressionKind {
             element_constants: names.len(),
             constants,
             fixed_rest: None,
+            gradient_inputs,
             compiled,
             hessian: OnceLock::new(),
         })
@@ -219,6 +229,42 @@ impl ExpressionKind {
         }
     }
 
+    /// C of slots `slots` of a family of this kind (`elements`: `arity`
+    /// particle indices per slot) at `x` (flat, `dim` per particle), in
+    /// precision `R`: the value tape over blocks of [`BLOCK`] slots, each
+    /// value handed to `each(slot, C)` in slot order. Bit for bit
+    /// [`ExpressionKind::value_at`] per slot.
+    pub fn values<R: Real>(
+        &self,
+        dim: usize,
+        elements: &[u32],
+        slots: Range<usize>,
+        x: &[R],
+        block: &mut Block<R>,
+        mut each: impl FnMut(usize, R),
+    ) {
+        let (arity, m) = (self.arity, self.element_constants);
+        let n = arity * dim;
+        let mut start = slots.start;
+        while start < slots.end {
+            let block_slots = start..BLOCK.min(slots.end - start) + start;
+            self.value.eval_block(block, |j, column| {
+                let (p, a) = (j / dim, j % dim);
+                for (lane, e) in block_slots.clone().enumerate() {
+                    column[lane] = match j < n {
+                        true => x[elements[e * arity + p] as usize * dim + a],
+                        false => R::constant(self.constants[e * m + (j - n)]),
+                    };
+                }
+            });
+            let value = block.column(self.value.value);
+            for (lane, e) in block_slots.clone().enumerate() {
+                each(e, value[lane]);
+            }
+            start = block_slots.end;
+        }
+    }
+
     /// The violation of an element whose value is `value` and rest `rest`,
     /// in precision `R`.
     pub fn violation<R: ProjectionReal>(&self, value: R, rest: R) -> R {
@@ -316,58 +362,143 @@ pub struct Colour<'a, R> {
     pub slots: Range<usize>,
 }
 
+/// The projection's scratch, reused across blocks and calls: the tape's
+/// columns and, per member j of the element, each lane's particle offset
+/// (particle · N) and inverse mass.
+#[derive(Debug, Clone, Default)]
+pub struct ProjectionScratch<R> {
+    block: Block<R>,
+    offset: Vec<[usize; BLOCK]>,
+    weight: Vec<Column<R>>,
+}
+
+impl<R: Real> ProjectionScratch<R> {
+    /// Empty scratch.
+    pub fn new() -> Self {
+        ProjectionScratch {
+            block: Block::new(),
+            offset: Vec::new(),
+            weight: Vec::new(),
+        }
+    }
+}
+
 /// Projects the slots of `c` (module docs); `lambda` holds their
 /// multipliers (`lambda[0]` is slot `c.slots.start`). Every element is
 /// projected; the first failing slot is returned.
+///
+/// The slots run in blocks of [`BLOCK`]: gather the block's coordinates,
+/// evaluate the tape over the block ([`Tape::eval_block`]), then update
+/// its elements in slot order. A colour's elements share no dynamic
+/// particle and fixed ones are never written, so this reads and writes
+/// what projecting the elements one after another would.
 pub fn project<R: ProjectionReal, X: Positions<R> + ?Sized>(
     c: &Colour<'_, R>,
     x: &mut X,
     lambda: &mut [R],
-    columns: &mut Columns<R>,
+    scratch: &mut ProjectionScratch<R>,
 ) -> Result<(), usize> {
-    let (dim, arity) = (c.dim, c.kind.arity);
+    let mut failed = None;
+    let mut start = c.slots.start;
+    while start < c.slots.end {
+        let len = BLOCK.min(c.slots.end - start);
+        let lambda = &mut lambda[start - c.slots.start..][..len];
+        if let Some(e) = project_block(c, start..start + len, x, lambda, scratch) {
+            failed = failed.or(Some(e));
+        }
+        start += len;
+    }
+    failed.map_or(Ok(()), Err)
+}
+
+/// One block (≤ [`BLOCK`] slots) of [`project`]; the first failing slot.
+#[multiversion(targets("x86_64+avx"))]
+fn project_block<R: ProjectionReal, X: Positions<R> + ?Sized>(
+    c: &Colour<'_, R>,
+    slots: Range<usize>,
+    x: &mut X,
+    lambda: &mut [R],
+    s: &mut ProjectionScratch<R>,
+) -> Option<usize> {
+    let (dim, arity, len) = (c.dim, c.kind.arity, slots.len());
     let tape = &c.kind.gradient;
     let zero = R::constant(0.0);
-    let (elements, slots) = (c.elements, c.slots.clone());
-    let read = |k: usize| x.get(k);
-    c.kind
-        .eval_slots(tape, dim, elements, c.constants, slots, read, columns);
+    // Gather, member by member: each lane's particle offset and inverse
+    // mass, then its coordinates into the tape's input columns.
+    s.offset.resize(arity, [0; BLOCK]);
+    s.weight.resize(arity, [zero; BLOCK]);
+    s.block.fit(tape);
+    let members = &c.elements[slots.start * arity..slots.end * arity];
+    for j in 0..arity {
+        let (offset, weight) = (&mut s.offset[j], &mut s.weight[j]);
+        for (lane, &i) in members.iter().skip(j).step_by(arity).enumerate() {
+            offset[lane] = i as usize * dim;
+            weight[lane] = c.inverse_mass[i as usize];
+        }
+        for a in 0..dim {
+            if let Some(slot) = c.kind.gradient_inputs[j * dim + a] {
+                let column = s.block.column_mut(slot);
+                for (value, &k) in column[..len].iter_mut().zip(&s.offset[j][..len]) {
+                    *value = x.get(k + a);
+                }
+            }
+        }
+    }
+    // The per-element constants (tape inputs arity·N …), per lane.
+    let m = c.kind.element_constants;
+    for q in 0..m {
+        if let Some(slot) = c.kind.gradient_inputs[arity * dim + q] {
+            let column = s.block.column_mut(slot);
+            for (lane, e) in slots.clone().enumerate() {
+                column[lane] = c.constants[e * m + q];
+            }
+        }
+    }
+    tape.eval_block(&mut s.block, |_, _| {});
+    let columns = &s.block;
+    let gradient = |j: usize, a: usize| columns.column(tape.gradient[j * dim + a]);
+    // wsum = Σ_j [w_j ≠ 0] w_j Σ_a g_ja², every lane at once.
+    let mut wsum = [zero; BLOCK];
+    for (j, w) in s.weight.iter().enumerate() {
+        let mut g2 = [zero; BLOCK];
+        for a in 0..dim {
+            let g = gradient(j, a);
+            for lane in 0..BLOCK {
+                g2[lane] = g2[lane] + g[lane] * g[lane];
+            }
+        }
+        for lane in 0..BLOCK {
+            let with = wsum[lane] + w[lane] * g2[lane];
+            wsum[lane] = if w[lane] == zero { wsum[lane] } else { with };
+        }
+    }
+    // Δλ before the clamp, every lane at once (read only where it applies).
+    let value = columns.column(tape.value);
+    let mut raw = [zero; BLOCK];
+    for (lane, e) in slots.clone().enumerate() {
+        raw[lane] = (-(value[lane] - c.rest[e]) - c.alpha_tilde * lambda[lane])
+            / (wsum[lane] + c.alpha_tilde);
+    }
+    // Failures, responses, the clamp and λ, lane by lane.
     let mut failed = None;
-    // The columns read per element, looked up once per call.
-    let values = columns.column(tape.value);
-    let gradient: Vec<&[R]> = tape.gradient.iter().map(|&g| columns.column(g)).collect();
-    for (lane, e) in c.slots.clone().enumerate() {
-        let value = values[lane];
-        if !value.finite() {
+    let mut dl = [zero; BLOCK];
+    let mut moves = [false; BLOCK];
+    for (lane, e) in slots.enumerate() {
+        if !value[lane].finite() {
             failed = failed.or(Some(e));
             continue;
         }
-        let members = &c.elements[e * arity..(e + 1) * arity];
-        let mut wsum = zero;
-        for (j, &i) in members.iter().enumerate() {
-            let w = c.inverse_mass[i as usize];
-            if w == zero {
-                continue;
-            }
-            let mut g2 = zero;
-            for column in &gradient[j * dim..(j + 1) * dim] {
-                let g = column[lane];
-                g2 = g2 + g * g;
-            }
-            wsum = wsum + w * g2;
+        if !wsum[lane].finite() || wsum[lane] == zero {
+            continue;
         }
-        if !wsum.finite() || wsum == zero {
+        if !raw[lane].finite() {
+            failed = failed.or(Some(e));
             continue;
         }
         let l = lambda[lane];
-        let raw = (-(value - c.rest[e]) - c.alpha_tilde * l) / (wsum + c.alpha_tilde);
-        if !raw.finite() {
-            failed = failed.or(Some(e));
-            continue;
-        }
-        let t = l + raw;
-        let (next, dl) = match c.kind.relation {
-            Relation::Equal => (t, raw),
+        let t = l + raw[lane];
+        let (next, step) = match c.kind.relation {
+            Relation::Equal => (t, raw[lane]),
             Relation::AtLeast => {
                 let next = if t < zero { zero } else { t };
                 (next, next - l)
@@ -378,17 +509,21 @@ pub fn project<R: ProjectionReal, X: Positions<R> + ?Sized>(
             }
         };
         lambda[lane] = next;
-        for (j, &i) in members.iter().enumerate() {
-            let i = i as usize;
-            let w = c.inverse_mass[i];
-            if w == zero {
-                continue;
-            }
-            for (a, column) in gradient[j * dim..(j + 1) * dim].iter().enumerate() {
-                let k = i * dim + a;
-                x.set(k, x.get(k) + w * column[lane] * dl);
+        dl[lane] = step;
+        moves[lane] = true;
+    }
+    // x_ja += (w_j g_ja) Δλ for the moving lanes' dynamic members, member j
+    // then axis a (a coordinate's updates keep the element's order).
+    for (j, (w, offset)) in s.weight.iter().zip(&s.offset).enumerate() {
+        for a in 0..dim {
+            let g = gradient(j, a);
+            for lane in 0..len {
+                if moves[lane] && w[lane] != zero {
+                    let k = offset[lane] + a;
+                    x.set(k, x.get(k) + w[lane] * g[lane] * dl[lane]);
+                }
             }
         }
     }
-    failed.map_or(Ok(()), Err)
+    failed
 }

@@ -26,6 +26,8 @@
 mod bending;
 mod distance;
 mod expression;
+#[cfg(test)]
+mod expression_tests;
 mod hyperplane_contact;
 mod material;
 mod oriented_measure;
@@ -34,7 +36,9 @@ mod simplex_measure;
 mod tether;
 
 pub use bending::{BendingModel, quadratic_weights};
-pub use expression::{Colour, ExpressionKind, Positions, ProjectionReal, project};
+pub use expression::{
+    Colour, ExpressionKind, Positions, ProjectionReal, ProjectionScratch, project,
+};
 pub use relation::Relation;
 
 use crate::expr::ParamValue;

@@ -170,8 +170,9 @@ pub struct F32Reference {
     gravity: Vec<f32>,
     factor: f32,
     contacts: Option<Contacts>,
-    /// An expression family's columns.
+    /// An expression family's columns, and its projection's scratch.
     columns: Columns<f32>,
+    projection: kinds::ProjectionScratch<f32>,
     /// Steps completed (the clock of prescribed motion).
     step_count: u64,
     /// The substep being run.
@@ -280,6 +281,7 @@ impl F32Reference {
             contacts,
             plan,
             columns: Columns::new(),
+            projection: kinds::ProjectionScratch::new(),
             step_count: 0,
             substep: 0,
             motion_now: motion::Motion32::default(),
@@ -539,8 +541,8 @@ impl F32Reference {
                             inverse_mass: &s.w,
                             slots: f.color(color),
                         };
-                        let slots = f.color(color);
-                        kinds::project(&colour, &mut s.x[..], &mut lambda[slots], &mut self.columns)
+                        let (lambda, ws) = (&mut lambda[f.color(color)], &mut self.projection);
+                        kinds::project(&colour, &mut s.x[..], lambda, ws)
                     }
                     FamilyKind::Material { .. } => match &stored.material {
                         Some(law) => {

@@ -75,19 +75,33 @@ fn bounds(tape: &Tape, v: &Columns<f64>, lane: usize) -> Option<Vec<f64>> {
     Some(e)
 }
 
+/// Case `case` of a random-program test: the tape (C, ∇C, ∇²C) of a
+/// random program of arity 1 + case % 3 in R^(1 + case % 4), and its
+/// inputs per lane.
+fn random_tape(rng: &mut Rng, case: usize) -> (Tape, usize) {
+    let (dim, arity) = (1 + case % 4, 1 + case % 3);
+    let source = program(rng, 3, arity, dim);
+    (
+        full(&compiled(&source, &params(dim), arity, dim)),
+        arity * dim,
+    )
+}
+
+/// `a` and `b` have the same bits, or are both NaN (f32 values widened:
+/// exact, so bits equal in f32 iff equal in f64).
+fn assert_same(a: f64, b: f64) {
+    assert!(
+        a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+        "{a:e} {b:e}"
+    );
+}
+
 #[test]
 fn lanes_at_once_equal_one_lane_at_a_time_bit_for_bit() {
     let mut rng = Rng(21);
     let mut compared = 0usize;
     for case in 0..40 {
-        let (dim, arity) = (1 + case % 4, 1 + case % 3);
-        let tape = full(&compiled(
-            &program(&mut rng, 3, arity, dim),
-            &params(dim),
-            arity,
-            dim,
-        ));
-        let n = arity * dim;
+        let (tape, n) = random_tape(&mut rng, case);
         let lanes = 37 + case;
         let x: Vec<f64> = (0..n * lanes).map(|_| rng.uniform(-1.5, 1.5)).collect();
         let (mut all64, mut one64) = (Columns::new(), Columns::new());
@@ -98,16 +112,8 @@ fn lanes_at_once_equal_one_lane_at_a_time_bit_for_bit() {
             tape.eval_f64(1, |j, _| x[l * n + j], &mut one64);
             tape.eval_f32(1, |j, _| x[l * n + j] as f32, &mut one32);
             for s in tape.outputs() {
-                let (a, b) = (all64.get(s, l), one64.get(s, 0));
-                assert!(
-                    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
-                    "{a:e} {b:e}"
-                );
-                let (a, b) = (all32.get(s, l), one32.get(s, 0));
-                assert!(
-                    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
-                    "{a:e} {b:e}"
-                );
+                assert_same(all64.get(s, l), one64.get(s, 0));
+                assert_same(all32.get(s, l).into(), one32.get(s, 0).into());
                 compared += 2;
             }
         }
@@ -121,14 +127,7 @@ fn f32_is_f64_within_f32_rounding() {
     let (mut compared, mut lanes_total, mut unbounded) = (0usize, 0usize, 0usize);
     let mut worst: f64 = 0.0;
     for case in 0..60 {
-        let (dim, arity) = (1 + case % 4, 1 + case % 3);
-        let tape = full(&compiled(
-            &program(&mut rng, 3, arity, dim),
-            &params(dim),
-            arity,
-            dim,
-        ));
-        let n = arity * dim;
+        let (tape, n) = random_tape(&mut rng, case);
         let lanes = 64;
         // Inputs exactly representable in f32, so both sides read the same numbers.
         let x: Vec<f32> = (0..n * lanes)
@@ -165,4 +164,35 @@ fn f32_is_f64_within_f32_rounding() {
         unbounded * 50 <= lanes_total,
         "{unbounded} of {lanes_total}"
     );
+}
+
+#[test]
+fn blocks_equal_all_lanes_at_once_bit_for_bit() {
+    use crate::expr::{BLOCK, Block};
+    let mut rng = Rng(29);
+    let mut compared = 0usize;
+    for case in 0..24 {
+        let (tape, n) = random_tape(&mut rng, case);
+        // Whole blocks, a partial last block, and fewer lanes than a block.
+        let lanes = [BLOCK + 37, 2 * BLOCK, 5][case % 3];
+        let x: Vec<f64> = (0..n * lanes).map(|_| rng.uniform(-1.5, 1.5)).collect();
+        let mut all = Columns::new();
+        tape.eval_f64(lanes, |j, l| x[l * n + j], &mut all);
+        let mut block = Block::<f64>::new();
+        for first in (0..lanes).step_by(BLOCK) {
+            let len = BLOCK.min(lanes - first);
+            tape.eval_block(&mut block, |j, column| {
+                for (l, c) in column[..len].iter_mut().enumerate() {
+                    *c = x[(first + l) * n + j];
+                }
+            });
+            for s in tape.outputs() {
+                for l in 0..len {
+                    assert_same(block.column(s)[l], all.get(s, first + l));
+                    compared += 1;
+                }
+            }
+        }
+    }
+    assert!(compared > 10_000, "{compared}");
 }
