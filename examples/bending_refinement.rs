@@ -139,7 +139,7 @@ fn cantilever(n: usize, model: BendingModel, alpha: f64) -> (f64, f64, usize, f6
         panic!("bending is an expression family")
     };
     let tape = kind.hessian_tape().expect("the Hessian tape fits");
-    let system = |x: &[f64]| assemble((&plan, family, &tape), &dof, free, x, alpha);
+    let system = |x: &[f64]| assemble((&plan, family, tape), &dof, free, x, alpha);
     let mut mu = 1e-3;
     let mut iterations = 0;
     let (mut energy, mut gradient, mut hessian) = system(&x);

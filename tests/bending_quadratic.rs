@@ -205,7 +205,7 @@ fn half_v_squared_has_the_constant_hessian_k_j_k_l() {
     let n = 4 * dim;
     for trial in 0..20 {
         let x: Vec<f64> = (0..n).map(|_| 2.0 * rng.next()).collect();
-        let out = outputs(kind, &tape, &x);
+        let out = outputs(kind, tape, &x);
         let (c, g) = (out[0], &out[1..1 + n]);
         let h = &out[1 + n..];
         let mut worst: f64 = 0.0;

@@ -13,6 +13,7 @@
 //! - A folded hinge (cosine bending) unfolds to flat on the implicit path;
 //!   a cloth with bending steps with every minimisation converged, the same
 //!   bytes on 1 and 2 threads.
+//!
 //! `cargo test --release --test implicit_expressions -- --nocapture | grep '^BOUND'`.
 
 mod common;

@@ -140,13 +140,13 @@ fn coupled_expression{k}_block(compliance: real, rest: real, pts: ptr<function, 
             pairs = n * (n + 1) / 2,
             first_hessian = 1 + n,
         );
-        let _ = write!(
+        let _ = writeln!(
             energy_cases,
-            "        case {k}u: {{ return coupled_expression{k}_energy(compliance, rest, pts, grad); }}\n"
+            "        case {k}u: {{ return coupled_expression{k}_energy(compliance, rest, pts, grad); }}"
         );
-        let _ = write!(
+        let _ = writeln!(
             block_cases,
-            "        case {k}u: {{ return coupled_expression{k}_block(compliance, rest, pts, h); }}\n"
+            "        case {k}u: {{ return coupled_expression{k}_block(compliance, rest, pts, h); }}"
         );
     }
     let _ = write!(
