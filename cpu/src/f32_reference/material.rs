@@ -18,6 +18,7 @@
 
 use super::ln::ln;
 use super::measure::determinant;
+use hyperpbd_core::FamilyKind;
 use hyperpbd_core::implicit::{FrameLaw, frame_hessian_of};
 use hyperpbd_core::material;
 
@@ -30,6 +31,34 @@ pub struct Law {
     /// Simplex order k.
     pub k: usize,
     pub data: Vec<f32>,
+}
+
+/// The law of a material family as the GPU uploads it
+/// (`gpu/src/xpbd/material.rs`): per element R then V_0, Lamé μ and λ,
+/// each rounded to f32 once.
+pub(super) fn material_law(kind: &FamilyKind) -> Option<Law> {
+    let FamilyKind::Material {
+        material,
+        order,
+        frames,
+        measures,
+    } = kind
+    else {
+        return None;
+    };
+    let kk = order * order;
+    let mut data = Vec::with_capacity(measures.len() * (kk + 1));
+    for (frame, &measure) in frames.chunks_exact(kk).zip(measures) {
+        data.extend(frame.iter().map(|&r| r as f32));
+        data.push(measure as f32);
+    }
+    Some(Law {
+        neo_hookean: material.law == hyperpbd_core::material::Law::NeoHookean,
+        mu: material.lame.mu as f32,
+        lambda: material.lame.lambda as f32,
+        k: *order,
+        data,
+    })
 }
 
 /// Cholesky factor L of the symmetric n×n `a` into `l` (core's, in f32);

@@ -54,6 +54,7 @@ mod collide;
 mod integrate;
 pub mod ln;
 mod material;
+use material::material_law;
 mod measure;
 mod motion;
 mod primal;
@@ -65,7 +66,6 @@ pub use collide::{Iteration, iterate};
 use hyperpbd_core::broadphase::key_up;
 use hyperpbd_core::expr::Columns;
 use hyperpbd_core::kinds;
-use hyperpbd_core::material::Law;
 use hyperpbd_core::{FamilyKind, Kernel, Plan, State};
 
 /// The particle arrays in f32, as the device stores them.
@@ -97,34 +97,6 @@ struct Stored {
     carried: Vec<f32>,
     factors: Vec<f32>,
     swept: bool,
-}
-
-/// The law of a material family as the GPU uploads it
-/// (`gpu/src/xpbd/material.rs`): per element R then V_0, Lamé μ and λ,
-/// each rounded to f32 once.
-fn material_law(kind: &FamilyKind) -> Option<material::Law> {
-    let FamilyKind::Material {
-        material,
-        order,
-        frames,
-        measures,
-    } = kind
-    else {
-        return None;
-    };
-    let kk = order * order;
-    let mut data = Vec::with_capacity(measures.len() * (kk + 1));
-    for (frame, &measure) in frames.chunks_exact(kk).zip(measures) {
-        data.extend(frame.iter().map(|&r| r as f32));
-        data.push(measure as f32);
-    }
-    Some(material::Law {
-        neo_hookean: material.law == Law::NeoHookean,
-        mu: material.lame.mu as f32,
-        lambda: material.lame.lambda as f32,
-        k: *order,
-        data,
-    })
 }
 
 /// Particle contact as stored: radii, box pads and μ in f32, the lists of
