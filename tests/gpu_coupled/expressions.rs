@@ -56,16 +56,7 @@ fn expression_families_the_gpu_does_not_run_yet_are_refused_by_name() {
     let Some((adapter, _)) = adapter_or_skip("coupled expression refusals", Precision::F64) else {
         return;
     };
-    let refusal = |scene: &Scene, precision: Precision| {
-        let plan = Plan::compile(scene).expect("compiles");
-        match GpuCoupledBackend::with_adapter(&adapter, plan, &State::from_scene(scene), precision)
-        {
-            Err(BackendError::Gpu(GpuError::Unsupported { what })) => what,
-            Err(e) => panic!("expected Unsupported, got {e}"),
-            Ok(_) => panic!("expected a refusal"),
-        }
-    };
-    let what = refusal(&folded_hinge(), Precision::F32);
+    let what = refusal(&adapter, &folded_hinge(), Precision::F32);
     assert!(
         what.contains("expression family") && what.contains("f32"),
         "{what}"
@@ -77,6 +68,6 @@ fn expression_families_the_gpu_does_not_run_yet_are_refused_by_name() {
         1e-4,
         vec![vec![1, 2, 3, 4]],
     ));
-    let what = refusal(&wide, Precision::F64);
+    let what = refusal(&adapter, &wide, Precision::F64);
     assert!(what.contains("arity 4"), "{what}");
 }

@@ -225,6 +225,17 @@ fn measures_tethers_and_previous_warm_start_are_the_golden_path() {
     );
 }
 
+/// Why the GPU's coupled step refuses `scene` in `precision` (panics if it
+/// loads, or fails otherwise).
+fn refusal(adapter: &wgpu::Adapter, scene: &Scene, precision: Precision) -> String {
+    let plan = Plan::compile(scene).expect("compiles");
+    match GpuCoupledBackend::with_adapter(adapter, plan, &State::from_scene(scene), precision) {
+        Err(BackendError::Gpu(GpuError::Unsupported { what })) => what,
+        Err(e) => panic!("expected Unsupported, got {e}"),
+        Ok(_) => panic!("expected a refusal"),
+    }
+}
+
 /// What the GPU does not run yet (material families in f32) is a typed
 /// refusal naming it, never a different result.
 #[test]
@@ -232,17 +243,8 @@ fn unsupported_coupled_scenes_are_typed_refusals() {
     let Some((adapter, _)) = adapter_or_skip("coupled refusals", Precision::F64) else {
         return;
     };
-    let refusal = |scene: &Scene, precision: Precision| {
-        let plan = Plan::compile(scene).expect("compiles");
-        match GpuCoupledBackend::with_adapter(&adapter, plan, &State::from_scene(scene), precision)
-        {
-            Err(BackendError::Gpu(GpuError::Unsupported { what })) => what,
-            Err(e) => panic!("expected Unsupported, got {e}"),
-            Ok(_) => panic!("expected a refusal"),
-        }
-    };
     let material = hanging_block(ConstraintKind::NeoHookean);
-    let what = refusal(&material, Precision::F32);
+    let what = refusal(&adapter, &material, Precision::F32);
     assert!(
         what.contains("material family") && what.contains("f32"),
         "{what}"
