@@ -252,3 +252,34 @@ fn an_inactive_one_sided_expression_spring_has_no_energy_and_no_curvature() {
             .all(|&k| k == 0.0)
     );
 }
+
+#[test]
+fn springs_through_min_max_and_abs_match_finite_differences() {
+    // Selects route each adjoint into the branch taken: ∇E against the
+    // energy's finite differences, away from the ties (random points).
+    let mut rng = Lcg(2903);
+    let alpha = 0.05;
+    let expression = compiled(
+        "min(norm(x1 - x0), 2 * norm(x2 - x0)) + max(x1[0], x2[1]) - abs(x2[2] - x0[0])",
+        Relation::Equal,
+        3,
+        3,
+    );
+    let mut worst: f64 = 0.0;
+    for _ in 0..24 {
+        let x: Vec<f64> = (0..9).map(|_| rng.next()).collect();
+        let (_, gradient) = energy_at(&expression, alpha, 0.3, &x);
+        worst = worst.max(jacobian_worst(
+            &|y| vec![energy_at(&expression, alpha, 0.3, y).0],
+            &x,
+            &gradient,
+            1e-5,
+        ));
+    }
+    bound(
+        "min/max/abs spring ∇E vs FD",
+        worst,
+        1.0,
+        "Richardson + rounding model",
+    );
+}
