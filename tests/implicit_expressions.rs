@@ -71,48 +71,28 @@ fn restarted_distance(builtin: &Scene, expression: &Scene, steps: usize) -> f64 
     worst
 }
 
-#[test]
-fn a_distance_expression_takes_the_built_in_distance_minimisations() {
-    let builtin = chain(ConstraintKind::Distance, 8);
-    let expression = as_expressions(
-        &builtin,
-        ConstraintKind::Distance,
-        "norm(x1 - x0)",
-        Relation::Equal,
-    );
+/// The 8-link chain of `kind` against its expression `norm(x1 - x0)` with
+/// `relation`, restarted each step: within the two stopping balls.
+fn expression_takes_the_built_in_minimisations(kind: ConstraintKind, relation: Relation) {
+    let builtin = chain(kind, 8);
+    let expression = as_expressions(&builtin, kind, "norm(x1 - x0)", relation);
     let ratio = restarted_distance(&builtin, &expression, 60);
-    print_bound(
-        "implicit_expression_distance",
-        ratio,
-        1.0,
-        "of the stopping balls",
-    );
+    let name = format!("implicit_expression_{kind:?}").to_lowercase();
+    print_bound(name, ratio, 1.0, "of the stopping balls");
     assert!(
         ratio <= 1.0,
-        "distance as an expression: {ratio} of the bound"
+        "{kind:?} as an expression: {ratio} of the bound"
     );
 }
 
 #[test]
+fn a_distance_expression_takes_the_built_in_distance_minimisations() {
+    expression_takes_the_built_in_minimisations(ConstraintKind::Distance, Relation::Equal);
+}
+
+#[test]
 fn a_tether_expression_takes_the_built_in_tether_minimisations() {
-    let builtin = chain(ConstraintKind::Tether, 8);
-    let expression = as_expressions(
-        &builtin,
-        ConstraintKind::Tether,
-        "norm(x1 - x0)",
-        Relation::AtMost,
-    );
-    let ratio = restarted_distance(&builtin, &expression, 60);
-    print_bound(
-        "implicit_expression_tether",
-        ratio,
-        1.0,
-        "of the stopping balls",
-    );
-    assert!(
-        ratio <= 1.0,
-        "tether as an expression: {ratio} of the bound"
-    );
+    expression_takes_the_built_in_minimisations(ConstraintKind::Tether, Relation::AtMost);
 }
 
 #[test]

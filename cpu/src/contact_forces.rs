@@ -205,10 +205,15 @@ impl Recorder {
 fn measured(plan: &Plan, kernel: Kernel) -> Option<Measured> {
     match kernel {
         Kernel::Project { family, .. } => match &plan.families[family].kind {
-            FamilyKind::HyperplaneContact { friction, .. } if *friction > 0.0 => {
-                Some(Measured::PlanePositions { family })
+            FamilyKind::HyperplaneContact { friction, .. } => {
+                (*friction > 0.0).then_some(Measured::PlanePositions { family })
             }
-            _ => None,
+            FamilyKind::Distance
+            | FamilyKind::Tether
+            | FamilyKind::SimplexMeasure { .. }
+            | FamilyKind::OrientedMeasure
+            | FamilyKind::Material { .. }
+            | FamilyKind::Expression(_) => None,
         },
         Kernel::Friction { family } => Some(Measured::PlaneVelocities { family }),
         Kernel::Collide => Some(Measured::Positions),

@@ -21,14 +21,10 @@ pub fn state_json(time: f64, frames: u64, state: &State) -> String {
 /// One frame of contact forces: `{"frame", "time", "obstacles": [{"force"}],
 /// "particles"}` (round-trip f64).
 pub fn forces_json(time: f64, frame: u64, forces: &ContactForces) -> String {
-    let n = forces.dim;
     let obstacles: Vec<serde_json::Value> = (0..forces.obstacle_count())
         .map(|o| serde_json::json!({ "force": forces.obstacle(o) }))
         .collect();
-    let particles: Vec<Vec<f64>> = match n {
-        0 => Vec::new(),
-        _ => forces.particles.chunks(n).map(<[f64]>::to_vec).collect(),
-    };
+    let particles = chunk_rows(forces.dim, &forces.particles);
     serde_json::json!({
         "frame": frame,
         "time": time,
@@ -40,10 +36,15 @@ pub fn forces_json(time: f64, frame: u64, forces: &ContactForces) -> String {
 
 /// `flat` (positions or velocities of `state`) as one row per particle.
 pub fn rows(state: &State, flat: &[f64]) -> Vec<Vec<f64>> {
-    if state.dim == 0 {
+    chunk_rows(state.dim, flat)
+}
+
+/// `flat` as rows of `dim` values (none for dim 0).
+fn chunk_rows(dim: usize, flat: &[f64]) -> Vec<Vec<f64>> {
+    if dim == 0 {
         return Vec::new();
     }
-    flat.chunks(state.dim).map(<[f64]>::to_vec).collect()
+    flat.chunks(dim).map(<[f64]>::to_vec).collect()
 }
 
 /// Writes `bytes` to `path` atomically ([`write_atomically`]); a failure

@@ -17,16 +17,8 @@ fn compiled(source: &str, relation: Relation, arity: usize, dim: usize) -> Expre
 /// (E, ∇E) of the spring at `x`.
 fn energy_at(kind: &ExpressionKind, alpha: f64, rest: f64, x: &[f64]) -> (f64, Vec<f64>) {
     let mut gradient = vec![0.0; x.len()];
-    let constants = kind.constants(0);
     let mut scratch = ExpressionScratch::default();
-    let s = expression_spring(
-        kind,
-        (alpha, rest),
-        x,
-        constants,
-        &mut gradient,
-        &mut scratch,
-    );
+    let s = expression_spring(kind, 0, (alpha, rest), x, &mut gradient, &mut scratch);
     (s.energy, gradient)
 }
 
@@ -35,14 +27,7 @@ fn block_at(kind: &ExpressionKind, alpha: f64, rest: f64, x: &[f64]) -> Vec<f64>
     let n = x.len();
     let mut block = vec![0.0; n * n];
     let mut scratch = ExpressionScratch::default();
-    let ok = expression_curvature(
-        kind,
-        (alpha, rest),
-        x,
-        kind.constants(0),
-        &mut block,
-        &mut scratch,
-    );
+    let ok = expression_curvature(kind, 0, (alpha, rest), x, &mut block, &mut scratch);
     assert!(ok, "finite block");
     block
 }

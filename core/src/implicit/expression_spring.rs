@@ -41,15 +41,6 @@ pub struct ExpressionScratch {
     psd: PsdScratch<f64>,
 }
 
-/// The input of slot `j` of an element's tape: its coordinates, then its
-/// per-element constants (`ExpressionKind::constants`).
-fn input(points: &[f64], constants: &[f64], j: usize) -> f64 {
-    match points.get(j) {
-        Some(&x) => x,
-        None => constants[j - points.len()],
-    }
-}
-
 /// φ of c under `relation` (module docs).
 fn active_part(relation: Relation, c: f64) -> f64 {
     match relation {
@@ -71,22 +62,23 @@ fn active_part(relation: Relation, c: f64) -> f64 {
     }
 }
 
-/// Evaluates the spring of `kind` with compliance α > 0 and rest value
-/// `rest` at `points` (arity × N) with the element's `constants`: ∇E into
+/// Evaluates the spring of element `e` of `kind` with compliance α > 0 and
+/// rest value `rest` at `points` (arity × N; the tape reads the element's
+/// constants after them): ∇E into
 /// `energy_gradient` (0 where ∇C is undefined or the element inactive). A
 /// non-finite C gives a non-finite energy (the caller's step fails, as
 /// every non-finite record).
 pub fn expression_spring(
     kind: &ExpressionKind,
+    e: usize,
     (compliance, rest): (f64, f64),
     points: &[f64],
-    constants: &[f64],
     energy_gradient: &mut [f64],
     scratch: &mut ExpressionScratch,
 ) -> ExpressionSpring {
     let tape = &kind.gradient;
     let columns = &mut scratch.columns;
-    tape.eval(1, |j, _| input(points, constants, j), columns);
+    kind.eval_at(tape, e, points, columns);
     let c = columns.get(tape.value, 0) - rest;
     let phi = active_part(kind.relation, c);
     let energy = phi * phi / (2.0 * compliance);
@@ -105,15 +97,15 @@ pub fn expression_spring(
     }
 }
 
-/// K⁺ of the spring at `points` (with the element's `constants`) into
-/// `block` ((arity·N)², row-major);
+/// K⁺ of the spring of element `e` at `points` into `block` ((arity·N)²,
+/// row-major);
 /// false when the projection meets a non-finite block (it cannot once C
 /// and ∇C are finite; the caller then fails the step).
 pub fn expression_curvature(
     kind: &ExpressionKind,
+    e: usize,
     (compliance, rest): (f64, f64),
     points: &[f64],
-    constants: &[f64],
     block: &mut [f64],
     scratch: &mut ExpressionScratch,
 ) -> bool {
@@ -121,7 +113,7 @@ pub fn expression_curvature(
     let n = tape.inputs;
     let block = &mut block[..n * n];
     let columns = &mut scratch.columns;
-    tape.eval(1, |j, _| input(points, constants, j), columns);
+    kind.eval_at(tape, e, points, columns);
     let phi = active_part(kind.relation, columns.get(tape.value, 0) - rest);
     let at = |s: usize| columns.get(s, 0);
     let defined = tape.gradient.iter().all(|&g| at(g).is_finite());

@@ -207,9 +207,17 @@ impl ExpressionKind {
     /// C of element `e` (its constants: [`ExpressionKind::constants`]) at
     /// `points` (arity × `dim`), in precision `R` (constants rounded once).
     pub fn value_at<R: Real>(&self, e: usize, points: &[R], columns: &mut Columns<R>) -> R {
-        let n = self.value.inputs;
+        self.eval_at(&self.value, e, points, columns);
+        columns.get(self.value.value, 0)
+    }
+
+    /// Runs `tape` (one of this kind's) on element `e` alone: inputs its
+    /// coordinates `points` (arity × `dim`), then its constants rounded
+    /// once to `R`; read the outputs from `columns` (lane 0).
+    pub fn eval_at<R: Real>(&self, tape: &Tape, e: usize, points: &[R], columns: &mut Columns<R>) {
+        let n = tape.inputs;
         let constants = self.constants(e);
-        self.value.eval(
+        tape.eval(
             1,
             |j, _| match j < n {
                 true => points[j],
@@ -217,7 +225,6 @@ impl ExpressionKind {
             },
             columns,
         );
-        columns.get(self.value.value, 0)
     }
 
     /// The rest value of element `e` at its authored `points` when the

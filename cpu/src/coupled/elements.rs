@@ -271,12 +271,12 @@ impl Elements {
                 family, element, ..
             } => {
                 let family = &terms.plan.families[family as usize];
-                let kind = expression_kind(&family.kind);
+                let element = element as usize;
                 let spring = expression_spring(
-                    kind,
-                    (family.compliance, family.rest[element as usize]),
+                    expression_kind(&family.kind),
+                    element,
+                    (family.compliance, family.rest[element]),
                     points,
-                    kind.constants(element as usize),
                     &mut gradient[..arity * dim],
                     &mut scratch.expression,
                 );
@@ -349,9 +349,11 @@ impl Elements {
                     FamilyKind::SimplexMeasure { .. }
                     | FamilyKind::OrientedMeasure
                     | FamilyKind::Material { .. }
-                    | FamilyKind::HyperplaneContact { .. }
-                    | FamilyKind::Expression(_) => {
+                    | FamilyKind::HyperplaneContact { .. } => {
                         SpringCurvature::GaussNewton { weight: record[1] }
+                    }
+                    FamilyKind::Expression(_) => {
+                        unreachable!("an expression family is an expression element (rebuild)")
                     }
                 };
                 let spring = Spring {

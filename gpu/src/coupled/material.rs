@@ -93,20 +93,22 @@ impl Materials {
             })
             .max()
             .unwrap_or(0);
-        let expression_index = |f: usize| crate::xpbd::expression::expression_index(plan, f);
         let mut rest = Vec::new();
         let mut offsets = Vec::new();
         for family in &plan.families {
             offsets.push(rest.len() as u32);
             push_rest_data(family, &mut rest);
         }
-        // Expression families' per-element constants (slot order), after
-        // every material's rest data.
+        // Expression families: their index k (plan order) and their
+        // per-element constants (slot order) after every material's rest data.
         let mut constants = vec![0u32; plan.families.len()];
+        let mut index = vec![0u32; plan.families.len()];
+        let mut k = 0;
         for (f, family) in plan.families.iter().enumerate() {
             if let FamilyKind::Expression(kind) = &family.kind {
-                constants[f] = rest.len() as u32;
+                (index[f], constants[f]) = (k, rest.len() as u32);
                 rest.extend_from_slice(&kind.constants);
+                k += 1;
             }
         }
         let mut words = vec![stride as u32, self.len() as u32];
@@ -118,7 +120,7 @@ impl Materials {
             let flags = if neo_hookean { FLAG_NEO_HOOKEAN } else { 0 };
             if let FamilyKind::Expression(kind) = &plan.families[f].kind {
                 let at = constants[f] + (slot * kind.element_constants) as u32;
-                words.extend([e as u32, at, slot as u32, expression_index(f)]);
+                words.extend([e as u32, at, slot as u32, index[f]]);
             } else {
                 words.extend([e as u32, offsets[f], slot as u32, flags]);
             }

@@ -189,12 +189,12 @@ impl Elements {
                             family, element, ..
                         } => {
                             let family = &terms.plan.families[family as usize];
-                            let kind = expression_kind(&family.kind);
+                            let element = element as usize;
                             expression_curvature(
-                                kind,
-                                (family.compliance, family.rest[element as usize]),
+                                expression_kind(&family.kind),
+                                element,
+                                (family.compliance, family.rest[element]),
                                 points,
-                                kind.constants(element as usize),
                                 block,
                                 &mut expression,
                             )
