@@ -18,7 +18,7 @@
 //! as under `cargo test --all-targets`: a smoke run of 1 and 16 worlds). The CPU variants step
 //! the same frames; the final states are asserted bit-identical, so a fast
 //! wrong answer cannot pass (the GPU batch's worlds are held to their own
-//! runs by tests/gpu_batch.rs). lavapipe's threads are the environment's:
+//! runs by tests/gpu/batch.rs). lavapipe's threads are the environment's:
 //! run once with `LP_NUM_THREADS=0` (one thread: a dispatch costs ~1 µs)
 //! and once without (its default two threads: ~50 µs per dispatch, twice
 //! the lanes).

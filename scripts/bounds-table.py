@@ -1,15 +1,15 @@
 #!/usr/bin/env python3
 """Regenerates the CPU/GPU bounds tables from the tests' own BOUND lines.
 
-    scripts/bounds-table.py            runs tests/gpu_differential.rs,
-                                       tests/gpu_kernels/ and tests/gpu_materials.rs
-                                       (lavapipe) and rewrites the tables between the
+    scripts/bounds-table.py            runs the modules differential, kernels
+                                       and materials of tests/gpu/ (lavapipe)
+                                       and rewrites the tables between the
                                        markers <!-- bounds-all:begin … -->,
                                        <!-- kernels:begin … --> and
                                        <!-- materials:begin … --> in docs/bounds.md
                                        (the README's summary table is built from these
                                        by scripts/readme-summary.py)
-    scripts/bounds-table.py FILE       the same from saved test output (all three tests')
+    scripts/bounds-table.py FILE       the same from saved test output (all three modules')
 
 A BOUND line of tests/common/differential.rs reads
     BOUND | scene | metric | frames | measured | bound | precision
@@ -30,10 +30,27 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-COMMAND = [
-    "cargo", "test", "--release", "--test", "gpu_differential", "--test", "gpu_kernels",
-    "--test", "gpu_materials", "--", "--nocapture", "--test-threads", "2",
-]
+# The modules of tests/gpu/ whose lines the tables hold; their tests are
+# listed and run with `--exact` (a plain filter `kernels::` would also run
+# `barrier::kernels::…`, and `materials::` `coupled::materials::…`).
+MODULES = ("differential", "kernels", "materials")
+CARGO = ["cargo", "test", "--release", "--test", "gpu", "--"]
+
+
+def command(env: dict) -> list[str]:
+    """The cargo command that runs every test of MODULES and no other."""
+    listing = subprocess.run(
+        CARGO + ["--list", "--format=terse"], cwd=ROOT, env=env, capture_output=True,
+        text=True, check=True,
+    ).stdout
+    names = [
+        line[: -len(": test")]
+        for line in listing.splitlines()
+        if line.endswith(": test") and line.split("::")[0] in MODULES
+    ]
+    if not names:
+        sys.exit(f"no tests of {MODULES} in tests/gpu/")
+    return CARGO + ["--exact", *names, "--nocapture", "--test-threads", "2"]
 
 
 def bound_lines(text: str) -> list[list[str]]:
@@ -48,7 +65,7 @@ def bound_lines(text: str) -> list[list[str]]:
 
 def kernel_table(text: str) -> str:
     """`KERNEL | case | kernel metric | measured | bound | precision` lines
-    (tests/gpu_kernels/) as one row per (case, kernel metric)."""
+    (tests/gpu/kernels/) as one row per (case, kernel metric)."""
     rows: dict[tuple[str, str], dict[str, tuple[str, str]]] = {}
     for line in text.splitlines():
         if not line.startswith("KERNEL | "):
@@ -179,7 +196,7 @@ def material_residual(metrics) -> str | None:
 
 def split_materials(rows: list[list[str]]) -> tuple[list[list[str]], list[list[str]]]:
     """(rows of scenes without a material family, rows of those with one:
-    tests/gpu_materials.rs)."""
+    tests/gpu/materials.rs)."""
     material = {r[0] for r in rows if material_residual([r[1]])}
     return [r for r in rows if r[0] not in material], [r for r in rows if r[0] in material]
 
@@ -225,7 +242,7 @@ def main() -> None:
         text = Path(sys.argv[1]).read_text()
     else:
         env = dict(os.environ, HYPERPBD_REQUIRE_GPU="1", NODEVICE_SELECT="1")
-        out = subprocess.run(COMMAND, cwd=ROOT, env=env, capture_output=True, text=True)
+        out = subprocess.run(command(env), cwd=ROOT, env=env, capture_output=True, text=True)
         if out.returncode != 0:
             sys.exit(out.stdout[-3000:] + out.stderr[-3000:])
         text = out.stdout

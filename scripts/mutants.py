@@ -90,13 +90,31 @@ def locate(root: Path, m: dict) -> tuple[int | None, str]:
     return text[: text.index(m["find"])].count("\n") + 1, ""
 
 
+def split_target(target: str) -> tuple[str, str]:
+    """`BINARY` (every test of tests/BINARY) or `BINARY::MODULE` (the tests
+    of one top-level module of it, e.g. `gpu::kernels`): (binary, module or
+    "")."""
+    binary, _, module = target.partition("::")
+    return binary, module
+
+
 def existing(root: Path, targets: list[str]) -> list[str]:
-    """The targets that exist in the tree at `root` (tests/NAME.rs or
-    tests/NAME/main.rs)."""
-    return [
-        t for t in targets
-        if (root / "tests" / f"{t}.rs").is_file() or (root / "tests" / t / "main.rs").is_file()
-    ]
+    """The targets that exist in the tree at `root`: the binary
+    (tests/BINARY.rs or tests/BINARY/main.rs) and, when named, its module
+    (tests/BINARY/MODULE.rs or tests/BINARY/MODULE/mod.rs)."""
+    found = []
+    for t in targets:
+        binary, module = split_target(t)
+        tests = root / "tests"
+        if not ((tests / f"{binary}.rs").is_file() or (tests / binary / "main.rs").is_file()):
+            continue
+        if module and not (
+            (tests / binary / f"{module}.rs").is_file()
+            or (tests / binary / module / "mod.rs").is_file()
+        ):
+            continue
+        found.append(t)
+    return found
 
 
 def targets_for(data: dict, m: dict, root: Path) -> list[str]:
@@ -171,7 +189,8 @@ def cargo_env(scratch: Path) -> dict:
 
 
 def build_target(repo: Path, env: dict, target: str, timeout: float) -> tuple[str, str]:
-    """('ok', executable) or ('build-failed'/'timeout', log tail)."""
+    """('ok', executable) or ('build-failed'/'timeout', log tail) of the
+    test binary `target` (a binary's name, without `::MODULE`)."""
     cmd = [
         "cargo", "test", "--release", "--test", target, "--no-run",
         "--message-format=json-render-diagnostics",
@@ -203,11 +222,36 @@ FAILED = re.compile(r"^test (\S+) \.\.\. FAILED$", re.M)
 PANIC = re.compile(r"^thread '([^']+)' panicked at [^\n]*\n(.*)$", re.M)
 
 
-def run_target(repo: Path, env: dict, exe: str, threads: int, timeout: float) -> tuple[str, list[str], str]:
-    """('pass'|'fail'|'timeout', failing tests, first panic message)."""
+def selection(repo: Path, env: dict, exe: str, module: str) -> list[str]:
+    """The libtest arguments that run the tests of `module` (top-level
+    module of the binary `exe`) and no other: `--exact` and every test name
+    under `module::` (a plain filter would also match a nested module of
+    that name elsewhere, e.g. `barrier::kernels::` for `kernels::`). No
+    module: no arguments (the whole binary)."""
+    if not module:
+        return []
+    listing = subprocess.run(
+        [exe, "--list", "--format=terse"], cwd=repo, env=env, capture_output=True, text=True,
+        check=True,
+    ).stdout
+    names = [
+        line[: -len(": test")]
+        for line in listing.splitlines()
+        if line.endswith(": test") and line.startswith(f"{module}::")
+    ]
+    if not names:
+        sys.exit(f"{exe}: no test under {module}:: (a target naming a module that has no tests)")
+    return ["--exact", *names]
+
+
+def run_target(
+    repo: Path, env: dict, exe: str, threads: int, timeout: float, module: str = ""
+) -> tuple[str, list[str], str]:
+    """('pass'|'fail'|'timeout', failing tests, first panic message) of the
+    tests of `module` in the binary `exe` (all of them without one)."""
     try:
         out = subprocess.run(
-            [exe, f"--test-threads={threads}"],
+            [exe, f"--test-threads={threads}", *selection(repo, env, exe, module)],
             cwd=repo,
             env=env,
             capture_output=True,
@@ -249,12 +293,13 @@ def baseline(data: dict, scratch: Path, threads: int) -> None:
     env = cargo_env(scratch)
     times = {}
     for target in existing(repo, data["targets"]["default"]):
+        binary, module = split_target(target)
         t0 = time.time()
-        status, exe = build_target(repo, env, target, 3600)
+        status, exe = build_target(repo, env, binary, 3600)
         if status != "ok":
             sys.exit(f"baseline: {target}: {status}\n{exe}")
         t1 = time.time()
-        status, failed, why = run_target(repo, env, exe, threads, 1800)
+        status, failed, why = run_target(repo, env, exe, threads, 1800, module)
         t2 = time.time()
         print(f"baseline {target}: build {t1 - t0:.0f} s, run {t2 - t1:.1f} s: {status} {failed} {why}")
         if status != "pass":
@@ -282,22 +327,26 @@ def run_mutant(data: dict, m: dict, repo: Path, env: dict, threads: int, times: 
     try:
         path.write_bytes(mutated)
         result = "survived"
+        built: dict[str, str] = {}  # binary → executable: one build per mutant
         for target in targets_for(data, m, repo):
-            status, exe = build_target(repo, env, target, 1800)
-            if status != "ok":
-                result = status
-                record["detail"] = exe[-600:]
-                record["target"] = target
-                break
+            binary, module = split_target(target)
+            if binary not in built:
+                status, exe = build_target(repo, env, binary, 1800)
+                if status != "ok":
+                    result = status
+                    record["detail"] = exe[-600:]
+                    record["target"] = target
+                    break
+                built[binary] = exe
             limit = max(120.0, 6.0 * times.get(target, 60.0))
-            status, failed, why = run_target(repo, env, exe, threads, limit)
+            status, failed, why = run_target(repo, env, built[binary], threads, limit, module)
             if status == "pass":
                 continue
             result = "killed" if status == "fail" else "timeout"
             record["target"] = target
             record["killers"] = failed
             record["detail"] = why
-            if target == "shaders" and status == "fail":
+            if target == "gpu::shaders" and status == "fail":
                 # Rejected by naga before any GPU ran: not a behaviour test.
                 result = "invalid"
             break
@@ -376,7 +425,8 @@ def report(data: dict, scratch: Path, out: Path) -> None:
         else:
             result = r["result"]
             where = f"{m['file']}:{r.get('line', '?')}"
-            killer = ", ".join(f"`{r['target']}::{k}`" for k in r.get("killers", []))
+            binary = split_target(r["target"])[0]
+            killer = ", ".join(f"`{binary}::{k}`" for k in r.get("killers", []))
         if result == "survived" and m.get("equivalent"):
             result = "equivalent"
         counts[result] = counts.get(result, 0) + 1

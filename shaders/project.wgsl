@@ -250,7 +250,7 @@ fn project_elements(gid: vec3<u32>, groups: vec3<u32>, op: u32) {
             case OP_PROJECT_EXPRESSION: {
                 project_expression_element(e);
             }
-            // Not an element projection: every op is named (tests/shaders.rs),
+            // Not an element projection: every op is named (tests/gpu/shaders.rs),
             // and one that reaches here, or an unknown one, fails the step.
             case OP_PREDICT, OP_PROJECT_CONTACT, OP_VELOCITY, OP_FRICTION, OP_DAMPING, OP_RESIDUAL, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST,
                  OP_MOTION, OP_NONE, default: {

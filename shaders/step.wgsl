@@ -197,7 +197,7 @@ fn world_reals(op: u32, c: u32) {
                 call.alpha_tilde = calls[k].alpha_tilde;
             }
             case OP_VELOCITY, OP_MOTION, OP_HOST, OP_NONE: {}
-            // Every op is named above (tests/shaders.rs); an unknown one loads nothing.
+            // Every op is named above (tests/gpu/shaders.rs); an unknown one loads nothing.
             default: {}
         }
     }
@@ -330,7 +330,7 @@ fn run_op(op: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
         case OP_PROJECT_DISTANCE, OP_PROJECT_SIMPLEX, OP_PROJECT_ORIENTED, OP_PROJECT_MATERIAL,
              OP_PROJECT_EXPRESSION, OP_RESIDUAL, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST,
              OP_NONE: {}
-        // Every op is named above (tests/shaders.rs): an unknown one fails the step.
+        // Every op is named above (tests/gpu/shaders.rs): an unknown one fails the step.
         default: {
             fail(i);
         }

@@ -22,7 +22,7 @@
 //!   GPU batch refuses).
 //! ```
 //! The CPU batch is the reference the GPU batch is held to
-//! (tests/gpu_batch.rs).
+//! (tests/gpu/batch.rs).
 
 use crate::gpu::WorldError;
 use crate::{

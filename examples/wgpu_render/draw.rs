@@ -1,7 +1,7 @@
 //! The drawing half of `examples/wgpu_render`: particles drawn by a wgpu
 //! render pipeline straight from a GPU backend's exported positions
 //! (`PositionExport::encode_positions` into a vertex buffer), headless,
-//! into an RGBA picture. Shared with `tests/example_wgpu_render.rs`.
+//! into an RGBA picture. Shared with `tests/gpu/example_wgpu_render.rs`.
 //!
 //! ```text
 //! export     centres[i] = (x_i[h], x_i[v], 0) in world coordinates (f32)

@@ -12,7 +12,7 @@
 //! ```
 //!
 //! llvmpipe's loop budget (measured on Mesa 22.3.6, LLVM 15, 256-bit
-//! vectors: `tests/gpu_llvmpipe_loop_budget.rs`) and what these kernels do
+//! vectors: `tests/gpu/llvmpipe_loop_budget.rs`) and what these kernels do
 //! about it:
 //!
 //! ```text
@@ -37,7 +37,7 @@
 //!            Only the simplices whose boxes overlap the particle's
 //!            candidate box are visited (core/src/barrier.rs): before the
 //!            hierarchy every simplex was, and 7 200 triangles were refused
-//!            on llvmpipe (tests/gpu_barrier_loop_budget.rs)
+//!            on llvmpipe (tests/gpu/barrier_loop_budget.rs)
 //! ```
 //!
 //! Obstacle geometry is laid out for the device in one place,

@@ -2,7 +2,7 @@
 //! `codes!` table below declares the Rust constants and the list that
 //! [`crate::shader::compose`] writes into every module's generated header
 //! (`const OP_PREDICT: u32 = 0u;` …), so no shader keeps a copy by hand
-//! (`tests/shaders.rs` refuses a shader file that defines one).
+//! (`tests/gpu/shaders.rs` refuses a shader file that defines one).
 //!
 //! ```text
 //! OP_*        what one step call runs (step.wgsl's Call.op)

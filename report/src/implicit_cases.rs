@@ -2,7 +2,7 @@
 //! error measures, each against a known answer.
 //!
 //! ```text
-//! cases     (docs/implicit.md §8, the scenes of tests/implicit_step.rs)
+//! cases     (docs/implicit.md §8, the scenes of tests/implicit/step.rs)
 //!   incline   2D, 1 kg ball (r = 0.05 m) on a 20° plane, μ = 0.2 < tan 20°,
 //!             barrier κ = 1e5, d^ = 1e-3 m, placed at its equilibrium gap,
 //!             dt = 1/60 s, 1 minimisation per frame, 60 frames (t = 1 s)
@@ -194,7 +194,7 @@ fn settings(
     })
 }
 
-/// tests/implicit_step.rs's sliding incline: the ball starts at the
+/// tests/implicit/step.rs's sliding incline: the ball starts at the
 /// barrier's equilibrium gap under its normal load m g cos θ.
 fn incline(newton: u32, cg: Option<u32>) -> Scene {
     let angle = INCLINE_DEG.to_radians();
@@ -226,7 +226,7 @@ fn bead_mass(k: usize) -> f64 {
     if k.is_multiple_of(2) { 1e-6 } else { 1.0 }
 }
 
-/// tests/implicit_step.rs's alternating chain with a light free end,
+/// tests/implicit/step.rs's alternating chain with a light free end,
 /// horizontal or (`hanging`) straight down.
 fn chain(newton: u32, cg: Option<u32>, hanging: bool) -> Scene {
     let mut scene = Scene::new(2, 1.0 / 60.0, 1, 1);

@@ -247,7 +247,7 @@ pub fn patch_section(report: &Report, section: &PatchSection, figure: bool) -> S
          after an untimed warm-up step, only `step()` timed, median reported (min–max beside it); the section \
          took {:.1} s, load average {} → {}; {}. This is a noisy shared 2-vCPU VM: compare times within a table, \
          and trust ratios under ~1.5× only when the min–max ranges do not overlap. GPU rows are not measured \
-         here (gpu-f64 runs the primal update bit for bit the CPU's, `tests/gpu_primal.rs`, but on lavapipe \
+         here (gpu-f64 runs the primal update bit for bit the CPU's, `tests/gpu/primal.rs`, but on lavapipe \
          its times say nothing about a GPU). The raw numbers are in [`{PATCH_JSON}`]({PATCH_JSON}); \
          `scripts/accuracy.sh --only-patch` regenerates this section alone (it may then be newer than the rest \
          of this page).\n",

@@ -140,7 +140,7 @@ pub fn compare(args: &CompareArgs) -> Result<(), CliError> {
         println!(
             "note: particle contact switches on and off at C = 0, so a granular scene's \
              trajectories part once a contact differs by rounding; the bound holds for short \
-             horizons only (tests/gpu_granular.rs compares invariants instead)"
+             horizons only (tests/gpu/granular.rs compares invariants instead)"
         );
     }
     let mut reference = reference(&plan, args.precision, &state)?;

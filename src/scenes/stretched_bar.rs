@@ -1,7 +1,7 @@
 //! The uniaxial-stretch bar of docs/materials.md §8: a free–free slender
 //! bar of Kuhn simplices pulled by equal and opposite nominal tractions on
 //! its end faces, and the strains it settles to (the closed-form check of
-//! `tests/materials_closed_forms.rs` and the accuracy report's stretch
+//! `tests/materials/closed_forms.rs` and the accuracy report's stretch
 //! case).
 //!
 //! ```text

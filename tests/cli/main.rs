@@ -1,18 +1,24 @@
 //! The `hyperpbd` binary, driven as a user would: output files and their
 //! shapes, trajectories, `plan`, `scene`, `info`, `demo`, `compare`'s
 //! verdict, and bad input (exit code 2, one message naming the field, no
-//! output file left behind).
+//! output file left behind); the barrier path and thread counts through
+//! the binary, `hyperpbd render` / `demo` pictures and `sweep --plot`'s
+//! metric (modules that were their own binaries before, issue 33).
 
 #[path = "../common/mod.rs"]
 mod common;
 
 mod bad_input;
+mod barrier;
 mod commands;
 mod compare;
 mod forces;
 mod output_errors;
+mod render;
 mod run;
 mod sweep;
+mod sweep_metric;
+mod threads;
 
 use common::gpu::adapter_or_skip;
 use hyperpbd::{Backend, Precision, Scene};

@@ -1,6 +1,6 @@
 //! The per-step check of the GPU's coupled step in f32 against the golden
 //! path (docs/bounds.md "Coupled implicit step in f32"), shared by
-//! `tests/gpu_coupled_f32.rs` and the stability suite: a CPU probe is
+//! `tests/gpu/coupled_f32.rs` and the stability suite: a CPU probe is
 //! restarted from the GPU's state before each step, both take the step,
 //! and `hyperpbd_verify::compare_coupled` bounds their distance from the f64
 //! gradients at both iterates (`hyperpbd::coupled_gradient`). Asserted

@@ -1,5 +1,5 @@
 //! Whole steps, CPU golden path vs GPU, frame by frame: the loop of
-//! `tests/gpu_differential.rs` and `tests/gpu_coverage/`.
+//! `tests/gpu/differential.rs` and `tests/gpu/coverage/`.
 //!
 //! Every frame, the golden path is restarted from the GPU's own state of
 //! the previous frame and both run the same frame; the difference is that
@@ -138,7 +138,7 @@ fn residual_bound(
         // residual at the GPU's state is the golden path's function there.
         FamilyKind::Material { .. } => unreachable!("material_residual_bound"),
         // No differential scene has an expression family: those are held
-        // bit for bit by tests/gpu_expressions.rs instead of by a bound.
+        // bit for bit by tests/gpu/expressions.rs instead of by a bound.
         FamilyKind::Expression(_) => unreachable!("no differential scene has an expression family"),
     }
 }

@@ -22,7 +22,7 @@
 //! rounding, so its tests keep their derived bound until the implicit-path
 //! issue replaces that ln; call [`check_f64`] only where identity is
 //! claimed. Its f32 kernels (evaluate, filter_fraction) are held bit for
-//! bit to the f32 reference on lavapipe (`tests/gpu_barrier/kernels.rs`).
+//! bit to the f32 reference on lavapipe (`tests/gpu/barrier/kernels.rs`).
 
 use hyperpbd::{F32Reference, State, StepReport};
 use hyperpbd_gpu::AdapterSummary;

@@ -1,5 +1,5 @@
 //! Scenes with their built-in families written as expressions
-//! (tests/expressions.rs, tests/gpu_expressions.rs).
+//! (tests/cpu/expressions.rs, tests/gpu/expressions.rs).
 
 use hyperpbd::kinds::Relation;
 use hyperpbd::{ConstraintFamily, ConstraintKind, Scene};

@@ -17,7 +17,10 @@ pub const REQUIRE_GPU_ENV: &str = "HYPERPBD_REQUIRE_GPU";
 
 /// Where skipped GPU tests are recorded, one `<binary>::<test>\t<why>` line each
 /// (the workspace's shared target folder; `scripts/test.sh` empties it
-/// before a run and counts the distinct tests after it).
+/// before a run and counts the distinct tests after it). `<test>` is the
+/// libtest name of the running test (its thread's name, module path
+/// included: tests of one subject share a binary, and two of its modules
+/// may pass the same label), or the label passed when there is none.
 pub const SKIP_LOG: &str = concat!(env!("CARGO_TARGET_TMPDIR"), "/gpu-skipped.txt");
 
 /// Prints the `SKIPPED: no adapter` line of `test` and records it in
@@ -27,7 +30,9 @@ pub fn record_skip(test: &str, why: &dyn std::fmt::Display) {
     use std::io::Write;
     eprintln!("SKIPPED: no adapter ({test}): {why}");
     let why = why.to_string().replace(['\n', '\t'], " ");
-    let line = format!("{}::{test}\t{why}\n", env!("CARGO_CRATE_NAME"));
+    let thread = std::thread::current();
+    let name = thread.name().filter(|n| *n != "main").unwrap_or(test);
+    let line = format!("{}::{name}\t{why}\n", env!("CARGO_CRATE_NAME"));
     std::fs::OpenOptions::new()
         .create(true)
         .append(true)

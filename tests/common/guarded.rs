@@ -1,4 +1,4 @@
-//! The guarded soft block of tests/guards.rs and tests/gpu_guards.rs.
+//! The guarded soft block of tests/cpu/guards.rs and tests/gpu/guards.rs.
 //!
 //! ```text
 //! Kuhn block in R^dim, 3 cells of 0.1 m per axis, compliant oriented

@@ -1,4 +1,4 @@
-//! Helpers of the bending tests (tests/bending.rs, tests/bending_quadratic.rs).
+//! Helpers of the bending tests (tests/cpu/bending.rs, tests/cpu/bending_quadratic.rs).
 
 const U: f64 = f64::EPSILON / 2.0;
 

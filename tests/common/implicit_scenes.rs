@@ -1,7 +1,7 @@
 //! The coupled implicit step's evidence scenes (issue 16, docs/implicit.md
-//! §8), shared by the CPU evidence (`tests/implicit_step.rs`,
-//! `tests/implicit_expressions.rs`) and the GPU's bit-identity tests
-//! (`tests/gpu_coupled/`, `tests/gpu_coupled_f32.rs`).
+//! §8), shared by the CPU evidence (`tests/implicit/step.rs`,
+//! `tests/implicit/expressions.rs`) and the GPU's bit-identity tests
+//! (`tests/gpu/coupled/`, `tests/gpu/coupled_f32.rs`).
 
 use hyperpbd::builders::GridSpec;
 use hyperpbd::core::barrier::BarrierLaw;

@@ -1,6 +1,6 @@
 //! Material scenes shared by the material tests: the smallest one, and
-//! the patch test of tests/materials_closed_forms.rs (run on the GPU by
-//! tests/gpu_materials_closed_forms.rs).
+//! the patch test of tests/materials/closed_forms.rs (run on the GPU by
+//! tests/gpu/materials_closed_forms.rs).
 
 use super::bound::check_bound;
 use hyperpbd::builders::{coords_of, kuhn_grid_elements};

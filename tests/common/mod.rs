@@ -15,8 +15,7 @@ pub mod hinges;
 pub mod implicit_scenes;
 pub mod materials;
 pub mod motion_scenes;
-// support.rs (CPU-only helpers of tests/analytic/ and tests/determinism.rs)
-// is included on its own by those binaries, not through this module.
+pub mod support;
 
 /// A deterministic pseudo-random number generator (64-bit LCG), so test
 /// scenes are jittered the same way on every run.

@@ -1,4 +1,4 @@
-//! Scenes with prescribed motion (tests/motion.rs, tests/gpu_motion.rs).
+//! Scenes with prescribed motion (tests/cpu/motion.rs, tests/gpu/motion.rs).
 
 use hyperpbd::motion::Motion;
 use hyperpbd::{ConstraintFamily, ConstraintKind, Obstacle, Particle, Scene};

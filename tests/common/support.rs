@@ -1,7 +1,5 @@
-//! Helpers for the analytic and determinism tests (CPU only: they include
-//! this file alone, `#[path = "…/common/support.rs"] mod support;`, not the
-//! whole of `common`, so they link no GPU code). Each test binary compiles
-//! this module on its own and uses only part of it.
+//! Helpers for the analytic and determinism tests (tests/cpu/): the CPU
+//! golden backend, one step, dot products and the unit roundoff.
 
 #![allow(dead_code)]
 

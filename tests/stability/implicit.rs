@@ -26,7 +26,7 @@
 //!   solver;
 //! - `fast_impact_xpbd`: XPBD's contact projection; the barrier path's
 //!   impact is `implicit_material_drop` here and the head-on balls of
-//!   tests/implicit_step.rs (and tests/gpu_coupled/);
+//!   tests/implicit/step.rs (and tests/gpu/coupled/);
 //! - `nine_dimensions`: the GPU's dimension limit (the CPU step is generic,
 //!   `implicit_eight_dimensions` runs it in R^8);
 //! - `far_offset_1e3`: `implicit_far_offset_1e5` is the harder one.
@@ -120,7 +120,7 @@ fn fold(run: Option<Measured>, step: Measured) -> Measured {
 /// element, max(0, ℓ − rest) of a tether (cpu/src/residual.rs, the same
 /// arithmetic), measured on each run's own state; it reproduces the CPU's
 /// reported value bit for bit (asserted on every CPU step), and
-/// tests/gpu_coupled/ holds `GpuCoupledBackend`'s reported residuals to
+/// tests/gpu/coupled/ holds `GpuCoupledBackend`'s reported residuals to
 /// the CPU's.
 fn link_residual(plan: &Plan, state: &State) -> f64 {
     let n = plan.dim;

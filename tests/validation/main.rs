@@ -7,10 +7,14 @@
 //! variant with its exact field path. The last tests check that valid
 //! scenes pass, that the first violation in document order is the one
 //! reported, and that `Plan::compile` and `SceneBuilder::build` refuse
-//! what validation refuses.
+//! what validation refuses. The JSON format's round trips and errors
+//! (`json_format`) and proptest over the loader (`fuzz_scenes`) are modules
+//! of this binary (their own binaries before, issue 33).
 
 mod constraints;
 mod errors_doc;
+mod fuzz_scenes;
+mod json_format;
 mod known_gaps;
 mod motion;
 mod non_finite;

@@ -21,7 +21,7 @@
 //!          degree = most elements (all families) sharing one particle
 //!          + iterations × (8N + 40) with particle contact (one averaged
 //!            gather-Jacobi pass per iteration: the pair terms in R^N and
-//!            the gather, as in tests/gpu_collide.rs)
+//!            the gather, as in tests/gpu/collide.rs)
 //! S        substeps run so far
 //! position bound = ε · X · ops · S            (errors add, never cancel)
 //! velocity bound = 2 · position bound / h     (v = (x − p) / h)
@@ -33,7 +33,7 @@
 //! contact is also discontinuous: a pair within rounding of touching can be
 //! active in one precision and not in the other, a jump of the size of the
 //! overlap, not of ε — granular scenes are compared on invariants
-//! (tests/gpu_granular.rs), and `compare` says so.
+//! (tests/gpu/granular.rs), and `compare` says so.
 
 use hyperpbd_core::{BackendError, Plan, Precision, State, StepReport};
 

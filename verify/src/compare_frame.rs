@@ -108,7 +108,7 @@
 //! elimination determinant rounds at its Hadamard scale, which no count of
 //! additions covers, and the term that bounds it (κ_e r_e ℓ_e per element
 //! and iteration) makes the tesseract's bound 8 m per frame where this
-//! count states 1e-2 m. A chain of the GPU batch (tests/gpu_batch.rs,
+//! count states 1e-2 m. A chain of the GPU batch (tests/gpu/batch.rs,
 //! world 9, frame 3: 1.71e-4 m against 1.29e-4 m with no contact acting,
 //! also with the fresh errors summed kernel by kernel) showed that the
 //! projections of a chain flung by a plane cut through it are not
@@ -117,9 +117,9 @@
 //! ∞-norm up to 1.5 even at rest length, and a compressed link scales
 //! their tangential difference by ℓ₀/|d|). The uniform count passes both
 //! with slack (0.55 of it in that frame), not by derivation;
-//! tests/gpu_kernels/ holds each kernel alone to its full conditioning. Particle contact also switches on and off at C = 0,
+//! tests/gpu/kernels/ holds each kernel alone to its full conditioning. Particle contact also switches on and off at C = 0,
 //! which no rounding model bounds: granular scenes are compared on
-//! invariants (tests/gpu_granular.rs).
+//! invariants (tests/gpu/granular.rs).
 //!
 //! Known gaps of both counts, on the side of too small (none is met by the
 //! compared scenes, every frame of which is asserted): dynamic friction's

@@ -63,7 +63,7 @@ pub struct Rounding {
     /// f32: the allowance of Vulkan's built-in log (2⁻²¹ absolute on
     /// [0.5, 2], 3 ulp outside), kept for the arithmetic `ln_f32.wgsl`
     /// (1 ulp where f32 rounds correctly; the allowance covers adapters
-    /// where it does not); f64: `ln_real` (within 5 ulp, tests/materials_law.rs).
+    /// where it does not); f64: `ln_real` (within 5 ulp, tests/materials/law.rs).
     pub builtin_log: bool,
 }
 

@@ -286,7 +286,7 @@ pub fn pcg<F: FnMut(&[f64], &mut [f64])>(
 /// (a particle's acceleration error is |r_i|/(m_i h²) ≤ ‖r‖₂/(m_min h²)).
 /// A tolerance relative to ‖g‖₂ instead lets the heaviest particles set
 /// it: on the 1:10⁶ chain the light beads' directions were then useless
-/// and Newton stalled at its budget (`tests/implicit_step.rs`).
+/// and Newton stalled at its budget (`tests/implicit/step.rs`).
 pub fn newton_cg_tolerance(
     criterion: Convergence,
     residual: f64,

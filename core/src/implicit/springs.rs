@@ -32,7 +32,7 @@
 //! constraint; the line search keeps every step a decrease of F, and
 //! convergence near the minimiser is linear with a rate ≈ h²|λ| ‖∇²C‖ /
 //! (m + h² |∇C|²/α) instead of quadratic. At C = 0 the Gauss–Newton block
-//! is the exact Hessian (tests/implicit_terms/springs.rs checks both).
+//! is the exact Hessian (tests/implicit/terms/springs.rs checks both).
 //!
 //! Material kinds are no springs (their energy is the law's,
 //! material_hessian.rs): here their value is 0 with ∇C = 0

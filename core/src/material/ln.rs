@@ -2,7 +2,7 @@
 //! `shaders/ln_f64.wgsl` computes it, so the Neo-Hookean law gives the same
 //! bits on the CPU and in an f64 WGSL kernel (the GPU's built-in f64 log is
 //! wrong on lavapipe; see DESIGN.md). Within a few ulp of `libm::log`
-//! (tests/materials_law.rs measures it).
+//! (tests/materials/law.rs measures it).
 //!
 //! ```text
 //! x = m · 2^e,  m ∈ (√½, √2]      (unique: m ∈ [1, 2) from frexp, halved if m > √2)

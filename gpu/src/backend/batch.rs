@@ -22,7 +22,7 @@
 //! World k runs exactly its own single-world step: the same kernels on the
 //! same values in the same order, its parameters read from its own call
 //! blocks. So in f64 (origin 0) it is bit for bit world k run alone, and
-//! so the CPU golden path (tests/gpu_batch.rs). In f32 all worlds share
+//! so the CPU golden path (tests/gpu/batch.rs). In f32 all worlds share
 //! one origin (the box of every world), within the single-world bound.
 //!
 //! The worlds run one schedule: the union of their stages (union.rs). A

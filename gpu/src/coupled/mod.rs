@@ -42,11 +42,11 @@
 //!               f32 bound)
 //! ```
 //! In f64 on lavapipe every state is bit-identical to the CPU golden path
-//! (`tests/gpu_coupled/`). In f32 nothing the device reports is taken as
+//! (`tests/gpu/coupled/`). In f32 nothing the device reports is taken as
 //! evidence: the host recomputes ∇F in f64 at the returned iterate
 //! (`hyperpbd_cpu::coupled_gradient`) and bounds its distance to the CPU's
 //! iterate with a per-particle modulus (`hyperpbd_verify::compare_coupled`,
-//! `tests/gpu_coupled_f32.rs`).
+//! `tests/gpu/coupled_f32.rs`).
 
 mod cg_state;
 mod device;

@@ -22,7 +22,7 @@
 //! Each pass is recorded on its own, as the host-driven loop did, so every
 //! value is computed by the same kernel from the same inputs: in f64 on
 //! lavapipe the directions and reports are the CPU's bit for bit
-//! (tests/gpu_coupled/).
+//! (tests/gpu/coupled/).
 
 use hyperpbd_core::GpuError;
 use hyperpbd_core::implicit::{PcgReport, PcgSettings, PcgStatus, pcg_start};

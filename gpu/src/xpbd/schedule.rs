@@ -16,7 +16,7 @@
 //! Fusing per-particle calls keeps each particle's order of operations:
 //! they read and write that particle's records and its own multipliers
 //! only. The small schedule keeps the order of all calls (barriers); both
-//! give the exact schedule's results bit for bit (tests/gpu_schedules.rs).
+//! give the exact schedule's results bit for bit (tests/gpu/schedules.rs).
 //!
 //! The automatic choice (measured, docs/performance.md): small on a
 //! hardware GPU when the scene's work fits one workgroup — every call has

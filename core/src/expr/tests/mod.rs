@@ -1,6 +1,6 @@
 //! Tests of the expression compiler (no GPU): errors and their positions,
 //! derivatives against finite differences, the built-in kinds written as
-//! expressions, the evaluators against each other. `tests/expr_gpu.rs`
+//! expressions, the evaluators against each other. `tests/gpu/expr_wgsl.rs`
 //! holds WGSL to them bit for bit.
 
 mod builtins;

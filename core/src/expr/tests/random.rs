@@ -1,6 +1,6 @@
 //! A seeded generator of random well-typed expressions (deterministic:
 //! xorshift64*), for derivative and evaluator tests here and in
-//! `tests/expr_gpu.rs` (which includes this file by path, so it depends on
+//! `tests/gpu/expr_wgsl.rs` (which includes this file by path, so it depends on
 //! nothing of the crate).
 
 /// xorshift64* generator.
