@@ -15,7 +15,9 @@ pub mod hinges;
 pub mod implicit_scenes;
 pub mod materials;
 pub mod motion_scenes;
-pub mod support;
+// support.rs (the CPU-only helpers of tests/cpu/analytic/ and
+// tests/cpu/determinism.rs; it uses nalgebra, which report/tests/, also
+// including this module, does not link) is a module of tests/cpu/ itself.
 
 /// A deterministic pseudo-random number generator (64-bit LCG), so test
 /// scenes are jittered the same way on every run.

@@ -12,7 +12,7 @@
 //! parallel reduction, a platform `exp` — is exactly what these tests exist
 //! to catch.
 
-use crate::common::support;
+use crate::support;
 
 use hyperpbd::{Backend, CpuBackend, Plan, Scene, State};
 use support::{backend, state, step};

@@ -8,7 +8,7 @@
 //! -- analytic:: --nocapture` to see the measured values.
 
 use crate::common::bound;
-use crate::common::support;
+use crate::support;
 
 mod damping;
 mod free_fall;
