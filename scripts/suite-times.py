@@ -11,7 +11,10 @@ exit code, kind, package folder/target. The last line is the wall total.
 
 The build (`--no-run`) comes first and is not timed. CPU seconds are the
 figure to compare on a shared machine: wall time grows with the other
-jobs' load, CPU time much less. Not part of the suite.
+jobs' load, CPU time much less. The integration tests are a few binaries
+by subject (tests/gpu/, tests/cpu/, …; docs/testing.md), one line each;
+one module's time: `time cargo test --release --test gpu -- kernels::`.
+Not part of the suite.
 """
 
 import json

@@ -10,56 +10,9 @@
 
 use hyperpbd::{Backend, Particle, Scene, SceneBuilder};
 use hyperpbd_render::{ColorBy, GifEncoder, Image, Options, Renderer, Snapshot, View};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::path::Path;
 
-/// A scratch directory, removed on drop.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(name: &str) -> TempDir {
-        static COUNTER: AtomicUsize = AtomicUsize::new(0);
-        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let dir =
-            std::env::temp_dir().join(format!("hyperpbd-render-{}-{n}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("create temp dir");
-        TempDir(dir)
-    }
-
-    fn path(&self, name: &str) -> PathBuf {
-        self.0.join(name)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn hyperpbd_in(cwd: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hyperpbd"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("run the hyperpbd binary")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
-fn assert_success(out: &Output) {
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstdout:\n{}\nstderr:\n{}",
-        out.status.code(),
-        text(&out.stdout),
-        text(&out.stderr)
-    );
-}
+use super::{TempDir, assert_success, hyperpbd_in, text};
 
 fn repo(path: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -353,7 +306,7 @@ fn same_run_same_bytes() {
     for out in ["a", "b"] {
         let o = hyperpbd_in(
             &dir.0,
-            &[
+            [
                 "render",
                 &scene_file,
                 "--backend",
@@ -401,7 +354,7 @@ fn render_command_writes_frames_and_an_animation() {
     let dir = TempDir::new("cli");
     let out = hyperpbd_in(
         &dir.0,
-        &[
+        [
             "render",
             &repo("scenes/tesseract.json"),
             "--backend",
@@ -452,7 +405,7 @@ fn render_command_writes_frames_and_an_animation() {
     // A built-in scene by name, default output directory.
     let out = hyperpbd_in(
         &dir.0,
-        &[
+        [
             "render",
             "chain2d",
             "--backend",
@@ -471,7 +424,7 @@ fn render_command_writes_frames_and_an_animation() {
 #[test]
 fn demo_writes_a_picture_of_its_last_frame() {
     let dir = TempDir::new("demo");
-    let out = hyperpbd_in(&dir.0, &["demo", "--frames", "3", "--backend", "cpu"]);
+    let out = hyperpbd_in(&dir.0, ["demo", "--frames", "3", "--backend", "cpu"]);
     assert_success(&out);
     let stdout = text(&out.stdout);
     assert!(stdout.contains("out/demo.png"), "{stdout}");
