@@ -372,7 +372,7 @@ fn gpu_infeasible_start_is_refused_before_anything_moves() {
     }
 }
 
-/// A refusal after accepted substeps (the CPU twin is in tests/implicit/barrier.rs):
+/// A refusal after accepted substeps (the CPU twin is in tests/implicit/barrier/):
 /// gravity pointing away from the plane moves the particle by h²g per
 /// substep and adds as much speed, until the Newton slope ≈ m|Δ|² overflows
 /// the precision (h²g = 1e153 m in f64, 1e18 m in f32). The refusal's

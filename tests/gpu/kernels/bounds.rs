@@ -133,7 +133,7 @@ pub(super) fn kernel_bounds(
             unreachable!("these cases have no collisions (the GPU backend refuses them)")
         }
         Kernel::Minimise => {
-            unreachable!("XPBD scenes only; the barrier path has tests/gpu/barrier.rs")
+            unreachable!("XPBD scenes only; the barrier path has tests/gpu/barrier/")
         }
         Kernel::Motion => {
             unreachable!("these cases have no prescribed motion (tests/cpu/motion.rs has it)")
