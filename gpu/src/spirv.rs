@@ -185,7 +185,9 @@ pub(crate) fn parse(
     precision: Precision,
     generated: Option<&str>,
 ) -> Result<(naga::Module, naga::valid::ModuleInfo), GpuError> {
-    let source = compose_with(file, dim, precision, generated);
+    // NoContraction (below) forbids fusing and regrouping: the generated
+    // code's opaque selects are not needed.
+    let source = compose_with(file, dim, precision, generated, false);
     validate(&source, precision).map_err(|message| GpuError::Other {
         message: format!("{} (DIM {dim}, {precision}): {message}", file.file_name()),
     })
