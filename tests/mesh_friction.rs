@@ -14,7 +14,7 @@ mod common;
 use common::bound::{check_bound, print_bound};
 use common::exact::{bits, f64_identical};
 use common::gpu::adapter_or_skip;
-use common::implicit_scenes::{G, incline, particle, settings};
+use common::implicit_scenes::{G, balls_in_a_v, incline, particle, settings};
 use hyperpbd::builders::triangle_grid;
 use hyperpbd::core::barrier::BarrierLaw;
 use hyperpbd::core::implicit::closed_forms::{
@@ -428,4 +428,10 @@ fn gpu_f64_mesh_friction_is_the_golden_path() {
     gpu_f64_is_golden("flat_slide", &flat(0.3, 20), 30);
     gpu_f64_is_golden("incline_stick", &mesh_incline(0.5, 40).0, 30);
     gpu_f64_is_golden("incline_slide", &mesh_incline(0.2, 40).0, 30);
+    // Springs, ball pairs and two lags at the V's vertex.
+    let mut v = balls_in_a_v();
+    if let Obstacle::SimplexMesh { friction, .. } = &mut v.obstacles[0] {
+        *friction = 0.4;
+    }
+    gpu_f64_is_golden("v_of_segments", &v, 40);
 }
