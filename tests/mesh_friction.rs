@@ -425,9 +425,9 @@ fn gpu_f64_is_golden(test: &str, scene: &Scene, frames: usize) {
 
 #[test]
 fn gpu_f64_mesh_friction_is_the_golden_path() {
-    gpu_f64_is_golden("flat_slide", &flat(0.3, 20), 30);
-    gpu_f64_is_golden("incline_stick", &mesh_incline(0.5, 40).0, 30);
-    gpu_f64_is_golden("incline_slide", &mesh_incline(0.2, 40).0, 30);
+    gpu_f64_is_golden("flat_slide", &flat(0.3, 20), 20);
+    gpu_f64_is_golden("incline_stick", &mesh_incline(0.5, 40).0, 20);
+    gpu_f64_is_golden("incline_slide", &mesh_incline(0.2, 40).0, 20);
     // Springs, ball pairs and two lags at the V's vertex.
     let mut v = balls_in_a_v();
     if let Obstacle::SimplexMesh { friction, .. } = &mut v.obstacles[0] {
