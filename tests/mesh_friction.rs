@@ -42,30 +42,47 @@ const RADIUS: f64 = 0.05;
 /// hyperplane y = `HEIGHT` with μ. With one cell the slide (0.85 m, from
 /// (−1.13, −0.41) along (2, 0, 1)) stays inside one triangle (x + z < 0).
 fn flat(mu: f64, cells: usize) -> Scene {
-    let gap = barrier_gap_under_load(&LAW, G).expect("a gap");
-    let mut scene = Scene::new(3, 1.0 / 60.0, 1, 1);
-    scene.gravity = Some(vec![0.0, -G, 0.0]);
-    let mut p = particle(vec![-1.13, HEIGHT + RADIUS + gap, -0.41], Some(1.0), RADIUS);
-    p.velocity = Some(vec![2.0, 0.0, 1.0]);
-    scene.particles.push(p);
-    scene.obstacles.push(if cells > 0 {
+    let mesh = (cells > 0).then(|| {
         let spacing = 10.0 / cells as f64;
         let grid = triangle_grid(3, [0, 2], cells + 1, spacing);
         shifted(grid, &[-5.0, HEIGHT, -5.0], mu)
-    } else {
-        Obstacle::Hyperplane {
-            normal: vec![0.0, 1.0, 0.0],
-            offset: HEIGHT,
-            friction: mu,
-            compliance: 0.0,
-            motion: Vec::new(),
-        }
     });
+    sliding(vec![-1.13, 0.0, -0.41], vec![2.0, 0.0, 1.0], mu, mesh, 50)
+}
+
+/// A 1 kg ball (radius 5 cm) at `at` lifted to rest height over
+/// y = `HEIGHT` (gravity −G along y), moving at `velocity`, on `mesh` or
+/// (`None`) the hyperplane y = `HEIGHT`, with μ; Newton budget `budget`.
+fn sliding(
+    at: Vec<f64>,
+    velocity: Vec<f64>,
+    mu: f64,
+    mesh: Option<Obstacle>,
+    budget: u32,
+) -> Scene {
+    let dim = at.len();
+    let gap = barrier_gap_under_load(&LAW, G).expect("a gap");
+    let mut scene = Scene::new(dim, 1.0 / 60.0, 1, 1);
+    let mut up = vec![0.0; dim];
+    up[1] = 1.0;
+    scene.gravity = Some((0..dim).map(|a| if a == 1 { -G } else { 0.0 }).collect());
+    let mut position = at;
+    position[1] = HEIGHT + RADIUS + gap;
+    let mut p = particle(position, Some(1.0), RADIUS);
+    p.velocity = Some(velocity);
+    scene.particles.push(p);
+    scene.obstacles.push(mesh.unwrap_or(Obstacle::Hyperplane {
+        normal: up,
+        offset: HEIGHT,
+        friction: mu,
+        compliance: 0.0,
+        motion: Vec::new(),
+    }));
     scene.solver = Solver::IncrementalPotential(settings(
         LAW.stiffness,
         LAW.activation_distance,
         TOLERANCE,
-        50,
+        budget,
     ));
     scene
 }
@@ -216,17 +233,7 @@ fn sliding_on_a_flat_mesh_decelerates_at_mu_g() {
 /// tetrahedra (μ), or (`mesh` false) on the hyperplane y = `HEIGHT`. The
 /// 1.02 m slide stays in the tetrahedron u_x ≥ u_z ≥ u_w.
 fn flat4(mu: f64, mesh: bool) -> Scene {
-    let gap = barrier_gap_under_load(&LAW, G).expect("a gap");
-    let mut scene = Scene::new(4, 1.0 / 60.0, 1, 1);
-    scene.gravity = Some(vec![0.0, -G, 0.0, 0.0]);
-    let mut p = particle(
-        vec![3.0, HEIGHT + RADIUS + gap, 0.0, -3.0],
-        Some(1.0),
-        RADIUS,
-    );
-    p.velocity = Some(vec![2.0, 0.0, 1.0, -1.0]);
-    scene.particles.push(p);
-    scene.obstacles.push(if mesh {
+    let mesh = mesh.then(|| {
         // Cube corner c (bits over x, z, w) at 10 c − 5.
         let vertices = (0..8)
             .map(|c: usize| {
@@ -251,26 +258,13 @@ fn flat4(mu: f64, mesh: bool) -> Scene {
             simplices,
             friction: mu,
         }
-    } else {
-        Obstacle::Hyperplane {
-            normal: vec![0.0, 1.0, 0.0, 0.0],
-            offset: HEIGHT,
-            friction: mu,
-            compliance: 0.0,
-            motion: Vec::new(),
-        }
     });
     // A simplex's step filter is the Lipschitz one, t* = d0/|Δ| (a
     // hyperplane's is exact): a 4 cm tangential step from d0 ≈ 0.8 mm
     // advances a few % per Newton iteration, so ~50 iterations a step
     // here (the hyperplane takes 2); the budget leaves room.
-    scene.solver = Solver::IncrementalPotential(settings(
-        LAW.stiffness,
-        LAW.activation_distance,
-        TOLERANCE,
-        400,
-    ));
-    scene
+    let (at, velocity) = (vec![3.0, 0.0, 0.0, -3.0], vec![2.0, 0.0, 1.0, -1.0]);
+    sliding(at, velocity, mu, mesh, 400)
 }
 
 #[test]
