@@ -424,6 +424,7 @@ impl BarrierObstacles {
                 Obstacle::SimplexMesh {
                     vertices,
                     simplices,
+                    ..
                 } => {
                     for (s, simplex) in simplices.iter().enumerate() {
                         for slot in 0..SIMPLEX_SLOTS {

@@ -187,6 +187,8 @@ fn barrier_catalogue() -> Vec<String> {
         j(mesh("[[0, 0], [1, 0], [2, 0]]", "[[0, 1, 2]]", &ok)),
         j(mesh("[[0, 0], [1, 0], [2, 0]]", "[[0, 1], [0, 1, 2]]", &ok)),
         j(mesh("[[0, 0], [1, 0]]", "[[0, 1]]", "")),
+        j(mesh("[[0, 0], [1, 0]]", r#"[[0, 1]], "friction": -0.5"#, &ok)),
+        j(mesh("[[0, 0], [1, 0]]", r#"[[0, 1]], "offset": 1"#, &ok)),
         j(scene(r#", "solver": {"type": "newton"}"#)),
         j(scene(
             r#", "solver": {"type": "incremental_potential", "barrier_stiffness": 1, "activation_distance": 1, "convergence": {"kind": "energy", "tolerance": 1}, "max_iterations": 3}"#,
