@@ -12,7 +12,7 @@ mod stretched_bar;
 mod twirl;
 
 pub use demo::{BELT_SPEED, demo};
-pub use drum::{DRUM_RATE, DrumSpec, drum, drum_motion, drum3d, drum4d};
+pub use drum::{DRUM_RATE, DrumSpec, drum, drum_motion, drum_spec, drum3d, drum4d};
 pub use granular::{ballpit4d, column3d, pit3d, sandpile2d};
 use hyperpbd_core::builders::{BlockSpec, GridSpec};
 use hyperpbd_core::{Scene, SceneBuilder};

@@ -19,28 +19,12 @@
 //! Both run on the golden path (contact forces are the CPU's); the GPU
 //! runs the same steps bit for bit (tests/gpu_drum_scenes.rs).
 
-use hyperpbd::motion::rigid_at;
-use hyperpbd::scenes::{DrumSpec, drum};
-use hyperpbd::{Backend, CpuBackend, Obstacle, Particle, Plan, Scene, State};
+mod common;
 
-/// Σ_i m_i (½|v_i|² − g·x_i) over the dynamic particles.
-fn energy(scene: &Scene, state: &State) -> f64 {
-    let g = scene
-        .gravity
-        .clone()
-        .unwrap_or_else(|| vec![0.0; scene.dim]);
-    let mut e = 0.0;
-    for (i, p) in scene.particles.iter().enumerate() {
-        let Some(m) = p.mass.filter(|_| !p.fixed) else {
-            continue;
-        };
-        let (x, v) = (state.position(i), state.velocity(i));
-        let kinetic: f64 = v.iter().map(|v| 0.5 * v * v).sum();
-        let potential: f64 = g.iter().zip(x).map(|(g, x)| -g * x).sum();
-        e += m * (kinetic + potential);
-    }
-    e
-}
+use common::energy;
+use hyperpbd::motion::rigid_at;
+use hyperpbd::scenes::{DrumSpec, drum, drum_spec};
+use hyperpbd::{Backend, CpuBackend, Obstacle, Particle, Plan, Scene, State};
 
 /// What a run measured: the walls' work W, the energy change ΔE, the
 /// smallest W − ΔE of one frame, and the deepest any ball's surface was
@@ -103,19 +87,12 @@ fn run(scene: &Scene, frames: u64) -> Books {
     }
 }
 
-/// The built-in drums' geometry, turning at 0.5 rad/s with μ_w = 1.
+/// The built-in drum's geometry turning at 0.5 rad/s with μ_w = 1.
 fn spec(dim: usize) -> DrumSpec {
     DrumSpec {
-        dim,
-        walls: 16,
-        radius: 0.5,
-        half_length: 0.15,
-        ball: 0.03,
-        mass: 0.01,
-        fill: 0.8,
         rate: 0.5,
         wall_friction: 1.0,
-        ball_friction: 0.3,
+        ..drum_spec(dim)
     }
 }
 

@@ -146,37 +146,32 @@ pub fn drum(spec: &DrumSpec) -> Scene {
     super::built(b)
 }
 
-/// The 3D drum: 16 walls, R = 0.5 m, 0.3 m long, balls of r = 0.03 m
-/// filling it to 0.8 R, ω = [`DRUM_RATE`], μ_w = 0.8, μ_b = 0.3.
-pub fn drum3d() -> Scene {
-    drum(&DrumSpec {
-        dim: 3,
+/// The built-in drum of dimension `dim`: 16 walls, R = 0.5 m,
+/// ω = [`DRUM_RATE`], μ_w = 0.8, μ_b = 0.3, filled to 0.8 R with balls of
+/// 10 g; 3D: r = 0.03 m, 0.3 m long; otherwise (4D): r = 0.05 m, closed at
+/// ±0.16 m along every axis from 2 on.
+pub fn drum_spec(dim: usize) -> DrumSpec {
+    let (ball, half_length) = if dim == 3 { (0.03, 0.15) } else { (0.05, 0.16) };
+    DrumSpec {
+        dim,
         walls: 16,
         radius: 0.5,
-        half_length: 0.15,
-        ball: 0.03,
+        half_length,
+        ball,
         mass: 0.01,
         fill: 0.8,
         rate: DRUM_RATE,
         wall_friction: 0.8,
         ball_friction: 0.3,
-    })
+    }
 }
 
-/// The 4D drum: 16 walls in the plane of axes 0 and 1, R = 0.5 m, closed
-/// at ±0.16 m along axes 2 and 3, balls of r = 0.05 m filling it to
-/// 0.8 R, ω = [`DRUM_RATE`], μ_w = 0.8, μ_b = 0.3.
+/// The 3D drum ([`drum_spec`]`(3)`: 174 balls).
+pub fn drum3d() -> Scene {
+    drum(&drum_spec(3))
+}
+
+/// The 4D drum ([`drum_spec`]`(4)`: 198 balls).
 pub fn drum4d() -> Scene {
-    drum(&DrumSpec {
-        dim: 4,
-        walls: 16,
-        radius: 0.5,
-        half_length: 0.16,
-        ball: 0.05,
-        mass: 0.01,
-        fill: 0.8,
-        rate: DRUM_RATE,
-        wall_friction: 0.8,
-        ball_friction: 0.3,
-    })
+    drum(&drum_spec(4))
 }
