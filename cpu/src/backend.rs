@@ -506,7 +506,7 @@ impl CpuBackend {
             }
             if let Some(forces) = &mut self.forces {
                 let (lambda, starts) = (&self.lambda, &self.lambda_starts);
-                forces.end_substep(&self.plan, &self.motion_now, lambda, starts);
+                forces.end_substep(&self.plan, &self.motion_now, (lambda, starts), &self.p);
             }
             if fuse_next.is_some() {
                 self.velocity_then_predict()?;
@@ -524,7 +524,8 @@ impl CpuBackend {
         forces.before(&self.plan, kernel, &self.x, &self.v);
         let result = self.kernel(kernel);
         if result.is_ok() {
-            forces.after(&self.plan, &self.motion_now, kernel, &self.x, &self.v);
+            let state = (&self.x[..], &self.v[..], &self.p[..]);
+            forces.after(&self.plan, &self.motion_now, kernel, state);
             if kernel == Kernel::Minimise {
                 forces.minimised(&self.plan, &self.coupled, &self.x);
             }

@@ -17,7 +17,9 @@
 //!     J_i += m_i (x_i(after) − x_i(before)) / h    (dynamic particles)
 //! barrier path, per substep at the accepted iterate x:
 //!   J_i += −b'(d_io) ∇d_io h for every active obstacle o, also on o
-//! the step's end:  F = J / dt
+//! moving plane o, with every impulse J_i above:  W_o += J_i · D_o(p_i) / h
+//!   (p_i the particle's position at the substep's start, D_o the plane's carry)
+//! the step's end:  F = J / dt,  P_o = W_o / dt
 //! ```
 //! Fixed particles never move, so on the XPBD path their particle contacts
 //! report 0 (obstacle families hold dynamic particles only).
@@ -86,14 +88,14 @@ impl Recorder {
         }
     }
 
-    /// Adds the impulses `kernel` applied (after [`Recorder::before`]).
+    /// Adds the impulses `kernel` applied (after [`Recorder::before`];
+    /// `start`: the positions at the substep's start).
     pub fn after(
         &mut self,
         plan: &Plan,
         now: &SubstepMotion,
         kernel: Kernel,
-        x: &[f64],
-        v: &[f64],
+        (x, v, start): (&[f64], &[f64], &[f64]),
     ) {
         let (n, h) = (plan.dim, plan.h);
         let mut j = vec![0.0; n];
@@ -109,6 +111,7 @@ impl Recorder {
                         j[a] = m * (moved(a) - along * normal[a]) / h;
                     }
                     add(&mut self.impulses, o, i, &j);
+                    self.work(plan, now, (family, o), &start[i * n..(i + 1) * n], &j);
                 }
             }
             Some(Measured::PlaneVelocities { family }) => {
@@ -120,6 +123,7 @@ impl Recorder {
                         j[a] = m * (v[i * n + a] - self.before[e * n + a]);
                     }
                     add(&mut self.impulses, o, i, &j);
+                    self.work(plan, now, (family, o), &start[i * n..(i + 1) * n], &j);
                 }
             }
             Some(Measured::Positions) => {
@@ -139,13 +143,14 @@ impl Recorder {
 
     /// The normal impulses n λ / h of the substep that just ended, from
     /// every plane family's multipliers (`lambda` of family f at
-    /// `lambda[starts[f]..starts[f + 1]]`).
+    /// `lambda[starts[f]..starts[f + 1]]`; `start`: the positions at the
+    /// substep's start).
     pub fn end_substep(
         &mut self,
         plan: &Plan,
         now: &SubstepMotion,
-        lambda: &[f64],
-        starts: &[usize],
+        (lambda, starts): (&[f64], &[usize]),
+        start: &[f64],
     ) {
         let (n, h) = (plan.dim, plan.h);
         let mut j = vec![0.0; n];
@@ -163,9 +168,31 @@ impl Recorder {
                 for a in 0..n {
                     j[a] = normal[a] * l / h;
                 }
-                self.impulses.add_obstacle_impulse(o, i as usize, &j);
+                let i = i as usize;
+                self.impulses.add_obstacle_impulse(o, i, &j);
+                self.work(plan, now, (family, Some(o)), &start[i * n..(i + 1) * n], &j);
             }
         }
+    }
+
+    /// The work J·D(p)/h of impulse `j` of plane family `family` (obstacle
+    /// `o`) on a particle that started the substep at `p`, when the plane
+    /// moves.
+    fn work(
+        &mut self,
+        plan: &Plan,
+        now: &SubstepMotion,
+        (family, o): (usize, Option<usize>),
+        p: &[f64],
+        j: &[f64],
+    ) {
+        let (Some(o), Some(plane)) = (o, crate::motion::plane(plan, now, family)) else {
+            return;
+        };
+        let mut u = vec![0.0; p.len()];
+        plane.carry.at(p, &mut u);
+        let w: f64 = j.iter().zip(&u).map(|(j, u)| j * u / plan.h).sum();
+        self.impulses.add_obstacle_work(o, w);
     }
 
     /// The barrier path's contact impulses at the accepted iterate `x` of
