@@ -12,14 +12,14 @@
 //!   (with `collisions`: Broadphase after Predict, and one Collide — a
 //!    gather-Jacobi sweep over the candidate pairs — at the start of every
 //!    iteration; see hyperpbd-cpu's collide.rs)
-//!   Friction(family)             per hyperplane with μ > 0
+//!   Friction(family)             per hyperplane or simplex mesh with μ > 0
 //!   Damping                      v *= exp(−rate h), if rate > 0
 //!   GuardMeasure(family), GuardSpeed   read-only checks (with `guards`)
 //! }
 //! ```
 //! Constraint families are projected in authored order, then each
-//! hyperplane obstacle as one contact family (every dynamic particle, one
-//! color). A stage the scene does not use is absent: it costs nothing.
+//! obstacle (hyperplane or simplex mesh) as one contact family (every
+//! dynamic particle, one color). A stage the scene does not use is absent: it costs nothing.
 //! Both backends execute [`Plan::substep_kernels`], so they run the same
 //! algorithm in the same order.
 
@@ -261,7 +261,8 @@ impl Plan {
                                 | FamilyKind::SimplexMeasure { .. }
                                 | FamilyKind::OrientedMeasure
                                 | FamilyKind::Material { .. }
-                                | FamilyKind::HyperplaneContact { .. } => kinds::value(
+                                | FamilyKind::HyperplaneContact { .. }
+                                | FamilyKind::MeshContact { .. } => kinds::value(
                                     authored.kind,
                                     &points,
                                     dim,
@@ -314,21 +315,43 @@ impl Plan {
         };
         let mut obstacle_families = vec![None; scene.obstacles.len()];
         for (o, obstacle) in xpbd_planes.iter().enumerate() {
-            let Obstacle::Hyperplane {
-                normal,
-                offset,
-                friction,
-                compliance,
-                motion,
-            } = obstacle
-            else {
-                continue;
-            };
-            let unit = unit_vector(normal);
             let particles: Vec<usize> = (0..n).filter(|&i| dynamic(i)).collect();
             if particles.is_empty() {
                 continue;
             }
+            let (normal, offset, friction, compliance, motion) = match obstacle {
+                Obstacle::Hyperplane {
+                    normal,
+                    offset,
+                    friction,
+                    compliance,
+                    motion,
+                } => (normal, offset, friction, compliance, motion),
+                Obstacle::SimplexMesh {
+                    vertices,
+                    simplices,
+                    friction,
+                } => {
+                    // kinds/mesh_contact.rs: C = dist(x, mesh) − radius.
+                    let mesh = crate::barrier::BarrierObstacles::mesh(dim, o, vertices, simplices);
+                    let rest: Vec<f64> = particles.iter().map(|&i| radius[i]).collect();
+                    obstacle_families[o] = Some(families.len());
+                    families.push(colored_family(
+                        format!("obstacles[{o}]"),
+                        FamilyKind::MeshContact {
+                            mesh: std::sync::Arc::new(mesh),
+                            friction: *friction,
+                        },
+                        0.0,
+                        1,
+                        &particles,
+                        &rest,
+                        &inverse_mass,
+                    ));
+                    continue;
+                }
+            };
+            let unit = unit_vector(normal);
             let rest: Vec<f64> = particles.iter().map(|&i| offset + radius[i]).collect();
             if !motion.is_empty() {
                 moving.planes.push(MovingPlane {
@@ -393,9 +416,7 @@ impl Plan {
             }
             substep_kernels.push(Kernel::Velocity);
             for (family, fam) in families.iter().enumerate() {
-                if let FamilyKind::HyperplaneContact { friction, .. } = fam.kind
-                    && friction > 0.0
-                {
+                if fam.kind.contact_friction() > 0.0 {
                     substep_kernels.push(Kernel::Friction { family });
                 }
             }

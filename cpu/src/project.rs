@@ -23,6 +23,9 @@
 //! A contact checks the raw Δλ for NaN/Inf before the clamp (max(NaN, 0)
 //! would hide it).
 //!
+//! Mesh contacts take `mesh_contact.rs` (the same update with the
+//! mesh's normal at x).
+//!
 //! Static friction (hyperplane contact with μ > 0), after the normal update
 //! of an active contact (λ > 0):
 //! ```text
@@ -167,6 +170,20 @@ fn project_elements<X: Coordinates + ?Sized>(
         FamilyKind::HyperplaneContact { normal, friction } => with_dim!(
             batch.dim,
             contact_in(batch, normal, *friction, elements, x, lambda)
+        ),
+        FamilyKind::MeshContact { mesh, friction } => crate::mesh_contact::project(
+            (
+                batch.dim,
+                batch.inverse_mass,
+                batch.alpha_tilde,
+                batch.start,
+            ),
+            batch.family,
+            mesh,
+            *friction,
+            elements,
+            x,
+            lambda,
         ),
         FamilyKind::Distance
         | FamilyKind::Tether
@@ -358,7 +375,9 @@ pub(crate) fn gathered_value(
         }
         // Contacts take `contact_in` and expressions `kinds::project`,
         // never this path.
-        FamilyKind::HyperplaneContact { .. } | FamilyKind::Expression(_) => return Err(e),
+        FamilyKind::HyperplaneContact { .. }
+        | FamilyKind::MeshContact { .. }
+        | FamilyKind::Expression(_) => return Err(e),
     })
 }
 

@@ -14,6 +14,7 @@ use crate::parallel::Workers;
 use crate::project::Workspace;
 use hyperpbd_core::expr::Block;
 use hyperpbd_core::kinds::ExpressionKind;
+use hyperpbd_core::kinds::mesh_contact::closest;
 use hyperpbd_core::violation::geometric_violation;
 use hyperpbd_core::{Family, FamilyKind, FamilyResidual};
 use std::ops::Range;
@@ -76,6 +77,11 @@ fn violation<D: Dim>(
             (Some(v), _) => v,
             (None, FamilyKind::HyperplaneContact { normal, .. }) => {
                 (family.rest[e] - crate::project::dot(normal, points)).max(0.0)
+            }
+            // max(0, −C): only C ≤ 0 counts, so reach 0 (kinds::mesh_contact).
+            (None, FamilyKind::MeshContact { mesh, .. }) => {
+                let (x, normal) = (&points[..dim], &mut grad[..dim]);
+                closest(mesh, x, family.rest[e], 0.0, normal).map_or(0.0, |c| (-c).max(0.0))
             }
             // C, or +∞ for a refused element (its Neo-Hookean energy is
             // unbounded as J → 0⁺).

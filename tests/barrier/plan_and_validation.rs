@@ -183,6 +183,7 @@ fn barrier_validation_names_the_field() {
         s.obstacles.push(Obstacle::SimplexMesh {
             vertices,
             simplices,
+            friction: 0.0,
         });
         s
     };

@@ -51,6 +51,7 @@ pub(super) fn factors(plan: &Plan, f: &Family) -> Vec<f32> {
         | FamilyKind::SimplexMeasure { .. }
         | FamilyKind::OrientedMeasure
         | FamilyKind::HyperplaneContact { .. }
+        | FamilyKind::MeshContact { .. }
         | FamilyKind::Expression(_) => false,
     };
     match plan.primal_residual && material {
@@ -118,6 +119,8 @@ pub(super) fn project(
             };
             contact(s, &colour, &plane, lambda, d)
         }
+        // Refused with the primal residual (validate_solver.rs): fails the colour.
+        FamilyKind::MeshContact { .. } => Err(colour.slots.start),
         FamilyKind::Expression(kind) => {
             let kind = (kind.as_ref(), &stored.constants[..]);
             expression(s, &colour, kind, (lambda, d), columns)

@@ -33,7 +33,8 @@ pub fn expression_constants(kind: &hyperpbd_core::FamilyKind) -> Vec<f32> {
         | hyperpbd_core::FamilyKind::SimplexMeasure { .. }
         | hyperpbd_core::FamilyKind::OrientedMeasure
         | hyperpbd_core::FamilyKind::Material { .. }
-        | hyperpbd_core::FamilyKind::HyperplaneContact { .. } => Vec::new(),
+        | hyperpbd_core::FamilyKind::HyperplaneContact { .. }
+        | hyperpbd_core::FamilyKind::MeshContact { .. } => Vec::new(),
     }
 }
 
@@ -202,22 +203,30 @@ pub fn contact(
             x[a] += w * normal[a] * dl;
         }
         if plane.mu > 0.0 && l_new > 0.0 {
-            let mut dn = 0.0f32;
-            for a in 0..n {
-                dn += (x[a] - p[a]) * normal[a];
-            }
-            let mut t2 = 0.0f32;
-            for a in 0..n {
-                let tan = (x[a] - p[a]) - dn * normal[a];
-                t2 += tan * tan;
-            }
-            if t2.sqrt() <= plane.mu * w * l_new {
-                for a in 0..n {
-                    let tan = (x[a] - p[a]) - dn * normal[a];
-                    x[a] -= tan;
-                }
-            }
+            static_friction(normal, plane.mu * w * l_new, p, x);
         }
     }
     failed.map_or(Ok(()), Err)
+}
+
+/// Static friction of an active contact with unit normal `normal`: the
+/// tangential part of x − p is cancelled whole if its length is at most
+/// `bound` (the golden path's `project::static_friction`, in f32).
+pub fn static_friction(normal: &[f32], bound: f32, p: &[f32], x: &mut [f32]) {
+    let n = x.len();
+    let mut dn = 0.0f32;
+    for a in 0..n {
+        dn += (x[a] - p[a]) * normal[a];
+    }
+    let mut t2 = 0.0f32;
+    for a in 0..n {
+        let tan = (x[a] - p[a]) - dn * normal[a];
+        t2 += tan * tan;
+    }
+    if t2.sqrt() <= bound {
+        for a in 0..n {
+            let tan = (x[a] - p[a]) - dn * normal[a];
+            x[a] -= tan;
+        }
+    }
 }

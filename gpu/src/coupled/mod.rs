@@ -286,6 +286,7 @@ impl GpuCoupledBackend {
                     | FamilyKind::SimplexMeasure { .. }
                     | FamilyKind::OrientedMeasure
                     | FamilyKind::HyperplaneContact { .. }
+                    | FamilyKind::MeshContact { .. }
                     | FamilyKind::Expression(_) => {
                         push(members, code, &[family.compliance, family.rest[e]])
                     }
