@@ -351,3 +351,84 @@ fn the_f32_reference_follows_the_golden_path() {
         assert!(worst > 0.0 && worst < 1e-4, "R^{dim}: {worst:e}");
     }
 }
+
+#[test]
+fn the_plan_and_validation_of_a_mesh_on_the_xpbd_path() {
+    use hyperpbd::{FamilyKind, Kernel, SceneError, Solver, XpbdSettings};
+    let scene = |friction: f64| drop_scene(3, 0.0, 0.0, floor(3, 0.0, 1.0, 2, friction));
+    let plan = Plan::compile(&scene(0.0)).expect("a mesh is an XPBD contact");
+    let family = &plan.families[0];
+    assert_eq!(family.kind.name(), "mesh_contact");
+    assert!(matches!(family.kind, FamilyKind::MeshContact { .. }));
+    assert_eq!((family.len(), family.rest.clone()), (2, vec![0.1, 0.1]));
+    assert_eq!(plan.obstacle_families, vec![Some(0)]);
+    let friction =
+        |p: &Plan| (p.substep_kernels.iter()).any(|k| matches!(k, Kernel::Friction { .. }));
+    assert!(!friction(&plan), "no friction kernel without μ");
+    assert!(friction(&Plan::compile(&scene(0.5)).expect("valid")));
+    // Bad meshes are refused with their field paths, as on the barrier path.
+    let refused = |edit: &dyn Fn(&mut Vec<Vec<f64>>, &mut Vec<Vec<usize>>, &mut f64)| {
+        let mut s = scene(0.0);
+        let Obstacle::SimplexMesh {
+            vertices,
+            simplices,
+            friction,
+        } = &mut s.obstacles[0]
+        else {
+            unreachable!("a mesh")
+        };
+        edit(vertices, simplices, friction);
+        s.validate().expect_err("refused")
+    };
+    let e = refused(&|_, s, _| s[3][2] = 99);
+    assert!(
+        matches!(&e, SceneError::VertexOutOfRange { path, index: 99, .. } if path == "obstacles[0].simplices[3][2]"),
+        "{e:?}"
+    );
+    let e = refused(&|v, _, _| v[4][1] = f64::NAN);
+    assert!(
+        matches!(&e, SceneError::NonFinite { path, .. } if path == "obstacles[0].vertices[4][1]"),
+        "{e:?}"
+    );
+    let e = refused(&|_, _, f| *f = -0.5);
+    assert!(
+        matches!(&e, SceneError::NegativeFriction { path, .. } if path == "obstacles[0].friction"),
+        "{e:?}"
+    );
+    let e = refused(&|_, s, _| s[0] = vec![0, 1, 2, 3, 4]);
+    assert!(
+        matches!(&e, SceneError::WrongSimplexArity { path, .. } if path == "obstacles[0].simplices[0]"),
+        "{e:?}"
+    );
+    let mut primal = scene(0.0);
+    primal.solver = Solver::Xpbd(XpbdSettings {
+        primal_residual: true,
+    });
+    let e = primal.validate().expect_err("refused");
+    assert!(
+        matches!(&e, SceneError::UnsupportedBySolver { path, solver: "xpbd", .. } if path == "obstacles[0]"),
+        "{e:?}"
+    );
+    // Friction in JSON, round trip.
+    let text = r#"{"dim": 2, "dt": 0.01, "particles": [{"position": [0, 1], "mass": 1}],
+        "obstacles": [{"type": "simplex_mesh", "vertices": [[-1, 0], [1, 0]], "simplices": [[0, 1]], "friction": 0.3}]}"#;
+    let s = Scene::from_json_str(text).expect("valid");
+    assert_eq!(
+        Scene::from_json_str(&s.to_json_string()).expect("round trip"),
+        s
+    );
+}
+
+#[test]
+fn a_failed_step_leaves_the_state_as_it_was() {
+    let scene = drop_scene(3, 0.0, 0.0, floor(3, 0.0, 1.0, 2, 0.5));
+    let plan = Plan::compile(&scene).expect("valid");
+    let mut sim = CpuBackend::new(plan, &State::from_scene(&scene)).expect("cpu");
+    sim.step().expect("step");
+    let mut state = sim.read_state().expect("state");
+    state.velocities[1] = f64::INFINITY;
+    sim.write_state(&state).expect("write");
+    let written = sim.read_state().expect("state");
+    sim.step().expect_err("a non-finite update fails the step");
+    assert_eq!(sim.read_state().expect("state"), written);
+}
