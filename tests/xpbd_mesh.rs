@@ -432,3 +432,34 @@ fn a_failed_step_leaves_the_state_as_it_was() {
     sim.step().expect_err("a non-finite update fails the step");
     assert_eq!(sim.read_state().expect("state"), written);
 }
+
+#[test]
+fn a_ball_resting_on_a_mesh_reports_m_g() {
+    use hyperpbd::Backend;
+    for dim in [2, 3, 4] {
+        let mut s = drop_scene(dim, 0.0, 0.0, floor(dim, 0.0, 1.0, 2, 0.5));
+        s.particles.truncate(1);
+        s.particles[0].position[1] = 0.1;
+        s.particles[0].mass = Some(3.0);
+        let plan = Plan::compile(&s).expect("valid");
+        let mut b = CpuBackend::with_threads(plan, &State::from_scene(&s), 1).expect("cpu");
+        b.request_contact_forces(true)
+            .expect("the CPU reports forces");
+        let mut last = None;
+        for _ in 0..60 {
+            last = b.step().expect("step").contact_forces;
+        }
+        let f = last.expect("requested forces are reported");
+        let mut want = vec![0.0; dim];
+        want[1] = 3.0 * G;
+        let off = max_abs_diff(f.obstacle(0), &want);
+        let own = max_abs_diff(f.particle(0), &want);
+        println!(
+            "R^{dim}: mesh force {:?} (m g = {:.6}), off {off:e}",
+            f.obstacle(0),
+            3.0 * G
+        );
+        // The plane's closed form, 1e-9 relative (tests/contact_forces.rs).
+        assert!(off <= 1e-9 * 3.0 * G && own <= 1e-9 * 3.0 * G, "{f:?}");
+    }
+}

@@ -40,8 +40,10 @@ pub enum FamilyKind {
     /// |x − q| − rest ≥ 0 with q the closest point of a simplex mesh and
     /// rest = radius, per dynamic particle (kinds/mesh_contact.rs).
     MeshContact {
-        /// The mesh's simplices and their hierarchy (one mesh, indexed).
-        mesh: std::sync::Arc<crate::barrier::BarrierObstacles>,
+        /// The mesh: its index in `Plan::meshes` (its simplices and their
+        /// hierarchy; held by the plan, so that this file does not depend
+        /// on the barrier's).
+        mesh: usize,
         /// Coulomb coefficient μ (as [`FamilyKind::HyperplaneContact`]).
         friction: f64,
     },

@@ -169,6 +169,10 @@ pub struct Plan {
     /// own plan, and for a plane with no dynamic particle to touch): where
     /// contact forces are credited.
     pub obstacle_families: Vec<Option<usize>>,
+    /// The simplex meshes of the XPBD path's mesh contact families
+    /// (`FamilyKind::MeshContact::mesh` indexes here), each with its
+    /// hierarchy; empty on the barrier path and without meshes.
+    pub meshes: Vec<std::sync::Arc<crate::barrier::BarrierObstacles>>,
 }
 
 /// The solver a plan's substeps run: one variant per solver path.
@@ -314,6 +318,7 @@ impl Plan {
             SolverPlan::IncrementalPotential(_) => &[],
         };
         let mut obstacle_families = vec![None; scene.obstacles.len()];
+        let mut meshes = Vec::new();
         for (o, obstacle) in xpbd_planes.iter().enumerate() {
             let particles: Vec<usize> = (0..n).filter(|&i| dynamic(i)).collect();
             if particles.is_empty() {
@@ -339,7 +344,7 @@ impl Plan {
                     families.push(colored_family(
                         format!("obstacles[{o}]"),
                         FamilyKind::MeshContact {
-                            mesh: std::sync::Arc::new(mesh),
+                            mesh: meshes.len(),
                             friction: *friction,
                         },
                         0.0,
@@ -348,6 +353,7 @@ impl Plan {
                         &rest,
                         &inverse_mass,
                     ));
+                    meshes.push(std::sync::Arc::new(mesh));
                     continue;
                 }
             };
@@ -467,6 +473,7 @@ impl Plan {
             adaptive: scene.adaptive,
             motion,
             obstacle_families,
+            meshes,
         })
     }
 

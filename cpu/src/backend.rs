@@ -200,6 +200,7 @@ impl CpuBackend {
                     family: fam,
                     alpha_tilde: fam.alpha_tilde(plan.h),
                     start: &self.p,
+                    meshes: &plan.meshes,
                 };
                 let lambda =
                     &mut self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]];

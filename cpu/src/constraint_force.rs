@@ -107,6 +107,7 @@ fn accumulate(
             FamilyKind::MeshContact { mesh, .. } => {
                 let i = element[0] as usize;
                 let (xi, reach) = (&x[i * dim..(i + 1) * dim], w[i] * lambda[e]);
+                let mesh = &plan.meshes[*mesh];
                 let closest = mesh_contact::closest(mesh, xi, 0.0, reach, &mut ws.grad[..dim]);
                 closest.unwrap_or_else(|| {
                     ws.grad[..dim].fill(0.0);

@@ -261,6 +261,7 @@ fn normal_at<'a>(
             let (n, i) = (plan.dim, f.elements[e] as usize);
             let reach = plan.inverse_mass[i] * l;
             let xi = &x[i * n..(i + 1) * n];
+            let mesh = &plan.meshes[*mesh];
             if mesh_contact::closest(mesh, xi, f.rest[e], reach, buf).is_none() {
                 buf.fill(0.0);
             }

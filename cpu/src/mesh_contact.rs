@@ -1,7 +1,7 @@
 //! Simplex-mesh contact on the golden path (`hyperpbd_core::kinds::
 //! mesh_contact` has the constraint, its reach and its tie rule): the
-//! projection and the dynamic friction of one mesh family (`residual.rs`
-//! takes max(0, −C) with reach 0).
+//! dynamic friction and the residual of one mesh family; its projection
+//! (the update below) is `project.rs`'s `mesh_contact_in`.
 //!
 //! ```text
 //! project   reach = w λ;  (C, n) = closest(mesh, x, r, reach)   (none: no update)
@@ -10,6 +10,7 @@
 //! friction  after Velocity, per element with λ > 0:
 //!           n from closest(mesh, x, r, w λ) at the substep's final x (none: no friction)
 //!           v_t = v − (n·v) n;  v −= v_t · min(μ w λ / h, |v_t|) / |v_t|   (friction.rs's)
+//! residual  max_e max(0, −C_e)    (C from closest(mesh, x, r, 0): only C ≤ 0 counts)
 //! ```
 //! These are the hyperplane's updates (`project.rs`, `friction.rs`) with
 //! the plane's fixed normal replaced by the mesh's normal at x. A family
@@ -20,52 +21,11 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::parallel::{Coordinates, DisjointSlice, Shared, Workers, first_error};
-use crate::project::{ELEMENT_GRAIN, dot, static_friction};
+use crate::project::{ELEMENT_GRAIN, dot};
 use hyperpbd_core::barrier::BarrierObstacles;
 use hyperpbd_core::kinds::mesh_contact::closest;
 use hyperpbd_core::{Family, MAX_DIM};
 use std::ops::Range;
-
-/// Projects elements `elements` of mesh family `family` (`lambda`: their
-/// slots); the first slot whose update was not finite.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn project<X: Coordinates + ?Sized>(
-    (dim, inverse_mass, alpha_tilde, start): (usize, &[f64], f64, &[f64]),
-    family: &Family,
-    mesh: &BarrierObstacles,
-    friction: f64,
-    elements: Range<usize>,
-    x: &mut X,
-    lambda: &mut [f64],
-) -> Result<(), usize> {
-    let n = dim;
-    let mut normal = [0.0f64; MAX_DIM];
-    let normal = &mut normal[..n];
-    let first = elements.start;
-    for e in elements {
-        let i = family.elements[e] as usize;
-        let w = inverse_mass[i];
-        let l = lambda[e - first];
-        let xi = x.values_mut(i * n..i * n + n);
-        let Some(c) = closest(mesh, xi, family.rest[e], w * l, normal) else {
-            continue;
-        };
-        let raw = (-c - alpha_tilde * l) / (w + alpha_tilde);
-        if !raw.is_finite() {
-            return Err(e);
-        }
-        let dl = (l + raw).max(0.0) - l;
-        lambda[e - first] = l + dl;
-        for a in 0..n {
-            xi[a] += w * normal[a] * dl;
-        }
-        if friction > 0.0 && lambda[e - first] > 0.0 {
-            let p = &start[i * n..i * n + n];
-            static_friction(normal, friction * w * lambda[e - first], p, xi);
-        }
-    }
-    Ok(())
-}
 
 /// What every element of a mesh family's friction shares.
 pub(crate) struct MeshFriction<'a> {
@@ -141,4 +101,17 @@ fn friction_in<V: Coordinates + ?Sized>(
         }
     }
     Ok(())
+}
+
+/// max_e max(0, −C_e) of mesh family `family` at `x`.
+pub(crate) fn residual(dim: usize, family: &Family, mesh: &BarrierObstacles, x: &[f64]) -> f64 {
+    let mut normal = [0.0f64; MAX_DIM];
+    let mut worst: f64 = 0.0;
+    for (e, &i) in family.elements.iter().enumerate() {
+        let xi = &x[i as usize * dim..(i as usize + 1) * dim];
+        if let Some(c) = closest(mesh, xi, family.rest[e], 0.0, &mut normal[..dim]) {
+            worst = worst.max(-c);
+        }
+    }
+    worst
 }

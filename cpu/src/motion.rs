@@ -120,7 +120,7 @@ pub fn friction_of(
             h: plan.h,
             inverse_mass: &plan.inverse_mass,
             family: f,
-            mesh,
+            mesh: &plan.meshes[*mesh],
             mu: *friction,
             lambda,
             x,
@@ -136,7 +136,8 @@ pub fn friction_of(
 }
 
 /// The report's residual of family `family` (`f`): `residual.rs` for
-/// every family but a moving plane's, [`residual`] for that.
+/// every family but a moving plane's, [`residual`] for that, and
+/// `mesh_contact.rs`'s for a mesh.
 pub fn residual_of(
     workers: &Workers,
     plan: &Plan,
@@ -145,6 +146,12 @@ pub fn residual_of(
     f: &Family,
     x: &[f64],
 ) -> FamilyResidual {
+    if let FamilyKind::MeshContact { mesh, .. } = &f.kind {
+        return FamilyResidual {
+            label: f.label.clone(),
+            max_violation: crate::mesh_contact::residual(plan.dim, f, &plan.meshes[*mesh], x),
+        };
+    }
     match plane(plan, now, family) {
         Some(moving) => FamilyResidual {
             label: f.label.clone(),

@@ -14,7 +14,6 @@ use crate::parallel::Workers;
 use crate::project::Workspace;
 use hyperpbd_core::expr::Block;
 use hyperpbd_core::kinds::ExpressionKind;
-use hyperpbd_core::kinds::mesh_contact::closest;
 use hyperpbd_core::violation::geometric_violation;
 use hyperpbd_core::{Family, FamilyKind, FamilyResidual};
 use std::ops::Range;
@@ -78,11 +77,9 @@ fn violation<D: Dim>(
             (None, FamilyKind::HyperplaneContact { normal, .. }) => {
                 (family.rest[e] - crate::project::dot(normal, points)).max(0.0)
             }
-            // max(0, −C): only C ≤ 0 counts, so reach 0 (kinds::mesh_contact).
-            (None, FamilyKind::MeshContact { mesh, .. }) => {
-                let (x, normal) = (&points[..dim], &mut grad[..dim]);
-                closest(mesh, x, family.rest[e], 0.0, normal).map_or(0.0, |c| (-c).max(0.0))
-            }
+            // Taken by `mesh_contact::residual` (motion::residual_of): its
+            // mesh lives in the plan.
+            (None, FamilyKind::MeshContact { .. }) => 0.0,
             // C, or +∞ for a refused element (its Neo-Hookean energy is
             // unbounded as J → 0⁺).
             (None, _) => crate::material::energy_constraint(family, e, points, dim, grad, material)

@@ -22,7 +22,7 @@
 use std::sync::Arc;
 
 use hyperpbd_core::barrier::{BarrierObstacles, SIMPLEX_SLOTS, candidate_box, distance_margin};
-use hyperpbd_core::{Family, MAX_DIM};
+use hyperpbd_core::{Family, FamilyKind, MAX_DIM, Plan};
 
 use super::Particles;
 use super::barrier::{BarrierInputs, obstacle_distance};
@@ -41,6 +41,14 @@ pub struct Mesh32 {
 }
 
 impl Mesh32 {
+    /// The mesh of family `f` of `plan` when it is a mesh contact family.
+    pub fn of(plan: &Plan, f: &Family, origin: &[f64]) -> Option<Self> {
+        let FamilyKind::MeshContact { mesh, .. } = &f.kind else {
+            return None;
+        };
+        Some(Mesh32::new(plan.dim, &plan.meshes[*mesh], origin))
+    }
+
     /// `mesh` with positions stored relative to `origin`.
     pub fn new(dim: usize, mesh: &Arc<BarrierObstacles>, origin: &[f64]) -> Self {
         let geometry = mesh

@@ -215,11 +215,7 @@ impl F32Reference {
                     normal: round(normal),
                     mu: mu as f32,
                     material: material_law(&f.kind),
-                    mesh: if let FamilyKind::MeshContact { mesh, .. } = &f.kind {
-                        Some(mesh_contact::Mesh32::new(plan.dim, mesh, origin))
-                    } else {
-                        None
-                    },
+                    mesh: mesh_contact::Mesh32::of(&plan, f, origin),
                     carried: primal::displacements(&plan, f),
                     factors: primal::factors(&plan, f),
                     swept: false,
