@@ -352,6 +352,9 @@ fn the_f32_reference_follows_the_golden_path() {
     }
 }
 
+/// An edit of a mesh's vertices, simplices and friction.
+type MeshEdit = dyn Fn(&mut Vec<Vec<f64>>, &mut Vec<Vec<usize>>, &mut f64);
+
 #[test]
 fn the_plan_and_validation_of_a_mesh_on_the_xpbd_path() {
     use hyperpbd::{FamilyKind, Kernel, SceneError, Solver, XpbdSettings};
@@ -367,7 +370,7 @@ fn the_plan_and_validation_of_a_mesh_on_the_xpbd_path() {
     assert!(!friction(&plan), "no friction kernel without μ");
     assert!(friction(&Plan::compile(&scene(0.5)).expect("valid")));
     // Bad meshes are refused with their field paths, as on the barrier path.
-    let refused = |edit: &dyn Fn(&mut Vec<Vec<f64>>, &mut Vec<Vec<usize>>, &mut f64)| {
+    let refused = |edit: &MeshEdit| {
         let mut s = scene(0.0);
         let Obstacle::SimplexMesh {
             vertices,

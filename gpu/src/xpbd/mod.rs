@@ -357,6 +357,17 @@ pub(crate) fn encode(
     }
 }
 
+/// The GPU backends' refusal of a simplex-mesh contact family (`label`):
+/// the golden path and the f32 reference run it; the kernels do not yet.
+pub(crate) fn mesh_contact_unsupported(label: &str) -> GpuError {
+    GpuError::Unsupported {
+        what: format!(
+            "{label}: a simplex_mesh contact on the XPBD path (the CPU backend and the f32 \
+             reference run it; the GPU kernels do not yet: use --backend cpu)"
+        ),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::call::{FLAG_FIRST, FLAG_UNREAD, OP_PREDICT, OP_PROJECT_CONTACT};
@@ -384,16 +395,5 @@ mod tests {
         // The step's colour and the run-alone one are two pipelines.
         assert_ne!(XpbdEntry::Distance(step), XpbdEntry::Distance(0));
         assert!(XpbdEntry::Small.constants().is_empty());
-    }
-}
-
-/// The GPU backends' refusal of a simplex-mesh contact family (`label`):
-/// the golden path and the f32 reference run it; the kernels do not yet.
-pub(crate) fn mesh_contact_unsupported(label: &str) -> GpuError {
-    GpuError::Unsupported {
-        what: format!(
-            "{label}: a simplex_mesh contact on the XPBD path (the CPU backend and the f32 \
-             reference run it; the GPU kernels do not yet: use --backend cpu)"
-        ),
     }
 }
