@@ -27,7 +27,7 @@ use hyperpbd_core::{Family, FamilyKind, MAX_DIM, Plan};
 use super::Particles;
 use super::barrier::{BarrierInputs, obstacle_distance};
 use super::integrate::{Friction, friction as plane_friction};
-use super::project::{Colour, static_friction};
+use super::project::{Colour, contact_step, static_friction};
 
 /// One mesh as the f32 reference holds it.
 #[derive(Debug, Clone)]
@@ -127,12 +127,10 @@ pub fn project(
         let Some(cval) = mesh.closest(x, c.rest[e], w * l, normal) else {
             continue;
         };
-        let raw = (-cval - c.alpha_tilde * l) / (w + c.alpha_tilde);
-        if !raw.is_finite() {
+        let Some(dl) = contact_step(cval, l, w, c.alpha_tilde) else {
             failed = failed.or(Some(e));
             continue;
-        }
-        let dl = (l + raw).max(0.0) - l;
+        };
         let l_new = l + dl;
         lambda[e] = l_new;
         for a in 0..n {

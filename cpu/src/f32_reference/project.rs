@@ -191,12 +191,10 @@ pub fn contact(
         }
         let cval = nx - c.rest[e];
         let l = lambda[e];
-        let raw = (-cval - c.alpha_tilde * l) / (w + c.alpha_tilde);
-        if !raw.is_finite() {
+        let Some(dl) = contact_step(cval, l, w, c.alpha_tilde) else {
             failed = failed.or(Some(e));
             continue;
-        }
-        let dl = (l + raw).max(0.0) - l;
+        };
         let l_new = l + dl;
         lambda[e] = l_new;
         for a in 0..n {
@@ -207,6 +205,15 @@ pub fn contact(
         }
     }
     failed.map_or(Ok(()), Err)
+}
+
+/// Δλ of an inequality contact (C ≥ 0) whose value is `c`, multiplier
+/// `l`: (−C − α~ λ)/(w + α~) clamped so that λ + Δλ ≥ 0; `None` when the
+/// raw update is not finite (checked before the clamp, which would hide a
+/// NaN).
+pub fn contact_step(c: f32, l: f32, w: f32, alpha_tilde: f32) -> Option<f32> {
+    let raw = (-c - alpha_tilde * l) / (w + alpha_tilde);
+    raw.is_finite().then(|| (l + raw).max(0.0) - l)
 }
 
 /// Static friction of an active contact with unit normal `normal`: the
