@@ -20,8 +20,9 @@
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
 
+use crate::friction::clamp_tangential;
 use crate::parallel::{Coordinates, DisjointSlice, Shared, Workers, first_error};
-use crate::project::{ELEMENT_GRAIN, dot};
+use crate::project::ELEMENT_GRAIN;
 use hyperpbd_core::barrier::BarrierObstacles;
 use hyperpbd_core::kinds::mesh_contact::closest;
 use hyperpbd_core::{Family, MAX_DIM};
@@ -80,23 +81,8 @@ fn friction_in<V: Coordinates + ?Sized>(
             continue;
         }
         let vi = v.values_mut(i * dim..(i + 1) * dim);
-        let vn = dot(normal, vi);
-        let mut t2 = 0.0;
-        for a in 0..dim {
-            let t = vi[a] - vn * normal[a];
-            t2 += t * t;
-        }
-        let vt = t2.sqrt();
-        if vt == 0.0 {
-            continue;
-        }
-        let limit = m.mu * w * l / m.h;
-        let scale = limit.min(vt) / vt;
-        for a in 0..dim {
-            let t = vi[a] - vn * normal[a];
-            vi[a] -= t * scale;
-        }
-        if !vi.iter().all(|c| c.is_finite()) {
+        let applied = clamp_tangential(normal, m.mu * w * l / m.h, vi);
+        if applied && !vi.iter().all(|c| c.is_finite()) {
             return Err(e);
         }
     }
