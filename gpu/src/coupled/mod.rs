@@ -292,6 +292,7 @@ impl GpuCoupledBackend {
                     | FamilyKind::SimplexMeasure { .. }
                     | FamilyKind::OrientedMeasure
                     | FamilyKind::HyperplaneContact { .. }
+                    | FamilyKind::MeshContact { .. }
                     | FamilyKind::Expression(_) => {
                         push(members, code, &[family.compliance, family.rest[e]])
                     }
