@@ -69,12 +69,10 @@ var<private> block_expression: u32;
 var<private> block_constants: u32;
 const NO_EXPRESSION: u32 = 0xffffffffu;
 
-// False at run time, unknown to the compiler on the wgsl path: the
-// generated tapes' guard against regrouping and fusing
-// (core/src/expr/wgsl.rs); a constant false on the spirv path, where
-// NoContraction forbids both (OPAQUE_ARITHMETIC, gpu/src/shader.rs).
+// False at run time, unknown to the compiler: the generated tapes' guard
+// against regrouping and fusing (core/src/expr/wgsl.rs).
 fn coupled_opaque() -> bool {
-    return OPAQUE_ARITHMETIC && material_words[1] == 0xffffffffu;
+    return material_words[1] == 0xffffffffu;
 }
 
 fn rest_at(s: u32) -> real {

@@ -82,7 +82,7 @@ fn reflect_groups<E: EntryPoint>(
     }
     let mut found: std::collections::BTreeMap<(u32, u32), Binding> = Default::default();
     for file in files {
-        let source = compose_with(file, spec.dim, spec.precision, spec.generated, true);
+        let source = compose_with(file, spec.dim, spec.precision, spec.generated);
         let module = naga::front::wgsl::parse_str(&source).map_err(|e| GpuError::Other {
             message: format!("{}: {}", file.file_name(), e.emit_to_string(&source)),
         })?;
@@ -254,8 +254,7 @@ impl<E: EntryPoint> KernelSet<E> {
                 }
                 ShaderPath::Wgsl => {
                     if !modules.iter().any(|(f, _)| *f == file) {
-                        let source =
-                            compose_with(file, spec.dim, spec.precision, spec.generated, true);
+                        let source = compose_with(file, spec.dim, spec.precision, spec.generated);
                         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
                             label: Some(file.file_name()),
                             source: wgpu::ShaderSource::Wgsl(source.into()),

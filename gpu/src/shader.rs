@@ -230,29 +230,18 @@ impl ShaderFile {
 /// The complete WGSL module of `file` for dimension `dim` and `precision`
 /// (the step module without expression families).
 pub fn compose(file: ShaderFile, dim: usize, precision: Precision) -> String {
-    compose_with(file, dim, precision, None, true)
+    compose_with(file, dim, precision, None)
 }
 
 /// [`compose`], the step module followed by `generated` (a plan's
 /// expression families, `xpbd/expression.rs`; `None`: none), or the
 /// coupled module followed by its expression springs
-/// (`coupled/expression.rs`); `opaque_arithmetic` as the shader path
-/// needs it:
-///
-/// ```text
-/// OPAQUE_ARITHMETIC  wgsl: true — generated expression code passes every
-///                      arithmetic result through select(r, −r, opaque) with
-///                      an opaque the optimiser cannot see, so no driver
-///                      regroups or fuses across slots
-///                    spirv: false — NoContraction on every float result
-///                      forbids both already; the select folds away
-/// ```
+/// (`coupled/expression.rs`).
 pub(crate) fn compose_with(
     file: ShaderFile,
     dim: usize,
     precision: Precision,
     generated: Option<&str>,
-    opaque_arithmetic: bool,
 ) -> String {
     let real_max = match precision {
         Precision::F32 => "3.4028234663852886e38",
@@ -268,9 +257,7 @@ pub(crate) fn compose_with(
          const REAL_MAX: real = {real_max};\n\
          const REAL_EPSILON: real = {real_epsilon:e};\n\
          const WORKGROUP: u32 = {workgroup}u;\n\
-         const VEC: u32 = {vec}u;\n\
-         const OPAQUE_ARITHMETIC: bool = {opaque};\n\n{codes}\n",
-        opaque = opaque_arithmetic,
+         const VEC: u32 = {vec}u;\n\n{codes}\n",
         file = file.file_name(),
         real_epsilon = precision.epsilon(),
         points = (dim + 1) * dim,

@@ -185,9 +185,7 @@ pub(crate) fn parse(
     precision: Precision,
     generated: Option<&str>,
 ) -> Result<(naga::Module, naga::valid::ModuleInfo), GpuError> {
-    // NoContraction (below) forbids fusing and regrouping: the generated
-    // code's opaque selects are not needed.
-    let source = compose_with(file, dim, precision, generated, false);
+    let source = compose_with(file, dim, precision, generated);
     validate(&source, precision).map_err(|message| GpuError::Other {
         message: format!("{} (DIM {dim}, {precision}): {message}", file.file_name()),
     })

@@ -17,11 +17,9 @@
 //!   expression{k}_violation(e)        by the relation: |C|, max(−C, 0), max(C, 0)
 //! project_expression_element(t), expression_violation(e)   switch over k
 //! ```
-//! `opaque` is `OPAQUE_ARITHMETIC && call.call == NONE`: false for every
-//! call; on the wgsl path only the run knows it (the emitted code passes
-//! each arithmetic result through it so the driver can neither regroup nor
-//! fuse; shaders/step.wgsl `kept`), on the spirv path it is a constant
-//! false (NoContraction forbids both; `shader::compose_with`).
+//! `opaque` is `call.call == NONE`: false for every call, but only the run
+//! knows it (the emitted code passes each arithmetic result through it so
+//! the driver can neither regroup nor fuse; shaders/step.wgsl `kept`).
 
 use std::fmt::Write;
 
@@ -140,7 +138,7 @@ fn expression{k}_project(t: u32) {{
     let e = call.first + t;
     let s = call.slot_base + e;
     let inputs = expression{k}_inputs(e);
-    var out = expression{k}_gradient(inputs, OPAQUE_ARITHMETIC && call.call == NONE);
+    var out = expression{k}_gradient(inputs, call.call == NONE);
     let value = out[0];
     if (!finite(value)) {{
         fail(e);
@@ -190,7 +188,7 @@ fn expression{k}_project(t: u32) {{
 
 fn expression{k}_violation(e: u32) -> real {{
     let inputs = expression{k}_inputs(e);
-    let out = expression{k}_value(inputs, OPAQUE_ARITHMETIC && call.call == NONE);
+    let out = expression{k}_value(inputs, call.call == NONE);
     let c = out[0] - rest_at(call.slot_base + e);
     return {violation};
 }}
@@ -205,7 +203,7 @@ fn expression{k}_primal(t: u32) {{
     let s = call.slot_base + e;
     let base = call.carried + e * {n}u;
     let inputs = expression{k}_inputs(e);
-    var out = expression{k}_gradient(inputs, OPAQUE_ARITHMETIC && call.call == NONE);
+    var out = expression{k}_gradient(inputs, call.call == NONE);
     let value = out[0];
     var anchor: array<{t}, {n}>;
     var w: array<{t}, {arity}>;
