@@ -507,7 +507,12 @@ impl CpuBackend {
             }
             if let Some(forces) = &mut self.forces {
                 let (lambda, starts) = (&self.lambda, &self.lambda_starts);
-                forces.end_substep(&self.plan, &self.motion_now, (lambda, starts), (&self.x, &self.p));
+                forces.end_substep(
+                    &self.plan,
+                    &self.motion_now,
+                    (lambda, starts),
+                    (&self.x, &self.p),
+                );
             }
             if fuse_next.is_some() {
                 self.velocity_then_predict()?;
