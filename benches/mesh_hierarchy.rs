@@ -95,6 +95,7 @@ fn main() {
     let mesh = BarrierObstacles::compile(&scene(Obstacle::SimplexMesh {
         vertices,
         simplices,
+        friction: 0.0,
     }));
     let plane = BarrierObstacles::compile(&scene(Obstacle::Hyperplane {
         normal: vec![0.0, 1.0, 0.0],

@@ -27,6 +27,9 @@ scenes=(
     "incline5d|90|5|90|--perspective --rotate 2,4 --rotate-speed 0.6 --azimuth 0 --elevation 15"
     "example|90|5|30|"
     "jelly4d|120|6|120|--perspective --rotate 0,2 --rotate-speed 0.8"
+    "drum3d|240|12|240|"
+    "drum4d|240|12|240|"
+    "twirl|150|10|150|--perspective --elevation 20"
 )
 
 wanted=("$@")

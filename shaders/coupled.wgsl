@@ -39,7 +39,7 @@ struct CoupledParams {
     channel_t: u32,
     pairs: u32,      // ball pairs (elements first_ball ..)
     mode: u32,       // cp_set_x: 0 warm start, 1 x^t, 2 the trial
-    pad2: u32,
+    mesh_friction: u32, // 1: some simplex has μ > 0 (simplex lags are walked at x^t)
     h: real,
     h2: real,
     slip: real,      // ε = ε_v h
@@ -82,7 +82,7 @@ struct Level {
 @group(0) @binding(13) var<storage, read> mass: array<real>;
 @group(0) @binding(14) var<storage, read> gravity_scale: array<real>;
 @group(0) @binding(15) var<storage, read> gravity: array<real>;
-@group(0) @binding(16) var<storage, read> plane_mu: array<real>;
+@group(0) @binding(16) var<storage, read> obstacle_mu: array<real>; // μ per plane, then per simplex
 @group(0) @binding(17) var<storage, read_write> lag_force: array<real>;
 // [codes (E) | arities (E) | members (E·A)]: codes 0 distance, 1 tether,
 // 2 simplex measure, 3 oriented measure, 4 ball pair, 5 pair friction lag,
@@ -515,7 +515,40 @@ struct Own {
     block: array<real, MAT>,
 }
 
-// Obstacle barriers and lagged plane friction of particle i at `p`
+// One lag's friction (normal n, F_max = `limit`) of particle i at `p`
+// into `own` (particles.rs obstacle_terms, one lag).
+fn add_lag(own: ptr<function, Own>, i: u32, p: ptr<function, array<real, DIM>>, n: array<real, DIM>, limit: real, derivatives: bool) {
+    var w: array<real, DIM>;
+    for (var a = 0u; a < DIM; a++) {
+        w[a] = (*p)[a] - vectors[at(R_START, i * DIM + a)];
+    }
+    let t = tangent(n, limit, w);
+    (*own).energy += t.energy;
+    if (derivatives) {
+        for (var a = 0u; a < DIM; a++) {
+            (*own).gradient[a] += t.gradient[a];
+        }
+        // The lag's block first, then added (TangentCurvature::block,
+        // then b += lag_block): one sum per entry, so no compiler can
+        // fold the block's old value into the block's two terms.
+        var lag: array<real, MAT>;
+        for (var a = 0u; a < DIM; a++) {
+            for (var b = 0u; b < DIM; b++) {
+                var identity: real = 0.0;
+                if (a == b) {
+                    identity = 1.0;
+                }
+                lag[a * DIM + b] = t.across * (identity - n[a] * n[b])
+                    + (t.along - t.across) * t.direction[a] * t.direction[b];
+            }
+        }
+        for (var k = 0u; k < MAT; k++) {
+            (*own).block[k] += lag[k];
+        }
+    }
+}
+
+// Obstacle barriers and lagged plane and simplex friction of particle i at `p`
 // (particles.rs obstacle_terms): energy; with `derivatives`, gradient,
 // PSD block and Σ|b'|.
 fn obstacle_terms(i: u32, p: ptr<function, array<real, DIM>>, derivatives: bool) -> Own {
@@ -558,33 +591,32 @@ fn obstacle_terms(i: u32, p: ptr<function, array<real, DIM>>, derivatives: bool)
             continue;
         }
         var n: array<real, DIM>;
-        var w: array<real, DIM>;
         for (var a = 0u; a < DIM; a++) {
             n[a] = geometry[o * DIM + a];
-            w[a] = (*p)[a] - vectors[at(R_START, i * DIM + a)];
         }
-        let t = tangent(n, limit, w);
-        own.energy += t.energy;
-        if (derivatives) {
-            for (var a = 0u; a < DIM; a++) {
-                own.gradient[a] += t.gradient[a];
+        add_lag(&own, i, p, n, limit, derivatives);
+    }
+    if (cp.mesh_friction == 1u) {
+        // Simplex lags (setup.rs lags): the simplices near x^t with μ > 0
+        // and 0 < d < d^ there, in walk order, n and F_max recomputed
+        // from x^t by the same operations.
+        var start: array<real, DIM>;
+        for (var a = 0u; a < DIM; a++) {
+            start[a] = vectors[at(R_START, i * DIM + a)];
+        }
+        var lag_walk = walk_start(&start, radius[i], bp.activation);
+        for (var o = walk_next(&lag_walk); o != WALK_END; o = walk_next(&lag_walk)) {
+            if (o < bp.planes || !(obstacle_mu[o] > 0.0)) {
+                continue;
             }
-            // The lag's block first, then added (TangentCurvature::block,
-            // then b += lag_block): one sum per entry, so no compiler can
-            // fold the block's old value into the block's two terms.
-            var lag: array<real, MAT>;
-            for (var a = 0u; a < DIM; a++) {
-                for (var b = 0u; b < DIM; b++) {
-                    var identity: real = 0.0;
-                    if (a == b) {
-                        identity = 1.0;
-                    }
-                    lag[a * DIM + b] = t.across * (identity - n[a] * n[b])
-                        + (t.along - t.across) * t.direction[a] * t.direction[b];
-                }
+            var n: array<real, DIM>;
+            let d = obstacle_distance(o, &start, radius[i], &n);
+            if (!(d > 0.0 && d < bp.activation)) {
+                continue;
             }
-            for (var k = 0u; k < MAT; k++) {
-                own.block[k] += lag[k];
+            let normal_force = -barrier_law(d).y;
+            if (normal_force > 0.0) {
+                add_lag(&own, i, p, n, obstacle_mu[o] * normal_force, derivatives);
             }
         }
     }
@@ -639,8 +671,8 @@ fn cp_start(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
         if (d < bp.activation) {
             normal_force = -barrier_law(d).y;
         }
-        if (o < bp.planes && normal_force > 0.0 && plane_mu[o] > 0.0) {
-            lag_force[i * bp.planes + o] = plane_mu[o] * normal_force;
+        if (o < bp.planes && normal_force > 0.0 && obstacle_mu[o] > 0.0) {
+            lag_force[i * bp.planes + o] = obstacle_mu[o] * normal_force;
         }
     }
     check_loops(i);

@@ -5,16 +5,20 @@
 //! checks that they still match.
 
 mod demo;
+mod drum;
 mod granular;
 mod peer_cloth;
 mod stretched_bar;
+mod twirl;
 
 pub use demo::{BELT_SPEED, demo};
+pub use drum::{DRUM_RATE, DrumSpec, drum, drum_motion, drum_spec, drum3d, drum4d};
 pub use granular::{ballpit4d, column3d, pit3d, sandpile2d};
 use hyperpbd_core::builders::{BlockSpec, GridSpec};
 use hyperpbd_core::{Scene, SceneBuilder};
 pub use peer_cloth::peer_cloth;
 pub use stretched_bar::{BAR_POISSON, BAR_YOUNGS, bar_strains, stretched_bar};
+pub use twirl::{TWIRL_RATE, twirl};
 
 /// Names accepted by [`by_name`].
 pub const NAMES: &[&str] = &[
@@ -28,6 +32,9 @@ pub const NAMES: &[&str] = &[
     "barrier4d",
     "jelly4d",
     "demo",
+    "drum3d",
+    "drum4d",
+    "twirl",
 ];
 
 /// Built-in scenes too large to ship as files; generate them with
@@ -49,6 +56,9 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "barrier4d" => Some(barrier4d()),
         "jelly4d" => Some(jelly4d()),
         "demo" => Some(demo()),
+        "drum3d" => Some(drum3d()),
+        "drum4d" => Some(drum4d()),
+        "twirl" => Some(twirl()),
         _ => None,
     }
 }

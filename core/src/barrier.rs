@@ -424,25 +424,46 @@ impl BarrierObstacles {
                 Obstacle::SimplexMesh {
                     vertices,
                     simplices,
-                } => {
-                    for (s, simplex) in simplices.iter().enumerate() {
-                        for slot in 0..SIMPLEX_SLOTS {
-                            match simplex.get(slot) {
-                                Some(&v) => out.simplex_vertices.extend(&vertices[v]),
-                                None => out.simplex_vertices.extend(std::iter::repeat_n(0.0, dim)),
-                            }
-                        }
-                        for &v in simplex {
-                            scale = vertices[v].iter().fold(scale, |m, c| m.max(c.abs()));
-                        }
-                        out.simplex_arity.push(simplex.len() as u32);
-                        out.simplex_source.push((o as u32, s as u32));
-                    }
-                }
+                    ..
+                } => scale = scale.max(out.push_mesh(dim, o, vertices, simplices)),
             }
         }
         out.scale = scale;
         out.reindex(dim);
         out
+    }
+
+    /// The simplices of one mesh, authored obstacle `o`, alone (the XPBD
+    /// path's mesh contact: `kinds::mesh_contact`), indexed.
+    pub fn mesh(dim: usize, o: usize, vertices: &[Vec<f64>], simplices: &[Vec<usize>]) -> Self {
+        let mut out = BarrierObstacles::default();
+        out.scale = out.push_mesh(dim, o, vertices, simplices);
+        out.reindex(dim);
+        out
+    }
+
+    /// Appends the simplices of mesh `o`; returns their largest |coordinate|.
+    fn push_mesh(
+        &mut self,
+        dim: usize,
+        o: usize,
+        vertices: &[Vec<f64>],
+        simplices: &[Vec<usize>],
+    ) -> f64 {
+        let mut scale: f64 = 0.0;
+        for (s, simplex) in simplices.iter().enumerate() {
+            for slot in 0..SIMPLEX_SLOTS {
+                match simplex.get(slot) {
+                    Some(&v) => self.simplex_vertices.extend(&vertices[v]),
+                    None => self.simplex_vertices.extend(std::iter::repeat_n(0.0, dim)),
+                }
+            }
+            for &v in simplex {
+                scale = vertices[v].iter().fold(scale, |m, c| m.max(c.abs()));
+            }
+            self.simplex_arity.push(simplex.len() as u32);
+            self.simplex_source.push((o as u32, s as u32));
+        }
+        scale
     }
 }

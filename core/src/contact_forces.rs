@@ -18,6 +18,17 @@
 //! ```
 //! Where only obstacle contacts act, Σ_i F_i = Σ_o F_o (every impulse is
 //! counted once on each side).
+//!
+//! ```text
+//! power        P_o = Σ_substeps Σ_i J_oi · u_o(p_i) / dt      (W; the work over the step is P_o dt)
+//!              u_o(p) = D_o(p) / h: the velocity over the substep of obstacle o's material
+//!              point under the particle's start position p (motion.rs's carry, the point
+//!              friction measures slip against); 0 for an obstacle without motion
+//! ```
+//! The power is the energy a moving obstacle puts into the particles:
+//! over a run, Σ_o ∫ P_o dt = ΔE + D with E the particles' kinetic plus
+//! gravitational energy and D ≥ 0 what friction, inelastic contact and
+//! damping dissipate (tests/cpu/drum_energy.rs measures both sides).
 
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
@@ -34,6 +45,9 @@ pub struct ContactForces {
     pub obstacles: Vec<f64>,
     /// Particle i's total contact force at `i·N..(i + 1)·N`.
     pub particles: Vec<f64>,
+    /// Obstacle o's mean power into the particles over the step (module
+    /// docs), one per authored obstacle; 0 for an obstacle that does not move.
+    pub obstacle_power: Vec<f64>,
 }
 
 impl ContactForces {
@@ -43,6 +57,7 @@ impl ContactForces {
             dim,
             obstacles: vec![0.0; obstacles * dim],
             particles: vec![0.0; particles * dim],
+            obstacle_power: vec![0.0; obstacles],
         }
     }
 
@@ -70,6 +85,11 @@ impl ContactForces {
         }
     }
 
+    /// Adds the work `w` = J·u of an impulse of obstacle o (module docs).
+    pub fn add_obstacle_work(&mut self, o: usize, w: f64) {
+        self.obstacle_power[o] += w;
+    }
+
     /// Adds impulse `j` to particle i alone (a particle–particle contact).
     pub fn add_particle_impulse(&mut self, i: usize, j: &[f64]) {
         let n = self.dim;
@@ -82,11 +102,13 @@ impl ContactForces {
     pub fn clear(&mut self) {
         self.obstacles.fill(0.0);
         self.particles.fill(0.0);
+        self.obstacle_power.fill(0.0);
     }
 
     /// Divides every accumulated impulse by `dt` (the step's end).
     pub fn per_time(&mut self, dt: f64) {
-        for c in self.obstacles.iter_mut().chain(self.particles.iter_mut()) {
+        let all = self.obstacles.iter_mut().chain(self.particles.iter_mut());
+        for c in all.chain(self.obstacle_power.iter_mut()) {
             *c /= dt;
         }
     }

@@ -37,6 +37,16 @@ pub enum FamilyKind {
         /// velocity response).
         friction: f64,
     },
+    /// |x − q| − rest ≥ 0 with q the closest point of a simplex mesh and
+    /// rest = radius, per dynamic particle (kinds/mesh_contact.rs).
+    MeshContact {
+        /// The mesh: its index in `Plan::meshes` (its simplices and their
+        /// hierarchy; held by the plan, so that this file does not depend
+        /// on the barrier's).
+        mesh: usize,
+        /// Coulomb coefficient μ (as [`FamilyKind::HyperplaneContact`]).
+        friction: f64,
+    },
     /// C = value − rest of a user's expression (kinds/expression.rs).
     Expression(std::sync::Arc<crate::kinds::ExpressionKind>),
 }
@@ -54,6 +64,7 @@ impl FamilyKind {
                 Law::NeoHookean => "neo_hookean",
             },
             FamilyKind::HyperplaneContact { .. } => "hyperplane_contact",
+            FamilyKind::MeshContact { .. } => "mesh_contact",
             FamilyKind::Expression(kind) => kind.name,
         }
     }
@@ -106,7 +117,24 @@ impl FamilyKind {
     /// are counted as contacts). Tethers are one-sided too but are not
     /// contacts.
     pub fn is_inequality(&self) -> bool {
-        matches!(self, FamilyKind::HyperplaneContact { .. })
+        matches!(
+            self,
+            FamilyKind::HyperplaneContact { .. } | FamilyKind::MeshContact { .. }
+        )
+    }
+
+    /// The Coulomb coefficient μ of a contact family (0 for other kinds).
+    pub fn contact_friction(&self) -> f64 {
+        match self {
+            FamilyKind::HyperplaneContact { friction, .. }
+            | FamilyKind::MeshContact { friction, .. } => *friction,
+            FamilyKind::Distance
+            | FamilyKind::SimplexMeasure { .. }
+            | FamilyKind::OrientedMeasure
+            | FamilyKind::Tether
+            | FamilyKind::Material { .. }
+            | FamilyKind::Expression(_) => 0.0,
+        }
     }
 }
 

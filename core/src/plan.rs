@@ -12,14 +12,14 @@
 //!   (with `collisions`: Broadphase after Predict, and one Collide — a
 //!    gather-Jacobi sweep over the candidate pairs — at the start of every
 //!    iteration; see hyperpbd-cpu's collide.rs)
-//!   Friction(family)             per hyperplane with μ > 0
+//!   Friction(family)             per hyperplane or simplex mesh with μ > 0
 //!   Damping                      v *= exp(−rate h), if rate > 0
 //!   GuardMeasure(family), GuardSpeed   read-only checks (with `guards`)
 //! }
 //! ```
 //! Constraint families are projected in authored order, then each
-//! hyperplane obstacle as one contact family (every dynamic particle, one
-//! color). A stage the scene does not use is absent: it costs nothing.
+//! obstacle (hyperplane or simplex mesh) as one contact family (every
+//! dynamic particle, one color). A stage the scene does not use is absent: it costs nothing.
 //! Both backends execute [`Plan::substep_kernels`], so they run the same
 //! algorithm in the same order.
 
@@ -169,6 +169,10 @@ pub struct Plan {
     /// own plan, and for a plane with no dynamic particle to touch): where
     /// contact forces are credited.
     pub obstacle_families: Vec<Option<usize>>,
+    /// The simplex meshes of the XPBD path's mesh contact families
+    /// (`FamilyKind::MeshContact::mesh` indexes here), each with its
+    /// hierarchy; empty on the barrier path and without meshes.
+    pub meshes: Vec<std::sync::Arc<crate::barrier::BarrierObstacles>>,
 }
 
 /// The solver a plan's substeps run: one variant per solver path.
@@ -261,7 +265,8 @@ impl Plan {
                                 | FamilyKind::SimplexMeasure { .. }
                                 | FamilyKind::OrientedMeasure
                                 | FamilyKind::Material { .. }
-                                | FamilyKind::HyperplaneContact { .. } => kinds::value(
+                                | FamilyKind::HyperplaneContact { .. }
+                                | FamilyKind::MeshContact { .. } => kinds::value(
                                     authored.kind,
                                     &points,
                                     dim,
@@ -313,22 +318,46 @@ impl Plan {
             SolverPlan::IncrementalPotential(_) => &[],
         };
         let mut obstacle_families = vec![None; scene.obstacles.len()];
+        let mut meshes = Vec::new();
         for (o, obstacle) in xpbd_planes.iter().enumerate() {
-            let Obstacle::Hyperplane {
-                normal,
-                offset,
-                friction,
-                compliance,
-                motion,
-            } = obstacle
-            else {
-                continue;
-            };
-            let unit = unit_vector(normal);
             let particles: Vec<usize> = (0..n).filter(|&i| dynamic(i)).collect();
             if particles.is_empty() {
                 continue;
             }
+            let (normal, offset, friction, compliance, motion) = match obstacle {
+                Obstacle::Hyperplane {
+                    normal,
+                    offset,
+                    friction,
+                    compliance,
+                    motion,
+                } => (normal, offset, friction, compliance, motion),
+                Obstacle::SimplexMesh {
+                    vertices,
+                    simplices,
+                    friction,
+                } => {
+                    // kinds/mesh_contact.rs: C = dist(x, mesh) − radius.
+                    let mesh = crate::barrier::BarrierObstacles::mesh(dim, o, vertices, simplices);
+                    let rest: Vec<f64> = particles.iter().map(|&i| radius[i]).collect();
+                    obstacle_families[o] = Some(families.len());
+                    families.push(colored_family(
+                        format!("obstacles[{o}]"),
+                        FamilyKind::MeshContact {
+                            mesh: meshes.len(),
+                            friction: *friction,
+                        },
+                        0.0,
+                        1,
+                        &particles,
+                        &rest,
+                        &inverse_mass,
+                    ));
+                    meshes.push(std::sync::Arc::new(mesh));
+                    continue;
+                }
+            };
+            let unit = unit_vector(normal);
             let rest: Vec<f64> = particles.iter().map(|&i| offset + radius[i]).collect();
             if !motion.is_empty() {
                 moving.planes.push(MovingPlane {
@@ -393,9 +422,7 @@ impl Plan {
             }
             substep_kernels.push(Kernel::Velocity);
             for (family, fam) in families.iter().enumerate() {
-                if let FamilyKind::HyperplaneContact { friction, .. } = fam.kind
-                    && friction > 0.0
-                {
+                if fam.kind.contact_friction() > 0.0 {
                     substep_kernels.push(Kernel::Friction { family });
                 }
             }
@@ -446,6 +473,7 @@ impl Plan {
             adaptive: scene.adaptive,
             motion,
             obstacle_families,
+            meshes,
         })
     }
 

@@ -364,6 +364,10 @@ pub enum Obstacle {
         /// Vertex indices per simplex; all simplices of a mesh have the
         /// same arity 2, 3 or 4.
         simplices: Vec<Vec<usize>>,
+        /// Coulomb friction coefficient μ ≥ 0 of every simplex of the mesh
+        /// (the implicit path's lagged friction; 0: frictionless).
+        #[serde(default, skip_serializing_if = "is_zero")]
+        friction: f64,
     },
 }
 
@@ -424,15 +428,16 @@ impl TryFrom<ObstacleDocument> for Obstacle {
                             .into(),
                     );
                 }
-                if doc.offset != 0.0 || doc.friction != 0.0 || doc.compliance != 0.0 {
+                if doc.offset != 0.0 || doc.compliance != 0.0 {
                     return Err(
-                        "a simplex_mesh takes only `vertices` and `simplices` (no offset, friction or compliance)"
+                        "a simplex_mesh takes only `vertices`, `simplices` and `friction` (no offset or compliance)"
                             .into(),
                     );
                 }
                 Ok(Obstacle::SimplexMesh {
                     vertices: doc.vertices.ok_or("missing field `vertices`")?,
                     simplices: doc.simplices.ok_or("missing field `simplices`")?,
+                    friction: doc.friction,
                 })
             }
         }

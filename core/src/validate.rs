@@ -303,11 +303,19 @@ impl Scene {
                 Obstacle::SimplexMesh {
                     vertices,
                     simplices,
+                    friction,
                 } => {
                     for (v, vertex) in vertices.iter().enumerate() {
                         vector(&at(&format!("vertices[{v}]")), vertex, self.dim)?;
                     }
                     crate::validate_solver::validate_simplex_mesh(o, vertices, simplices)?;
+                    finite(|| at("friction"), *friction)?;
+                    if *friction < 0.0 {
+                        return Err(SceneError::NegativeFriction {
+                            path: at("friction"),
+                            value: *friction,
+                        });
+                    }
                 }
             }
         }

@@ -38,7 +38,9 @@ pub fn geometric_violation(
         FamilyKind::SimplexMeasure { .. } => simplex_squared_measure(points, dim, grad, scratch),
         FamilyKind::OrientedMeasure => oriented_measure(points, dim, grad, scratch),
         FamilyKind::Expression(expression) => expression.value_at(e, points, &mut scratch.columns),
-        FamilyKind::HyperplaneContact { .. } | FamilyKind::Material { .. } => return None,
+        FamilyKind::HyperplaneContact { .. }
+        | FamilyKind::MeshContact { .. }
+        | FamilyKind::Material { .. } => return None,
     };
     kinds::violation(kind, value, rest)
 }
@@ -51,7 +53,7 @@ pub fn family_residuals(families: &[Family], dim: usize, x: &[f64]) -> Vec<Famil
     let mut material = MaterialScratch::new();
     let mut out = Vec::new();
     for family in families {
-        if matches!(family.kind, FamilyKind::HyperplaneContact { .. }) {
+        if family.kind.is_inequality() {
             continue;
         }
         let arity = family.arity;

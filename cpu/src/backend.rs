@@ -200,6 +200,7 @@ impl CpuBackend {
                     family: fam,
                     alpha_tilde: fam.alpha_tilde(plan.h),
                     start: &self.p,
+                    meshes: &plan.meshes,
                 };
                 let lambda =
                     &mut self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]];
@@ -249,7 +250,7 @@ impl CpuBackend {
             Kernel::Friction { family } => {
                 let lambda =
                     &self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]];
-                let moving = (&self.motion_now, &self.p[..]);
+                let moving = (&self.motion_now, &self.p[..], &self.x[..]);
                 motion::friction_of(workers, plan, family, lambda, moving, &mut self.v)
                     .map_err(|i| self.particle_error(StageName::Friction, i))
             }
@@ -506,7 +507,12 @@ impl CpuBackend {
             }
             if let Some(forces) = &mut self.forces {
                 let (lambda, starts) = (&self.lambda, &self.lambda_starts);
-                forces.end_substep(&self.plan, &self.motion_now, lambda, starts);
+                forces.end_substep(
+                    &self.plan,
+                    &self.motion_now,
+                    (lambda, starts),
+                    (&self.x, &self.p),
+                );
             }
             if fuse_next.is_some() {
                 self.velocity_then_predict()?;
@@ -524,7 +530,9 @@ impl CpuBackend {
         forces.before(&self.plan, kernel, &self.x, &self.v);
         let result = self.kernel(kernel);
         if result.is_ok() {
-            forces.after(&self.plan, &self.motion_now, kernel, &self.x, &self.v);
+            let now = (&self.motion_now, &self.lambda[..], &self.lambda_starts[..]);
+            let state = (&self.x[..], &self.v[..], &self.p[..]);
+            forces.after(&self.plan, now, kernel, state);
             if kernel == Kernel::Minimise {
                 forces.minimised(&self.plan, &self.coupled, &self.x);
             }

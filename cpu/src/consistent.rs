@@ -205,6 +205,8 @@ pub fn project(
         let l = match &f.kind {
             // Taken by `distances` above.
             FamilyKind::Distance | FamilyKind::Tether => return Err(e),
+            // Refused with the primal residual (validate_solver.rs).
+            FamilyKind::MeshContact { .. } => return Err(e),
             FamilyKind::HyperplaneContact { normal, .. } => {
                 hyperplane(batch, normal, element[0] as usize, e, sc, d)
             }

@@ -17,6 +17,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::project::{Workspace, gathered_value};
+use hyperpbd_core::kinds::mesh_contact;
 use hyperpbd_core::material::{MaterialScratch, energy_constraint};
 use hyperpbd_core::{Family, FamilyKind, Plan};
 
@@ -101,6 +102,17 @@ fn accumulate(
                 let i = element[0] as usize;
                 ws.grad[..dim].copy_from_slice(&normal[..dim]);
                 (0..dim).map(|a| normal[a] * x[i * dim + a]).sum()
+            }
+            // ∇C = n where the contact is within reach w λ; else no term.
+            FamilyKind::MeshContact { mesh, .. } => {
+                let i = element[0] as usize;
+                let (xi, reach) = (&x[i * dim..(i + 1) * dim], w[i] * lambda[e]);
+                let mesh = &plan.meshes[*mesh];
+                let closest = mesh_contact::closest(mesh, xi, 0.0, reach, &mut ws.grad[..dim]);
+                closest.unwrap_or_else(|| {
+                    ws.grad[..dim].fill(0.0);
+                    0.0
+                })
             }
             FamilyKind::Expression(kind) => {
                 for (k, &slot) in kind.gradient.gradient.iter().enumerate() {

@@ -5,9 +5,10 @@
 //!
 //! ```text
 //! XPBD, per substep (h):
-//!   hyperplane family of obstacle o, element e (particle i), at the substep's end:
+//!   hyperplane or mesh family of obstacle o, element e (particle i), at the substep's end:
 //!     J_i += n λ_e / h,  F_o −= n λ_e / h           (λ_e: the substep's multiplier; n the
-//!                                                   plane's normal in this substep)
+//!                                                   plane's normal in this substep, a
+//!                                                   mesh's at x_i within reach w λ_e)
 //!   around each Project call of a plane with μ > 0 (static friction in the position solve):
 //!     Δ = x_i(after) − x_i(before);  J_i += m_i (Δ − (n·Δ) n) / h   (its tangential move;
 //!     the normal move is w n Δλ, counted by λ above), also on o
@@ -17,12 +18,15 @@
 //!     J_i += m_i (x_i(after) − x_i(before)) / h    (dynamic particles)
 //! barrier path, per substep at the accepted iterate x:
 //!   J_i += −b'(d_io) ∇d_io h for every active obstacle o, also on o
-//! the step's end:  F = J / dt
+//! moving plane o, with every impulse J_i above:  W_o += J_i · D_o(p_i) / h
+//!   (p_i the particle's position at the substep's start, D_o the plane's carry)
+//! the step's end:  F = J / dt,  P_o = W_o / dt
 //! ```
 //! Fixed particles never move, so on the XPBD path their particle contacts
 //! report 0 (obstacle families hold dynamic particles only).
 
 use hyperpbd_core::contact_forces::barrier_forces;
+use hyperpbd_core::kinds::mesh_contact;
 use hyperpbd_core::motion::SubstepMotion;
 use hyperpbd_core::{ContactForces, FamilyKind, IncrementalPotentialPlan, Kernel, Plan};
 
@@ -86,21 +90,24 @@ impl Recorder {
         }
     }
 
-    /// Adds the impulses `kernel` applied (after [`Recorder::before`]).
+    /// Adds the impulses `kernel` applied (after [`Recorder::before`];
+    /// `start`: the positions at the substep's start).
     pub fn after(
         &mut self,
         plan: &Plan,
-        now: &SubstepMotion,
+        (now, lambda, starts): (&SubstepMotion, &[f64], &[usize]),
         kernel: Kernel,
-        x: &[f64],
-        v: &[f64],
+        (x, v, start): (&[f64], &[f64], &[f64]),
     ) {
         let (n, h) = (plan.dim, plan.h);
         let mut j = vec![0.0; n];
+        let mut buf = vec![0.0; n];
         match measured(plan, kernel) {
             Some(Measured::PlanePositions { family }) => {
-                let (o, normal) = (obstacle_of(plan, family), normal_of(plan, now, family));
+                let o = obstacle_of(plan, family);
+                let lambda = &lambda[starts[family]..starts[family + 1]];
                 for (e, &i) in plan.families[family].elements.iter().enumerate() {
+                    let normal = normal_at(plan, now, (family, e, lambda[e]), x, &mut buf);
                     let i = i as usize;
                     let m = 1.0 / plan.inverse_mass[i];
                     let moved = |a: usize| x[i * n + a] - self.before[e * n + a];
@@ -109,6 +116,7 @@ impl Recorder {
                         j[a] = m * (moved(a) - along * normal[a]) / h;
                     }
                     add(&mut self.impulses, o, i, &j);
+                    self.work(plan, now, (family, o), &start[i * n..(i + 1) * n], &j);
                 }
             }
             Some(Measured::PlaneVelocities { family }) => {
@@ -120,6 +128,7 @@ impl Recorder {
                         j[a] = m * (v[i * n + a] - self.before[e * n + a]);
                     }
                     add(&mut self.impulses, o, i, &j);
+                    self.work(plan, now, (family, o), &start[i * n..(i + 1) * n], &j);
                 }
             }
             Some(Measured::Positions) => {
@@ -139,33 +148,55 @@ impl Recorder {
 
     /// The normal impulses n λ / h of the substep that just ended, from
     /// every plane family's multipliers (`lambda` of family f at
-    /// `lambda[starts[f]..starts[f + 1]]`).
+    /// `lambda[starts[f]..starts[f + 1]]`; `x`: the positions now, `start`:
+    /// at the substep's start).
     pub fn end_substep(
         &mut self,
         plan: &Plan,
         now: &SubstepMotion,
-        lambda: &[f64],
-        starts: &[usize],
+        (lambda, starts): (&[f64], &[usize]),
+        (x, start): (&[f64], &[f64]),
     ) {
         let (n, h) = (plan.dim, plan.h);
         let mut j = vec![0.0; n];
+        let mut buf = vec![0.0; n];
         for (o, family) in plan.obstacle_families.iter().enumerate() {
             let Some(family) = *family else { continue };
-            let normal = normal_of(plan, now, family);
             let elements = &plan.families[family].elements;
-            for (&i, &l) in elements
-                .iter()
-                .zip(&lambda[starts[family]..starts[family + 1]])
-            {
+            let lambda = &lambda[starts[family]..starts[family + 1]];
+            for (e, (&i, &l)) in elements.iter().zip(lambda).enumerate() {
                 if l == 0.0 {
                     continue;
                 }
+                let normal = normal_at(plan, now, (family, e, l), x, &mut buf);
                 for a in 0..n {
                     j[a] = normal[a] * l / h;
                 }
-                self.impulses.add_obstacle_impulse(o, i as usize, &j);
+                let i = i as usize;
+                self.impulses.add_obstacle_impulse(o, i, &j);
+                self.work(plan, now, (family, Some(o)), &start[i * n..(i + 1) * n], &j);
             }
         }
+    }
+
+    /// The work J·D(p)/h of impulse `j` of plane family `family` (obstacle
+    /// `o`) on a particle that started the substep at `p`, when the plane
+    /// moves.
+    fn work(
+        &mut self,
+        plan: &Plan,
+        now: &SubstepMotion,
+        (family, o): (usize, Option<usize>),
+        p: &[f64],
+        j: &[f64],
+    ) {
+        let (Some(o), Some(plane)) = (o, crate::motion::plane(plan, now, family)) else {
+            return;
+        };
+        let mut u = vec![0.0; p.len()];
+        plane.carry.at(p, &mut u);
+        let w: f64 = j.iter().zip(&u).map(|(j, u)| j * u / plan.h).sum();
+        self.impulses.add_obstacle_work(o, w);
     }
 
     /// The barrier path's contact impulses at the accepted iterate `x` of
@@ -205,7 +236,8 @@ impl Recorder {
 fn measured(plan: &Plan, kernel: Kernel) -> Option<Measured> {
     match kernel {
         Kernel::Project { family, .. } => match &plan.families[family].kind {
-            FamilyKind::HyperplaneContact { friction, .. } => {
+            FamilyKind::HyperplaneContact { friction, .. }
+            | FamilyKind::MeshContact { friction, .. } => {
                 (*friction > 0.0).then_some(Measured::PlanePositions { family })
             }
             FamilyKind::Distance
@@ -236,13 +268,32 @@ fn obstacle_of(plan: &Plan, family: usize) -> Option<usize> {
         .position(|&f| f == Some(family))
 }
 
-/// The unit normal of plane family `family` in this substep.
-fn normal_of<'a>(plan: &'a Plan, now: &'a SubstepMotion, family: usize) -> &'a [f64] {
+/// The unit normal of element `e` (multiplier `l`) of contact family
+/// `family` in this substep: the plane's, or the mesh's at `x` within
+/// reach w λ (zeros out of reach: `kinds::mesh_contact`), written to `buf`.
+fn normal_at<'a>(
+    plan: &'a Plan,
+    now: &'a SubstepMotion,
+    (family, e, l): (usize, usize, f64),
+    x: &[f64],
+    buf: &'a mut [f64],
+) -> &'a [f64] {
     if let Some(plane) = crate::motion::plane(plan, now, family) {
         return &plane.normal;
     }
-    match &plan.families[family].kind {
+    let f = &plan.families[family];
+    match &f.kind {
         FamilyKind::HyperplaneContact { normal, .. } => normal,
+        FamilyKind::MeshContact { mesh, .. } => {
+            let (n, i) = (plan.dim, f.elements[e] as usize);
+            let reach = plan.inverse_mass[i] * l;
+            let xi = &x[i * n..(i + 1) * n];
+            let mesh = &plan.meshes[*mesh];
+            if mesh_contact::closest(mesh, xi, f.rest[e], reach, buf).is_none() {
+                buf.fill(0.0);
+            }
+            buf
+        }
         FamilyKind::Distance
         | FamilyKind::Tether
         | FamilyKind::SimplexMeasure { .. }

@@ -84,25 +84,35 @@ fn friction_in<D: Dim, V: Coordinates + ?Sized>(
         }
         let i = contact.family.elements[e] as usize;
         let vi = v.values_mut(i * n..(i + 1) * n);
-        let vn = crate::project::dot(normal, vi);
-        let mut t2 = 0.0;
-        for a in 0..n {
-            let t = vi[a] - vn * normal[a];
-            t2 += t * t;
-        }
-        let vt = t2.sqrt();
-        if vt == 0.0 {
-            continue;
-        }
         let limit = contact.friction * contact.inverse_mass[i] * l / contact.h;
-        let scale = limit.min(vt) / vt;
-        for a in 0..n {
-            let t = vi[a] - vn * normal[a];
-            vi[a] -= t * scale;
-        }
-        if !vi.iter().all(|c| c.is_finite()) {
+        if clamp_tangential(normal, limit, vi) && !vi.iter().all(|c| c.is_finite()) {
             return Err(e);
         }
     }
     Ok(())
+}
+
+/// The clamp of the module docs on one velocity `vi` with unit normal
+/// `normal` and bound `limit` (= μ w λ / h): v −= v_t · min(limit, |v_t|)
+/// / |v_t|. False (and `vi` untouched) when |v_t| = 0. Shared by the
+/// mesh contact's friction (`mesh_contact.rs`, its normal per particle).
+#[inline(always)]
+pub(crate) fn clamp_tangential(normal: &[f64], limit: f64, vi: &mut [f64]) -> bool {
+    let n = vi.len();
+    let vn = crate::project::dot(normal, vi);
+    let mut t2 = 0.0;
+    for a in 0..n {
+        let t = vi[a] - vn * normal[a];
+        t2 += t * t;
+    }
+    let vt = t2.sqrt();
+    if vt == 0.0 {
+        return false;
+    }
+    let scale = limit.min(vt) / vt;
+    for a in 0..n {
+        let t = vi[a] - vn * normal[a];
+        vi[a] -= t * scale;
+    }
+    true
 }

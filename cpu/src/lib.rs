@@ -24,6 +24,7 @@ mod guard;
 pub mod incremental_potential;
 mod integrate;
 mod material;
+mod mesh_contact;
 mod motion;
 mod parallel;
 mod project;

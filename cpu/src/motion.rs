@@ -103,17 +103,30 @@ pub fn project(
 }
 
 /// The Friction kernel of family `family`: `friction.rs` for a static
-/// plane, [`friction`] for a moving one (`moving`: the substep's values
-/// and start positions).
+/// plane, [`friction`] for a moving one (`moving`: the substep's values,
+/// start and end positions), `mesh_contact.rs` for a mesh.
 pub fn friction_of(
     workers: &Workers,
     plan: &Plan,
     family: usize,
     lambda: &[f64],
-    (now, start): (&SubstepMotion, &[f64]),
+    (now, start, x): (&SubstepMotion, &[f64], &[f64]),
     v: &mut [f64],
 ) -> Result<(), usize> {
     let f = &plan.families[family];
+    if let FamilyKind::MeshContact { mesh, friction } = &f.kind {
+        let mesh = crate::mesh_contact::MeshFriction {
+            dim: plan.dim,
+            h: plan.h,
+            inverse_mass: &plan.inverse_mass,
+            family: f,
+            mesh: &plan.meshes[*mesh],
+            mu: *friction,
+            lambda,
+            x,
+        };
+        return crate::mesh_contact::friction(workers, &mesh, v);
+    }
     match plane(plan, now, family) {
         Some(moving) => friction(moving, f, (&plan.inverse_mass, plan.h), lambda, start, v),
         None => {
@@ -123,7 +136,8 @@ pub fn friction_of(
 }
 
 /// The report's residual of family `family` (`f`): `residual.rs` for
-/// every family but a moving plane's, [`residual`] for that.
+/// every family but a moving plane's, [`residual`] for that, and
+/// `mesh_contact.rs`'s for a mesh.
 pub fn residual_of(
     workers: &Workers,
     plan: &Plan,
@@ -132,6 +146,12 @@ pub fn residual_of(
     f: &Family,
     x: &[f64],
 ) -> FamilyResidual {
+    if let FamilyKind::MeshContact { mesh, .. } = &f.kind {
+        return FamilyResidual {
+            label: f.label.clone(),
+            max_violation: crate::mesh_contact::residual(plan.dim, f, &plan.meshes[*mesh], x),
+        };
+    }
     match plane(plan, now, family) {
         Some(moving) => FamilyResidual {
             label: f.label.clone(),

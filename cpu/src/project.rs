@@ -23,6 +23,9 @@
 //! A contact checks the raw Δλ for NaN/Inf before the clamp (max(NaN, 0)
 //! would hide it).
 //!
+//! Mesh contacts take the same update with the mesh's normal at x
+//! (`mesh_contact_in`; `mesh_contact.rs` has the math).
+//!
 //! Static friction (hyperplane contact with μ > 0), after the normal update
 //! of an active contact (λ > 0):
 //! ```text
@@ -42,11 +45,13 @@
 
 use crate::dim::{Dim, with_dim};
 use crate::parallel::{Coordinates, DisjointSlice, Shared, Workers, first_error};
+use hyperpbd_core::barrier::BarrierObstacles;
 use hyperpbd_core::expr::Columns;
 use hyperpbd_core::geometry::{Scratch, oriented_measure, simplex_squared_measure};
 use hyperpbd_core::kinds;
+use hyperpbd_core::kinds::mesh_contact::closest;
 use hyperpbd_core::material::MaterialScratch;
-use hyperpbd_core::{Family, FamilyKind};
+use hyperpbd_core::{Family, FamilyKind, MAX_DIM};
 use std::ops::Range;
 
 /// Elements per chunk of a colour (≈ 5 µs of distance projections: a
@@ -63,6 +68,8 @@ pub struct Batch<'a> {
     pub alpha_tilde: f64,
     /// Positions at the start of the substep (for static friction).
     pub start: &'a [f64],
+    /// The plan's meshes (mesh contact families).
+    pub meshes: &'a [std::sync::Arc<hyperpbd_core::barrier::BarrierObstacles>],
 }
 
 /// Per-batch scratch.
@@ -167,6 +174,20 @@ fn project_elements<X: Coordinates + ?Sized>(
         FamilyKind::HyperplaneContact { normal, friction } => with_dim!(
             batch.dim,
             contact_in(batch, normal, *friction, elements, x, lambda)
+        ),
+        FamilyKind::MeshContact { mesh, friction } => mesh_contact_in(
+            (
+                batch.dim,
+                batch.inverse_mass,
+                batch.alpha_tilde,
+                batch.start,
+            ),
+            batch.family,
+            &batch.meshes[*mesh],
+            *friction,
+            elements,
+            x,
+            lambda,
         ),
         FamilyKind::Distance
         | FamilyKind::Tether
@@ -358,7 +379,9 @@ pub(crate) fn gathered_value(
         }
         // Contacts take `contact_in` and expressions `kinds::project`,
         // never this path.
-        FamilyKind::HyperplaneContact { .. } | FamilyKind::Expression(_) => return Err(e),
+        FamilyKind::HyperplaneContact { .. }
+        | FamilyKind::MeshContact { .. }
+        | FamilyKind::Expression(_) => return Err(e),
     })
 }
 
@@ -394,6 +417,48 @@ fn contact_in<D: Dim, X: Coordinates + ?Sized>(
         if friction > 0.0 && *lambda > 0.0 {
             let p = &batch.start[i * n..i * n + n];
             static_friction(normal, friction * w * *lambda, p, xi);
+        }
+    }
+    Ok(())
+}
+
+/// Projects elements `elements` of mesh family `family` (`mesh_contact.rs`
+/// has the update) (`lambda`: their
+/// slots); the first slot whose update was not finite.
+#[allow(clippy::too_many_arguments)]
+fn mesh_contact_in<X: Coordinates + ?Sized>(
+    (dim, inverse_mass, alpha_tilde, start): (usize, &[f64], f64, &[f64]),
+    family: &Family,
+    mesh: &BarrierObstacles,
+    friction: f64,
+    elements: Range<usize>,
+    x: &mut X,
+    lambda: &mut [f64],
+) -> Result<(), usize> {
+    let n = dim;
+    let mut normal = [0.0f64; MAX_DIM];
+    let normal = &mut normal[..n];
+    let first = elements.start;
+    for e in elements {
+        let i = family.elements[e] as usize;
+        let w = inverse_mass[i];
+        let l = lambda[e - first];
+        let xi = x.values_mut(i * n..i * n + n);
+        let Some(c) = closest(mesh, xi, family.rest[e], w * l, normal) else {
+            continue;
+        };
+        let raw = (-c - alpha_tilde * l) / (w + alpha_tilde);
+        if !raw.is_finite() {
+            return Err(e);
+        }
+        let dl = (l + raw).max(0.0) - l;
+        lambda[e - first] = l + dl;
+        for a in 0..n {
+            xi[a] += w * normal[a] * dl;
+        }
+        if friction > 0.0 && lambda[e - first] > 0.0 {
+            let p = &start[i * n..i * n + n];
+            static_friction(normal, friction * w * lambda[e - first], p, xi);
         }
     }
     Ok(())

@@ -77,6 +77,9 @@ fn violation<D: Dim>(
             (None, FamilyKind::HyperplaneContact { normal, .. }) => {
                 (family.rest[e] - crate::project::dot(normal, points)).max(0.0)
             }
+            // Taken by `mesh_contact::residual` (motion::residual_of): its
+            // mesh lives in the plan.
+            (None, FamilyKind::MeshContact { .. }) => 0.0,
             // C, or +∞ for a refused element (its Neo-Hookean energy is
             // unbounded as J → 0⁺).
             (None, _) => crate::material::energy_constraint(family, e, points, dim, grad, material)

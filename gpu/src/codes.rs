@@ -137,7 +137,8 @@ pub fn residual_code(kind: &FamilyKind) -> u32 {
         FamilyKind::Distance => RESIDUAL_DISTANCE,
         FamilyKind::SimplexMeasure { .. } => RESIDUAL_SIMPLEX,
         FamilyKind::OrientedMeasure => RESIDUAL_ORIENTED,
-        FamilyKind::HyperplaneContact { .. } => RESIDUAL_CONTACT,
+        // A mesh contact is refused by the GPU backends (xpbd/mod.rs).
+        FamilyKind::HyperplaneContact { .. } | FamilyKind::MeshContact { .. } => RESIDUAL_CONTACT,
         FamilyKind::Tether => RESIDUAL_TETHER,
         FamilyKind::Material { .. } => RESIDUAL_MATERIAL,
         FamilyKind::Expression(_) => RESIDUAL_EXPRESSION,
@@ -156,7 +157,7 @@ pub fn element_code(kind: &FamilyKind) -> Option<u32> {
         FamilyKind::OrientedMeasure => Some(ELEMENT_ORIENTED),
         FamilyKind::Material { .. } => Some(ELEMENT_MATERIAL),
         FamilyKind::Expression(_) => Some(ELEMENT_EXPRESSION),
-        FamilyKind::HyperplaneContact { .. } => None,
+        FamilyKind::HyperplaneContact { .. } | FamilyKind::MeshContact { .. } => None,
     }
 }
 

@@ -9,7 +9,8 @@
 //!  "kernel_calls": {stage: int, …},        per stage in this step
 //!  "minimisation": [{"iterations", "initial_residual", "final_residual",
 //!                    "status"}, …],        barrier path, one per substep
-//!  "contact_forces": {"obstacles": (O, N), "particles": (P, N)}
+//!  "contact_forces": {"obstacles": (O, N), "particles": (P, N),
+//!                     "obstacle_power": (O,)}
 //!                                          float64 arrays, only when requested
 //!                                          (Simulation.request_contact_forces)
 //! ```
@@ -52,6 +53,8 @@ pub fn report_dict<'py>(py: Python<'py>, report: &StepReport) -> PyResult<Bound<
         let forces = PyDict::new(py);
         forces.set_item(intern!(py, "obstacles"), rows(py, f.obstacles.clone(), f.dim)?)?;
         forces.set_item(intern!(py, "particles"), rows(py, f.particles.clone(), f.dim)?)?;
+        let power = numpy::PyArray1::from_vec(py, f.obstacle_power.clone());
+        forces.set_item(intern!(py, "obstacle_power"), power)?;
         dict.set_item(intern!(py, "contact_forces"), forces)?;
     }
     Ok(dict)

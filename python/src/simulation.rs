@@ -186,9 +186,11 @@ impl Simulation {
 
     /// Asks every following step to report its contact forces (`on`:
     /// False stops it): the report of `step` then has "contact_forces":
-    /// {"obstacles": (obstacles, dim), "particles": (particles, dim)} —
-    /// the force the particles press on each obstacle and each particle's
-    /// total contact force over the last frame. Raises GpuError on a GPU
+    /// {"obstacles": (obstacles, dim), "particles": (particles, dim),
+    /// "obstacle_power": (obstacles,)} — each obstacle's force on the
+    /// particles (they press on it with the opposite), each particle's
+    /// total contact force, and each obstacle's mean power into the
+    /// particles (0 unless it moves), over the last frame. Raises GpuError on a GPU
     /// backend (they do not report them).
     #[pyo3(signature = (on = true))]
     fn request_contact_forces(&self, py: Python<'_>, on: bool) -> PyResult<()> {

@@ -243,5 +243,7 @@ def test_contact_forces_on_request():
     # the particles), which is the particle's whole contact force.
     assert abs(forces["obstacles"][0, 1] - 2.0 * 9.81) <= 1e-9 * 2.0 * 9.81
     assert np.array_equal(forces["particles"], forces["obstacles"])
+    # A plane that does not move puts no power into the particles.
+    assert forces["obstacle_power"].shape == (1,) and forces["obstacle_power"][0] == 0.0
     sim.request_contact_forces(False)
     assert "contact_forces" not in sim.step(frames=1)

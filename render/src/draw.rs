@@ -2,7 +2,8 @@
 //!
 //! ```text
 //! background
-//! hyperplanes   orthographic: excluded half-space shaded, trace as a line
+//! hyperplanes   where their prescribed motion has them at the snapshot's time
+//!               orthographic: excluded half-space shaded, trace as a line
 //!               perspective:  floor patch with grid lines
 //! edges         anti-aliased lines, colour of the edge's value (darkened)
 //! particles     anti-aliased discs, radius max(min px, r · pixels per length);
@@ -244,7 +245,7 @@ impl Renderer {
                 (p, e)
             }
             ColorBy::Residual => {
-                let (p, e) = geometry.residuals(&snap.state);
+                let (p, e) = geometry.residuals(&snap.state, snap.time);
                 (
                     p.into_iter().map(residual_value).collect(),
                     e.into_iter().map(residual_value).collect(),

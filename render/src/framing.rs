@@ -364,11 +364,12 @@ impl Camera {
         )
     }
 
-    /// The hyperplane in centred, rotated coordinates at `time`: (n', k)
-    /// with n'·y = k on it and n'·y < k excluded.
+    /// The hyperplane in centred, rotated coordinates at `time` (where its
+    /// prescribed motion has it then): (n', k) with n'·y = k on it and
+    /// n'·y < k excluded.
     fn plane_now(&self, plane: &Plane, time: f64) -> (Vec<f64>, f64) {
-        let mut n = plane.normal.clone();
-        let k = plane.offset - dot_slice(&plane.normal, &self.centre);
+        let (mut n, offset) = plane.at(time);
+        let k = offset - dot_slice(&n, &self.centre);
         self.view.rotate_vector(time, &mut n);
         (n, k)
     }

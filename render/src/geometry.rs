@@ -23,13 +23,32 @@ use glam::{DVec2, DVec3};
 use hyperpbd_core::expr::Columns;
 use hyperpbd_core::geometry::Scratch;
 use hyperpbd_core::kinds::{self, ExpressionKind};
+use hyperpbd_core::motion::{Motion, rigid_at};
 use hyperpbd_core::{ConstraintKind, Obstacle, Scene, State};
 
 /// A hyperplane n·x = offset with unit n; n·x < offset + r is excluded.
+/// With a motion it is drawn where the physics has it at the snapshot's
+/// time ([`Plane::at`]).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Plane {
     pub normal: Vec<f64>,
     pub offset: f64,
+    pub motion: Vec<Motion>,
+}
+
+impl Plane {
+    /// (n(t), offset(t)) at time `t`, by core's motion evaluation (the
+    /// function every backend takes its planes from):
+    /// n(t) = R(t) n̂,  offset(t) = offset + n(t)·b(t).
+    pub fn at(&self, t: f64) -> (Vec<f64>, f64) {
+        if self.motion.is_empty() {
+            return (self.normal.clone(), self.offset);
+        }
+        let m = rigid_at(&self.motion, self.normal.len(), t);
+        let normal = m.rotate(&self.normal);
+        let shift: f64 = normal.iter().zip(&m.translation).map(|(n, b)| n * b).sum();
+        (normal, self.offset + shift)
+    }
 }
 
 /// The elements of one constraint family, for residuals.
@@ -156,13 +175,20 @@ impl SceneGeometry {
             .obstacles
             .iter()
             .filter_map(|o| {
-                let Obstacle::Hyperplane { normal, offset, .. } = o else {
+                let Obstacle::Hyperplane {
+                    normal,
+                    offset,
+                    motion,
+                    ..
+                } = o
+                else {
                     return None;
                 };
                 let length = normal.iter().map(|x| x * x).sum::<f64>().sqrt();
                 Some(Plane {
                     normal: normal.iter().map(|x| x / length).collect(),
                     offset: *offset,
+                    motion: motion.clone(),
                 })
             })
             .collect();
@@ -209,8 +235,9 @@ impl SceneGeometry {
         self.radius.len()
     }
 
-    /// Relative residual per particle and per edge (see the module docs).
-    pub fn residuals(&self, state: &State) -> (Vec<f64>, Vec<f64>) {
+    /// Relative residual per particle and per edge (see the module docs),
+    /// the planes where they are at `time`.
+    pub fn residuals(&self, state: &State, time: f64) -> (Vec<f64>, Vec<f64>) {
         let dim = self.dim;
         let mut particle = vec![0.0f64; self.len()];
         let mut edge = vec![0.0f64; self.edges.len()];
@@ -242,17 +269,17 @@ impl SceneGeometry {
             }
         }
         for plane in &self.planes {
+            let (normal, offset) = plane.at(time);
             for (i, r) in particle.iter_mut().enumerate() {
                 if self.fixed[i] {
                     continue;
                 }
-                let d: f64 = plane
-                    .normal
+                let d: f64 = normal
                     .iter()
                     .zip(state.position(i))
                     .map(|(n, x)| n * x)
                     .sum();
-                let penetration = (plane.offset + self.radius[i] - d).max(0.0) / self.length;
+                let penetration = (offset + self.radius[i] - d).max(0.0) / self.length;
                 *r = r.max(penetration);
             }
         }

@@ -18,11 +18,13 @@ pub fn state_json(time: f64, frames: u64, state: &State) -> String {
     .to_string()
 }
 
-/// One frame of contact forces: `{"frame", "time", "obstacles": [{"force"}],
-/// "particles"}` (round-trip f64).
+/// One frame of contact forces: `{"frame", "time", "obstacles": [{"force",
+/// "power"}], "particles"}` (round-trip f64).
 pub fn forces_json(time: f64, frame: u64, forces: &ContactForces) -> String {
     let obstacles: Vec<serde_json::Value> = (0..forces.obstacle_count())
-        .map(|o| serde_json::json!({ "force": forces.obstacle(o) }))
+        .map(|o| {
+            serde_json::json!({ "force": forces.obstacle(o), "power": forces.obstacle_power[o] })
+        })
         .collect();
     let particles = chunk_rows(forces.dim, &forces.particles);
     serde_json::json!({

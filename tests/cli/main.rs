@@ -15,6 +15,7 @@ mod compare;
 mod forces;
 mod output_errors;
 mod render;
+mod render_motion;
 mod run;
 mod sweep;
 mod sweep_metric;

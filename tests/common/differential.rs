@@ -140,6 +140,8 @@ fn residual_bound(
         // No differential scene has an expression family: those are held
         // bit for bit by tests/gpu/expressions.rs instead of by a bound.
         FamilyKind::Expression(_) => unreachable!("no differential scene has an expression family"),
+        // The GPU backends refuse mesh contacts (tests/gpu/xpbd_mesh.rs).
+        FamilyKind::MeshContact { .. } => unreachable!("no differential scene has a mesh contact"),
     }
 }
 

@@ -15,6 +15,8 @@ pub mod hinges;
 pub mod implicit_scenes;
 pub mod materials;
 pub mod motion_scenes;
+
+use hyperpbd::{Scene, State};
 // support.rs (the CPU-only helpers of tests/cpu/analytic/ and
 // tests/cpu/determinism.rs; it uses nalgebra, which report/tests/, also
 // including this module, does not link) is a module of tests/cpu/ itself.
@@ -75,4 +77,23 @@ pub fn cpu_backend(scene: &hyperpbd::Scene, threads: usize) -> hyperpbd::CpuBack
     } else {
         cpu
     }
+}
+
+/// Kinetic + gravitational potential energy of the dynamic particles:
+/// Σ ½ m |v|² − m s (g · x).
+pub fn energy(scene: &Scene, state: &State) -> f64 {
+    let g = scene
+        .gravity
+        .clone()
+        .unwrap_or_else(|| vec![0.0; scene.dim]);
+    let mut e = 0.0;
+    for (i, p) in scene.particles.iter().enumerate() {
+        let Some(m) = p.mass.filter(|_| !p.fixed) else {
+            continue;
+        };
+        let v2: f64 = state.velocity(i).iter().map(|v| v * v).sum();
+        let gx: f64 = state.position(i).iter().zip(&g).map(|(x, g)| x * g).sum();
+        e += 0.5 * m * v2 - m * p.gravity_scale * gx;
+    }
+    e
 }

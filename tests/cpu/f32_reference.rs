@@ -292,6 +292,7 @@ fn barrier_kernels_are_the_golden_path_within_f32_rounding() {
             vec![0.3, 0.3, -0.4],
         ],
         simplices: vec![vec![0, 1, 2], vec![0, 1, 2, 3]],
+        friction: 0.0,
     });
     let geometry = BarrierObstacles::compile(&scene);
     let law = BarrierLaw {

@@ -12,6 +12,7 @@
 use crate::common;
 
 use common::bound::print_bound;
+use common::energy;
 use hyperpbd::{Backend, CpuBackend, Kernel, Plan, Scene, StageName, State};
 use hyperpbd_core::broadphase::{Aabbs, exhaustive_pairs};
 use hyperpbd_core::{Collisions, Particle, SceneBuilder};
@@ -33,24 +34,6 @@ fn deepest_overlap(scene: &Scene, state: &State) -> f64 {
         deepest = deepest.max(radius[i] + radius[j] - d);
     }
     deepest
-}
-
-/// Kinetic + gravitational potential energy: Σ ½ m |v|² − m s (g · x).
-fn energy(scene: &Scene, state: &State) -> f64 {
-    let g = scene
-        .gravity
-        .clone()
-        .unwrap_or_else(|| vec![0.0; scene.dim]);
-    let mut e = 0.0;
-    for (i, p) in scene.particles.iter().enumerate() {
-        let Some(m) = p.mass.filter(|_| !p.fixed) else {
-            continue;
-        };
-        let v2: f64 = state.velocity(i).iter().map(|v| v * v).sum();
-        let gx: f64 = state.position(i).iter().zip(&g).map(|(x, g)| x * g).sum();
-        e += 0.5 * m * v2 - m * p.gravity_scale * gx;
-    }
-    e
 }
 
 fn backend(scene: &Scene) -> CpuBackend {

@@ -216,6 +216,7 @@ fn barrier_scene(rng: &mut Stream, dim: usize, count: usize) -> Scene {
     scene.obstacles.push(Obstacle::SimplexMesh {
         vertices,
         simplices,
+        friction: 0.0,
     });
     scene
 }

@@ -66,6 +66,7 @@ fn ball_over_mesh(side: usize, at: f64, reach: f64) -> Scene {
     scene.obstacles.push(Obstacle::SimplexMesh {
         vertices,
         simplices,
+        friction: 0.0,
     });
     scene.solver = hyperpbd::Solver::IncrementalPotential(hyperpbd::IncrementalPotentialSettings {
         barrier_stiffness: 1e3,

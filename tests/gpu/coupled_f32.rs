@@ -155,6 +155,21 @@ fn simplex_mesh_obstacles_in_f32() {
     f32_against_cpu("three balls in a V of segments", scene, 80);
 }
 
+/// The V of segments with friction μ = 0.4 on the mesh (issue 31 item 4).
+#[test]
+fn simplex_mesh_friction_in_f32() {
+    if !on_one_lavapipe_thread("simplex_mesh_friction_in_f32") {
+        return;
+    }
+    let mut scene = balls_in_a_v();
+    for obstacle in &mut scene.obstacles {
+        if let hyperpbd::Obstacle::SimplexMesh { friction, .. } = obstacle {
+            *friction = 0.4;
+        }
+    }
+    f32_against_cpu("three balls in a V of segments, mesh μ = 0.4", scene, 80);
+}
+
 /// The 3D tetrahedron of distance, tether and measure springs on a
 /// frictional plane ("previous" warm start, packed criterion).
 #[test]

@@ -188,3 +188,35 @@ fn info_and_run_say_which_path_runs_and_a_bad_value_is_named() {
         "{text}"
     );
 }
+
+/// The wgsl path keeps the generated expression code's opaque selects
+/// (OPAQUE_ARITHMETIC true; the spirv path drops them, NoContraction doing
+/// their work): there too gpu-f32 is the f32 reference bit for bit on an
+/// adapter that neither contracts nor regroups, the expression scene's
+/// three relations and a 2D chain on a plane.
+#[test]
+fn the_wgsl_path_is_the_f32_reference_bit_for_bit() {
+    let Some(_) = adapter_or_skip("wgsl path exact", Precision::F32) else {
+        return;
+    };
+    for scene in ["expression.json", "chain2d.json"] {
+        let path = format!("{}/scenes/{scene}", env!("CARGO_MANIFEST_DIR"));
+        let args = [
+            "compare",
+            &path,
+            "--precision",
+            "f32",
+            "--exact",
+            "--frames",
+            "20",
+            "--every",
+            "20",
+        ];
+        let (ok, text) = cli(&args, Some("wgsl"));
+        assert!(ok, "{scene}: {text}");
+        assert!(
+            text.contains("bit for bit in 20 of 20 frames"),
+            "{scene}: {text}"
+        );
+    }
+}

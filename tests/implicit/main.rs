@@ -9,6 +9,7 @@ mod common;
 mod barrier;
 mod expressions;
 mod materials;
+mod mesh_friction;
 mod refusals;
 mod step;
 mod terms;

@@ -181,12 +181,17 @@ fn barrier_catalogue() -> Vec<String> {
         j(format!(
             r#"{{"dim": 2, "dt": 0.01, "particles": [{{"position": [0, -1], "mass": 1}}], "obstacles": [{{"type": "hyperplane", "normal": [0, 1]}}]{ok}}}"#
         )),
-        j(mesh("[[0, 0], [1, 0]]", "[[0, 1]]", "")),
+        j(mesh(
+            "[[0, 0], [1, 0]]",
+            "[[0, 1]]",
+            r#", "solver": {"type": "xpbd", "primal_residual": true}"#,
+        )),
         j(mesh("[[0, 0], [1, 0]]", "[[0, 2]]", &ok)),
         j(mesh("[[0, 0], [1, 0]]", "[[1, 1]]", &ok)),
         j(mesh("[[0, 0], [1, 0], [2, 0]]", "[[0, 1, 2]]", &ok)),
         j(mesh("[[0, 0], [1, 0], [2, 0]]", "[[0, 1], [0, 1, 2]]", &ok)),
-        j(mesh("[[0, 0], [1, 0]]", "[[0, 1]]", "")),
+        j(mesh("[[0, 0], [1, 0]]", r#"[[0, 1]], "friction": -0.5"#, &ok)),
+        j(mesh("[[0, 0], [1, 0]]", r#"[[0, 1]], "offset": 1"#, &ok)),
         j(scene(r#", "solver": {"type": "newton"}"#)),
         j(scene(
             r#", "solver": {"type": "incremental_potential", "barrier_stiffness": 1, "activation_distance": 1, "convergence": {"kind": "energy", "tolerance": 1}, "max_iterations": 3}"#,

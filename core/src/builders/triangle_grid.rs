@@ -35,6 +35,7 @@ pub fn triangle_grid(dim: usize, axes: [usize; 2], side: usize, spacing: f64) ->
     Obstacle::SimplexMesh {
         vertices,
         simplices,
+        friction: 0.0,
     }
 }
 
@@ -59,6 +60,7 @@ mod tests {
         let Obstacle::SimplexMesh {
             vertices,
             simplices,
+            ..
         } = triangle_grid(3, [0, 2], 3, 0.5)
         else {
             unreachable!("triangle_grid builds a simplex mesh")

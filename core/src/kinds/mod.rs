@@ -12,6 +12,7 @@
 //! oriented_measure   N+1            ≠ 0; authored simplex not degenerate          C = 0     |C|         oriented_measure.rs
 //! stvk, neo_hookean  k+1, 1 ≤ k ≤ N 0 (the rest shape lives in the plan's frames)  C = 0     √(2W)       material.rs
 //! hyperplane contact 1 (obstacle)   offset + radius                               C ≥ 0     by the backend's normals  hyperplane_contact.rs
+//! mesh contact       1 (obstacle)   radius (C = dist(x, mesh) − radius)           C ≥ 0     by the backend's normals  mesh_contact.rs
 //! expression         any, per family any                                          relation  by relation expression.rs
 //! bending (cosine)   4, N ≥ 3       in [−1, 1]                                    C = 0     |C|         bending.rs (an expression)
 //! bending (quadratic) 4, N ≥ 3      ≥ 0; omitted: 0 (flat)                        C = 0     |C|         bending.rs (an expression
@@ -30,6 +31,7 @@ mod expression;
 mod expression_tests;
 mod hyperplane_contact;
 mod material;
+pub mod mesh_contact;
 mod oriented_measure;
 mod relation;
 mod simplex_measure;
@@ -282,6 +284,7 @@ pub fn relation(kind: &FamilyKind) -> Relation {
         FamilyKind::Tether => tether::RELATION,
         FamilyKind::Material { .. } => material::RELATION,
         FamilyKind::HyperplaneContact { .. } => hyperplane_contact::RELATION,
+        FamilyKind::MeshContact { .. } => mesh_contact::RELATION,
         FamilyKind::Expression(expression) => expression.relation,
     }
 }
@@ -296,7 +299,9 @@ pub fn violation(kind: &FamilyKind, value: f64, rest: f64) -> Option<f64> {
         FamilyKind::SimplexMeasure { .. } => Some(simplex_measure::violation(value, rest)),
         FamilyKind::OrientedMeasure => Some(oriented_measure::violation(value, rest)),
         FamilyKind::Expression(expression) => Some(expression.violation(value, rest)),
-        FamilyKind::HyperplaneContact { .. } | FamilyKind::Material { .. } => None,
+        FamilyKind::HyperplaneContact { .. }
+        | FamilyKind::MeshContact { .. }
+        | FamilyKind::Material { .. } => None,
     }
 }
 

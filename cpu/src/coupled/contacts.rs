@@ -1,10 +1,10 @@
 //! The coupled step's contact impulses at its accepted iterate, beyond the
-//! obstacle barriers (`contact_forces.rs`): lagged plane friction and the
+//! obstacle barriers (`contact_forces.rs`): lagged obstacle friction and the
 //! ball–ball barriers and pair friction of its elements.
 //!
 //! ```text
-//! plane lag (particle i, plane o):  J_i += −∇D(x_i) h    (D the lagged friction energy),
-//!                                   also on o
+//! obstacle lag (particle i, plane or simplex slot o):  J_i += −∇D(x_i) h
+//!                                   (D the lagged friction energy), also on o's authored obstacle
 //! ball / pair-friction element e:   J_k += −∇_k E_e(x) h for each member k
 //! ```
 //! The records hold every element at the accepted iterate: the minimiser
@@ -14,7 +14,7 @@ use super::Workspace;
 use hyperpbd_core::implicit::obstacle_friction;
 use hyperpbd_core::{ContactForces, IncrementalPotentialPlan, Plan};
 
-/// Adds the lagged plane friction's and the contact elements' impulses of
+/// Adds the lagged obstacle friction's and the contact elements' impulses of
 /// the substep that `ws` just minimised (accepted iterate `x`).
 pub(crate) fn contact_impulses(
     plan: &Plan,
@@ -30,9 +30,9 @@ pub(crate) fn contact_impulses(
     let slip_length = coupled.slip_velocity * h;
     let particles = &ws.particles;
     let (mut gradient, mut slip, mut j) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    for lag in &particles.lags {
+    for (l, lag) in particles.lags.iter().enumerate() {
         let i = lag.particle;
-        let normal = &ip.obstacles.plane_normals[lag.plane * n..(lag.plane + 1) * n];
+        let normal = particles.lag_normal(l, n);
         obstacle_friction(
             normal,
             lag.force_limit,
@@ -45,7 +45,7 @@ pub(crate) fn contact_impulses(
         for a in 0..n {
             j[a] = -gradient[a] * h;
         }
-        let o = ip.obstacles.plane_source[lag.plane] as usize;
+        let o = ip.obstacles.source(lag.obstacle) as usize;
         impulses.add_obstacle_impulse(o, i, &j);
     }
     ws.elements.contact_gradients(n, |k, gradient| {

@@ -349,7 +349,8 @@ impl Elements {
                     FamilyKind::SimplexMeasure { .. }
                     | FamilyKind::OrientedMeasure
                     | FamilyKind::Material { .. }
-                    | FamilyKind::HyperplaneContact { .. } => {
+                    | FamilyKind::HyperplaneContact { .. }
+                    | FamilyKind::MeshContact { .. } => {
                         SpringCurvature::GaussNewton { weight: record[1] }
                     }
                     FamilyKind::Expression(_) => {
@@ -549,10 +550,10 @@ fn constraint_kind(kind: &FamilyKind) -> ConstraintKind {
         FamilyKind::Distance => ConstraintKind::Distance,
         FamilyKind::Tether => ConstraintKind::Tether,
         FamilyKind::SimplexMeasure { .. } => ConstraintKind::SimplexMeasure,
-        // Hyperplane families do not exist on the barrier path's plan.
-        FamilyKind::OrientedMeasure | FamilyKind::HyperplaneContact { .. } => {
-            ConstraintKind::OrientedMeasure
-        }
+        // Contact families do not exist on the barrier path's plan.
+        FamilyKind::OrientedMeasure
+        | FamilyKind::HyperplaneContact { .. }
+        | FamilyKind::MeshContact { .. } => ConstraintKind::OrientedMeasure,
         // Expression families are `Kind::Expression` elements.
         FamilyKind::Expression(_) => {
             unreachable!("an expression family is an expression element (Elements::rebuild)")
@@ -573,6 +574,7 @@ fn expression_kind(kind: &FamilyKind) -> &hyperpbd_core::kinds::ExpressionKind {
         | FamilyKind::SimplexMeasure { .. }
         | FamilyKind::OrientedMeasure
         | FamilyKind::HyperplaneContact { .. }
+        | FamilyKind::MeshContact { .. }
         | FamilyKind::Material { .. } => {
             unreachable!("expression elements come from expression families (Elements::rebuild)")
         }

@@ -4,6 +4,7 @@
 //!
 //! ```text
 //! F_i(x_i)  = ½ m_i |x_i − x~_i|² − h² load_i·x_i + h² (Σ_o b(d_io) + Σ_lags μλ f₀(|P w_i|))
+//!             (lags: planes and simplices with μ > 0, P = I − n nᵀ with the lag's n at x^t)
 //! g_i       = m_i (x_i − x~_i) − h² load_i + h² (Σ_o b' n + Σ_lags ∇D) + h² Σ_{slots of i} ∇E_e
 //! B_i       = Σ_o b'' n nᵀ + Σ_lags K_friction            (N × N, PSD)
 //! (H p)_i   = m_i p_i + h² (B_i p_i + Σ_{slots of i} (K_e⁺ p_e))
@@ -22,13 +23,15 @@ use hyperpbd_core::barrier::{ParticleBarrier, evaluate_particle_barrier};
 use hyperpbd_core::implicit::obstacle_friction;
 use hyperpbd_core::{IncrementalPotentialPlan, Plan};
 
-/// A frozen friction lag of one particle against plane `plane` (at x^t).
+/// A frozen friction lag of one particle against obstacle slot
+/// `obstacle` (a plane or a simplex of `BarrierObstacles`, at x^t); its
+/// normal is [`Particles::lag_normal`].
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PlaneLag {
+pub struct ObstacleLag {
     /// The particle.
     pub particle: usize,
-    /// The compiled plane.
-    pub plane: usize,
+    /// The obstacle slot (planes first, then simplices).
+    pub obstacle: usize,
     /// F_max = μ λ.
     pub force_limit: f64,
 }
@@ -44,8 +47,12 @@ pub struct Particles {
     pub prediction: Vec<f64>,
     /// m_i s_i g + f_i.
     pub load: Vec<f64>,
-    /// Plane lags, sorted by particle (then plane).
-    pub lags: Vec<PlaneLag>,
+    /// Obstacle lags, sorted by particle (then obstacle slot, in the order
+    /// `BarrierObstacles::near` visits them at x^t).
+    pub lags: Vec<ObstacleLag>,
+    /// The unit normal of each lag at x^t (N per lag): a plane's normal,
+    /// a simplex's (x^t − q)/|x^t − q|.
+    pub lag_normals: Vec<f64>,
     /// Particle i's lags are `lags[lag_offsets[i]..lag_offsets[i + 1]]`.
     pub lag_offsets: Vec<usize>,
     /// Per particle at the last gradient: [B_i (N²), Σ_o b + Σ_lags D,
@@ -65,6 +72,11 @@ pub struct Context<'a> {
 }
 
 impl Particles {
+    /// The normal of lag `l` (dimension `dim`).
+    pub fn lag_normal(&self, l: usize, dim: usize) -> &[f64] {
+        &self.lag_normals[l * dim..(l + 1) * dim]
+    }
+
     /// Values per particle of [`Particles::terms`].
     pub fn stride(dim: usize) -> usize {
         dim * dim + 2
@@ -93,8 +105,8 @@ impl Particles {
             b.copy_from_slice(&barrier.hessian);
             lag_block.resize(dim * dim, 0.0);
         }
-        for lag in &self.lags[self.lag_offsets[i]..self.lag_offsets[i + 1]] {
-            let normal = &c.ip.obstacles.plane_normals[lag.plane * dim..(lag.plane + 1) * dim];
+        for l in self.lag_offsets[i]..self.lag_offsets[i + 1] {
+            let (lag, normal) = (&self.lags[l], self.lag_normal(l, dim));
             let term = obstacle_friction(
                 normal,
                 lag.force_limit,

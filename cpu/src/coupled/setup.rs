@@ -7,7 +7,9 @@
 //!   (the collide broadphase): a pair within d^ anywhere on the segment has overlapping boxes
 //!   (the ∞-norm gap is at most the Euclidean one)
 //! lags at x^t:  plane p (μ_p > 0), 0 < d < d^:  n_p,                      F_max = μ_p (−b'(d))
-//!               (every plane; simplices within reach d^ of the candidate box, barrier.rs)
+//!               simplex s (μ_s > 0), 0 < d < d^: (x − q)/|x − q|,         F_max = μ_s (−b'(d))
+//!               (every plane; simplices within reach d^ of the candidate box, barrier.rs;
+//!               in the order `near` visits them)
 //!               pair (μ_c > 0),    0 < d < d^:  n = (x_j − x_i)/|x_j − x_i|, F_max = μ_c (−b'(d))
 //! fraction(x, Δ) = min(1, η · min(obstacle_time over free particles, pair_time over the pairs))
 //! ```
@@ -15,7 +17,7 @@
 // Index loops mirror the math line by line.
 #![allow(clippy::needless_range_loop)]
 
-use super::particles::{Particles, PlaneLag};
+use super::particles::{ObstacleLag, Particles};
 use crate::collide::{Contacts, broadphase_on};
 use crate::incremental_potential::PARTICLE_GRAIN;
 use crate::parallel::Workers;
@@ -108,6 +110,7 @@ impl Setup {
         let mut normal = vec![0.0; dim];
         let (mut lo, mut hi) = (vec![0.0; dim], vec![0.0; dim]);
         particles.lags.clear();
+        particles.lag_normals.clear();
         particles.lag_offsets.clear();
         particles.lag_offsets.push(0);
         for i in 0..plan.particle_count() {
@@ -133,15 +136,14 @@ impl Setup {
                         });
                     }
                     let force = normal_force(&ip.law, d);
-                    if o < ip.obstacles.plane_count() && force > 0.0 {
-                        let mu = coupled.plane_friction[o];
-                        if mu > 0.0 {
-                            particles.lags.push(PlaneLag {
-                                particle: i,
-                                plane: o,
-                                force_limit: mu * force,
-                            });
-                        }
+                    let mu = coupled.friction(o);
+                    if force > 0.0 && mu > 0.0 {
+                        particles.lags.push(ObstacleLag {
+                            particle: i,
+                            obstacle: o,
+                            force_limit: mu * force,
+                        });
+                        particles.lag_normals.extend_from_slice(&normal);
                     }
                 }
             }

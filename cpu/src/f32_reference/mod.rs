@@ -56,6 +56,7 @@ pub mod ln;
 mod material;
 use material::material_law;
 mod measure;
+mod mesh_contact;
 mod motion;
 mod primal;
 mod project;
@@ -90,6 +91,8 @@ struct Stored {
     normal: Vec<f32>,
     mu: f32,
     material: Option<material::Law>,
+    /// A mesh contact family's mesh.
+    mesh: Option<mesh_contact::Mesh32>,
     /// XPBD with the primal residual: d_e of every slot (arity · N each;
     /// empty otherwise), a material family's Newton factors
     /// ((arity · N)² per slot), and whether the family's first sweep of
@@ -184,6 +187,7 @@ impl F32Reference {
                     FamilyKind::HyperplaneContact { normal, friction } => {
                         (normal.as_slice(), *friction)
                     }
+                    FamilyKind::MeshContact { friction, .. } => (&[][..], *friction),
                     FamilyKind::Distance
                     | FamilyKind::Tether
                     | FamilyKind::SimplexMeasure { .. }
@@ -211,6 +215,7 @@ impl F32Reference {
                     normal: round(normal),
                     mu: mu as f32,
                     material: material_law(&f.kind),
+                    mesh: mesh_contact::Mesh32::of(&plan, f, origin),
                     carried: primal::displacements(&plan, f),
                     factors: primal::factors(&plan, f),
                     swept: false,
@@ -354,6 +359,7 @@ impl F32Reference {
                     rest: &stored.rest,
                     normal: &stored.normal,
                     material: stored.material.as_ref(),
+                    mesh: stored.mesh.as_ref(),
                 };
                 let r = residual::residual(f, n, &self.particles.x, &stored_family);
                 f64::from(r)
@@ -502,6 +508,10 @@ impl F32Reference {
                             project::contact(s, &colour, &plane, lambda)
                         }
                     },
+                    FamilyKind::MeshContact { .. } => match &stored.mesh {
+                        Some(mesh) => mesh_contact::project(s, &colour, mesh, stored.mu, lambda),
+                        None => Ok(()),
+                    },
                     FamilyKind::Expression(kind) => {
                         let colour = kinds::Colour {
                             kind,
@@ -536,6 +546,16 @@ impl F32Reference {
                         alpha_tilde: stored.alpha_tilde,
                     };
                     return motion::friction(s, &contact, self.h, &stored.lambda);
+                }
+                if let Some(mesh) = &stored.mesh {
+                    let f = &self.plan.families[family];
+                    let (mu, h) = (stored.mu, self.h);
+                    return mesh_contact::friction(
+                        s,
+                        (f, &stored.rest, mesh),
+                        (mu, h),
+                        &stored.lambda,
+                    );
                 }
                 let friction = integrate::Friction {
                     normal: &stored.normal,

@@ -29,7 +29,7 @@ use hyperpbd_core::{Family, FamilyKind, Plan};
 
 use super::material::{Law, cholesky};
 use super::measure::{oriented_measure, simplex_squared_measure};
-use super::project::{Colour, Plane};
+use super::project::{Colour, Plane, static_friction};
 use super::{Particles, Stored};
 
 /// d of every slot of `f` (arity · N each) with the primal residual;
@@ -51,6 +51,7 @@ pub(super) fn factors(plan: &Plan, f: &Family) -> Vec<f32> {
         | FamilyKind::SimplexMeasure { .. }
         | FamilyKind::OrientedMeasure
         | FamilyKind::HyperplaneContact { .. }
+        | FamilyKind::MeshContact { .. }
         | FamilyKind::Expression(_) => false,
     };
     match plan.primal_residual && material {
@@ -118,6 +119,8 @@ pub(super) fn project(
             };
             contact(s, &colour, &plane, lambda, d)
         }
+        // Refused with the primal residual (validate_solver.rs): fails the colour.
+        FamilyKind::MeshContact { .. } => Err(colour.slots.start),
         FamilyKind::Expression(kind) => {
             let kind = (kind.as_ref(), &stored.constants[..]);
             expression(s, &colour, kind, (lambda, d), columns)
@@ -391,22 +394,7 @@ pub fn contact(
             x[a] = anchor[a] + de[a];
         }
         if plane.mu > 0.0 && l > 0.0 {
-            let bound = plane.mu * w * l;
-            let mut dn = 0.0f32;
-            for a in 0..n {
-                dn += (x[a] - p[a]) * normal[a];
-            }
-            let mut t2 = 0.0f32;
-            for a in 0..n {
-                let tan = (x[a] - p[a]) - dn * normal[a];
-                t2 += tan * tan;
-            }
-            if t2.sqrt() <= bound {
-                for a in 0..n {
-                    let tan = (x[a] - p[a]) - dn * normal[a];
-                    x[a] -= tan;
-                }
-            }
+            static_friction(normal, plane.mu * w * l, p, x);
         }
     }
     failed.map_or(Ok(()), Err)

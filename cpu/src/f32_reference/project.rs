@@ -33,7 +33,8 @@ pub fn expression_constants(kind: &hyperpbd_core::FamilyKind) -> Vec<f32> {
         | hyperpbd_core::FamilyKind::SimplexMeasure { .. }
         | hyperpbd_core::FamilyKind::OrientedMeasure
         | hyperpbd_core::FamilyKind::Material { .. }
-        | hyperpbd_core::FamilyKind::HyperplaneContact { .. } => Vec::new(),
+        | hyperpbd_core::FamilyKind::HyperplaneContact { .. }
+        | hyperpbd_core::FamilyKind::MeshContact { .. } => Vec::new(),
     }
 }
 
@@ -190,34 +191,49 @@ pub fn contact(
         }
         let cval = nx - c.rest[e];
         let l = lambda[e];
-        let raw = (-cval - c.alpha_tilde * l) / (w + c.alpha_tilde);
-        if !raw.is_finite() {
+        let Some(dl) = contact_step(cval, l, w, c.alpha_tilde) else {
             failed = failed.or(Some(e));
             continue;
-        }
-        let dl = (l + raw).max(0.0) - l;
+        };
         let l_new = l + dl;
         lambda[e] = l_new;
         for a in 0..n {
             x[a] += w * normal[a] * dl;
         }
         if plane.mu > 0.0 && l_new > 0.0 {
-            let mut dn = 0.0f32;
-            for a in 0..n {
-                dn += (x[a] - p[a]) * normal[a];
-            }
-            let mut t2 = 0.0f32;
-            for a in 0..n {
-                let tan = (x[a] - p[a]) - dn * normal[a];
-                t2 += tan * tan;
-            }
-            if t2.sqrt() <= plane.mu * w * l_new {
-                for a in 0..n {
-                    let tan = (x[a] - p[a]) - dn * normal[a];
-                    x[a] -= tan;
-                }
-            }
+            static_friction(normal, plane.mu * w * l_new, p, x);
         }
     }
     failed.map_or(Ok(()), Err)
+}
+
+/// Δλ of an inequality contact (C ≥ 0) whose value is `c`, multiplier
+/// `l`: (−C − α~ λ)/(w + α~) clamped so that λ + Δλ ≥ 0; `None` when the
+/// raw update is not finite (checked before the clamp, which would hide a
+/// NaN).
+pub fn contact_step(c: f32, l: f32, w: f32, alpha_tilde: f32) -> Option<f32> {
+    let raw = (-c - alpha_tilde * l) / (w + alpha_tilde);
+    raw.is_finite().then(|| (l + raw).max(0.0) - l)
+}
+
+/// Static friction of an active contact with unit normal `normal`: the
+/// tangential part of x − p is cancelled whole if its length is at most
+/// `bound` (the golden path's `project::static_friction`, in f32).
+pub fn static_friction(normal: &[f32], bound: f32, p: &[f32], x: &mut [f32]) {
+    let n = x.len();
+    let mut dn = 0.0f32;
+    for a in 0..n {
+        dn += (x[a] - p[a]) * normal[a];
+    }
+    let mut t2 = 0.0f32;
+    for a in 0..n {
+        let tan = (x[a] - p[a]) - dn * normal[a];
+        t2 += tan * tan;
+    }
+    if t2.sqrt() <= bound {
+        for a in 0..n {
+            let tan = (x[a] - p[a]) - dn * normal[a];
+            x[a] -= tan;
+        }
+    }
 }

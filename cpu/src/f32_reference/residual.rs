@@ -7,6 +7,7 @@
 //! tether           max(d − rest, 0)
 //! simplex measure  |S − rest|        oriented measure  |V − rest|
 //! contact          max(rest − n·x, 0)    (rest in device coordinates)
+//! mesh contact     max(0, −C)            (mesh_contact.rs)
 //! material         C = √(2W)  (+∞ for an element the law refuses)
 //! particle contact max(0, max over listed pairs of r_k + r_m − |x_m − x_k|)
 //! ```
@@ -35,6 +36,8 @@ pub struct StoredFamily<'a> {
     pub rest: &'a [f32],
     pub normal: &'a [f32],
     pub material: Option<&'a Law>,
+    /// A mesh contact family's mesh.
+    pub mesh: Option<&'a super::mesh_contact::Mesh32>,
 }
 
 /// Largest violation of family `f` at positions `x` (device coordinates).
@@ -66,6 +69,10 @@ pub fn residual(f: &Family, n: usize, x: &[f32], stored: &StoredFamily) -> f32 {
                 }
                 (rest[e] - nx).max(0.0)
             }
+            FamilyKind::MeshContact { .. } => match stored.mesh {
+                Some(mesh) => super::mesh_contact::violation(mesh, &pts[..n], rest[e]),
+                None => 0.0,
+            },
             FamilyKind::Expression(kind) => {
                 kind.violation(kind.value_at(e, &pts, &mut columns), rest[e])
             }

@@ -108,6 +108,8 @@ pub(super) struct Params {
     pub pairs: u32,
     /// cp_set_x: 0 the warm start, 1 x^t, 2 the trial.
     pub mode: u32,
+    /// 1 when some simplex has μ > 0 (its lags are walked at x^t).
+    pub mesh_friction: u32,
     pub h: f64,
     pub slip: f64,
     pub step: f64,
@@ -128,7 +130,7 @@ impl Params {
                 self.first_ball,
             ])
             .words(&self.channels)
-            .words(&[self.pairs, self.mode, 0])
+            .words(&[self.pairs, self.mode, self.mesh_friction])
             .reals(&[self.h, self.h * self.h, self.slip, self.step, epsilon])
             .finish()
     }
@@ -189,7 +191,7 @@ const PROBE_REALS: u64 = 4;
 impl Device {
     /// The kernel set's buffers for `count` particles; `fixed` are
     /// barrier.wgsl's bindings 1..=9 followed by mass, gravity_scale,
-    /// gravity, plane_mu and lag_force, then coupled_material.wgsl's
+    /// gravity, obstacle_mu and lag_force, then coupled_material.wgsl's
     /// material_words, material_rest and frames.
     pub fn new(
         ctx: &GpuContext,

@@ -89,7 +89,8 @@ impl Materials {
                 | FamilyKind::Tether
                 | FamilyKind::SimplexMeasure { .. }
                 | FamilyKind::OrientedMeasure
-                | FamilyKind::HyperplaneContact { .. } => None,
+                | FamilyKind::HyperplaneContact { .. }
+                | FamilyKind::MeshContact { .. } => None,
             })
             .max()
             .unwrap_or(0);

@@ -205,12 +205,16 @@ impl GpuCoupledBackend {
             .map(|&w| if w > 0.0 { 1.0 / w } else { 0.0 })
             .collect();
         let planes = ip.obstacles.plane_count();
+        let obstacle_mu: Vec<f64> = (coupled.plane_friction.iter())
+            .chain(&coupled.simplex_friction)
+            .copied()
+            .collect();
         let zeros = vec![0u8; (n * planes).max(1) * real_size(precision)];
         for (label, bytes) in [
             ("mass", reals(&mass)),
             ("gravity_scale", reals(&plan.gravity_scale)),
             ("gravity", reals(&plan.gravity)),
-            ("plane_mu", reals(&coupled.plane_friction)),
+            ("obstacle_mu", reals(&obstacle_mu)),
             ("lag_force", zeros),
         ] {
             fixed.push(ctx.storage(label, &bytes)?);
@@ -223,6 +227,8 @@ impl GpuCoupledBackend {
         };
         device.params.h = plan.h;
         device.params.slip = coupled.slip_velocity * plan.h;
+        device.params.mesh_friction =
+            u32::from(coupled.simplex_friction.iter().any(|&mu| mu > 0.0));
         let pcg = PcgProbe::new(&ctx, precision)?;
         let trial_probe = TrialProbe::new(&ctx)?;
         let mut backend = GpuCoupledBackend {
@@ -286,6 +292,7 @@ impl GpuCoupledBackend {
                     | FamilyKind::SimplexMeasure { .. }
                     | FamilyKind::OrientedMeasure
                     | FamilyKind::HyperplaneContact { .. }
+                    | FamilyKind::MeshContact { .. }
                     | FamilyKind::Expression(_) => {
                         push(members, code, &[family.compliance, family.rest[e]])
                     }

@@ -39,7 +39,8 @@ pub(crate) fn expression_families(plan: &Plan) -> Vec<(usize, &ExpressionKind)> 
             | FamilyKind::SimplexMeasure { .. }
             | FamilyKind::OrientedMeasure
             | FamilyKind::Material { .. }
-            | FamilyKind::HyperplaneContact { .. } => None,
+            | FamilyKind::HyperplaneContact { .. }
+            | FamilyKind::MeshContact { .. } => None,
         })
         .collect()
 }

@@ -17,7 +17,9 @@ pub(crate) fn friction(plan: &Plan, families: &Families, family: usize, call: u3
     let f = &plan.families[family];
     let (normal, mu) = match &f.kind {
         FamilyKind::HyperplaneContact { normal, friction } => (normal.clone(), *friction),
-        FamilyKind::Distance
+        // A mesh contact is refused when the families are laid out (mod.rs).
+        FamilyKind::MeshContact { .. }
+        | FamilyKind::Distance
         | FamilyKind::Tether
         | FamilyKind::SimplexMeasure { .. }
         | FamilyKind::OrientedMeasure

@@ -127,6 +127,7 @@ impl Families {
             out.slot_base.push(out.rest.len() as u32);
             out.elements.extend_from_slice(&f.elements);
             match &f.kind {
+                FamilyKind::MeshContact { .. } => return Err(mesh_contact_unsupported(&f.label)),
                 FamilyKind::HyperplaneContact { normal, .. } => {
                     // A moving plane's origin term is in its per-substep
                     // shift (motion.rs).
@@ -353,6 +354,17 @@ pub(crate) fn encode(
         }
         XpbdEntry::Small => kernels.dispatch_workgroups(pass, entry, d.dispatch.count),
         _ => kernels.dispatch(pass, entry, d.dispatch.count * worlds),
+    }
+}
+
+/// The GPU backends' refusal of a simplex-mesh contact family (`label`):
+/// the golden path and the f32 reference run it; the kernels do not yet.
+pub(crate) fn mesh_contact_unsupported(label: &str) -> GpuError {
+    GpuError::Unsupported {
+        what: format!(
+            "{label}: a simplex_mesh contact on the XPBD path (the CPU backend and the f32 \
+             reference run it; the GPU kernels do not yet: use --backend cpu)"
+        ),
     }
 }
 

@@ -56,6 +56,8 @@ pub(crate) fn project(
             c.op = OP_PROJECT_MATERIAL;
             super::material::set_fields(f, families, family, &mut c);
         }
+        // Refused when the families are laid out (mod.rs).
+        FamilyKind::MeshContact { .. } => {}
         FamilyKind::HyperplaneContact { normal, friction } => {
             // friction and the report read a contact's λ: always stored.
             c.flags &= !FLAG_UNREAD;

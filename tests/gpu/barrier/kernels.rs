@@ -76,6 +76,7 @@ fn obstacles(dim: usize) -> Scene {
     scene.obstacles.push(Obstacle::SimplexMesh {
         vertices: vec![point(&[0.0, 0.0, 0.3]), point(&[0.9, 0.1, 0.2])],
         simplices: vec![vec![0, 1]],
+        friction: 0.0,
     });
     if dim >= 2 {
         scene.obstacles.push(Obstacle::SimplexMesh {
@@ -86,6 +87,7 @@ fn obstacles(dim: usize) -> Scene {
                 point(&[1.0, 1.0]),
             ],
             simplices: vec![vec![0, 1, 2], vec![1, 3, 2]],
+            friction: 0.0,
         });
     }
     if dim >= 3 {
@@ -97,6 +99,7 @@ fn obstacles(dim: usize) -> Scene {
                 point(&[0.5, 0.5, -1.4]),
             ],
             simplices: vec![vec![0, 1, 2, 3]],
+            friction: 0.0,
         });
     }
     scene.solver = hyperpbd::Solver::IncrementalPotential(hyperpbd::IncrementalPotentialSettings {

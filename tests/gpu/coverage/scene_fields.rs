@@ -254,6 +254,7 @@ fn barrier_fields(tolerance: f64) -> Scene {
             vec![-0.5, 0.02, 0.6],
         ],
         simplices: vec![vec![0, 1, 2]],
+        friction: 0.0,
     });
     scene.solver = Solver::IncrementalPotential(IncrementalPotentialSettings {
         barrier_stiffness: 2e3,

@@ -9,7 +9,7 @@ const DOCUMENT: &str = include_str!("../../../scenes/example.json");
 
 /// Every document the mutations start from: the example (constraints,
 /// friction, damping), balls with particle contact, the barrier path
-/// with a hyperplane and segment / triangle / tetrahedron meshes, and
+/// with a hyperplane and segment / triangle (with friction) / tetrahedron meshes, and
 /// bending (both models) with an expression family (ln, exp, a param, a
 /// relation), and
 /// the conveyor with prescribed motion (a belt, pins on a circle and

@@ -13,7 +13,9 @@
 //!   plane                  |b'(d)| + b''(d) (Σ_a |n_a x_a| + |c| + r)         (d < d^)
 //!   simplex                |b'(d)| + b''(d) (|x| + max_v |v| + r)              (d < d^)
 //!   friction (lag F_max)   F_max (1 + 2 (|x| + |x^t| [+ partner's]) / (ε_v h)) (slope of the
-//!                          smoothed static branch 2 F_max/ε times the slip's rounding)
+//!                          smoothed static branch 2 F_max/ε times the slip's rounding);
+//!                          a simplex lag × (1 + (|x^t| + max_v |v|)/(d + r)), its normal's
+//!                          rounding relative to |x^t − q|
 //! ```
 //! γ is four times the (N + 4) ε the golden path's own floors use, which
 //! covers the few sums (at most a particle's terms, in a fixed order) and
@@ -120,13 +122,22 @@ pub fn gradient_rounding(plan: &Plan, start: (&[f64], &[f64]), x: &[f64]) -> Vec
                 size + far + plan.radius[i]
             };
             terms[i] += slope.abs() + curvature * scale;
-            if o < obstacles.plane_count() {
-                let mu = coupled.map_or(0.0, |c| c.plane_friction[o]);
-                if mu > 0.0 {
-                    let dt = obstacles.distance(o, &ti, plan.radius[i], &mut normal);
-                    let limit = mu * law.evaluate(dt).1.abs();
-                    terms[i] += limit * (1.0 + 2.0 * (size + start_size) / slip);
-                }
+            let mu = coupled.map_or(0.0, |c| c.friction(o));
+            if mu > 0.0 {
+                let dt = obstacles.distance(o, &ti, plan.radius[i], &mut normal);
+                let limit = mu * law.evaluate(dt).1.abs();
+                // A simplex lag's normal (x^t − q)/|x^t − q| carries the
+                // rounding of coordinates of size |x^t| + far relative to
+                // |x^t − q| = d + r (a plane's is authored, unit).
+                let normal_growth = if o < obstacles.plane_count() {
+                    1.0
+                } else {
+                    let s = o - obstacles.plane_count();
+                    let vertices = obstacles.simplex(s, dim);
+                    let far = vertices.chunks_exact(dim).map(norm).fold(0.0f64, f64::max);
+                    1.0 + (start_size + far) / (dt + plan.radius[i])
+                };
+                terms[i] += limit * (1.0 + 2.0 * (size + start_size) / slip * normal_growth);
             }
         }
         let m = 1.0 / plan.inverse_mass[i];

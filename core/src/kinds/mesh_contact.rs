@@ -1,0 +1,76 @@
+//! Simplex-mesh contact on the XPBD path, compiled from a `simplex_mesh`
+//! obstacle: one element per dynamic particle, the inequality
+//!
+//! ```text
+//! C(x) = dist(x, M) − r ≥ 0,   dist(x, M) = min over the simplices s of M of |x − q_s(x)|
+//! ∇C   = n = (x − q)/|x − q|   (q the closest point of the closest simplex)
+//! ```
+//! (λ ≥ 0), projected exactly as a hyperplane contact with n·x − rest
+//! replaced by |x − q| − r: Δλ = (−C − α~ λ)/(w + α~), λ' = max(λ + Δλ, 0),
+//! x += w n Δλ; static friction in the projection, dynamic friction as a
+//! velocity response, both with this n. One constraint per particle and
+//! mesh (the distance to the union, not one per simplex): a ball resting
+//! on a shared edge or vertex of a flat triangulation has one contact and
+//! one normal, as on the plane.
+//!
+//! Reach. The update moves x only when C ≤ w λ (λ the slot's multiplier
+//! before the update): C ≤ 0 pushes out, 0 < C ≤ w λ pulls back what this
+//! substep pushed (as the hyperplane does). A simplex that can decide the
+//! update is therefore within r + w λ of x, and only simplices whose box
+//! meets the candidate box x ± (r + wλ + pad) are visited, through the
+//! mesh's hierarchy in index order (`barrier::candidate_box`, pad =
+//! 16 N (N + 4) ε (‖x‖∞ + G + r + wλ): rounding of boxes and distances).
+//! ```text
+//! (C, n) = the smallest |x − q_s| − r over the visited s (the lowest s on a tie;
+//!          within a simplex the first face in bitmask order: closest_point.rs)
+//! C > w λ (or nothing visited)   → out of reach: no update (the slot keeps λ)
+//! |x − q| = 0                    → no direction: no update (∇C undefined)
+//! ```
+//! Out of reach is the one difference from the hyperplane, which would
+//! pull the particle back by w λ towards a contact it has left by more
+//! than that within the substep; the mesh leaves it where it is. Visiting
+//! in index order and keeping the first minimum gives the exhaustive
+//! scan's choice bit for bit (every simplex within reach is visited), on
+//! any thread count: a particle's update reads only its own slot.
+//!
+//! The mesh is unsigned (a distance, no inside): a ball whose centre
+//! crosses a simplex within one substep is pushed out on the far side.
+//! Substeps must keep |v| h below r, as for particle–particle contact.
+
+use super::relation::Relation;
+use crate::barrier::{BarrierObstacles, candidate_box, distance_margin};
+
+pub(super) const RELATION: Relation = Relation::AtLeast;
+
+/// C and the unit normal n (into `normal`) of the contact of a particle at
+/// `x` with radius `radius` against `mesh`, for a slot whose reach is
+/// `reach` = w λ (module docs); `None` out of reach or with no direction.
+pub fn closest(
+    mesh: &BarrierObstacles,
+    x: &[f64],
+    radius: f64,
+    reach: f64,
+    normal: &mut [f64],
+) -> Option<f64> {
+    let dim = x.len();
+    let mut lo = [0.0f64; crate::MAX_DIM];
+    let mut hi = [0.0f64; crate::MAX_DIM];
+    let mut n = [0.0f64; crate::MAX_DIM];
+    let (lo, hi, n) = (&mut lo[..dim], &mut hi[..dim], &mut n[..dim]);
+    let margin = distance_margin(dim, f64::EPSILON);
+    candidate_box(x, radius, reach, mesh.scale, margin, lo, hi);
+    let mut best: Option<f64> = None;
+    for o in mesh.near(lo, hi) {
+        let c = mesh.distance(o, x, radius, n);
+        // `!(c >= best)`: a NaN distance is kept (and fails the update).
+        if best.is_none_or(|b| c < b || c.is_nan() && !b.is_nan()) {
+            best = Some(c);
+            normal.copy_from_slice(n);
+        }
+    }
+    let c = best?;
+    if c > reach || normal.iter().all(|&a| a == 0.0) {
+        return None;
+    }
+    Some(c)
+}

@@ -1,0 +1,185 @@
+//! Simplex-mesh contact in f32 (`hyperpbd_core::kinds::mesh_contact` has
+//! the constraint; `mesh_contact.rs` of the golden path the same steps in
+//! f64).
+//!
+//! ```text
+//! vertices   each f64 rounded to f32 once, after subtracting the scene
+//!            origin o in f64 (positions here are x − o)
+//! candidates the mesh hierarchy's simplices whose (f64) box meets
+//!            barrier::candidate_box((x + o) in f64, r, reach) with the pad
+//!            M = 16 N (N + 4) ε_f32, in index order
+//! distance   barrier.rs's `obstacle_distance` (the shader's f32 closest
+//!            point: every face's Gram solve, the first smallest |x − q|²)
+//! (C, n)     the first smallest C over the candidates; none when
+//!            C > reach = w λ or n = 0
+//! project    Δλ = (−C − α~ λ)/(w + α~);  λ' = max(λ + Δλ, 0);  x += w n Δλ;
+//!            static friction (project.rs's) with this n
+//! friction   n at the substep's final x (reach w λ), then integrate.rs's
+//!            dynamic friction of one element with that n
+//! residual   max(0, −C) with reach 0
+//! ```
+
+use std::sync::Arc;
+
+use hyperpbd_core::barrier::{BarrierObstacles, SIMPLEX_SLOTS, candidate_box, distance_margin};
+use hyperpbd_core::{Family, FamilyKind, MAX_DIM, Plan};
+
+use super::Particles;
+use super::barrier::{BarrierInputs, obstacle_distance};
+use super::integrate::{Friction, friction as plane_friction};
+use super::project::{Colour, contact_step, static_friction};
+
+/// One mesh as the f32 reference holds it.
+#[derive(Debug, Clone)]
+pub struct Mesh32 {
+    /// The golden mesh (its hierarchy and boxes, world coordinates).
+    mesh: Arc<BarrierObstacles>,
+    /// The vertices in f32 device coordinates (no planes).
+    inputs: BarrierInputs,
+    /// The scene origin o.
+    origin: Vec<f64>,
+}
+
+impl Mesh32 {
+    /// The mesh of family `f` of `plan` when it is a mesh contact family.
+    pub fn of(plan: &Plan, f: &Family, origin: &[f64]) -> Option<Self> {
+        let FamilyKind::MeshContact { mesh, .. } = &f.kind else {
+            return None;
+        };
+        Some(Mesh32::new(plan.dim, &plan.meshes[*mesh], origin))
+    }
+
+    /// `mesh` with positions stored relative to `origin`.
+    pub fn new(dim: usize, mesh: &Arc<BarrierObstacles>, origin: &[f64]) -> Self {
+        let geometry = mesh
+            .simplex_vertices
+            .chunks_exact(dim)
+            .flat_map(|v| v.iter().zip(origin).map(|(c, o)| (c - o) as f32))
+            .collect();
+        debug_assert_eq!(
+            mesh.simplex_vertices.len(),
+            mesh.simplex_count() * SIMPLEX_SLOTS * dim
+        );
+        Mesh32 {
+            mesh: mesh.clone(),
+            inputs: BarrierInputs {
+                dim,
+                planes: 0,
+                geometry,
+                arity: mesh.simplex_arity.clone(),
+                stiffness: 0.0,
+                activation: 0.0,
+                safety: 0.0,
+            },
+            origin: origin.to_vec(),
+        }
+    }
+
+    /// C and n (into `normal`) of a particle at `x` (device coordinates)
+    /// with radius `r` and reach `reach` (module docs).
+    pub fn closest(&self, x: &[f32], r: f32, reach: f32, normal: &mut [f32]) -> Option<f32> {
+        let dim = x.len();
+        let mut world = [0.0f64; MAX_DIM];
+        for a in 0..dim {
+            world[a] = f64::from(x[a]) + self.origin[a];
+        }
+        let (mut lo, mut hi) = ([0.0f64; MAX_DIM], [0.0f64; MAX_DIM]);
+        let (lo, hi) = (&mut lo[..dim], &mut hi[..dim]);
+        let margin = distance_margin(dim, f64::from(f32::EPSILON));
+        let scale = self.mesh.scale;
+        candidate_box(&world[..dim], r.into(), reach.into(), scale, margin, lo, hi);
+        let mut n = [0.0f32; MAX_DIM];
+        let n = &mut n[..dim];
+        let mut best: Option<f32> = None;
+        for s in self.mesh.near(lo, hi) {
+            let c = obstacle_distance(&self.inputs, s, x, r, n);
+            if best.is_none_or(|b| c < b || c.is_nan() && !b.is_nan()) {
+                best = Some(c);
+                normal.copy_from_slice(n);
+            }
+        }
+        let c = best?;
+        if c > reach || normal.iter().all(|&a| a == 0.0) {
+            return None;
+        }
+        Some(c)
+    }
+}
+
+/// Projects colour `c` of a mesh family with friction `mu`; the first
+/// slot whose update was not finite (every slot is still visited).
+pub fn project(
+    s: &mut Particles,
+    c: &Colour,
+    mesh: &Mesh32,
+    mu: f32,
+    lambda: &mut [f32],
+) -> Result<(), usize> {
+    let n = s.dim;
+    let mut normal = [0.0f32; MAX_DIM];
+    let normal = &mut normal[..n];
+    let mut failed = None;
+    for e in c.slots.clone() {
+        let i = c.elements[e] as usize;
+        let w = s.w[i];
+        let l = lambda[e];
+        let (x, p) = (&mut s.x[i * n..(i + 1) * n], &s.p[i * n..(i + 1) * n]);
+        let Some(cval) = mesh.closest(x, c.rest[e], w * l, normal) else {
+            continue;
+        };
+        let Some(dl) = contact_step(cval, l, w, c.alpha_tilde) else {
+            failed = failed.or(Some(e));
+            continue;
+        };
+        let l_new = l + dl;
+        lambda[e] = l_new;
+        for a in 0..n {
+            x[a] += w * normal[a] * dl;
+        }
+        if mu > 0.0 && l_new > 0.0 {
+            static_friction(normal, mu * w * l_new, p, x);
+        }
+    }
+    failed.map_or(Ok(()), Err)
+}
+
+/// Dynamic friction of mesh family `f` (stored rest values `rest`); the
+/// smallest particle whose velocity became non-finite.
+pub fn friction(
+    s: &mut Particles,
+    (f, rest, mesh): (&Family, &[f32], &Mesh32),
+    (mu, h): (f32, f32),
+    lambda: &[f32],
+) -> Result<(), usize> {
+    let n = s.dim;
+    let mut normal = [0.0f32; MAX_DIM];
+    let normal = &mut normal[..n];
+    let mut failed: Option<usize> = None;
+    for (e, (&i, &l)) in f.elements.iter().zip(lambda).enumerate() {
+        if l <= 0.0 {
+            continue;
+        }
+        let iu = i as usize;
+        let x = &s.x[iu * n..(iu + 1) * n];
+        if mesh.closest(x, rest[e], s.w[iu] * l, normal).is_none() {
+            continue;
+        }
+        let one = Friction {
+            normal,
+            mu,
+            h,
+            particles: &[i],
+            lambda: &[l],
+        };
+        if let Err(p) = plane_friction(s, &one) {
+            failed = Some(failed.map_or(p, |f| f.min(p)));
+        }
+    }
+    failed.map_or(Ok(()), Err)
+}
+
+/// max(0, −C) of a particle at `x` with radius `r`.
+pub fn violation(mesh: &Mesh32, x: &[f32], r: f32) -> f32 {
+    let mut normal = [0.0f32; MAX_DIM];
+    (mesh.closest(x, r, 0.0, &mut normal[..x.len()])).map_or(0.0, |c| (-c).max(0.0))
+}

@@ -1,0 +1,103 @@
+//! Simplex-mesh contact on the golden path (`hyperpbd_core::kinds::
+//! mesh_contact` has the constraint, its reach and its tie rule): the
+//! dynamic friction and the residual of one mesh family; its projection
+//! (the update below) is `project.rs`'s `mesh_contact_in`.
+//!
+//! ```text
+//! project   reach = w λ;  (C, n) = closest(mesh, x, r, reach)   (none: no update)
+//!           Δλ = (−C − α~ λ)/(w + α~);  λ' = max(λ + Δλ, 0);  x += w n (λ' − λ)
+//!           static friction (μ > 0, λ' > 0): project.rs's, with this n
+//! friction  after Velocity, per element with λ > 0:
+//!           n from closest(mesh, x, r, w λ) at the substep's final x (none: no friction)
+//!           v_t = v − (n·v) n;  v −= v_t · min(μ w λ / h, |v_t|) / |v_t|   (friction.rs's)
+//! residual  max_e max(0, −C_e)    (C from closest(mesh, x, r, 0): only C ≤ 0 counts)
+//! ```
+//! These are the hyperplane's updates (`project.rs`, `friction.rs`) with
+//! the plane's fixed normal replaced by the mesh's normal at x. A family
+//! holds each particle once and an element writes only its particle, so
+//! the elements run in chunks on every core with the serial bytes.
+
+// Coordinate loops index several arrays at once, as a kernel does.
+#![allow(clippy::needless_range_loop)]
+
+use crate::friction::clamp_tangential;
+use crate::parallel::{Coordinates, DisjointSlice, Shared, Workers, first_error};
+use crate::project::ELEMENT_GRAIN;
+use hyperpbd_core::barrier::BarrierObstacles;
+use hyperpbd_core::kinds::mesh_contact::closest;
+use hyperpbd_core::{Family, MAX_DIM};
+use std::ops::Range;
+
+/// What every element of a mesh family's friction shares.
+pub(crate) struct MeshFriction<'a> {
+    pub dim: usize,
+    pub h: f64,
+    pub inverse_mass: &'a [f64],
+    pub family: &'a Family,
+    pub mesh: &'a BarrierObstacles,
+    pub mu: f64,
+    pub lambda: &'a [f64],
+    /// Positions at the substep's end.
+    pub x: &'a [f64],
+}
+
+/// Dynamic friction of a mesh family; the first particle (in element
+/// order) whose velocity became non-finite.
+pub(crate) fn friction(workers: &Workers, m: &MeshFriction, v: &mut [f64]) -> Result<(), usize> {
+    let count = m.lambda.len();
+    let result = if workers.splits(count, ELEMENT_GRAIN) {
+        // SAFETY: a contact family holds each particle once (checked by
+        // `colours::check` when the backend loaded the plan), and element
+        // e writes only the velocity of its particle.
+        let v = unsafe { DisjointSlice::new(v) };
+        workers.try_for_chunks(count, ELEMENT_GRAIN, |r| friction_in(m, r, &mut Shared(&v)))
+    } else {
+        workers
+            .chunks(count, ELEMENT_GRAIN)
+            .map(|r| friction_in(m, r, v))
+            .fold(Ok(()), first_error)
+    };
+    result.map_err(|e| m.family.elements[e] as usize)
+}
+
+/// Friction of elements `elements`; the first non-finite element.
+fn friction_in<V: Coordinates + ?Sized>(
+    m: &MeshFriction,
+    elements: Range<usize>,
+    v: &mut V,
+) -> Result<(), usize> {
+    let dim = m.dim;
+    let mut normal = [0.0f64; MAX_DIM];
+    let normal = &mut normal[..dim];
+    for e in elements {
+        let l = m.lambda[e];
+        if l <= 0.0 {
+            continue;
+        }
+        let i = m.family.elements[e] as usize;
+        let w = m.inverse_mass[i];
+        let xi = &m.x[i * dim..(i + 1) * dim];
+        if closest(m.mesh, xi, m.family.rest[e], w * l, normal).is_none() {
+            continue;
+        }
+        let vi = v.values_mut(i * dim..(i + 1) * dim);
+        let applied = clamp_tangential(normal, m.mu * w * l / m.h, vi);
+        if applied && !vi.iter().all(|c| c.is_finite()) {
+            return Err(e);
+        }
+    }
+    Ok(())
+}
+
+/// max_e max(0, −C_e) of mesh family `family` at `x`.
+pub(crate) fn residual(dim: usize, family: &Family, mesh: &BarrierObstacles, x: &[f64]) -> f64 {
+    let mut normal = [0.0f64; MAX_DIM];
+    let mut worst: f64 = 0.0;
+    for (e, &i) in family.elements.iter().enumerate() {
+        let xi = &x[i as usize * dim..(i as usize + 1) * dim];
+        if let Some(c) = closest(mesh, xi, family.rest[e], 0.0, &mut normal[..dim]) {
+            worst = worst.max(-c);
+        }
+    }
+    worst
+}
