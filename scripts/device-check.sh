@@ -11,7 +11,7 @@
 #                                     markdown report under $OUT
 #   scripts/device-check.sh --dry     here, on lavapipe, tiny sizes, report
 #                                     under $OUT or out/device-check/ (the
-#                                     test suite runs it: tests/gpu/device_check.rs)
+#                                     test suite runs it: tests/device_check.rs)
 #
 # The run: info (adapter, f64, passthrough, shader path) · gpu-f64 against the
 # golden path and gpu-f32 against the f32 reference on the differential

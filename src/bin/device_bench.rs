@@ -22,7 +22,7 @@
 //! naming why, never a silent omission.
 //!
 //! `cargo build --release --bin device_bench` (a binary of the root crate,
-//! so the integration tests get a fresh one: tests/gpu/device_check.rs)
+//! so the integration tests get a fresh one: tests/device_check.rs)
 
 use std::time::Instant;
 

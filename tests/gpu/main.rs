@@ -20,7 +20,6 @@ mod coupled;
 mod coupled_f32;
 mod coverage;
 mod determinism;
-mod device_check;
 mod differential;
 mod drum_scenes;
 mod example_wgpu_render;

@@ -13,7 +13,7 @@
 //! Without an adapter the test is skipped (printed), unless
 //! `HYPERPBD_REQUIRE_GPU=1`.
 
-use crate::common;
+mod common;
 
 use common::gpu::adapter_or_skip;
 use hyperpbd::Precision;
