@@ -158,7 +158,7 @@ fn simplex_mesh_obstacles_in_f32() {
 /// The V of segments with friction μ = 0.4 on the mesh (issue 31 item 4).
 #[test]
 fn simplex_mesh_friction_in_f32() {
-    if !on_one_lavapipe_thread("simplex_mesh_friction_in_f32") {
+    if !on_one_lavapipe_thread(&test_name(module_path!(), "simplex_mesh_friction_in_f32")) {
         return;
     }
     let mut scene = balls_in_a_v();
