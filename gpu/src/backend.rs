@@ -210,7 +210,7 @@ impl GpuBackend {
         let entries = schedule.entries();
         let generated = crate::xpbd::generated(&plan, &families, precision);
         let kernels = KernelSet::new(
-            device,
+            &ctx,
             &KernelSetSpec {
                 label: "hyperpbd xpbd",
                 modules: &[crate::shader::ShaderFile::Step],
@@ -415,9 +415,19 @@ impl GpuBackend {
 
     /// Destroys the device, as a driver reset or a removed GPU would:
     /// every later call answers [`GpuError::DeviceLost`]. For
-    /// fault-injection tests of that path.
-    pub fn destroy_device(&self) {
+    /// fault-injection tests of that path, on a backend loaded with
+    /// `with_private_device` or `with_device`; the process's shared
+    /// device (`with_adapter`) serves other backends and is refused.
+    pub fn destroy_device(&self) -> Result<(), GpuError> {
+        if self.ctx.shared {
+            return Err(GpuError::Unsupported {
+                what: "destroying the process's shared device (load the backend with \
+                       with_private_device)"
+                    .into(),
+            });
+        }
         self.ctx.device.destroy();
+        Ok(())
     }
 
     /// Device bytes per particle and per constraint slot (buffers that

@@ -302,7 +302,7 @@ impl BarrierKernels {
         }
         let ctx = GpuContext::new(adapter, precision)?;
         let kernels = KernelSet::new(
-            &ctx.device,
+            &ctx,
             &KernelSetSpec {
                 label: "hyperpbd barrier",
                 modules: &[ShaderFile::Barrier],

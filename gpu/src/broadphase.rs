@@ -64,7 +64,7 @@ impl GpuSweep {
         capacity: usize,
     ) -> Result<Self, GpuError> {
         let ctx = GpuContext::new(adapter, precision)?;
-        let kernels = ContactKernels::new(&ctx.device, dim, precision)?;
+        let kernels = ContactKernels::new(&ctx, dim, precision)?;
         let unused = [
             ctx.storage("sweep x", &[0; 128])?,
             ctx.storage("sweep v", &[0; 128])?,

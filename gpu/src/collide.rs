@@ -56,7 +56,7 @@ impl GpuCollide {
         precision: Precision,
     ) -> Result<Self, GpuError> {
         let ctx = GpuContext::new(adapter, precision)?;
-        let kernels = ContactKernels::new(&ctx.device, dim, precision)?;
+        let kernels = ContactKernels::new(&ctx, dim, precision)?;
         ctx.check()?;
         Ok(GpuCollide {
             ctx,

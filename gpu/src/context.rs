@@ -3,9 +3,11 @@
 //! for, how buffers are created and read back.
 //!
 //! ```text
-//! GpuContext::new(adapter, precision)   device + queue (the features the
-//!                                       precision needs), the uncaptured-
-//!                                       error sink, the device-lost flag
+//! GpuContext::new(adapter, precision)   the process's shared device of the
+//!                                       adapter and precision (device_pool:
+//!                                       queue, device-lost flag, compiled
+//!                                       kernels), its own error list
+//! GpuContext::private(…)                the same on a device of its own
 //! check()           lost → DeviceLost; reported errors → OutOfMemory / Other
 //! submit_and_wait   submit, wait for that submission, check()
 //! submit_and_read   submit, map a read-back buffer: ONE wait for both, check()
@@ -23,6 +25,8 @@ use std::sync::{Arc, Mutex};
 
 use hyperpbd_core::{BackendError, GpuError};
 
+use crate::device_pool::{self, Pooled};
+use crate::kernel_cache::KernelCache;
 use crate::{AdapterSummary, Precision};
 
 /// A device, its queue, and where its errors go (clones share them).
@@ -30,6 +34,10 @@ use crate::{AdapterSummary, Precision};
 pub(crate) struct GpuContext {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
+    /// The kernel sets built on `device` (shared with every context on it).
+    pub kernels: KernelCache,
+    /// Whether `device` is the pool's, shared with other backends.
+    pub shared: bool,
     /// The adapter the device was created on.
     pub summary: AdapterSummary,
     errors: Arc<Mutex<Vec<String>>>,
@@ -40,26 +48,29 @@ pub(crate) struct GpuContext {
 }
 
 impl GpuContext {
-    /// A device on `adapter` with the features `precision` needs.
+    /// The shared device of `adapter` for `precision` (the features it
+    /// needs), with a fresh error list and host-wait count of its own.
     pub fn new(adapter: &wgpu::Adapter, precision: Precision) -> Result<Self, GpuError> {
-        let summary = AdapterSummary::of(adapter);
-        let (device, queue) = crate::request_device(adapter, precision)?;
-        let errors = crate::device_errors::collect_device_errors(&device);
-        let lost: Arc<Mutex<Option<String>>> = Arc::default();
-        let sink = lost.clone();
-        device.set_device_lost_callback(move |reason, message| {
-            if let Ok(mut l) = sink.lock() {
-                *l = Some(format!("{reason:?}: {message}"));
-            }
-        });
-        Ok(GpuContext {
-            device,
-            queue,
-            summary,
-            errors,
-            lost,
+        Ok(Self::of(adapter, device_pool::shared(adapter, precision)?, true))
+    }
+
+    /// As [`GpuContext::new`] on a device of its own, shared with no other
+    /// backend (one that may destroy it).
+    pub fn private(adapter: &wgpu::Adapter, precision: Precision) -> Result<Self, GpuError> {
+        Ok(Self::of(adapter, Pooled::private(adapter, precision)?, false))
+    }
+
+    fn of(adapter: &wgpu::Adapter, pooled: Pooled, shared: bool) -> Self {
+        GpuContext {
+            errors: pooled.subscribe(),
+            device: pooled.device,
+            queue: pooled.queue,
+            kernels: pooled.kernels,
+            shared,
+            summary: AdapterSummary::of(adapter),
+            lost: pooled.lost,
             waits: Arc::default(),
-        })
+        }
     }
 
     /// The caller's `device` and `queue`, created on `adapter`: the
@@ -85,6 +96,8 @@ impl GpuContext {
         Ok(GpuContext {
             device,
             queue,
+            kernels: KernelCache::default(),
+            shared: false,
             summary,
             errors: Arc::default(),
             lost: Arc::default(),
@@ -267,8 +280,10 @@ impl GpuContext {
 /// Where a backend's device comes from: its own, made on an adapter, or
 /// the caller's.
 pub(crate) enum DeviceSource<'a> {
-    /// A new device on this adapter.
+    /// The process's shared device of this adapter (device_pool).
     Own(&'a wgpu::Adapter),
+    /// A device of its own on this adapter.
+    Private(&'a wgpu::Adapter),
     /// The caller's device and queue, made on `adapter`.
     Given {
         adapter: &'a wgpu::Adapter,
@@ -282,6 +297,7 @@ impl DeviceSource<'_> {
     pub(crate) fn context(self, precision: Precision) -> Result<GpuContext, GpuError> {
         match self {
             DeviceSource::Own(adapter) => GpuContext::new(adapter, precision),
+            DeviceSource::Private(adapter) => GpuContext::private(adapter, precision),
             DeviceSource::Given {
                 adapter,
                 device,

@@ -151,7 +151,7 @@ impl GpuBarrierBackend {
         }
         let ctx = device.context(precision)?;
         let kernels = KernelSet::new(
-            &ctx.device,
+            &ctx,
             &KernelSetSpec {
                 label: "hyperpbd incremental potential",
                 modules: &[ShaderFile::IncrementalPotential],

@@ -138,7 +138,7 @@ pub(crate) fn storage(binding: u32, read_only: bool, dynamic: bool) -> wgpu::Bin
 /// An entry point of a kernel set: its WGSL file and function name, and
 /// the values of the module's pipeline-overridable constants it is
 /// specialised with (one pipeline per distinct entry).
-pub(crate) trait EntryPoint: Copy + Eq + std::fmt::Debug + 'static {
+pub(crate) trait EntryPoint: Copy + Eq + std::fmt::Debug + Send + Sync + 'static {
     /// The file that defines it and its name there.
     fn source(self) -> (ShaderFile, &'static str);
 
@@ -170,7 +170,9 @@ pub(crate) struct KernelSetSpec<'a, E> {
     pub generated: Option<&'a str>,
 }
 
-/// Layouts and pipelines of one kernel family.
+/// Layouts and pipelines of one kernel family (clones share the wgpu
+/// objects).
+#[derive(Clone)]
 pub(crate) struct KernelSet<E> {
     label: &'static str,
     layouts: Vec<wgpu::BindGroupLayout>,
@@ -179,8 +181,18 @@ pub(crate) struct KernelSet<E> {
 }
 
 impl<E: EntryPoint> KernelSet<E> {
+    /// The layouts and pipelines of `spec` on `ctx`'s device: the ones
+    /// the device already built for the same spec ([`KernelCache`]), else
+    /// built now.
+    ///
+    /// [`KernelCache`]: crate::kernel_cache::KernelCache
+    pub fn new(ctx: &GpuContext, spec: &KernelSetSpec<'_, E>) -> Result<Self, GpuError> {
+        ctx.kernels
+            .get_or_build(spec, || Self::compile(&ctx.device, spec))
+    }
+
     /// Builds the layouts, modules and pipelines of `spec` on `device`.
-    pub fn new(device: &wgpu::Device, spec: &KernelSetSpec<'_, E>) -> Result<Self, GpuError> {
+    fn compile(device: &wgpu::Device, spec: &KernelSetSpec<'_, E>) -> Result<Self, GpuError> {
         let limits = device.limits();
         let groups = reflect_groups(spec)?;
         let needed: usize = groups

@@ -54,6 +54,20 @@ macro_rules! resident_backend {
                 Self::$load(source, plan, state, precision $(, $extra)*)
             }
 
+            /// As `with_adapter`, on a device of its own: the backend
+            /// shares neither the device nor its compiled kernels with
+            /// other backends (the one way to a backend that may
+            /// `destroy_device`).
+            pub fn with_private_device(
+                adapter: &wgpu::Adapter,
+                plan: ::hyperpbd_core::Plan,
+                state: &::hyperpbd_core::State,
+                precision: $crate::Precision,
+            ) -> Result<Self, ::hyperpbd_core::BackendError> {
+                let source = $crate::context::DeviceSource::Private(adapter);
+                Self::$load(source, plan, state, precision $(, $extra)*)
+            }
+
             /// Loads `plan` with `state` on the caller's `device` and
             /// `queue` (created on `adapter` with the features `precision`
             /// needs: [`crate::required_features`]), so the simulation

@@ -34,9 +34,15 @@ fn a_lost_device_is_a_typed_error_on_every_call() {
         let scene = small_scene();
         let plan = Plan::compile(&scene).expect("valid");
         let state = State::from_scene(&scene);
-        let mut gpu = GpuBackend::with_adapter(&adapter, plan, &state, precision).expect("gpu");
+        let shared = GpuBackend::with_adapter(&adapter, plan.clone(), &state, precision).expect("gpu");
+        assert!(
+            matches!(shared.destroy_device(), Err(GpuError::Unsupported { .. })),
+            "{precision}: the shared device must not be destroyed"
+        );
+        let mut gpu =
+            GpuBackend::with_private_device(&adapter, plan, &state, precision).expect("gpu");
         gpu.step().expect("a step before the loss");
-        gpu.destroy_device();
+        gpu.destroy_device().expect("a private device");
         let step = gpu.step();
         assert!(
             matches!(step, Err(BackendError::Gpu(GpuError::DeviceLost { .. }))),

@@ -78,7 +78,7 @@ impl ContactStage {
             flags: 0,
             axis: plan.dim as u32,
         });
-        let kernels = ContactKernels::new(&ctx.device, plan.dim, precision)?;
+        let kernels = ContactKernels::new(&ctx, plan.dim, precision)?;
         let buffers = ContactBuffers::new(
             ctx,
             &kernels,

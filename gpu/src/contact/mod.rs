@@ -30,6 +30,7 @@ pub(crate) use buffers::{Block, Bound, ContactBuffers, Outcome, Particles};
 use hyperpbd_core::{GpuError, Kernel, Plan};
 
 use crate::Precision;
+use crate::context::GpuContext;
 use crate::kernel_set::{EntryPoint, KernelSet, KernelSetSpec};
 use crate::shader::ShaderFile;
 
@@ -133,9 +134,9 @@ pub(crate) struct ContactKernels {
 }
 
 impl ContactKernels {
-    /// Builds every pipeline of the set on `device`.
+    /// Every pipeline of the set on `ctx`'s device.
     pub(crate) fn new(
-        device: &wgpu::Device,
+        ctx: &GpuContext,
         dim: usize,
         precision: Precision,
     ) -> Result<Self, GpuError> {
@@ -148,7 +149,7 @@ impl ContactKernels {
             });
         }
         let set = KernelSet::new(
-            device,
+            ctx,
             &KernelSetSpec {
                 label: "hyperpbd contact",
                 modules: &[ShaderFile::Scan, ShaderFile::Grid, ShaderFile::Collide],

@@ -177,7 +177,7 @@ impl GpuCoupledBackend {
         let materials = Materials::of(&plan);
         let generated = expression::generated(&plan, precision);
         let kernels = KernelSet::new(
-            &ctx.device,
+            &ctx,
             &KernelSetSpec {
                 label: "hyperpbd coupled step",
                 modules: &[crate::shader::ShaderFile::Coupled],
