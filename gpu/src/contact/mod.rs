@@ -125,19 +125,35 @@ pub(crate) enum ContactPhase {
     Report,
 }
 
-/// The contact kernel set for one dimension and precision.
+/// The contact kernel set for one dimension and precision (and, in a
+/// batch, its worlds).
 pub(crate) struct ContactKernels {
     dim: usize,
     precision: Precision,
+    /// Worlds every dispatch runs (1 but in a batch).
+    worlds: usize,
     set: KernelSet<ContactEntry>,
 }
 
 impl ContactKernels {
-    /// Builds every pipeline of the set on `device`.
+    /// Builds every pipeline of the set on `device`, for one world.
     pub(crate) fn new(
         device: &wgpu::Device,
         dim: usize,
         precision: Precision,
+    ) -> Result<Self, GpuError> {
+        Self::for_worlds(device, dim, precision, (1, 0))
+    }
+
+    /// Builds every pipeline of the set on `device` for `worlds` =
+    /// (W, particles per world): with W > 1 the batch's kernels
+    /// (contact.wgsl's WORLDS, the prelude's WORLD_PARTICLES), else the
+    /// single-world ones.
+    pub(crate) fn for_worlds(
+        device: &wgpu::Device,
+        dim: usize,
+        precision: Precision,
+        worlds: (usize, usize),
     ) -> Result<Self, GpuError> {
         if dim == 0 || dim > crate::shader::MAX_GPU_DIM {
             return Err(GpuError::Unsupported {
@@ -147,6 +163,14 @@ impl ContactKernels {
                 ),
             });
         }
+        let (count, particles) = (worlds.0.max(1), worlds.1);
+        let constants = match count {
+            1 => Vec::new(),
+            _ => vec![
+                ("WORLDS", count as f64),
+                ("WORLD_PARTICLES", particles as f64),
+            ],
+        };
         let set = KernelSet::new(
             device,
             &KernelSetSpec {
@@ -155,13 +179,14 @@ impl ContactKernels {
                 dim,
                 precision,
                 entries: &ContactEntry::ALL,
-                constants: &[],
+                constants: &constants,
                 generated: None,
             },
         )?;
         Ok(ContactKernels {
             dim,
             precision,
+            worlds: count,
             set,
         })
     }
@@ -169,9 +194,10 @@ impl ContactKernels {
 
 impl ContactBuffers {
     /// Binds the groups with parameter block `block` and returns the
-    /// particle count, or `None` (nothing bound) when there are none.
+    /// particle count of every world, or `None` (nothing bound) when there
+    /// are none.
     fn bind(&self, pass: &mut wgpu::ComputePass<'_>, block: usize) -> Option<u32> {
-        let n = self.particles() as u32;
+        let n = (self.particles() * self.worlds()) as u32;
         if n == 0 {
             return None;
         }
@@ -194,12 +220,13 @@ impl ContactBuffers {
             return;
         };
         let set = &kernels.set;
+        let worlds = self.worlds() as u32;
         use ContactEntry::*;
         match phase {
             ContactPhase::Broadphase => {
                 let scan = self.scan_blocks() as u32;
-                set.dispatch(pass, BoxesAndBounds, BOUND_THREADS);
-                set.dispatch_workgroups(pass, GridFrame, 1);
+                set.dispatch(pass, BoxesAndBounds, BOUND_THREADS * worlds);
+                set.dispatch_workgroups(pass, GridFrame, worlds);
                 set.dispatch(pass, BinCount, n);
                 set.dispatch_workgroups(pass, ScanReduce, scan);
                 set.dispatch_workgroups(pass, ScanTop, 1);
@@ -213,7 +240,7 @@ impl ContactBuffers {
             }
             ContactPhase::Report => {
                 set.dispatch(pass, Report, n);
-                set.dispatch_workgroups(pass, ReportFinal, 1);
+                set.dispatch_workgroups(pass, ReportFinal, worlds);
             }
         }
     }
