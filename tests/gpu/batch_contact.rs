@@ -13,6 +13,8 @@
 //! grow  3 clusters of 96 discs, only world 1's box margin long enough to
 //!       overflow the 32 list slots: world 1's lists grow, the others' stay,
 //!       and every world is still its own run from the first step
+//! fail  a world whose contact distance overflows: the batch step fails,
+//!       every world is put back, the error is the world's own single run's
 //! ```
 //! Bit-for-bit claims hold on llvmpipe (common::exact); elsewhere f64 is
 //! held to 1e-9 of the golden path.
@@ -220,4 +222,43 @@ fn a_world_whose_lists_overflow_grows_them_alone_and_loses_no_step() {
     };
     assert!(slots[1] > 32, "world 1's lists grew: {slots:?}");
     assert_eq!((slots[0], slots[2]), (32, 32), "the others' did not");
+}
+
+/// Two balls of radius 1e200 at distance `gap`: at 1e200 their boxes
+/// overlap and |d|² overflows (a non-finite contact), at 3e200 they do not.
+fn huge_pair(gap: f64) -> Scene {
+    let mut b = SceneBuilder::new(3)
+        .dt(1.0 / 60.0)
+        .substeps(2)
+        .iterations(1);
+    b.particle(Particle::new(vec![0.0, 0.0, 0.0], 1.0).with_radius(1e200));
+    b.particle(Particle::new(vec![gap, 0.0, 0.0], 1.0).with_radius(1e200));
+    b.scene_mut().collisions = Some(Collisions {
+        friction: 0.0,
+        margin: 0.0,
+    });
+    b.build().expect("valid scene")
+}
+
+#[test]
+fn a_world_whose_contact_fails_is_named_as_alone_and_every_world_put_back() {
+    let Some((adapter, _)) = adapter_or_skip("batch_contact failure", Precision::F64) else {
+        return;
+    };
+    let scenes = [huge_pair(3e200), huge_pair(1e200), huge_pair(3e200)];
+    let batch = Batch::new(&scenes).expect("one topology");
+    let mut gpu = GpuBatch::on_adapter(&adapter, &batch, Precision::F64).expect("gpu batch");
+    let before = gpu.read_states().expect("states");
+    let e = gpu.step().expect_err("world 1's contact is not finite");
+    let hyperpbd::batch::BatchError::Backend { world, source } = &e else {
+        panic!("not a world's error: {e}");
+    };
+    assert_eq!(*world, 1, "{e}");
+    let mut alone = hyperpbd::cpu_backend(&scenes[1]).expect("cpu");
+    let expected = alone.step().expect_err("fails alone").to_string();
+    assert_eq!(source.to_string(), expected);
+    let after = gpu.read_states().expect("states");
+    for (k, (a, b)) in before.iter().zip(&after).enumerate() {
+        assert_eq!(a.hash(), b.hash(), "world {k} not put back");
+    }
 }

@@ -158,9 +158,11 @@ impl ContactBuffers {
         if n > super::MAX_PARTICLES || worlds * buckets_for(n) > 2 * super::MAX_PARTICLES {
             return Err(GpuError::Unsupported {
                 what: format!(
-                    "{worlds} world(s) of {n} particles with contact (the GPU broadphase takes \
-                     at most {} particles, of all worlds together)",
-                    super::MAX_PARTICLES
+                    "{worlds} world(s) of {n} particles with contact: {} hash buckets (the GPU \
+                     broadphase's scan takes at most {}, at least two per particle, of all \
+                     worlds together)",
+                    worlds * buckets_for(n),
+                    2 * super::MAX_PARTICLES
                 ),
             });
         }
