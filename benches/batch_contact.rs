@@ -4,16 +4,21 @@
 //! ```text
 //! worlds   8 × pit3d(16, 16): 4 096 balls, 8 substeps × 2 iterations,
 //!          collisions.friction = 0, 0.1, …, 0.7 (world 0: the collide
-//!          kernel's frictionless branch, as its own run)
+//!          kernel's frictionless branch, as its own run); and 8 × a small
+//!          pit, pit3d(4, 3): 48 balls (where the dispatches, not the
+//!          balls, are the cost)
 //! round    the batch steps FRAMES frames, then each world's own
 //!          GpuBackend FRAMES frames, one after another; wall time of the
 //!          steps only (loading and pipeline builds excluded)
-//! rounds   ROUNDS, interleaved (batch, singles, batch, …): medians
+//! warm-up  one step of the batch and of each single run first (lavapipe's
+//!          first dispatches, the lists' first growth), untimed
+//! rounds   interleaved (batch, singles, batch, …): medians
 //! check    after every round each world's batch state is its own single
 //!          run's, bit for bit (State::hash over to_bits), in gpu-f64 and
 //!          — on one adapter, one origin per world — reported for gpu-f32
 //! ```
-//! `cargo bench --bench batch_contact [-- f64|f32]`; without `--bench` (as
+//! `cargo bench --bench batch_contact [-- 4k|48|f64|f32]` (a row runs when
+//! its name, e.g. `4k f64`, holds every filter); without `--bench` (as
 //! under `cargo test --all-targets`) a smoke run: 2 worlds of 18 balls.
 
 use hyperpbd::batch::{Batch, GpuBatch};
@@ -66,6 +71,10 @@ fn measure(precision: Precision, worlds: &[Scene], rounds: usize, frames: usize)
                 .expect("single")
         })
         .collect();
+    drop(gpu.step().expect("warm-up"));
+    for single in &mut singles {
+        drop(single.step().expect("warm-up"));
+    }
     let (mut batch_s, mut single_s, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
     let mut identical = true;
     for round in 0..rounds {
@@ -112,23 +121,29 @@ fn main() {
         .skip(1)
         .filter(|a| !a.starts_with('-'))
         .collect();
-    let wanted = |n: &str| filter.is_empty() || filter.iter().any(|f| n.contains(f.as_str()));
+    let wanted = |n: &str| filter.iter().all(|f| n.contains(f.as_str()));
     let full = std::env::args().any(|a| a == "--bench");
-    let (base, count, rounds, frames) = match full {
-        true => (scenes::pit3d(16, 16), 8, 3, 5),
-        false => (scenes::pit3d(3, 2), 2, 1, 2),
+    // (name, pit, worlds, rounds, frames)
+    let rows = match full {
+        true => vec![
+            ("4k", scenes::pit3d(16, 16), 8, 3, 5),
+            ("48", scenes::pit3d(4, 3), 8, 5, 40),
+        ],
+        false => vec![("smoke", scenes::pit3d(3, 2), 2, 1, 2)],
     };
-    let worlds = friction_sweep(&base, count);
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     let lp = std::env::var("LP_NUM_THREADS").unwrap_or_else(|_| "unset".into());
     println!("load average before: {}", load.trim());
     println!(
-        "| backend | worlds | frames | dispatches per step | batch (median) | {count} single runs (median) | batch / singles (median of rounds) | world k vs its run |"
+        "| backend | worlds | frames | dispatches per step | batch (median) | W single runs (median) | batch / singles (median of rounds) | world k vs its run |"
     );
     println!("|---|---|---:|---:|---:|---:|---:|---|");
-    for (name, precision) in [("f64", Precision::F64), ("f32", Precision::F32)] {
-        if wanted(name) {
-            measure(precision, &worlds, rounds, frames);
+    for (pit, base, count, rounds, frames) in rows {
+        let worlds = friction_sweep(&base, count);
+        for (name, precision) in [("f64", Precision::F64), ("f32", Precision::F32)] {
+            if wanted(&format!("{pit} {name}")) {
+                measure(precision, &worlds, rounds, frames);
+            }
         }
     }
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();

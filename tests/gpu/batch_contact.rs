@@ -26,11 +26,11 @@ use common::exact::{
 };
 use common::gpu::adapter_or_skip;
 use hyperpbd::batch::{Batch, GpuBatch};
-use hyperpbd::{
-    Backend, Collisions, F32Reference, Particle, Plan, Precision, Scene, SceneBuilder, State,
-    StepReport,
-};
+use hyperpbd::{Backend, Collisions, F32Reference, Plan, Precision, Scene, State, StepReport};
 use hyperpbd_gpu::GpuBackend;
+
+use crate::batch::max_difference;
+use crate::contact_step::{cluster, huge_pair};
 
 /// A pit of 4 × 3 × 4 balls with ball–ball friction `mu`, thrown sideways
 /// (so contacts slide and friction matters); `shift` moves alternate
@@ -53,39 +53,12 @@ fn pits() -> Vec<Scene> {
     vec![pit(0.0, 0.0), pit(0.3, 0.0), pit(0.6, 0.0), pit(0.3, 0.002)]
 }
 
-/// 12 × 8 discs 0.1 apart with box margin `margin` (0.5: every box meets
-/// ~80 others, more than the 32 slots a contact stage starts with).
-fn cluster(margin: f64, mu: f64) -> Scene {
-    let mut b = SceneBuilder::new(2)
-        .dt(1.0 / 60.0)
-        .substeps(2)
-        .iterations(2)
-        .gravity_along(1, 9.81);
-    for k in 0..96 {
-        let (i, j) = ((k % 12) as f64, (k / 12) as f64);
-        b.particle(Particle::new(vec![0.1 * i, 0.06 + 0.1 * j], 0.01).with_radius(0.05));
-    }
-    b.hyperplane(vec![0.0, 1.0], 0.0, 0.4);
-    b.scene_mut().collisions = Some(Collisions {
-        friction: mu,
-        margin,
-    });
-    b.build().expect("valid scene")
-}
-
 fn residual_bits(report: &StepReport) -> Vec<u64> {
     report
         .residuals
         .iter()
         .map(|r| r.max_violation.to_bits())
         .collect()
-}
-
-fn max_difference(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
 }
 
 /// Every world of `scenes` batched on gpu-f64 for `frames` frames against
@@ -222,22 +195,6 @@ fn a_world_whose_lists_overflow_grows_them_alone_and_loses_no_step() {
     };
     assert!(slots[1] > 32, "world 1's lists grew: {slots:?}");
     assert_eq!((slots[0], slots[2]), (32, 32), "the others' did not");
-}
-
-/// Two balls of radius 1e200 at distance `gap`: at 1e200 their boxes
-/// overlap and |d|² overflows (a non-finite contact), at 3e200 they do not.
-fn huge_pair(gap: f64) -> Scene {
-    let mut b = SceneBuilder::new(3)
-        .dt(1.0 / 60.0)
-        .substeps(2)
-        .iterations(1);
-    b.particle(Particle::new(vec![0.0, 0.0, 0.0], 1.0).with_radius(1e200));
-    b.particle(Particle::new(vec![gap, 0.0, 0.0], 1.0).with_radius(1e200));
-    b.scene_mut().collisions = Some(Collisions {
-        friction: 0.0,
-        margin: 0.0,
-    });
-    b.build().expect("valid scene")
 }
 
 #[test]

@@ -19,7 +19,9 @@
 //! state ([`ContactBuffers::grow`]). Nothing is dropped silently.
 //!
 //! Three users share it: [`crate::GpuBackend`] (the step, bound to its
-//! resident particle records and status word), [`crate::GpuSweep`] (boxes
+//! resident particle records and status word; in a batch of W worlds the
+//! same dispatches over every world, each its own grid, lists and outcome:
+//! [`ContactKernels::for_worlds`], contact.wgsl), [`crate::GpuSweep`] (boxes
 //! given, lists read back as canonical pairs) and [`crate::GpuCollide`]
 //! (iterations on given lists).
 
