@@ -3,11 +3,11 @@
 //! the same dispatches, each world with its own grid, lists and outcome.
 //!
 //! ```text
-//! f64   4 pits of 48 balls (μ = 0, 0.3, 0.6 on one start, 0.3 on another):
-//!       world k, every frame, bit for bit its golden-path run (states,
-//!       residuals, active contacts) and, for the μ = 0 world and the other
-//!       start, its own single gpu-f64 run too; μ = 0 is the frictionless
-//!       branch of its own run (an exact identity)
+//! f64   3 pits of 48 balls (μ = 0 and 0.6 on one start, 0.3 on another):
+//!       world k, every frame, bit for bit its own single gpu-f64 run and
+//!       its golden-path run (states, residuals, active contacts, list
+//!       slots); μ = 0 is the frictionless branch of its own run (an exact
+//!       identity)
 //! f32   the same worlds: each world bit for bit its own f32 reference from
 //!       the batch's origin (llvmpipe)
 //! grow  3 clusters of 96 discs, only world 1's box margin long enough to
@@ -49,8 +49,10 @@ fn pit(mu: f64, shift: f64) -> Scene {
     scene
 }
 
+/// A friction sweep from zero on one start, and a third world from
+/// another start.
 fn pits() -> Vec<Scene> {
-    vec![pit(0.0, 0.0), pit(0.3, 0.0), pit(0.6, 0.0), pit(0.3, 0.002)]
+    vec![pit(0.0, 0.0), pit(0.6, 0.0), pit(0.3, 0.002)]
 }
 
 fn residual_bits(report: &StepReport) -> Vec<u64> {
@@ -139,14 +141,14 @@ fn f64_worlds_are_their_own_runs(
 fn every_pit_of_a_contact_batch_is_its_own_gpu_and_golden_run() {
     let scenes = pits();
     let Some((_, finals)) =
-        f64_worlds_are_their_own_runs("batch_contact pits", &scenes, (6, &[0, 3]))
+        f64_worlds_are_their_own_runs("batch_contact pits", &scenes, (6, &[0, 1, 2]))
     else {
         return;
     };
     // The parameters reach the physics: each friction, and the other
     // start, end elsewhere (a world run with another world's μ or
     // positions would differ from its own run above).
-    for (a, b) in [(0, 1), (1, 2), (0, 2), (1, 3)] {
+    for (a, b) in [(0, 1), (1, 2), (0, 2)] {
         assert_ne!(finals[a], finals[b], "worlds {a} and {b} end alike");
     }
 }
