@@ -22,50 +22,56 @@
 //
 //   contact_report        per particle: deepest overlap r_k + r_m − |x_m − x_k|
 //                         over its partners m > k → scratch; active pairs
-//   contact_report_final  max(0, deepest), Σ active → scratch[REPORT], counters
+//   contact_report_final  max(0, deepest), Σ active → the world's report
+//                         (scratch[world]) and counters (one workgroup per world)
+//
+// In a batch each invocation enters its particle's world (contact.wgsl):
+// its records, lists, μ (props) and report are that world's.
 
 fn report_at() -> u32 {
-    return REPORT;
+    return world;
 }
 
 fn deepest_at(k: u32) -> u32 {
-    return REPORT + 1u + k;
+    return scratch_at(REPORT + 1u + k);
 }
 
 @compute @workgroup_size(WORKGROUP)
 fn contact_snapshot(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let k = linear_index(gid, groups);
-    if (k >= cparams.count || failed_before()) {
+    let t = linear_index(gid, groups);
+    if (t >= all_particles() || failed_before()) {
         return;
     }
+    let k = enter(t);
     var q = load_x(k);
     set_last_lane(&q, radius(k));
     for (var c = 0u; c < VEC; c++) {
-        snapshot[VEC * k + c] = word(&q, c);
+        snapshot[VEC * particle(k) + c] = word(&q, c);
     }
 }
 
 @compute @workgroup_size(WORKGROUP)
 fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let k = linear_index(gid, groups);
+    let t = linear_index(gid, groups);
     let n = cparams.count;
-    if (k >= n || failed_before()) {
+    if (t >= all_particles() || failed_before()) {
         return;
     }
+    let k = enter(t);
     let own = iterate_record(k);
     let yk = coords(own);
     let rk = extra(own);
     var own_start = load_p(k);
     let pk = coords(own_start);
     let wk = inverse_mass_of(&own_start);
-    let mu = cparams.friction;
+    let mu = friction_of(k);
     var sum: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
         sum[a] = 0.0;
     }
     var touching = 0u;
     var ahead = 0u;
-    let len = words[list_length_at() + k];
+    let len = words[box_word(1u, k)];
     var quad = vec4<u32>(0u);
     for (var t = 0u; t < len; t++) {
         if (t % 4u == 0u) {
@@ -140,8 +146,8 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         }
         touching++;
     }
-    words[active_at() + k] = ahead;
-    check_loops(k);
+    words[box_word(2u, k)] = ahead;
+    check_loops(t);
     if (touching == 0u) {
         return;
     }
@@ -161,13 +167,14 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
 
 @compute @workgroup_size(WORKGROUP)
 fn contact_report(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let k = linear_index(gid, groups);
-    if (k >= cparams.count || failed_before()) {
+    let t = linear_index(gid, groups);
+    if (t >= all_particles() || failed_before()) {
         return;
     }
+    let k = enter(t);
     var deepest: real = 0.0;
     var xk = load_x(k);
-    let len = words[list_length_at() + k];
+    let len = words[box_word(1u, k)];
     for (var t = 0u; t < len; t++) {
         let m = entry_at(k, t);
         if (m < k) {
@@ -182,19 +189,20 @@ fn contact_report(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
         deepest = max(deepest, radius(k) + radius(m) - sqrt(len2));
     }
     scratch[deepest_at(k)] = deepest;
-    check_loops(k);
+    check_loops(t);
 }
 
 var<workgroup> report_deepest: array<real, WORKGROUP>;
 var<workgroup> report_active: array<u32, WORKGROUP>;
 
 @compute @workgroup_size(WORKGROUP)
-fn contact_report_final(@builtin(local_invocation_index) lid: u32) {
+fn contact_report_final(@builtin(local_invocation_index) lid: u32, @builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    enter_world(wid.x + wid.y * groups.x);
     var deepest: real = 0.0;
     var pushing = 0u;
     for (var k = lid; k < cparams.count; k += WORKGROUP) {
         deepest = max(deepest, scratch[deepest_at(k)]);
-        pushing += words[active_at() + k];
+        pushing += words[box_word(2u, k)];
     }
     report_deepest[lid] = deepest;
     report_active[lid] = pushing;
@@ -208,5 +216,5 @@ fn contact_report_final(@builtin(local_invocation_index) lid: u32) {
         pushing += report_active[t];
     }
     scratch[report_at()] = deepest;
-    atomicStore(&counters[ACTIVE], pushing);
+    atomicStore(&counters[counter(ACTIVE)], pushing);
 }

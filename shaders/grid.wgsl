@@ -33,6 +33,10 @@
 // f32: box corners are rounded outward by one ulp, so the device box holds
 // the box of the f32 values (the pad is rounded up on the host); f64: the
 // golden path's arithmetic exactly.
+//
+// A batch runs every world's grid in the same dispatches (contact.wgsl):
+// BOUND_THREADS invocations and one grid_frame workgroup per world, each
+// world its own frame, spans and buckets.
 
 const CELLS_MAX: real = 262144.0; // 2^18 cells per grid axis at most
 const CELL_FACTOR: real = 1.0;    // cell edge / widest box edge
@@ -70,7 +74,7 @@ fn outward_up(v: real) -> real {
 // The swept box of particle i over the substep, as the golden path builds
 // it, with the index and the inverse mass in the records' extra lanes.
 fn build_box(i: u32) {
-    let own = props[i];
+    let own = props[particle(i)];
     var start = load_p(i);
     var end = load_x(i);
     var lo: array<real, DIM>;
@@ -91,16 +95,19 @@ fn partial_at(q: u32, a: u32, t: u32) -> u32 {
 }
 
 @compute @workgroup_size(WORKGROUP)
-fn boxes_and_bounds(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let t = gid.x;
-    if (failed_before()) {
+fn boxes_and_bounds(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let all = linear_index(gid, groups);
+    if (all >= WORLDS * BOUND_THREADS || failed_before()) {
         return;
     }
+    enter_world(all / BOUND_THREADS);
+    let t = all % BOUND_THREADS;
+    let own = world * cparams.buckets;
     for (var b = t; b < cparams.buckets; b += BOUND_THREADS) {
-        atomicStore(&counters[COUNTERS + b], 0u);
+        atomicStore(&counters[bucket_counter(own + b)], 0u);
     }
     if (t < 3u) {
-        atomicStore(&counters[SPAN + t], 0u);
+        atomicStore(&counters[counter(SPAN + t)], 0u);
     }
     var lo: array<real, DIM>;
     var hi: array<real, DIM>;
@@ -124,9 +131,9 @@ fn boxes_and_bounds(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     }
     for (var a = 0u; a < DIM; a++) {
-        scratch[partial_at(0u, a, t)] = lo[a];
-        scratch[partial_at(1u, a, t)] = hi[a];
-        scratch[partial_at(2u, a, t)] = ext[a];
+        scratch[scratch_at(partial_at(0u, a, t))] = lo[a];
+        scratch[scratch_at(partial_at(1u, a, t))] = hi[a];
+        scratch[scratch_at(partial_at(2u, a, t))] = ext[a];
     }
     check_loops(t);
 }
@@ -136,15 +143,15 @@ fn boxes_and_bounds(@builtin(global_invocation_id) gid: vec3<u32>) {
 var<workgroup> bounds: array<real, 24>; // 3 quantities × DIM ≤ 8
 
 fn frame_axis(g: u32) -> u32 {
-    return u32(scratch[FRAME + g]);
+    return u32(scratch[scratch_at(FRAME + g)]);
 }
 
 fn frame_origin(g: u32) -> real {
-    return scratch[FRAME + 3u + g];
+    return scratch[scratch_at(FRAME + 3u + g)];
 }
 
 fn frame_scale(g: u32) -> real {
-    return scratch[FRAME + 6u + g];
+    return scratch[scratch_at(FRAME + 6u + g)];
 }
 
 // Cells per unit of (v − o)/2 along grid axis g's data.
@@ -159,14 +166,16 @@ fn cell_scale(half_range: real, half_extent: real) -> real {
     return cap;
 }
 
+// One workgroup per world.
 @compute @workgroup_size(WORKGROUP)
-fn grid_frame(@builtin(local_invocation_index) lid: u32) {
+fn grid_frame(@builtin(local_invocation_index) lid: u32, @builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    enter_world(wid.x + wid.y * groups.x);
     if (lid < 3u * DIM) {
         let q = lid / DIM;
         let a = lid % DIM;
-        var value = scratch[partial_at(q, a, 0u)];
+        var value = scratch[scratch_at(partial_at(q, a, 0u))];
         for (var t = 1u; t < BOUND_THREADS; t++) {
-            let v = scratch[partial_at(q, a, t)];
+            let v = scratch[scratch_at(partial_at(q, a, t))];
             if (q == 0u) {
                 value = min(value, v);
             } else {
@@ -200,9 +209,9 @@ fn grid_frame(@builtin(local_invocation_index) lid: u32) {
         }
         used[best] = true;
         let o = bounds[best];
-        scratch[FRAME + g] = real(best);
-        scratch[FRAME + 3u + g] = o;
-        scratch[FRAME + 6u + g] = cell_scale(0.5 * bounds[DIM + best] - 0.5 * o, bounds[2u * DIM + best]);
+        scratch[scratch_at(FRAME + g)] = real(best);
+        scratch[scratch_at(FRAME + 3u + g)] = o;
+        scratch[scratch_at(FRAME + 6u + g)] = cell_scale(0.5 * bounds[DIM + best] - 0.5 * o, bounds[2u * DIM + best]);
     }
 }
 
@@ -223,8 +232,10 @@ fn mix32(v: u32) -> u32 {
     return h;
 }
 
+// The running world's bucket of cell c (of all worlds' buckets).
 fn bucket(c: vec3<u32>) -> u32 {
-    return mix32(c.x ^ mix32(c.y ^ mix32(c.z + 0x9e3779b9u))) & (cparams.buckets - 1u);
+    let b = mix32(c.x ^ mix32(c.y ^ mix32(c.z + 0x9e3779b9u))) & (cparams.buckets - 1u);
+    return world * cparams.buckets + b;
 }
 
 // The cells of a corner on the grid axes (unused axes: 0).
@@ -238,33 +249,36 @@ fn cells_of(corner: array<real, DIM>) -> vec3<u32> {
 
 @compute @workgroup_size(WORKGROUP)
 fn bin_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = linear_index(gid, groups);
-    if (i >= cparams.count || failed_before()) {
+    let t = linear_index(gid, groups);
+    if (t >= all_particles() || failed_before()) {
         return;
     }
+    let i = enter(t);
     let home = cells_of(coords(box_record(i, false)));
     let far = cells_of(coords(box_record(i, true)));
     for (var g = 0u; g < GRID; g++) {
         // Most boxes span what is already recorded: read before writing.
         let span = far[g] - home[g];
-        if (span > atomicLoad(&counters[SPAN + g])) {
-            atomicMax(&counters[SPAN + g], span);
+        if (span > atomicLoad(&counters[counter(SPAN + g)])) {
+            atomicMax(&counters[counter(SPAN + g)], span);
         }
     }
     let b = bucket(home);
-    words[i] = b;
-    atomicAdd(&counters[COUNTERS + b], 1u);
+    words[box_word(0u, i)] = b;
+    atomicAdd(&counters[bucket_counter(b)], 1u);
 }
 
 @compute @workgroup_size(WORKGROUP)
 fn bin_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = linear_index(gid, groups);
-    if (i >= cparams.count || failed_before()) {
+    let t = linear_index(gid, groups);
+    if (t >= all_particles() || failed_before()) {
         return;
     }
-    let slot = atomicAdd(&counters[COUNTERS + bucket_of(i)], 1u);
+    let i = enter(t);
+    let slot = atomicAdd(&counters[bucket_counter(bucket_of(i))], 1u);
+    let b = particle(i);
     for (var c = 0u; c < 2u * VEC; c++) {
-        cands[2u * VEC * slot + c] = boxes[2u * VEC * i + c];
+        cands[2u * VEC * slot + c] = boxes[2u * VEC * b + c];
     }
 }
 
@@ -344,11 +358,11 @@ fn sift_down(k: u32, first: u32, len: u32) {
 
 @compute @workgroup_size(WORKGROUP)
 fn neighbours(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = linear_index(gid, groups);
-    let n = cparams.count;
-    if (i >= n || failed_before()) {
+    let t = linear_index(gid, groups);
+    if (t >= all_particles() || failed_before()) {
         return;
     }
+    let i = enter(t);
     let skip_fixed = (cparams.flags & 1u) != 0u;
     let own_hi = box_record(i, true);
     let lo = coords(box_record(i, false));
@@ -359,7 +373,7 @@ fn neighbours(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     var first = vec3<u32>(0u, 0u, 0u);
     var count = vec3<u32>(1u, 1u, 1u);
     for (var g = 0u; g < GRID; g++) {
-        let reach = atomicLoad(&counters[SPAN + g]);
+        let reach = atomicLoad(&counters[counter(SPAN + g)]);
         first[g] = max(home[g], reach) - reach;
         count[g] = far[g] - first[g] + 1u;
     }
@@ -388,11 +402,11 @@ fn neighbours(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
                         found[len] = j;
                     } else {
                         if (len == LOCAL) {
-                            for (var t = 0u; t < min(LOCAL, cparams.slots); t++) {
+                            for (var t = 0u; t < min(LOCAL, list_slots); t++) {
                                 set_entry(i, t, found[t]);
                             }
                         }
-                        if (len < cparams.slots) {
+                        if (len < list_slots) {
                             set_entry(i, len, j);
                         }
                     }
@@ -401,17 +415,17 @@ fn neighbours(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
             }
         }
     }
-    atomicMax(&counters[MAX_DEGREE], len);
+    atomicMax(&counters[counter(MAX_DEGREE)], len);
     if (len <= LOCAL) {
         len = sort_found(&found, len);
-        if (len <= cparams.slots) {
+        if (len <= list_slots) {
             for (var q = 0u; q < (len + 3u) / 4u; q++) {
                 set_list_quad(i, q, vec4<u32>(found[4u * q], found[4u * q + 1u], found[4u * q + 2u], found[4u * q + 3u]));
             }
         }
-    } else if (len <= cparams.slots) {
+    } else if (len <= list_slots) {
         len = sort_list(i, len);
     }
-    words[list_length_at() + i] = len;
-    check_loops(i);
+    words[box_word(1u, i)] = len;
+    check_loops(t);
 }

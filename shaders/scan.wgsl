@@ -1,5 +1,5 @@
-// Exclusive prefix sum of the hash-bucket counters, in place, in three
-// dispatches for up to SCAN_BLOCK² buckets:
+// Exclusive prefix sum of the hash-bucket counters (every world's, world
+// after world), in place, in three dispatches for up to SCAN_BLOCK² buckets:
 //
 //   scan_reduce   block b (SCAN_BLOCK counters): its total → sums[b]
 //   scan_top      one workgroup: sums ← exclusive prefix of sums
@@ -33,10 +33,10 @@ fn workgroup_exclusive(lid: u32, value: u32) -> u32 {
 }
 
 fn bucket_count(e: u32) -> u32 {
-    if (e >= cparams.buckets) {
+    if (e >= all_buckets()) {
         return 0u;
     }
-    return atomicLoad(&counters[COUNTERS + e]);
+    return atomicLoad(&counters[bucket_counter(e)]);
 }
 
 fn chunk_total(first: u32) -> u32 {
@@ -91,9 +91,9 @@ fn scan_apply(@builtin(local_invocation_index) lid: u32, @builtin(workgroup_id) 
     }
     for (var k = 0u; k < SCAN_CHUNK; k++) {
         let e = first + k;
-        if (e < cparams.buckets) {
-            let c = atomicLoad(&counters[COUNTERS + e]);
-            atomicStore(&counters[COUNTERS + e], running);
+        if (e < all_buckets()) {
+            let c = atomicLoad(&counters[bucket_counter(e)]);
+            atomicStore(&counters[bucket_counter(e)], running);
             ranges[e] = vec2<u32>(running, running + c);
             running += c;
         }

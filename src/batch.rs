@@ -311,6 +311,12 @@ impl GpuBatch {
         self.inner.dispatches_per_step()
     }
 
+    /// Every world's contact list slots per particle (`None` without
+    /// particle contact); each world's grow on their own.
+    pub fn contact_list_slots(&self) -> Option<Vec<usize>> {
+        self.inner.contact_list_slots()
+    }
+
     /// The origin device positions are relative to (every world's; 0 in
     /// f64).
     pub fn origin(&self) -> &crate::gpu::SceneOrigin {

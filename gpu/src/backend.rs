@@ -332,12 +332,12 @@ impl GpuBackend {
             dispatches: dispatch_buffer.clone(),
             step: 0,
         });
-        let worlds = world.count;
+        let (worlds, world_plans) = (world.count, world.plans);
         drop(world);
         let contacts = match plan.contacts {
             Some(_) => Some(ContactStage::new(
                 &ctx,
-                (&plan, precision),
+                (world_plans, precision),
                 crate::contact::Bound {
                     x: &resident.x,
                     v: &resident.v,

@@ -152,7 +152,7 @@ impl GpuSweep {
             }
             self.stats.regrowths += 1;
             if let Some(buffers) = &mut self.buffers {
-                buffers.grow(&self.kernels, longest)?;
+                buffers.grow(&self.kernels, 0, longest)?;
                 self.capacity = buffers.slots();
                 self.stats.capacity = self.capacity;
             }
@@ -191,8 +191,8 @@ impl GpuSweep {
             &Particles {
                 inverse_mass: &zeros,
                 radius: &zeros,
-                margin: 0.0,
-                friction: 0.0,
+                margin: &[0.0],
+                friction: &[0.0],
             },
             self.capacity,
             (0..self.dim as u32)

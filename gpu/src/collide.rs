@@ -126,8 +126,8 @@ impl GpuCollide {
             &Particles {
                 inverse_mass: input.inverse_mass,
                 radius: input.radius,
-                margin: 0.0,
-                friction: input.friction,
+                margin: &[0.0],
+                friction: &[input.friction],
             },
             lists.iter().map(Vec::len).max().unwrap_or(1),
             // One block per iteration: after a failure, later iterations

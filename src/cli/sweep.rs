@@ -14,9 +14,9 @@
 //! batch in the same dispatches, the union of the worlds' stages — a world
 //! with zero damping, friction, gravity or force runs them as exact
 //! identities —, world k bit for bit its own run in f64), or, where the
-//! worlds cannot share one GPU schedule (another topology or law, particle
-//! contact, guards), one GPU backend each, with a notice naming the world
-//! and what differs.
+//! worlds cannot share one GPU schedule (another topology or law, guards),
+//! one GPU backend each, with a notice naming the world and what differs.
+//! Particle contact batches (each world its own grid and lists).
 
 use super::error::{CliError, with_sources};
 use super::load::{load_backend, parse_backend};

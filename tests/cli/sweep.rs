@@ -139,19 +139,24 @@ fn shards_concatenate_to_the_whole_sweep() {
     }
 }
 
-/// The gpu-f64 sweep of `axes` equals the CPU sweep line for line; what
-/// the GPU run printed (stdout, stderr).
+/// The gpu-f64 sweep of `axes` over chain2d equals the CPU sweep line for
+/// line; what the GPU run printed (stdout, stderr).
 fn gpu_f64_equals_cpu(test: &str, axes: &[&str]) -> Option<(String, String)> {
+    gpu_f64_scene_equals_cpu(test, CHAIN, axes)
+}
+
+/// As [`gpu_f64_equals_cpu`] over the scene `scene`.
+fn gpu_f64_scene_equals_cpu(test: &str, scene: &str, axes: &[&str]) -> Option<(String, String)> {
     adapter_or_skip(test, Precision::F64)?;
     let dir = TempDir::new(test);
     assert_success(&sweep_axes(
         &dir,
-        CHAIN,
+        scene,
         "cpu.jsonl",
         axes,
         &["--backend", "cpu"],
     ));
-    let run = sweep_axes(&dir, CHAIN, "gpu.jsonl", axes, &["--backend", "gpu-f64"]);
+    let run = sweep_axes(&dir, scene, "gpu.jsonl", axes, &["--backend", "gpu-f64"]);
     assert_success(&run);
     let (cpu, gpu) = (lines(&dir, "cpu.jsonl"), lines(&dir, "gpu.jsonl"));
     for (c, g) in cpu.iter().zip(&gpu) {
@@ -161,7 +166,7 @@ fn gpu_f64_equals_cpu(test: &str, axes: &[&str]) -> Option<(String, String)> {
             assert_eq!(c["report"][key], g["report"][key], "world {}", c["world"]);
         }
     }
-    assert_eq!(gpu.len(), 15);
+    assert_eq!(gpu.len(), cpu.len());
     Some((
         String::from_utf8_lossy(&run.stdout).into_owned(),
         String::from_utf8_lossy(&run.stderr).into_owned(),
@@ -187,6 +192,27 @@ fn a_gpu_sweep_runs_its_worlds_as_one_batch() {
     };
     assert!(!stderr.contains("one GPU backend each"), "{stderr}");
     assert!(stdout.contains("gpu-f64, 15 worlds per batch"), "{stdout}");
+}
+
+#[test]
+fn a_gpu_sweep_of_a_contact_scene_runs_one_batch() {
+    // 18 balls in a pit, ball–ball friction from 0 (the frictionless
+    // branch of the collide kernel) to 0.6: one batch, in f64 each world
+    // its own CPU run, and in f32 one batch too (no notice).
+    let pit = serde_json::to_string(&hyperpbd::scenes::pit3d(3, 2)).expect("json");
+    let axes = ["collisions.friction=0:0.6:3"];
+    let Some((stdout, stderr)) = gpu_f64_scene_equals_cpu("sweep-gpu-contact", &pit, &axes) else {
+        return;
+    };
+    assert!(!stderr.contains("one GPU backend each"), "{stderr}");
+    assert!(stdout.contains("gpu-f64, 3 worlds per batch"), "{stdout}");
+    let dir = TempDir::new("sweep-gpu-contact-f32");
+    let run = sweep_axes(&dir, &pit, "f32.jsonl", &axes, &["--backend", "gpu"]);
+    assert_success(&run);
+    let (stdout, stderr) = (text(&run.stdout), text(&run.stderr));
+    assert!(!stderr.contains("one GPU backend each"), "{stderr}");
+    assert!(stdout.contains("gpu-f32, 3 worlds per batch"), "{stdout}");
+    assert_eq!(lines(&dir, "f32.jsonl").len(), 3);
 }
 
 #[test]

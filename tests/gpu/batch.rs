@@ -98,7 +98,7 @@ fn zero_sweep() -> Vec<Scene> {
     )
 }
 
-fn max_difference(a: &[f64], b: &[f64]) -> f64 {
+pub(crate) fn max_difference(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
         .map(|(x, y)| (x - y).abs())

@@ -41,6 +41,13 @@ fn bits(values: &[f64]) -> Vec<u64> {
 /// 12 × 8 balls 0.1 apart in 2D with a 0.5 box margin: every box meets
 /// ~80 others, more than the 32 list slots a contact stage starts with.
 fn dense_cluster() -> Scene {
+    cluster(0.5, 0.3)
+}
+
+/// 12 × 8 balls 0.1 apart in 2D over a floor, with box margin `margin`
+/// (0.5: every box meets ~80 others; 0.01: a handful) and ball–ball
+/// friction `mu`.
+pub(crate) fn cluster(margin: f64, mu: f64) -> Scene {
     let mut b = SceneBuilder::new(2)
         .dt(1.0 / 60.0)
         .substeps(2)
@@ -52,8 +59,8 @@ fn dense_cluster() -> Scene {
     }
     b.hyperplane(vec![0.0, 1.0], 0.0, 0.4);
     b.scene_mut().collisions = Some(Collisions {
-        friction: 0.3,
-        margin: 0.5,
+        friction: mu,
+        margin,
     });
     b.build().expect("valid scene")
 }
@@ -224,12 +231,18 @@ fn lists_that_outgrow_their_slots_are_grown_and_the_step_rerun() {
 /// Two balls 1e200 apart with radius 1e200: their boxes overlap and
 /// |d|² overflows, so the contact distance is not finite.
 fn overflowing_pair() -> Scene {
+    huge_pair(1e200)
+}
+
+/// Two balls of radius 1e200 at distance `gap`: at 1e200 their boxes
+/// overlap and |d|² overflows (a non-finite contact), at 3e200 they do not.
+pub(crate) fn huge_pair(gap: f64) -> Scene {
     let mut b = SceneBuilder::new(3)
         .dt(1.0 / 60.0)
         .substeps(2)
         .iterations(1);
     b.particle(Particle::new(vec![0.0, 0.0, 0.0], 1.0).with_radius(1e200));
-    b.particle(Particle::new(vec![1e200, 0.0, 0.0], 1.0).with_radius(1e200));
+    b.particle(Particle::new(vec![gap, 0.0, 0.0], 1.0).with_radius(1e200));
     b.scene_mut().collisions = Some(Collisions {
         friction: 0.0,
         margin: 0.0,

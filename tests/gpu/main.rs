@@ -13,6 +13,7 @@ mod backend_factory;
 mod barrier;
 mod barrier_loop_budget;
 mod batch;
+mod batch_contact;
 mod broadphase;
 mod collide;
 mod contact_step;

@@ -32,15 +32,21 @@
 //! gravity / forces leave prediction's sum as its own kernel computes it.
 //! Every other call must match world 0's (the same kernels, laws and
 //! flags: another law is refused, naming the world and the call).
-//! Particle contact, guards, adaptive steps and the small schedule are
-//! refused in a batch.
+//!
+//! Particle contact runs in the same dispatches too (contact_step.rs,
+//! contact.wgsl): per world its own grid, lists (grown on their own) and
+//! outcome, its μ and margin from its own plan (μ = 0 takes the kernel's
+//! frictionless branch, as its own run does: an exact identity).
+//! Guards, adaptive steps and the small schedule are refused in a batch.
 
 use std::borrow::Cow;
 
 use hyperpbd_core::{Backend, BackendError, GpuError, Plan, State, StepReport, check_state};
 
 use super::GpuBackend;
+use super::contact_step::contact_report;
 use super::union::Union;
+use crate::contact::Outcome;
 use crate::context::DeviceSource;
 use crate::params::read_reals;
 use crate::xpbd::Families;
@@ -63,6 +69,8 @@ pub(crate) struct Worlds<'a> {
 pub(super) struct WorldArrays<'a> {
     /// W.
     pub count: u32,
+    /// Every world's plan (as it runs: the union's stages).
+    pub plans: &'a [Plan],
     pub state: Cow<'a, State>,
     pub inverse_mass: Cow<'a, [f64]>,
     pub force: Cow<'a, [f64]>,
@@ -83,6 +91,7 @@ impl<'a> WorldArrays<'a> {
     ) -> Self {
         WorldArrays {
             count: 1,
+            plans: std::slice::from_ref(plan),
             state: Cow::Borrowed(state),
             inverse_mass: Cow::Borrowed(&plan.inverse_mass),
             force: Cow::Borrowed(&plan.force),
@@ -161,6 +170,7 @@ impl<'a> WorldArrays<'a> {
         ];
         Ok(WorldArrays {
             count: w as u32,
+            plans: worlds.plans,
             state: Cow::Owned(state),
             inverse_mass: Cow::Owned(concat(|p| &p.inverse_mass)),
             force: Cow::Owned(concat(|p| &p.force)),
@@ -351,7 +361,18 @@ impl GpuBatch {
     /// before the step and the error is the lowest failing world's, as its
     /// own single run names it.
     pub fn step(&mut self) -> Result<Vec<StepReport>, WorldError> {
-        let block = self.backend.submit_step().map_err(WorldError::batch)?;
+        // With particle contact: every world's lists fitted (a world whose
+        // did not grew its own and the step ran again), one outcome each.
+        let (block, outcomes) = match self.backend.contacts.is_some() {
+            true => {
+                let b = &mut self.backend;
+                let (outcomes, block) =
+                    b.submit_fitting_contact_step().map_err(WorldError::batch)?;
+                b.refuse_cut_loops(&block).map_err(WorldError::batch)?;
+                (block, Some(outcomes))
+            }
+            false => (self.backend.submit_step().map_err(WorldError::batch)?, None),
+        };
         if self.backend.failure(&block).is_some() {
             let words: &[u32] = bytemuck::cast_slice(&block[..16]);
             return Err(self.diagnose(words[3] as usize));
@@ -361,9 +382,20 @@ impl GpuBatch {
         Ok(self
             .plans
             .iter()
+            .enumerate()
             .zip(values.chunks(per_world.max(1)))
-            .map(|(plan, report)| crate::xpbd::step_report(plan, report))
+            .map(|((k, plan), report)| match &outcomes {
+                Some(o) => contact_report(plan, report, o.get(k).unwrap_or(&Outcome::EMPTY)),
+                None => crate::xpbd::step_report(plan, report),
+            })
             .collect())
+    }
+
+    /// Every world's contact list slots per particle (`None` without
+    /// particle contact): each world's grow on their own, when a step finds
+    /// a longer list in it (that step then runs again for every world).
+    pub fn contact_list_slots(&self) -> Option<Vec<usize>> {
+        self.backend.world_list_slots()
     }
 
     /// Every world's state, in world order (world coordinates).
@@ -470,14 +502,11 @@ fn world_plan(plans: &[Plan], world: usize) -> Result<&Plan, BackendError> {
     })
 }
 
-/// What a batch does not run: particle contact (its broadphase is per
-/// scene), guards and adaptive steps (worlds would take different
-/// substeps), the incremental-potential solver, XPBD with the primal
-/// residual (its element displacements are per world).
+/// What a batch does not run: guards and adaptive steps (worlds would
+/// take different substeps), the incremental-potential solver, XPBD with
+/// the primal residual (its element displacements are per world).
 fn refuse_in_batch(plan: &Plan) -> Result<(), GpuError> {
-    let what = if plan.contacts.is_some() {
-        "collisions (particle contact)"
-    } else if plan.guards.is_some() {
+    let what = if plan.guards.is_some() {
         "guards"
     } else if plan.adaptive.is_some() {
         "adaptive"

@@ -18,6 +18,10 @@
 //!   a failed call → roll back, the CPU's error (a contact failure names the
 //!   particle the CPU names)
 //! ```
+//! A batch (batch.rs) records the same dispatches for all its worlds
+//! (contact.wgsl's worlds): one outcome per world, and a world whose
+//! lists did not fit grows its own lists only; the whole batch reruns the
+//! step from its start, so no world loses a step or a pair.
 //! No host round trip inside the step: every dispatch size is known when
 //! the plan is loaded (particles, buckets), so nothing waits for a count.
 
@@ -49,16 +53,28 @@ pub(super) struct ContactStage {
 }
 
 impl ContactStage {
-    /// The stage of `plan` (which has collisions), bound to the backend's
-    /// resident particle records and status word.
+    /// The stage of `plans` (one per world, world 0's schedule; each with
+    /// collisions), bound to the backend's resident particle records and
+    /// status word.
     pub(super) fn new(
         ctx: &GpuContext,
-        (plan, precision): (&Plan, Precision),
+        (plans, precision): (&[Plan], Precision),
         bound: Bound,
     ) -> Result<Self, GpuError> {
-        let contacts = plan.contacts.ok_or_else(|| GpuError::Other {
+        let without = || GpuError::Other {
             message: "a contact stage for a plan without collisions".into(),
-        })?;
+        };
+        let plan = plans.first().ok_or_else(without)?;
+        let mut margin = Vec::with_capacity(plans.len());
+        let mut friction = Vec::with_capacity(plans.len());
+        for p in plans {
+            let contacts = p.contacts.ok_or_else(without)?;
+            margin.push(contacts.margin);
+            friction.push(contacts.friction);
+        }
+        let concat = |part: fn(&Plan) -> &[f64]| -> Vec<f64> {
+            plans.iter().flat_map(|p| part(p).iter().copied()).collect()
+        };
         let k = plan.substep_kernels.len() as u32;
         let mut blocks = Vec::new();
         for substep in 0..plan.substeps {
@@ -78,16 +94,21 @@ impl ContactStage {
             flags: 0,
             axis: plan.dim as u32,
         });
+<<<<<<< HEAD
         let kernels = ContactKernels::new(&ctx, plan.dim, precision)?;
+=======
+        let worlds = (plans.len(), plan.particle_count());
+        let kernels = ContactKernels::for_worlds(&ctx, plan.dim, precision, worlds)?;
+>>>>>>> main
         let buffers = ContactBuffers::new(
             ctx,
             &kernels,
             bound,
             &Particles {
-                inverse_mass: &plan.inverse_mass,
-                radius: &plan.radius,
-                margin: contacts.margin,
-                friction: contacts.friction,
+                inverse_mass: &concat(|p| &p.inverse_mass),
+                radius: &concat(|p| &p.radius),
+                margin: &margin,
+                friction: &friction,
             },
             INITIAL_SLOTS,
             blocks,
@@ -112,17 +133,32 @@ impl ContactStage {
         self.buffers.encode(&self.kernels, pass, phase, block);
     }
 
-    /// Whether a list did not fit (the lists are grown then: rerun), or
-    /// the outcome's typed error.
-    fn regrow(&mut self, outcome: &Outcome) -> Result<bool, GpuError> {
-        outcome.trusted()?;
-        let longest = outcome.longest_list as usize;
-        if longest <= self.buffers.slots() {
-            return Ok(false);
+    /// Whether a list of some world did not fit (that world's lists are
+    /// grown then, no other's: rerun), or an outcome's typed error.
+    fn regrow(&mut self, outcomes: &[Outcome]) -> Result<bool, GpuError> {
+        let mut grown = false;
+        for (world, outcome) in outcomes.iter().enumerate() {
+            outcome.trusted()?;
+            let longest = outcome.longest_list as usize;
+            if longest > self.buffers.world_slots()[world] {
+                self.buffers.grow(&self.kernels, world, longest)?;
+                grown = true;
+            }
         }
-        self.buffers.grow(&self.kernels, longest)?;
-        Ok(true)
+        Ok(grown)
     }
+}
+
+/// The step report of `plan` from its residual `report` values and its
+/// contact `outcome` (deepest overlap, active pairs).
+pub(super) fn contact_report(plan: &Plan, report: &[f64], outcome: &Outcome) -> StepReport {
+    let mut step = crate::xpbd::step_report(plan, report);
+    step.residuals.push(hyperpbd_core::FamilyResidual {
+        label: "collisions".into(),
+        max_violation: outcome.deepest,
+    });
+    step.active_contacts += outcome.active as usize;
+    step
 }
 
 /// The particle a failed Collide call names: index i for a non-finite pair
@@ -139,6 +175,13 @@ impl GpuBackend {
     /// list (that step then ran again from its start).
     pub fn contact_list_slots(&self) -> Option<usize> {
         self.contacts.as_ref().map(|stage| stage.buffers.slots())
+    }
+
+    /// Every world's list slots per particle (a batch; `None` without
+    /// particle contact).
+    pub(super) fn world_list_slots(&self) -> Option<Vec<usize>> {
+        let stage = self.contacts.as_ref()?;
+        Some(stage.buffers.world_slots().to_vec())
     }
 
     /// Times the host has waited for this backend's device (every device
@@ -169,13 +212,24 @@ impl GpuBackend {
 
     /// One step of a plan with collisions (see the module doc).
     pub(super) fn step_with_contacts(&mut self) -> Result<StepReport, BackendError> {
+        let (outcomes, block) = self.submit_fitting_contact_step()?;
+        let outcome = outcomes.first().copied().unwrap_or(Outcome::EMPTY);
+        self.finish_contact_step(&outcome, &block)
+    }
+
+    /// Submits the step (every world's) until every list fits, growing
+    /// the lists that did not; every world's outcome and the status/report
+    /// block of the step that fitted.
+    pub(super) fn submit_fitting_contact_step(
+        &mut self,
+    ) -> Result<(Vec<Outcome>, Vec<u8>), BackendError> {
         for _ in 0..=MAX_REGROWTHS {
-            let (outcome, snapshot, block) = self.submit_contact_step()?;
+            let (outcomes, snapshot, block) = self.submit_contact_step()?;
             let Some(stage) = self.contacts.as_mut() else {
                 break;
             };
-            match stage.regrow(&outcome) {
-                Ok(false) => return self.finish_contact_step(&outcome, &block),
+            match stage.regrow(&outcomes) {
+                Ok(false) => return Ok((outcomes, block)),
                 Ok(true) => {
                     self.rollback()?;
                     if snapshot {
@@ -199,7 +253,7 @@ impl GpuBackend {
     /// Records, submits and waits for one step in the schedule's mode;
     /// returns the contact outcome, whether a state snapshot was taken and
     /// the status/report block.
-    fn submit_contact_step(&mut self) -> Result<(Outcome, bool, Vec<u8>), BackendError> {
+    fn submit_contact_step(&mut self) -> Result<(Vec<Outcome>, bool, Vec<u8>), BackendError> {
         let Some(stage) = &self.contacts else {
             return Err(GpuError::Other {
                 message: "contact step without a contact stage".into(),
@@ -244,8 +298,8 @@ impl GpuBackend {
             .read_all(&[stage.buffers.outcome_staging(), report])?;
         self.ctx.check()?;
         let block = read.pop().unwrap_or_default();
-        let outcome = stage.buffers.outcome_of(&read.pop().unwrap_or_default());
-        Ok((outcome, snapshot.is_some(), block))
+        let outcomes = stage.buffers.outcomes_of(&read.pop().unwrap_or_default());
+        Ok((outcomes, snapshot.is_some(), block))
     }
 
     /// The report of a submitted step whose lists fitted (its status/report
@@ -260,13 +314,7 @@ impl GpuBackend {
             return Err(self.diagnosed_error(failed));
         }
         let report = crate::params::read_reals(&block[16..], self.precision);
-        let mut step = crate::xpbd::step_report(&self.plan, &report);
-        step.residuals.push(hyperpbd_core::FamilyResidual {
-            label: "collisions".into(),
-            max_violation: outcome.deepest,
-        });
-        step.active_contacts += outcome.active as usize;
-        Ok(step)
+        Ok(contact_report(&self.plan, &report, outcome))
     }
 
     /// `run_kernel` of Broadphase or Collide: the kernel of the first
@@ -305,7 +353,7 @@ impl GpuBackend {
             let Some(stage) = self.contacts.as_mut() else {
                 break;
             };
-            match stage.regrow(&outcome) {
+            match stage.regrow(std::slice::from_ref(&outcome)) {
                 Ok(false) => return Ok(()),
                 Ok(true) => {}
                 // A Collide whose loops were cut short moved x: undo it.

@@ -5,17 +5,21 @@
 //! ```text
 //! record    VEC = ⌊N/4⌋ + 1 vec4: a point and one extra real in the last lane
 //!           (R = 4·VEC reals; the prelude's particle records)
-//! props     vec4 per particle [w, r, pad, 0]
+//! props     vec4 per particle [w, r, pad, μ]
 //! boxes     2 records per box      (lower corner, index), (upper corner, w)
 //! cands     2 records per box      the same, in bucket order
 //! snapshot  1 record per particle  (iterate y, r)
-//! scratch   3N·1024 + 10 + n reals counters  8 + buckets u32
-//! ranges    2 u32 per bucket       words     3n + scan blocks u32
-//! lists     slots · n u32 (slots a multiple of 4; grown on demand)
-//! staging   32 bytes: counters[0..4], deepest overlap
+//! scratch   W + W·(3N·1024 + 10 + n) reals
+//! counters  8W + W·buckets u32     ranges    2 u32 per bucket
+//! words     3Wn + scan blocks + 2W u32 (the last: each world's list base, slots)
+//! lists     Σ_w slots_w · n u32 (slots a multiple of 4; each world's grown
+//!           on demand, on its own)
+//! staging   32W bytes (each world's counters[0..8]), then W reals (each
+//!           world's deepest overlap)
 //! ```
-//! Device bytes per particle, without the lists: (5R + 5) reals + 7 words
-//! (two buckets each); the lists add 4 bytes per slot.
+//! W worlds of n particles, world-major (W = 1 but in a batch,
+//! contact.wgsl). Device bytes per particle, without the lists: (5R + 5)
+//! reals + 7 words (two buckets each); the lists add 4 bytes per slot.
 
 use hyperpbd_core::GpuError;
 
@@ -50,7 +54,7 @@ pub(crate) struct Block {
     pub(crate) axis: u32,
 }
 
-/// What one submission found, read back in one 32-byte copy.
+/// What one submission found in one world, read back with every world's.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Outcome {
     /// Longest contact list of any broadphase since [`ContactBuffers::reset`].
@@ -65,6 +69,14 @@ pub(crate) struct Outcome {
 }
 
 impl Outcome {
+    /// No list, no pair, nothing cut short.
+    pub(crate) const EMPTY: Outcome = Outcome {
+        longest_list: 0,
+        active: 0,
+        deepest: 0.0,
+        cut_short: None,
+    };
+
     /// The typed error of results the kernels could not vouch for: loops
     /// the adapter cut short.
     pub(crate) fn trusted(&self) -> Result<(), GpuError> {
@@ -75,14 +87,17 @@ impl Outcome {
     }
 }
 
-/// The per-particle constants of a contact stage.
+/// The per-particle constants of a contact stage: W worlds of n
+/// particles, world-major (W = `margin.len()`).
 pub(crate) struct Particles<'a> {
+    /// W·n inverse masses.
     pub(crate) inverse_mass: &'a [f64],
+    /// W·n radii.
     pub(crate) radius: &'a [f64],
-    /// Box margin added to every radius.
-    pub(crate) margin: f64,
-    /// Coulomb μ between particles.
-    pub(crate) friction: f64,
+    /// Per world: the box margin added to every radius.
+    pub(crate) margin: &'a [f64],
+    /// Per world: Coulomb μ between particles.
+    pub(crate) friction: &'a [f64],
 }
 
 /// The buffers, bind groups and parameter blocks of one contact stage.
@@ -90,10 +105,14 @@ pub(crate) struct ContactBuffers {
     ctx: GpuContext,
     dim: usize,
     precision: crate::Precision,
+    /// Particles per world.
     n: usize,
+    /// Worlds.
+    worlds: usize,
+    /// Buckets per world.
     buckets: usize,
-    slots: usize,
-    friction: f64,
+    /// List slots per particle, per world.
+    slots: Vec<usize>,
     blocks: Vec<Block>,
     offsets: Vec<u32>,
     /// x v p force status, then the contact buffers, in binding order.
@@ -113,8 +132,9 @@ pub(crate) struct ContactBuffers {
 }
 
 impl ContactBuffers {
-    /// Buffers for `particles` with `slots` list entries per particle,
-    /// bound to `bound`, with the parameter blocks `blocks`.
+    /// Buffers for `particles` (W worlds: the kernels') with `slots` list
+    /// entries per particle, bound to `bound`, with the parameter blocks
+    /// `blocks`.
     pub(crate) fn new(
         ctx: &GpuContext,
         kernels: &ContactKernels,
@@ -124,27 +144,41 @@ impl ContactBuffers {
         blocks: Vec<Block>,
     ) -> Result<Self, GpuError> {
         let (dim, precision) = (kernels.dim, kernels.precision);
-        let n = particles.inverse_mass.len();
-        if n > super::MAX_PARTICLES {
+        let worlds = kernels.worlds;
+        let n = particles.inverse_mass.len() / worlds.max(1);
+        if particles.margin.len() != worlds
+            || particles.friction.len() != worlds
+            || particles.radius.len() != n * worlds
+            || particles.inverse_mass.len() != n * worlds
+        {
+            return Err(GpuError::Other {
+                message: format!("contact constants laid out for other than {worlds} worlds"),
+            });
+        }
+        if n > super::MAX_PARTICLES || worlds * buckets_for(n) > 2 * super::MAX_PARTICLES {
             return Err(GpuError::Unsupported {
                 what: format!(
-                    "{n} particles with contact (the GPU broadphase takes at most {})",
-                    super::MAX_PARTICLES
+                    "{worlds} world(s) of {n} particles with contact: {} hash buckets (the GPU \
+                     broadphase's scan takes at most {}, at least two per particle, of all \
+                     worlds together)",
+                    worlds * buckets_for(n),
+                    2 * super::MAX_PARTICLES
                 ),
             });
         }
-        let props: Vec<f64> = (0..n)
+        let props: Vec<f64> = (0..worlds * n)
             .flat_map(|i| {
                 let (w, r) = (particles.inverse_mass[i], particles.radius[i]);
+                let (margin, mu) = (particles.margin[i / n], particles.friction[i / n]);
                 // The golden path's pad r + m; in f32 rounded up so the
                 // device box holds the f64 one.
                 let pad = match precision {
-                    crate::Precision::F64 => r + particles.margin,
+                    crate::Precision::F64 => r + margin,
                     crate::Precision::F32 => {
-                        f64::from(hyperpbd_core::broadphase::key_up(r + particles.margin))
+                        f64::from(hyperpbd_core::broadphase::key_up(r + margin))
                     }
                 };
-                [w, r, pad, 0.0]
+                [w, r, pad, mu]
             })
             .collect();
         let buckets = buckets_for(n);
@@ -153,23 +187,30 @@ impl ContactBuffers {
         let zeros = |count: usize| vec![0u8; count];
         let mut props_bytes = Vec::with_capacity(props.len() * r);
         push_reals(&mut props_bytes, &props, precision);
-        let mut counters = vec![0u32, NONE, 0, 0];
-        counters.resize(COUNTERS + buckets, 0);
-        let slots = slots_for(slots);
-        let scratch_reals = 3 * dim * BOUND_THREADS as usize + 10 + n;
+        let mut counters = header(worlds);
+        counters.resize((COUNTERS + buckets) * worlds, 0);
+        let slots = vec![slots_for(slots); worlds];
+        let scratch_reals = worlds * (1 + 3 * dim * BOUND_THREADS as usize + 10 + n);
+        let all = worlds * n;
         let props = ctx.storage("contact props", &props_bytes)?;
-        let boxes = ctx.storage("contact boxes", &zeros(2 * record * n * r))?;
-        let cands = ctx.storage("contact candidates", &zeros(2 * record * n * r))?;
-        let snapshot = ctx.storage("contact snapshot", &zeros(record * n * r))?;
+        let boxes = ctx.storage("contact boxes", &zeros(2 * record * all * r))?;
+        let cands = ctx.storage("contact candidates", &zeros(2 * record * all * r))?;
+        let snapshot = ctx.storage("contact snapshot", &zeros(record * all * r))?;
         let scratch = ctx.storage("contact scratch", &zeros(scratch_reals * r))?;
         let counters = ctx.storage("contact counters", bytemuck::cast_slice(&counters))?;
-        let ranges = ctx.storage("contact ranges", &zeros(8 * buckets))?;
+        let ranges = ctx.storage("contact ranges", &zeros(8 * buckets * worlds))?;
+        let table = list_table(n, &slots);
         let words = ctx.storage(
             "contact words",
-            &zeros(4 * (3 * n + scan_blocks_for(buckets))),
+            &zeros(4 * (3 * all + scan_blocks_for(buckets * worlds) + table.len())),
         )?;
-        let lists = empty_storage(ctx, "contact lists", 4 * (slots * n) as u64)?;
-        let staging = ctx.staging("contact staging", 32)?;
+        ctx.queue.write_buffer(
+            &words,
+            4 * (3 * all + scan_blocks_for(buckets * worlds)) as u64,
+            bytemuck::cast_slice(&table),
+        );
+        let lists = empty_storage(ctx, "contact lists", lists_bytes(n, &slots))?;
+        let staging = ctx.staging("contact staging", ((32 + r) * worlds) as u64)?;
         let bound = [
             bound.x.clone(),
             bound.v.clone(),
@@ -188,9 +229,7 @@ impl ContactBuffers {
                 blocks: &blocks,
                 n,
                 buckets,
-                slots,
-                friction: particles.friction,
-                precision,
+                worlds,
             },
         )?;
         Ok(ContactBuffers {
@@ -198,9 +237,9 @@ impl ContactBuffers {
             dim,
             precision,
             n,
+            worlds,
             buckets,
             slots,
-            friction: particles.friction,
             blocks,
             offsets,
             bound,
@@ -219,17 +258,28 @@ impl ContactBuffers {
         })
     }
 
+    /// Particles per world.
     pub(crate) fn particles(&self) -> usize {
         self.n
     }
 
-    pub(super) fn scan_blocks(&self) -> usize {
-        scan_blocks_for(self.buckets)
+    /// Worlds.
+    pub(crate) fn worlds(&self) -> usize {
+        self.worlds
     }
 
-    /// List slots per particle.
+    pub(super) fn scan_blocks(&self) -> usize {
+        scan_blocks_for(self.buckets * self.worlds)
+    }
+
+    /// List slots per particle (world 0's).
     pub(crate) fn slots(&self) -> usize {
-        self.slots
+        self.slots[0]
+    }
+
+    /// List slots per particle of every world.
+    pub(crate) fn world_slots(&self) -> &[usize] {
+        &self.slots
     }
 
     /// The parameter block of step call `call`, if the set has one.
@@ -241,12 +291,25 @@ impl ContactBuffers {
         self.offsets.get(block).copied().unwrap_or(0)
     }
 
-    /// Grows the lists to at least `need` slots per particle (doubling at
-    /// least), keeping everything else.
-    pub(crate) fn grow(&mut self, kernels: &ContactKernels, need: usize) -> Result<(), GpuError> {
-        let slots = slots_for(need.max(2 * self.slots));
-        self.lists = empty_storage(&self.ctx, "contact lists", 4 * (slots * self.n) as u64)?;
+    /// Grows world `world`'s lists to at least `need` slots per particle
+    /// (doubling at least), keeping every other world's slots and
+    /// everything else (the lists' contents are the next broadphase's).
+    pub(crate) fn grow(
+        &mut self,
+        kernels: &ContactKernels,
+        world: usize,
+        need: usize,
+    ) -> Result<(), GpuError> {
+        let mut slots = self.slots.clone();
+        slots[world] = slots_for(need.max(2 * slots[world]));
+        let bytes = lists_bytes(self.n, &slots);
+        self.lists = empty_storage(&self.ctx, "contact lists", bytes)?;
         self.slots = slots;
+        let table = list_table(self.n, &self.slots);
+        let at = 4 * (3 * self.worlds * self.n + self.scan_blocks()) as u64;
+        self.ctx
+            .queue
+            .write_buffer(&self.words, at, bytemuck::cast_slice(&table));
         let b = &self.bound;
         let (group, params_group, offsets) = bind(
             &self.ctx,
@@ -271,52 +334,77 @@ impl ContactBuffers {
                 blocks: &self.blocks,
                 n: self.n,
                 buckets: self.buckets,
-                slots,
-                friction: self.friction,
-                precision: self.precision,
+                worlds: self.worlds,
             },
         )?;
         (self.group, self.params_group, self.offsets) = (group, params_group, offsets);
         self.ctx.check()
     }
 
-    /// Clears the counters the outcome reads (before a submission).
+    /// Clears every world's counters the outcome reads (before a
+    /// submission; the spans are the next broadphase's).
     pub(crate) fn reset(&self) {
+        let header = header(self.worlds);
         self.ctx
             .queue
-            .write_buffer(&self.counters, 0, bytemuck::cast_slice(&[0u32, NONE, 0, 0]));
+            .write_buffer(&self.counters, 0, bytemuck::cast_slice(&header));
+    }
+
+    /// Bytes of the outcome staging: every world's header, then every
+    /// world's deepest overlap.
+    fn outcome_bytes(&self) -> u64 {
+        ((4 * COUNTERS + real_size(self.precision)) * self.worlds) as u64
     }
 
     /// Copies the outcome into the staging buffer (end of a submission).
     pub(crate) fn copy_outcome(&self, encoder: &mut wgpu::CommandEncoder) {
-        let r = real_size(self.precision) as u64;
-        let report = (3 * self.dim as u64 * u64::from(BOUND_THREADS) + 9) * r;
-        encoder.copy_buffer_to_buffer(&self.counters, 0, &self.staging, 0, 16);
-        encoder.copy_buffer_to_buffer(&self.scratch, report, &self.staging, 16, r);
+        let (headers, r) = (
+            4 * (COUNTERS * self.worlds) as u64,
+            real_size(self.precision),
+        );
+        let reports = (r * self.worlds) as u64;
+        encoder.copy_buffer_to_buffer(&self.counters, 0, &self.staging, 0, headers);
+        encoder.copy_buffer_to_buffer(&self.scratch, 0, &self.staging, headers, reports);
     }
 
-    /// Reads the outcome copied by the last waited-for submission.
+    /// Reads world 0's outcome copied by the last waited-for submission.
     pub(crate) fn read_outcome(&self) -> Result<Outcome, GpuError> {
-        let bytes = self.ctx.read(&self.staging, 32)?;
+        let bytes = self.ctx.read(&self.staging, self.outcome_bytes())?;
         Ok(self.outcome_of(&bytes))
     }
 
     /// The outcome's staging buffer and its length, for a caller that
     /// reads it together with its own buffers (one wait).
     pub(crate) fn outcome_staging(&self) -> (&wgpu::Buffer, u64) {
-        (&self.staging, 32)
+        (&self.staging, self.outcome_bytes())
     }
 
-    /// The outcome from the 32 bytes of [`Self::outcome_staging`].
+    /// World 0's outcome from the bytes of [`Self::outcome_staging`].
     pub(crate) fn outcome_of(&self, bytes: &[u8]) -> Outcome {
-        let words: &[u32] = bytemuck::cast_slice(&bytes[..16]);
-        let deepest = read_reals(&bytes[16..16 + real_size(self.precision)], self.precision);
-        Outcome {
-            longest_list: words[0],
-            active: words[2],
-            deepest: deepest.first().copied().unwrap_or(0.0),
-            cut_short: (words[1] != NONE).then_some(words[1]),
+        self.outcomes_of(bytes)
+            .first()
+            .copied()
+            .unwrap_or(Outcome::EMPTY)
+    }
+
+    /// Every world's outcome from the bytes of [`Self::outcome_staging`].
+    pub(crate) fn outcomes_of(&self, bytes: &[u8]) -> Vec<Outcome> {
+        let headers = 4 * COUNTERS * self.worlds;
+        if bytes.len() < headers {
+            return Vec::new();
         }
+        let words: &[u32] = bytemuck::cast_slice(&bytes[..headers]);
+        let deepest = read_reals(&bytes[headers..], self.precision);
+        words
+            .chunks_exact(COUNTERS)
+            .enumerate()
+            .map(|(w, words)| Outcome {
+                longest_list: words[0],
+                active: words[2],
+                deepest: deepest.get(w).copied().unwrap_or(0.0),
+                cut_short: (words[1] != NONE).then_some(words[1]),
+            })
+            .collect()
     }
 
     /// Writes given boxes (flat corners, `dim` per box) as the kernels
@@ -346,13 +434,14 @@ impl ContactBuffers {
         if n == 0 {
             return;
         }
+        let slots = self.slots() as u64;
         encoder.copy_buffer_to_buffer(&self.words, 4 * n, staging, 0, 4 * n);
-        encoder.copy_buffer_to_buffer(&self.lists, 0, staging, 4 * n, 4 * n * self.slots as u64);
+        encoder.copy_buffer_to_buffer(&self.lists, 0, staging, 4 * n, 4 * n * slots);
     }
 
     /// Bytes [`ContactBuffers::copy_lists`] writes.
     pub(crate) fn lists_bytes(&self) -> u64 {
-        4 * self.n as u64 * (1 + self.slots as u64)
+        4 * self.n as u64 * (1 + self.slots() as u64)
     }
 
     /// The lists from the words [`ContactBuffers::copy_lists`] copied (a
@@ -365,7 +454,7 @@ impl ContactBuffers {
             .iter()
             .enumerate()
             .map(|(k, &len)| {
-                (0..(len as usize).min(self.slots))
+                (0..(len as usize).min(self.slots()))
                     .filter_map(|t| lists.get(4 * ((t / 4) * n + k) + t % 4).copied())
                     .collect()
             })
@@ -377,7 +466,7 @@ impl ContactBuffers {
     pub(crate) fn write_lists(&self, lists: &[Vec<u32>]) {
         let n = self.n;
         let mut lengths = vec![0u32; n];
-        let mut entries = vec![0u32; n * self.slots];
+        let mut entries = vec![0u32; n * self.slots()];
         for (k, list) in lists.iter().enumerate() {
             lengths[k] = list.len() as u32;
             for (t, &m) in list.iter().enumerate() {
@@ -395,11 +484,35 @@ impl ContactBuffers {
 /// What the parameter blocks hold.
 struct ParamsOf<'a> {
     blocks: &'a [Block],
+    /// Particles and buckets per world.
     n: usize,
     buckets: usize,
-    slots: usize,
-    friction: f64,
-    precision: crate::Precision,
+    worlds: usize,
+}
+
+/// Every world's counter header as a submission starts: longest list 0,
+/// no cut loop, no active pair.
+fn header(worlds: usize) -> Vec<u32> {
+    let mut one = [0u32; COUNTERS];
+    one[1] = NONE;
+    one.repeat(worlds)
+}
+
+/// Each world's list region (base in vec4 of entries, slots) for `n`
+/// particles per world: world after world.
+fn list_table(n: usize, slots: &[usize]) -> Vec<u32> {
+    let mut base = 0;
+    let mut table = Vec::with_capacity(2 * slots.len());
+    for &s in slots {
+        table.extend([base as u32, s as u32]);
+        base += s / 4 * n;
+    }
+    table
+}
+
+/// Bytes of every world's list region.
+fn lists_bytes(n: usize, slots: &[usize]) -> u64 {
+    4 * (slots.iter().sum::<usize>() * n) as u64
 }
 
 /// Group 0 over `buffers` (binding order of contact.wgsl), the parameter
@@ -420,18 +533,13 @@ fn bind(
                 b.call,
                 params.n as u32,
                 params.buckets as u32,
-                params.slots as u32,
-                scan_blocks_for(params.buckets) as u32,
+                0,
+                scan_blocks_for(params.buckets * params.worlds) as u32,
                 b.flags,
                 b.axis,
                 0,
             ];
-            blocks.push(
-                &BlockWriter::new(params.precision)
-                    .words(&words)
-                    .reals(&[params.friction])
-                    .finish(),
-            )
+            blocks.push(&BlockWriter::new(kernels.precision).words(&words).finish())
         })
         .collect();
     let size = blocks.block_size();

@@ -19,7 +19,9 @@
 //! state ([`ContactBuffers::grow`]). Nothing is dropped silently.
 //!
 //! Three users share it: [`crate::GpuBackend`] (the step, bound to its
-//! resident particle records and status word), [`crate::GpuSweep`] (boxes
+//! resident particle records and status word; in a batch of W worlds the
+//! same dispatches over every world, each its own grid, lists and outcome:
+//! [`ContactKernels::for_worlds`], contact.wgsl), [`crate::GpuSweep`] (boxes
 //! given, lists read back as canonical pairs) and [`crate::GpuCollide`]
 //! (iterations on given lists).
 
@@ -126,19 +128,35 @@ pub(crate) enum ContactPhase {
     Report,
 }
 
-/// The contact kernel set for one dimension and precision.
+/// The contact kernel set for one dimension and precision (and, in a
+/// batch, its worlds).
 pub(crate) struct ContactKernels {
     dim: usize,
     precision: Precision,
+    /// Worlds every dispatch runs (1 but in a batch).
+    worlds: usize,
     set: KernelSet<ContactEntry>,
 }
 
 impl ContactKernels {
-    /// Every pipeline of the set on `ctx`'s device.
+    /// Every pipeline of the set on `ctx`'s device, for one world.
     pub(crate) fn new(
         ctx: &GpuContext,
         dim: usize,
         precision: Precision,
+    ) -> Result<Self, GpuError> {
+        Self::for_worlds(ctx, dim, precision, (1, 0))
+    }
+
+    /// Every pipeline of the set on `ctx`'s device for `worlds` =
+    /// (W, particles per world): with W > 1 the batch's kernels
+    /// (contact.wgsl's WORLDS, the prelude's WORLD_PARTICLES), else the
+    /// single-world ones.
+    pub(crate) fn for_worlds(
+        ctx: &GpuContext,
+        dim: usize,
+        precision: Precision,
+        worlds: (usize, usize),
     ) -> Result<Self, GpuError> {
         if dim == 0 || dim > crate::shader::MAX_GPU_DIM {
             return Err(GpuError::Unsupported {
@@ -148,6 +166,14 @@ impl ContactKernels {
                 ),
             });
         }
+        let (count, particles) = (worlds.0.max(1), worlds.1);
+        let constants = match count {
+            1 => Vec::new(),
+            _ => vec![
+                ("WORLDS", count as f64),
+                ("WORLD_PARTICLES", particles as f64),
+            ],
+        };
         let set = KernelSet::new(
             ctx,
             &KernelSetSpec {
@@ -156,13 +182,14 @@ impl ContactKernels {
                 dim,
                 precision,
                 entries: &ContactEntry::ALL,
-                constants: &[],
+                constants: &constants,
                 generated: None,
             },
         )?;
         Ok(ContactKernels {
             dim,
             precision,
+            worlds: count,
             set,
         })
     }
@@ -170,9 +197,10 @@ impl ContactKernels {
 
 impl ContactBuffers {
     /// Binds the groups with parameter block `block` and returns the
-    /// particle count, or `None` (nothing bound) when there are none.
+    /// particle count of every world, or `None` (nothing bound) when there
+    /// are none.
     fn bind(&self, pass: &mut wgpu::ComputePass<'_>, block: usize) -> Option<u32> {
-        let n = self.particles() as u32;
+        let n = (self.particles() * self.worlds()) as u32;
         if n == 0 {
             return None;
         }
@@ -195,12 +223,13 @@ impl ContactBuffers {
             return;
         };
         let set = &kernels.set;
+        let worlds = self.worlds() as u32;
         use ContactEntry::*;
         match phase {
             ContactPhase::Broadphase => {
                 let scan = self.scan_blocks() as u32;
-                set.dispatch(pass, BoxesAndBounds, BOUND_THREADS);
-                set.dispatch_workgroups(pass, GridFrame, 1);
+                set.dispatch(pass, BoxesAndBounds, BOUND_THREADS * worlds);
+                set.dispatch_workgroups(pass, GridFrame, worlds);
                 set.dispatch(pass, BinCount, n);
                 set.dispatch_workgroups(pass, ScanReduce, scan);
                 set.dispatch_workgroups(pass, ScanTop, 1);
@@ -214,7 +243,7 @@ impl ContactBuffers {
             }
             ContactPhase::Report => {
                 set.dispatch(pass, Report, n);
-                set.dispatch_workgroups(pass, ReportFinal, 1);
+                set.dispatch_workgroups(pass, ReportFinal, worlds);
             }
         }
     }
