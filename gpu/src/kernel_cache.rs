@@ -18,36 +18,44 @@ use hyperpbd_core::GpuError;
 
 use crate::kernel_set::{EntryPoint, KernelSet, KernelSetSpec};
 
-/// Kernel sets by spec, on one device (clones share the map).
+/// Built values by key, on one device (clones share the map).
 #[derive(Clone, Default)]
 pub(crate) struct KernelCache {
     sets: Arc<Mutex<HashMap<String, Arc<dyn Any + Send + Sync>>>>,
 }
 
 impl KernelCache {
-    /// The set of `spec`: the cached one, else `build()`, cached when it
-    /// succeeds (a failed build is not remembered).
-    pub fn get_or_build<E: EntryPoint + Send + Sync>(
+    /// The set of `spec`: the cached one, else `build()`.
+    pub fn kernel_set<E: EntryPoint>(
         &self,
         spec: &KernelSetSpec<'_, E>,
         build: impl FnOnce() -> Result<KernelSet<E>, GpuError>,
     ) -> Result<KernelSet<E>, GpuError> {
-        let key = key(spec);
+        self.get_or_build(spec_key(spec), build)
+    }
+
+    /// The value cached under `key` (and of type `T`), else `build()`,
+    /// cached when it succeeds (a failed build is not remembered).
+    fn get_or_build<T: Clone + Send + Sync + 'static>(
+        &self,
+        key: String,
+        build: impl FnOnce() -> Result<T, GpuError>,
+    ) -> Result<T, GpuError> {
         if let Ok(sets) = self.sets.lock()
-            && let Some(set) = sets.get(&key).and_then(|s| s.downcast_ref::<KernelSet<E>>())
+            && let Some(value) = sets.get(&key).and_then(|s| s.downcast_ref::<T>())
         {
-            return Ok(set.clone());
+            return Ok(value.clone());
         }
-        let set = build()?;
+        let value = build()?;
         if let Ok(mut sets) = self.sets.lock() {
-            sets.insert(key, Arc::new(set.clone()));
+            sets.insert(key, Arc::new(value.clone()));
         }
-        Ok(set)
+        Ok(value)
     }
 }
 
 /// Everything a kernel set is made of, as one string.
-fn key<E: EntryPoint>(spec: &KernelSetSpec<'_, E>) -> String {
+fn spec_key<E: EntryPoint>(spec: &KernelSetSpec<'_, E>) -> String {
     let entries: Vec<_> = spec
         .entries
         .iter()
@@ -64,4 +72,78 @@ fn key<E: EntryPoint>(spec: &KernelSetSpec<'_, E>) -> String {
         spec.constants,
         spec.generated,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Precision;
+    use crate::contact::ContactEntry;
+    use crate::shader::ShaderFile;
+
+    #[test]
+    fn a_key_is_built_once_and_a_failed_build_is_not_kept() {
+        let cache = KernelCache::default();
+        let mut builds = 0;
+        for _ in 0..3 {
+            let value = cache.get_or_build("a".into(), || {
+                builds += 1;
+                Ok(7_u32)
+            });
+            assert_eq!(value, Ok(7));
+        }
+        assert_eq!(builds, 1);
+        let failed: Result<u32, GpuError> = cache.get_or_build("b".into(), || {
+            Err(GpuError::Other {
+                message: "refused".into(),
+            })
+        });
+        assert!(failed.is_err());
+        assert_eq!(cache.get_or_build("b".into(), || Ok(8_u32)), Ok(8));
+        // Another type under the same key is built, not mistaken.
+        assert_eq!(cache.get_or_build("a".into(), || Ok(9_u64)), Ok(9));
+    }
+
+    #[test]
+    fn every_part_of_a_spec_is_in_its_key() {
+        let entries = ContactEntry::ALL;
+        let base = KernelSetSpec {
+            label: "contact",
+            dim: 3,
+            precision: Precision::F64,
+            modules: &[ShaderFile::Collide],
+            entries: &entries,
+            constants: &[],
+            generated: None,
+        };
+        let key = spec_key(&base);
+        assert_eq!(key, spec_key(&KernelSetSpec { ..base }));
+        let others = [
+            KernelSetSpec { label: "other", ..base },
+            KernelSetSpec { dim: 4, ..base },
+            KernelSetSpec {
+                precision: Precision::F32,
+                ..base
+            },
+            KernelSetSpec {
+                modules: &[ShaderFile::Grid],
+                ..base
+            },
+            KernelSetSpec {
+                entries: &entries[1..],
+                ..base
+            },
+            KernelSetSpec {
+                constants: &[("WORLDS", 2.0)],
+                ..base
+            },
+            KernelSetSpec {
+                generated: Some("fn f() {}"),
+                ..base
+            },
+        ];
+        for other in &others {
+            assert_ne!(spec_key(other), key);
+        }
+    }
 }

@@ -188,7 +188,7 @@ impl<E: EntryPoint> KernelSet<E> {
     /// [`KernelCache`]: crate::kernel_cache::KernelCache
     pub fn new(ctx: &GpuContext, spec: &KernelSetSpec<'_, E>) -> Result<Self, GpuError> {
         ctx.kernels
-            .get_or_build(spec, || Self::compile(&ctx.device, spec))
+            .kernel_set(spec, || Self::compile(&ctx.device, spec))
     }
 
     /// Builds the layouts, modules and pipelines of `spec` on `device`.

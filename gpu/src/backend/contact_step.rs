@@ -94,12 +94,8 @@ impl ContactStage {
             flags: 0,
             axis: plan.dim as u32,
         });
-<<<<<<< HEAD
-        let kernels = ContactKernels::new(&ctx, plan.dim, precision)?;
-=======
         let worlds = (plans.len(), plan.particle_count());
-        let kernels = ContactKernels::for_worlds(&ctx, plan.dim, precision, worlds)?;
->>>>>>> main
+        let kernels = ContactKernels::for_worlds(ctx, plan.dim, precision, worlds)?;
         let buffers = ContactBuffers::new(
             ctx,
             &kernels,
