@@ -108,6 +108,11 @@ impl FamilyKind {
         })
     }
 
+    /// True for a material family (stvk, neo_hookean).
+    pub fn is_material(&self) -> bool {
+        matches!(self, FamilyKind::Material { .. })
+    }
+
     /// True for an expression family.
     pub fn is_expression(&self) -> bool {
         matches!(self, FamilyKind::Expression(_))

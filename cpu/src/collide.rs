@@ -17,7 +17,8 @@
 //!                      t_f = t                 if |t| ≤ μ s   (static: cancel all)
 //!                          = t · μ s / |t|     otherwise      (dynamic: one clamp
 //!                                                             on the tangent norm)
-//!     c_e = n s − t_f                                      (relative correction)
+//!     c_e = n s − t_f                                      (relative correction;
+//!                                            core's kinds::particle_contact)
 //!   particle k (gather over its sorted list, in order):
 //!     Σ_k = Σ_{e ∋ k, active} ±(w_k / W_e) c_e     (− if k = i, + if k = j)
 //!     x_k += Σ_k / a_k,   a_k = number of active contacts of k
@@ -45,6 +46,7 @@ use hyperpbd_core::broadphase::{
     Aabbs, BoxGrid, Pair, contact_lists_into, sweep_axis, sweep_pairs, swept_boxes,
 };
 use hyperpbd_core::geometry::{deepest_overlap, separation};
+use hyperpbd_core::kinds::particle_contact::pair_correction;
 use hyperpbd_core::{FamilyResidual, Plan};
 
 /// Pairs per chunk of the pair pass.
@@ -243,41 +245,9 @@ fn pair_corrections<D: Dim>(
         if !len.is_finite() {
             return Err(first + e);
         }
-        let c = len - (r[i] + r[j]);
         let out = &mut out[e * n..(e + 1) * n];
-        flags[e] = c < 0.0 && len > 0.0;
-        if !flags[e] {
-            continue;
-        }
-        let s = -c;
-        let inv = 1.0 / len;
-        for a in 0..n {
-            d[a] *= inv;
-        }
-        for a in 0..n {
-            out[a] = d[a] * s;
-        }
-        if friction > 0.0 {
-            let mut dn = 0.0;
-            for a in 0..n {
-                let dr = (x[j * n + a] - p[j * n + a]) - (x[i * n + a] - p[i * n + a]);
-                dn += dr * d[a];
-            }
-            let mut t2 = 0.0;
-            for a in 0..n {
-                let dr = (x[j * n + a] - p[j * n + a]) - (x[i * n + a] - p[i * n + a]);
-                let t = dr - dn * d[a];
-                t2 += t * t;
-            }
-            let t_norm = t2.sqrt();
-            let bound = friction * s;
-            let scale = if t_norm <= bound { 1.0 } else { bound / t_norm };
-            for a in 0..n {
-                let dr = (x[j * n + a] - p[j * n + a]) - (x[i * n + a] - p[i * n + a]);
-                let t = dr - dn * d[a];
-                out[a] -= t * scale;
-            }
-        }
+        let slip = |a| (x[j * n + a] - p[j * n + a]) - (x[i * n + a] - p[i * n + a]);
+        flags[e] = pair_correction(d, (len, r[i] + r[j], friction), slip, out);
     }
     Ok(())
 }

@@ -70,12 +70,14 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::dim::{Dim, with_dim};
-use crate::project::{Batch, Workspace, gathered_value, static_friction};
+use crate::project::{Batch, Workspace, gathered_value};
 use hyperpbd_core::implicit::{
     MaterialHessianScratch, PsdScratch, material_hessian_block, material_term, project_psd,
 };
-use hyperpbd_core::kinds::{self, Relation};
-use hyperpbd_core::material::{cholesky, element_energy};
+use hyperpbd_core::kinds;
+use hyperpbd_core::kinds::contact_friction::static_friction;
+use hyperpbd_core::kinds::primal_element::{distance_element, gauss_newton_lambda};
+use hyperpbd_core::material::{cholesky, element_energy, solve_factored};
 use hyperpbd_core::{Family, FamilyKind, Plan};
 use std::ops::Range;
 
@@ -250,28 +252,6 @@ pub fn project(
     Ok(())
 }
 
-/// λ clamped by the family's relation, by comparison (−0 and NaN go to
-/// +0, as shaders/primal.wgsl's select sends them).
-fn clamp(family: &Family, l: f64) -> f64 {
-    match kinds::relation(&family.kind) {
-        Relation::Equal => l,
-        Relation::AtLeast => {
-            if l > 0.0 {
-                l
-            } else {
-                0.0
-            }
-        }
-        Relation::AtMost => {
-            if l < 0.0 {
-                l
-            } else {
-                0.0
-            }
-        }
-    }
-}
-
 /// The exact element problems of distances or tethers (slots `range`,
 /// in order): the same arithmetic as the generic loop would do, on
 /// fixed-size vectors.
@@ -285,39 +265,18 @@ fn distances<D: Dim>(
 ) -> Result<(), usize> {
     let n = dim.n();
     let f = batch.family;
-    let (mut ai, mut aj, mut unit) = (dim.zeros(), dim.zeros(), dim.zeros());
-    let (ai, aj, unit) = (ai.as_mut(), aj.as_mut(), unit.as_mut());
+    let relation = kinds::relation(&f.kind);
+    let (mut ai, mut aj) = (dim.zeros(), dim.zeros());
+    let (ai, aj) = (ai.as_mut(), aj.as_mut());
     for e in range {
         let (i, j) = (f.elements[2 * e] as usize, f.elements[2 * e + 1] as usize);
         let (wi, wj) = (batch.inverse_mass[i], batch.inverse_mass[j]);
         let d = &mut displacement[2 * n * e..2 * n * (e + 1)];
-        let mut len2 = 0.0;
-        for k in 0..n {
-            ai[k] = x[i * n + k] - d[k];
-            aj[k] = x[j * n + k] - d[n + k];
-            let dk = aj[k] - ai[k];
-            len2 += dk * dk;
-        }
-        let len = len2.sqrt();
-        let wsum = wi + wj;
-        let l = if len.is_nan() || len <= 0.0 || wsum == 0.0 {
-            if !len.is_finite() {
-                return Err(e);
-            }
-            d.fill(0.0);
-            0.0
-        } else {
-            let l = clamp(f, (f.rest[e] - len) / (wsum + batch.alpha_tilde));
-            if !l.is_finite() {
-                return Err(e);
-            }
-            for k in 0..n {
-                unit[k] = (aj[k] - ai[k]) / len;
-                d[k] = -wi * unit[k] * l;
-                d[n + k] = wj * unit[k] * l;
-            }
-            l
-        };
+        let (di, dj) = d.split_at_mut(n);
+        let points = [&x[i * n..(i + 1) * n], &x[j * n..(j + 1) * n]];
+        let constants = (wi, wj, f.rest[e], batch.alpha_tilde);
+        let l = distance_element(points, [&mut *ai, &mut *aj], [di, dj], constants, relation)
+            .ok_or(e)?;
         lambda[e] = l;
         if wi != 0.0 {
             for k in 0..n {
@@ -348,7 +307,7 @@ fn hyperplane(
     for k in 0..n {
         c += normal[k] * sc.anchor[k];
     }
-    let l = clamp(batch.family, -c / (w + batch.alpha_tilde));
+    let l = kinds::relation(&batch.family.kind).clamp(-c / (w + batch.alpha_tilde));
     for k in 0..n {
         d[k] = w * normal[k] * l;
     }
@@ -371,23 +330,16 @@ fn gauss_newton(
     if !value.is_finite() {
         return f64::NAN;
     }
-    let (mut wsum, mut lin) = (0.0, value - batch.family.rest[e]);
-    for (j, &i) in element.iter().enumerate() {
-        let w = batch.inverse_mass[i as usize];
-        if w == 0.0 {
-            continue;
-        }
-        for k in j * n..(j + 1) * n {
-            wsum += w * ws.grad[k] * ws.grad[k];
-            lin += ws.grad[k] * (sc.anchor[k] - ws.points[k]);
-        }
-    }
+    let weight = |j: usize| batch.inverse_mass[element[j] as usize];
+    let residual = value - batch.family.rest[e];
+    let relation = kinds::relation(&batch.family.kind);
+    let vectors = [&ws.grad[..], &sc.anchor, &ws.points];
     // ∇C zero or undefined (an expression's norm at 0): no response, the
     // standard update's rule.
-    if wsum == 0.0 || !wsum.is_finite() {
+    let Some(l) = gauss_newton_lambda(n, weight, vectors, (residual, batch.alpha_tilde), relation)
+    else {
         return 0.0;
-    }
-    let l = clamp(batch.family, -lin / (wsum + batch.alpha_tilde));
+    };
     for (j, &i) in element.iter().enumerate() {
         let w = batch.inverse_mass[i as usize];
         for k in j * n..(j + 1) * n {
@@ -524,22 +476,4 @@ fn step_length(
         t *= 0.5;
     }
     0.0
-}
-
-/// b ← (L Lᵀ)⁻¹ b for the lower factor `l` (n × n, row-major).
-fn solve_factored(l: &[f64], n: usize, b: &mut [f64]) {
-    for i in 0..n {
-        let mut s = b[i];
-        for m in 0..i {
-            s -= l[i * n + m] * b[m];
-        }
-        b[i] = s / l[i * n + i];
-    }
-    for i in (0..n).rev() {
-        let mut s = b[i];
-        for m in i + 1..n {
-            s -= l[m * n + i] * b[m];
-        }
-        b[i] = s / l[i * n + i];
-    }
 }

@@ -6,7 +6,8 @@
 //!   Δv_max = μ · w λ / h                      (μ × normal velocity change)
 //!   v −= v_t · min(Δv_max, |v_t|) / |v_t|     (one clamp on the norm)
 //! ```
-//! A contact family holds each particle once, so its elements are
+//! The clamp is core's `kinds::contact_friction` (one code with the f32
+//! reference); v_n here is `project::dot`. A contact family holds each particle once, so its elements are
 //! independent and run in chunks (`parallel.rs`).
 
 // Coordinate loops index several arrays at once, as a kernel does.
@@ -15,6 +16,7 @@
 use crate::dim::{Dim, with_dim};
 use crate::parallel::{Coordinates, DisjointSlice, Shared, Workers, first_error};
 use crate::project::ELEMENT_GRAIN;
+use hyperpbd_core::kinds::contact_friction::clamp_tangential;
 use hyperpbd_core::{Family, FamilyKind};
 use std::ops::Range;
 
@@ -85,34 +87,10 @@ fn friction_in<D: Dim, V: Coordinates + ?Sized>(
         let i = contact.family.elements[e] as usize;
         let vi = v.values_mut(i * n..(i + 1) * n);
         let limit = contact.friction * contact.inverse_mass[i] * l / contact.h;
-        if clamp_tangential(normal, limit, vi) && !vi.iter().all(|c| c.is_finite()) {
+        let vn = crate::project::dot(normal, vi);
+        if clamp_tangential(normal, limit, vn, vi) && !vi.iter().all(|c| c.is_finite()) {
             return Err(e);
         }
     }
     Ok(())
-}
-
-/// The clamp of the module docs on one velocity `vi` with unit normal
-/// `normal` and bound `limit` (= μ w λ / h): v −= v_t · min(limit, |v_t|)
-/// / |v_t|. False (and `vi` untouched) when |v_t| = 0. Shared by the
-/// mesh contact's friction (`mesh_contact.rs`, its normal per particle).
-#[inline(always)]
-pub(crate) fn clamp_tangential(normal: &[f64], limit: f64, vi: &mut [f64]) -> bool {
-    let n = vi.len();
-    let vn = crate::project::dot(normal, vi);
-    let mut t2 = 0.0;
-    for a in 0..n {
-        let t = vi[a] - vn * normal[a];
-        t2 += t * t;
-    }
-    let vt = t2.sqrt();
-    if vt == 0.0 {
-        return false;
-    }
-    let scale = limit.min(vt) / vt;
-    for a in 0..n {
-        let t = vi[a] - vn * normal[a];
-        vi[a] -= t * scale;
-    }
-    true
 }

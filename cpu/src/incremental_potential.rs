@@ -31,6 +31,7 @@ use crate::parallel::Workers;
 use hyperpbd_core::barrier::{
     BarrierLaw, BarrierObstacles, ParticleBarrier, evaluate_particle_barrier, filter_fraction,
 };
+use hyperpbd_core::material::solve_factored;
 use hyperpbd_core::{
     Convergence, IncrementalPotentialPlan, MinimisationReport, MinimisationStatus, Plan, Refusal,
 };
@@ -177,20 +178,7 @@ pub fn cholesky_solve(a: &mut [f64], b: &mut [f64], n: usize) -> bool {
             a[r * n + c] = value / root;
         }
     }
-    for r in 0..n {
-        let mut value = b[r];
-        for k in 0..r {
-            value -= a[r * n + k] * b[k];
-        }
-        b[r] = value / a[r * n + r];
-    }
-    for r in (0..n).rev() {
-        let mut value = b[r];
-        for k in r + 1..n {
-            value -= a[k * n + r] * b[k];
-        }
-        b[r] = value / a[r * n + r];
-    }
+    solve_factored(a, n, b);
     true
 }
 

@@ -20,10 +20,10 @@
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
 
-use crate::friction::clamp_tangential;
 use crate::parallel::{Coordinates, DisjointSlice, Shared, Workers, first_error};
 use crate::project::ELEMENT_GRAIN;
 use hyperpbd_core::barrier::BarrierObstacles;
+use hyperpbd_core::kinds::contact_friction::clamp_tangential;
 use hyperpbd_core::kinds::mesh_contact::closest;
 use hyperpbd_core::{Family, MAX_DIM};
 use std::ops::Range;
@@ -81,7 +81,8 @@ fn friction_in<V: Coordinates + ?Sized>(
             continue;
         }
         let vi = v.values_mut(i * dim..(i + 1) * dim);
-        let applied = clamp_tangential(normal, m.mu * w * l / m.h, vi);
+        let vn = crate::project::dot(normal, vi);
+        let applied = clamp_tangential(normal, m.mu * w * l / m.h, vn, vi);
         if applied && !vi.iter().all(|c| c.is_finite()) {
             return Err(e);
         }

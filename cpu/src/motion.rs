@@ -26,7 +26,9 @@ use hyperpbd_core::motion::{PlaneAt, SubstepMotion, substep_time};
 use hyperpbd_core::{Family, FamilyKind, FamilyResidual, Plan};
 
 use crate::parallel::Workers;
-use crate::project::{dot, static_friction};
+use crate::project::dot;
+use hyperpbd_core::kinds::contact_friction::{clamp_relative, static_friction};
+use hyperpbd_core::kinds::hyperplane_contact::contact_update;
 
 /// The Motion kernel of substep `substep` of step `step`: the substep's
 /// prescribed values, pins placed in `x` with their velocities in `v`.
@@ -80,16 +82,7 @@ pub fn project(
         let w = inverse_mass[i];
         let xi = &mut x[i * n..(i + 1) * n];
         let c = dot(normal, xi) - family.rest[e] - plane.shift;
-        let l = lambda[e];
-        let raw = (-c - alpha_tilde * l) / (w + alpha_tilde);
-        if !raw.is_finite() {
-            return Err(e);
-        }
-        let dl = (l + raw).max(0.0) - l;
-        lambda[e] = l + dl;
-        for a in 0..n {
-            xi[a] += w * normal[a] * dl;
-        }
+        lambda[e] = contact_update(c, (lambda[e], w, alpha_tilde), normal, xi).ok_or(e)?;
         if *friction > 0.0 && lambda[e] > 0.0 {
             let p = &start[i * n..(i + 1) * n];
             plane.carry.at(p, &mut q);
@@ -189,22 +182,8 @@ pub fn friction(
             rel[a] = vi[a] - rel[a] / h;
         }
         let vn = dot(normal, &rel);
-        let mut t2 = 0.0;
-        for a in 0..n {
-            let t = rel[a] - vn * normal[a];
-            t2 += t * t;
-        }
-        let vt = t2.sqrt();
-        if vt == 0.0 {
-            continue;
-        }
         let limit = friction * inverse_mass[i] * l / h;
-        let scale = limit.min(vt) / vt;
-        for a in 0..n {
-            let t = rel[a] - vn * normal[a];
-            vi[a] -= t * scale;
-        }
-        if !vi.iter().all(|c| c.is_finite()) {
+        if clamp_relative(normal, limit, (vn, &rel), vi) && !vi.iter().all(|c| c.is_finite()) {
             return Err(i);
         }
     }

@@ -49,6 +49,8 @@ use hyperpbd_core::barrier::BarrierObstacles;
 use hyperpbd_core::expr::Columns;
 use hyperpbd_core::geometry::{Scratch, oriented_measure, simplex_squared_measure};
 use hyperpbd_core::kinds;
+use hyperpbd_core::kinds::contact_friction::static_friction;
+use hyperpbd_core::kinds::hyperplane_contact::contact_update;
 use hyperpbd_core::kinds::mesh_contact::closest;
 use hyperpbd_core::material::MaterialScratch;
 use hyperpbd_core::{Family, FamilyKind, MAX_DIM};
@@ -404,16 +406,7 @@ fn contact_in<D: Dim, X: Coordinates + ?Sized>(
         let w = batch.inverse_mass[i];
         let xi = x.values_mut(i * n..i * n + n);
         let c = dot(normal, xi) - rest;
-        let l = *lambda;
-        let raw = (-c - alpha_tilde * l) / (w + alpha_tilde);
-        if !raw.is_finite() {
-            return Err(e);
-        }
-        let dl = (l + raw).max(0.0) - l;
-        *lambda = l + dl;
-        for a in 0..n {
-            xi[a] += w * normal[a] * dl;
-        }
+        *lambda = contact_update(c, (*lambda, w, alpha_tilde), normal, xi).ok_or(e)?;
         if friction > 0.0 && *lambda > 0.0 {
             let p = &batch.start[i * n..i * n + n];
             static_friction(normal, friction * w * *lambda, p, xi);
@@ -447,46 +440,13 @@ fn mesh_contact_in<X: Coordinates + ?Sized>(
         let Some(c) = closest(mesh, xi, family.rest[e], w * l, normal) else {
             continue;
         };
-        let raw = (-c - alpha_tilde * l) / (w + alpha_tilde);
-        if !raw.is_finite() {
-            return Err(e);
-        }
-        let dl = (l + raw).max(0.0) - l;
-        lambda[e - first] = l + dl;
-        for a in 0..n {
-            xi[a] += w * normal[a] * dl;
-        }
+        lambda[e - first] = contact_update(c, (l, w, alpha_tilde), normal, xi).ok_or(e)?;
         if friction > 0.0 && lambda[e - first] > 0.0 {
             let p = &start[i * n..i * n + n];
             static_friction(normal, friction * w * lambda[e - first], p, xi);
         }
     }
     Ok(())
-}
-
-/// Static friction of an active hyperplane contact (module docs): the
-/// particle's tangential motion since the substep's start `p` is cancelled
-/// whole if its length is at most `bound` = μ w λ (the normal correction).
-/// Shared by the standard update and the primal-residual one
-/// (`consistent.rs`).
-#[inline(always)]
-pub(crate) fn static_friction(normal: &[f64], bound: f64, p: &[f64], xi: &mut [f64]) {
-    let n = xi.len();
-    let mut dn = 0.0;
-    for a in 0..n {
-        dn += (xi[a] - p[a]) * normal[a];
-    }
-    let mut t2 = 0.0;
-    for a in 0..n {
-        let t = (xi[a] - p[a]) - dn * normal[a];
-        t2 += t * t;
-    }
-    if t2.sqrt() <= bound {
-        for a in 0..n {
-            let t = (xi[a] - p[a]) - dn * normal[a];
-            xi[a] -= t;
-        }
-    }
 }
 
 /// n·x.

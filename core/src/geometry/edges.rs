@@ -7,10 +7,15 @@
 //! G = DᵀD                            G[i][j] = Σ_a D[a][i] D[a][j]  (a ascending)
 //! ∂f/∂D = Γ  ⇒  ∇_j f = Γ[·][j − 1]  (j = 1..k),   ∇_0 f = −Σ_j ∇_j f
 //! ```
+//! Generic over the precision: f64 for the golden path, f32 for the f32
+//! reference (`measure.wgsl` and `material.wgsl` run these loops in this
+//! order).
+
+use crate::kinds::ProjectionReal;
 
 /// D of the k-simplex `points` (k + 1 points of length `dim`) into
 /// `edges` (`dim` × k, row-major).
-pub(crate) fn edge_matrix(points: &[f64], dim: usize, k: usize, edges: &mut [f64]) {
+pub fn edge_matrix<R: ProjectionReal>(points: &[R], dim: usize, k: usize, edges: &mut [R]) {
     for j in 0..k {
         for a in 0..dim {
             edges[a * k + j] = points[(j + 1) * dim + a] - points[a];
@@ -20,10 +25,10 @@ pub(crate) fn edge_matrix(points: &[f64], dim: usize, k: usize, edges: &mut [f64
 
 /// G = DᵀD of the `dim` × k row-major `columns` into `gram` (k × k),
 /// each entry summed over the rows in ascending order.
-pub(crate) fn gram(columns: &[f64], dim: usize, k: usize, gram: &mut [f64]) {
+pub fn gram<R: ProjectionReal>(columns: &[R], dim: usize, k: usize, gram: &mut [R]) {
     for i in 0..k {
         for j in 0..k {
-            let mut s = 0.0;
+            let mut s = R::constant(0.0);
             for a in 0..dim {
                 s += columns[a * k + i] * columns[a * k + j];
             }
@@ -33,16 +38,16 @@ pub(crate) fn gram(columns: &[f64], dim: usize, k: usize, gram: &mut [f64]) {
 }
 
 /// The vertex gradient (k + 1 points × `dim`) of a function whose
-/// derivative with respect to edge entry D[a][j] is `edge_gradient(j, a)`:
+/// derivative with respect to edge entry `D[a][j]` is `edge_gradient(j, a)`:
 /// ∇_{j+1} = that column, ∇_0 = minus the sum of the columns, accumulated
 /// in the order j ascending, a ascending.
-pub(crate) fn scatter_edge_gradient(
-    grad: &mut [f64],
+pub fn scatter_edge_gradient<R: ProjectionReal>(
+    grad: &mut [R],
     dim: usize,
     k: usize,
-    mut edge_gradient: impl FnMut(usize, usize) -> f64,
+    mut edge_gradient: impl FnMut(usize, usize) -> R,
 ) {
-    grad[..dim].fill(0.0);
+    grad[..dim].fill(R::constant(0.0));
     for j in 0..k {
         for a in 0..dim {
             let gj = edge_gradient(j, a);

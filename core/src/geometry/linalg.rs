@@ -44,12 +44,12 @@ pub fn determinant<R: ProjectionReal>(a: &mut [R], n: usize) -> R {
             det = -det;
         }
         let pivot = a[col * n + col];
-        det = det * pivot;
+        det *= pivot;
         for row in col + 1..n {
             let factor = a[row * n + col] / pivot;
             if factor != zero {
                 for c in col + 1..n {
-                    a[row * n + c] = a[row * n + c] - factor * a[col * n + c];
+                    a[row * n + c] -= factor * a[col * n + c];
                 }
             }
         }

@@ -18,25 +18,28 @@ pub mod simplex_hierarchy;
 mod simplex_measure;
 mod symmetric_eigen;
 
+use crate::kinds::ProjectionReal;
+
 pub use closest_point::{ClosestPoint, MAX_SIMPLEX_ORDER, closest_point_on_simplex};
 pub use distance::distance;
-pub(crate) use edges::{edge_matrix, gram, scatter_edge_gradient};
+pub use edges::{edge_matrix, gram, scatter_edge_gradient};
 pub use linalg::{adjugate, determinant, separation, unit_vector};
 pub use oriented_measure::{oriented_measure, oriented_volume};
-pub use overlap::deepest_overlap;
+pub use overlap::{deepest_overlap, overlap};
 pub use simplex_hierarchy::SimplexHierarchy;
 pub use simplex_measure::simplex_squared_measure;
 pub use symmetric_eigen::{MAX_SWEEPS, SymmetricEigen, symmetric_eigen};
 
-/// Reusable scratch space so evaluation allocates nothing per element.
+/// Reusable scratch space so evaluation allocates nothing per element, in
+/// precision `R` (f64: the golden path; f32: the f32 reference).
 #[derive(Debug, Default, Clone)]
-pub struct Scratch {
-    pub(crate) edges: Vec<f64>,
-    pub(crate) gram: Vec<f64>,
-    pub(crate) adj: Vec<f64>,
-    pub(crate) minor: Vec<f64>,
+pub struct Scratch<R = f64> {
+    pub(crate) edges: Vec<R>,
+    pub(crate) gram: Vec<R>,
+    pub(crate) adj: Vec<R>,
+    pub(crate) minor: Vec<R>,
     /// An expression's columns (its value at one element).
-    pub(crate) columns: crate::expr::Columns<f64>,
+    pub(crate) columns: crate::expr::Columns<R>,
 }
 
 impl Scratch {
@@ -53,5 +56,11 @@ pub const DEGENERATE_VOLUME_RATIO: f64 = 1e-12;
 
 /// Factorial as f64 (exact up to 18!).
 pub fn factorial(k: usize) -> f64 {
-    (1..=k).fold(1.0, |acc, i| acc * i as f64)
+    factorial_in(k)
+}
+
+/// k! accumulated in precision `R` from 1, factor by factor (f32: as
+/// `measure.wgsl`; f64: [`factorial`]).
+pub(crate) fn factorial_in<R: ProjectionReal>(k: usize) -> R {
+    (1..=k).fold(R::constant(1.0), |acc, i| acc * R::constant(i as f64))
 }

@@ -7,24 +7,28 @@
 //! ∇_0 V = −Σ_j ∇_j V
 //! ```
 //! Reflection or an odd vertex permutation flips the sign of V.
+//! One code for both precisions (the golden path in f64, the f32 reference
+//! in f32 in `measure.wgsl`'s order: adj(D) before det(D)).
 
-use super::{Scratch, adjugate, determinant, edge_matrix, factorial, scatter_edge_gradient};
+use super::{Scratch, adjugate, determinant, edge_matrix, factorial_in, scatter_edge_gradient};
+use crate::kinds::ProjectionReal;
 
 /// V for the N + 1 points `points` in R^`dim` (N = dim).
-pub fn oriented_measure(
-    points: &[f64],
+pub fn oriented_measure<R: ProjectionReal>(
+    points: &[R],
     dim: usize,
-    grad: &mut [f64],
-    scratch: &mut Scratch,
-) -> f64 {
+    grad: &mut [R],
+    scratch: &mut Scratch<R>,
+) -> R {
     let n = dim;
-    let scale = 1.0 / factorial(n);
+    let scale = R::constant(1.0) / factorial_in::<R>(n);
     let Scratch {
         edges, adj, minor, ..
     } = scratch;
-    edges.resize(n * n, 0.0);
-    adj.resize(n * n, 0.0);
-    minor.resize(n * n, 0.0);
+    let zero = R::constant(0.0);
+    edges.resize(n * n, zero);
+    adj.resize(n * n, zero);
+    minor.resize(n * n, zero);
     edge_matrix(points, n, n, edges);
     adjugate(edges, n, adj, minor);
     minor.copy_from_slice(&edges[..n * n]);
@@ -37,7 +41,7 @@ pub fn oriented_measure(
 /// determinant of the same edge matrix), without the gradient's adjugate.
 pub fn oriented_volume(points: &[f64], dim: usize, scratch: &mut Scratch) -> f64 {
     let n = dim;
-    let scale = 1.0 / factorial(n);
+    let scale = 1.0 / factorial_in::<f64>(n);
     let minor = &mut scratch.minor;
     minor.resize(n * n, 0.0);
     edge_matrix(points, n, n, minor);
@@ -57,6 +61,21 @@ mod tests {
         approx::assert_relative_eq!(oriented_measure(&flipped, 2, &mut [0.0; 6], &mut s), -0.5);
         let seg = [2.0, 5.0];
         approx::assert_relative_eq!(oriented_measure(&seg, 1, &mut [0.0; 2], &mut s), 3.0);
+    }
+
+    #[test]
+    fn f32_unit_simplices_in_the_shaders_order() {
+        let mut s = Scratch::<f32>::default();
+        let tri = [0.0f32, 0.0, 1.0, 0.0, 0.0, 1.0];
+        let mut g = [0.0f32; 6];
+        assert_eq!(oriented_measure(&tri, 2, &mut g, &mut s), 0.5);
+        assert_eq!(g, [-0.5, -0.5, 0.5, 0.0, 0.0, 0.5]);
+        let squared = crate::geometry::simplex_squared_measure(&tri, 2, &mut g, &mut s);
+        assert_eq!(squared, 0.25);
+        // Pivot 3 (row swap), factor 1/3 rounds: 2 − (1/3)·4 in f32.
+        let mut a = [1.0f32, 2.0, 3.0, 4.0];
+        let expected = -3.0 * (2.0 - (1.0f32 / 3.0) * 4.0);
+        assert_eq!(crate::geometry::determinant(&mut a, 2), expected);
     }
 
     #[test]

@@ -6,7 +6,10 @@
 //! residual      = max(0, max over candidate pairs of overlap(i, j))
 //! ```
 //! |x_j − x_i|² is summed axis by axis in coordinate order, then one square
-//! root: the same arithmetic in the same order on every backend.
+//! root: the same arithmetic in the same order on every backend ([`overlap`]
+//! is the f32 reference's too, over its lists).
+
+use crate::kinds::ProjectionReal;
 
 /// Deepest overlap max(0, r_i + r_j − |x_j − x_i|) over `pairs` of the
 /// balls at `x` (flat, `dim` per particle) with radii `radius`.
@@ -14,14 +17,20 @@ pub fn deepest_overlap(dim: usize, radius: &[f64], pairs: &[[u32; 2]], x: &[f64]
     let mut deepest: f64 = 0.0;
     for &[i, j] in pairs {
         let (i, j) = (i as usize, j as usize);
-        let mut len2 = 0.0;
-        for a in 0..dim {
-            let d = x[j * dim + a] - x[i * dim + a];
-            len2 += d * d;
-        }
-        deepest = deepest.max(radius[i] + radius[j] - len2.sqrt());
+        deepest = deepest.max(overlap(dim, x, [i, j], radius[i] + radius[j]));
     }
     deepest
+}
+
+/// overlap(i, j) = `reach` − |x_j − x_i| (reach = r_i + r_j) in precision `R`.
+#[inline]
+pub fn overlap<R: ProjectionReal>(dim: usize, x: &[R], [i, j]: [usize; 2], reach: R) -> R {
+    let mut len2 = R::constant(0.0);
+    for a in 0..dim {
+        let d = x[j * dim + a] - x[i * dim + a];
+        len2 += d * d;
+    }
+    reach - len2.sqrt()
 }
 
 #[cfg(test)]

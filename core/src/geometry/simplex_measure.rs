@@ -9,18 +9,25 @@
 //! ```
 //! The adjugate keeps ∇S finite at a singular Gram matrix; a collapsed
 //! simplex whose first derivative vanishes gets ∇S = 0 (no response).
+//! One code for both precisions: the golden path runs it in f64, the f32
+//! reference in f32 (`measure.wgsl`'s order: k! from 1 factor by factor,
+//! adj(G) before det(G), the scatter j, a ascending).
 
-use super::{Scratch, adjugate, determinant, edge_matrix, factorial, gram, scatter_edge_gradient};
+use super::{
+    Scratch, adjugate, determinant, edge_matrix, factorial_in, gram, scatter_edge_gradient,
+};
+use crate::kinds::ProjectionReal;
 
 /// S for the k-simplex `points` (k + 1 points of length `dim`).
-pub fn simplex_squared_measure(
-    points: &[f64],
+pub fn simplex_squared_measure<R: ProjectionReal>(
+    points: &[R],
     dim: usize,
-    grad: &mut [f64],
-    scratch: &mut Scratch,
-) -> f64 {
+    grad: &mut [R],
+    scratch: &mut Scratch<R>,
+) -> R {
     let k = points.len() / dim - 1;
-    let scale = 1.0 / (factorial(k) * factorial(k));
+    let one = R::constant(1.0);
+    let scale = one / (factorial_in::<R>(k) * factorial_in::<R>(k));
     let Scratch {
         edges,
         gram: gram_matrix,
@@ -28,21 +35,22 @@ pub fn simplex_squared_measure(
         minor,
         ..
     } = scratch;
-    edges.resize(dim * k, 0.0);
-    gram_matrix.resize(k * k, 0.0);
-    adj.resize(k * k, 0.0);
-    minor.resize(k * k, 0.0);
+    let zero = R::constant(0.0);
+    edges.resize(dim * k, zero);
+    gram_matrix.resize(k * k, zero);
+    adj.resize(k * k, zero);
+    minor.resize(k * k, zero);
     edge_matrix(points, dim, k, edges);
     gram(edges, dim, k, gram_matrix);
     adjugate(gram_matrix, k, adj, minor);
-    let mut g = gram_matrix.clone();
-    let measure = determinant(&mut g, k) * scale;
+    let measure = determinant(gram_matrix, k) * scale;
+    let two = R::constant(2.0);
     scatter_edge_gradient(grad, dim, k, |j, a| {
-        let mut s = 0.0;
+        let mut s = zero;
         for i in 0..k {
             s += edges[a * k + i] * adj[i * k + j];
         }
-        2.0 * s * scale
+        two * s * scale
     });
     measure
 }

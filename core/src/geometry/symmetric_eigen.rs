@@ -78,7 +78,7 @@ pub fn symmetric_eigen<R: ProjectionReal>(
     };
     let mut norm2 = zero;
     for &v in &a[..n * n] {
-        norm2 = norm2 + (v * scale) * (v * scale);
+        norm2 += (v * scale) * (v * scale);
     }
     let threshold = R::epsilon() * norm2.sqrt();
     let mut sweeps = 0;
@@ -109,7 +109,7 @@ fn off_diagonal<R: ProjectionReal>(a: &[R], n: usize, scale: R) -> R {
     for p in 0..n {
         for q in p + 1..n {
             let x = scale * a[p * n + q];
-            s = s + x * x;
+            s += x * x;
         }
     }
     s.sqrt()
@@ -131,8 +131,8 @@ fn rotate<R: ProjectionReal>(a: &mut [R], n: usize, v: &mut [R], p: usize, q: us
     };
     let c = one / (t * t + one).sqrt();
     let s = t * c;
-    a[p * n + p] = a[p * n + p] - t * apq;
-    a[q * n + q] = a[q * n + q] + t * apq;
+    a[p * n + p] -= t * apq;
+    a[q * n + q] += t * apq;
     a[p * n + q] = zero;
     a[q * n + p] = zero;
     for r in 0..n {

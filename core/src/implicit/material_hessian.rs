@@ -41,6 +41,7 @@
 use crate::kinds::ProjectionReal;
 use crate::material::{
     Law, LawRefusal, MaterialElement, MaterialScratch, RestView, element_energy, ln, measure_ratio,
+    scatter_frame_rows,
 };
 
 /// Buffers of the Hessian evaluation, reused between elements.
@@ -149,7 +150,7 @@ pub fn frame_hessian_of<R: ProjectionReal>(
                 for i in 0..k {
                     let mut v = zero;
                     for j in 0..k {
-                        v = v + c_inv[i * k + j] * f[b * k + j];
+                        v += c_inv[i * k + j] * f[b * k + j];
                     }
                     w[i] = v;
                 }
@@ -166,10 +167,10 @@ pub fn frame_hessian_of<R: ProjectionReal>(
                     for j in 0..k {
                         let mut v = zero;
                         if i == m {
-                            v = v + f[b * k + j];
+                            v += f[b * k + j];
                         }
                         if j == m {
-                            v = v + f[b * k + i];
+                            v += f[b * k + i];
                         }
                         dc[i * k + j] = v;
                     }
@@ -187,7 +188,7 @@ pub fn frame_hessian_of<R: ProjectionReal>(
                 for j in 0..k {
                     let mut v = if a == b { s[m * k + j] } else { zero };
                     for i in 0..k {
-                        v = v + f[a * k + i] * ds[i * k + j];
+                        v += f[a * k + i] * ds[i * k + j];
                     }
                     out[(a * k + j) * size + column] = v;
                 }
@@ -216,12 +217,31 @@ pub fn apply_material_curvature(
 ) {
     let k = p.len() / dim - 1;
     hs.resize(k, dim);
-    let size = dim * k;
-    let r = rest.frame;
     let MaterialHessianScratch { df, yf, .. } = hs;
+    curvature_product(
+        (frame_hessian, rest.frame, rest.measure),
+        (dim, k),
+        p,
+        [df, yf],
+        out,
+    );
+}
+
+/// [`apply_material_curvature`] in precision `R` on `(H, R, V_0)`, with
+/// scratch `[dF, y]` (N k each): dF = (p's edges) R, y = H dF, out = V_0
+/// y Rᵀ scattered to the vertices (f32: the f32 reference, as
+/// `primal_material.wgsl`'s `primal_block_column`).
+pub fn curvature_product<R: ProjectionReal>(
+    (frame_hessian, r, measure): (&[R], &[R], R),
+    (dim, k): (usize, usize),
+    p: &[R],
+    [df, yf]: [&mut [R]; 2],
+    out: &mut [R],
+) {
+    let size = dim * k;
     for a in 0..dim {
         for j in 0..k {
-            let mut v = 0.0;
+            let mut v = R::constant(0.0);
             for i in 0..=j {
                 v += (p[(i + 1) * dim + a] - p[a]) * r[i * k + j];
             }
@@ -229,25 +249,13 @@ pub fn apply_material_curvature(
         }
     }
     for row in 0..size {
-        let mut v = 0.0;
+        let mut v = R::constant(0.0);
         for c in 0..size {
             v += frame_hessian[row * size + c] * df[c];
         }
         yf[row] = v;
     }
-    for a in 0..dim {
-        let mut first = 0.0;
-        for i in 0..k {
-            let mut v = 0.0;
-            for j in i..k {
-                v += yf[a * k + j] * r[i * k + j];
-            }
-            let v = rest.measure * v;
-            out[(i + 1) * dim + a] = v;
-            first -= v;
-        }
-        out[a] = first;
-    }
+    scatter_frame_rows((k, dim), (r, measure), yf, out);
 }
 
 /// Diagonal of the vertex block (the layout of `p` in

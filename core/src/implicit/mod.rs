@@ -60,8 +60,8 @@ pub use friction::{
     obstacle_friction, pair_friction, pair_lags,
 };
 pub use material_hessian::{
-    FrameLaw, MaterialHessianScratch, apply_material_curvature, frame_hessian_of,
-    material_curvature_diagonal, material_hessian_block, material_term,
+    FrameLaw, MaterialHessianScratch, apply_material_curvature, curvature_product,
+    frame_hessian_of, material_curvature_diagonal, material_hessian_block, material_term,
 };
 pub use material_rounding::material_energy_rounding;
 pub use pcg::{

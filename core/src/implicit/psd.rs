@@ -102,7 +102,7 @@ pub fn project_psd<R: ProjectionReal>(
                 let mut s = zero;
                 for l in 0..n {
                     if values[l] > zero {
-                        s = s + (values[l] * vectors[i * n + l]) * vectors[j * n + l];
+                        s += (values[l] * vectors[i * n + l]) * vectors[j * n + l];
                     }
                 }
                 block[i * n + j] = s;

@@ -29,6 +29,7 @@ use std::sync::OnceLock;
 
 use multiversion::multiversion;
 
+use super::real::ProjectionReal;
 use super::relation::Relation;
 use crate::expr::{
     self, BLOCK, Block, Column, Columns, Compiled, Outputs, ParamValue, Real, Slot, Stats, Tape,
@@ -286,49 +287,6 @@ impl ExpressionKind {
     }
 }
 
-/// The precisions the projection (and the numeric code both precisions
-/// share: geometry::symmetric_eigen, implicit::project_psd) runs in.
-pub trait ProjectionReal: Real {
-    /// Neither NaN nor ±∞.
-    fn finite(self) -> bool;
-    /// NaN.
-    fn is_nan(self) -> bool;
-    /// The machine epsilon (1 ulp of 1).
-    fn epsilon() -> Self;
-    /// The value in f64 (exact).
-    fn to_f64(self) -> f64;
-}
-
-impl ProjectionReal for f64 {
-    fn finite(self) -> bool {
-        self.is_finite()
-    }
-    fn is_nan(self) -> bool {
-        f64::is_nan(self)
-    }
-    fn epsilon() -> Self {
-        f64::EPSILON
-    }
-    fn to_f64(self) -> f64 {
-        self
-    }
-}
-
-impl ProjectionReal for f32 {
-    fn finite(self) -> bool {
-        self.is_finite()
-    }
-    fn is_nan(self) -> bool {
-        f32::is_nan(self)
-    }
-    fn epsilon() -> Self {
-        f32::EPSILON
-    }
-    fn to_f64(self) -> f64 {
-        f64::from(self)
-    }
-}
-
 /// Positions an expression projection reads and writes (flat, `dim` per
 /// particle).
 pub trait Positions<R> {
@@ -471,7 +429,7 @@ fn project_block<R: ProjectionReal, X: Positions<R> + ?Sized>(
         for a in 0..dim {
             let g = gradient(j, a);
             for lane in 0..BLOCK {
-                g2[lane] = g2[lane] + g[lane] * g[lane];
+                g2[lane] += g[lane] * g[lane];
             }
         }
         for lane in 0..BLOCK {

@@ -37,6 +37,7 @@
 //! crosses a simplex within one substep is pushed out on the far side.
 //! Substeps must keep |v| h below r, as for particle–particle contact.
 
+use super::ProjectionReal;
 use super::relation::Relation;
 use crate::barrier::{BarrierObstacles, candidate_box, distance_margin};
 
@@ -59,9 +60,24 @@ pub fn closest(
     let (lo, hi, n) = (&mut lo[..dim], &mut hi[..dim], &mut n[..dim]);
     let margin = distance_margin(dim, f64::EPSILON);
     candidate_box(x, radius, reach, mesh.scale, margin, lo, hi);
-    let mut best: Option<f64> = None;
-    for o in mesh.near(lo, hi) {
-        let c = mesh.distance(o, x, radius, n);
+    first_closest(mesh.near(lo, hi), reach, (n, normal), |o, n| {
+        mesh.distance(o, x, radius, n)
+    })
+}
+
+/// The first smallest C = `distance(s, n)` over the `candidates` in their
+/// order, its n into `normal` (`n`: scratch); `None` when nothing was
+/// visited, C > `reach` or n = 0 (module docs). One code for both
+/// precisions: the f32 reference runs it on its f32 distances.
+pub fn first_closest<R: ProjectionReal>(
+    candidates: impl Iterator<Item = usize>,
+    reach: R,
+    (n, normal): (&mut [R], &mut [R]),
+    mut distance: impl FnMut(usize, &mut [R]) -> R,
+) -> Option<R> {
+    let mut best: Option<R> = None;
+    for s in candidates {
+        let c = distance(s, n);
         // `!(c >= best)`: a NaN distance is kept (and fails the update).
         if best.is_none_or(|b| c < b || c.is_nan() && !b.is_nan()) {
             best = Some(c);
@@ -69,7 +85,7 @@ pub fn closest(
         }
     }
     let c = best?;
-    if c > reach || normal.iter().all(|&a| a == 0.0) {
+    if c > reach || normal.iter().all(|&a| a == R::constant(0.0)) {
         return None;
     }
     Some(c)

@@ -25,22 +25,25 @@
 //! codes of `gpu/src/codes.rs`).
 
 mod bending;
+pub mod contact_friction;
 mod distance;
 mod expression;
 #[cfg(test)]
 mod expression_tests;
-mod hyperplane_contact;
+pub mod hyperplane_contact;
 mod material;
 pub mod mesh_contact;
 mod oriented_measure;
+pub mod particle_contact;
+pub mod primal_element;
+mod real;
 mod relation;
 mod simplex_measure;
 mod tether;
 
 pub use bending::{BendingModel, quadratic_weights};
-pub use expression::{
-    Colour, ExpressionKind, Positions, ProjectionReal, ProjectionScratch, project,
-};
+pub use expression::{Colour, ExpressionKind, Positions, ProjectionScratch, project};
+pub use real::ProjectionReal;
 pub use relation::Relation;
 
 use crate::expr::ParamValue;

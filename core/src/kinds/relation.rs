@@ -3,6 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::real::ProjectionReal;
+
 /// The relation an element imposes on C = value − rest (an expression
 /// family's `relation` key).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -19,6 +21,30 @@ pub enum Relation {
 }
 
 impl Relation {
+    /// λ clamped by the relation, by comparison (−0 and NaN go to +0, as
+    /// `shaders/primal.wgsl`'s select sends them); the primal-residual
+    /// update of both precisions.
+    pub fn clamp<R: ProjectionReal>(self, l: R) -> R {
+        let zero = R::constant(0.0);
+        match self {
+            Relation::Equal => l,
+            Relation::AtLeast => {
+                if l > zero {
+                    l
+                } else {
+                    zero
+                }
+            }
+            Relation::AtMost => {
+                if l < zero {
+                    l
+                } else {
+                    zero
+                }
+            }
+        }
+    }
+
     /// As written in a scene.
     pub fn as_str(self) -> &'static str {
         match self {

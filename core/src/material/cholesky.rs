@@ -37,7 +37,7 @@ pub fn cholesky<R: ProjectionReal>(
     for j in 0..n {
         let mut d = a[j * n + j];
         for m in 0..j {
-            d = d - l[j * n + m] * l[j * n + m];
+            d -= l[j * n + m] * l[j * n + m];
         }
         if d.is_nan() || d <= zero {
             return Err(NotPositiveDefinite {
@@ -53,7 +53,7 @@ pub fn cholesky<R: ProjectionReal>(
         for i in j + 1..n {
             let mut s = a[i * n + j];
             for m in 0..j {
-                s = s - l[i * n + m] * l[j * n + m];
+                s -= l[i * n + m] * l[j * n + m];
             }
             l[i * n + j] = s / ljj;
         }
@@ -73,10 +73,30 @@ pub fn lower_triangular_inverse<R: ProjectionReal>(l: &[R], n: usize, y: &mut [R
         for i in j + 1..n {
             let mut s = zero;
             for m in j..i {
-                s = s + l[i * n + m] * y[m * n + j];
+                s += l[i * n + m] * y[m * n + j];
             }
             y[i * n + j] = -s / l[i * n + i];
         }
+    }
+}
+
+/// b ← (L Lᵀ)⁻¹ b for the lower factor `l` (n × n, row-major; only its
+/// lower part is read): forward substitution L z = b, then Lᵀ y = z, each
+/// row's products subtracted in ascending (then descending) order.
+pub fn solve_factored<R: ProjectionReal>(l: &[R], n: usize, b: &mut [R]) {
+    for i in 0..n {
+        let mut s = b[i];
+        for m in 0..i {
+            s -= l[i * n + m] * b[m];
+        }
+        b[i] = s / l[i * n + i];
+    }
+    for i in (0..n).rev() {
+        let mut s = b[i];
+        for m in i + 1..n {
+            s -= l[m * n + i] * b[m];
+        }
+        b[i] = s / l[i * n + i];
     }
 }
 
@@ -86,7 +106,7 @@ pub fn inverse_from_factor_inverse<R: ProjectionReal>(y: &[R], n: usize, inverse
         for j in 0..n {
             let mut s = R::constant(0.0);
             for m in i.max(j)..n {
-                s = s + y[m * n + i] * y[m * n + j];
+                s += y[m * n + i] * y[m * n + j];
             }
             inverse[i * n + j] = s;
         }

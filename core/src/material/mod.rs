@@ -56,8 +56,11 @@ mod uniaxial;
 
 pub use cholesky::{
     NotPositiveDefinite, cholesky, inverse_from_factor_inverse, lower_triangular_inverse,
+    solve_factored,
 };
-pub use deformation::measure_ratio;
+pub use deformation::{
+    deform_into, measure_ratio, pull_back_of, ratio_and_factor_of, scatter_frame_rows,
+};
 pub use energy::element_energy;
 pub use energy_constraint::energy_constraint;
 pub use error::{LawRefusal, MaterialError};

@@ -75,7 +75,7 @@ pub fn neo_hookean_stress<R: ProjectionReal>(
     let (zero, one, half) = (R::constant(0.0), R::constant(1.0), R::constant(0.5));
     let mut trace = zero;
     for i in 0..k {
-        trace = trace + c[i * k + i];
+        trace += c[i * k + i];
     }
     for i in 0..k {
         for j in 0..k {

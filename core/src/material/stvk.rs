@@ -34,13 +34,13 @@ pub fn stvk_stress<R: ProjectionReal>(mu: R, lambda: R, k: usize, c: &[R], stres
         for j in 0..k {
             let delta = if i == j { one } else { zero };
             let e = half * (c[i * k + j] - delta);
-            square = square + e * e;
+            square += e * e;
             stress[i * k + j] = two * mu * e;
         }
-        trace = trace + half * (c[i * k + i] - one);
+        trace += half * (c[i * k + i] - one);
     }
     for i in 0..k {
-        stress[i * k + i] = stress[i * k + i] + lambda * trace;
+        stress[i * k + i] += lambda * trace;
     }
     mu * square + half * lambda * trace * trace
 }

@@ -4,6 +4,7 @@
 //!
 //! ```text
 //! y = x                                   (the iterate every pair reads)
+//! the pair's c: core's kinds::particle_contact (the golden pair pass's code)
 //! particle k, partner m, (i, j) = (min, max):
 //!   d = y_j − y_i;  |d| = √(Σ_a d_a²);  C = |d| − (r_i + r_j)
 //!   active iff C < 0 and |d| > 0;  n = d · (1/|d|);  s = −C;  c = n s
@@ -23,6 +24,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::Particles;
+use hyperpbd_core::kinds::particle_contact::pair_correction;
 
 /// The contact constants as stored: radii and Coulomb μ (f32).
 pub struct Contact<'a> {
@@ -43,7 +45,6 @@ pub fn collide(s: &mut Particles, c: &Contact, ahead: &mut [u32]) -> Result<(), 
     let mut sum = vec![0.0f32; n];
     let mut d = vec![0.0f32; n];
     let mut out = vec![0.0f32; n];
-    let mut dr = vec![0.0f32; n];
     'particles: for k in 0..count {
         let (yk, pk) = (&y[k * n..(k + 1) * n], &p[k * n..(k + 1) * n]);
         let (rk, wk) = (r[k], w[k]);
@@ -64,45 +65,21 @@ pub fn collide(s: &mut Particles, c: &Contact, ahead: &mut [u32]) -> Result<(), 
                 failed = failed.min(k.min(m));
                 continue 'particles;
             }
-            let rm = r[m];
             // IEEE addition commutes: the WGSL's r_i + r_j in either order.
-            let cval = dist - (rk + rm);
-            if !(cval < 0.0 && dist > 0.0) {
+            let reach = rk + r[m];
+            // Δr = (y_j − p_j) − (y_i − p_i), (i, j) = (min, max).
+            let slip = |a: usize| {
+                if lower {
+                    (ym[a] - pm[a]) - (yk[a] - pk[a])
+                } else {
+                    (yk[a] - pk[a]) - (ym[a] - pm[a])
+                }
+            };
+            if !pair_correction(&mut d, (dist, reach, c.mu), slip, &mut out) {
                 continue;
             }
             if lower {
                 pushing += 1;
-            }
-            let s_pen = -cval;
-            let inv = 1.0 / dist;
-            for a in 0..n {
-                d[a] *= inv;
-            }
-            for a in 0..n {
-                out[a] = d[a] * s_pen;
-            }
-            if c.mu > 0.0 {
-                let mut dn = 0.0f32;
-                for a in 0..n {
-                    dr[a] = if lower {
-                        (ym[a] - pm[a]) - (yk[a] - pk[a])
-                    } else {
-                        (yk[a] - pk[a]) - (ym[a] - pm[a])
-                    };
-                    dn += dr[a] * d[a];
-                }
-                let mut t2 = 0.0f32;
-                for a in 0..n {
-                    let tan = dr[a] - dn * d[a];
-                    t2 += tan * tan;
-                }
-                let t_norm = t2.sqrt();
-                let bound = c.mu * s_pen;
-                let scale = if t_norm <= bound { 1.0 } else { bound / t_norm };
-                for a in 0..n {
-                    let tan = dr[a] - dn * d[a];
-                    out[a] -= tan * scale;
-                }
             }
             if wk == 0.0 {
                 continue;

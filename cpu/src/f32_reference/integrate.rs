@@ -14,6 +14,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::Particles;
+use hyperpbd_core::kinds::contact_friction::{clamp_tangential, dot_from_zero};
 
 /// The prediction's reals: h, g, and which terms the plan has.
 pub struct Predict<'a> {
@@ -105,28 +106,9 @@ pub fn friction(s: &mut Particles, f: &Friction) -> Result<(), usize> {
             continue;
         }
         let v = &mut s.v[i * n..(i + 1) * n];
-        let mut vn = 0.0f32;
-        for a in 0..n {
-            vn += normal[a] * v[a];
-        }
-        let mut t2 = 0.0f32;
-        for a in 0..n {
-            let t = v[a] - vn * normal[a];
-            t2 += t * t;
-        }
-        let vt = t2.sqrt();
-        if vt == 0.0 {
-            continue;
-        }
+        let vn = dot_from_zero(normal, v);
         let limit = f.mu * s.w[i] * l / f.h;
-        let scale = limit.min(vt) / vt;
-        let mut ok = true;
-        for a in 0..n {
-            let t = v[a] - vn * normal[a];
-            v[a] -= t * scale;
-            ok = ok && v[a].is_finite();
-        }
-        if !ok {
+        if clamp_tangential(normal, limit, vn, v) && !v.iter().all(|c| c.is_finite()) {
             failed = Some(failed.map_or(i, |f: usize| f.min(i)));
         }
     }

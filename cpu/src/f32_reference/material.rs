@@ -17,10 +17,9 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::ln::ln;
-use super::measure::determinant;
 use hyperpbd_core::FamilyKind;
-use hyperpbd_core::implicit::{FrameLaw, frame_hessian_of};
-use hyperpbd_core::material;
+use hyperpbd_core::implicit::{FrameLaw, curvature_product, frame_hessian_of};
+use hyperpbd_core::material::{self, deform_into, pull_back_of, ratio_and_factor_of};
 
 /// One material family as the device stores it: the law, Lamé μ and λ
 /// (the call's friction and factor) and the rest data, all rounded to f32.
@@ -105,19 +104,9 @@ impl Law {
         let (k, mu, lambda) = (self.k, self.mu, self.lambda);
         let c = &d.c;
         // J (material_ratio): det F̂ by elimination (k = N) or Π L_jj.
-        let mut factor = vec![0.0f32; k * k];
-        let factored = cholesky(c, k, &mut factor);
-        let mut ratio = 0.0f32;
-        if k == dim {
-            let mut square = d.image[..k * k].to_vec();
-            ratio = determinant(&mut square, k);
-        } else if factored {
-            let mut product = 1.0f32;
-            for j in 0..k {
-                product *= factor[j * k + j];
-            }
-            ratio = product;
-        }
+        let (mut factor, mut square) = (vec![0.0f32; k * k], vec![0.0f32; k * k]);
+        let (ratio, factored) =
+            ratio_and_factor_of((k, dim), [&d.image, c], [&mut factor, &mut square]);
         if ratio.is_nan() || ratio <= 0.0 || !factored {
             return None;
         }
@@ -173,37 +162,8 @@ impl Law {
         let (r, v0) = (&self.data[base..base + k * k], self.data[base + k * k]);
         let mut p = vec![0.0f32; (k + 1) * dim];
         p[c] = 1.0;
-        let mut df = vec![0.0f32; size];
-        for a in 0..dim {
-            for j in 0..k {
-                let mut v = 0.0f32;
-                for i in 0..=j {
-                    v += (p[(i + 1) * dim + a] - p[a]) * r[i * k + j];
-                }
-                df[a * k + j] = v;
-            }
-        }
-        let mut yf = vec![0.0f32; size];
-        for row in 0..size {
-            let mut v = 0.0f32;
-            for q in 0..size {
-                v += h[row * size + q] * df[q];
-            }
-            yf[row] = v;
-        }
-        for a in 0..dim {
-            let mut first = 0.0f32;
-            for i in 0..k {
-                let mut v = 0.0f32;
-                for j in i..k {
-                    v += yf[a * k + j] * r[i * k + j];
-                }
-                let y = v0 * v;
-                out[(i + 1) * dim + a] = y;
-                first -= y;
-            }
-            out[a] = first;
-        }
+        let (mut df, mut yf) = (vec![0.0f32; size], vec![0.0f32; size]);
+        curvature_product((h, r, v0), (dim, k), &p, [&mut df, &mut yf], out);
     }
 
     /// W = V_0 Ψ and ∇W of element `e` (material_energy); None: refused.
@@ -226,29 +186,8 @@ impl Law {
             image: vec![0.0; dim * k],
             c: vec![0.0; k * k],
         };
-        for j in 0..k {
-            for a in 0..dim {
-                d.edges[a * k + j] = pts[(j + 1) * dim + a] - pts[a];
-            }
-        }
-        for a in 0..dim {
-            for j in 0..k {
-                let mut f = 0.0f32;
-                for i in 0..=j {
-                    f += d.edges[a * k + i] * self.data[base + i * k + j];
-                }
-                d.image[a * k + j] = f;
-            }
-        }
-        for i in 0..k {
-            for j in 0..k {
-                let mut s = 0.0f32;
-                for a in 0..dim {
-                    s += d.image[a * k + i] * d.image[a * k + j];
-                }
-                d.c[i * k + j] = s;
-            }
-        }
+        let frame = &self.data[base..base + k * k];
+        deform_into(pts, (dim, k), frame, [&mut d.edges, &mut d.image, &mut d.c]);
         d
     }
 
@@ -265,28 +204,9 @@ impl Law {
             self.stvk(&d.c, &mut stress)
         };
         // Pull-back: P̂ = F̂ S (into the edges), then ∇W.
-        for a in 0..dim {
-            for j in 0..k {
-                let mut p = 0.0f32;
-                for m in 0..k {
-                    p += d.image[a * k + m] * stress[m * k + j];
-                }
-                d.edges[a * k + j] = p;
-            }
-        }
-        for a in 0..dim {
-            let mut first = 0.0f32;
-            for i in 0..k {
-                let mut h = 0.0f32;
-                for j in i..k {
-                    h += d.edges[a * k + j] * self.data[base + i * k + j];
-                }
-                let hv = v0 * h;
-                grad[(i + 1) * dim + a] = hv;
-                first -= hv;
-            }
-            grad[a] = first;
-        }
+        let frame = &self.data[base..base + k * k];
+        let (image, edges) = (&d.image, &mut d.edges);
+        pull_back_of((k, dim), (frame, v0), [image, &stress], edges, grad);
         Some(v0 * psi)
     }
 

@@ -22,12 +22,15 @@
 use std::sync::Arc;
 
 use hyperpbd_core::barrier::{BarrierObstacles, SIMPLEX_SLOTS, candidate_box, distance_margin};
+use hyperpbd_core::kinds::mesh_contact::first_closest;
 use hyperpbd_core::{Family, FamilyKind, MAX_DIM, Plan};
 
 use super::Particles;
 use super::barrier::{BarrierInputs, obstacle_distance};
 use super::integrate::{Friction, friction as plane_friction};
-use super::project::{Colour, contact_step, static_friction};
+use super::project::Colour;
+use hyperpbd_core::kinds::contact_friction::static_friction;
+use hyperpbd_core::kinds::hyperplane_contact::contact_update;
 
 /// One mesh as the f32 reference holds it.
 #[derive(Debug, Clone)]
@@ -90,19 +93,9 @@ impl Mesh32 {
         candidate_box(&world[..dim], r.into(), reach.into(), scale, margin, lo, hi);
         let mut n = [0.0f32; MAX_DIM];
         let n = &mut n[..dim];
-        let mut best: Option<f32> = None;
-        for s in self.mesh.near(lo, hi) {
-            let c = obstacle_distance(&self.inputs, s, x, r, n);
-            if best.is_none_or(|b| c < b || c.is_nan() && !b.is_nan()) {
-                best = Some(c);
-                normal.copy_from_slice(n);
-            }
-        }
-        let c = best?;
-        if c > reach || normal.iter().all(|&a| a == 0.0) {
-            return None;
-        }
-        Some(c)
+        first_closest(self.mesh.near(lo, hi), reach, (n, normal), |s, n| {
+            obstacle_distance(&self.inputs, s, x, r, n)
+        })
     }
 }
 
@@ -127,15 +120,11 @@ pub fn project(
         let Some(cval) = mesh.closest(x, c.rest[e], w * l, normal) else {
             continue;
         };
-        let Some(dl) = contact_step(cval, l, w, c.alpha_tilde) else {
+        let Some(l_new) = contact_update(cval, (l, w, c.alpha_tilde), normal, x) else {
             failed = failed.or(Some(e));
             continue;
         };
-        let l_new = l + dl;
         lambda[e] = l_new;
-        for a in 0..n {
-            x[a] += w * normal[a] * dl;
-        }
         if mu > 0.0 && l_new > 0.0 {
             static_friction(normal, mu * w * l_new, p, x);
         }

@@ -55,7 +55,6 @@ mod integrate;
 pub mod ln;
 mod material;
 use material::material_law;
-mod measure;
 mod mesh_contact;
 mod motion;
 mod primal;
@@ -346,13 +345,7 @@ impl F32Reference {
                     .and_then(|m| m.plane_of(index))
                     .and_then(|k| self.motion_now.planes.get(k));
                 if let Some(plane) = plane {
-                    let contact = motion::Contact {
-                        plane,
-                        mu: stored.mu,
-                        elements: &f.elements,
-                        rest: &stored.rest,
-                        alpha_tilde: stored.alpha_tilde,
-                    };
+                    let contact = motion::Contact::of(plane, &f.elements, stored);
                     return f64::from(motion::residual(&contact, n, &self.particles.x));
                 }
                 let stored_family = residual::StoredFamily {
@@ -483,8 +476,8 @@ impl F32Reference {
                 match &f.kind {
                     FamilyKind::Distance => project::distance(s, &colour, lambda, false),
                     FamilyKind::Tether => project::distance(s, &colour, lambda, true),
-                    FamilyKind::SimplexMeasure { k } => {
-                        project::measure(s, &colour, lambda, project::Measure::Simplex { k: *k })
+                    FamilyKind::SimplexMeasure { .. } => {
+                        project::measure(s, &colour, lambda, project::Measure::Simplex)
                     }
                     FamilyKind::OrientedMeasure => {
                         project::measure(s, &colour, lambda, project::Measure::Oriented)
@@ -538,13 +531,8 @@ impl F32Reference {
             Kernel::Friction { family } => {
                 let stored = &self.families[family];
                 if let Some(plane) = moving(family) {
-                    let contact = motion::Contact {
-                        plane,
-                        mu: stored.mu,
-                        elements: &self.plan.families[family].elements,
-                        rest: &stored.rest,
-                        alpha_tilde: stored.alpha_tilde,
-                    };
+                    let elements = &self.plan.families[family].elements;
+                    let contact = motion::Contact::of(plane, elements, stored);
                     return motion::friction(s, &contact, self.h, &stored.lambda);
                 }
                 if let Some(mesh) = &stored.mesh {

@@ -20,6 +20,8 @@
 use hyperpbd_core::motion::{SubstepMotion, local_plane, local_position};
 
 use super::Particles;
+use hyperpbd_core::kinds::contact_friction::{clamp_relative, dot_from_zero, static_friction};
+use hyperpbd_core::kinds::hyperplane_contact::contact_update;
 
 /// A moving plane of one substep, in f32 device coordinates.
 #[derive(Debug, Clone, Default)]
@@ -97,6 +99,19 @@ pub struct Contact<'a> {
     pub alpha_tilde: f32,
 }
 
+impl<'a> Contact<'a> {
+    /// The moving plane `plane` of a family with `elements` as stored.
+    pub(super) fn of(plane: &'a Plane32, elements: &'a [u32], stored: &'a super::Stored) -> Self {
+        Contact {
+            plane,
+            mu: stored.mu,
+            elements,
+            rest: &stored.rest,
+            alpha_tilde: stored.alpha_tilde,
+        }
+    }
+}
+
 pub fn contact(s: &mut Particles, c: &Contact, lambda: &mut [f32]) -> Result<(), usize> {
     let n = s.dim;
     let normal = &c.plane.normal[..];
@@ -106,43 +121,19 @@ pub fn contact(s: &mut Particles, c: &Contact, lambda: &mut [f32]) -> Result<(),
         let i = c.elements[e] as usize;
         let w = s.w[i];
         let (x, p) = (&mut s.x[i * n..(i + 1) * n], &s.p[i * n..(i + 1) * n]);
-        let mut nx = 0.0f32;
-        for a in 0..n {
-            nx += normal[a] * x[a];
-        }
+        let nx = dot_from_zero(normal, x);
         let cval = nx - c.rest[e] - c.plane.shift;
-        let l = lambda[e];
-        let raw = (-cval - c.alpha_tilde * l) / (w + c.alpha_tilde);
-        if !raw.is_finite() {
+        let Some(l_new) = contact_update(cval, (lambda[e], w, c.alpha_tilde), normal, x) else {
             failed = failed.or(Some(e));
             continue;
-        }
-        let dl = (l + raw).max(0.0) - l;
-        let l_new = l + dl;
+        };
         lambda[e] = l_new;
-        for a in 0..n {
-            x[a] += w * normal[a] * dl;
-        }
         if c.mu > 0.0 && l_new > 0.0 {
             carry(c.plane, p, &mut q);
             for a in 0..n {
                 q[a] += p[a];
             }
-            let mut dn = 0.0f32;
-            for a in 0..n {
-                dn += (x[a] - q[a]) * normal[a];
-            }
-            let mut t2 = 0.0f32;
-            for a in 0..n {
-                let tan = (x[a] - q[a]) - dn * normal[a];
-                t2 += tan * tan;
-            }
-            if t2.sqrt() <= c.mu * w * l_new {
-                for a in 0..n {
-                    let tan = (x[a] - q[a]) - dn * normal[a];
-                    x[a] -= tan;
-                }
-            }
+            static_friction(normal, c.mu * w * l_new, &q, x);
         }
     }
     failed.map_or(Ok(()), Err)
@@ -164,28 +155,9 @@ pub fn friction(s: &mut Particles, c: &Contact, h: f32, lambda: &[f32]) -> Resul
         for a in 0..n {
             rel[a] = v[a] - rel[a] / h;
         }
-        let mut vn = 0.0f32;
-        for a in 0..n {
-            vn += normal[a] * rel[a];
-        }
-        let mut t2 = 0.0f32;
-        for a in 0..n {
-            let t = rel[a] - vn * normal[a];
-            t2 += t * t;
-        }
-        let vt = t2.sqrt();
-        if vt == 0.0 {
-            continue;
-        }
+        let vn = dot_from_zero(normal, &rel);
         let limit = c.mu * s.w[i] * l / h;
-        let scale = limit.min(vt) / vt;
-        let mut ok = true;
-        for a in 0..n {
-            let t = rel[a] - vn * normal[a];
-            v[a] -= t * scale;
-            ok = ok && v[a].is_finite();
-        }
-        if !ok {
+        if clamp_relative(normal, limit, (vn, &rel), v) && !v.iter().all(|c| c.is_finite()) {
             failed = Some(failed.map_or(i, |f: usize| f.min(i)));
         }
     }
@@ -206,10 +178,7 @@ pub fn residual(c: &Contact, n: usize, x: &[f32]) -> f32 {
     let mut worst = 0.0f32;
     for (e, &i) in c.elements.iter().enumerate() {
         let i = i as usize;
-        let mut nx = 0.0f32;
-        for a in 0..n {
-            nx += c.plane.normal[a] * x[i * n + a];
-        }
+        let nx = dot_from_zero(&c.plane.normal, &x[i * n..(i + 1) * n]);
         worst = worst.max((-(nx - c.rest[e] - c.plane.shift)).max(0.0));
     }
     worst

@@ -28,9 +28,12 @@ use hyperpbd_core::kinds::{ExpressionKind, Relation};
 use hyperpbd_core::{Family, FamilyKind, Plan};
 
 use super::material::{Law, cholesky};
-use super::measure::{oriented_measure, simplex_squared_measure};
-use super::project::{Colour, Plane, static_friction};
+use super::project::{Colour, Plane};
 use super::{Particles, Stored};
+use hyperpbd_core::geometry::{Scratch, oriented_measure, simplex_squared_measure};
+use hyperpbd_core::kinds::contact_friction::static_friction;
+use hyperpbd_core::kinds::primal_element::{distance_element, gauss_newton_lambda};
+use hyperpbd_core::material::solve_factored;
 
 /// d of every slot of `f` (arity · N each) with the primal residual;
 /// nothing otherwise.
@@ -44,17 +47,7 @@ pub(super) fn displacements(plan: &Plan, f: &Family) -> Vec<f32> {
 /// A material family's Newton factors ((arity · N)² per slot) with the
 /// primal residual; nothing otherwise.
 pub(super) fn factors(plan: &Plan, f: &Family) -> Vec<f32> {
-    let material = match &f.kind {
-        FamilyKind::Material { .. } => true,
-        FamilyKind::Distance
-        | FamilyKind::Tether
-        | FamilyKind::SimplexMeasure { .. }
-        | FamilyKind::OrientedMeasure
-        | FamilyKind::HyperplaneContact { .. }
-        | FamilyKind::MeshContact { .. }
-        | FamilyKind::Expression(_) => false,
-    };
-    match plan.primal_residual && material {
+    match plan.primal_residual && f.kind.is_material() {
         true => vec![0.0; f.len() * (f.arity * plan.dim).pow(2)],
         false => Vec::new(),
     }
@@ -153,26 +146,6 @@ pub fn warm_start(s: &mut Particles, elements: &[u32], d: &[f32]) {
     }
 }
 
-fn clamp(relation: Relation, l: f32) -> f32 {
-    match relation {
-        Relation::Equal => l,
-        Relation::AtLeast => {
-            if l > 0.0 {
-                l
-            } else {
-                0.0
-            }
-        }
-        Relation::AtMost => {
-            if l < 0.0 {
-                l
-            } else {
-                0.0
-            }
-        }
-    }
-}
-
 pub fn distance(
     s: &mut Particles,
     c: &Colour,
@@ -183,7 +156,6 @@ pub fn distance(
     let n = s.dim;
     let mut failed = None;
     let (mut ai, mut aj) = (vec![0.0f32; n], vec![0.0f32; n]);
-    let (mut di, mut dj) = (vec![0.0f32; n], vec![0.0f32; n]);
     let relation = if tether {
         Relation::AtMost
     } else {
@@ -193,46 +165,23 @@ pub fn distance(
         let (i, j) = (c.elements[2 * e] as usize, c.elements[2 * e + 1] as usize);
         let (wi, wj) = (s.w[i], s.w[j]);
         let base = 2 * n * e;
-        let mut len2 = 0.0f32;
-        for a in 0..n {
-            ai[a] = s.x[i * n + a] - d[base + a];
-            aj[a] = s.x[j * n + a] - d[base + n + a];
-            let dk = aj[a] - ai[a];
-            len2 += dk * dk;
-        }
-        let len = len2.sqrt();
-        let wsum = wi + wj;
-        di.fill(0.0);
-        dj.fill(0.0);
-        let mut l = 0.0f32;
-        if len.is_nan() || len <= 0.0 || wsum == 0.0 {
-            if !len.is_finite() {
-                failed = failed.or(Some(e));
-                continue;
-            }
-        } else {
-            l = clamp(relation, (c.rest[e] - len) / (wsum + c.alpha_tilde));
-            if !l.is_finite() {
-                failed = failed.or(Some(e));
-                continue;
-            }
-            for a in 0..n {
-                let u = (aj[a] - ai[a]) / len;
-                di[a] = -wi * u * l;
-                dj[a] = wj * u * l;
-            }
-        }
-        d[base..base + n].copy_from_slice(&di);
-        d[base + n..base + 2 * n].copy_from_slice(&dj);
+        let (di, dj) = d[base..base + 2 * n].split_at_mut(n);
+        let points = [&s.x[i * n..(i + 1) * n], &s.x[j * n..(j + 1) * n]];
+        let constants = (wi, wj, c.rest[e], c.alpha_tilde);
+        let anchors = [&mut ai[..], &mut aj[..]];
+        let Some(l) = distance_element(points, anchors, [di, dj], constants, relation) else {
+            failed = failed.or(Some(e));
+            continue;
+        };
         lambda[e] = l;
         if wi != 0.0 {
             for a in 0..n {
-                s.x[i * n + a] = ai[a] + di[a];
+                s.x[i * n + a] = ai[a] + d[base + a];
             }
         }
         if wj != 0.0 {
             for a in 0..n {
-                s.x[j * n + a] = aj[a] + dj[a];
+                s.x[j * n + a] = aj[a] + d[base + n + a];
             }
         }
     }
@@ -259,21 +208,13 @@ fn gauss_newton(
     if !value.is_finite() {
         return false;
     }
-    let (mut wsum, mut lin) = (0.0f32, value - c.rest[e]);
-    for (j, &i) in element.iter().enumerate() {
-        let w = s.w[i as usize];
-        if w == 0.0 {
-            continue;
-        }
-        for k in j * n..(j + 1) * n {
-            wsum += w * grad[k] * grad[k];
-            lin += grad[k] * (anchor[k] - pts[k]);
-        }
-    }
+    let weight = |j: usize| s.w[element[j] as usize];
+    let vectors = [grad, &anchor[..], pts];
+    let residual = (value - c.rest[e], c.alpha_tilde);
     let mut l = 0.0f32;
     let mut out = vec![0.0f32; count];
-    if wsum != 0.0 && wsum.is_finite() {
-        l = clamp(relation, -lin / (wsum + c.alpha_tilde));
+    if let Some(lambda) = gauss_newton_lambda(n, weight, vectors, residual, relation) {
+        l = lambda;
         for k in 0..count {
             out[k] = s.w[element[k / n] as usize] * grad[k] * l;
         }
@@ -283,16 +224,22 @@ fn gauss_newton(
     }
     d[base..base + count].copy_from_slice(&out);
     lambda[e] = l;
+    place(s, element, &anchor, &out);
+    true
+}
+
+/// x = a + d on the element's dynamic particles (fixed ones stay).
+fn place(s: &mut Particles, element: &[u32], anchor: &[f32], d: &[f32]) {
+    let n = s.dim;
     for (j, &i) in element.iter().enumerate() {
         let i = i as usize;
         if s.w[i] == 0.0 {
             continue;
         }
         for a in 0..n {
-            s.x[i * n + a] = anchor[j * n + a] + out[j * n + a];
+            s.x[i * n + a] = anchor[j * n + a] + d[j * n + a];
         }
     }
-    true
 }
 
 /// Simplex (`Some(k)`) or oriented (`None`) measures.
@@ -307,6 +254,7 @@ pub fn measure(
     let mut failed = None;
     let mut pts = vec![0.0f32; c.arity * n];
     let mut grad = vec![0.0f32; c.arity * n];
+    let mut scratch = Scratch::<f32>::default();
     for e in c.slots.clone() {
         for (j, &i) in c.elements[e * c.arity..(e + 1) * c.arity]
             .iter()
@@ -316,8 +264,8 @@ pub fn measure(
             pts[j * n..(j + 1) * n].copy_from_slice(&s.x[i * n..(i + 1) * n]);
         }
         let value = match simplex {
-            Some(k) => simplex_squared_measure(&pts, n, k, &mut grad),
-            None => oriented_measure(&pts, n, &mut grad),
+            Some(_) => simplex_squared_measure(&pts, n, &mut grad, &mut scratch),
+            None => oriented_measure(&pts, n, &mut grad, &mut scratch),
         };
         let point = (value, &pts[..], &grad[..]);
         if !gauss_newton(s, c, e, point, Relation::Equal, lambda, d) {
@@ -381,7 +329,7 @@ pub fn contact(
             anchor[a] = x[a] - de[a];
             cval += normal[a] * anchor[a];
         }
-        let l = clamp(Relation::AtLeast, -cval / (w + c.alpha_tilde));
+        let l = Relation::AtLeast.clamp(-cval / (w + c.alpha_tilde));
         for a in 0..n {
             de[a] = w * normal[a] * l;
         }
@@ -472,20 +420,7 @@ pub fn material(
             .iter()
             .map(|&cr| -((pts[cr] - anchor[cr]) / wc[cr] + grad[cr] / c.alpha_tilde))
             .collect();
-        for i in 0..q {
-            let mut v = rhs[i];
-            for m in 0..i {
-                v -= factor[i * q + m] * rhs[m];
-            }
-            rhs[i] = v / factor[i * q + i];
-        }
-        for i in (0..q).rev() {
-            let mut v = rhs[i];
-            for m in i + 1..q {
-                v -= factor[m * q + i] * rhs[m];
-            }
-            rhs[i] = v / factor[i * q + i];
-        }
+        solve_factored(factor, q, &mut rhs);
         let t = step_length(
             law,
             e,
@@ -506,15 +441,7 @@ pub fn material(
         }
         d[base..base + count].copy_from_slice(&out);
         lambda[e] = l;
-        for (j, &i) in element.iter().enumerate() {
-            let i = i as usize;
-            if s.w[i] == 0.0 {
-                continue;
-            }
-            for a in 0..n {
-                s.x[i * n + a] = anchor[j * n + a] + out[j * n + a];
-            }
-        }
+        place(s, element, &anchor, &out);
     }
     failed.map_or(Ok(()), Err)
 }

@@ -19,7 +19,9 @@ use std::ops::Range;
 
 use super::Particles;
 use super::material::Law;
-use super::measure::{oriented_measure, simplex_squared_measure};
+use hyperpbd_core::geometry::{Scratch, oriented_measure, simplex_squared_measure};
+use hyperpbd_core::kinds::contact_friction::{dot_from_zero, static_friction};
+use hyperpbd_core::kinds::hyperplane_contact::contact_update;
 
 /// An expression family's per-element constants, rounded once to f32
 /// (as the GPU uploads them); empty for the other kinds.
@@ -52,7 +54,8 @@ pub struct Colour<'a> {
 /// is projected as one, a refused element failing its slot).
 #[derive(Clone, Copy)]
 pub enum Measure<'a> {
-    Simplex { k: usize },
+    /// k + 1 points: k from the colour's arity.
+    Simplex,
     Oriented,
     Material(&'a Law),
 }
@@ -118,6 +121,7 @@ pub fn measure(
     let mut failed = None;
     let mut pts = vec![0.0f32; arity * n];
     let mut grad = vec![0.0f32; arity * n];
+    let mut scratch = Scratch::<f32>::default();
     for e in c.slots.clone() {
         let element = &c.elements[e * arity..(e + 1) * arity];
         for (j, &i) in element.iter().enumerate() {
@@ -125,8 +129,8 @@ pub fn measure(
             pts[j * n..(j + 1) * n].copy_from_slice(&s.x[i * n..(i + 1) * n]);
         }
         let value = match kind {
-            Measure::Simplex { k } => Some(simplex_squared_measure(&pts, n, k, &mut grad)),
-            Measure::Oriented => Some(oriented_measure(&pts, n, &mut grad)),
+            Measure::Simplex => Some(simplex_squared_measure(&pts, n, &mut grad, &mut scratch)),
+            Measure::Oriented => Some(oriented_measure(&pts, n, &mut grad, &mut scratch)),
             Measure::Material(law) => law.constraint(e, &pts, n, &mut grad),
         };
         let Some(value) = value.filter(|v| v.is_finite()) else {
@@ -185,55 +189,16 @@ pub fn contact(
         let i = c.elements[e] as usize;
         let w = s.w[i];
         let (x, p) = (&mut s.x[i * n..(i + 1) * n], &s.p[i * n..(i + 1) * n]);
-        let mut nx = 0.0f32;
-        for a in 0..n {
-            nx += normal[a] * x[a];
-        }
+        let nx = dot_from_zero(normal, x);
         let cval = nx - c.rest[e];
-        let l = lambda[e];
-        let Some(dl) = contact_step(cval, l, w, c.alpha_tilde) else {
+        let Some(l_new) = contact_update(cval, (lambda[e], w, c.alpha_tilde), normal, x) else {
             failed = failed.or(Some(e));
             continue;
         };
-        let l_new = l + dl;
         lambda[e] = l_new;
-        for a in 0..n {
-            x[a] += w * normal[a] * dl;
-        }
         if plane.mu > 0.0 && l_new > 0.0 {
             static_friction(normal, plane.mu * w * l_new, p, x);
         }
     }
     failed.map_or(Ok(()), Err)
-}
-
-/// Δλ of an inequality contact (C ≥ 0) whose value is `c`, multiplier
-/// `l`: (−C − α~ λ)/(w + α~) clamped so that λ + Δλ ≥ 0; `None` when the
-/// raw update is not finite (checked before the clamp, which would hide a
-/// NaN).
-pub fn contact_step(c: f32, l: f32, w: f32, alpha_tilde: f32) -> Option<f32> {
-    let raw = (-c - alpha_tilde * l) / (w + alpha_tilde);
-    raw.is_finite().then(|| (l + raw).max(0.0) - l)
-}
-
-/// Static friction of an active contact with unit normal `normal`: the
-/// tangential part of x − p is cancelled whole if its length is at most
-/// `bound` (the golden path's `project::static_friction`, in f32).
-pub fn static_friction(normal: &[f32], bound: f32, p: &[f32], x: &mut [f32]) {
-    let n = x.len();
-    let mut dn = 0.0f32;
-    for a in 0..n {
-        dn += (x[a] - p[a]) * normal[a];
-    }
-    let mut t2 = 0.0f32;
-    for a in 0..n {
-        let tan = (x[a] - p[a]) - dn * normal[a];
-        t2 += tan * tan;
-    }
-    if t2.sqrt() <= bound {
-        for a in 0..n {
-            let tan = (x[a] - p[a]) - dn * normal[a];
-            x[a] -= tan;
-        }
-    }
 }

@@ -15,10 +15,12 @@
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
 
+use hyperpbd_core::geometry::overlap;
+use hyperpbd_core::kinds::contact_friction::dot_from_zero;
 use hyperpbd_core::{Family, FamilyKind};
 
 use super::material::Law;
-use super::measure::{oriented_measure, simplex_squared_measure};
+use hyperpbd_core::geometry::{Scratch, oriented_measure, simplex_squared_measure};
 
 /// |x1 − x0| of the two points in `pts`.
 fn distance(pts: &[f32], n: usize) -> f32 {
@@ -47,6 +49,7 @@ pub fn residual(f: &Family, n: usize, x: &[f32], stored: &StoredFamily) -> f32 {
     let mut grad = vec![0.0f32; f.arity * n];
     let mut worst = 0.0f32;
     let mut columns = hyperpbd_core::expr::Columns::new();
+    let mut scratch = Scratch::<f32>::default();
     for e in 0..f.len() {
         for (j, &i) in f.elements[e * f.arity..(e + 1) * f.arity]
             .iter()
@@ -58,16 +61,14 @@ pub fn residual(f: &Family, n: usize, x: &[f32], stored: &StoredFamily) -> f32 {
         let violation = match &f.kind {
             FamilyKind::Distance => (distance(&pts, n) - rest[e]).abs(),
             FamilyKind::Tether => (distance(&pts, n) - rest[e]).max(0.0),
-            FamilyKind::SimplexMeasure { k } => {
-                (simplex_squared_measure(&pts, n, *k, &mut grad) - rest[e]).abs()
+            FamilyKind::SimplexMeasure { .. } => {
+                (simplex_squared_measure(&pts, n, &mut grad, &mut scratch) - rest[e]).abs()
             }
-            FamilyKind::OrientedMeasure => (oriented_measure(&pts, n, &mut grad) - rest[e]).abs(),
+            FamilyKind::OrientedMeasure => {
+                (oriented_measure(&pts, n, &mut grad, &mut scratch) - rest[e]).abs()
+            }
             FamilyKind::HyperplaneContact { .. } => {
-                let mut nx = 0.0f32;
-                for a in 0..n {
-                    nx += normal[a] * pts[a];
-                }
-                (rest[e] - nx).max(0.0)
+                (rest[e] - dot_from_zero(normal, &pts[..n])).max(0.0)
             }
             FamilyKind::MeshContact { .. } => match stored.mesh {
                 Some(mesh) => super::mesh_contact::violation(mesh, &pts[..n], rest[e]),
@@ -96,12 +97,7 @@ pub fn deepest_overlap(n: usize, x: &[f32], radius: &[f32], lists: &[Vec<u32>]) 
     for (k, list) in lists.iter().enumerate() {
         for &m in list.iter().filter(|&&m| m as usize > k) {
             let m = m as usize;
-            let mut len2 = 0.0f32;
-            for a in 0..n {
-                let d = x[m * n + a] - x[k * n + a];
-                len2 += d * d;
-            }
-            deepest = deepest.max(radius[k] + radius[m] - len2.sqrt());
+            deepest = deepest.max(overlap(n, x, [k, m], radius[k] + radius[m]));
         }
     }
     deepest
