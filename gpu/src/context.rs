@@ -51,13 +51,21 @@ impl GpuContext {
     /// The shared device of `adapter` for `precision` (the features it
     /// needs), with a fresh error list and host-wait count of its own.
     pub fn new(adapter: &wgpu::Adapter, precision: Precision) -> Result<Self, GpuError> {
-        Ok(Self::of(adapter, device_pool::shared(adapter, precision)?, true))
+        Ok(Self::of(
+            adapter,
+            device_pool::shared(adapter, precision)?,
+            true,
+        ))
     }
 
     /// As [`GpuContext::new`] on a device of its own, shared with no other
     /// backend (one that may destroy it).
     pub fn private(adapter: &wgpu::Adapter, precision: Precision) -> Result<Self, GpuError> {
-        Ok(Self::of(adapter, Pooled::private(adapter, precision)?, false))
+        Ok(Self::of(
+            adapter,
+            Pooled::private(adapter, precision)?,
+            false,
+        ))
     }
 
     fn of(adapter: &wgpu::Adapter, pooled: Pooled, shared: bool) -> Self {

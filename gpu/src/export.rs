@@ -92,7 +92,7 @@ impl Exporter {
             Some(k) => k,
             None => {
                 let built = KernelSet::new(
-                    &ctx,
+                    ctx,
                     &KernelSetSpec {
                         label: "export_positions",
                         modules: &[ShaderFile::Export],

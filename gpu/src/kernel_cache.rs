@@ -119,7 +119,10 @@ mod tests {
         let key = spec_key(&base);
         assert_eq!(key, spec_key(&KernelSetSpec { ..base }));
         let others = [
-            KernelSetSpec { label: "other", ..base },
+            KernelSetSpec {
+                label: "other",
+                ..base
+            },
             KernelSetSpec { dim: 4, ..base },
             KernelSetSpec {
                 precision: Precision::F32,

@@ -34,7 +34,8 @@ fn a_lost_device_is_a_typed_error_on_every_call() {
         let scene = small_scene();
         let plan = Plan::compile(&scene).expect("valid");
         let state = State::from_scene(&scene);
-        let shared = GpuBackend::with_adapter(&adapter, plan.clone(), &state, precision).expect("gpu");
+        let shared =
+            GpuBackend::with_adapter(&adapter, plan.clone(), &state, precision).expect("gpu");
         assert!(
             matches!(shared.destroy_device(), Err(GpuError::Unsupported { .. })),
             "{precision}: the shared device must not be destroyed"
