@@ -413,21 +413,11 @@ impl GpuBackend {
         self.kernels.pipeline_count()
     }
 
-    /// Destroys the device, as a driver reset or a removed GPU would:
-    /// every later call answers [`GpuError::DeviceLost`]. For
-    /// fault-injection tests of that path, on a backend loaded with
-    /// `with_private_device` or `with_device`; the process's shared
-    /// device (`with_adapter`) serves other backends and is refused.
+    /// Destroys the device as a driver reset would (later calls answer
+    /// [`GpuError::DeviceLost`]), for fault-injection tests; only a device
+    /// of the backend's own (`with_private_device`, `with_device`).
     pub fn destroy_device(&self) -> Result<(), GpuError> {
-        if self.ctx.shared {
-            return Err(GpuError::Unsupported {
-                what: "destroying the process's shared device (load the backend with \
-                       with_private_device)"
-                    .into(),
-            });
-        }
-        self.ctx.device.destroy();
-        Ok(())
+        self.ctx.destroy()
     }
 
     /// Device bytes per particle and per constraint slot (buffers that

@@ -113,6 +113,20 @@ impl GpuContext {
         })
     }
 
+    /// Destroys a device of this context's own; the shared device serves
+    /// other backends and is refused.
+    pub fn destroy(&self) -> Result<(), GpuError> {
+        if self.shared {
+            return Err(GpuError::Unsupported {
+                what: "destroying the process's shared device (load the backend with \
+                       with_private_device)"
+                    .into(),
+            });
+        }
+        self.device.destroy();
+        Ok(())
+    }
+
     /// A lost device, then any error the device reported since the last
     /// check.
     pub fn check(&self) -> Result<(), GpuError> {

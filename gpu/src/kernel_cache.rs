@@ -1,6 +1,7 @@
 //! Kernel sets compiled once per device.
 //!
-//! A kernel set is a function of its [`KernelSetSpec`] and the device: the
+//! A kernel set is a function of its spec (`kernel_set::KernelSetSpec`)
+//! and the device: the
 //! same label, modules, dimension, precision, entry points (with their
 //! constants), set-wide constants and generated WGSL compose the same
 //! shaders and compile to the same pipelines. The cache keys a set by all
@@ -10,13 +11,11 @@
 //! in anything is built anew. Nothing of a backend's state lives in a
 //! kernel set (buffers and bind groups are the backend's own).
 
-use std::any::{Any, TypeId};
+use std::any::Any;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
 use hyperpbd_core::GpuError;
-
-use crate::kernel_set::{EntryPoint, KernelSet, KernelSetSpec};
 
 /// Built values by key, on one device (clones share the map).
 #[derive(Clone, Default)]
@@ -25,18 +24,9 @@ pub(crate) struct KernelCache {
 }
 
 impl KernelCache {
-    /// The set of `spec`: the cached one, else `build()`.
-    pub fn kernel_set<E: EntryPoint>(
-        &self,
-        spec: &KernelSetSpec<'_, E>,
-        build: impl FnOnce() -> Result<KernelSet<E>, GpuError>,
-    ) -> Result<KernelSet<E>, GpuError> {
-        self.get_or_build(spec_key(spec), build)
-    }
-
     /// The value cached under `key` (and of type `T`), else `build()`,
     /// cached when it succeeds (a failed build is not remembered).
-    fn get_or_build<T: Clone + Send + Sync + 'static>(
+    pub fn get_or_build<T: Clone + Send + Sync + 'static>(
         &self,
         key: String,
         build: impl FnOnce() -> Result<T, GpuError>,
@@ -54,32 +44,9 @@ impl KernelCache {
     }
 }
 
-/// Everything a kernel set is made of, as one string.
-fn spec_key<E: EntryPoint>(spec: &KernelSetSpec<'_, E>) -> String {
-    let entries: Vec<_> = spec
-        .entries
-        .iter()
-        .map(|&e| (e, e.source(), e.constants()))
-        .collect();
-    format!(
-        "{:?}|{}|{}|{:?}|{:?}|{:?}|{:?}|{:?}",
-        TypeId::of::<E>(),
-        spec.label,
-        spec.dim,
-        spec.precision,
-        spec.modules,
-        entries,
-        spec.constants,
-        spec.generated,
-    )
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Precision;
-    use crate::contact::ContactEntry;
-    use crate::shader::ShaderFile;
 
     #[test]
     fn a_key_is_built_once_and_a_failed_build_is_not_kept() {
@@ -102,51 +69,5 @@ mod tests {
         assert_eq!(cache.get_or_build("b".into(), || Ok(8_u32)), Ok(8));
         // Another type under the same key is built, not mistaken.
         assert_eq!(cache.get_or_build("a".into(), || Ok(9_u64)), Ok(9));
-    }
-
-    #[test]
-    fn every_part_of_a_spec_is_in_its_key() {
-        let entries = ContactEntry::ALL;
-        let base = KernelSetSpec {
-            label: "contact",
-            dim: 3,
-            precision: Precision::F64,
-            modules: &[ShaderFile::Collide],
-            entries: &entries,
-            constants: &[],
-            generated: None,
-        };
-        let key = spec_key(&base);
-        assert_eq!(key, spec_key(&KernelSetSpec { ..base }));
-        let others = [
-            KernelSetSpec {
-                label: "other",
-                ..base
-            },
-            KernelSetSpec { dim: 4, ..base },
-            KernelSetSpec {
-                precision: Precision::F32,
-                ..base
-            },
-            KernelSetSpec {
-                modules: &[ShaderFile::Grid],
-                ..base
-            },
-            KernelSetSpec {
-                entries: &entries[1..],
-                ..base
-            },
-            KernelSetSpec {
-                constants: &[("WORLDS", 2.0)],
-                ..base
-            },
-            KernelSetSpec {
-                generated: Some("fn f() {}"),
-                ..base
-            },
-        ];
-        for other in &others {
-            assert_ne!(spec_key(other), key);
-        }
     }
 }

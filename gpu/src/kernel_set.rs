@@ -43,6 +43,8 @@
 //!
 //! [`linear_index`-style]: crate::shader
 
+use std::any::TypeId;
+
 use hyperpbd_core::GpuError;
 
 use crate::Precision;
@@ -188,7 +190,7 @@ impl<E: EntryPoint> KernelSet<E> {
     /// [`KernelCache`]: crate::kernel_cache::KernelCache
     pub fn new(ctx: &GpuContext, spec: &KernelSetSpec<'_, E>) -> Result<Self, GpuError> {
         ctx.kernels
-            .kernel_set(spec, || Self::compile(&ctx.device, spec))
+            .get_or_build(spec_key(spec), || Self::compile(&ctx.device, spec))
     }
 
     /// Builds the layouts, modules and pipelines of `spec` on `device`.
@@ -383,6 +385,26 @@ impl<E: EntryPoint> KernelSet<E> {
     }
 }
 
+/// Everything a kernel set is made of, as one string.
+fn spec_key<E: EntryPoint>(spec: &KernelSetSpec<'_, E>) -> String {
+    let entries: Vec<_> = spec
+        .entries
+        .iter()
+        .map(|&e| (e, e.source(), e.constants()))
+        .collect();
+    format!(
+        "{:?}|{}|{}|{:?}|{:?}|{:?}|{:?}|{:?}",
+        TypeId::of::<E>(),
+        spec.label,
+        spec.dim,
+        spec.precision,
+        spec.modules,
+        entries,
+        spec.constants,
+        spec.generated,
+    )
+}
+
 /// Workgroups (x, y) covering `invocations` at `workgroup` per group.
 pub(crate) fn grid(invocations: u32, workgroup: u32) -> (u32, u32) {
     let groups = invocations.div_ceil(workgroup.max(1)).max(1);
@@ -499,5 +521,72 @@ impl ParamBlocks {
             wgpu::BufferUsages::STORAGE
         };
         ctx.buffer(label, &self.bytes, usage)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two entry points of one file, for keys.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    enum Entry {
+        A,
+        B,
+    }
+
+    impl EntryPoint for Entry {
+        fn source(self) -> (ShaderFile, &'static str) {
+            match self {
+                Entry::A => (ShaderFile::Collide, "a"),
+                Entry::B => (ShaderFile::Collide, "b"),
+            }
+        }
+    }
+
+    #[test]
+    fn every_part_of_a_spec_is_in_its_key() {
+        let entries = [Entry::A, Entry::B];
+        let base = KernelSetSpec {
+            label: "contact",
+            dim: 3,
+            precision: Precision::F64,
+            modules: &[ShaderFile::Collide],
+            entries: &entries,
+            constants: &[],
+            generated: None,
+        };
+        let key = spec_key(&base);
+        assert_eq!(key, spec_key(&KernelSetSpec { ..base }));
+        let others = [
+            KernelSetSpec {
+                label: "other",
+                ..base
+            },
+            KernelSetSpec { dim: 4, ..base },
+            KernelSetSpec {
+                precision: Precision::F32,
+                ..base
+            },
+            KernelSetSpec {
+                modules: &[ShaderFile::Grid],
+                ..base
+            },
+            KernelSetSpec {
+                entries: &entries[1..],
+                ..base
+            },
+            KernelSetSpec {
+                constants: &[("WORLDS", 2.0)],
+                ..base
+            },
+            KernelSetSpec {
+                generated: Some("fn f() {}"),
+                ..base
+            },
+        ];
+        for other in &others {
+            assert_ne!(spec_key(other), key);
+        }
     }
 }

@@ -81,7 +81,7 @@ pub(crate) fn contact_dispatches_per_step(plan: &Plan) -> usize {
 }
 
 impl ContactEntry {
-    pub(crate) const ALL: [ContactEntry; 12] = [
+    const ALL: [ContactEntry; 12] = [
         ContactEntry::BoxesAndBounds,
         ContactEntry::GridFrame,
         ContactEntry::BinCount,
