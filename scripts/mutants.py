@@ -13,9 +13,11 @@ for each mutant, one at a time, in a scratch copy of the repository:
 The developer's tree is never written: the scratch copy lives in
 --scratch (default /tmp/hyperpbd-mutants/repo) with its own CARGO_TARGET_DIR
 (…/target), seeded once from this tree's target/release so the dependency
-build (wgpu, naga, …) is reused. Results accumulate in …/results.json, so a
-long list can be run in batches (--only, --from, --limit); --report writes
-docs/mutation.md from the list and the results.
+build (wgpu, naga, …) is reused. Results accumulate in
+scripts/mutants-results.json (committed; seeded from docs/mutation.md's
+table where it is missing), so a long list can be run in batches (--only,
+--from, --limit) and on another machine; --report writes docs/mutation.md
+from the list and the results.
 
     scripts/mutants.sh --check            every snippet unique? (no build)
     scripts/mutants.sh --baseline         unmutated scratch copy: all targets pass, their times
@@ -276,16 +278,58 @@ def run_target(
 # ---------------------------------------------------------------- runs
 
 
+RESULTS = ROOT / "scripts" / "mutants-results.json"
+
+
 def load_results(scratch: Path) -> dict:
-    path = scratch / "results.json"
-    return json.loads(path.read_text()) if path.is_file() else {}
+    """The committed results (scripts/mutants-results.json; `scratch` is
+    not read: a new machine keeps them). Without that file, they are seeded
+    from docs/mutation.md's table: a row counts only where its mutation
+    text is the list entry's current find → replace."""
+    if RESULTS.is_file():
+        return json.loads(RESULTS.read_text())
+    return seed_from_table(load_list(DEFAULT_LIST))
 
 
 def save_results(scratch: Path, results: dict) -> None:
-    path = scratch / "results.json"
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(results, indent=1, sort_keys=True))
-    tmp.replace(path)
+    tmp = RESULTS.with_suffix(".tmp")
+    tmp.write_text(json.dumps(results, indent=1, sort_keys=True) + "\n")
+    tmp.replace(RESULTS)
+
+
+def seed_from_table(data: dict) -> dict:
+    """Results read back from the generated table of docs/mutation.md."""
+    if not REPORT.is_file():
+        return {}
+    entries = {m["id"]: m for m in data["mutant"]}
+    results = {}
+    for row in REPORT.read_text().splitlines():
+        if not row.startswith("| ") or row.startswith("| id "):
+            continue
+        cells = [c.strip() for c in re.split(r"(?<!\\)\|", row)[1:-1]]
+        if len(cells) != 7 or cells[0] not in entries:
+            continue
+        m = entries[cells[0]]
+        if cells[3] != f"`{cell(m['find'])}` → `{cell(m['replace'])}`":
+            continue
+        result = cells[4].strip("*")
+        if result == "equivalent":
+            result = "survived"
+        if result not in ("killed", "survived", "timeout"):
+            continue
+        killers = re.findall(r"`([^`]+)`", cells[5])
+        binary = killers[0].split("::")[0] if killers else ""
+        line = cells[1].strip("`").rpartition(":")[2]
+        results[m["id"]] = {
+            "result": result,
+            "find": m["find"],
+            "replace": m["replace"],
+            "line": int(line) if line.isdigit() else "?",
+            "target": binary,
+            "killers": [k.split("::", 1)[1] for k in killers if "::" in k],
+            "detail": "seeded from docs/mutation.md",
+        }
+    return results
 
 
 def baseline(data: dict, scratch: Path, threads: int) -> None:
