@@ -86,6 +86,8 @@ impl Pooled {
     pub fn subscribe(&self) -> Arc<Mutex<Vec<String>>> {
         let list: Arc<Mutex<Vec<String>>> = Arc::default();
         if let Ok(mut lists) = self.subscribers.lock() {
+            // The lists of dropped backends go here, not only on an error.
+            lists.retain(|l| l.strong_count() > 0);
             lists.push(Arc::downgrade(&list));
         }
         list

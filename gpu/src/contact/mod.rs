@@ -167,12 +167,13 @@ impl ContactKernels {
             });
         }
         let (count, particles) = (worlds.0.max(1), worlds.1);
-        let constants = match count {
-            1 => Vec::new(),
-            _ => vec![
+        let constants = if count == 1 {
+            Vec::new()
+        } else {
+            vec![
                 ("WORLDS", count as f64),
                 ("WORLD_PARTICLES", particles as f64),
-            ],
+            ]
         };
         let set = KernelSet::new(
             ctx,
