@@ -15,6 +15,10 @@
 //! sets the frames timed per scene (default 12; 3 for the 100k column),
 //! `HYPERPBD_SCENES=pit16k,column3d` the scenes (default: all).
 //!
+//! `cargo bench` passes `--bench`; `cargo test --all-targets` runs this
+//! binary without it (criterion's test mode: each routine once): then only
+//! the smallest scene, column3d, runs.
+//!
 //! The CPU runs on one thread (`RAYON_NUM_THREADS=1` is set before any
 //! work), the reference of issue 12. GPU cases are skipped with a printed
 //! notice when no adapter exists.
@@ -127,8 +131,14 @@ fn granular(c: &mut Criterion) {
         .sample_size(10)
         .warm_up_time(Duration::from_millis(200))
         .measurement_time(Duration::from_secs(4));
+    // `cargo bench` passes --bench; the smoke run of `cargo test
+    // --all-targets` steps the smallest scene only.
+    let measuring = std::env::args().any(|a| a == "--bench");
     let mut large = Vec::new();
     for (name, scene, frames) in cases() {
+        if !measuring && name != "column3d" {
+            continue;
+        }
         if frames < 12 {
             large.push((name, scene));
             continue;

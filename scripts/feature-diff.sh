@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
-# Fails when `scripts/test.sh` and `cargo run --release -- demo` would
-# resolve different features for a shared crate (then the second command
-# rebuilds wgpu and everything above it). Compares the features Cargo
-# resolves for the whole workspace with dev-dependencies (the test build)
-# against the root package's normal and build dependencies (the binary).
-# Fix a difference by naming the feature in the root Cargo.toml's aligned
-# dependencies. Takes about a second; builds nothing; needs only cargo and awk.
+# Fails when two builds that share target/ would resolve different
+# features for a shared crate, so the second rebuilds wgpu and everything
+# above it: `scripts/test.sh` (the whole workspace with dev-dependencies)
+# against `cargo run --release -- demo` (the root package's normal and
+# build dependencies), and the demo build against the Python package's
+# (scripts/test-python.sh, python/Cargo.toml). Fix a difference by naming
+# the feature in the root Cargo.toml's aligned dependencies. Takes a few
+# seconds; builds nothing; needs only cargo and awk.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -27,15 +28,25 @@ test_build=$(features --workspace -e features,normal,build,dev)
 run_build=$(features -p hyperpbd -e features,normal,build)
 
 # Crates in the demo build whose features differ in the test build.
-diff_lines=$(awk 'FNR == NR { test[$1 " " $2] = $3; next }
-                  ($1 " " $2) in test && test[$1 " " $2] != $3 {
-                      print "feature-diff: " $1 " " $2 ": demo build [" $3 "], test build [" test[$1 " " $2] "]" }' \
-             <(cat <<<"$test_build") <(cat <<<"$run_build"))
+# Lines "crate version: <name_b> [features], <name_a> [features]" for the
+# crates both lists hold with different features.
+differ() {
+    awk -v a="$1" -v b="$3" 'FNR == NR { have[$1 " " $2] = $3; next }
+         ($1 " " $2) in have && have[$1 " " $2] != $3 {
+             print "feature-diff: " $1 " " $2 ": " b " [" $3 "], " a " [" have[$1 " " $2] "]" }' \
+        <(cat <<<"$2") <(cat <<<"$4")
+}
+# The Python package (scripts/test-python.sh) builds into the same target/:
+# the crates it shares with the demo build must resolve the same features
+# too, or it rebuilds wgpu and everything above it.
+python_build=$(features --manifest-path python/Cargo.toml -e features,normal,build)
+diff_lines=$(differ "test build" "$test_build" "demo build" "$run_build"
+             differ "demo build" "$run_build" "python build" "$python_build")
 crates=$(grep -c . <<<"$run_build")
 if [ -n "$diff_lines" ]; then
     echo "$diff_lines"
     echo "feature-diff: $(grep -c . <<<"$diff_lines") crate(s) resolve different features;" \
-         "\`cargo run --release -- demo\` would rebuild after scripts/test.sh"
+         "\`cargo run --release -- demo\` or the Python build would rebuild after scripts/test.sh"
     exit 1
 fi
-echo "feature-diff: the test build and the demo build resolve the same features ($crates crates in the demo build)"
+echo "feature-diff: the test, demo and Python builds resolve the same features ($crates crates in the demo build)"
