@@ -76,7 +76,11 @@ pub(crate) fn generated_for(
     let mut project_cases = String::new();
     let mut violation_cases = String::new();
     // Writing to a String cannot fail.
-    for (k, &(kind, base)) in kinds.iter().enumerate() {
+    for (k, (kind, base, members)) in classes(kinds, precision).into_iter().enumerate() {
+        // The expression indices this code serves, as case selectors.
+        let selectors = (members.iter().map(|m| format!("{m}u")))
+            .collect::<Vec<_>>()
+            .join(", ");
         s.push_str(&emit_wgsl(
             &kind.gradient,
             &format!("expression{k}_gradient"),
@@ -125,40 +129,21 @@ pub(crate) fn generated_for(
             r#"
 fn expression{k}_inputs(e: u32) -> array<{t}, {inputs}> {{
     var inputs: array<{t}, {inputs}>;
-    for (var j = 0u; j < {arity}u; j++) {{
-        var r = load_x(elements[call.elem_base + e * {arity}u + j]);
-        for (var a = 0u; a < DIM; a++) {{
-            inputs[j * DIM + a] = lane(&r, a);
-        }}
-    }}
-{constants}    return inputs;
+{gather}{constants}    return inputs;
 }}
 
 fn expression{k}_project(t: u32) {{
     let e = call.first + t;
     let s = call.slot_base + e;
-    let inputs = expression{k}_inputs(e);
-    var out = expression{k}_gradient(inputs, call.call == NONE);
+{particles}    var inputs: array<{t}, {inputs}>;
+{gather_loaded}{constants}    var out = expression{k}_gradient(inputs, call.call == NONE);
     let value = out[0];
     if (!finite(value)) {{
         fail(e);
         return;
     }}
     var wsum: real = 0.0;
-    for (var j = 0u; j < {arity}u; j++) {{
-        var r = load_x(elements[call.elem_base + e * {arity}u + j]);
-        let w = inverse_mass_of(&r);
-        if (w == 0.0) {{
-            continue;
-        }}
-        var g2: real = 0.0;
-        for (var a = 0u; a < DIM; a++) {{
-            let g = out[1u + j * DIM + a];
-            g2 += g * g;
-        }}
-        wsum += w * g2;
-    }}
-    if (!finite(wsum) || wsum == 0.0) {{
+{wsum}    if (!finite(wsum) || wsum == 0.0) {{
         no_response(s);
         return;
     }}
@@ -172,19 +157,7 @@ fn expression{k}_project(t: u32) {{
     let t_new = l + raw;
 {clamp}
     set_lambda(s, next);
-    for (var j = 0u; j < {arity}u; j++) {{
-        let i = elements[call.elem_base + e * {arity}u + j];
-        var r = load_x(i);
-        let w = inverse_mass_of(&r);
-        if (w == 0.0) {{
-            continue;
-        }}
-        for (var a = 0u; a < DIM; a++) {{
-            set_lane(&r, a, lane(&r, a) + w * out[1u + j * DIM + a] * dl);
-        }}
-        store_x(i, r);
-    }}
-}}
+{update}}}
 
 fn expression{k}_violation(e: u32) -> real {{
     let inputs = expression{k}_inputs(e);
@@ -192,7 +165,12 @@ fn expression{k}_violation(e: u32) -> real {{
     let c = out[0] - rest_at(call.slot_base + e);
     return {violation};
 }}
-"#
+"#,
+            gather = unrolled_gather(arity, dim, true),
+            particles = unrolled_particles(arity),
+            gather_loaded = unrolled_gather(arity, dim, false),
+            wsum = unrolled_wsum(arity, dim),
+            update = unrolled_update(arity, dim),
         );
         if primal {
             let _ = write!(
@@ -265,17 +243,17 @@ fn expression{k}_primal(t: u32) {{
             );
             let _ = writeln!(
                 project_cases,
-                "        case {k}u: {{ if ((call.flags & FLAG_PRIMAL) != 0u) {{ expression{k}_primal(t); }} else {{ expression{k}_project(t); }} }}"
+                "        case {selectors}: {{ if ((call.flags & FLAG_PRIMAL) != 0u) {{ expression{k}_primal(t); }} else {{ expression{k}_project(t); }} }}"
             );
         } else {
             let _ = writeln!(
                 project_cases,
-                "        case {k}u: {{ expression{k}_project(t); }}"
+                "        case {selectors}: {{ expression{k}_project(t); }}"
             );
         }
         let _ = writeln!(
             violation_cases,
-            "        case {k}u: {{ return expression{k}_violation(e); }}"
+            "        case {selectors}: {{ return expression{k}_violation(e); }}"
         );
     }
     let _ = write!(
@@ -298,6 +276,115 @@ fn expression_violation(e: u32) -> real {{
 }}
 "#
     );
+    s
+}
+
+/// The expression families `kinds` grouped by the code they generate:
+/// (kind, constants offset, the indices k of the families it serves), in
+/// order of first appearance. Families with the same tapes, arity,
+/// relation and per-element constants (the same offset, where they have
+/// any) share one set of functions, so the dispatchers' `switch` has one
+/// case per distinct code — a software adapter runs every case of a
+/// switch under masks (lavapipe), so four families written alike cost
+/// four projections per element otherwise.
+fn classes<'k>(
+    kinds: &[(&'k ExpressionKind, u32)],
+    precision: Precision,
+) -> Vec<(&'k ExpressionKind, u32, Vec<usize>)> {
+    let code = |kind: &ExpressionKind, base: u32| {
+        (
+            emit_wgsl(&kind.gradient, "f", precision),
+            emit_wgsl(&kind.value, "f", precision),
+            kind.arity,
+            kind.element_constants,
+            if kind.element_constants > 0 { base } else { 0 },
+            kind.relation,
+        )
+    };
+    let mut out: Vec<(&ExpressionKind, u32, Vec<usize>)> = Vec::new();
+    let mut codes = Vec::new();
+    for (k, &(kind, base)) in kinds.iter().enumerate() {
+        let key = code(kind, base);
+        match codes.iter().position(|c| *c == key) {
+            Some(c) => out[c].2.push(k),
+            None => {
+                codes.push(key);
+                out.push((kind, base, vec![k]));
+            }
+        }
+    }
+    out
+}
+
+/// The element's coordinates into `inputs` (particle j, axis a at
+/// j·DIM + a), every index a constant: with `load`, each particle's record
+/// loaded here (`expression{k}_inputs`), else from the records `r{j}` that
+/// [`unrolled_particles`] loaded.
+fn unrolled_gather(arity: usize, dim: usize, load: bool) -> String {
+    let mut s = String::new();
+    for j in 0..arity {
+        if load {
+            let _ = writeln!(
+                s,
+                "    var r{j} = load_x(elements[call.elem_base + e * {arity}u + {j}u]);"
+            );
+        }
+        for a in 0..dim {
+            let _ = writeln!(s, "    inputs[{}] = lane(&r{j}, {a}u);", j * dim + a);
+        }
+    }
+    s
+}
+
+/// The element's particle indices `i{j}` and records `r{j}`.
+fn unrolled_particles(arity: usize) -> String {
+    let mut s = String::new();
+    for j in 0..arity {
+        let _ = writeln!(
+            s,
+            "    let i{j} = elements[call.elem_base + e * {arity}u + {j}u];\n    var r{j} = load_x(i{j});"
+        );
+    }
+    s
+}
+
+/// wsum = Σ_j w_j |∇_j C|² over the particles with w_j ≠ 0, in particle
+/// order, each |∇_j C|² summed from 0 over the axes in order (the golden
+/// path's order: `kinds::project`).
+fn unrolled_wsum(arity: usize, dim: usize) -> String {
+    let mut s = String::new();
+    for j in 0..arity {
+        let _ = writeln!(
+            s,
+            "    let w{j} = inverse_mass_of(&r{j});\n    if (w{j} != 0.0) {{\n        var g2: real = 0.0;"
+        );
+        for a in 0..dim {
+            let g = 1 + j * dim + a;
+            let _ = writeln!(s, "        g2 += out[{g}] * out[{g}];");
+        }
+        let _ = writeln!(s, "        wsum += w{j} * g2;\n    }}");
+    }
+    s
+}
+
+/// x_j += w_j ∇_j C Δλ for the particles with w_j ≠ 0, in particle order,
+/// each record loaded again after the previous particle's store.
+fn unrolled_update(arity: usize, dim: usize) -> String {
+    let mut s = String::new();
+    for j in 0..arity {
+        let _ = writeln!(
+            s,
+            "    {{\n        var r = load_x(i{j});\n        let w = inverse_mass_of(&r);\n        if (w != 0.0) {{"
+        );
+        for a in 0..dim {
+            let g = 1 + j * dim + a;
+            let _ = writeln!(
+                s,
+                "            set_lane(&r, {a}u, lane(&r, {a}u) + w * out[{g}] * dl);"
+            );
+        }
+        let _ = writeln!(s, "            store_x(i{j}, r);\n        }}\n    }}");
+    }
     s
 }
 
@@ -348,5 +435,35 @@ mod tests {
         assert!(source.contains(&format!(
             "fn expression{c}_inputs(e: u32) -> array<f64, 12>"
         )));
+    }
+
+    /// Families that generate the same code share one set of functions and
+    /// one case of each dispatcher; another expression, or per-element
+    /// constants at another offset, get their own.
+    #[test]
+    fn families_written_alike_share_their_code() {
+        let mut b = SceneBuilder::new(3).gravity_along(1, 9.81);
+        let grid = b.grid(&GridSpec::cloth(4, 3, 0.1, 1.0));
+        let pairs = |k: usize| vec![vec![grid.index(&[k, 0]), grid.index(&[k, 1])]];
+        for (k, source) in [
+            (0, "norm(x1 - x0)"),
+            (1, "dot(x1 - x0, x1 - x0)"),
+            (2, "norm(x1 - x0)"),
+        ] {
+            b.family(ConstraintFamily::expression(source, 0.0, pairs(k)));
+        }
+        b.grid_bending(&grid, 1e-3, BendingModel::Quadratic);
+        b.grid_bending(&grid, 1e-3, BendingModel::Quadratic);
+        let plan = Plan::compile(&b.build().expect("valid")).expect("plan");
+        let families = Families::new(&plan, &SceneOrigin::zero(3)).expect("families");
+        let source = generated(&plan, &families, Precision::F64);
+        assert!(source.contains("case 0u, 2u: { expression0_project(t); }"));
+        assert!(source.contains("case 1u: { expression1_project(t); }"));
+        // The two bending families: the same tapes, their constants at two
+        // offsets.
+        assert!(source.contains("case 3u: { expression2_project(t); }"));
+        assert!(source.contains("case 4u: { expression3_project(t); }"));
+        assert!(!source.contains("fn expression4_project"));
+        assert_eq!(source.matches("fn expression0_gradient").count(), 1);
     }
 }
