@@ -1,4 +1,4 @@
-//! `GpuCoupledBackend`: the coupled implicit step (docs/implicit.md §7) on
+//! `CoupledStep` ([`crate::GpuCoupledBackend`]): the coupled implicit step (docs/implicit.md §7) on
 //! the GPU, the golden path's schedule (`cpu/src/coupled/`) kernel for
 //! kernel: every per-element and per-particle pass, PCG whole (its vectors
 //! and its scalar recurrence, pcg.rs), the line search's vectors, and every
@@ -61,35 +61,34 @@ mod trials;
 use hyperpbd_core::broadphase::{Aabbs, Pair, grid_pairs};
 use hyperpbd_core::implicit::{CoupledPlan, PairLag};
 use hyperpbd_core::{
-    BackendError, Convergence, FamilyKind, GpuError, IncrementalPotentialPlan, Kernel,
-    MinimisationReport, Plan, State, check_state,
+    BackendError, Convergence, FamilyKind, GpuError, IncrementalPotentialPlan, MinimisationReport,
+    Plan, State, check_state,
 };
 
 use crate::Precision;
 use crate::barrier::barrier_resources;
 use crate::codes;
-use crate::context::{DeviceSource, GpuContext};
-use crate::export::Exporter;
+use crate::context::DeviceSource;
 use crate::kernel_set::{KernelSet, KernelSetSpec};
+use crate::minimising::{Minimiser, Minimising};
 use crate::params::{push_reals, real_size};
-use crate::resident::ResidentState;
-use crate::resident_backend::{minimising_backend, resident_backend};
+use crate::resident_backend::{Resident, ResidentBackend};
 use crate::shader::MAX_GPU_DIM;
 use device::{Device, ElementUpload, Reduction};
 use entries::Entry;
 use material::Materials;
+use newton::Newton;
 use pcg::PcgProbe;
 use trials::TrialProbe;
 
 /// The GPU backend of the coupled implicit step.
-pub struct GpuCoupledBackend {
-    plan: Plan,
+pub type GpuCoupledBackend = ResidentBackend<Minimising<CoupledStep>>;
+
+/// The coupled step's kernels, buffers and element lists.
+pub struct CoupledStep {
     ip: IncrementalPotentialPlan,
     coupled: CoupledPlan,
-    precision: Precision,
-    ctx: GpuContext,
     device: Device,
-    state: ResidentState,
     /// The uploaded element list, its pair set and pair friction lags.
     elements: ElementUpload,
     pairs: Vec<Pair>,
@@ -98,9 +97,6 @@ pub struct GpuCoupledBackend {
     materials: Materials,
     /// m_i (0 for fixed particles).
     mass: Vec<f64>,
-    substep: u32,
-    reports: Vec<MinimisationReport>,
-    exporter: Exporter,
     /// PCG's read-back buffer and chunk length (pcg.rs).
     pcg: PcgProbe,
     /// Armijo's batch read-back and batch length (trials.rs).
@@ -149,7 +145,7 @@ fn unsupported(plan: &Plan, ip: &IncrementalPotentialPlan, precision: Precision)
     None
 }
 
-impl GpuCoupledBackend {
+impl Minimiser for CoupledStep {
     /// Loads `plan` (an incremental-potential plan with a coupled step)
     /// with `state` on `device`.
     fn load(
@@ -157,7 +153,7 @@ impl GpuCoupledBackend {
         plan: Plan,
         state: &State,
         precision: Precision,
-    ) -> Result<Self, BackendError> {
+    ) -> Result<(Resident, Self), BackendError> {
         check_state(&plan, state)?;
         let (Some(ip), Some(coupled)) = (
             plan.incremental_potential().cloned(),
@@ -231,38 +227,48 @@ impl GpuCoupledBackend {
             u32::from(coupled.simplex_friction.iter().any(|&mu| mu > 0.0));
         let pcg = PcgProbe::new(&ctx, precision)?;
         let trial_probe = TrialProbe::new(&ctx)?;
-        let mut backend = GpuCoupledBackend {
-            plan,
+        let mut step = CoupledStep {
             ip,
             coupled: *coupled,
-            precision,
-            ctx,
             device,
-            state: resident,
             elements: ElementUpload::default(),
             pairs: Vec::new(),
             lags: Vec::new(),
             materials,
             mass,
-            substep: 0,
-            reports: Vec::new(),
-            exporter: Exporter::default(),
             pcg,
             trial_probe,
         };
-        backend.upload_elements(Vec::new(), true)?;
-        backend.ctx.check()?;
-        Ok(backend)
+        let on = Resident {
+            plan,
+            precision,
+            ctx,
+            state: resident,
+        };
+        step.upload_elements(&on, Vec::new(), true)?;
+        on.ctx.check()?;
+        Ok((on, step))
     }
 
+    fn minimise(&mut self, on: &mut Resident) -> Result<MinimisationReport, BackendError> {
+        Newton { on, step: self }.minimise()
+    }
+}
+
+impl CoupledStep {
     /// The element list of the plan's springs and materials, the ball pairs `pairs` and
     /// the pair friction lags `self.lags` (cpu/src/coupled/elements.rs
     /// `rebuild`), uploaded when the pairs changed (or `force`: new lags).
-    fn upload_elements(&mut self, pairs: Vec<Pair>, force: bool) -> Result<(), GpuError> {
+    fn upload_elements(
+        &mut self,
+        on: &Resident,
+        pairs: Vec<Pair>,
+        force: bool,
+    ) -> Result<(), GpuError> {
         if !force && pairs == self.pairs {
             return Ok(());
         }
-        let plan = &self.plan;
+        let plan = &on.plan;
         let width = plan.dim + 1;
         let arity_max = plan.families.iter().map(|f| f.arity).fold(2, usize::max);
         let up = &mut self.elements;
@@ -313,33 +319,23 @@ impl GpuCoupledBackend {
         }
         up.first_ball = first_ball;
         up.lists.build_gather(plan.particle_count());
-        self.device
-            .upload(&self.ctx, &self.state, up, pairs.len())?;
+        self.device.upload(&on.ctx, &on.state, up, pairs.len())?;
         self.pairs = pairs;
         Ok(())
     }
 
     /// The ball pairs over the boxes swept from `from` to `to` (radius +
     /// d^/2), pairs of two fixed particles left out (cpu/src/collide.rs).
-    fn sweep(&self, from: &[f64], to: &[f64]) -> Vec<Pair> {
+    fn sweep(&self, on: &Resident, from: &[f64], to: &[f64]) -> Vec<Pair> {
         if !self.coupled.collisions {
             return Vec::new();
         }
         let margin = 0.5 * self.ip.law.activation_distance;
-        let boxes = Aabbs::swept_particles(self.plan.dim, from, to, &self.plan.radius, margin);
-        let w = &self.plan.inverse_mass;
+        let boxes = Aabbs::swept_particles(on.plan.dim, from, to, &on.plan.radius, margin);
+        let w = &on.plan.inverse_mass;
         let mut pairs = grid_pairs(&boxes);
         pairs.retain(|&[i, j]| w[i as usize] + w[j as usize] > 0.0);
         pairs
-    }
-
-    /// Host waits (round trips) since the backend was created.
-    pub fn host_waits(&self) -> u64 {
-        self.ctx.host_waits()
-    }
-
-    fn encoder(&self) -> wgpu::CommandEncoder {
-        self.ctx.device.create_command_encoder(&Default::default())
     }
 
     /// Writes the params and a clear status block, then records `entries`
@@ -348,12 +344,13 @@ impl GpuCoupledBackend {
     /// dispatch), and reads them back.
     fn run(
         &self,
+        on: &Resident,
         entries: &[(Entry, usize)],
         reductions: &[Reduction],
     ) -> Result<(Vec<f64>, [u32; 5]), GpuError> {
-        self.device.write_params(&self.ctx);
-        self.device.reset_status(&self.ctx);
-        let mut encoder = self.encoder();
+        self.device.write_params(&on.ctx);
+        self.device.reset_status(&on.ctx);
+        let mut encoder = on.encoder();
         let results: Vec<_> = {
             let mut pass = self.device.begin(&mut encoder);
             for &(entry, items) in entries {
@@ -364,37 +361,27 @@ impl GpuCoupledBackend {
                 .map(|&r| self.device.reduce_in(&mut pass, r))
                 .collect()
         };
-        self.device.read(&self.ctx, encoder, &results)
+        self.device.read(&on.ctx, encoder, &results)
     }
 
     /// Writes the params, records `entries` (kernels that write no status
     /// word: cp_set_x, cp_finish) in one compute pass and submits it without
     /// waiting: the next submission runs after it (queue order), and the
     /// host needs nothing from it.
-    fn submit(&self, entries: &[(Entry, usize)]) -> Result<(), GpuError> {
-        self.device.write_params(&self.ctx);
-        let mut encoder = self.encoder();
+    fn submit(&self, on: &Resident, entries: &[(Entry, usize)]) -> Result<(), GpuError> {
+        self.device.write_params(&on.ctx);
+        let mut encoder = on.encoder();
         {
             let mut pass = self.device.begin(&mut encoder);
             for &(entry, items) in entries {
                 self.device.dispatch(&mut pass, entry, items);
             }
         }
-        self.ctx.submit(encoder).map(|_| ())
+        on.ctx.submit(encoder).map(|_| ())
     }
 
     /// Element and particle item counts.
-    fn counts(&self) -> (usize, usize) {
-        (self.plan.particle_count(), self.elements.lists.len())
-    }
-}
-
-minimising_backend!(GpuCoupledBackend);
-
-resident_backend! {
-    GpuCoupledBackend, load() {
-        fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
-            self.minimise_kernel(kernel)
-        }
+    fn counts(&self, on: &Resident) -> (usize, usize) {
+        (on.plan.particle_count(), self.elements.lists.len())
     }
 }
