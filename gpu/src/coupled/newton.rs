@@ -17,12 +17,12 @@ use hyperpbd_core::{
     BackendError, Convergence, GpuError, MinimisationReport, MinimisationStatus, Refusal, WarmStart,
 };
 
-use super::CoupledStep;
 use super::device::Reduction;
 use super::entries::status::{INFEASIBLE, MOVED, NON_FINITE_ELEMENT, NON_FINITE_PARTICLE};
 use super::entries::{Entry, region};
 use super::material;
 use super::pcg::{Direction, PcgProbe, PcgStart};
+use super::step::CoupledStep;
 use crate::Precision;
 use crate::barrier::{NONE, infeasible_start};
 use crate::resident_backend::Resident;
