@@ -30,7 +30,7 @@
 //   scratch   per world its report (deepest overlap), then per world its
 //             block: reduction partials, the grid frame, per-particle report
 //
-// BATCHES OF WORLDS (gpu/src/backend/batch_contact.rs): WORLDS worlds of
+// BATCHES OF WORLDS (gpu/src/batch.rs, gpu/src/backend/contact_step.rs): WORLDS worlds of
 // `count` particles each, world-major. A per-particle invocation t is
 // particle t − world · count of world ⌊t / count⌋ (`enter`); the prelude's
 // particle(i) = world · WORLD_PARTICLES + i is its record in x v p and in

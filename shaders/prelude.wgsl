@@ -48,7 +48,7 @@
 // (Records are passed by pointer: naga 30's SPIR-V writer fails on some
 // calls that pass arrays by value.)
 
-// BATCHES OF WORLDS (gpu/src/backend/batch.rs): a module may run WORLDS
+// BATCHES OF WORLDS (gpu/src/batch.rs): a module may run WORLDS
 // worlds of one topology in each dispatch, world-major — world k's
 // particle i is record k·WORLD_PARTICLES + i. `world` is the world of the
 // running invocation (set by the runner that splits its index); with one

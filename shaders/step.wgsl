@@ -133,7 +133,7 @@ const NONE: u32 = 0xffffffffu;
 // The call running now.
 var<private> call: Call;
 
-// BATCHES OF WORLDS (gpu/src/backend/batch.rs; `world`, WORLD_PARTICLES
+// BATCHES OF WORLDS (gpu/src/batch.rs; `world`, WORLD_PARTICLES
 // and `particle(i)` in prelude.wgsl): a dispatch runs its calls for
 // WORLDS worlds of one topology, invocation t = world · count + index.
 // Shared by all worlds: the call structure (ops, counts, colours,
@@ -205,7 +205,7 @@ fn world_reals(op: u32, c: u32) {
 
 // Whether the running world skips the running call: a response (friction,
 // damping) its own plan compiles away, which the union of a batch's stages
-// runs for the other worlds (gpu/src/backend/union.rs). Skipping leaves
+// runs for the other worlds (gpu/src/batch/union.rs). Skipping leaves
 // every record as the world's own step leaves it: exact by construction,
 // signed zeros included. Never with one world (folds to false).
 fn skipped() -> bool {

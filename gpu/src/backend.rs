@@ -16,123 +16,65 @@
 //! per particle and per colour.
 
 use hyperpbd_core::{
-    BackendError, GpuError, Kernel, Plan, StageName, State, StepError, check_kernel, check_state,
+    BackendError, GpuError, Kernel, Plan, State, StepReport, check_kernel, check_state,
 };
 
 use crate::Precision;
-use crate::context::GpuContext;
-use crate::export::Exporter;
-use crate::kernel_set::{KernelSet, KernelSetSpec, ParamBlocks};
-use crate::layout::VectorLayout;
+use crate::context::{DeviceSource, GpuContext};
 use crate::origin::SceneOrigin;
-use crate::params::{push_reals, real_size};
+use crate::params::read_reals;
 use crate::resident::ResidentState;
-use crate::resident_backend::resident_backend;
-use crate::shader::ShaderFile;
-use crate::xpbd::schedule::{Dispatch, Schedule, StepMode};
-use crate::xpbd::{Families, NONE, Placed, XpbdEntry};
+use crate::resident_backend::{Resident, ResidentBackend, ResidentStep};
+use crate::xpbd::schedule::StepMode;
+use contact_step::{ContactStage, contact_report};
+use diagnosis::{diagnosed_error, guard_rejection};
+use motion_step::{Moving, refuse_alone_with_motion};
+use program::Program;
+use status::{StatusReader, refuse_cut_loops};
 
-mod attempt;
-pub(crate) mod batch;
-mod contact_step;
+pub(crate) mod contact_step;
+mod diagnosis;
 mod motion_step;
-use crate::context::DeviceSource;
+mod program;
 pub(crate) mod status;
-mod union;
-use batch::{WorldArrays, Worlds};
-use contact_step::ContactStage;
+pub(crate) mod worlds;
 
-/// The device buffers besides the resident state.
-struct Buffers {
-    lambda: wgpu::Buffer,
-    status: wgpu::Buffer,
-    report: wgpu::Buffer,
-    /// Readback of status (16 bytes) followed by the report.
-    report_staging: wgpu::Buffer,
-    report_bytes: u64,
-    /// Buffers only the kernels use.
-    _rest: Vec<wgpu::Buffer>,
-}
+/// The wgpu backend of the XPBD step.
+pub type GpuBackend = ResidentBackend<XpbdStep>;
 
-/// The wgpu backend.
-pub struct GpuBackend {
-    plan: Plan,
-    precision: Precision,
-    ctx: GpuContext,
-    state: ResidentState,
-    buffers: Buffers,
-    kernels: KernelSet<XpbdEntry>,
-    /// Group 0: the particle records and every kernel buffer.
-    group: wgpu::BindGroup,
-    /// Group 1: the dispatch blocks.
-    blocks: wgpu::BindGroup,
-    schedule: Schedule,
-    /// One dispatch per call (failure diagnosis, contact plans).
-    exact: Vec<Placed>,
-    /// The dispatches of a step in the chosen mode.
-    fast: Vec<Placed>,
-    /// The dispatch of each kernel of a substep run alone (run_kernel).
-    alone: Vec<Placed>,
+/// The XPBD step on the device: its program (buffers, kernels, dispatch
+/// blocks), the contact and motion stages the plan calls for, and the
+/// steps of its subdivided plans (adaptive).
+pub struct XpbdStep {
+    program: Program,
     /// Broadphase and contact kernels, when the plan has collisions.
     contacts: Option<ContactStage>,
-    /// Backends of `plan.subdivided(j)`, j = 1, 2, … (adaptive; attempt.rs).
-    subdivided: Vec<GpuBackend>,
-    /// The position export into a caller's buffer (built on first use).
-    exporter: Exporter,
-    /// Worlds every dispatch runs (1 but in a batch, batch.rs).
-    worlds: u32,
     /// Prescribed motion: where each step's values go (motion_step.rs).
-    motion: Option<motion_step::Moving>,
+    motion: Option<Moving>,
+    /// Steps of `plan.subdivided(j)`, j = 1, 2, … (adaptive), each on
+    /// its own resident state on this device.
+    subdivided: Vec<(Resident, XpbdStep)>,
 }
 
-impl GpuBackend {
-    /// Loads `plan` with `state`, storing positions relative to `origin`
-    /// (see [`SceneOrigin`]; [`GpuBackend::with_adapter`] picks it).
-    pub fn with_origin(
-        adapter: &wgpu::Adapter,
-        plan: Plan,
-        state: &State,
-        precision: Precision,
-        origin: SceneOrigin,
-    ) -> Result<Self, BackendError> {
-        let own = DeviceSource::Own(adapter);
-        Self::load(own, plan, state, precision, Some(origin), None)
-    }
+/// How an XPBD step is loaded: positions relative to `origin` (`None`:
+/// [`SceneOrigin::for_state`]), the dispatches formed as `mode` says
+/// (`None`: as the plan's size suggests).
+#[derive(Default)]
+pub struct XpbdOptions {
+    origin: Option<SceneOrigin>,
+    mode: Option<StepMode>,
+}
 
-    /// Loads `plan` with `state`, forming the step's dispatches as `mode`
-    /// says rather than as the plan's size suggests (every mode gives the
-    /// same results; [`StepMode::Small`] is refused for plans with particle
-    /// contact).
-    pub fn with_step_mode(
-        adapter: &wgpu::Adapter,
-        plan: Plan,
-        state: &State,
-        precision: Precision,
-        mode: StepMode,
-    ) -> Result<Self, BackendError> {
-        if mode == StepMode::Small && plan.contacts.is_some() {
-            return Err(BackendError::InvalidCall(
-                "step mode small: plans with particle contact run the exact or fused schedule \
-                 (the contact kernels are dispatches of their own)"
-                    .into(),
-            ));
-        }
-        let own = DeviceSource::Own(adapter);
-        Self::load(own, plan, state, precision, None, Some(mode))
-    }
+impl ResidentStep for XpbdStep {
+    type Options = XpbdOptions;
 
-    /// Loads `plan` with `state` on `device`: positions relative to
-    /// `origin` (`None`: [`SceneOrigin::for_state`]), the step's
-    /// dispatches formed as `mode` says (`None`: as the plan's size
-    /// suggests).
     fn load(
         device: DeviceSource<'_>,
         plan: Plan,
         state: &State,
         precision: Precision,
-        origin: Option<SceneOrigin>,
-        mode: Option<StepMode>,
-    ) -> Result<Self, BackendError> {
+        XpbdOptions { origin, mode }: XpbdOptions,
+    ) -> Result<(Resident, Self), BackendError> {
         // An expression need not be translation-invariant (a param may be a
         // point): a plan with one keeps world coordinates.
         let expressions = plan.families.iter().any(|f| f.kind.is_expression());
@@ -172,412 +114,353 @@ impl GpuBackend {
             return Err(crate::incremental_potential::incremental_potential_unsupported().into());
         }
         let ctx = device.context(precision)?;
-        ctx.building(|| Self::build(ctx.clone(), plan, state, precision, origin, mode, None))
+        ctx.building(|| Self::build(&ctx, plan, state, (precision, origin, mode), None))
     }
 
-    /// Creates every buffer, pipeline, bind group and dispatch block: of
-    /// `plan` with `state`, or of every world of `worlds` (a batch,
-    /// batch.rs; `plan` and `state` are world 0's).
-    fn build(
-        ctx: GpuContext,
+    fn attempt(&mut self, on: &mut Resident, subdivision: u32) -> Result<StepReport, BackendError> {
+        let attempt = if subdivision == 0 {
+            self.step_once(on)
+        } else {
+            self.subdivided_attempt(on, subdivision)
+        };
+        if let (Ok(_), Some(moving)) = (&attempt, &mut self.motion) {
+            moving.step_done();
+        }
+        attempt
+    }
+
+    fn run_kernel(&mut self, on: &mut Resident, kernel: Kernel) -> Result<(), BackendError> {
+        refuse_alone_with_motion(self.motion.as_ref(), kernel)?;
+        self.run_alone(on, kernel, 1)
+    }
+
+    fn prefetch_state(&mut self, on: &mut Resident) {
+        on.state.prefetch();
+    }
+}
+
+impl XpbdStep {
+    /// The step of `plan` with `state` on `ctx` (or of every world of
+    /// `worlds`: a batch, crate::batch; `plan` and `state` are world 0's).
+    pub(crate) fn build(
+        ctx: &GpuContext,
         plan: Plan,
         state: &State,
-        precision: Precision,
-        origin: SceneOrigin,
-        mode: Option<StepMode>,
-        worlds: Option<Worlds<'_>>,
-    ) -> Result<Self, BackendError> {
-        let device = &ctx.device;
-        let dim = plan.dim;
-        let workgroup = ShaderFile::Step.workgroup_size();
-        let families = Families::new(&plan, &origin)?;
-        let software = ctx.summary.device_type == "Cpu";
-        let schedule = Schedule::new(&plan, &families, workgroup, mode, software);
-        if schedule.mode == StepMode::Small
-            && !crate::xpbd::schedule::small_supported(&schedule.calls[..schedule.step_calls])
-        {
-            return Err(BackendError::InvalidCall(
-                "step mode small: the plan has measure families or guards (they run one dispatch per call or colour)"
-                    .into(),
-            ));
-        }
-        let world = match worlds {
-            Some(worlds) => WorldArrays::batch(worlds, &families, &schedule)?,
-            None => WorldArrays::one(&plan, state, &families, &schedule),
-        };
-        // Pipelines for the entry points this plan's schedules use only
-        // (lavapipe compiles each one: seconds for the measure kernels).
-        let entries = schedule.entries();
-        let generated = crate::xpbd::generated(&plan, &families, precision);
-        let kernels = KernelSet::new(
-            &ctx,
-            &KernelSetSpec {
-                label: "hyperpbd xpbd",
-                modules: &[crate::shader::ShaderFile::Step],
-                dim,
-                precision,
-                entries: &entries,
-                constants: &world.constants,
-                generated: Some(&generated),
-            },
-        )?;
-        // The call blocks first: the largest buffer of a long step, named
-        // `params` in a BufferTooLarge refusal.
-        let mut call_bytes = Vec::new();
-        for call in world.calls {
-            call_bytes.extend(call.encode(dim, precision));
-        }
-        if call_bytes.is_empty() {
-            // The binding holds at least one block.
-            call_bytes = crate::xpbd::call::Call::default().encode(dim, precision);
-        }
-        let calls = ctx.storage("params", &call_bytes)?;
-        let reals = |values: &[f64]| {
-            let mut out = Vec::with_capacity(values.len() * real_size(precision));
-            push_reals(&mut out, values, precision);
-            out
-        };
-        let resident = ResidentState::new(
-            &ctx,
-            VectorLayout::Record,
-            precision,
-            origin,
-            &world.state,
-            &world.inverse_mass,
-            &world.force,
-        )?;
-        let make = |label: &str, bytes: &[u8]| ctx.storage(label, bytes);
-        let w = world.count as usize;
-        let slots = families.slots * w;
-        let p = make("p", &resident.packing.positions(&world.state.positions))?;
-        let gravity_scale = make("gravity_scale", &reals(&world.gravity_scale))?;
-        let elements = make("elements", bytemuck::cast_slice(&families.elements))?;
-        let rest = make("rest", &reals(world.rest))?;
-        let lambda = make("lambda", &reals(&vec![0.0; slots]))?;
-        let status = make("status", bytemuck::cast_slice(&[NONE, NONE, 0, NONE]))?;
-        let report_len = 2 * plan.families.len() * w;
-        let report = make("report", &reals(&vec![0.0; report_len]))?;
-        let contact_slot = make("contact_slot", bytemuck::cast_slice(&families.slot_maps))?;
-        let partials = make(
-            "partials",
-            &reals(&vec![0.0; 2 * schedule.chunks.len() * w]),
-        )?;
-        let chunk_words: Vec<u32> = schedule.chunks.iter().flatten().copied().collect();
-        let chunks = make("chunks", bytemuck::cast_slice(&chunk_words))?;
-        // One real at least: the binding exists in every plan.
-        let carried = make(
-            "carried",
-            &reals(&vec![0.0; families.carried_len.max(1) * w]),
-        )?;
-        let report_bytes = (report_len * real_size(precision)) as u64;
-        let report_staging = ctx.staging("report_staging", 16 + report_bytes)?;
-        let mut resident = resident;
-        if plan.primal_residual {
-            // λ and d carry over from step to step: saved and rolled back
-            // with x and v, cleared by a written state.
-            for (buffer, label) in [(&lambda, "saved_lambda"), (&carried, "saved_carried")] {
-                let saved = make(label, &vec![0u8; buffer.size() as usize])?;
-                resident.carry(buffer.clone(), saved);
-            }
-        }
-
-        let mut blocks = ParamBlocks::uniform(device);
-        let mut place = |dispatches: &[Dispatch]| -> Vec<Placed> {
-            dispatches
-                .iter()
-                .map(|&dispatch| Placed {
-                    dispatch,
-                    offset: blocks.push(&dispatch.block(&schedule.calls, dim, precision)),
-                })
-                .collect()
-        };
-        let exact = place(&schedule.exact);
-        let fast = place(&schedule.fast);
-        let alone_dispatches: Vec<Dispatch> = plan
-            .substep_kernels
-            .iter()
-            .filter_map(|&k| schedule.run_kernel(k))
-            .collect();
-        let alone = place(&alone_dispatches);
-        let block = blocks.block_size();
-        let dispatch_buffer = blocks.finish(&ctx, "dispatches")?;
-        let group = kernels.bind(
-            device,
-            0,
-            &[
-                &resident.x,
-                &resident.v,
-                &p,
-                &resident.force,
-                &gravity_scale,
-                &elements,
-                &rest,
-                &lambda,
-                &status,
-                &report,
-                &calls,
-                &contact_slot,
-                &partials,
-                &chunks,
-                &elements,
-                &carried,
-            ],
-            0,
-        )?;
-        let blocks_group = kernels.bind(device, 1, &[&dispatch_buffer], block)?;
-        let motion = families.motion.clone().map(|layout| motion_step::Moving {
-            layout,
-            rest: rest.clone(),
-            calls: calls.clone(),
-            dispatches: dispatch_buffer.clone(),
-            step: 0,
-        });
-        let (worlds, world_plans) = (world.count, world.plans);
-        drop(world);
-        let contacts = match plan.contacts {
-            Some(_) => Some(ContactStage::new(
-                &ctx,
-                (world_plans, precision),
-                crate::contact::Bound {
-                    x: &resident.x,
-                    v: &resident.v,
-                    p: &p,
-                    force: &resident.force,
-                    status: &status,
-                },
-            )?),
-            None => None,
-        };
-        Ok(GpuBackend {
+        (precision, origin, mode): (Precision, SceneOrigin, Option<StepMode>),
+        worlds: Option<worlds::Worlds<'_>>,
+    ) -> Result<(Resident, XpbdStep), BackendError> {
+        let built = Program::build(ctx, (&plan, state, precision), origin, mode, worlds)?;
+        let on = Resident {
             plan,
             precision,
-            ctx,
-            state: resident,
-            buffers: Buffers {
-                lambda,
-                status,
-                report,
-                report_staging,
-                report_bytes,
-                _rest: vec![
-                    p,
-                    gravity_scale,
-                    elements,
-                    rest,
-                    calls,
-                    contact_slot,
-                    partials,
-                    chunks,
-                    carried,
-                    dispatch_buffer,
-                ],
-            },
-            kernels,
-            group,
-            blocks: blocks_group,
-            schedule,
-            exact,
-            fast,
-            alone,
-            contacts,
+            ctx: ctx.clone(),
+            state: built.resident,
+        };
+        let step = XpbdStep {
+            program: built.program,
+            contacts: built.contacts,
+            motion: built.motion,
             subdivided: Vec::new(),
-            exporter: Exporter::default(),
-            worlds,
-            motion,
-        })
+        };
+        Ok((on, step))
     }
 
-    /// The precision of the kernels.
-    pub fn precision(&self) -> Precision {
-        self.precision
-    }
-
-    /// The origin device positions are relative to.
-    pub fn origin(&self) -> &SceneOrigin {
-        self.state.origin()
-    }
-
-    /// How the dispatches of a step are formed.
-    pub fn step_mode(&self) -> StepMode {
-        self.schedule.mode
-    }
-
-    /// Compute dispatches per step (residual and contact stage included).
-    pub fn dispatches_per_step(&self) -> usize {
-        self.schedule.dispatches_per_step() + self.contact_dispatches_per_step()
-    }
-
-    /// Compute pipelines of the XPBD kernels: one per entry point and set
-    /// of its constants (ops, flags, io) the plan's schedules use.
-    pub fn pipeline_count(&self) -> usize {
-        self.kernels.pipeline_count()
-    }
-
-    /// Destroys the device as a driver reset would (later calls answer
-    /// [`GpuError::DeviceLost`]), for fault-injection tests; only a device
-    /// of the backend's own (`with_private_device`, `with_device`).
-    pub fn destroy_device(&self) -> Result<(), GpuError> {
-        self.ctx.destroy()
-    }
-
-    /// Device bytes per particle and per constraint slot (buffers that
-    /// scale with them), for reports.
-    pub fn bytes_per_particle_and_slot(&self) -> (usize, usize) {
-        let r = real_size(self.precision);
-        let record = VectorLayout::Record.reals_per_particle(self.plan.dim) * r;
-        // x, v, p, saved_x, saved_v, force: one record each; gravity scale:
-        // one real; a slot per hyperplane family: one u32.
-        let per_particle = 6 * record + r;
-        // rest, lambda: one real each, plus the particle indices.
-        let per_slot = 2 * r;
-        (per_particle, per_slot)
-    }
-
-    fn encode(&self, pass: &mut wgpu::ComputePass<'_>, d: &Placed) {
-        if !self.encode_contact(pass, d) {
-            crate::xpbd::encode(&self.kernels, &self.blocks, pass, d, self.worlds);
+    /// One step of the plan's own substeps (attempt 0 of the adaptive
+    /// step): one command buffer, one submit, one status readback, which
+    /// is the step's one host wait.
+    fn step_once(&mut self, on: &mut Resident) -> Result<StepReport, BackendError> {
+        if let Some(moving) = &self.motion {
+            let p = &mut self.program;
+            moving.upload(
+                on,
+                &mut p.schedule,
+                p.exact.iter().chain(&p.fast).chain(&p.alone),
+            );
         }
-    }
-
-    /// Submits `encoder` and waits for it.
-    fn submit_and_wait(&self, encoder: wgpu::CommandEncoder) -> Result<(), GpuError> {
-        self.ctx.submit_and_wait(encoder)
-    }
-
-    /// Maps `buffer` (already filled and waited for) and copies `len` bytes.
-    fn read_mapped(&self, buffer: &wgpu::Buffer, len: u64) -> Result<Vec<u8>, GpuError> {
-        self.ctx.read(buffer, len)
-    }
-
-    fn step_error(&self, call: u32, index: u32) -> BackendError {
-        let k = self.schedule.kernels_per_substep.max(1) as u32;
-        let substep = call / k;
-        match self.schedule.kernel_of(call) {
-            Some(Kernel::Project { family, .. }) => {
-                let f = &self.plan.families[family];
-                StepError::NonFiniteConstraint {
-                    stage: StageName::Project,
-                    substep,
-                    family,
-                    family_label: f.label.clone(),
-                    element: f.authored_element(index as usize),
-                }
-                .into()
+        if self.contacts.is_some() {
+            let (outcomes, block) = self.submit_fitting_contact_step(on)?;
+            refuse_cut_loops(on, &block)?;
+            if let Some(failed) = StatusReader::failure(&block) {
+                return Err(self.diagnosed_error(on, failed));
             }
-            other => StepError::NonFiniteParticle {
-                stage: other.map_or(StageName::Project, |k| k.stage()),
-                substep,
-                particle: match other {
-                    Some(Kernel::Collide) => {
-                        contact_step::collide_particle(index, self.plan.particle_count())
-                    }
-                    _ => index as usize,
-                },
-            }
-            .into(),
+            let report = read_reals(&block[16..], on.precision);
+            let outcome = outcomes
+                .first()
+                .copied()
+                .unwrap_or(crate::contact::Outcome::EMPTY);
+            return Ok(contact_report(&on.plan, &report, &outcome));
         }
+        let block = self.submit_step(on)?;
+        if let Some(failed) = StatusReader::failure(&block) {
+            return Err(self.diagnosed_error(on, failed));
+        }
+        let report = read_reals(&block[16..], on.precision);
+        Ok(crate::xpbd::step_report(&on.plan, &report))
     }
 
-    fn rollback(&mut self) -> Result<(), GpuError> {
-        self.state.rollback(&self.ctx)
+    /// One submission of the step's dispatches (the chosen schedule, every
+    /// world of a batch): the state saved first, a snapshot copied out when
+    /// one was asked for, one wait; the status block and the report as
+    /// read back. A step whose loops were cut is refused, rolled back.
+    pub(crate) fn submit_step(&mut self, on: &mut Resident) -> Result<Vec<u8>, BackendError> {
+        let program = &self.program;
+        program.status.reset(&on.ctx);
+        let fast = (&program.fast[..], 1, true);
+        let save = |e: &mut wgpu::CommandEncoder| on.state.save(e);
+        let mut encoder = program.record(&on.ctx, save, fast, self.contacts.as_ref());
+        let snapshot = on.state.record_snapshot(&mut encoder);
+        on.ctx.submit(encoder)?;
+        if let Some(slot) = snapshot {
+            on.state.map_snapshot(slot);
+        }
+        // One wait: mapping the report waits for the step, and completes
+        // the snapshot's mapping with it.
+        let block = program.status.read(&on.ctx, true)?;
+        on.ctx.check()?;
+        refuse_cut_loops(on, &block)?;
+        Ok(block)
     }
 
-    /// One command buffer: `before` (copies, clears), `dispatches` in one
-    /// compute pass (`repeats` times), then the status word (and the report
-    /// when `report`) copied to the staging buffer.
-    fn record(
-        &self,
-        before: impl FnOnce(&mut wgpu::CommandEncoder),
-        dispatches: &[Placed],
-        repeats: u32,
-        report: bool,
-    ) -> wgpu::CommandEncoder {
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        before(&mut encoder);
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_bind_group(0, &self.group, &[]);
-            for _ in 0..repeats {
-                for d in dispatches {
-                    self.encode(&mut pass, d);
-                }
+    /// With particle contact: the step (every world's) submitted until
+    /// every list fits (contact_step.rs); every world's outcome and the
+    /// status/report block.
+    pub(crate) fn submit_fitting_contact_step(
+        &mut self,
+        on: &mut Resident,
+    ) -> Result<(Vec<crate::contact::Outcome>, Vec<u8>), BackendError> {
+        let Some(stage) = self.contacts.as_mut() else {
+            return Err(GpuError::Other {
+                message: "contact step without a contact stage".into(),
             }
+            .into());
+        };
+        let program = &self.program;
+        let record = |pass: &mut wgpu::ComputePass<'_>, stage: &ContactStage| {
+            program.encode_all(pass, &program.fast, 1, Some(stage));
+        };
+        stage.submit_fitting(on, &program.status, &record)
+    }
+
+    /// Whether the plan has particle contact (a contact stage).
+    pub(crate) fn has_contacts(&self) -> bool {
+        self.contacts.is_some()
+    }
+
+    /// The error of a step whose status names `failed`, state rolled back.
+    pub(crate) fn diagnosed_error(&self, on: &mut Resident, failed: (u32, u32)) -> BackendError {
+        diagnosed_error(on, (&self.program, self.contacts.as_ref()), failed)
+    }
+
+    /// One attempt on `plan.subdivided(subdivision)`, run by a step of
+    /// that plan on this device (built on first use) from this state: x,
+    /// v, force copied in on the device, the step run there, x, v copied
+    /// back on success — no host round trip of the state.
+    fn subdivided_attempt(
+        &mut self,
+        on: &mut Resident,
+        subdivision: u32,
+    ) -> Result<StepReport, BackendError> {
+        let j = subdivision as usize;
+        while self.subdivided.len() < j {
+            let plan = on.plan.subdivided(self.subdivided.len() as u32 + 1);
+            let n = plan.particle_count() * plan.dim;
+            let blank = State {
+                dim: plan.dim,
+                positions: vec![0.0; n],
+                velocities: vec![0.0; n],
+            };
+            let how = (
+                on.precision,
+                on.state.origin().clone(),
+                Some(self.program.schedule.mode),
+            );
+            let ctx = &on.ctx;
+            let built = ctx.building(|| Self::build(ctx, plan, &blank, how, None))?;
+            self.subdivided.push(built);
         }
-        let staging = &self.buffers.report_staging;
-        encoder.copy_buffer_to_buffer(&self.buffers.status, 0, staging, 0, 16);
-        if report && self.buffers.report_bytes > 0 {
-            let bytes = self.buffers.report_bytes;
-            encoder.copy_buffer_to_buffer(&self.buffers.report, 0, staging, 16, bytes);
+        let clock = self.motion.as_ref().map(|m| m.step);
+        let (refined_on, refined) = &mut self.subdivided[j - 1];
+        if let (Some(step), Some(moving)) = (clock, refined.motion.as_mut()) {
+            moving.step = step;
         }
-        encoder
+        copy_state(&on.ctx, &on.state, &refined_on.state, true)?;
+        let report = refined.step_once(refined_on)?;
+        on.state.forget_snapshot();
+        copy_state(&on.ctx, &refined_on.state, &on.state, false)?;
+        Ok(report)
     }
 
     /// Runs `kernel` alone `repeats` times in one compute pass and one
     /// submit, the CPU's way (`Predict` resets the multipliers).
-    fn run_alone(&mut self, kernel: Kernel, repeats: u32) -> Result<(), BackendError> {
-        check_kernel(&self.plan, kernel)?;
-        if matches!(kernel, Kernel::Broadphase | Kernel::Collide) {
-            return self.run_contact_kernel(kernel);
-        }
-        let Some(index) = self.plan.substep_kernels.iter().position(|&k| k == kernel) else {
+    fn run_alone(
+        &mut self,
+        on: &mut Resident,
+        kernel: Kernel,
+        repeats: u32,
+    ) -> Result<(), BackendError> {
+        check_kernel(&on.plan, kernel)?;
+        let Some(index) = on.plan.substep_kernels.iter().position(|&k| k == kernel) else {
             return Err(BackendError::InvalidCall(format!(
                 "{kernel:?} is not in this plan's schedule"
             )));
         };
-        let Some(d) = self.alone.iter().find(|d| {
-            self.schedule.kernel_of(d.dispatch.first_call) == Some(kernel)
-                && d.dispatch.first_call as usize >= self.schedule.run_base
+        let program = &self.program;
+        if matches!(kernel, Kernel::Broadphase | Kernel::Collide) {
+            let Some(stage) = self.contacts.as_mut() else {
+                on.state.forget_snapshot();
+                return Err(GpuError::Other {
+                    message: "contact lists still too short after growing them".into(),
+                }
+                .into());
+            };
+            return match stage.run_kernel(on, &program.status, (kernel, index as u32))? {
+                Some((call, index)) => Err(program.step_error(&on.plan, call, index)),
+                None => Ok(()),
+            };
+        }
+        let schedule = &program.schedule;
+        let Some(d) = program.alone.iter().find(|d| {
+            schedule.kernel_of(d.dispatch.first_call) == Some(kernel)
+                && d.dispatch.first_call as usize >= schedule.run_base
         }) else {
             return Err(BackendError::InvalidCall(format!(
                 "{kernel:?} (call {index}) has no dispatch"
             )));
         };
-        self.reset_status();
-        self.state.forget_snapshot();
-        let lambda = &self.buffers.lambda;
-        let primal = self.plan.primal_residual;
-        let encoder = self.record(
-            |encoder| {
-                // With the primal residual λ carries over (as on the CPU).
-                if kernel == Kernel::Predict && !primal {
-                    encoder.clear_buffer(lambda, 0, None);
-                }
-            },
-            std::slice::from_ref(d),
-            repeats,
-            false,
-        );
-        self.submit_and_wait(encoder)?;
-        let block = self.read_mapped(&self.buffers.report_staging, 16)?;
-        match self.failure(&block) {
-            Some(failed) => Err(match self.guard_rejection(failed) {
+        program.status.reset(&on.ctx);
+        on.state.forget_snapshot();
+        let lambda = &program.lambda;
+        let primal = on.plan.primal_residual;
+        let clear = |encoder: &mut wgpu::CommandEncoder| {
+            // With the primal residual λ carries over (as on the CPU).
+            if kernel == Kernel::Predict && !primal {
+                encoder.clear_buffer(lambda, 0, None);
+            }
+        };
+        let alone = (std::slice::from_ref(d), repeats, false);
+        let encoder = program.record(&on.ctx, clear, alone, self.contacts.as_ref());
+        on.ctx.submit_and_wait(encoder)?;
+        let block = program.status.read(&on.ctx, false)?;
+        match StatusReader::failure(&block) {
+            Some(failed) => Err(match guard_rejection(on, program, failed) {
                 Some(found) => found.unwrap_or_else(BackendError::from),
-                None => self.step_error(failed.0, failed.1),
+                None => program.step_error(&on.plan, failed.0, failed.1),
             }),
             None => Ok(()),
         }
+    }
+}
+
+/// What [`GpuBackend`] offers besides the resident backend's API.
+impl GpuBackend {
+    /// Loads `plan` with `state`, storing positions relative to `origin`
+    /// (see [`SceneOrigin`]; [`GpuBackend::with_adapter`] picks it).
+    pub fn with_origin(
+        adapter: &wgpu::Adapter,
+        plan: Plan,
+        state: &State,
+        precision: Precision,
+        origin: SceneOrigin,
+    ) -> Result<Self, BackendError> {
+        let options = XpbdOptions {
+            origin: Some(origin),
+            mode: None,
+        };
+        Self::load(DeviceSource::Own(adapter), plan, state, precision, options)
+    }
+
+    /// Loads `plan` with `state`, forming the step's dispatches as `mode`
+    /// says rather than as the plan's size suggests (every mode gives the
+    /// same results; [`StepMode::Small`] is refused for plans with particle
+    /// contact).
+    pub fn with_step_mode(
+        adapter: &wgpu::Adapter,
+        plan: Plan,
+        state: &State,
+        precision: Precision,
+        mode: StepMode,
+    ) -> Result<Self, BackendError> {
+        if mode == StepMode::Small && plan.contacts.is_some() {
+            return Err(BackendError::InvalidCall(
+                "step mode small: plans with particle contact run the exact or fused schedule \
+                 (the contact kernels are dispatches of their own)"
+                    .into(),
+            ));
+        }
+        let options = XpbdOptions {
+            origin: None,
+            mode: Some(mode),
+        };
+        Self::load(DeviceSource::Own(adapter), plan, state, precision, options)
+    }
+
+    /// The origin device positions are relative to.
+    pub fn origin(&self) -> &SceneOrigin {
+        self.on.state.origin()
+    }
+
+    /// How the dispatches of a step are formed.
+    pub fn step_mode(&self) -> StepMode {
+        self.step.program.schedule.mode
+    }
+
+    /// Compute dispatches per step (residual and contact stage included).
+    pub fn dispatches_per_step(&self) -> usize {
+        let contact = crate::contact::contact_dispatches_per_step(&self.on.plan);
+        self.step.program.schedule.dispatches_per_step() + contact
+    }
+
+    /// Compute pipelines of the XPBD kernels: one per entry point and set
+    /// of its constants (ops, flags, io) the plan's schedules use.
+    pub fn pipeline_count(&self) -> usize {
+        self.step.program.kernels.pipeline_count()
+    }
+
+    /// Device bytes per particle and per constraint slot (buffers that
+    /// scale with them), for reports.
+    pub fn bytes_per_particle_and_slot(&self) -> (usize, usize) {
+        Program::bytes_per_particle_and_slot(self.on.plan.dim, self.on.precision)
+    }
+
+    /// List slots per particle of the contact stage (`None` without
+    /// particle contact): 32 at load, grown when a step found a longer
+    /// list (that step then ran again from its start).
+    pub fn contact_list_slots(&self) -> Option<usize> {
+        self.step.contacts.as_ref().map(ContactStage::slots)
+    }
+
+    /// Every world's list slots per particle (a batch; `None` without
+    /// particle contact).
+    pub(crate) fn world_list_slots(&self) -> Option<Vec<usize>> {
+        self.step.contacts.as_ref().map(ContactStage::world_slots)
     }
 
     /// Runs `kernel` `repeats` times in one compute pass and one submit
     /// (benchmarks: the per-element cost of a kernel without a round trip
     /// per call). The state changes as `repeats` calls would change it.
     pub fn repeat_kernel(&mut self, kernel: Kernel, repeats: u32) -> Result<(), BackendError> {
-        self.refuse_alone_with_motion(kernel)?;
-        self.run_alone(kernel, repeats)
+        refuse_alone_with_motion(self.step.motion.as_ref(), kernel)?;
+        self.step.run_alone(&mut self.on, kernel, repeats)
     }
 }
 
-resident_backend! {
-    GpuBackend, load(None, None) {
-        fn prefetch_state(&mut self) {
-            self.state.prefetch();
-        }
-
-        fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
-            self.refuse_alone_with_motion(kernel)?;
-            self.run_alone(kernel, 1)
-        }
+/// x and v (and the forces when `forces`) of `from` into `to`, on the
+/// device, byte for byte (same plan topology, same layout).
+fn copy_state(
+    ctx: &GpuContext,
+    from: &ResidentState,
+    to: &ResidentState,
+    forces: bool,
+) -> Result<(), GpuError> {
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    let mut pairs = vec![(&from.x, &to.x), (&from.v, &to.v)];
+    if forces {
+        pairs.push((&from.force, &to.force));
     }
+    for (a, b) in pairs {
+        encoder.copy_buffer_to_buffer(a, 0, b, 0, a.size().min(b.size()));
+    }
+    ctx.submit_and_wait(encoder)
 }
 
 /// What the GPU runs of XPBD with the primal residual so far: everything

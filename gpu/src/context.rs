@@ -301,7 +301,7 @@ impl GpuContext {
 
 /// Where a backend's device comes from: its own, made on an adapter, or
 /// the caller's.
-pub(crate) enum DeviceSource<'a> {
+pub enum DeviceSource<'a> {
     /// The process's shared device of this adapter (device_pool).
     Own(&'a wgpu::Adapter),
     /// A device of its own on this adapter.

@@ -1,4 +1,5 @@
-//! `GpuBarrierBackend`: the whole incremental-potential step on the GPU
+//! `BarrierStep` ([`crate::GpuBarrierBackend`]): the whole
+//! incremental-potential step on the GPU
 //! (`shaders/incremental_potential.wgsl`), driven by the host per Newton
 //! iteration exactly as cpu/src/incremental_potential.rs runs it.
 //!
@@ -22,21 +23,20 @@
 
 use hyperpbd_core::IncrementalPotentialPlan;
 use hyperpbd_core::{
-    Backend, BackendError, Convergence, GpuError, Kernel, MinimisationReport, MinimisationStatus,
-    Plan, Refusal, State, check_state,
+    BackendError, Convergence, GpuError, MinimisationReport, MinimisationStatus, Plan, Refusal,
+    State, check_state,
 };
 
 use crate::Precision;
 use crate::barrier::{
     NONE, STATUS_WORDS, barrier_resources, infeasible_start, refuse_cut_loops, status_words,
 };
-use crate::context::{DeviceSource, GpuContext};
-use crate::export::Exporter;
+use crate::context::DeviceSource;
 use crate::ip_decision::{Decisions, HEADER_WORDS, LOGGED_WORDS, disagreement};
 use crate::kernel_set::{BlockWriter, EntryPoint, KernelSet, KernelSetSpec, ParamBlocks};
+use crate::minimising::{Minimiser, Minimising};
 use crate::params::{push_reals, real_size};
-use crate::resident::ResidentState;
-use crate::resident_backend::{minimising_backend, resident_backend};
+use crate::resident_backend::{Resident, ResidentBackend};
 use crate::shader::{MAX_GPU_DIM, ShaderFile};
 
 /// Armijo constant (same as the CPU's).
@@ -89,19 +89,19 @@ fn decision_bytes(logged: usize, precision: Precision) -> u64 {
 }
 
 /// The GPU backend of the incremental-potential path.
-pub struct GpuBarrierBackend {
-    plan: Plan,
+pub type GpuBarrierBackend = ResidentBackend<Minimising<BarrierStep>>;
+
+/// The incremental-potential step's kernels and buffers (the resident
+/// state: x, v in the dense layout — the barrier kernels index
+/// x[i·DIM + a] — saved copies, forces; positions relative to the scene
+/// origin).
+pub struct BarrierStep {
     ip: IncrementalPotentialPlan,
-    precision: Precision,
-    ctx: GpuContext,
     kernels: KernelSet<IpEntry>,
     group: wgpu::BindGroup,
     params_group: wgpu::BindGroup,
     /// Dynamic offsets: [base, reduce level 0, level 1, …].
     offsets: Vec<u32>,
-    /// x, v (dense layout: the barrier kernels index x[i·DIM + a]), saved
-    /// copies, forces; positions relative to the scene origin.
-    state: ResidentState,
     status: wgpu::Buffer,
     /// ip_decide's words and logged values, and their read-back
     /// (ip_decision.rs).
@@ -112,20 +112,16 @@ pub struct GpuBarrierBackend {
     chunk: u32,
     /// Buffers only the kernels read or write.
     _rest: Vec<wgpu::Buffer>,
-    substep: u32,
-    reports: Vec<MinimisationReport>,
-    /// The position export into a caller's buffer (built on first use).
-    exporter: Exporter,
 }
 
-impl GpuBarrierBackend {
+impl Minimiser for BarrierStep {
     /// Loads `plan` with `state` on `device`.
     fn load(
         device: DeviceSource<'_>,
         plan: Plan,
         state: &State,
         precision: Precision,
-    ) -> Result<Self, BackendError> {
+    ) -> Result<(Resident, Self), BackendError> {
         check_state(&plan, state)?;
         let Some(ip) = plan.incremental_potential().cloned() else {
             return Err(BackendError::InvalidCall(
@@ -246,16 +242,12 @@ impl GpuBarrierBackend {
         let block = blocks.block_size();
         let params = blocks.finish(&ctx, "ip params")?;
         let params_group = kernels.bind(&ctx.device, 1, &[&params], block)?;
-        let backend = GpuBarrierBackend {
-            plan,
+        let step = BarrierStep {
             ip,
-            precision,
-            ctx,
             kernels,
             group,
             params_group,
             offsets,
-            state: resident,
             status,
             decision,
             decided,
@@ -273,20 +265,46 @@ impl GpuBarrierBackend {
                     terms,
                 ])
                 .collect(),
-            substep: 0,
-            reports: Vec::new(),
-            exporter: Exporter::default(),
         };
-        backend.ctx.check()?;
-        Ok(backend)
+        ctx.check()?;
+        let on = Resident {
+            plan,
+            precision,
+            ctx,
+            state: resident,
+        };
+        Ok((on, step))
     }
 
-    /// Times the host has waited for this backend's device since it was
-    /// loaded (every `device.poll`: `GpuContext::poll`).
-    pub fn host_waits(&self) -> u64 {
-        self.ctx.host_waits()
+    /// One minimisation on the resident state (CPU: `minimise`): the
+    /// device decides when Newton stops (ip_decide), the host replays its
+    /// loop over the device's log for the report.
+    fn minimise(&mut self, on: &mut Resident) -> Result<MinimisationReport, BackendError> {
+        let logged = self.ip.max_iterations as usize + 1;
+        self.reset_status(on);
+        let cleared = vec![0u8; 4 * decision_words(logged)];
+        on.ctx.queue.write_buffer(&self.decision, 0, &cleared);
+        self.run(on, IpEntry::Predict)?;
+        let budget = logged as u32;
+        let (mut recorded, mut k) = (0, self.chunk.max(2));
+        let decisions = loop {
+            let k_now = k.min(budget - recorded);
+            let decisions = self.chunk(on, k_now)?;
+            recorded += k_now;
+            if decisions.stopped {
+                break decisions;
+            }
+            if recorded >= budget {
+                return Err(disagreement("no stop within max_iterations + 1 evaluations").into());
+            }
+            k = k.saturating_mul(2);
+        };
+        self.chunk = decisions.evaluations.len() as u32;
+        self.replay(on, &decisions)
     }
+}
 
+impl BarrierStep {
     /// Records `entry` over `invocations` with parameter block `block`.
     fn pass(
         &self,
@@ -301,21 +319,21 @@ impl GpuBarrierBackend {
         self.kernels.dispatch(&mut pass, entry, invocations);
     }
 
-    fn run(&self, entry: IpEntry) -> Result<(), GpuError> {
-        let n = self.plan.particle_count() as u32;
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+    fn run(&self, on: &Resident, entry: IpEntry) -> Result<(), GpuError> {
+        let n = on.plan.particle_count() as u32;
+        let mut encoder = on.ctx.device.create_command_encoder(&Default::default());
         self.pass(&mut encoder, entry, 0, n);
         // No wait: the next submission runs after this one (queue order),
         // and the host needs nothing from it.
-        self.ctx.submit(encoder).map(|_| ())
+        on.ctx.submit(encoder).map(|_| ())
     }
 
     /// One chunk of `k` evaluations (module docs), ip_velocity after it,
     /// submitted with one read of the status words and the decision log;
     /// refused when some kernel's loops were cut short since the reset.
-    fn chunk(&self, k: u32) -> Result<Decisions, GpuError> {
-        let n = self.plan.particle_count() as u32;
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+    fn chunk(&self, on: &Resident, k: u32) -> Result<Decisions, GpuError> {
+        let n = on.plan.particle_count() as u32;
+        let mut encoder = on.ctx.device.create_command_encoder(&Default::default());
         let reduce = match self.ip.convergence {
             Convergence::PackedGradient { .. } => IpEntry::ReduceSum,
             Convergence::MaxAccelerationResidual { .. } => IpEntry::ReduceMax,
@@ -338,52 +356,29 @@ impl GpuBarrierBackend {
         let probe = &self.decision_probe;
         encoder.copy_buffer_to_buffer(&self.status, 0, probe, 0, status);
         encoder.copy_buffer_to_buffer(&self.decision, 0, probe, DECISION_AT, words);
-        let values = logged as u64 * real_size(self.precision) as u64;
+        let values = logged as u64 * real_size(on.precision) as u64;
         encoder.copy_buffer_to_buffer(&self.decided, 0, probe, at, values);
-        let bytes = self.ctx.submit_and_read(encoder, probe, at + values)?;
+        let bytes = on.ctx.submit_and_read(encoder, probe, at + values)?;
         refuse_cut_loops(&status_words(&bytes))?;
         let words = &bytes[DECISION_AT as usize..(DECISION_AT + words) as usize];
         let values = &bytes[at as usize..(at + values) as usize];
-        Ok(crate::ip_decision::parse(words, values, self.precision))
+        Ok(crate::ip_decision::parse(words, values, on.precision))
     }
 
-    fn reset_status(&self) {
-        self.ctx
+    fn reset_status(&self, on: &Resident) {
+        on.ctx
             .queue
             .write_buffer(&self.status, 0, bytemuck::cast_slice(&STATUS_RESET));
-    }
-
-    /// One minimisation on the resident state (CPU: `minimise`): the
-    /// device decides when Newton stops (ip_decide), the host replays its
-    /// loop over the device's log for the report.
-    fn minimise(&mut self) -> Result<MinimisationReport, BackendError> {
-        let logged = self.ip.max_iterations as usize + 1;
-        self.reset_status();
-        let cleared = vec![0u8; 4 * decision_words(logged)];
-        self.ctx.queue.write_buffer(&self.decision, 0, &cleared);
-        self.run(IpEntry::Predict)?;
-        let budget = logged as u32;
-        let (mut recorded, mut k) = (0, self.chunk.max(2));
-        let decisions = loop {
-            let k_now = k.min(budget - recorded);
-            let decisions = self.chunk(k_now)?;
-            recorded += k_now;
-            if decisions.stopped {
-                break decisions;
-            }
-            if recorded >= budget {
-                return Err(disagreement("no stop within max_iterations + 1 evaluations").into());
-            }
-            k = k.saturating_mul(2);
-        };
-        self.chunk = decisions.evaluations.len() as u32;
-        self.replay(&decisions)
     }
 
     /// The host's loop over the device's evaluations (the branches of the
     /// host-decided loop, core's `record_residual`): the report, checked
     /// to stop exactly at the device's last evaluation with its code.
-    fn replay(&mut self, decisions: &Decisions) -> Result<MinimisationReport, BackendError> {
+    fn replay(
+        &mut self,
+        on: &mut Resident,
+        decisions: &Decisions,
+    ) -> Result<MinimisationReport, BackendError> {
         let mut report = MinimisationReport::before_first_iteration(self.ip.convergence);
         let count = decisions.evaluations.len();
         let mut iteration = 0;
@@ -395,7 +390,7 @@ impl GpuBarrierBackend {
             };
             let code = if status[2] != NONE {
                 if report.initial_residual.is_none() {
-                    report.status = MinimisationStatus::Refused(self.infeasible(status[2])?);
+                    report.status = MinimisationStatus::Refused(self.infeasible(on, status[2])?);
                 } else {
                     report.status = MinimisationStatus::Refused(Refusal::NonFinite {
                         particle: status[2] as usize,
@@ -449,24 +444,14 @@ impl GpuBarrierBackend {
 
     /// The refusal for an infeasible start of `particle`
     /// ([`infeasible_start`] on the device's positions).
-    fn infeasible(&mut self, particle: u32) -> Result<Refusal, BackendError> {
-        let state = self.read_state()?;
+    fn infeasible(&self, on: &mut Resident, particle: u32) -> Result<Refusal, BackendError> {
+        let state = on.state.read(&on.ctx)?;
         Ok(infeasible_start(
-            &self.plan,
+            &on.plan,
             &self.ip.obstacles,
             state.position(particle as usize),
             particle as usize,
         ))
-    }
-}
-
-minimising_backend!(GpuBarrierBackend);
-
-resident_backend! {
-    GpuBarrierBackend, load() {
-        fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
-            self.minimise_kernel(kernel)
-        }
     }
 }
 

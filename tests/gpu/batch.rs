@@ -6,7 +6,7 @@
 //! damping, plane normal), the shards of the first, and a 32-world sweep
 //! whose worlds compile different stages (damping from 0, gravity, plane
 //! friction and a force each including 0: one batch runs the union of the
-//! stages, backend/union.rs), and a 4-world sweep of a quadratic-bending
+//! stages, gpu/src/batch/union.rs), and a 4-world sweep of a quadratic-bending
 //! cloth whose worlds' authored shapes, hence hinge weights (per-element
 //! constants, per world in `rest`), differ; f32 within the single-world
 //! per-frame bound,

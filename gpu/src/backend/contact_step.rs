@@ -27,15 +27,14 @@
 
 use hyperpbd_core::{BackendError, GpuError, Kernel, Plan, StepReport};
 
-use super::GpuBackend;
+use super::status::StatusReader;
 use crate::Precision;
 use crate::contact::{
     BOXES_FROM_STATE, Block, Bound, ContactBuffers, ContactKernels, ContactPhase, Outcome,
     Particles, SKIP_FIXED_PAIRS,
 };
 use crate::context::GpuContext;
-use crate::xpbd::Placed;
-use crate::xpbd::schedule::Run;
+use crate::resident_backend::Resident;
 
 /// List slots per particle a contact stage starts with (grown on demand).
 const INITIAL_SLOTS: usize = 32;
@@ -45,7 +44,7 @@ const INITIAL_SLOTS: usize = 32;
 const MAX_REGROWTHS: usize = 4;
 
 /// The contact kernels and buffers of a backend with collisions.
-pub(super) struct ContactStage {
+pub(crate) struct ContactStage {
     kernels: ContactKernels,
     buffers: ContactBuffers,
     /// Parameter block of the end-of-step report.
@@ -56,7 +55,7 @@ impl ContactStage {
     /// The stage of `plans` (one per world, world 0's schedule; each with
     /// collisions), bound to the backend's resident particle records and
     /// status word.
-    pub(super) fn new(
+    pub(crate) fn new(
         ctx: &GpuContext,
         (plans, precision): (&[Plan], Precision),
         bound: Bound,
@@ -117,7 +116,7 @@ impl ContactStage {
     }
 
     /// Records kernel `kernel` (Broadphase or Collide) of step call `call`.
-    pub(super) fn encode(&self, pass: &mut wgpu::ComputePass<'_>, kernel: Kernel, call: u32) {
+    pub(crate) fn encode(&self, pass: &mut wgpu::ComputePass<'_>, kernel: Kernel, call: u32) {
         let Some(block) = self.buffers.block_of(call) else {
             return;
         };
@@ -147,7 +146,7 @@ impl ContactStage {
 
 /// The step report of `plan` from its residual `report` values and its
 /// contact `outcome` (deepest overlap, active pairs).
-pub(super) fn contact_report(plan: &Plan, report: &[f64], outcome: &Outcome) -> StepReport {
+pub(crate) fn contact_report(plan: &Plan, report: &[f64], outcome: &Outcome) -> StepReport {
     let mut step = crate::xpbd::step_report(plan, report);
     step.residuals.push(hyperpbd_core::FamilyResidual {
         label: "collisions".into(),
@@ -160,85 +159,53 @@ pub(super) fn contact_report(plan: &Plan, report: &[f64], outcome: &Outcome) -> 
 /// The particle a failed Collide call names: index i for a non-finite pair
 /// (its lower particle), count + k for a non-finite new position of k
 /// (shaders/collide.wgsl).
-pub(super) fn collide_particle(index: u32, particles: usize) -> usize {
+pub(crate) fn collide_particle(index: u32, particles: usize) -> usize {
     let index = index as usize;
     index.checked_sub(particles).unwrap_or(index)
 }
 
-impl GpuBackend {
-    /// List slots per particle of the contact stage (`None` without
-    /// particle contact): 32 at load, grown when a step found a longer
-    /// list (that step then ran again from its start).
-    pub fn contact_list_slots(&self) -> Option<usize> {
-        self.contacts.as_ref().map(|stage| stage.buffers.slots())
+/// Records a step's dispatches (the stage's own at the Host calls) into
+/// one compute pass.
+pub(crate) type RecordStep<'a> = &'a dyn Fn(&mut wgpu::ComputePass<'_>, &ContactStage);
+
+impl ContactStage {
+    /// List slots per particle (world 0's): 32 at load, grown when a step
+    /// found a longer list (that step then ran again from its start).
+    pub fn slots(&self) -> usize {
+        self.buffers.slots()
     }
 
-    /// Every world's list slots per particle (a batch; `None` without
-    /// particle contact).
-    pub(super) fn world_list_slots(&self) -> Option<Vec<usize>> {
-        let stage = self.contacts.as_ref()?;
-        Some(stage.buffers.world_slots().to_vec())
+    /// Every world's list slots per particle.
+    pub fn world_slots(&self) -> Vec<usize> {
+        self.buffers.world_slots().to_vec()
     }
 
-    /// Times the host has waited for this backend's device (every device
-    /// poll: `GpuContext::poll`) since it was loaded: a step costs one
-    /// wait whatever its substeps (with contact: the status/report block
-    /// and the contact outcome read together; no round trip per substep).
-    pub fn host_waits(&self) -> u64 {
-        self.ctx.host_waits()
-    }
-
-    /// The contact stage's dispatches per step (0 without one).
-    pub(super) fn contact_dispatches_per_step(&self) -> usize {
-        crate::contact::contact_dispatches_per_step(&self.plan)
-    }
-
-    /// Records a Host dispatch's contact kernels (their own bind groups) at
-    /// the call's place in the schedule; false for any other dispatch.
-    pub(super) fn encode_contact(&self, pass: &mut wgpu::ComputePass<'_>, d: &Placed) -> bool {
-        let (Run::Host(kernel), Some(stage)) = (d.dispatch.run, &self.contacts) else {
-            return false;
-        };
-        if let Some(call) = self.schedule.calls.get(d.dispatch.first_call as usize) {
-            stage.encode(pass, kernel, call.call);
-            pass.set_bind_group(0, &self.group, &[]);
-        }
-        true
-    }
-
-    /// One step of a plan with collisions (see the module doc).
-    pub(super) fn step_with_contacts(&mut self) -> Result<StepReport, BackendError> {
-        let (outcomes, block) = self.submit_fitting_contact_step()?;
-        let outcome = outcomes.first().copied().unwrap_or(Outcome::EMPTY);
-        self.finish_contact_step(&outcome, &block)
-    }
-
-    /// Submits the step (every world's) until every list fits, growing
-    /// the lists that did not; every world's outcome and the status/report
-    /// block of the step that fitted.
-    pub(super) fn submit_fitting_contact_step(
+    /// Submits the step (every world's, recorded by `record`) until every
+    /// list fits, growing the lists that did not; every world's outcome
+    /// and the status/report block of the step that fitted.
+    pub fn submit_fitting(
         &mut self,
+        on: &mut Resident,
+        status: &StatusReader,
+        record: RecordStep<'_>,
     ) -> Result<(Vec<Outcome>, Vec<u8>), BackendError> {
         for _ in 0..=MAX_REGROWTHS {
-            let (outcomes, snapshot, block) = self.submit_contact_step()?;
-            let Some(stage) = self.contacts.as_mut() else {
-                break;
-            };
-            match stage.regrow(&outcomes) {
+            let (outcomes, snapshot, block) = self.submit(on, status, record)?;
+            match self.regrow(&outcomes) {
                 Ok(false) => return Ok((outcomes, block)),
                 Ok(true) => {
-                    self.rollback()?;
+                    on.state.rollback(&on.ctx)?;
                     if snapshot {
                         // The state the snapshot showed is gone: take the
                         // rerun's.
-                        self.state.forget_snapshot();
-                        self.state.prefetch();
+                        on.state.forget_snapshot();
+                        on.state.prefetch();
                     }
                 }
-                Err(e) => return Err(self.roll_back_after(e.into())),
+                Err(e) => return Err(on.roll_back_after(e.into())),
             }
         }
-        Err(self.roll_back_after(
+        Err(on.roll_back_after(
             GpuError::Other {
                 message: "contact lists still too short after growing them".into(),
             }
@@ -246,114 +213,77 @@ impl GpuBackend {
         ))
     }
 
-    /// Records, submits and waits for one step in the schedule's mode;
-    /// returns the contact outcome, whether a state snapshot was taken and
-    /// the status/report block.
-    fn submit_contact_step(&mut self) -> Result<(Vec<Outcome>, bool, Vec<u8>), BackendError> {
-        let Some(stage) = &self.contacts else {
-            return Err(GpuError::Other {
-                message: "contact step without a contact stage".into(),
-            }
-            .into());
-        };
-        self.reset_status();
-        stage.buffers.reset();
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        self.state.save(&mut encoder);
+    /// Records, submits and waits for one step; returns the contact
+    /// outcomes, whether a state snapshot was taken and the status/report
+    /// block.
+    fn submit(
+        &self,
+        on: &mut Resident,
+        status: &StatusReader,
+        record: RecordStep<'_>,
+    ) -> Result<(Vec<Outcome>, bool, Vec<u8>), BackendError> {
+        status.reset(&on.ctx);
+        self.buffers.reset();
+        let mut encoder = on.ctx.device.create_command_encoder(&Default::default());
+        on.state.save(&mut encoder);
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_bind_group(0, &self.group, &[]);
-            for d in &self.fast {
-                self.encode(&mut pass, d);
-            }
-            let (phase, block) = (ContactPhase::Report, stage.report_block);
-            stage
-                .buffers
-                .encode(&stage.kernels, &mut pass, phase, block);
+            record(&mut pass, self);
+            let (phase, block) = (ContactPhase::Report, self.report_block);
+            self.buffers.encode(&self.kernels, &mut pass, phase, block);
         }
-        let staging = &self.buffers.report_staging;
-        encoder.copy_buffer_to_buffer(&self.buffers.status, 0, staging, 0, 16);
-        if self.buffers.report_bytes > 0 {
-            let bytes = self.buffers.report_bytes;
-            encoder.copy_buffer_to_buffer(&self.buffers.report, 0, staging, 16, bytes);
-        }
-        stage.buffers.copy_outcome(&mut encoder);
-        let snapshot = self.state.record_snapshot(&mut encoder);
-        self.ctx.submit(encoder)?;
+        status.copy_out(&mut encoder, true);
+        self.buffers.copy_outcome(&mut encoder);
+        let snapshot = on.state.record_snapshot(&mut encoder);
+        on.ctx.submit(encoder)?;
         if let Some(slot) = snapshot {
-            self.state.map_snapshot(slot);
+            on.state.map_snapshot(slot);
         }
-        let Some(stage) = &self.contacts else {
-            return Ok(unreachable_stage()?);
-        };
         // One wait: the outcome and the status/report block mapped together
         // (the snapshot's mapping completes with them).
-        let report = (&self.buffers.report_staging, 16 + self.buffers.report_bytes);
-        let mut read = self
+        let mut read = on
             .ctx
-            .read_all(&[stage.buffers.outcome_staging(), report])?;
-        self.ctx.check()?;
+            .read_all(&[self.buffers.outcome_staging(), status.staged()])?;
+        on.ctx.check()?;
         let block = read.pop().unwrap_or_default();
-        let outcomes = stage.buffers.outcomes_of(&read.pop().unwrap_or_default());
+        let outcomes = self.buffers.outcomes_of(&read.pop().unwrap_or_default());
         Ok((outcomes, snapshot.is_some(), block))
     }
 
-    /// The report of a submitted step whose lists fitted (its status/report
-    /// `block`), or its error (state rolled back).
-    fn finish_contact_step(
+    /// `run_kernel` of Broadphase or Collide, substep call `call`: the
+    /// kernel alone (a broadphase whose lists did not fit is grown and
+    /// rerun; it only reads x and p); `Some` failing (call, index) the
+    /// caller names. Results the kernels cannot vouch for (loops cut
+    /// short) are a typed error with x and v restored.
+    pub fn run_kernel(
         &mut self,
-        outcome: &Outcome,
-        block: &[u8],
-    ) -> Result<StepReport, BackendError> {
-        self.refuse_cut_loops(block)?;
-        if let Some(failed) = self.failure(block) {
-            return Err(self.diagnosed_error(failed));
-        }
-        let report = crate::params::read_reals(&block[16..], self.precision);
-        Ok(contact_report(&self.plan, &report, outcome))
-    }
-
-    /// `run_kernel` of Broadphase or Collide: the kernel of the first
-    /// substep's call, alone (a broadphase whose lists did not fit is grown
-    /// and rerun; it only reads x and p). Results the kernels cannot vouch
-    /// for (loops cut short) are a typed error with x and v restored.
-    pub(super) fn run_contact_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
-        let Some(index) = self.plan.substep_kernels.iter().position(|&k| k == kernel) else {
-            return Err(BackendError::InvalidCall(format!(
-                "{kernel:?} is not in this plan's schedule"
-            )));
-        };
-        let call = index as u32;
-        self.state.forget_snapshot();
+        on: &mut Resident,
+        status: &StatusReader,
+        (kernel, call): (Kernel, u32),
+    ) -> Result<Option<(u32, u32)>, BackendError> {
+        on.state.forget_snapshot();
         for _ in 0..=MAX_REGROWTHS {
-            let Some(stage) = &self.contacts else {
-                break;
-            };
-            self.reset_status();
-            stage.buffers.reset();
-            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-            self.state.save(&mut encoder);
+            status.reset(&on.ctx);
+            self.buffers.reset();
+            let mut encoder = on.ctx.device.create_command_encoder(&Default::default());
+            on.state.save(&mut encoder);
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
-                stage.encode(&mut pass, kernel, call);
+                self.encode(&mut pass, kernel, call);
             }
-            let staging = &self.buffers.report_staging;
-            encoder.copy_buffer_to_buffer(&self.buffers.status, 0, staging, 0, 16);
-            stage.buffers.copy_outcome(&mut encoder);
-            self.submit_and_wait(encoder)?;
-            let block = self.read_mapped(&self.buffers.report_staging, 16)?;
-            let outcome = stage.buffers.read_outcome()?;
-            if let Some((call, index)) = self.failure(&block) {
-                return Err(self.step_error(call, index));
+            status.copy_out(&mut encoder, false);
+            self.buffers.copy_outcome(&mut encoder);
+            on.ctx.submit_and_wait(encoder)?;
+            let block = status.read(&on.ctx, false)?;
+            let outcome = self.buffers.read_outcome()?;
+            if let Some(failed) = StatusReader::failure(&block) {
+                return Ok(Some(failed));
             }
-            let Some(stage) = self.contacts.as_mut() else {
-                break;
-            };
-            match stage.regrow(std::slice::from_ref(&outcome)) {
-                Ok(false) => return Ok(()),
+            match self.regrow(std::slice::from_ref(&outcome)) {
+                Ok(false) => return Ok(None),
                 Ok(true) => {}
                 // A Collide whose loops were cut short moved x: undo it.
-                Err(e) => return Err(self.roll_back_after(e.into())),
+                Err(e) => return Err(on.roll_back_after(e.into())),
             }
         }
         Err(GpuError::Other {
@@ -361,10 +291,4 @@ impl GpuBackend {
         }
         .into())
     }
-}
-
-fn unreachable_stage<T>() -> Result<T, GpuError> {
-    Err(GpuError::Other {
-        message: "contact step without a contact stage".into(),
-    })
 }

@@ -9,11 +9,13 @@
 //! ```
 //! A plan without motion has none of this: nothing is written.
 
-use hyperpbd_core::{BackendError, GpuError, Kernel};
+use hyperpbd_core::{BackendError, Kernel};
 
-use super::GpuBackend;
 use crate::params::push_reals;
+use crate::resident_backend::Resident;
+use crate::xpbd::Placed;
 use crate::xpbd::motion::MotionLayout;
+use crate::xpbd::schedule::Schedule;
 
 /// The buffers a step's motion values go to, and the clock.
 pub(crate) struct Moving {
@@ -25,57 +27,61 @@ pub(crate) struct Moving {
     pub step: u64,
 }
 
-impl GpuBackend {
-    /// Writes step `self.motion.step`'s values (nothing without motion).
-    pub(super) fn upload_motion(&mut self) -> Result<(), GpuError> {
-        let Some(moving) = &self.motion else {
-            return Ok(());
-        };
-        let (dim, precision) = (self.plan.dim, self.precision);
-        let origin = self.state.origin().clone();
-        let (base, blocks) = moving.layout.step(
-            &self.plan,
-            &origin,
-            moving.step,
-            &mut self.schedule.calls,
-            self.schedule.run_base,
+impl Moving {
+    /// Writes step `self.step`'s values: into `schedule`'s call blocks
+    /// and onto the device (`rest`, the call blocks, every dispatch block
+    /// of `placed`).
+    pub fn upload<'a>(
+        &self,
+        on: &Resident,
+        schedule: &mut Schedule,
+        placed: impl Iterator<Item = &'a Placed>,
+    ) {
+        let (dim, precision) = (on.plan.dim, on.precision);
+        let origin = on.state.origin();
+        let (base, blocks) = self.layout.step(
+            &on.plan,
+            origin,
+            self.step,
+            &mut schedule.calls,
+            schedule.run_base,
         );
-        let queue = &self.ctx.queue;
+        let queue = &on.ctx.queue;
         let mut bytes = Vec::new();
         push_reals(&mut bytes, &blocks, precision);
         let at = (base * crate::params::real_size(precision)) as u64;
-        queue.write_buffer(&moving.rest, at, &bytes);
+        queue.write_buffer(&self.rest, at, &bytes);
         let mut calls = Vec::new();
-        for call in &self.schedule.calls {
+        for call in &schedule.calls {
             calls.extend(call.encode(dim, precision));
         }
-        queue.write_buffer(&moving.calls, 0, &calls);
-        let mut blocks = vec![0u8; moving.dispatches.size() as usize];
-        for placed in self.exact.iter().chain(&self.fast).chain(&self.alone) {
-            let block = placed.dispatch.block(&self.schedule.calls, dim, precision);
+        queue.write_buffer(&self.calls, 0, &calls);
+        let mut blocks = vec![0u8; self.dispatches.size() as usize];
+        for placed in placed {
+            let block = placed.dispatch.block(&schedule.calls, dim, precision);
             let at = placed.offset as usize;
             blocks[at..at + block.len()].copy_from_slice(&block);
         }
-        queue.write_buffer(&moving.dispatches, 0, &blocks);
-        Ok(())
+        queue.write_buffer(&self.dispatches, 0, &blocks);
     }
 
     /// The clock after an accepted step.
-    pub(super) fn motion_step_done(&mut self) {
-        if let Some(moving) = &mut self.motion {
-            moving.step += 1;
-        }
+    pub fn step_done(&mut self) {
+        self.step += 1;
     }
+}
 
-    /// A kernel alone reads values no step has written: refused for a
-    /// plan with motion (its kernels run inside whole steps).
-    pub(super) fn refuse_alone_with_motion(&self, kernel: Kernel) -> Result<(), BackendError> {
-        if self.motion.is_some() {
-            return Err(BackendError::InvalidCall(format!(
-                "run_kernel({kernel:?}): a plan with prescribed motion runs its kernels inside \
-                 whole steps on the GPU (the motion values are written per step)"
-            )));
-        }
-        Ok(())
+/// A kernel alone reads values no step has written: refused for a plan
+/// with motion (its kernels run inside whole steps).
+pub(crate) fn refuse_alone_with_motion(
+    motion: Option<&Moving>,
+    kernel: Kernel,
+) -> Result<(), BackendError> {
+    if motion.is_some() {
+        return Err(BackendError::InvalidCall(format!(
+            "run_kernel({kernel:?}): a plan with prescribed motion runs its kernels inside \
+             whole steps on the GPU (the motion values are written per step)"
+        )));
     }
+    Ok(())
 }

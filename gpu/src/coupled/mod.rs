@@ -1,4 +1,4 @@
-//! `GpuCoupledBackend`: the coupled implicit step (docs/implicit.md §7) on
+//! `CoupledStep` ([`crate::GpuCoupledBackend`]): the coupled implicit step (docs/implicit.md §7) on
 //! the GPU, the golden path's schedule (`cpu/src/coupled/`) kernel for
 //! kernel: every per-element and per-particle pass, PCG whole (its vectors
 //! and its scalar recurrence, pcg.rs), the line search's vectors, and every
@@ -56,345 +56,34 @@ mod f32;
 mod material;
 mod newton;
 mod pcg;
+mod step;
 mod trials;
 
-use hyperpbd_core::broadphase::{Aabbs, Pair, grid_pairs};
-use hyperpbd_core::implicit::{CoupledPlan, PairLag};
-use hyperpbd_core::{
-    BackendError, Convergence, FamilyKind, GpuError, IncrementalPotentialPlan, Kernel,
-    MinimisationReport, Plan, State, check_state,
-};
+use hyperpbd_core::{BackendError, MinimisationReport, Plan, State};
 
 use crate::Precision;
-use crate::barrier::barrier_resources;
-use crate::codes;
-use crate::context::{DeviceSource, GpuContext};
-use crate::export::Exporter;
-use crate::kernel_set::{KernelSet, KernelSetSpec};
-use crate::params::{push_reals, real_size};
-use crate::resident::ResidentState;
-use crate::resident_backend::{minimising_backend, resident_backend};
-use crate::shader::MAX_GPU_DIM;
-use device::{Device, ElementUpload, Reduction};
-use entries::Entry;
-use material::Materials;
-use pcg::PcgProbe;
-use trials::TrialProbe;
+use crate::context::DeviceSource;
+use crate::minimising::{Minimiser, Minimising};
+use crate::resident_backend::{Resident, ResidentBackend};
+use newton::Newton;
+pub use step::CoupledStep;
 
 /// The GPU backend of the coupled implicit step.
-pub struct GpuCoupledBackend {
-    plan: Plan,
-    ip: IncrementalPotentialPlan,
-    coupled: CoupledPlan,
-    precision: Precision,
-    ctx: GpuContext,
-    device: Device,
-    state: ResidentState,
-    /// The uploaded element list, its pair set and pair friction lags.
-    elements: ElementUpload,
-    pairs: Vec<Pair>,
-    lags: Vec<PairLag>,
-    /// The material elements (blocks of coupled_material.wgsl).
-    materials: Materials,
-    /// m_i (0 for fixed particles).
-    mass: Vec<f64>,
-    substep: u32,
-    reports: Vec<MinimisationReport>,
-    exporter: Exporter,
-    /// PCG's read-back buffer and chunk length (pcg.rs).
-    pcg: PcgProbe,
-    /// Armijo's batch read-back and batch length (trials.rs).
-    trial_probe: TrialProbe,
-}
+pub type GpuCoupledBackend = ResidentBackend<Minimising<CoupledStep>>;
 
-/// Why the GPU does not run `plan`'s coupled step (yet), if it does not.
-fn unsupported(plan: &Plan, ip: &IncrementalPotentialPlan, precision: Precision) -> Option<String> {
-    ip.coupled.as_ref()?;
-    let not_yet = |what: String| {
-        Some(format!(
-            "{what} in the coupled implicit step on the GPU (not built yet): use --backend cpu"
-        ))
-    };
-    if plan.dim > MAX_GPU_DIM {
-        return Some(format!(
-            "dimension {} (the GPU kernels support 1..={MAX_GPU_DIM})",
-            plan.dim
-        ));
-    }
-    for f in &plan.families {
-        if !f.kind.is_expression() {
-            continue;
-        }
-        if precision == Precision::F32 {
-            return not_yet(format!("the expression family {} in f32", f.label));
-        }
-        if f.arity > plan.dim + 1 {
-            return not_yet(format!(
-                "the expression family {} of arity {} (the GPU's dense blocks hold N + 1 = {} \
-                 particles)",
-                f.label,
-                f.arity,
-                plan.dim + 1
-            ));
-        }
-    }
-    if precision == Precision::F32
-        && let Some(f) = plan
-            .families
-            .iter()
-            .find(|f| matches!(f.kind, FamilyKind::Material { .. }))
-    {
-        return not_yet(format!("the material family {} in f32", f.label));
-    }
-    None
-}
-
-impl GpuCoupledBackend {
-    /// Loads `plan` (an incremental-potential plan with a coupled step)
-    /// with `state` on `device`.
+/// The coupled step minimises by Newton's loop (newton.rs) on its own
+/// data (step.rs).
+impl Minimiser for CoupledStep {
     fn load(
-        device: DeviceSource<'_>,
+        source: DeviceSource<'_>,
         plan: Plan,
         state: &State,
         precision: Precision,
-    ) -> Result<Self, BackendError> {
-        check_state(&plan, state)?;
-        let (Some(ip), Some(coupled)) = (
-            plan.incremental_potential().cloned(),
-            plan.incremental_potential()
-                .and_then(|ip| ip.coupled.clone()),
-        ) else {
-            return Err(BackendError::InvalidCall(
-                "GpuCoupledBackend runs incremental_potential scenes with a coupled step only"
-                    .into(),
-            ));
-        };
-        if let Some(what) = unsupported(&plan, &ip, precision) {
-            return Err(GpuError::Unsupported { what }.into());
-        }
-        let (n, dim) = (plan.particle_count(), plan.dim);
-        let ctx = device.context(precision)?;
-        let materials = Materials::of(&plan);
-        let generated = expression::generated(&plan, precision);
-        let kernels = KernelSet::new(
-            &ctx,
-            &KernelSetSpec {
-                label: "hyperpbd coupled step",
-                modules: &[crate::shader::ShaderFile::Coupled],
-                dim,
-                precision,
-                entries: &Entry::needed(materials.len() > 0),
-                constants: &[],
-                generated: generated.as_deref(),
-            },
-        )?;
-        let reals = |values: &[f64]| {
-            let mut b = Vec::new();
-            push_reals(&mut b, values, precision);
-            b
-        };
-        let (resident, mut fixed) = barrier_resources(&ctx, &plan, &ip, state, precision)?;
-        if precision == Precision::F32 {
-            // Radii rounded outward: an f32 gap ℓ − r̂_i − r̂_j certified > 0
-            // is then > 0 with the authored f64 radii too (f32/mod.rs).
-            fixed[0] = ctx.storage("radius", &f32::outward_radii(&plan.radius))?;
-        }
-        let mass: Vec<f64> = plan
-            .inverse_mass
-            .iter()
-            .map(|&w| if w > 0.0 { 1.0 / w } else { 0.0 })
-            .collect();
-        let planes = ip.obstacles.plane_count();
-        let obstacle_mu: Vec<f64> = (coupled.plane_friction.iter())
-            .chain(&coupled.simplex_friction)
-            .copied()
-            .collect();
-        let zeros = vec![0u8; (n * planes).max(1) * real_size(precision)];
-        for (label, bytes) in [
-            ("mass", reals(&mass)),
-            ("gravity_scale", reals(&plan.gravity_scale)),
-            ("gravity", reals(&plan.gravity)),
-            ("obstacle_mu", reals(&obstacle_mu)),
-            ("lag_force", zeros),
-        ] {
-            fixed.push(ctx.storage(label, &bytes)?);
-        }
-        fixed.extend(materials.buffers(&ctx, &plan, precision)?);
-        let mut device = Device::new(&ctx, kernels, precision, (n, dim), fixed)?;
-        device.params.criterion = match ip.convergence {
-            Convergence::PackedGradient { .. } => 0,
-            Convergence::MaxAccelerationResidual { .. } => 1,
-        };
-        device.params.h = plan.h;
-        device.params.slip = coupled.slip_velocity * plan.h;
-        device.params.mesh_friction =
-            u32::from(coupled.simplex_friction.iter().any(|&mu| mu > 0.0));
-        let pcg = PcgProbe::new(&ctx, precision)?;
-        let trial_probe = TrialProbe::new(&ctx)?;
-        let mut backend = GpuCoupledBackend {
-            plan,
-            ip,
-            coupled: *coupled,
-            precision,
-            ctx,
-            device,
-            state: resident,
-            elements: ElementUpload::default(),
-            pairs: Vec::new(),
-            lags: Vec::new(),
-            materials,
-            mass,
-            substep: 0,
-            reports: Vec::new(),
-            exporter: Exporter::default(),
-            pcg,
-            trial_probe,
-        };
-        backend.upload_elements(Vec::new(), true)?;
-        backend.ctx.check()?;
-        Ok(backend)
+    ) -> Result<(Resident, Self), BackendError> {
+        CoupledStep::load(source, plan, state, precision)
     }
 
-    /// The element list of the plan's springs and materials, the ball pairs `pairs` and
-    /// the pair friction lags `self.lags` (cpu/src/coupled/elements.rs
-    /// `rebuild`), uploaded when the pairs changed (or `force`: new lags).
-    fn upload_elements(&mut self, pairs: Vec<Pair>, force: bool) -> Result<(), GpuError> {
-        if !force && pairs == self.pairs {
-            return Ok(());
-        }
-        let plan = &self.plan;
-        let width = plan.dim + 1;
-        let arity_max = plan.families.iter().map(|f| f.arity).fold(2, usize::max);
-        let up = &mut self.elements;
-        up.lists.clear(arity_max);
-        up.codes.clear();
-        up.reals.clear();
-        let mut push = |members: &[u32], code: u32, reals: &[f64]| {
-            up.lists.push(members);
-            up.codes.push(code);
-            up.reals.extend(reals);
-            up.reals
-                .extend(std::iter::repeat_n(0.0, width - reals.len()));
-        };
-        for family in &plan.families {
-            // Hyperplanes are obstacle barriers here, never elements.
-            let Some(code) = codes::element_code(&family.kind) else {
-                continue;
-            };
-            for e in 0..family.len() {
-                let members = &family.elements[e * family.arity..(e + 1) * family.arity];
-                match &family.kind {
-                    FamilyKind::Material { material, .. } => {
-                        push(members, code, &[material.lame.mu, material.lame.lambda]);
-                    }
-                    FamilyKind::Distance
-                    | FamilyKind::Tether
-                    | FamilyKind::SimplexMeasure { .. }
-                    | FamilyKind::OrientedMeasure
-                    | FamilyKind::HyperplaneContact { .. }
-                    | FamilyKind::MeshContact { .. }
-                    | FamilyKind::Expression(_) => {
-                        push(members, code, &[family.compliance, family.rest[e]])
-                    }
-                }
-            }
-        }
-        let first_ball = (plan.families.iter())
-            .filter(|f| codes::element_code(&f.kind).is_some())
-            .map(|f| f.len())
-            .sum();
-        for pair in &pairs {
-            push(pair, codes::ELEMENT_BALL, &[]);
-        }
-        for lag in &self.lags {
-            let mut reals = vec![lag.force_limit];
-            reals.extend(&lag.normal);
-            push(&lag.pair, codes::ELEMENT_LAG, &reals);
-        }
-        up.first_ball = first_ball;
-        up.lists.build_gather(plan.particle_count());
-        self.device
-            .upload(&self.ctx, &self.state, up, pairs.len())?;
-        self.pairs = pairs;
-        Ok(())
-    }
-
-    /// The ball pairs over the boxes swept from `from` to `to` (radius +
-    /// d^/2), pairs of two fixed particles left out (cpu/src/collide.rs).
-    fn sweep(&self, from: &[f64], to: &[f64]) -> Vec<Pair> {
-        if !self.coupled.collisions {
-            return Vec::new();
-        }
-        let margin = 0.5 * self.ip.law.activation_distance;
-        let boxes = Aabbs::swept_particles(self.plan.dim, from, to, &self.plan.radius, margin);
-        let w = &self.plan.inverse_mass;
-        let mut pairs = grid_pairs(&boxes);
-        pairs.retain(|&[i, j]| w[i as usize] + w[j as usize] > 0.0);
-        pairs
-    }
-
-    /// Host waits (round trips) since the backend was created.
-    pub fn host_waits(&self) -> u64 {
-        self.ctx.host_waits()
-    }
-
-    fn encoder(&self) -> wgpu::CommandEncoder {
-        self.ctx.device.create_command_encoder(&Default::default())
-    }
-
-    /// Writes the params and a clear status block, then records `entries`
-    /// (each over its items) and `reductions` in one compute pass (on
-    /// lavapipe a pass of its own per dispatch costs more than the
-    /// dispatch), and reads them back.
-    fn run(
-        &self,
-        entries: &[(Entry, usize)],
-        reductions: &[Reduction],
-    ) -> Result<(Vec<f64>, [u32; 5]), GpuError> {
-        self.device.write_params(&self.ctx);
-        self.device.reset_status(&self.ctx);
-        let mut encoder = self.encoder();
-        let results: Vec<_> = {
-            let mut pass = self.device.begin(&mut encoder);
-            for &(entry, items) in entries {
-                self.device.dispatch(&mut pass, entry, items);
-            }
-            reductions
-                .iter()
-                .map(|&r| self.device.reduce_in(&mut pass, r))
-                .collect()
-        };
-        self.device.read(&self.ctx, encoder, &results)
-    }
-
-    /// Writes the params, records `entries` (kernels that write no status
-    /// word: cp_set_x, cp_finish) in one compute pass and submits it without
-    /// waiting: the next submission runs after it (queue order), and the
-    /// host needs nothing from it.
-    fn submit(&self, entries: &[(Entry, usize)]) -> Result<(), GpuError> {
-        self.device.write_params(&self.ctx);
-        let mut encoder = self.encoder();
-        {
-            let mut pass = self.device.begin(&mut encoder);
-            for &(entry, items) in entries {
-                self.device.dispatch(&mut pass, entry, items);
-            }
-        }
-        self.ctx.submit(encoder).map(|_| ())
-    }
-
-    /// Element and particle item counts.
-    fn counts(&self) -> (usize, usize) {
-        (self.plan.particle_count(), self.elements.lists.len())
-    }
-}
-
-minimising_backend!(GpuCoupledBackend);
-
-resident_backend! {
-    GpuCoupledBackend, load() {
-        fn run_kernel(&mut self, kernel: Kernel) -> Result<(), BackendError> {
-            self.minimise_kernel(kernel)
-        }
+    fn minimise(&mut self, on: &mut Resident) -> Result<MinimisationReport, BackendError> {
+        Newton { on, step: self }.minimise()
     }
 }

@@ -14,18 +14,18 @@ use hyperpbd_core::implicit::resolution::{
 };
 use hyperpbd_core::implicit::{PcgSettings, certified_filter, newton_cg_tolerance, pair_lags};
 use hyperpbd_core::{
-    Backend, BackendError, Convergence, GpuError, MinimisationReport, MinimisationStatus, Refusal,
-    WarmStart,
+    BackendError, Convergence, GpuError, MinimisationReport, MinimisationStatus, Refusal, WarmStart,
 };
 
-use super::GpuCoupledBackend;
 use super::device::Reduction;
 use super::entries::status::{INFEASIBLE, MOVED, NON_FINITE_ELEMENT, NON_FINITE_PARTICLE};
 use super::entries::{Entry, region};
 use super::material;
-use super::pcg::{Direction, PcgStart};
+use super::pcg::{Direction, PcgProbe, PcgStart};
+use super::step::CoupledStep;
 use crate::Precision;
 use crate::barrier::{NONE, infeasible_start};
+use crate::resident_backend::Resident;
 
 /// How a Newton iteration's gradient pass ended.
 enum Evaluated {
@@ -37,13 +37,60 @@ enum Evaluated {
     Particle(usize),
 }
 
-impl GpuCoupledBackend {
+/// The coupled step at work on the resident state: the loop reads the
+/// step's own data through `Deref` and the plan, device and state through
+/// `on`.
+pub(super) struct Newton<'a> {
+    pub on: &'a mut Resident,
+    pub step: &'a mut CoupledStep,
+}
+
+impl std::ops::Deref for Newton<'_> {
+    type Target = CoupledStep;
+    fn deref(&self) -> &CoupledStep {
+        self.step
+    }
+}
+
+impl std::ops::DerefMut for Newton<'_> {
+    fn deref_mut(&mut self) -> &mut CoupledStep {
+        self.step
+    }
+}
+
+impl Newton<'_> {
+    /// Particles, elements and material elements.
+    fn items(&self) -> (usize, usize, usize) {
+        let (n, e) = self.step.counts(self.on);
+        (n, e, self.materials.len())
+    }
+
+    /// The Newton direction by PCG on the device (pcg.rs).
+    fn solve(
+        &mut self,
+        settings: PcgSettings,
+        started: Option<PcgStart>,
+    ) -> Result<Direction, GpuError> {
+        let items = self.items();
+        let step = &mut *self.step;
+        let on = (&mut step.device, &*self.on);
+        step.pcg.solve(on, items, settings, started)
+    }
+
+    /// Armijo's trials of `steps` in one batch (trials.rs).
+    fn trials(&mut self, steps: &[f64]) -> Result<Vec<(f64, bool)>, GpuError> {
+        let items = self.items();
+        let on = (&self.step.device, &*self.on);
+        self.step.trial_probe.trials(on, items, steps)
+    }
+
     /// The certified fraction of R_DIRECTION from R_X over every plane of
     /// every free particle and every ball pair (setup.rs `filter`).
     fn filter(&mut self) -> Result<f64, GpuError> {
-        let (n, _) = self.counts();
+        let (n, _) = self.step.counts(self.on);
         let pairs = self.pairs.len();
-        let (values, _) = self.run(
+        let (values, _) = self.step.run(
+            self.on,
             &[(Entry::FilterParticles, n), (Entry::FilterPairs, pairs)],
             &[Reduction::MinT],
         )?;
@@ -54,18 +101,19 @@ impl GpuCoupledBackend {
     /// R_X and the slope g·Δ (cpu `slope`), with the status words, in one
     /// submission and one read.
     fn filter_and_slope(&mut self) -> Result<(f64, f64, [u32; 5]), GpuError> {
-        let (n, e) = self.counts();
+        let (n, e) = self.step.counts(self.on);
         let (pairs, m) = (self.pairs.len(), self.materials.len());
-        self.device.write_params(&self.ctx);
-        self.device.reset_status(&self.ctx);
-        let mut encoder = self.encoder();
+        self.device.write_params(&self.on.ctx);
+        self.device.reset_status(&self.on.ctx);
+        let mut encoder = self.on.encoder();
         let filter = {
             let mut pass = self.device.begin(&mut encoder);
             self.device.dispatch(&mut pass, Entry::FilterParticles, n);
             self.device.dispatch(&mut pass, Entry::FilterPairs, pairs);
             self.device.reduce_in(&mut pass, Reduction::MinT)
         };
-        self.device.load_point(&mut encoder, &self.state, region::X);
+        self.device
+            .load_point(&mut encoder, &self.on.state, region::X);
         let slope = {
             let mut pass = self.device.begin(&mut encoder);
             self.device.dispatch(&mut pass, Entry::Elements, e);
@@ -73,7 +121,7 @@ impl GpuCoupledBackend {
             self.device.dispatch(&mut pass, Entry::Slope, n);
             self.device.reduce_in(&mut pass, Reduction::SumA)
         };
-        let (values, status) = self.device.read(&self.ctx, encoder, &[filter, slope])?;
+        let (values, status) = self.device.read(&self.on.ctx, encoder, &[filter, slope])?;
         Ok((certified_filter::fraction(values[0]), values[1], status))
     }
 
@@ -87,7 +135,7 @@ impl GpuCoupledBackend {
     /// gradient's; when Newton stops here its writes (the CG vectors,
     /// R_DIRECTION = 0) are never read.
     fn gradient(&mut self) -> Result<(Evaluated, Option<PcgStart>), GpuError> {
-        let (n, e) = self.counts();
+        let (n, e) = self.step.counts(self.on);
         let reduction = match self.ip.convergence {
             Convergence::PackedGradient { .. } => Reduction::SumA,
             Convergence::MaxAccelerationResidual { .. } => Reduction::MaxA,
@@ -95,12 +143,13 @@ impl GpuCoupledBackend {
         let m = self.materials.len();
         let with_start = m == 0;
         if with_start {
-            self.prepare_pcg_start();
+            PcgProbe::prepare_start(&mut self.step.device, self.on);
         }
-        self.device.write_params(&self.ctx);
-        self.device.reset_status(&self.ctx);
-        let mut encoder = self.encoder();
-        self.device.load_point(&mut encoder, &self.state, region::X);
+        self.device.write_params(&self.on.ctx);
+        self.device.reset_status(&self.on.ctx);
+        let mut encoder = self.on.encoder();
+        self.device
+            .load_point(&mut encoder, &self.on.state, region::X);
         let residual = {
             let mut pass = self.device.begin(&mut encoder);
             self.device.dispatch(&mut pass, Entry::Elements, e);
@@ -114,14 +163,14 @@ impl GpuCoupledBackend {
         if with_start {
             let start = {
                 let mut pass = self.device.begin(&mut encoder);
-                self.record_pcg_start(&mut pass)
+                PcgProbe::record_start(&self.device, &mut pass, (n, e, m))
             };
             for (k, &result) in start.iter().enumerate() {
                 self.device.copy_result(&mut encoder, result, k + 1);
             }
             results.extend(start);
         }
-        let (values, status) = self.device.read_copied(&self.ctx, encoder, &results)?;
+        let (values, status) = self.device.read_copied(&self.on.ctx, encoder, &results)?;
         let started = with_start.then(|| PcgStart {
             values: [values[1], values[2]],
             status,
@@ -150,9 +199,9 @@ impl GpuCoupledBackend {
     /// in f64 the golden path's terms, in f32 the `_at` forms at ε₃₂ with
     /// their second-order terms (f32.rs).
     fn resolution(&self) -> Result<f64, GpuError> {
-        let dim = self.plan.dim;
-        let epsilon = self.precision.epsilon();
-        let single = self.precision == Precision::F32;
+        let dim = self.on.plan.dim;
+        let epsilon = self.on.precision.epsilon();
+        let single = self.on.precision == Precision::F32;
         let law = &self.ip.law;
         let spring = |value: f64, compliance: f64, rest: f64| {
             if single {
@@ -169,7 +218,7 @@ impl GpuCoupledBackend {
             }
         };
         let v = self.device.read_regions(
-            &self.ctx,
+            &self.on.ctx,
             &[
                 region::X,
                 region::DIRECTION,
@@ -177,7 +226,7 @@ impl GpuCoupledBackend {
                 region::LOAD,
             ],
         )?;
-        let (terms, records) = self.device.read_terms_and_records(&self.ctx)?;
+        let (terms, records) = self.device.read_terms_and_records(&self.on.ctx)?;
         let sums = particle_sums(
             dim,
             &self.mass,
@@ -197,7 +246,7 @@ impl GpuCoupledBackend {
             energy += value.abs();
             if let Some(block) = self.materials.of_element(e) {
                 let arity = gather_points(up.lists.members(e), &v[0], dim, &mut points);
-                force += material::rounding(&self.plan, block, &points[..arity * dim], value);
+                force += material::rounding(&self.on.plan, block, &points[..arity * dim], value);
             } else if e < up.first_ball {
                 let reals = &up.reals[e * (dim + 1)..];
                 force += spring(value, reals[0], reals[1]);
@@ -205,15 +254,15 @@ impl GpuCoupledBackend {
                 let members = up.lists.members(e);
                 gather_points(members, &v[0], dim, &mut points);
                 let radii = (
-                    self.plan.radius[members[0] as usize],
-                    self.plan.radius[members[1] as usize],
+                    self.on.plan.radius[members[0] as usize],
+                    self.on.plan.radius[members[1] as usize],
                 );
                 force += ball(&points[..2 * dim], radii);
             }
         }
         Ok(change_resolution_at(
             dim,
-            self.plan.h,
+            self.on.plan.h,
             sums,
             energy,
             force,
@@ -224,7 +273,7 @@ impl GpuCoupledBackend {
     /// Steps 1–4: x^t, x~, the lags and d ≤ 0 at x^t, the pairs at x^t,
     /// the warm start and its pairs. A refusal, if the start is refused.
     fn start(&mut self) -> Result<Option<Refusal>, BackendError> {
-        let (n, _) = self.counts();
+        let (n, _) = self.step.counts(self.on);
         let inertial = self.coupled.warm_start == WarmStart::Inertial;
         // Without collisions the inertial warm start's filter needs nothing
         // from the host: it runs in the start's submission (one read; the
@@ -237,22 +286,22 @@ impl GpuCoupledBackend {
                 (Entry::FilterParticles, n),
                 (Entry::FilterPairs, pairs),
             ];
-            self.run(&entries, &[Reduction::MinT])?
+            self.step.run(self.on, &entries, &[Reduction::MinT])?
         } else {
-            self.run(&[(Entry::Start, n)], &[])?
+            self.step.run(self.on, &[(Entry::Start, n)], &[])?
         };
         if status[INFEASIBLE] != NONE {
             let particle = status[INFEASIBLE] as usize;
-            let state = self.read_state()?;
+            let state = self.on.state.read(&self.on.ctx)?;
             let obstacles: &BarrierObstacles = &self.ip.obstacles;
             return Ok(Some(infeasible_start(
-                &self.plan,
+                &self.on.plan,
                 obstacles,
                 state.position(particle),
                 particle,
             )));
         }
-        let dim = self.plan.dim;
+        let dim = self.on.plan.dim;
         if self.coupled.collisions {
             // x^t (and x~ for the inertial warm start) in one read-back.
             let wanted: &[usize] = if inertial {
@@ -260,11 +309,11 @@ impl GpuCoupledBackend {
             } else {
                 &[region::START]
             };
-            let v = self.device.read_regions(&self.ctx, wanted)?;
+            let v = self.device.read_regions(&self.on.ctx, wanted)?;
             let start = &v[0];
-            let at_start = self.sweep(start, start);
+            let at_start = self.step.sweep(self.on, start, start);
             let (law, friction) = (&self.ip.law, self.coupled.pair_friction);
-            let radius = &self.plan.radius;
+            let radius = &self.on.plan.radius;
             let lags = match pair_lags(law, friction, start, radius, dim, &at_start) {
                 Ok(lags) => lags,
                 Err(refusal) => return Ok(Some(refusal)),
@@ -273,11 +322,11 @@ impl GpuCoupledBackend {
             self.lags = lags;
             // P_0: the pairs at x^t, or over the segment to x~ (§7 step 4).
             let pairs = if inertial {
-                self.sweep(start, &v[1])
+                self.step.sweep(self.on, start, &v[1])
             } else {
                 at_start
             };
-            self.upload_elements(pairs, changed)?;
+            self.step.upload_elements(self.on, pairs, changed)?;
         }
         if !inertial {
             return Ok(None);
@@ -289,7 +338,7 @@ impl GpuCoupledBackend {
         };
         self.device.params.step = tau;
         self.device.params.mode = 0;
-        self.submit(&[(Entry::SetX, n)])?;
+        self.step.submit(self.on, &[(Entry::SetX, n)])?;
         Ok(None)
     }
 
@@ -299,11 +348,11 @@ impl GpuCoupledBackend {
     fn element_refusal(&self, e: usize) -> Result<Refusal, GpuError> {
         let members = self.elements.lists.members(e);
         if let Some(block) = self.materials.of_element(e) {
-            let dim = self.plan.dim;
-            let x = self.device.read_regions(&self.ctx, &[region::X])?;
+            let dim = self.on.plan.dim;
+            let x = self.device.read_regions(&self.on.ctx, &[region::X])?;
             let mut points = vec![0.0; members.len() * dim];
             gather_points(members, &x[0], dim, &mut points);
-            if let Some(refusal) = material::refusal(&self.plan, block, &points) {
+            if let Some(refusal) = material::refusal(&self.on.plan, block, &points) {
                 return Ok(refusal);
             }
         }
@@ -319,7 +368,7 @@ impl GpuCoupledBackend {
             report.status = MinimisationStatus::Refused(refusal);
             return Ok(report);
         }
-        let (n, _) = self.counts();
+        let (n, _) = self.step.counts(self.on);
         let mut iteration = 0;
         let mut first_residual = None;
         let mut fell_back = false;
@@ -333,7 +382,7 @@ impl GpuCoupledBackend {
                         // 3: a warm start the elements refuse falls back to x^t.
                         fell_back = true;
                         self.device.params.mode = 1;
-                        self.submit(&[(Entry::SetX, n)])?;
+                        self.step.submit(self.on, &[(Entry::SetX, n)])?;
                         continue;
                     }
                     report.status = MinimisationStatus::Refused(self.element_refusal(e)?);
@@ -359,10 +408,10 @@ impl GpuCoupledBackend {
                     residual,
                     r0,
                     &self.mass,
-                    self.plan.h,
+                    self.on.plan.h,
                 ),
             };
-            let cg = match self.device_pcg(settings, started)? {
+            let cg = match self.solve(settings, started)? {
                 Direction::Solved(cg) => cg,
                 Direction::FrameRefused(e) => {
                     // Refused by the law or not finite at x_k.
@@ -380,10 +429,10 @@ impl GpuCoupledBackend {
             if self.coupled.collisions {
                 let v = self
                     .device
-                    .read_regions(&self.ctx, &[region::X, region::DIRECTION])?;
+                    .read_regions(&self.on.ctx, &[region::X, region::DIRECTION])?;
                 let reach: Vec<f64> = v[0].iter().zip(&v[1]).map(|(x, d)| x + d).collect();
-                let pairs = self.sweep(&v[0], &reach);
-                self.upload_elements(pairs, false)?;
+                let pairs = self.step.sweep(self.on, &v[0], &reach);
+                self.step.upload_elements(self.on, pairs, false)?;
             }
             // 10–11: Armijo on the difference form of F's change; the
             // filter and the slope in one submission (one read): the filter
@@ -410,10 +459,10 @@ impl GpuCoupledBackend {
                 break;
             }
             self.device.params.mode = 2;
-            self.submit(&[(Entry::SetX, n)])?;
+            self.step.submit(self.on, &[(Entry::SetX, n)])?;
         }
         if !matches!(report.status, MinimisationStatus::Refused(_)) {
-            self.submit(&[(Entry::Finish, n)])?;
+            self.step.submit(self.on, &[(Entry::Finish, n)])?;
         }
         Ok(report)
     }
@@ -423,7 +472,7 @@ impl GpuCoupledBackend {
     fn warm_start_moved(&self) -> Result<bool, GpuError> {
         let v = self
             .device
-            .read_regions(&self.ctx, &[region::X, region::START])?;
+            .read_regions(&self.on.ctx, &[region::X, region::START])?;
         Ok(v[0] != v[1])
     }
 
@@ -455,11 +504,11 @@ impl GpuCoupledBackend {
         {
             // A later trial of the batch left R_TRIAL: the accepted one again.
             self.device.params.step = t;
-            self.device.write_params(&self.ctx);
-            let mut encoder = self.encoder();
+            self.device.write_params(&self.on.ctx);
+            let mut encoder = self.on.encoder();
             self.device
-                .pass(&mut encoder, Entry::Trial, self.plan.particle_count());
-            self.ctx.submit(encoder)?;
+                .pass(&mut encoder, Entry::Trial, self.on.plan.particle_count());
+            self.on.ctx.submit(encoder)?;
         }
         Ok(accepted)
     }

@@ -27,15 +27,15 @@
 use hyperpbd_core::GpuError;
 use hyperpbd_core::implicit::{PcgReport, PcgSettings, PcgStatus, pcg_start};
 
-use super::GpuCoupledBackend;
 use super::cg_state::CgState;
-use super::device::Reduction;
+use super::device::{Device, Reduction};
 use super::entries::Entry;
 use super::entries::status::NON_FINITE_ELEMENT;
 use super::material::refuse_cut_loops_of;
 use crate::Precision;
 use crate::barrier::{NONE, STATUS_WORDS, status_words};
 use crate::context::GpuContext;
+use crate::resident_backend::Resident;
 
 /// Where CgState starts in the probe (after the status words, 8-aligned).
 const STATE_AT: u64 = (4 * STATUS_WORDS as u64).next_multiple_of(8);
@@ -80,24 +80,24 @@ pub(super) enum Direction {
     FrameRefused(usize),
 }
 
-impl GpuCoupledBackend {
+/// PCG's passes on the device (module docs).
+impl PcgProbe {
     /// Clears CgState and sets the start's params (diagonal, mode 0):
     /// before the submission that records PCG's start.
-    pub(super) fn prepare_pcg_start(&mut self) {
-        let cleared = CgState::default().bytes(self.precision);
-        self.ctx.queue.write_buffer(&self.device.cg, 0, &cleared);
-        self.device.params.diagonal = 1;
-        self.device.params.mode = 0;
+    pub(super) fn prepare_start(device: &mut Device, on: &Resident) {
+        let cleared = CgState::default().bytes(on.precision);
+        on.ctx.queue.write_buffer(&device.cg, 0, &cleared);
+        device.params.diagonal = 1;
+        device.params.mode = 0;
     }
 
     /// Records PCG's start into `pass` (submission 1 of the module docs);
     /// its reductions r·r and r·z.
-    pub(super) fn record_pcg_start(
-        &self,
+    pub(super) fn record_start(
+        device: &Device,
         pass: &mut wgpu::ComputePass<'_>,
+        (n, e, m): (usize, usize, usize),
     ) -> [Result<usize, f64>; 2] {
-        let (n, e) = self.counts();
-        let m = self.materials.len();
         for (entry, items) in [
             (Entry::MaterialFrames, m),
             (Entry::Slots, e),
@@ -105,11 +105,11 @@ impl GpuCoupledBackend {
             (Entry::ParticleCurvature, n),
             (Entry::CgResidual, n),
         ] {
-            self.device.dispatch(pass, entry, items);
+            device.dispatch(pass, entry, items);
         }
         [
-            self.device.reduce_in(pass, Reduction::SumA),
-            self.device.reduce_in(pass, Reduction::SumB),
+            device.reduce_in(pass, Reduction::SumA),
+            device.reduce_in(pass, Reduction::SumB),
         ]
     }
 
@@ -117,29 +117,29 @@ impl GpuCoupledBackend {
     /// docs), for `settings`; the material elements' H_F⁺ at x_k (step 6)
     /// are recorded ahead of PCG's start, in the same read. `started`: the
     /// start already read back (recorded with the gradient pass, newton.rs).
-    pub(super) fn device_pcg(
+    pub(super) fn solve(
         &mut self,
+        (device, on): (&mut Device, &Resident),
+        (n, e, m): (usize, usize, usize),
         settings: PcgSettings,
         started: Option<PcgStart>,
     ) -> Result<Direction, GpuError> {
-        let (n, e) = self.counts();
-        let m = self.materials.len();
-        let precision = self.precision;
+        let precision = on.precision;
         let PcgStart {
             values: start,
             status,
         } = match started {
             Some(start) => start,
             None => {
-                self.prepare_pcg_start();
-                self.device.write_params(&self.ctx);
-                self.device.reset_status(&self.ctx);
-                let mut encoder = self.encoder();
+                Self::prepare_start(device, on);
+                device.write_params(&on.ctx);
+                device.reset_status(&on.ctx);
+                let mut encoder = on.encoder();
                 let results = {
-                    let mut pass = self.device.begin(&mut encoder);
-                    self.record_pcg_start(&mut pass)
+                    let mut pass = device.begin(&mut encoder);
+                    Self::record_start(device, &mut pass, (n, e, m))
                 };
-                let (values, status) = self.device.read(&self.ctx, encoder, &results)?;
+                let (values, status) = device.read(&on.ctx, encoder, &results)?;
                 PcgStart {
                     values: [values[0], values[1]],
                     status,
@@ -158,17 +158,17 @@ impl GpuCoupledBackend {
             report.status = PcgStatus::BudgetExhausted;
             return Ok(Direction::Solved(report));
         }
-        self.device.params.diagonal = 0;
-        self.device.params.mode = 1;
-        self.device.write_params(&self.ctx);
+        device.params.diagonal = 0;
+        device.params.mode = 1;
+        device.write_params(&on.ctx);
         let mut recorded = 0;
-        let mut chunk = self.pcg.chunk.max(2);
+        let mut chunk = self.chunk.max(2);
         loop {
             let k = chunk.min(settings.max_iterations - recorded);
-            let mut encoder = self.encoder();
+            let mut encoder = on.encoder();
             let mut at = [0; 3];
             {
-                let device = &self.device;
+                let device = &*device;
                 let mut pass = device.begin(&mut encoder);
                 for j in 0..k {
                     if recorded + j > 0 {
@@ -195,15 +195,15 @@ impl GpuCoupledBackend {
                     residual: report.initial_residual,
                     ..CgState::default()
                 };
-                self.ctx
+                on.ctx
                     .queue
-                    .write_buffer(&self.device.cg, 0, &state.bytes(precision));
+                    .write_buffer(&device.cg, 0, &state.bytes(precision));
             }
-            self.device.reset_status(&self.ctx);
+            device.reset_status(&on.ctx);
             recorded += k;
-            let state = self.read_cg(encoder)?;
+            let state = self.read_cg((device, on), encoder)?;
             if state.stopped != 0 {
-                self.pcg.chunk = state.iterations;
+                self.chunk = state.iterations;
                 return state.report(report.initial_residual).map(Direction::Solved);
             }
             if recorded >= settings.max_iterations {
@@ -219,13 +219,17 @@ impl GpuCoupledBackend {
 
     /// Submits `encoder` after recording the copies of the status words and
     /// CgState into the probe; waits, refuses cut loops, returns the state.
-    fn read_cg(&self, mut encoder: wgpu::CommandEncoder) -> Result<CgState, GpuError> {
-        let len = CgState::len(self.precision);
-        let probe = &self.pcg.buffer;
-        encoder.copy_buffer_to_buffer(&self.device.status, 0, probe, 0, 4 * STATUS_WORDS as u64);
-        encoder.copy_buffer_to_buffer(&self.device.cg, 0, probe, STATE_AT, len);
-        let bytes = self.ctx.submit_and_read(encoder, probe, STATE_AT + len)?;
+    fn read_cg(
+        &self,
+        (device, on): (&Device, &Resident),
+        mut encoder: wgpu::CommandEncoder,
+    ) -> Result<CgState, GpuError> {
+        let len = CgState::len(on.precision);
+        let probe = &self.buffer;
+        encoder.copy_buffer_to_buffer(&device.status, 0, probe, 0, 4 * STATUS_WORDS as u64);
+        encoder.copy_buffer_to_buffer(&device.cg, 0, probe, STATE_AT, len);
+        let bytes = on.ctx.submit_and_read(encoder, probe, STATE_AT + len)?;
         refuse_cut_loops_of(&status_words(&bytes))?;
-        Ok(CgState::parse(&bytes[STATE_AT as usize..], self.precision))
+        Ok(CgState::parse(&bytes[STATE_AT as usize..], on.precision))
     }
 }

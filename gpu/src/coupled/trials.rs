@@ -26,12 +26,12 @@
 use hyperpbd_core::GpuError;
 use hyperpbd_core::implicit::line_search::MAX_HALVINGS;
 
-use super::GpuCoupledBackend;
-use super::device::{Params, Reduction};
+use super::device::{Device, Params, Reduction};
 use super::entries::{Entry, region};
 use crate::Precision;
 use crate::barrier::{STATUS_WORDS, status_words};
 use crate::params::{push_reals, read_reals, real_size};
+use crate::resident_backend::Resident;
 
 /// Trials a batch can hold: every trial of one search.
 const MOST: usize = MAX_HALVINGS as usize + 1;
@@ -67,37 +67,37 @@ impl TrialProbe {
             steps: ctx.storage("trial steps", &vec![0u8; MOST * 8])?,
         })
     }
-}
 
-impl GpuCoupledBackend {
     /// (F's change, moved) of each trial step in `steps` (≤ MOST) from
-    /// R_X along R_DIRECTION, as [`GpuCoupledBackend::trial`] gives them
-    /// one at a time; R_TRIAL is left at the last one.
-    pub(super) fn trials(&mut self, steps: &[f64]) -> Result<Vec<(f64, bool)>, GpuError> {
-        let (n, e) = self.counts();
-        let precision = self.precision;
+    /// R_X along R_DIRECTION, as newton.rs's `trial` gives them one at a
+    /// time; R_TRIAL is left at the last one.
+    pub(super) fn trials(
+        &self,
+        (device, on): (&Device, &Resident),
+        (n, e, m): (usize, usize, usize),
+        steps: &[f64],
+    ) -> Result<Vec<(f64, bool)>, GpuError> {
+        let precision = on.precision;
         let r = real_size(precision) as u64;
         let mut bytes = Vec::new();
         push_reals(&mut bytes, steps, precision);
-        self.ctx
-            .queue
-            .write_buffer(&self.trial_probe.steps, 0, &bytes);
-        self.device.write_params(&self.ctx);
-        self.device.reset_status(&self.ctx);
+        on.ctx.queue.write_buffer(&self.steps, 0, &bytes);
+        device.write_params(&on.ctx);
+        device.reset_status(&on.ctx);
         let at = step_offset(precision);
-        let mut encoder = self.encoder();
-        let probe = &self.trial_probe.staging;
+        let mut encoder = on.encoder();
+        let probe = &self.staging;
         let mut results = Vec::with_capacity(steps.len());
         for j in 0..steps.len() {
-            let (device, steps) = (&self.device, &self.trial_probe.steps);
+            let steps = &self.steps;
             encoder.copy_buffer_to_buffer(steps, j as u64 * r, &device.params_buffer, at, r);
             device.pass(&mut encoder, Entry::Trial, n);
-            device.load_point(&mut encoder, &self.state, region::TRIAL);
+            device.load_point(&mut encoder, &on.state, region::TRIAL);
             let (own, coupled) = {
                 let mut pass = device.begin(&mut encoder);
                 device.dispatch(&mut pass, Entry::ParticleChanges, n);
                 device.dispatch(&mut pass, Entry::ElementChanges, e);
-                device.dispatch(&mut pass, Entry::MaterialChanges, self.materials.len());
+                device.dispatch(&mut pass, Entry::MaterialChanges, m);
                 (
                     device.reduce_in(&mut pass, Reduction::SumA),
                     device.reduce_in(&mut pass, Reduction::SumE),
@@ -115,12 +115,10 @@ impl GpuCoupledBackend {
             results.push([own, coupled]);
         }
         let words = 4 * STATUS_WORDS as u64;
-        encoder.copy_buffer_to_buffer(&self.device.status, 0, probe, STATUS_AT, words);
-        let read = self
-            .ctx
-            .submit_and_read(encoder, probe, STATUS_AT + words)?;
+        encoder.copy_buffer_to_buffer(&device.status, 0, probe, STATUS_AT, words);
+        let read = on.ctx.submit_and_read(encoder, probe, STATUS_AT + words)?;
         super::material::refuse_cut_loops_of(&status_words(&read[STATUS_AT as usize..]))?;
-        let h2 = self.plan.h * self.plan.h;
+        let h2 = on.plan.h * on.plan.h;
         Ok((0..steps.len())
             .map(|j| {
                 // A reduction over no terms is its pad (Device::read).

@@ -55,7 +55,7 @@ pub(crate) struct Call {
     pub factors: u32,
     /// In a batch: this world's own plan has no such call (a friction or
     /// damping response the union of the worlds' stages added,
-    /// backend/union.rs); the world skips it. Per world, so not part of
+    /// gpu/src/batch/union.rs); the world skips it. Per world, so not part of
     /// [`Call::same_shape`].
     pub absent: bool,
     pub alpha_tilde: f64,

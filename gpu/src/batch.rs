@@ -39,148 +39,23 @@
 //! frictionless branch, as its own run does: an exact identity).
 //! Guards, adaptive steps and the small schedule are refused in a batch.
 
-use std::borrow::Cow;
+mod union;
 
 use hyperpbd_core::{Backend, BackendError, GpuError, Plan, State, StepReport, check_state};
 
-use super::GpuBackend;
-use super::contact_step::contact_report;
-use super::union::Union;
+use crate::backend::contact_step::contact_report;
+use crate::backend::status::{StatusReader, refuse_cut_loops};
+use crate::backend::worlds::Worlds;
+use crate::backend::{GpuBackend, XpbdStep};
 use crate::contact::Outcome;
 use crate::context::DeviceSource;
 use crate::params::read_reals;
+use crate::resident_backend::ResidentBackend;
 use crate::xpbd::Families;
 use crate::xpbd::call::Call;
 use crate::xpbd::schedule::{Schedule, StepMode};
 use crate::{Precision, SceneOrigin};
-
-/// Every world's plan, initial state, rest values and call blocks
-/// (world 0's plan is the backend's own; [`lay_out`] makes the last two).
-#[derive(Clone, Copy)]
-pub(crate) struct Worlds<'a> {
-    pub plans: &'a [Plan],
-    pub states: &'a [State],
-    pub rest: &'a [f64],
-    pub calls: &'a [Call],
-}
-
-/// What a backend's buffers hold: world 0's arrays (borrowed) for one
-/// world, every world's, world-major, for a batch.
-pub(super) struct WorldArrays<'a> {
-    /// W.
-    pub count: u32,
-    /// Every world's plan (as it runs: the union's stages).
-    pub plans: &'a [Plan],
-    pub state: Cow<'a, State>,
-    pub inverse_mass: Cow<'a, [f64]>,
-    pub force: Cow<'a, [f64]>,
-    pub gravity_scale: Cow<'a, [f64]>,
-    pub rest: &'a [f64],
-    pub calls: &'a [Call],
-    /// step.wgsl's world strides (none for one world).
-    pub constants: Vec<(&'static str, f64)>,
-}
-
-impl<'a> WorldArrays<'a> {
-    /// World 0 alone.
-    pub fn one(
-        plan: &'a Plan,
-        state: &'a State,
-        families: &'a Families,
-        schedule: &'a Schedule,
-    ) -> Self {
-        WorldArrays {
-            count: 1,
-            plans: std::slice::from_ref(plan),
-            state: Cow::Borrowed(state),
-            inverse_mass: Cow::Borrowed(&plan.inverse_mass),
-            force: Cow::Borrowed(&plan.force),
-            gravity_scale: Cow::Borrowed(&plan.gravity_scale),
-            rest: &families.rest,
-            calls: &schedule.calls,
-            constants: Vec::new(),
-        }
-    }
-
-    /// Every world of `worlds`, world-major, for world 0's `families` and
-    /// `schedule`.
-    pub fn batch(
-        worlds: Worlds<'a>,
-        families: &Families,
-        schedule: &Schedule,
-    ) -> Result<Self, BackendError> {
-        let w = worlds.plans.len();
-        let first = &worlds.plans[0];
-        let n = first.particle_count();
-        let largest = schedule
-            .calls
-            .iter()
-            .map(|c| c.count as usize)
-            .max()
-            .unwrap_or(0);
-        if worlds.rest.len() != w * families.rest.len()
-            || worlds.calls.len() != w * schedule.calls.len()
-        {
-            return Err(GpuError::Other {
-                message: "a batch's worlds were laid out for another schedule".into(),
-            }
-            .into());
-        }
-        if worlds.plans.iter().any(|p| p.motion.is_some()) {
-            return Err(GpuError::Unsupported {
-                what: "prescribed \"motion\" in a batch of worlds (one world at a time runs it)"
-                    .into(),
-            }
-            .into());
-        }
-        if w.saturating_mul(largest.max(n)) > (u32::MAX / 2) as usize {
-            return Err(GpuError::Unsupported {
-                what: format!("{w} worlds of {n} particles: over 2^31 invocations per dispatch"),
-            }
-            .into());
-        }
-        let concat = |part: fn(&Plan) -> &[f64]| -> Vec<f64> {
-            worlds
-                .plans
-                .iter()
-                .flat_map(|p| part(p).iter().copied())
-                .collect()
-        };
-        let state = State {
-            dim: first.dim,
-            positions: worlds
-                .states
-                .iter()
-                .flat_map(|s| s.positions.iter().copied())
-                .collect(),
-            velocities: worlds
-                .states
-                .iter()
-                .flat_map(|s| s.velocities.iter().copied())
-                .collect(),
-        };
-        let constants = vec![
-            ("WORLDS", w as f64),
-            ("WORLD_PARTICLES", n as f64),
-            ("WORLD_REST", families.rest.len() as f64),
-            ("WORLD_SLOTS", families.slots as f64),
-            ("WORLD_CALLS", schedule.calls.len() as f64),
-            ("WORLD_CHUNKS", schedule.chunks.len() as f64),
-            ("WORLD_REPORT", (2 * first.families.len()) as f64),
-        ];
-        Ok(WorldArrays {
-            count: w as u32,
-            plans: worlds.plans,
-            state: Cow::Owned(state),
-            inverse_mass: Cow::Owned(concat(|p| &p.inverse_mass)),
-            force: Cow::Owned(concat(|p| &p.force)),
-            gravity_scale: Cow::Owned(concat(|p| &p.gravity_scale)),
-            rest: worlds.rest,
-            calls: worlds.calls,
-            constants,
-        })
-    }
-}
+use union::Union;
 
 /// Every world's rest values and call blocks, world after world, each
 /// laid out as world 0's (positions relative to `origin`; the fused
@@ -324,19 +199,11 @@ impl GpuBatch {
             rest: &rest,
             calls: &calls,
         };
-        let backend = ctx
-            .building(|| {
-                GpuBackend::build(
-                    ctx.clone(),
-                    ran[0].clone(),
-                    &states[0],
-                    precision,
-                    origin,
-                    Some(StepMode::Fused),
-                    Some(worlds),
-                )
-            })
+        let how = (precision, origin, Some(StepMode::Fused));
+        let (on, step) = ctx
+            .building(|| XpbdStep::build(&ctx, ran[0].clone(), &states[0], how, Some(worlds)))
             .map_err(WorldError::batch)?;
+        let backend = ResidentBackend::from_parts(on, step);
         Ok(GpuBatch { backend, plans })
     }
 
@@ -363,21 +230,21 @@ impl GpuBatch {
     pub fn step(&mut self) -> Result<Vec<StepReport>, WorldError> {
         // With particle contact: every world's lists fitted (a world whose
         // did not grew its own and the step ran again), one outcome each.
-        let (block, outcomes) = match self.backend.contacts.is_some() {
+        let ResidentBackend { on, step, .. } = &mut self.backend;
+        let (block, outcomes) = match step.has_contacts() {
             true => {
-                let b = &mut self.backend;
                 let (outcomes, block) =
-                    b.submit_fitting_contact_step().map_err(WorldError::batch)?;
-                b.refuse_cut_loops(&block).map_err(WorldError::batch)?;
+                    (step.submit_fitting_contact_step(on)).map_err(WorldError::batch)?;
+                refuse_cut_loops(on, &block).map_err(WorldError::batch)?;
                 (block, Some(outcomes))
             }
-            false => (self.backend.submit_step().map_err(WorldError::batch)?, None),
+            false => (step.submit_step(on).map_err(WorldError::batch)?, None),
         };
-        if self.backend.failure(&block).is_some() {
+        if StatusReader::failure(&block).is_some() {
             let words: &[u32] = bytemuck::cast_slice(&block[..16]);
             return Err(self.diagnose(words[3] as usize));
         }
-        let values = read_reals(&block[16..], self.backend.precision);
+        let values = read_reals(&block[16..], self.backend.precision());
         let per_world = values.len() / self.plans.len();
         Ok(self
             .plans
@@ -421,9 +288,8 @@ impl GpuBatch {
     pub fn write_state(&mut self, world: usize, state: &State) -> Result<(), BackendError> {
         let plan = world_plan(&self.plans, world)?;
         let first = world * plan.particle_count();
-        self.backend
-            .state
-            .write_from(&self.backend.ctx, plan, first, state)
+        let on = &mut self.backend.on;
+        on.state.write_from(&on.ctx, plan, first, state)
     }
 
     /// Replaces world `world`'s external forces (flat, `dim` per particle;
@@ -432,16 +298,15 @@ impl GpuBatch {
     pub fn set_forces(&mut self, world: usize, forces: &[f64]) -> Result<(), BackendError> {
         let plan = world_plan(&self.plans, world)?;
         let first = world * plan.particle_count();
-        self.backend
-            .state
-            .set_forces_from(&self.backend.ctx, plan, first, forces)
+        let on = &mut self.backend.on;
+        on.state.set_forces_from(&on.ctx, plan, first, forces)
     }
 
     /// The failed step's error: roll every world back, then run world
     /// `world` (the lowest failing one) alone on a backend of its own plan
     /// from its state, on this device, and take its error.
     fn diagnose(&mut self, world: usize) -> WorldError {
-        let rolled_back = self.backend.rollback();
+        let rolled_back = self.backend.on.state.rollback(&self.backend.on.ctx);
         let alone = rolled_back
             .map_err(BackendError::from)
             .and_then(|()| self.read_states())
@@ -456,19 +321,11 @@ impl GpuBatch {
                     .into());
                 };
                 let b = &self.backend;
-                let ctx = b.ctx.clone();
-                let origin = b.origin().clone();
-                let mut single = b.ctx.building(|| {
-                    GpuBackend::build(
-                        ctx.clone(),
-                        plan.clone(),
-                        state,
-                        b.precision,
-                        origin,
-                        Some(StepMode::Fused),
-                        None,
-                    )
-                })?;
+                let how = (b.precision(), b.origin().clone(), Some(StepMode::Fused));
+                let ctx = &b.on.ctx;
+                let (on, step) =
+                    ctx.building(|| XpbdStep::build(ctx, plan.clone(), state, how, None))?;
+                let mut single = ResidentBackend::from_parts(on, step);
                 match single.step() {
                     Err(e) => Ok(e),
                     Ok(_) => Err(GpuError::Other {
