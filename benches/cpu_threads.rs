@@ -14,9 +14,9 @@
 //!                 alternating; the median frame is reported
 //! speed-up        t(1 thread) / t(all threads); efficiency = speed-up / threads
 //! Taichi peer     peer cloth 128² against benches/peers/taichi_cloth.py on
-//!                 one thread and on all cores, run in turn (ours, Taichi,
-//!                 ours again): best batch and best frame of each, and the
-//!                 issue's ratio (all threads against Taichi on one)
+//!                 one thread and on all cores, in three rounds of ours then
+//!                 Taichi's: the median batch of each (the best beside it),
+//!                 and the issue's ratio (all threads against Taichi on one)
 //! ```
 //! `cargo bench --bench cpu_threads [-- peer [SIZES…]|column|taichi]`;
 //! prints the `cpu-threads` table rows of docs/performance-log.md and then (with no filter)
@@ -33,6 +33,9 @@ const WARMUP_FRAMES: usize = 10;
 
 /// Rounds of the interleaved peer-cloth measurement.
 const ROUNDS: usize = 9;
+
+/// Rounds of ours-then-Taichi in the Taichi comparison.
+const PEER_ROUNDS: usize = 3;
 
 /// Frames of the column measurement.
 const COLUMN_FRAMES: usize = 3;
@@ -207,32 +210,43 @@ fn kernels(args: &[String]) {
 }
 
 /// `taichi`: the peer cloth 128² against the Taichi peer
-/// (`benches/peers/taichi_cloth.py`, one thread and all cores), run in
-/// turn: ours, Taichi, ours again. Like the peer script, ours is the best
-/// of the batches' mean frames (200 frames a batch) and the best single
-/// frame; our better run of the two is kept. Skipped, saying so, where
-/// python3 has no Taichi.
+/// (`benches/peers/taichi_cloth.py`, one thread and all cores), in
+/// [`PEER_ROUNDS`] rounds of ours (9 interleaved batches of 200 frames on
+/// one thread and on all cores), then the peer on one thread and on all
+/// cores (9 batches each), so a drift of the machine hits both sides
+/// alike. Each side's number is the median over the rounds of its median
+/// batch (the best batch beside it). Skipped, saying so, where python3 has
+/// no Taichi.
 fn taichi(threads: usize) {
     let n = 128;
-    // (best batch, best frame) of the peer on `peer_threads` (0: all).
+    // (median batch, best batch) of the peer on `peer_threads` (0: all).
     let peer = |peer_threads: usize| -> Option<(f64, f64)> {
         let script = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/peers/taichi_cloth.py");
         let output = std::process::Command::new("python3")
-            .args([script, "--n", &n.to_string()])
+            .args([
+                script,
+                "--n",
+                &n.to_string(),
+                "--repeats",
+                &ROUNDS.to_string(),
+            ])
             .args(["--threads", &peer_threads.to_string()])
             .output()
             .ok()?;
         let text = String::from_utf8_lossy(&output.stdout);
         let line = text.lines().find(|l| l.starts_with("taichi peer_cloth"))?;
-        let words: Vec<&str> = line.split_whitespace().collect();
-        let batch: f64 = words.get(3)?.parse().ok()?;
-        let frame: f64 = words.iter().rev().nth(1)?.parse().ok()?;
-        Some((batch * 1e-3, frame * 1e-3))
+        // "… median batch M ms/frame, best batch B ms/frame …"
+        let after = |key: &str| -> Option<f64> {
+            let rest = &line[line.find(key)? + key.len()..];
+            rest.split_whitespace().next()?.parse().ok()
+        };
+        Some((after("median batch ")? * 1e-3, after("best batch ")? * 1e-3))
     };
     let scene = scenes::peer_cloth(n);
-    let best = |rounds: &[(f64, f64)]| {
-        let batch = rounds.iter().map(|t| t.0).fold(f64::INFINITY, f64::min);
-        (batch, summary(rounds).1)
+    let batches = |rounds: &[(f64, f64)]| {
+        let means: Vec<f64> = rounds.iter().map(|t| t.0).collect();
+        let best = means.iter().copied().fold(f64::INFINITY, f64::min);
+        (median(means), best)
     };
     let ours = || {
         let (mut one, mut all) = (backend(&scene, 1), backend(&scene, threads));
@@ -248,18 +262,30 @@ fn taichi(threads: usize) {
             hash(&mut all),
             "peer cloth {n}²: states differ"
         );
-        (best(&serial), best(&parallel))
+        (batches(&serial), batches(&parallel))
     };
-    let first = ours();
-    let (Some(taichi_serial), Some(taichi_all)) = (peer(1), peer(0)) else {
-        println!("taichi peer: not run (python3 cannot import taichi)");
-        return;
-    };
-    let second = ours();
-    let better = |a: (f64, f64), b: (f64, f64)| (a.0.min(b.0), a.1.min(b.1));
-    let (serial, parallel) = (better(first.0, second.0), better(first.1, second.1));
+    // Per side: the rounds' (median batch, best batch).
+    let mut sides: [Vec<(f64, f64)>; 4] = Default::default();
+    for _ in 0..PEER_ROUNDS {
+        let (serial, parallel) = ours();
+        let (Some(taichi_serial), Some(taichi_all)) = (peer(1), peer(0)) else {
+            println!("taichi peer: not run (python3 cannot import taichi)");
+            return;
+        };
+        for (side, t) in sides
+            .iter_mut()
+            .zip([serial, parallel, taichi_serial, taichi_all])
+        {
+            side.push(t);
+        }
+    }
+    // (median of the rounds' median batches, best batch of all).
+    let [serial, parallel, taichi_serial, taichi_all] = sides.map(|rounds| {
+        let best = rounds.iter().map(|t| t.1).fold(f64::INFINITY, f64::min);
+        (median(rounds.iter().map(|t| t.0).collect()), best)
+    });
     println!(
-        "| peer cloth {n}² | hyperpbd, best batch | Taichi, best batch | Taichi / hyperpbd | hyperpbd, best frame | Taichi, best frame | Taichi / hyperpbd |"
+        "| peer cloth {n}² | hyperpbd, median batch | Taichi, median batch | Taichi / hyperpbd | hyperpbd, best batch | Taichi, best batch | Taichi / hyperpbd |"
     );
     println!("|---|---:|---:|---:|---:|---:|---:|");
     for (what, ours, theirs) in [
