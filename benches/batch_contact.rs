@@ -4,7 +4,8 @@
 //! ```text
 //! worlds   8 × pit3d(16, 16): 4 096 balls, 8 substeps × 2 iterations,
 //!          collisions.friction = 0, 0.1, …, 0.7 (world 0: the collide
-//!          kernel's frictionless branch, as its own run); and 8 × a small
+//!          kernel's frictionless branch, as its own run); 8 × the 16k
+//!          pit, pit3d(26, 24): 16 224 balls (issue 35's number); and 8 × a small
 //!          pit, pit3d(4, 3): 48 balls (where the dispatches, not the
 //!          balls, are the cost)
 //! round    the batch steps FRAMES frames, then each world's own
@@ -17,7 +18,7 @@
 //!          run's, bit for bit (State::hash over to_bits), in gpu-f64 and
 //!          — on one adapter, one origin per world — reported for gpu-f32
 //! ```
-//! `cargo bench --bench batch_contact [-- 4k|48|f64|f32]` (a row runs when
+//! `cargo bench --bench batch_contact [-- 4k|16k|48|f64|f32]` (a row runs when
 //! its name, e.g. `4k f64`, holds every filter); without `--bench` (as
 //! under `cargo test --all-targets`) a smoke run: 2 worlds of 18 balls.
 
@@ -127,6 +128,7 @@ fn main() {
     let rows = match full {
         true => vec![
             ("4k", scenes::pit3d(16, 16), 8, 3, 5),
+            ("16k", scenes::pit3d(26, 24), 8, 3, 2),
             ("48", scenes::pit3d(4, 3), 8, 5, 40),
         ],
         false => vec![("smoke", scenes::pit3d(3, 2), 2, 1, 2)],
