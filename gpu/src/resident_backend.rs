@@ -54,7 +54,11 @@ impl Resident {
 }
 
 /// A step a [`ResidentBackend`] runs: its own data and kernels, loaded on
-/// a device with the plan and state it then works on.
+/// a device with the plan and state it then works on. Implemented by the
+/// crate's three steps ([`crate::XpbdStep`], [`crate::Minimising`] over
+/// [`crate::BarrierStep`] and [`crate::CoupledStep`]); `load` takes the
+/// crate's own device source, so the trait is not for implementing outside
+/// it (it is public because the backend types name it).
 pub trait ResidentStep: Sized {
     /// What loading takes besides the plan, state and precision.
     type Options: Default;
