@@ -187,13 +187,16 @@ fn world_reals(op: u32, c: u32) {
                 call.absent = calls[k].absent;
                 call.factor = calls[k].factor;
             }
+            case OP_GUARD_SPEED: {
+                call.factor = calls[k].factor;
+            }
             case OP_PROJECT_MATERIAL: {
                 call.alpha_tilde = calls[k].alpha_tilde;
                 call.friction = calls[k].friction;
                 call.factor = calls[k].factor;
             }
             case OP_PROJECT_DISTANCE, OP_PROJECT_SIMPLEX, OP_PROJECT_ORIENTED,
-                 OP_PROJECT_EXPRESSION, OP_RESIDUAL, OP_GUARD_MEASURE, OP_GUARD_SPEED: {
+                 OP_PROJECT_EXPRESSION, OP_RESIDUAL, OP_GUARD_MEASURE: {
                 call.alpha_tilde = calls[k].alpha_tilde;
             }
             case OP_VELOCITY, OP_MOTION, OP_HOST, OP_NONE: {}
