@@ -259,15 +259,18 @@ impl GpuBatch {
             }
             false => (step.submit_step(on).map_err(WorldError::batch)?, None),
         };
-        // The lowest failing world (status word 3; 0 with one world).
-        let failed_from = StatusReader::failure(&block).map(|_| {
+        // The lowest failing world (status word 3; 0 with one world). The
+        // worlds are retried alone from it on — from world 0 with particle
+        // contact, whose kernels skip every world's later calls after a
+        // failure (contact.wgsl's `failed_before`): no world's result stands.
+        let lowest = StatusReader::failure(&block).map(|_| {
             let words: &[u32] = bytemuck::cast_slice(&block[..16]);
-            if words[3] == crate::xpbd::NONE {
-                0
-            } else {
-                words[3] as usize
+            match words[3] {
+                crate::xpbd::NONE => 0,
+                world => world as usize,
             }
         });
+        let failed_from = lowest.map(|w| if outcomes.is_some() { 0 } else { w });
         let values = read_reals(&block[16..], self.backend.precision());
         let per_world = values.len() / self.plans.len();
         let mut reports = Vec::with_capacity(self.plans.len());
@@ -281,7 +284,7 @@ impl GpuBatch {
                     .retries
                     .step_world(&mut self.backend.on, &self.plans, k);
                 reports.push(match alone {
-                    Ok(r) if failed_from != Some(k) || r.retries() > 0 => r,
+                    Ok(r) if lowest != Some(k) || r.retries() > 0 => r,
                     Ok(_) => return Err(self.roll_back(k, passes_alone(k))),
                     Err(e) => return Err(self.roll_back(k, e)),
                 });
