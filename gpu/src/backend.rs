@@ -241,6 +241,11 @@ impl XpbdStep {
         stage.submit_fitting(on, &program.status, &record)
     }
 
+    /// The status words and report of the step (every world's).
+    pub(crate) fn status(&self) -> &StatusReader {
+        &self.program.status
+    }
+
     /// Whether the plan has particle contact (a contact stage).
     pub(crate) fn has_contacts(&self) -> bool {
         self.contacts.is_some()

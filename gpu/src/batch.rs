@@ -259,19 +259,13 @@ impl GpuBatch {
             }
             false => (step.submit_step(on).map_err(WorldError::batch)?, None),
         };
-        // The lowest failing world (status word 3; 0 with one world). The
-        // worlds are retried alone from it on — from world 0 with particle
-        // contact, whose kernels skip every world's later calls after a
-        // failure (contact.wgsl's `failed_before`): no world's result stands.
-        let lowest = StatusReader::failure(&block).map(|_| {
-            let words: &[u32] = bytemuck::cast_slice(&block[..16]);
-            match words[3] {
-                crate::xpbd::NONE => 0,
-                world => world as usize,
-            }
-        });
-        let failed_from = lowest.map(|w| if outcomes.is_some() { 0 } else { w });
-        let values = read_reals(&block[16..], self.backend.precision());
+        // The worlds the status names as failed, and those retried alone:
+        // the same — but every world with particle contact, whose kernels
+        // skip every world's later calls after a failure (contact.wgsl's
+        // `failed_before`), so that no world's result stands.
+        let status = step.status();
+        let (named, retried) = failed_worlds(status, &block, self.plans.len(), outcomes.is_some());
+        let values = read_reals(status.report_of(&block), self.backend.precision());
         let per_world = values.len() / self.plans.len();
         let mut reports = Vec::with_capacity(self.plans.len());
         for ((k, plan), report) in self.plans.iter().enumerate().zip(
@@ -279,12 +273,12 @@ impl GpuBatch {
                 .chunks(per_world.max(1))
                 .chain(std::iter::repeat(&[][..])),
         ) {
-            if failed_from.is_some_and(|w0| k >= w0) {
+            if retried[k] {
                 let alone = self
                     .retries
                     .step_world(&mut self.backend.on, &self.plans, k);
                 reports.push(match alone {
-                    Ok(r) if lowest != Some(k) || r.retries() > 0 => r,
+                    Ok(r) if !named[k] || r.retries() > 0 => r,
                     Ok(_) => return Err(self.roll_back(k, passes_alone(k))),
                     Err(e) => return Err(self.roll_back(k, e)),
                 });
@@ -360,6 +354,37 @@ impl GpuBatch {
             source: source.after_rollback(on.state.rollback(&on.ctx)),
         }
     }
+}
+
+/// Per world of `worlds`, whether the status `block` says it failed, and
+/// whether it is retried alone (see `GpuBatch::step`); nothing when the
+/// step did not fail. Failed: the worlds whose own word is set — only the
+/// lowest failing world (status word 3) with particle `contact`, whose
+/// kernels set no world words, or with one world. Retried: those, or
+/// every world with `contact`, or every world from the lowest failing one
+/// on if its own word is missing.
+fn failed_worlds(
+    status: &StatusReader,
+    block: &[u8],
+    worlds: usize,
+    contact: bool,
+) -> (Vec<bool>, Vec<bool>) {
+    let Some(_) = StatusReader::failure(block) else {
+        return (vec![false; worlds], vec![false; worlds]);
+    };
+    let lowest = u32::from_le_bytes([block[12], block[13], block[14], block[15]]);
+    let lowest = if lowest == crate::xpbd::NONE {
+        0
+    } else {
+        lowest as usize
+    };
+    let own = status.failed_worlds(block);
+    if !contact && own.get(lowest) == Some(&true) {
+        return (own.clone(), own);
+    }
+    let named = (0..worlds).map(|k| k == lowest).collect();
+    let retried = (0..worlds).map(|k| contact || k >= lowest).collect();
+    (named, retried)
 }
 
 /// A world the batch step's status names, which its own run accepts at

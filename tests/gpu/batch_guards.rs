@@ -44,12 +44,14 @@ fn substeps(report: &StepReport) -> Vec<u32> {
     report.attempts.iter().map(|a| a.substeps).collect()
 }
 
-/// Every world of [`worlds`] batched in `precision` against its own single
+/// Every world of `scenes` batched in `precision` against its own single
 /// adaptive run on the batch's origin, `frames` frames: reports equal,
-/// states bit for bit where the adapter claims it.
+/// states bit for bit where the adapter claims it; the batch step's host
+/// waits 1 + those of the worlds retried alone (the rejected ones; every
+/// world of a failed step with `contact`). Each world's retries.
 fn worlds_are_their_own_adaptive_runs(
     test: &str,
-    scenes: &[Scene],
+    (scenes, contact): (&[Scene], bool),
     precision: Precision,
     frames: usize,
 ) -> Vec<usize> {
@@ -72,8 +74,13 @@ fn worlds_are_their_own_adaptive_runs(
     for frame in 0..frames {
         let reports = gpu.step().expect("batch step");
         let states = gpu.read_states().expect("states");
+        let (mut waits, mut all_waits, mut failed) = (1, 1, false);
         for (k, single) in singles.iter_mut().enumerate() {
             let alone = single.step().expect("single step");
+            if alone.retries() > 0 {
+                (waits, failed) = (waits + alone.host_waits, true);
+            }
+            all_waits += alone.host_waits;
             let name = format!("{test} {precision}: world {k} frame {frame}");
             println!("{name}: attempts {:?}", substeps(&reports[k]));
             assert_eq!(reports[k], alone, "{name}: the reports");
@@ -83,9 +90,12 @@ fn worlds_are_their_own_adaptive_runs(
                 assert_eq!(bits(&states[k]), bits(&own), "{name}: the state");
             }
         }
-        println!(
-            "{test} {precision}: frame {frame} host waits {}",
-            reports[0].host_waits
+        let expected = if contact && failed { all_waits } else { waits };
+        let got = reports[0].host_waits;
+        println!("{test} {precision}: frame {frame} host waits {got} (expected {expected})");
+        assert_eq!(
+            got, expected,
+            "{test} {precision} frame {frame}: host waits"
         );
     }
     retried
@@ -102,7 +112,7 @@ fn guarded_worlds_are_their_own_adaptive_runs_in_f64() {
     let test = "batch_guards f64";
     assert_mixed(&worlds_are_their_own_adaptive_runs(
         test,
-        &worlds(),
+        (&worlds(), false),
         Precision::F64,
         3,
     ));
@@ -113,7 +123,7 @@ fn guarded_worlds_are_their_own_adaptive_runs_in_f32() {
     let test = "batch_guards f32";
     assert_mixed(&worlds_are_their_own_adaptive_runs(
         test,
-        &worlds(),
+        (&worlds(), false),
         Precision::F32,
         2,
     ));
@@ -142,7 +152,7 @@ fn guarded_worlds_with_particle_contact_are_their_own_adaptive_runs() {
     let test = "batch_guards contact";
     assert_mixed(&worlds_are_their_own_adaptive_runs(
         test,
-        &scenes,
+        (&scenes, true),
         Precision::F64,
         2,
     ));
