@@ -27,7 +27,7 @@
 //! single-world adaptive step per world from w0 on (those that passed
 //! repeat their attempt 0) — host waits 1 + Σ_k the single run's.
 
-use hyperpbd_core::{Backend, BackendError, GpuError, Plan, State, StepReport};
+use hyperpbd_core::{Backend, BackendError, GpuError, Plan, StepReport};
 
 use crate::backend::{GpuBackend, XpbdStep};
 use crate::resident::ResidentState;
@@ -86,18 +86,6 @@ impl Retries {
 /// A backend of `plan` (one world of `batch`) on the batch's device, its
 /// origin and schedule mode; its state is copied in before each use.
 fn alone(batch: &Resident, plan: &Plan) -> Result<GpuBackend, BackendError> {
-    let n = plan.particle_count() * plan.dim;
-    let blank = State {
-        dim: plan.dim,
-        positions: vec![0.0; n],
-        velocities: vec![0.0; n],
-    };
-    let how = (
-        batch.precision,
-        batch.state.origin().clone(),
-        Some(StepMode::Fused),
-    );
-    let ctx = &batch.ctx;
-    let (on, step) = ctx.building(|| XpbdStep::build(ctx, plan.clone(), &blank, how, None))?;
+    let (on, step) = XpbdStep::build_beside(batch, plan.clone(), StepMode::Fused)?;
     Ok(ResidentBackend::from_parts(on, step))
 }
