@@ -14,13 +14,13 @@
 //! kernels     invocation t = world · count + index (step.wgsl's
 //!             `split_world`); WORLDS, WORLD_* are override constants, so
 //!             a one-world backend compiles to the single-world kernels
-//! failure     from the lowest failing world (status word 3) on, each
-//!             world is stepped alone on a backend of its own plan from
-//!             its start-of-step copy (retry.rs): a guard rejection is
-//!             retried with more substeps as its own adaptive run does,
-//!             the result put back in its place; an error that stays
-//!             fails the step: every world rolled back, the lowest such
-//!             world named with its own single run's error
+//! failure     each failed world (its status word; every world with
+//!             particle contact) is stepped alone on a backend of its own
+//!             plan from its start-of-step copy (retry.rs): a guard
+//!             rejection is retried with more substeps as its own
+//!             adaptive run does, the result put back in its place; an
+//!             error that stays fails the step: every world rolled back,
+//!             the lowest such world named with its own single run's error
 //! ```
 //! World k runs exactly its own single-world step: the same kernels on the
 //! same values in the same order, its parameters read from its own call

@@ -8,24 +8,26 @@
 //!              after it (step.wgsl, "Failure"), and no kernel reads
 //!              another world's records, so a world that did not fail
 //!              holds exactly its own attempt 0, whatever another did
-//! status[3]    w0 = the lowest failing world (0 with one world)
-//! world < w0   accepted at attempt 0: kept, report attempts = [s]
-//! world ≥ w0   (the status word names no other world) in world order:
-//!                x, v of its start-of-step copy and its force → a
-//!                backend of its own plan on this device (built on first
-//!                use, then kept); Backend::step there (core's
-//!                step_adaptive: attempts s, 2s, 4s, … as its single run);
-//!                x, v back into its place; its report is that run's
+//! status       status[4 + w] ≠ 0: world w failed (batch.rs,
+//!              `failed_worlds`; with particle contact, whose kernels
+//!              stop every world's later calls after a failure: all)
+//! accepted     kept, report attempts = [s]
+//! failed       in world order: x, v of its start-of-step copy and its
+//!                force → a backend of its own plan on this device (built
+//!                at its first retry, then kept, with its subdivided
+//!                steps); Backend::step there (core's step_adaptive:
+//!                attempts s, 2s, 4s, … as its single run); x, v back
+//!                into its place (device copies, no wait); its report is
+//!                that run's
 //! an error     (not a guard rejection, or rejected at every subdivision)
 //!              in the lowest such world: every world rolled back from
 //!              the batch's start-of-step copy, the error that world's own
 //! ```
-//! World k is its own single run, attempt for attempt: below w0 the batch
-//! ran its attempt 0 (batch.rs, union.rs) and its single run accepts that
-//! attempt; from w0 on it *is* its single run (the same plan, origin and
-//! kernels, from the same bytes). Cost of a failed batch step: one
-//! single-world adaptive step per world from w0 on (those that passed
-//! repeat their attempt 0) — host waits 1 + Σ_k the single run's.
+//! World k is its own single run, attempt for attempt: accepted, the
+//! batch ran its attempt 0 (batch.rs, union.rs) and its single run
+//! accepts that attempt; failed, it *is* its single run (the same plan,
+//! origin and kernels, from the same bytes). Host waits of a failed batch
+//! step: 1 + Σ over the retried worlds of their single run's.
 
 use hyperpbd_core::{Backend, BackendError, GpuError, Plan, StepReport};
 
