@@ -13,8 +13,11 @@
 //!          and W − 1 (their mean per step × W: every world runs the same
 //!          schedule, so W single runs cost W times one), and against the
 //!          CPU batch of the same W in this run
+//! guarded  the guarded material sweep of `guarded_worlds` (16 worlds, 12
+//!          and 60 frames from the start): a GpuBatch against the W single
+//!          adaptive GpuBackend runs, interleaved rounds, the median
 //! ```
-//! `cargo bench --bench batch_worlds [-- chain|damping|cloth]` (without `--bench`,
+//! `cargo bench --bench batch_worlds [-- chain|damping|cloth|guarded]` (without `--bench`,
 //! as under `cargo test --all-targets`: a smoke run of 1 and 16 worlds). The CPU variants step
 //! the same frames; the final states are asserted bit-identical, so a fast
 //! wrong answer cannot pass (the GPU batch's worlds are held to their own
@@ -168,6 +171,110 @@ fn measure_gpu(name: &str, (base, worlds): (&Scene, Worlds), counts: &[usize], c
     }
 }
 
+/// `count` worlds of a guarded material sweep: the 2D Neo-Hookean block
+/// of tests/common/guarded.rs (6² cells of 0.1 m, E = 2e5 Pa, ν = 0.3,
+/// one substep of 1/30 s) dropped at 40 m/s under the orientation guard,
+/// adaptive up to 2^6 substeps, onto a plane 3 m … 0 m lower
+/// (`obstacles[0].offset=-3:0:count`): each world's steps are rejected
+/// and retried in the frames where it lands, its own frames.
+fn guarded_worlds(count: usize) -> Vec<Scene> {
+    let mut b = hyperpbd::SceneBuilder::new(2)
+        .dt(1.0 / 30.0)
+        .substeps(1)
+        .iterations(10)
+        .gravity_along(1, -9.81);
+    b.soft_block(&hyperpbd::builders::BlockSpec {
+        cells: vec![6; 2],
+        origin: vec![0.0, 0.2],
+        spacing: 0.1,
+        mass: 0.1,
+        compliance: 1e-7,
+        edge_compliance: None,
+    });
+    b.hyperplane(vec![0.0, 1.0], 0.0, 0.0);
+    let mut base = b.build().expect("valid block");
+    let elements = base.constraints[0].elements.clone();
+    let law = hyperpbd::ConstraintKind::NeoHookean;
+    base.constraints = vec![hyperpbd::ConstraintFamily::material(
+        law, 2e5, 0.3, elements,
+    )];
+    for p in &mut base.particles {
+        p.velocity = Some(vec![0.0, -40.0]);
+    }
+    base.guards = Some(hyperpbd::Guards {
+        orientation: true,
+        ..hyperpbd::Guards::default()
+    });
+    base.adaptive = Some(hyperpbd::Adaptive {
+        max_subdivisions: 6,
+    });
+    (0..count)
+        .map(|k| {
+            let mut scene = base.clone();
+            let offset = -3.0 + 3.0 * k as f64 / (count.max(2) - 1) as f64;
+            if let Some(hyperpbd::Obstacle::Hyperplane { offset: o, .. }) =
+                scene.obstacles.first_mut()
+            {
+                *o = offset;
+            }
+            scene
+        })
+        .collect()
+}
+
+/// The guarded sweep's row (issue 35 item 5): gpu-f32, W worlds, `frames`
+/// steps from the start, one GpuBatch against the W single adaptive
+/// GpuBackend runs (loads not timed), `rounds` interleaved rounds after
+/// an untimed one; the median of batch / W single runs.
+fn measure_guarded(w: usize, frames: usize, rounds: usize) {
+    let precision = Precision::F32;
+    let Ok((adapter, _)) = hyperpbd::gpu::request_adapter(precision) else {
+        println!("SKIPPED guarded row: no adapter");
+        return;
+    };
+    let scenes = guarded_worlds(w);
+    let batch = Batch::new(&scenes).expect("one topology");
+    let mut ratios = Vec::new();
+    let (mut retried, mut waits) = (0, 0);
+    for round in 0..=rounds {
+        let mut gpu = GpuBatch::on_adapter(&adapter, &batch, precision).expect("gpu batch");
+        let start = Instant::now();
+        for _ in 0..frames {
+            let reports = gpu.step().expect("batch step");
+            waits += reports[0].host_waits;
+            retried += reports.iter().map(|r| r.retries()).sum::<usize>();
+        }
+        let batch_s = start.elapsed().as_secs_f64();
+        let mut alone_s = 0.0;
+        for s in &scenes {
+            let (plan, state) = (Plan::compile(s).expect("plan"), State::from_scene(s));
+            let mut b = GpuBackend::with_adapter(&adapter, plan, &state, precision).expect("gpu");
+            let start = Instant::now();
+            for _ in 0..frames {
+                b.step().expect("step");
+            }
+            alone_s += start.elapsed().as_secs_f64();
+        }
+        if round > 0 {
+            println!(
+                "| guarded material sweep, round {round} | {w} | {frames} frames | {:.3} s | {:.3} s | {:.3} |",
+                alone_s,
+                batch_s,
+                batch_s / alone_s
+            );
+            ratios.push(batch_s / alone_s);
+        }
+    }
+    ratios.sort_by(f64::total_cmp);
+    let per_round = (rounds + 1) as f64;
+    println!(
+        "| guarded material sweep, median of {rounds} | {w} | {:.0} retries, {:.0} host waits per batch run | | | **{:.3}** |",
+        retried as f64 / per_round,
+        waits as f64 / per_round,
+        ratios.get(ratios.len() / 2).copied().unwrap_or(f64::NAN)
+    );
+}
+
 fn main() {
     let filter: Vec<String> = std::env::args()
         .skip(1)
@@ -212,6 +319,20 @@ fn main() {
     }
     if wanted("cloth") {
         measure_gpu("cloth 16²", (&cloth, gravity), cloth_counts, &cloth_cpu);
+    }
+    if wanted("guarded") {
+        println!();
+        println!("| guarded (gpu-f32) | worlds | | W single runs | batch | batch / W runs |");
+        println!("|---|---:|---|---:|---:|---:|");
+        // 12 frames: every world lands (its retried frames weigh most);
+        // 60: it then rests, accepted in the batch.
+        let rows: &[(usize, usize, usize)] = match full {
+            true => &[(16, 12, 3), (16, 60, 3)],
+            false => &[(2, 4, 1)],
+        };
+        for &(w, frames, rounds) in rows {
+            measure_guarded(w, frames, rounds);
+        }
     }
     if !full {
         println!("smoke run; `cargo bench --bench batch_worlds` for the table");

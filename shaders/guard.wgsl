@@ -13,7 +13,8 @@
 //   speed       Σ_a v_a² in axis order > v²          → violation
 //
 // Guard call blocks: `alpha_tilde` holds r, `factor` holds v² (computed
-// on the host); nothing is written but the status word.
+// on the host; per world in a batch, step.wgsl's `world_reals`); nothing
+// is written but the status word.
 
 // OP_GUARD_*, FLAG_* come from the generated header (gpu/src/codes.rs).
 
@@ -54,14 +55,17 @@ fn guard_particle(i: u32) {
 @compute @workgroup_size(WORKGROUP)
 fn guard(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = linear_index(gid, groups);
-    if (t >= here.count) {
+    if (t >= here.count * WORLDS) {
         return;
     }
+    // A batch: element / particle i of its world, with its world's limit.
+    let i = split_world(t, here.count);
     take_call(0u, FLAGS);
+    world_reals(OP0, here.first_call);
     if (OP0 == OP_GUARD_MEASURE) {
-        guard_element(t);
+        guard_element(i);
     } else {
-        guard_particle(t);
+        guard_particle(i);
     }
     record_failure();
 }

@@ -110,8 +110,9 @@ const NONE: u32 = 0xffffffffu;
 // status[0]: first failing call (NONE: none), status[1]: smallest failing
 // slot or particle of that call, status[2]: nonzero when an invocation's
 // loops were cut short (`check_loops`), status[3]: in a batch, the lowest
-// failing world (NONE: none).
-@group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>, 4>;
+// failing world (NONE: none), status[4 + w]: in a batch, nonzero when
+// world w failed (gpu/src/batch/retry.rs; one world has 4 words).
+@group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
 // Per family [max violation, active contacts].
 @group(0) @binding(9) var<storage, read_write> report: array<real>;
 @group(0) @binding(10) var<storage, read> calls: array<Call>;
@@ -187,13 +188,16 @@ fn world_reals(op: u32, c: u32) {
                 call.absent = calls[k].absent;
                 call.factor = calls[k].factor;
             }
+            case OP_GUARD_SPEED: {
+                call.factor = calls[k].factor;
+            }
             case OP_PROJECT_MATERIAL: {
                 call.alpha_tilde = calls[k].alpha_tilde;
                 call.friction = calls[k].friction;
                 call.factor = calls[k].factor;
             }
             case OP_PROJECT_DISTANCE, OP_PROJECT_SIMPLEX, OP_PROJECT_ORIENTED,
-                 OP_PROJECT_EXPRESSION, OP_RESIDUAL, OP_GUARD_MEASURE, OP_GUARD_SPEED: {
+                 OP_PROJECT_EXPRESSION, OP_RESIDUAL, OP_GUARD_MEASURE: {
                 call.alpha_tilde = calls[k].alpha_tilde;
             }
             case OP_VELOCITY, OP_MOTION, OP_HOST, OP_NONE: {}
@@ -256,6 +260,7 @@ fn record_failure() {
         }
         if (WORLDS > 1u) {
             atomicMin(&status[3], world);
+            atomicMax(&status[4u + world], 1u);
         }
         failed_call = NONE;
     }

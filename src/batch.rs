@@ -19,7 +19,8 @@
 //!   bit; all or nothing as above. The batch runs the union of the
 //!   worlds' stages, each world skipping the friction and damping its
 //!   own plan lacks (see hyperpbd_gpu::GpuBatch for that and for what a
-//!   GPU batch refuses).
+//!   GPU batch refuses); a world a guard rejects is retried alone with
+//!   more substeps, as its own adaptive run, the others untouched.
 //! ```
 //! The CPU batch is the reference the GPU batch is held to
 //! (tests/gpu/batch.rs).

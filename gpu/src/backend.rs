@@ -165,6 +165,25 @@ impl XpbdStep {
         Ok((on, step))
     }
 
+    /// The step of `plan` (`on`'s topology) on `on`'s device, precision
+    /// and origin, dispatched as `mode` says, its state zero until one is
+    /// copied in (a subdivided plan's step; a batch world's, batch/retry.rs).
+    pub(crate) fn build_beside(
+        on: &Resident,
+        plan: Plan,
+        mode: StepMode,
+    ) -> Result<(Resident, XpbdStep), BackendError> {
+        let n = plan.particle_count() * plan.dim;
+        let blank = State {
+            dim: plan.dim,
+            positions: vec![0.0; n],
+            velocities: vec![0.0; n],
+        };
+        let how = (on.precision, on.state.origin().clone(), Some(mode));
+        let ctx = &on.ctx;
+        ctx.building(|| Self::build(ctx, plan, &blank, how, None))
+    }
+
     /// One step of the plan's own substeps (attempt 0 of the adaptive
     /// step): one command buffer, one submit, one status readback, which
     /// is the step's one host wait.
@@ -241,6 +260,11 @@ impl XpbdStep {
         stage.submit_fitting(on, &program.status, &record)
     }
 
+    /// The status words and report of the step (every world's).
+    pub(crate) fn status(&self) -> &StatusReader {
+        &self.program.status
+    }
+
     /// Whether the plan has particle contact (a contact stage).
     pub(crate) fn has_contacts(&self) -> bool {
         self.contacts.is_some()
@@ -263,19 +287,7 @@ impl XpbdStep {
         let j = subdivision as usize;
         while self.subdivided.len() < j {
             let plan = on.plan.subdivided(self.subdivided.len() as u32 + 1);
-            let n = plan.particle_count() * plan.dim;
-            let blank = State {
-                dim: plan.dim,
-                positions: vec![0.0; n],
-                velocities: vec![0.0; n],
-            };
-            let how = (
-                on.precision,
-                on.state.origin().clone(),
-                Some(self.program.schedule.mode),
-            );
-            let ctx = &on.ctx;
-            let built = ctx.building(|| Self::build(ctx, plan, &blank, how, None))?;
+            let built = Self::build_beside(on, plan, self.program.schedule.mode)?;
             self.subdivided.push(built);
         }
         let clock = self.motion.as_ref().map(|m| m.step);

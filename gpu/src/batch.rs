@@ -14,10 +14,13 @@
 //! kernels     invocation t = world · count + index (step.wgsl's
 //!             `split_world`); WORLDS, WORLD_* are override constants, so
 //!             a one-world backend compiles to the single-world kernels
-//! failure     any failing world fails the step: every world is rolled
-//!             back and the lowest failing world (status word 3) is named
-//!             by running it alone on a backend of its own plan — the
-//!             error of its own single run
+//! failure     each failed world (its status word; every world with
+//!             particle contact) is stepped alone on a backend of its own
+//!             plan from its start-of-step copy (retry.rs): a guard
+//!             rejection is retried with more substeps as its own
+//!             adaptive run does, the result put back in its place; an
+//!             error that stays fails the step: every world rolled back,
+//!             the lowest such world named with its own single run's error
 //! ```
 //! World k runs exactly its own single-world step: the same kernels on the
 //! same values in the same order, its parameters read from its own call
@@ -37,11 +40,15 @@
 //! contact.wgsl): per world its own grid, lists (grown on their own) and
 //! outcome, its μ and margin from its own plan (μ = 0 takes the kernel's
 //! frictionless branch, as its own run does: an exact identity).
-//! Guards, adaptive steps and the small schedule are refused in a batch.
+//! Guards and adaptive steps run per world (retry.rs); the small schedule,
+//! the incremental-potential solver and the primal residual are refused.
 
+mod retry;
 mod union;
 
-use hyperpbd_core::{Backend, BackendError, GpuError, Plan, State, StepReport, check_state};
+use hyperpbd_core::{
+    Attempt, Backend, BackendError, GpuError, Plan, State, StepReport, check_state,
+};
 
 use crate::backend::contact_step::contact_report;
 use crate::backend::status::{StatusReader, refuse_cut_loops};
@@ -55,6 +62,7 @@ use crate::xpbd::Families;
 use crate::xpbd::call::Call;
 use crate::xpbd::schedule::{Schedule, StepMode};
 use crate::{Precision, SceneOrigin};
+use retry::Retries;
 use union::Union;
 
 /// Every world's rest values and call blocks, world after world, each
@@ -150,6 +158,8 @@ impl WorldError {
 pub struct GpuBatch {
     backend: GpuBackend,
     plans: Vec<Plan>,
+    /// A backend of its own plan per world, for retries (retry.rs).
+    retries: Retries,
 }
 
 impl GpuBatch {
@@ -204,7 +214,12 @@ impl GpuBatch {
             .building(|| XpbdStep::build(&ctx, ran[0].clone(), &states[0], how, Some(worlds)))
             .map_err(WorldError::batch)?;
         let backend = ResidentBackend::from_parts(on, step);
-        Ok(GpuBatch { backend, plans })
+        let retries = Retries::new(plans.len());
+        Ok(GpuBatch {
+            backend,
+            plans,
+            retries,
+        })
     }
 
     /// The worlds' plans, in world order (at least one: [`GpuBatch::new`]
@@ -223,11 +238,15 @@ impl GpuBatch {
         self.backend.origin()
     }
 
-    /// One step of every world; their reports in world order. All or
+    /// One step of every world; their reports in world order. A world
+    /// whose step a guard rejects is retried with more substeps as its
+    /// own adaptive run would be, the others untouched (retry.rs). All or
     /// nothing: when a world fails, every world is put back to its state
     /// before the step and the error is the lowest failing world's, as its
-    /// own single run names it.
+    /// own single run names it. Every report's `host_waits` is the whole
+    /// batch step's.
     pub fn step(&mut self) -> Result<Vec<StepReport>, WorldError> {
+        let before = self.backend.on.ctx.host_waits();
         // With particle contact: every world's lists fitted (a world whose
         // did not grew its own and the step ran again), one outcome each.
         let ResidentBackend { on, step, .. } = &mut self.backend;
@@ -240,22 +259,46 @@ impl GpuBatch {
             }
             false => (step.submit_step(on).map_err(WorldError::batch)?, None),
         };
-        if StatusReader::failure(&block).is_some() {
-            let words: &[u32] = bytemuck::cast_slice(&block[..16]);
-            return Err(self.diagnose(words[3] as usize));
-        }
-        let values = read_reals(&block[16..], self.backend.precision());
+        // The worlds the status names as failed, and those retried alone:
+        // the same — but every world with particle contact, whose kernels
+        // skip every world's later calls after a failure (contact.wgsl's
+        // `failed_before`), so that no world's result stands.
+        let status = step.status();
+        let (named, retried) = failed_worlds(status, &block, self.plans.len(), outcomes.is_some());
+        let values = read_reals(status.report_of(&block), self.backend.precision());
         let per_world = values.len() / self.plans.len();
-        Ok(self
-            .plans
-            .iter()
-            .enumerate()
-            .zip(values.chunks(per_world.max(1)))
-            .map(|((k, plan), report)| match &outcomes {
+        let mut reports = Vec::with_capacity(self.plans.len());
+        for ((k, plan), report) in self.plans.iter().enumerate().zip(
+            values
+                .chunks(per_world.max(1))
+                .chain(std::iter::repeat(&[][..])),
+        ) {
+            if retried[k] {
+                let alone = self
+                    .retries
+                    .step_world(&mut self.backend.on, &self.plans, k);
+                reports.push(match alone {
+                    Ok(r) if !named[k] || r.retries() > 0 => r,
+                    Ok(_) => return Err(self.roll_back(k, passes_alone(k))),
+                    Err(e) => return Err(self.roll_back(k, e)),
+                });
+                continue;
+            }
+            let mut r = match &outcomes {
                 Some(o) => contact_report(plan, report, o.get(k).unwrap_or(&Outcome::EMPTY)),
                 None => crate::xpbd::step_report(plan, report),
-            })
-            .collect())
+            };
+            r.attempts = vec![Attempt {
+                substeps: plan.substeps,
+                rejection: None,
+            }];
+            reports.push(r);
+        }
+        let waits = self.backend.on.ctx.host_waits() - before;
+        for r in &mut reports {
+            r.host_waits = waits;
+        }
+        Ok(reports)
     }
 
     /// Every world's contact list slots per particle (`None` without
@@ -302,51 +345,55 @@ impl GpuBatch {
         on.state.set_forces_from(&on.ctx, plan, first, forces)
     }
 
-    /// The failed step's error: roll every world back, then run world
-    /// `world` (the lowest failing one) alone on a backend of its own plan
-    /// from its state, on this device, and take its error.
-    fn diagnose(&mut self, world: usize) -> WorldError {
-        let rolled_back = self.backend.on.state.rollback(&self.backend.on.ctx);
-        let alone = rolled_back
-            .map_err(BackendError::from)
-            .and_then(|()| self.read_states())
-            .and_then(|states| {
-                let (plan, state) = (self.plans.get(world), states.get(world));
-                let (Some(plan), Some(state)) = (plan, state) else {
-                    return Err(GpuError::Other {
-                        message: format!(
-                            "a batch step failed in world {world}, which is not in the batch"
-                        ),
-                    }
-                    .into());
-                };
-                let b = &self.backend;
-                let how = (b.precision(), b.origin().clone(), Some(StepMode::Fused));
-                let ctx = &b.on.ctx;
-                let (on, step) =
-                    ctx.building(|| XpbdStep::build(ctx, plan.clone(), state, how, None))?;
-                let mut single = ResidentBackend::from_parts(on, step);
-                match single.step() {
-                    Err(e) => Ok(e),
-                    Ok(_) => Err(GpuError::Other {
-                        message: format!(
-                            "a batch step failed in world {world}, which steps alone without error"
-                        ),
-                    }
-                    .into()),
-                }
-            });
-        match alone {
-            Ok(source) => WorldError {
-                world: Some(world),
-                source,
-            },
-            Err(source) => WorldError {
-                world: Some(world),
-                source,
-            },
+    /// `source`, world `world`'s, after every world is put back to its
+    /// state before the step.
+    fn roll_back(&mut self, world: usize, source: BackendError) -> WorldError {
+        let on = &mut self.backend.on;
+        WorldError {
+            world: Some(world),
+            source: source.after_rollback(on.state.rollback(&on.ctx)),
         }
     }
+}
+
+/// Per world of `worlds`, whether the status `block` says it failed, and
+/// whether it is retried alone (see `GpuBatch::step`); nothing when the
+/// step did not fail. Failed: the worlds whose own word is set — only the
+/// lowest failing world (status word 3) with particle `contact`, whose
+/// kernels set no world words, or with one world. Retried: those, or
+/// every world with `contact`, or every world from the lowest failing one
+/// on if its own word is missing.
+fn failed_worlds(
+    status: &StatusReader,
+    block: &[u8],
+    worlds: usize,
+    contact: bool,
+) -> (Vec<bool>, Vec<bool>) {
+    let Some(_) = StatusReader::failure(block) else {
+        return (vec![false; worlds], vec![false; worlds]);
+    };
+    let lowest = u32::from_le_bytes([block[12], block[13], block[14], block[15]]);
+    let lowest = if lowest == crate::xpbd::NONE {
+        0
+    } else {
+        lowest as usize
+    };
+    let own = status.failed_worlds(block);
+    if !contact && own.get(lowest) == Some(&true) {
+        return (own.clone(), own);
+    }
+    let named = (0..worlds).map(|k| k == lowest).collect();
+    let retried = (0..worlds).map(|k| contact || k >= lowest).collect();
+    (named, retried)
+}
+
+/// A world the batch step's status names, which its own run accepts at
+/// attempt 0: the batch and its single run disagree.
+fn passes_alone(world: usize) -> BackendError {
+    GpuError::Other {
+        message: format!("a batch step failed in world {world}, which steps alone without error"),
+    }
+    .into()
 }
 
 /// World `world`'s plan, or a typed error past the last world.
@@ -359,15 +406,10 @@ fn world_plan(plans: &[Plan], world: usize) -> Result<&Plan, BackendError> {
     })
 }
 
-/// What a batch does not run: guards and adaptive steps (worlds would
-/// take different substeps), the incremental-potential solver, XPBD with
-/// the primal residual (its element displacements are per world).
+/// What a batch does not run: the incremental-potential solver, XPBD
+/// with the primal residual (its element displacements are per world).
 fn refuse_in_batch(plan: &Plan) -> Result<(), GpuError> {
-    let what = if plan.guards.is_some() {
-        "guards"
-    } else if plan.adaptive.is_some() {
-        "adaptive"
-    } else if plan.incremental_potential().is_some() {
+    let what = if plan.incremental_potential().is_some() {
         "the incremental-potential solver"
     } else if plan.primal_residual {
         "XPBD with the primal residual"

@@ -57,7 +57,7 @@ impl Packing {
     }
 
     /// Bytes of one particle's vector.
-    fn particle_bytes(&self) -> u64 {
+    pub(crate) fn particle_bytes(&self) -> u64 {
         (self.layout.reals_per_particle(self.dim) * real_size(self.precision)) as u64
     }
 
@@ -179,6 +179,35 @@ impl ResidentState {
         }
         for (buffer, saved) in &self.carried {
             encoder.copy_buffer_to_buffer(buffer, 0, saved, 0, buffer.size());
+        }
+    }
+
+    /// Records the copy of `count` particles' x and v (their start-of-step
+    /// copies when `saved`; the forces too when `forces`) of `from` from
+    /// particle `a` on into `to` from particle `b` on, byte for byte (the
+    /// same layout and precision: a batch's world and a backend of its
+    /// own plan, gpu/src/batch/retry.rs).
+    pub fn record_copy(
+        encoder: &mut wgpu::CommandEncoder,
+        (from, a, saved): (&ResidentState, usize, bool),
+        (to, b): (&ResidentState, usize),
+        (count, forces): (usize, bool),
+    ) {
+        let size = from.packing.particle_bytes();
+        let (at, into, bytes) = (a as u64 * size, b as u64 * size, count as u64 * size);
+        if bytes == 0 {
+            return;
+        }
+        let (x, v) = match saved {
+            true => (&from.saved_x, &from.saved_v),
+            false => (&from.x, &from.v),
+        };
+        let mut pairs = vec![(x, &to.x), (v, &to.v)];
+        if forces {
+            pairs.push((&from.force, &to.force));
+        }
+        for (source, target) in pairs {
+            encoder.copy_buffer_to_buffer(source, at, target, into, bytes);
         }
     }
 

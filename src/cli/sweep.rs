@@ -14,7 +14,7 @@
 //! batch in the same dispatches, the union of the worlds' stages — a world
 //! with zero damping, friction, gravity or force runs them as exact
 //! identities —, world k bit for bit its own run in f64), or, where the
-//! worlds cannot share one GPU schedule (another topology or law, guards),
+//! worlds cannot share one GPU schedule (another topology or law),
 //! one GPU backend each, with a notice naming the world and what differs.
 //! Particle contact batches (each world its own grid and lists).
 

@@ -216,6 +216,29 @@ fn a_gpu_sweep_of_a_contact_scene_runs_one_batch() {
 }
 
 #[test]
+fn a_gpu_sweep_of_a_guarded_adaptive_scene_runs_one_batch() {
+    // The 40 m/s Neo-Hookean drop under the orientation guard, adaptive,
+    // its plane 3, 2, 1 and 0 m lower: each world's step is rejected and
+    // retried alone with more substeps in its own frames (3, 2, 1 and 2, 1),
+    // the other worlds' accepted in the batch (gpu/src/batch/retry.rs).
+    let block = crate::common::guarded::material_block(
+        2,
+        40.0,
+        hyperpbd::ConstraintKind::NeoHookean,
+        Some(crate::common::guarded::orientation()),
+        Some(6),
+    );
+    let scene = serde_json::to_string(&block).expect("json");
+    let axes = ["obstacles[0].offset=-3:0:4"];
+    let test = "sweep-gpu-guarded";
+    let Some((stdout, stderr)) = gpu_f64_scene_equals_cpu(test, &scene, &axes) else {
+        return;
+    };
+    assert!(!stderr.contains("one GPU backend each"), "{stderr}");
+    assert!(stdout.contains("gpu-f64, 4 worlds per batch"), "{stdout}");
+}
+
+#[test]
 fn worlds_of_another_topology_run_one_gpu_backend_each_with_a_notice() {
     // World 1's first link is heavier: masses are the batch's topology.
     let axes = ["gravity[0]=-1:1:3", "particles[1].mass=0.1:0.3:5"];

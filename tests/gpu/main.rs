@@ -14,6 +14,7 @@ mod barrier;
 mod barrier_loop_budget;
 mod batch;
 mod batch_contact;
+mod batch_guards;
 mod broadphase;
 mod collide;
 mod contact_step;

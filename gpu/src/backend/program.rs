@@ -142,7 +142,9 @@ impl Program {
         let elements = make("elements", bytemuck::cast_slice(&families.elements))?;
         let rest = make("rest", &reals(world.rest))?;
         let lambda = make("lambda", &reals(&vec![0.0; slots]))?;
-        let status = make("status", bytemuck::cast_slice(&StatusReader::RESET))?;
+        let world_words = if w > 1 { w as u64 } else { 0 };
+        let reset = StatusReader::reset_words(world_words);
+        let status = make("status", bytemuck::cast_slice(&reset))?;
         let report_len = 2 * plan.families.len() * w;
         let report = make("report", &reals(&vec![0.0; report_len]))?;
         let contact_slot = make("contact_slot", bytemuck::cast_slice(&families.slot_maps))?;
@@ -158,7 +160,8 @@ impl Program {
             &reals(&vec![0.0; families.carried_len.max(1) * w]),
         )?;
         let report_bytes = (report_len * real_size(precision)) as u64;
-        let report_staging = ctx.staging("report_staging", 16 + report_bytes)?;
+        let staged = 16 + report_bytes + 4 * world_words;
+        let report_staging = ctx.staging("report_staging", staged)?;
         let mut resident = resident;
         if plan.primal_residual {
             // λ and d carry over from step to step: saved and rolled back
@@ -245,7 +248,7 @@ impl Program {
             fast,
             alone,
             worlds,
-            status: StatusReader::new(status, report, report_bytes, report_staging),
+            status: StatusReader::new((status, report, report_bytes), report_staging, world_words),
             lambda,
             _rest: vec![
                 p,
