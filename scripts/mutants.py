@@ -55,10 +55,6 @@ ENV = {
     "NODEVICE_SELECT": "1",
     "CARGO_TERM_COLOR": "never",
 }
-# lavapipe's threads as scripts/test.sh sets them (one per test process;
-# the parallel-workgroup tests rerun themselves on the pool), so a kill
-# here is a kill in CI; a value the caller set is kept.
-LAVAPIPE_THREADS = ("LP_NUM_THREADS", "0")
 
 
 def sha256(data: bytes) -> str:
@@ -190,7 +186,6 @@ def sync_scratch(scratch: Path) -> Path:
 def cargo_env(scratch: Path) -> dict:
     env = dict(os.environ)
     env.update(ENV)
-    env.setdefault(*LAVAPIPE_THREADS)
     env["CARGO_TARGET_DIR"] = str(scratch / "target")
     return env
 

@@ -19,17 +19,6 @@ skip_log="${CARGO_TARGET_DIR:-target}/tmp/gpu-skipped.txt"
 mkdir -p "$(dirname "$skip_log")"
 : > "$skip_log"
 
-# One lavapipe thread per test process: lavapipe hands every dispatch to
-# its worker pool (35–63 µs each with one worker per core, ~1 µs on the
-# submitting thread), and the suite's GPU tests are mostly small
-# dispatches, so the test threads share the two cores better without the
-# pool — and every test runs in its own process's shared device and kernel
-# cache instead of a child per dispatch-bound test. The tests whose subject
-# is parallel workgroups (two runs bit-identical, atomics-built lists) run
-# themselves again on the pool (tests/common/gpu.rs, on_lavapipe_pool). A
-# value the caller set is kept. Other drivers never read the variable.
-export LP_NUM_THREADS="${LP_NUM_THREADS-0}"
-
 # One profile (release) for everything: the physics tests need optimised
 # code, and building wgpu twice would double the build time.
 cargo test --release --workspace --all-targets

@@ -18,12 +18,10 @@
 //! thread may read it): a program applies [`Threads::wanted`] to its own
 //! environment before its first wgpu instance — the `hyperpbd` command line
 //! does, on its single thread — or the user sets `LP_NUM_THREADS`. Other
-//! drivers never read it. `scripts/test.sh` runs the suite with
-//! `LP_NUM_THREADS=0`, except the tests whose subject is parallel
-//! workgroups, which run themselves again on the pool; under a plain
-//! `cargo test` the dispatch-bound tests run themselves again on one
-//! thread instead (`tests/common/gpu.rs`: `on_lavapipe_pool`,
-//! `on_one_lavapipe_thread`; docs/testing.md).
+//! drivers never read it. The test suite keeps lavapipe's default, except
+//! the dispatch-bound tests that run themselves again in a child process
+//! on one thread (`tests/common/gpu.rs`, `on_one_lavapipe_thread`;
+//! docs/performance-log.md).
 
 use std::fmt;
 

@@ -157,44 +157,6 @@ pub fn on_one_lavapipe_thread(test: &str) -> bool {
     false
 }
 
-/// Whether the calling test `test` ([`test_name`]) runs its body in this
-/// process on lavapipe's worker pool: the inverse of
-/// [`on_one_lavapipe_thread`], for the tests whose subject is what parallel
-/// workgroups may do — two runs bit-identical, atomics-built lists equal
-/// the CPU's — which a single lavapipe thread (workgroups one after
-/// another) could not catch. `scripts/test.sh` runs the suite with
-/// `LP_NUM_THREADS=0` (one thread per test process: the test threads
-/// share the cores without the pool's per-dispatch hand-off, and the tests
-/// share the process's device and kernel cache); under it such a test
-/// runs itself again in a child process with the variable removed
-/// (lavapipe's default: one worker per core) and fails when the child
-/// fails or ran no test; it then returns `false`. With the variable unset,
-/// or set to anything but `0`: `true`, the body runs here.
-pub fn on_lavapipe_pool(test: &str) -> bool {
-    if std::env::var_os(LAVAPIPE_THREADS).is_none_or(|v| v != "0") {
-        return true;
-    }
-    let exe = std::env::current_exe().expect("the test binary's path");
-    let out = std::process::Command::new(exe)
-        .args([test, "--exact", "--nocapture", "--test-threads=1"])
-        .env_remove(LAVAPIPE_THREADS)
-        .output()
-        .unwrap_or_else(|e| panic!("{test}: cannot run it again on lavapipe's pool: {e}"));
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    print!("{stdout}");
-    eprint!("{}", String::from_utf8_lossy(&out.stderr));
-    assert!(
-        out.status.success(),
-        "{test} on lavapipe's pool failed ({}): its output is above",
-        out.status
-    );
-    assert!(
-        stdout.contains("test result: ok. 1 passed;"),
-        "{test} on lavapipe's pool ran no test (is the name exact?)"
-    );
-    false
-}
-
 /// [`on_one_lavapipe_thread`] for a binary whose tests share one run (a
 /// `OnceLock` every test reads: a report's sweep), where a child per test
 /// would repeat the run: whether the calling test `test` ([`test_name`])

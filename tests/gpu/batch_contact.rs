@@ -24,7 +24,7 @@ use crate::common;
 use common::exact::{
     assert_f32_reference_step, assert_identical_if_claimed, check_f64, f32_identical, f64_identical,
 };
-use common::gpu::{adapter_or_skip, on_lavapipe_pool, test_name};
+use common::gpu::adapter_or_skip;
 use hyperpbd::batch::{Batch, GpuBatch};
 use hyperpbd::{Backend, Collisions, F32Reference, Plan, Precision, Scene, State, StepReport};
 use hyperpbd_gpu::GpuBackend;
@@ -139,9 +139,6 @@ fn f64_worlds_are_their_own_runs(
 
 #[test]
 fn every_pit_of_a_contact_batch_is_its_own_gpu_and_golden_run() {
-    if !on_lavapipe_pool(&test_name(module_path!(), "every_pit_of_a_contact_batch_is_its_own_gpu_and_golden_run")) {
-        return; // a child ran it on lavapipe's worker pool
-    }
     let scenes = pits();
     let Some((_, finals)) =
         f64_worlds_are_their_own_runs("batch_contact pits", &scenes, (6, &[0, 1, 2]))

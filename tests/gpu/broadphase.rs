@@ -17,7 +17,7 @@ use crate::common;
 use common::Lcg;
 use common::bound::print_bound;
 use common::boxes::random_boxes;
-use common::gpu::{adapter_or_skip, on_lavapipe_pool, test_name};
+use common::gpu::adapter_or_skip;
 use hyperpbd_core::broadphase::{Aabbs, exhaustive_pairs, sweep_pairs};
 use hyperpbd_gpu::{GpuSweep, Precision};
 
@@ -70,17 +70,11 @@ fn every_dimension(precision: Precision) {
 
 #[test]
 fn gpu_sweep_equals_exhaustive_f32() {
-    if !on_lavapipe_pool(&test_name(module_path!(), "gpu_sweep_equals_exhaustive_f32")) {
-        return; // a child ran it on lavapipe's worker pool
-    }
     every_dimension(Precision::F32);
 }
 
 #[test]
 fn gpu_sweep_equals_exhaustive_f64() {
-    if !on_lavapipe_pool(&test_name(module_path!(), "gpu_sweep_equals_exhaustive_f64")) {
-        return; // a child ran it on lavapipe's worker pool
-    }
     every_dimension(Precision::F64);
 }
 
@@ -232,9 +226,6 @@ fn longest_list(pairs: &[[u32; 2]], n: usize) -> usize {
 /// lists, rerun and return every pair; a later, denser scene grows again.
 #[test]
 fn gpu_sweep_grows_overflowing_lists_and_drops_nothing() {
-    if !on_lavapipe_pool(&test_name(module_path!(), "gpu_sweep_grows_overflowing_lists_and_drops_nothing")) {
-        return; // a child ran it on lavapipe's worker pool
-    }
     for precision in [Precision::F32, Precision::F64] {
         let Some((adapter, _)) = adapter_or_skip("gpu_sweep_regrowth", precision) else {
             return;

@@ -24,7 +24,7 @@ use crate::common;
 
 use common::bound::print_bound;
 use common::exact::f32_identical;
-use common::gpu::{adapter_or_skip, on_lavapipe_pool, test_name};
+use common::gpu::adapter_or_skip;
 use hyperpbd::{Backend, CpuBackend, Plan, Scene, State};
 use hyperpbd_cpu::collide::{self, Contacts};
 use hyperpbd_cpu::f32_reference;
@@ -249,9 +249,6 @@ fn gpu_collide_matches_cpu_f32() {
 /// adapter (integer sort and scan; no float atomics; fixed gather order).
 #[test]
 fn gpu_sweep_and_collide_are_deterministic() {
-    if !on_lavapipe_pool(&test_name(module_path!(), "gpu_sweep_and_collide_are_deterministic")) {
-        return; // a child ran it on lavapipe's worker pool
-    }
     for precision in [Precision::F32, Precision::F64] {
         let Some((adapter, _)) = adapter_or_skip("gpu_collide_determinism", precision) else {
             return;

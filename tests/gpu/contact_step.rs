@@ -26,7 +26,7 @@ use crate::common;
 use common::bound::print_bound;
 
 use common::exact::{assert_f32_reference_step, f32_identical};
-use common::gpu::{adapter_or_skip, on_lavapipe_pool, test_name};
+use common::gpu::adapter_or_skip;
 use hyperpbd::{
     Backend, BackendError, Collisions, CpuBackend, F32Reference, Kernel, Particle, Plan, Scene,
     SceneBuilder, StageName, State, StepError, StepReport,
@@ -101,9 +101,6 @@ fn assert_reports_equal(name: &str, cpu: &StepReport, gpu: &StepReport) {
 
 #[test]
 fn f64_contact_steps_equal_the_cpu_bit_for_bit_in_both_schedules() {
-    if !on_lavapipe_pool(&test_name(module_path!(), "f64_contact_steps_equal_the_cpu_bit_for_bit_in_both_schedules")) {
-        return; // a child ran it on lavapipe's worker pool
-    }
     let Some((adapter, _)) = adapter_or_skip("gpu_contact_step_f64", Precision::F64) else {
         return;
     };
@@ -377,9 +374,6 @@ fn f32_contact_kernels_run_alone_like_the_f32_reference() {
 
 #[test]
 fn f32_contact_steps_are_identical_between_runs() {
-    if !on_lavapipe_pool(&test_name(module_path!(), "f32_contact_steps_are_identical_between_runs")) {
-        return; // a child ran it on lavapipe's worker pool
-    }
     let Some((adapter, summary)) = adapter_or_skip("gpu_contact_f32_runs", Precision::F32) else {
         return;
     };

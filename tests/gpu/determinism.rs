@@ -18,7 +18,7 @@
 
 use crate::common;
 
-use common::gpu::{adapter_or_skip, on_lavapipe_pool, test_name};
+use common::gpu::adapter_or_skip;
 use hyperpbd::core::builders::ChainSpec;
 use hyperpbd::{
     Backend, BackendError, ConstraintFamily, ConstraintKind, CpuBackend, Kernel, Particle, Plan,
@@ -80,9 +80,6 @@ fn chain_on_plane(n: usize) -> Scene {
 // ------------------------------------------------------------ determinism
 
 fn twins_are_bit_identical(test: &str, name: &str, scene: &Scene, steps: usize) {
-    if !on_lavapipe_pool(&test_name(module_path!(), test)) {
-        return; // a child ran it on lavapipe's worker pool
-    }
     for precision in PRECISIONS {
         let Some((adapter, _)) = adapter_or_skip(test, precision) else {
             return;

@@ -17,7 +17,7 @@ use crate::common;
 
 use common::bound::print_bound;
 use common::exact::{assert_f32_reference_step, f32_identical};
-use common::gpu::{adapter_or_skip, on_lavapipe_pool, test_name};
+use common::gpu::adapter_or_skip;
 use hyperpbd::{Backend, CpuBackend, F32Reference, Plan, Scene, State};
 use hyperpbd_gpu::{GpuBackend, Precision};
 
@@ -38,9 +38,6 @@ fn max_diff(a: &[f64], b: &[f64]) -> f64 {
 
 #[test]
 fn gpu_f64_contact_steps_are_bit_identical_to_the_cpu() {
-    if !on_lavapipe_pool(&test_name(module_path!(), "gpu_f64_contact_steps_are_bit_identical_to_the_cpu")) {
-        return; // a child ran it on lavapipe's worker pool
-    }
     let Some((adapter, _)) = adapter_or_skip("gpu_granular_f64", Precision::F64) else {
         return;
     };
