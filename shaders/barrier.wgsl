@@ -1,7 +1,7 @@
 // Per-particle barrier evaluation and the certified step filter (the
 // incremental-potential path), one invocation per particle looping over
 // the obstacles: every plane, then the simplices whose boxes overlap the
-// particle's candidate box (the hierarchy walk below), in the order of
+// particle's candidate box (the hierarchy walk, simplex_walk.wgsl), in the order of
 // BarrierObstacles (core/src/barrier.rs). Same arithmetic, in the same
 // order, as the f64 golden path; ln_real is an arithmetic-only ln in both
 // precisions (ln_f32.wgsl, ln_f64.wgsl), because lavapipe's f64 log is
@@ -80,73 +80,9 @@ fn vertex(s: u32, j: u32, a: u32) -> real {
     return geometry[base + (s * SLOTS + j) * DIM + a];
 }
 
-// Row s1 < m of face's Gram system G μ = rhs (anchor members[0], the
-// other members at 1..=m): G[s1][t1] = (v_js − v_a)·(v_jt − v_a),
-// rhs[s1] = (v_js − v_a)·(p − v_a). Called with constant s1 (llvmpipe's
-// loop budget: check_loops), nothing when s1 ≥ m.
-fn gram_row(s: u32, s1: u32, m: u32, members: ptr<function, array<u32, 4>>,
-            g: ptr<function, array<array<real, 3>, 3>>, rhs: ptr<function, array<real, 3>>,
-            p: ptr<function, array<real, DIM>>) {
-    if (s1 >= m) {
-        return;
-    }
-    let anchor = (*members)[0];
-    let js = (*members)[s1 + 1u];
-    for (var t1 = 0u; t1 < 3u; t1++) {
-        if (t1 < m) {
-            let jt = (*members)[t1 + 1u];
-            var acc: real = 0.0;
-            for (var a = 0u; a < DIM; a++) {
-                acc += (vertex(s, js, a) - vertex(s, anchor, a)) * (vertex(s, jt, a) - vertex(s, anchor, a));
-            }
-            (*g)[s1][t1] = acc;
-        }
-    }
-    var acc: real = 0.0;
-    for (var a = 0u; a < DIM; a++) {
-        acc += (vertex(s, js, a) - vertex(s, anchor, a)) * ((*p)[a] - vertex(s, anchor, a));
-    }
-    (*rhs)[s1] = acc;
-}
-
-// Elimination step c < m of G μ = rhs without pivoting (G is SPD); a bad
-// pivot clears ok, and once ok is false later steps do nothing.
-fn eliminate(c: u32, m: u32, ok: ptr<function, bool>, g: ptr<function, array<array<real, 3>, 3>>,
-             rhs: ptr<function, array<real, 3>>) {
-    if (c >= m || !(*ok)) {
-        return;
-    }
-    if (!((*g)[c][c] > 0.0) || (*g)[c][c] > REAL_MAX) {
-        *ok = false;
-        return;
-    }
-    for (var r2 = 1u; r2 < 3u; r2++) {
-        if (r2 > c && r2 < m) {
-            let factor = (*g)[r2][c] / (*g)[c][c];
-            for (var s2 = 0u; s2 < 3u; s2++) {
-                if (s2 >= c && s2 < m) {
-                    (*g)[r2][s2] -= factor * (*g)[c][s2];
-                }
-            }
-            (*rhs)[r2] -= factor * (*rhs)[c];
-        }
-    }
-}
-
-// Back substitution step k < m: μ[c] for c = m − 1 − k.
-fn back_substitute(k: u32, m: u32, g: ptr<function, array<array<real, 3>, 3>>,
-                   rhs: ptr<function, array<real, 3>>, mu: ptr<function, array<real, 3>>) {
-    if (k >= m) {
-        return;
-    }
-    let c = m - 1u - k;
-    var value = (*rhs)[c];
-    for (var s2 = 1u; s2 < 3u; s2++) {
-        if (s2 > c && s2 < m) {
-            value -= (*g)[c][s2] * (*mu)[s2];
-        }
-    }
-    (*mu)[c] = value / (*g)[c][c];
+// Vertices of simplex s (closest_point.wgsl).
+fn simplex_arity(s: u32) -> u32 {
+    return arity[s];
 }
 
 // Distance to obstacle o from p (radius r); the unit direction into n.
@@ -159,132 +95,20 @@ fn obstacle_distance(o: u32, p: ptr<function, array<real, DIM>>, r: real, n: ptr
         }
         return dot - geometry[bp.planes * DIM + o] - r;
     }
-    let best_squared = simplex_offset(o - bp.planes, p, n);
-    let distance = sqrt(best_squared);
-    if (distance > 0.0) {
-        for (var a = 0u; a < DIM; a++) {
-            (*n)[a] /= distance;
-        }
-    }
-    return distance - r;
+    return simplex_distance(o - bp.planes, p, r, n);
 }
 
-// |p − q|² for q the closest point of simplex s to p (every face's affine
-// projection with all barycentrics ≥ 0, smallest |p − q|², first on a
-// tie), the offset p − q into `w` (geometry::closest_point_on_simplex).
-fn simplex_offset(s: u32, p: ptr<function, array<real, DIM>>, w: ptr<function, array<real, DIM>>) -> real {
-    let count = arity[s];
-    var best_squared: real = REAL_MAX;
-    var found = false;
-    var rr: array<real, DIM>;
-    // Every loop below but the one over faces has a constant trip count
-    // (guards inside): llvmpipe unrolls those, so they cost nothing of its
-    // loop budget (check_loops); the face loop costs 2^count per simplex.
-    for (var face = 1u; face < (1u << count); face++) {
-        // Members of the face.
-        var members: array<u32, 4>;
-        var size = 0u;
-        for (var j = 0u; j < 4u; j++) {
-            if ((face & (1u << j)) != 0u) {
-                members[size] = j;
-                size++;
-            }
-        }
-        let anchor = members[0];
-        let m = size - 1u;
-        var lambda: array<real, 4>;
-        for (var j = 0u; j < 4u; j++) {
-            lambda[j] = 0.0;
-        }
-        var ok = true;
-        if (m == 0u) {
-            lambda[anchor] = 1.0;
-        } else {
-            var g: array<array<real, 3>, 3>;
-            var rhs: array<real, 3>;
-            gram_row(s, 0u, m, &members, &g, &rhs, p);
-            gram_row(s, 1u, m, &members, &g, &rhs, p);
-            gram_row(s, 2u, m, &members, &g, &rhs, p);
-            // Gaussian elimination without pivoting (SPD); the first bad
-            // pivot stops it (ok = false).
-            eliminate(0u, m, &ok, &g, &rhs);
-            eliminate(1u, m, &ok, &g, &rhs);
-            eliminate(2u, m, &ok, &g, &rhs);
-            if (ok) {
-                var mu: array<real, 3>;
-                back_substitute(0u, m, &g, &rhs, &mu);
-                back_substitute(1u, m, &g, &rhs, &mu);
-                back_substitute(2u, m, &g, &rhs, &mu);
-                var sum: real = 0.0;
-                for (var k = 0u; k < 3u; k++) {
-                    if (k < m) {
-                        lambda[members[k + 1u]] = mu[k];
-                        sum += mu[k];
-                    }
-                }
-                lambda[anchor] = 1.0 - sum;
-            }
-        }
-        if (!ok) {
-            continue;
-        }
-        var inside = true;
-        for (var j = 0u; j < 4u; j++) {
-            if (lambda[j] < 0.0) {
-                inside = false;
-            }
-        }
-        if (!inside) {
-            continue;
-        }
-        for (var a = 0u; a < DIM; a++) {
-            rr[a] = (*p)[a];
-        }
-        for (var j = 0u; j < 4u; j++) {
-            if (j < count && (face & (1u << j)) != 0u) {
-                for (var a = 0u; a < DIM; a++) {
-                    rr[a] -= lambda[j] * vertex(s, j, a);
-                }
-            }
-        }
-        var squared: real = 0.0;
-        for (var a = 0u; a < DIM; a++) {
-            squared += rr[a] * rr[a];
-        }
-        if (!found || squared < best_squared) {
-            found = true;
-            best_squared = squared;
-            for (var a = 0u; a < DIM; a++) {
-                (*w)[a] = rr[a];
-            }
-        }
-    }
-    return best_squared;
+// The walk's accessors (simplex_walk.wgsl): the planes come first.
+fn walk_planes() -> u32 {
+    return bp.planes;
 }
 
-// The simplex hierarchy walk (core/src/geometry/simplex_hierarchy.rs,
-// OrderedWalk; the candidate box: core/src/barrier.rs candidate_box):
-// every plane, then every simplex whose box overlaps x ± (r + reach + pad),
-// pad = M (‖x‖∞ + scale + r + reach) with M = 16 N (N + 4) ε where computed
-// distances decide (walk_start), 4 √(N (N + 4) ε) for the certified
-// filter's support bound (walk_box with support_margin), in index order: batches
-// of the HIERARCHY_BATCH smallest indices ≥ floor from a stack traversal
-// (preorder nodes: left child n + 1, words (right, first, last)), each
-// handed out in order. The traversal costs one trip of llvmpipe's loop
-// budget per node visited; the insertion's loop has a constant trip count.
-const HIERARCHY_BATCH: u32 = 32u;
-const HIERARCHY_STACK: u32 = 32u;
-const WALK_END: u32 = 0xffffffffu;
+fn walk_simplices() -> u32 {
+    return bp.simplices;
+}
 
-struct Walk {
-    lo: array<real, DIM>,
-    hi: array<real, DIM>,
-    batch: array<u32, HIERARCHY_BATCH>,
-    count: u32,
-    next: u32,
-    floor: u32,
-    more: bool,
-    plane: u32,
+fn walk_scale() -> real {
+    return bp.scale;
 }
 
 fn node_word(n: u32, k: u32) -> u32 {
@@ -304,112 +128,6 @@ fn filter_reach(length: real, epsilon: real) -> real {
 // The relative pad where the certified filter's support bound decides.
 fn support_margin(epsilon: real) -> real {
     return 4.0 * sqrt(real(DIM) * (real(DIM) + 4.0) * epsilon);
-}
-
-// The walk where computed distances decide (evaluation, step filter).
-fn walk_start(p: ptr<function, array<real, DIM>>, r: real, reach: real) -> Walk {
-    return walk_box(p, r, reach, 16.0 * real(DIM) * (real(DIM) + 4.0) * REAL_EPS);
-}
-
-fn walk_box(p: ptr<function, array<real, DIM>>, r: real, reach: real, margin: real) -> Walk {
-    var w: Walk;
-    var largest: real = 0.0;
-    for (var a = 0u; a < DIM; a++) {
-        largest = max(largest, abs((*p)[a]));
-    }
-    let extent = r + reach;
-    let half = extent + margin * (largest + bp.scale + extent);
-    var finite = half <= REAL_MAX;
-    for (var a = 0u; a < DIM; a++) {
-        w.lo[a] = (*p)[a] - half;
-        w.hi[a] = (*p)[a] + half;
-        finite = finite && abs(w.lo[a]) <= REAL_MAX && abs(w.hi[a]) <= REAL_MAX;
-    }
-    if (!finite) {
-        for (var a = 0u; a < DIM; a++) {
-            w.lo[a] = -REAL_MAX;
-            w.hi[a] = REAL_MAX;
-        }
-    }
-    w.count = 0u;
-    w.next = 0u;
-    w.floor = 0u;
-    w.more = bp.simplices > 0u;
-    w.plane = 0u;
-    return w;
-}
-
-// Sorted insertion of s into the batch (absent from it, and below its
-// largest when full), shifting larger entries up.
-fn walk_insert(w: ptr<function, Walk>, s: u32) {
-    let top = min((*w).count, HIERARCHY_BATCH - 1u);
-    var at = top;
-    for (var j = 1u; j < HIERARCHY_BATCH; j++) {
-        let k = HIERARCHY_BATCH - j;
-        if (k == at && (*w).batch[k - 1u] > s) {
-            (*w).batch[k] = (*w).batch[k - 1u];
-            at = k - 1u;
-        }
-    }
-    (*w).batch[at] = s;
-    (*w).count = min((*w).count + 1u, HIERARCHY_BATCH);
-}
-
-// The HIERARCHY_BATCH smallest overlapping simplices ≥ floor, sorted.
-fn walk_refill(w: ptr<function, Walk>) {
-    (*w).count = 0u;
-    (*w).next = 0u;
-    var stack: array<u32, HIERARCHY_STACK>;
-    stack[0] = 0u;
-    var depth = 1u;
-    while (depth > 0u) {
-        depth--;
-        let n = stack[depth];
-        let first = node_word(n, 1u);
-        let last = node_word(n, 2u);
-        if (last < (*w).floor || ((*w).count == HIERARCHY_BATCH && first > (*w).batch[HIERARCHY_BATCH - 1u])) {
-            continue;
-        }
-        var hit = true;
-        for (var a = 0u; a < DIM; a++) {
-            if (!(node_bound(n, a) <= (*w).hi[a] && (*w).lo[a] <= node_bound(n, DIM + a))) {
-                hit = false;
-            }
-        }
-        if (!hit) {
-            continue;
-        }
-        if (first == last) {
-            walk_insert(w, first);
-        } else if (depth + 2u <= HIERARCHY_STACK) { // always: depth + 1 ≤ 32 (< 2^31 simplices)
-            stack[depth] = node_word(n, 0u);
-            stack[depth + 1u] = n + 1u;
-            depth += 2u;
-        }
-    }
-    (*w).more = (*w).count == HIERARCHY_BATCH;
-    if ((*w).more) {
-        (*w).floor = (*w).batch[HIERARCHY_BATCH - 1u] + 1u;
-    }
-}
-
-// The next obstacle slot of the walk (planes first), WALK_END after the last.
-fn walk_next(w: ptr<function, Walk>) -> u32 {
-    if ((*w).plane < bp.planes) {
-        (*w).plane++;
-        return (*w).plane - 1u;
-    }
-    if ((*w).next == (*w).count) {
-        if (!(*w).more) {
-            return WALK_END;
-        }
-        walk_refill(w);
-        if ((*w).count == 0u) {
-            return WALK_END;
-        }
-    }
-    (*w).next++;
-    return bp.planes + (*w).batch[(*w).next - 1u];
 }
 
 // (b, b', b'') of the clamped-log law at d (0 < d < d^).

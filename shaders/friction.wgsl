@@ -29,13 +29,25 @@ fn friction_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record
     if (l <= 0.0) {
         return;
     }
+    var n: array<real, DIM>;
+    for (var a = 0u; a < DIM; a++) {
+        n[a] = normal(a);
+    }
+    dynamic_friction(i, rx, rv, l, &n);
+}
+
+// v −= v_t · min(μ w λ / h, |v_t|) / |v_t| of particle i with multiplier
+// `l` > 0 against a resting obstacle with unit normal n (a plane's, or a
+// mesh's at x: mesh_contact.wgsl).
+fn dynamic_friction(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, l: real,
+                    n: ptr<function, array<real, DIM>>) {
     var vn: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        vn += normal(a) * lane(rv, a);
+        vn += (*n)[a] * lane(rv, a);
     }
     var t2: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        let t = lane(rv, a) - vn * normal(a);
+        let t = lane(rv, a) - vn * (*n)[a];
         t2 += t * t;
     }
     let vt = sqrt(t2);
@@ -46,7 +58,7 @@ fn friction_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record
     let scale = min(limit, vt) / vt;
     var ok = true;
     for (var a = 0u; a < DIM; a++) {
-        let t = lane(rv, a) - vn * normal(a);
+        let t = lane(rv, a) - vn * (*n)[a];
         let vk = lane(rv, a) - t * scale;
         set_lane(rv, a, vk);
         ok = ok && finite(vk);

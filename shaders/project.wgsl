@@ -205,20 +205,31 @@ fn contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>
     }
     let mu = call.friction;
     if (mu > 0.0 && l_new > 0.0) {
-        var dn: real = 0.0;
+        var n: array<real, DIM>;
         for (var a = 0u; a < DIM; a++) {
-            dn += (lane(rx, a) - lane(rp, a)) * normal(a);
+            n[a] = normal(a);
         }
-        var t2: real = 0.0;
+        static_friction(rx, rp, &n, mu * w * l_new);
+    }
+}
+
+// Static friction of an active contact with unit normal n: Δt = the
+// tangential part of x − p; if |Δt| ≤ `bound` (μ w λ) then x −= Δt.
+fn static_friction(rx: ptr<function, Record>, rp: ptr<function, Record>,
+                   n: ptr<function, array<real, DIM>>, bound: real) {
+    var dn: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        dn += (lane(rx, a) - lane(rp, a)) * (*n)[a];
+    }
+    var t2: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        let tan = (lane(rx, a) - lane(rp, a)) - dn * (*n)[a];
+        t2 += tan * tan;
+    }
+    if (sqrt(t2) <= bound) {
         for (var a = 0u; a < DIM; a++) {
-            let tan = (lane(rx, a) - lane(rp, a)) - dn * normal(a);
-            t2 += tan * tan;
-        }
-        if (sqrt(t2) <= mu * w * l_new) {
-            for (var a = 0u; a < DIM; a++) {
-                let tan = (lane(rx, a) - lane(rp, a)) - dn * normal(a);
-                set_lane(rx, a, lane(rx, a) - tan);
-            }
+            let tan = (lane(rx, a) - lane(rp, a)) - dn * (*n)[a];
+            set_lane(rx, a, lane(rx, a) - tan);
         }
     }
 }

@@ -9,7 +9,7 @@
 // integer counts are exact, so the result does not depend on the reduction
 // order: both ways give the same report bit for bit.
 //
-//   equality:  |C(x)|          contact:  max(0, −C(x)),  active if λ > 0
+//   equality:  |C(x)|          contact (plane, mesh):  max(0, −C(x)),  active if λ > 0
 //   tether:    max(0, |x1 − x0| − rest)
 //   material:  C = √(2W) (+∞ for an element the law refuses)
 
@@ -49,6 +49,12 @@ fn violation(e: u32) -> real {
         return select(c, infinity(), refused);
     } else if (kind == RESIDUAL_EXPRESSION) {
         return expression_violation(e);
+    } else if (kind == RESIDUAL_MESH) {
+        var p: array<real, DIM>;
+        for (var a = 0u; a < DIM; a++) {
+            p[a] = pts[a];
+        }
+        return mesh_violation(s, &p);
     } else if (kind != RESIDUAL_CONTACT) {
         // An unknown kind reads as violated without bound, never as another kind.
         return infinity();
@@ -90,7 +96,7 @@ fn reduce_workgroup(lid: u32) {
 fn residual_chunk(k: u32, start: u32, end: u32, lid: u32) {
     var worst: real = 0.0;
     var contacts = 0u;
-    let contact = call.kind == RESIDUAL_CONTACT;
+    let contact = call.kind == RESIDUAL_CONTACT || call.kind == RESIDUAL_MESH;
     for (var e = start + lid; e < end; e += WORKGROUP) {
         take_element(e, contact, &worst, &contacts);
     }
@@ -167,7 +173,7 @@ fn residual_lanes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     call = calls[world * WORLD_CALLS + here.first_call + t / WORLDS];
     var worst: real = 0.0;
     var contacts = 0u;
-    let contact = call.kind == RESIDUAL_CONTACT;
+    let contact = call.kind == RESIDUAL_CONTACT || call.kind == RESIDUAL_MESH;
     for (var e = 0u; e < call.count; e++) {
         take_element(e, contact, &worst, &contacts);
     }

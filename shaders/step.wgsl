@@ -309,6 +309,8 @@ fn run_op(op: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
         case OP_PROJECT_CONTACT: {
             if ((call.flags & FLAG_PRIMAL) != 0u) {
                 primal_contact_particle(i, rx, rp);
+            } else if ((call.flags & FLAG_MESH) != 0u) {
+                mesh_contact_particle(i, rx, rv, rp);
             } else if ((call.flags & FLAG_MOVING) != 0u) {
                 moving_contact_particle(i, rx, rv, rp);
             } else {
@@ -319,7 +321,9 @@ fn run_op(op: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
             velocity_particle(i, rx, rv, rp);
         }
         case OP_FRICTION: {
-            if ((call.flags & FLAG_MOVING) != 0u) {
+            if ((call.flags & FLAG_MESH) != 0u) {
+                mesh_friction_particle(i, rx, rv, rp);
+            } else if ((call.flags & FLAG_MOVING) != 0u) {
                 moving_friction_particle(i, rx, rv, rp);
             } else {
                 friction_particle(i, rx, rv, rp);

@@ -86,6 +86,8 @@ codes! {
         /// Projection: the update that carries the primal residual
         /// (primal.wgsl); predict: its warm start x += Σ d.
         FLAG_PRIMAL = 4096;
+        /// Contact, friction: a simplex-mesh family (mesh_contact.wgsl).
+        FLAG_MESH = 8192;
     }
 }
 
@@ -111,6 +113,8 @@ codes! {
         RESIDUAL_TETHER = 4;
         RESIDUAL_MATERIAL = 5;
         RESIDUAL_EXPRESSION = 6;
+        /// A simplex-mesh contact family (mesh_contact.wgsl).
+        RESIDUAL_MESH = 7;
     }
 }
 
@@ -137,8 +141,8 @@ pub fn residual_code(kind: &FamilyKind) -> u32 {
         FamilyKind::Distance => RESIDUAL_DISTANCE,
         FamilyKind::SimplexMeasure { .. } => RESIDUAL_SIMPLEX,
         FamilyKind::OrientedMeasure => RESIDUAL_ORIENTED,
-        // A mesh contact is refused by the GPU backends (xpbd/mod.rs).
-        FamilyKind::HyperplaneContact { .. } | FamilyKind::MeshContact { .. } => RESIDUAL_CONTACT,
+        FamilyKind::HyperplaneContact { .. } => RESIDUAL_CONTACT,
+        FamilyKind::MeshContact { .. } => RESIDUAL_MESH,
         FamilyKind::Tether => RESIDUAL_TETHER,
         FamilyKind::Material { .. } => RESIDUAL_MATERIAL,
         FamilyKind::Expression(_) => RESIDUAL_EXPRESSION,

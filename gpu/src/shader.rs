@@ -37,6 +37,10 @@ const SCAN: &str = include_str!("../../shaders/scan.wgsl");
 const GRID: &str = include_str!("../../shaders/grid.wgsl");
 const COLLIDE: &str = include_str!("../../shaders/collide.wgsl");
 const BARRIER: &str = include_str!("../../shaders/barrier.wgsl");
+const CLOSEST_POINT: &str = include_str!("../../shaders/closest_point.wgsl");
+const SIMPLEX_WALK: &str = include_str!("../../shaders/simplex_walk.wgsl");
+const MESH_CONTACT: &str = include_str!("../../shaders/mesh_contact.wgsl");
+const MESH_OFF: &str = include_str!("../../shaders/mesh_off.wgsl");
 const INCREMENTAL_POTENTIAL: &str = include_str!("../../shaders/incremental_potential.wgsl");
 const COUPLED: &str = include_str!("../../shaders/coupled.wgsl");
 const COUPLED_SOLVE: &str = include_str!("../../shaders/coupled_solve.wgsl");
@@ -210,11 +214,15 @@ impl ShaderFile {
             ShaderFile::Scan => &[PRELUDE, CONTACT, SCAN],
             ShaderFile::Grid => &[PRELUDE, CONTACT, GRID],
             ShaderFile::Collide => &[PRELUDE, CONTACT, COLLIDE],
-            ShaderFile::Barrier => &[BARRIER],
-            ShaderFile::IncrementalPotential => &[BARRIER, INCREMENTAL_POTENTIAL],
+            ShaderFile::Barrier => &[BARRIER, CLOSEST_POINT, SIMPLEX_WALK],
+            ShaderFile::IncrementalPotential => {
+                &[BARRIER, CLOSEST_POINT, SIMPLEX_WALK, INCREMENTAL_POTENTIAL]
+            }
             ShaderFile::Coupled => &[
                 MEASURE,
                 BARRIER,
+                CLOSEST_POINT,
+                SIMPLEX_WALK,
                 COUPLED,
                 COUPLED_SOLVE,
                 MATERIAL,
@@ -319,6 +327,7 @@ pub(crate) fn compose_with(
                     false,
                 ));
                 source.push_str(&primal_source(false, false));
+                source.push_str(&mesh_source(false));
             }
         }
     }
@@ -339,6 +348,17 @@ pub fn validate(
         .validate(&module)
         .map_err(|e| e.emit_to_string(source))?;
     Ok((module, info))
+}
+
+/// The step module's simplex-mesh contact (`meshes`: the plan has mesh
+/// families): `mesh_contact.wgsl` with the closest point and the
+/// hierarchy walk it reads, else the stand-ins of `mesh_off.wgsl` (no
+/// mesh bindings).
+pub(crate) fn mesh_source(meshes: bool) -> String {
+    match meshes {
+        true => [MESH_CONTACT, CLOSEST_POINT, SIMPLEX_WALK].join("\n"),
+        false => MESH_OFF.to_string(),
+    }
 }
 
 /// The step module's part of the update that carries the primal residual

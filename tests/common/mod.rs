@@ -14,6 +14,7 @@ pub mod guarded;
 pub mod hinges;
 pub mod implicit_scenes;
 pub mod materials;
+pub mod meshes;
 pub mod motion_scenes;
 
 use hyperpbd::{Scene, State};

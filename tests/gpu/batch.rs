@@ -108,7 +108,7 @@ pub(crate) fn max_difference(a: &[f64], b: &[f64]) -> f64 {
 /// Every world of `scenes`, batched on gpu-f64, against its own CPU run
 /// after `frames` frames (and the reports' residuals likewise); the
 /// worlds' final positions (`None`: no adapter, skipped).
-fn f64_worlds_are_their_own_runs(
+pub(crate) fn f64_worlds_are_their_own_runs(
     test: &str,
     scenes: &[Scene],
     frames: usize,

@@ -192,29 +192,35 @@ impl Program {
         let alone = place(&alone_dispatches);
         let block = blocks.block_size();
         let dispatch_buffer = blocks.finish(ctx, "dispatches")?;
-        let group = kernels.bind(
-            device,
-            0,
-            &[
-                &resident.x,
-                &resident.v,
-                &p,
-                &resident.force,
-                &gravity_scale,
-                &elements,
-                &rest,
-                &lambda,
-                &status,
-                &report,
-                &calls,
-                &contact_slot,
-                &partials,
-                &chunks,
-                &elements,
-                &carried,
+        // The meshes (mesh_contact.wgsl's bindings 16, 17), where the plan
+        // has mesh families.
+        let meshes = match &families.meshes {
+            Some(layout) => vec![
+                make("mesh_reals", &reals(&layout.reals))?,
+                make("mesh_words", bytemuck::cast_slice(&layout.words))?,
             ],
-            0,
-        )?;
+            None => Vec::new(),
+        };
+        let mut bound = vec![
+            &resident.x,
+            &resident.v,
+            &p,
+            &resident.force,
+            &gravity_scale,
+            &elements,
+            &rest,
+            &lambda,
+            &status,
+            &report,
+            &calls,
+            &contact_slot,
+            &partials,
+            &chunks,
+            &elements,
+            &carried,
+        ];
+        bound.extend(&meshes);
+        let group = kernels.bind(device, 0, &bound, 0)?;
         let blocks_group = kernels.bind(device, 1, &[&dispatch_buffer], block)?;
         let motion = families.motion.clone().map(|layout| Moving {
             layout,
@@ -261,7 +267,10 @@ impl Program {
                 chunks,
                 carried,
                 dispatch_buffer,
-            ],
+            ]
+            .into_iter()
+            .chain(meshes)
+            .collect(),
         };
         Ok(Built {
             resident,

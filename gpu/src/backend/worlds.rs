@@ -98,6 +98,14 @@ impl<'a> WorldArrays<'a> {
             }
             .into());
         }
+        if worlds.plans.iter().any(|p| p.meshes != first.meshes) {
+            // One copy of the meshes serves every world (xpbd/mesh.rs).
+            return Err(GpuError::Unsupported {
+                what: "worlds with different simplex meshes in one batch (one world at a time runs them)"
+                    .into(),
+            }
+            .into());
+        }
         if w.saturating_mul(largest.max(n)) > (u32::MAX / 2) as usize {
             return Err(GpuError::Unsupported {
                 what: format!("{w} worlds of {n} particles: over 2^31 invocations per dispatch"),

@@ -23,7 +23,7 @@ use crate::kernel_set::BlockWriter;
 pub(crate) const SEGMENT: usize = 8;
 
 pub(crate) use crate::codes::{
-    FLAG_FIRST, FLAG_FORCE, FLAG_GRAVITY, FLAG_MATERIAL, FLAG_MOVING, FLAG_NEO_HOOKEAN,
+    FLAG_FIRST, FLAG_FORCE, FLAG_GRAVITY, FLAG_MATERIAL, FLAG_MESH, FLAG_MOVING, FLAG_NEO_HOOKEAN,
     FLAG_ORIENTATION, FLAG_PRIMAL, FLAG_RATIO, FLAG_ROTATES, FLAG_TETHER, FLAG_UNIT_SCALE,
     FLAG_UNREAD, IO_LOAD_P, IO_LOAD_V, IO_LOAD_X, IO_STORE_P, IO_STORE_V, IO_STORE_X, OP_DAMPING,
     OP_FRICTION, OP_GUARD_MEASURE, OP_GUARD_SPEED, OP_HOST, OP_MOTION, OP_NONE, OP_PREDICT,
@@ -70,12 +70,22 @@ pub(crate) struct Call {
 
 impl Call {
     /// True for calls that touch one particle's records only (run per
-    /// particle by `particles`, fusable with their neighbours).
-    pub fn per_particle(&self) -> bool {
-        matches!(
-            self.op,
-            OP_PREDICT | OP_PROJECT_CONTACT | OP_VELOCITY | OP_FRICTION | OP_DAMPING | OP_MOTION
-        )
+    /// particle by `particles`) and fuse with their neighbours. A mesh
+    /// contact or friction call (FLAG_MESH) runs per particle in a
+    /// `particles` dispatch of its own: lavapipe compiles its hierarchy
+    /// walk into every pipeline that holds it (about 2 s each), so it is
+    /// kept to the three pipelines of its (op, flags).
+    pub fn fusable(&self) -> bool {
+        self.flags & FLAG_MESH == 0
+            && matches!(
+                self.op,
+                OP_PREDICT
+                    | OP_PROJECT_CONTACT
+                    | OP_VELOCITY
+                    | OP_FRICTION
+                    | OP_DAMPING
+                    | OP_MOTION
+            )
     }
 
     /// Whether `other` runs the same kernel on the same elements with the

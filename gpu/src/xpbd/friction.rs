@@ -5,26 +5,27 @@
 //! for each contact with λ > 0:  v −= v_t · min(μ w λ / h, |v_t|) / |v_t|
 //! ```
 //! Run per particle: particle i finds its slot in the family through the
-//! family's particle → slot map (fixed particles have none).
+//! family's particle → slot map (fixed particles have none). A mesh
+//! family's normal is the mesh's at x (FLAG_MESH, mesh_contact.wgsl).
 
 use hyperpbd_core::{FamilyKind, Kernel, Plan};
 
 use super::Families;
-use super::call::{Call, OP_FRICTION};
+use super::call::{Call, FLAG_MESH, OP_FRICTION};
 
-/// Friction of hyperplane family `family`.
+/// Friction of contact family `family` (a hyperplane or a mesh).
 pub(crate) fn friction(plan: &Plan, families: &Families, family: usize, call: u32) -> Call {
     let f = &plan.families[family];
-    let (normal, mu) = match &f.kind {
-        FamilyKind::HyperplaneContact { normal, friction } => (normal.clone(), *friction),
-        // A mesh contact is refused when the families are laid out (mod.rs).
-        FamilyKind::MeshContact { .. }
-        | FamilyKind::Distance
+    let (normal, mu, flags) = match &f.kind {
+        FamilyKind::HyperplaneContact { normal, friction } => (normal.clone(), *friction, 0),
+        // The mesh's normal at x (mesh_contact.wgsl).
+        FamilyKind::MeshContact { friction, .. } => (Vec::new(), *friction, FLAG_MESH),
+        FamilyKind::Distance
         | FamilyKind::Tether
         | FamilyKind::SimplexMeasure { .. }
         | FamilyKind::OrientedMeasure
         | FamilyKind::Material { .. }
-        | FamilyKind::Expression(_) => (Vec::new(), 0.0),
+        | FamilyKind::Expression(_) => (Vec::new(), 0.0, 0),
     };
     let mut c = Call {
         op: OP_FRICTION,
@@ -35,6 +36,7 @@ pub(crate) fn friction(plan: &Plan, families: &Families, family: usize, call: u3
         call,
         h: plan.h,
         friction: mu,
+        flags,
         normal,
         kernel: Some(Kernel::Friction { family }),
         ..Call::default()

@@ -25,6 +25,7 @@ mod friction;
 mod guard;
 mod integrate;
 pub(crate) mod material;
+mod mesh;
 pub(crate) mod motion;
 mod project;
 mod residual;
@@ -49,6 +50,7 @@ pub(crate) fn generated(plan: &Plan, families: &Families, precision: crate::Prec
         plan.primal_residual,
         materials,
     ));
+    source.push_str(&crate::shader::mesh_source(families.meshes.is_some()));
     source
 }
 
@@ -84,6 +86,8 @@ pub(crate) struct Families {
     pub slot_maps: Vec<u32>,
     /// Where the prescribed motion's values live (motion.rs).
     pub motion: Option<motion::MotionLayout>,
+    /// The meshes of the mesh contact families (mesh.rs; `None`: none).
+    pub meshes: Option<mesh::MeshLayout>,
     /// Primal residual: offset of each family's displacements in
     /// `carried` (arity · DIM reals per slot), of each material family's
     /// Newton factors after them ((arity · DIM)² reals per slot; 0 for the
@@ -117,6 +121,7 @@ impl Families {
             carried_len: 0,
             warm_start: 0,
             motion: None,
+            meshes: None,
         };
         for (family, f) in plan.families.iter().enumerate() {
             if f.arity == 2 && out.elements.len() % 2 == 1 {
@@ -127,7 +132,11 @@ impl Families {
             out.slot_base.push(out.rest.len() as u32);
             out.elements.extend_from_slice(&f.elements);
             match &f.kind {
-                FamilyKind::MeshContact { .. } => return Err(mesh_contact_unsupported(&f.label)),
+                FamilyKind::MeshContact { .. } => {
+                    // C = dist(x, mesh) − r: rest = r, translation-invariant.
+                    out.rest.extend_from_slice(&f.rest);
+                    out.push_slot_map(f, n)?;
+                }
                 FamilyKind::HyperplaneContact { normal, .. } => {
                     // A moving plane's origin term is in its per-substep
                     // shift (motion.rs).
@@ -139,23 +148,7 @@ impl Families {
                         true => r,
                         false => origin.local_offset(normal, r),
                     }));
-                    // Run per particle: one colour, one slot per particle.
-                    let mut map = vec![NONE; n];
-                    for (e, &i) in f.elements.iter().enumerate() {
-                        match map.get_mut(i as usize) {
-                            Some(slot) if *slot == NONE && f.color_count() == 1 => *slot = e as u32,
-                            _ => {
-                                return Err(GpuError::Unsupported {
-                                    what: format!(
-                                        "{}: a hyperplane family must hold each particle once, in one colour",
-                                        f.label
-                                    ),
-                                });
-                            }
-                        }
-                    }
-                    out.slot_map.push(out.slot_maps.len() as u32);
-                    out.slot_maps.extend(map);
+                    out.push_slot_map(f, n)?;
                 }
                 FamilyKind::Distance
                 | FamilyKind::Tether
@@ -180,10 +173,34 @@ impl Families {
             }
         }
         out.motion = motion::MotionLayout::new(plan, &mut out.slot_maps, &mut out.rest);
+        out.meshes = mesh::MeshLayout::new(plan, origin);
         if plan.primal_residual {
             out.lay_out_carried(plan);
         }
         Ok(out)
+    }
+
+    /// The particle → slot map of contact family `f` (hyperplane or mesh:
+    /// one colour, each particle once; a fixed particle has no slot) over
+    /// `n` particles.
+    fn push_slot_map(&mut self, f: &hyperpbd_core::Family, n: usize) -> Result<(), GpuError> {
+        let mut map = vec![NONE; n];
+        for (e, &i) in f.elements.iter().enumerate() {
+            match map.get_mut(i as usize) {
+                Some(slot) if *slot == NONE && f.color_count() == 1 => *slot = e as u32,
+                _ => {
+                    return Err(GpuError::Unsupported {
+                        what: format!(
+                            "{}: a contact family must hold each particle once, in one colour",
+                            f.label
+                        ),
+                    });
+                }
+            }
+        }
+        self.slot_map.push(self.slot_maps.len() as u32);
+        self.slot_maps.extend(map);
+        Ok(())
     }
 
     /// The displacements' offsets and the warm start's rows (primal
@@ -354,17 +371,6 @@ pub(crate) fn encode(
         }
         XpbdEntry::Small => kernels.dispatch_workgroups(pass, entry, d.dispatch.count),
         _ => kernels.dispatch(pass, entry, d.dispatch.count * worlds),
-    }
-}
-
-/// The GPU backends' refusal of a simplex-mesh contact family (`label`):
-/// the golden path and the f32 reference run it; the kernels do not yet.
-pub(crate) fn mesh_contact_unsupported(label: &str) -> GpuError {
-    GpuError::Unsupported {
-        what: format!(
-            "{label}: a simplex_mesh contact on the XPBD path (the CPU backend and the f32 \
-             reference run it; the GPU kernels do not yet: use --backend cpu)"
-        ),
     }
 }
 

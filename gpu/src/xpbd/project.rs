@@ -6,8 +6,9 @@
 //! x_j += w_j ∇_j C Δλ                       (inequalities clamp λ first)
 //! ```
 //! Distance, tether and measure colours run one invocation per element;
-//! a hyperplane family (one colour, one element per dynamic particle) runs
-//! per particle, so it fuses with the per-particle calls around it.
+//! a hyperplane or mesh family (one colour, one element per dynamic
+//! particle) runs per particle, so it fuses with the per-particle calls
+//! around it.
 //! `first` marks the first projection of the family in its substep: λ is
 //! read as 0 there (the CPU resets it in predict) and written on every path.
 //! `last` marks its last: a λ nothing reads afterwards (not a contact,
@@ -17,7 +18,7 @@ use hyperpbd_core::{FamilyKind, Kernel, Plan};
 
 use super::Families;
 use super::call::{
-    Call, FLAG_FIRST, FLAG_PRIMAL, FLAG_TETHER, FLAG_UNREAD, OP_PROJECT_CONTACT,
+    Call, FLAG_FIRST, FLAG_MESH, FLAG_PRIMAL, FLAG_TETHER, FLAG_UNREAD, OP_PROJECT_CONTACT,
     OP_PROJECT_DISTANCE, OP_PROJECT_EXPRESSION, OP_PROJECT_MATERIAL, OP_PROJECT_ORIENTED,
     OP_PROJECT_SIMPLEX,
 };
@@ -56,8 +57,14 @@ pub(crate) fn project(
             c.op = OP_PROJECT_MATERIAL;
             super::material::set_fields(f, families, family, &mut c);
         }
-        // Refused when the families are laid out (mod.rs).
-        FamilyKind::MeshContact { .. } => {}
+        FamilyKind::MeshContact { friction, .. } => {
+            // Per particle, as a hyperplane (mesh_contact.wgsl).
+            c.flags = (c.flags & !FLAG_UNREAD) | FLAG_MESH;
+            c.op = OP_PROJECT_CONTACT;
+            c.count = plan.particle_count() as u32;
+            c.slot_map = families.slot_map[family];
+            c.friction = *friction;
+        }
         FamilyKind::HyperplaneContact { normal, friction } => {
             // friction and the report read a contact's λ: always stored.
             c.flags &= !FLAG_UNREAD;

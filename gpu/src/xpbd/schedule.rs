@@ -462,8 +462,8 @@ fn fused(step: &[Call], residual: Residual) -> Vec<Dispatch> {
     let mut out = Vec::new();
     let mut i = 0;
     while i < step.len() {
-        if step[i].per_particle() {
-            let run_end = i + step[i..].iter().take_while(|c| c.per_particle()).count();
+        if step[i].fusable() {
+            let run_end = i + step[i..].iter().take_while(|c| c.fusable()).count();
             for first in (i..run_end).step_by(SEGMENT) {
                 let end = (first + SEGMENT).min(run_end);
                 out.push(Dispatch {
@@ -484,10 +484,10 @@ fn fused(step: &[Call], residual: Residual) -> Vec<Dispatch> {
 }
 
 /// Whether the small schedule can run these step calls: nothing on the
-/// host, only per-particle calls and distance / tether colours.
+/// host, only fusable per-particle calls and distance / tether colours.
 pub(crate) fn small_supported(step: &[Call]) -> bool {
     step.iter()
-        .all(|c| c.per_particle() || c.op == super::call::OP_PROJECT_DISTANCE)
+        .all(|c| c.fusable() || c.op == super::call::OP_PROJECT_DISTANCE)
 }
 
 /// Fused with particle contact (its kernels are dispatches of their own
