@@ -30,6 +30,7 @@ scenes=(
     "drum3d|240|12|240|"
     "drum4d|240|12|240|"
     "twirl|150|10|150|--perspective --elevation 20"
+    "bowl3d|120|6|120|--perspective --elevation 30"
 )
 
 wanted=("$@")

@@ -12,28 +12,38 @@ fn friction_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record
     if (skipped()) {
         return;
     }
-    // Slot and λ as the contact of this family just left them on this
-    // particle (project.wgsl), else from memory: on lavapipe a load some
-    // lane takes costs ~10× one every lane skips (docs/performance.md).
-    var e = contact_e;
-    var l = contact_l;
-    if (contact_family != call.family || contact_particle_index != i) {
-        e = contact_slot[call.slot_map + i];
-        if (e != NONE) {
-            l = lambda_at(call.slot_base + e);
-        }
-    }
-    if (e == NONE) {
+    let slot = friction_slot(i);
+    if (slot.e == NONE) {
         return;
     }
-    if (l <= 0.0) {
+    if (slot.l <= 0.0) {
         return;
     }
     var n: array<real, DIM>;
     for (var a = 0u; a < DIM; a++) {
         n[a] = normal(a);
     }
-    dynamic_friction(i, rx, rv, l, &n);
+    dynamic_friction(i, rx, rv, slot.l, &n);
+}
+
+// Slot and λ of particle i in the running friction call's family (NONE:
+// none): as the contact of this family just left them on this particle
+// (project.wgsl), else from memory — on lavapipe a load some lane takes
+// costs ~10× one every lane skips (docs/performance.md).
+struct FrictionSlot {
+    e: u32,
+    l: real,
+}
+
+fn friction_slot(i: u32) -> FrictionSlot {
+    var slot = FrictionSlot(contact_e, contact_l);
+    if (contact_family != call.family || contact_particle_index != i) {
+        slot.e = contact_slot[call.slot_map + i];
+        if (slot.e != NONE) {
+            slot.l = lambda_at(call.slot_base + slot.e);
+        }
+    }
+    return slot;
 }
 
 // v −= v_t · min(μ w λ / h, |v_t|) / |v_t| of particle i with multiplier

@@ -123,10 +123,7 @@ fn record_point(r: ptr<function, Record>) -> array<real, DIM> {
 // The mesh contact of particle i (its records in registers); leaves the
 // slot and λ for friction as contact_particle does (project.wgsl).
 fn mesh_contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
-    let e = contact_slot[call.slot_map + i];
-    contact_family = call.family;
-    contact_particle_index = i;
-    contact_e = e;
+    let e = enter_contact(i);
     if (e == NONE) {
         return;
     }
@@ -142,49 +139,31 @@ fn mesh_contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Re
         contact_l = l;
         return;
     }
-    let alpha_tilde = call.alpha_tilde;
-    let raw = (-hit.c - alpha_tilde * l) / (w + alpha_tilde);
-    if (!finite(raw)) {
-        contact_family = NONE;
-        fail(e);
+    if (!contact_response(e, hit.c, l, rx, &n)) {
         return;
     }
-    let dl = max(l + raw, 0.0) - l;
-    let l_new = l + dl;
-    store_lambda(s, l_new);
-    contact_l = l_new;
-    for (var a = 0u; a < DIM; a++) {
-        set_lane(rx, a, lane(rx, a) + w * n[a] * dl);
-    }
     let mu = call.friction;
-    if (mu > 0.0 && l_new > 0.0) {
-        static_friction(rx, rp, &n, mu * w * l_new);
+    if (mu > 0.0 && contact_l > 0.0) {
+        static_friction(rx, rp, &n, mu * w * contact_l);
     }
 }
 
-// Dynamic friction of a mesh family on particle i (friction_particle's
-// slot and λ lookup; friction.wgsl), with the mesh's n at the final x.
+// Dynamic friction of a mesh family on particle i (friction.wgsl's slot
+// and λ lookup), with the mesh's n at the final x.
 fn mesh_friction_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
     if (skipped()) {
         return;
     }
-    var e = contact_e;
-    var l = contact_l;
-    if (contact_family != call.family || contact_particle_index != i) {
-        e = contact_slot[call.slot_map + i];
-        if (e != NONE) {
-            l = lambda_at(call.slot_base + e);
-        }
-    }
-    if (e == NONE || l <= 0.0) {
+    let slot = friction_slot(i);
+    if (slot.e == NONE || slot.l <= 0.0) {
         return;
     }
     var p = record_point(rx);
     var n: array<real, DIM>;
     use_mesh(call.family);
-    let hit = mesh_closest(&p, rest_at(call.slot_base + e), inverse_mass_of(rx) * l, &n);
+    let hit = mesh_closest(&p, rest_at(call.slot_base + slot.e), inverse_mass_of(rx) * slot.l, &n);
     if (hit.found) {
-        dynamic_friction(i, rx, rv, l, &n);
+        dynamic_friction(i, rx, rv, slot.l, &n);
     }
 }
 

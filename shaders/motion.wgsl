@@ -47,76 +47,40 @@ fn carry_at(a: u32, rp: ptr<function, Record>) -> real {
 // A moving hyperplane's contact of particle i (contact_particle's
 // bookkeeping; project.wgsl).
 fn moving_contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
-    let e = contact_slot[call.slot_map + i];
-    contact_family = call.family;
-    contact_particle_index = i;
-    contact_e = e;
+    let e = enter_contact(i);
     if (e == NONE) {
         return;
     }
     let s = call.slot_base + e;
-    let w = inverse_mass_of(rx);
+    var n: array<real, DIM>;
     var nx: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
+        n[a] = normal(a);
         nx += normal(a) * lane(rx, a);
     }
     let cval = kept(kept(nx) - rest_at(s)) - call.factor;
-    let l = lambda_before(s);
-    let alpha_tilde = call.alpha_tilde;
-    let raw = (-cval - alpha_tilde * l) / (w + alpha_tilde);
-    if (!finite(raw)) {
-        contact_family = NONE;
-        fail(e);
+    if (!contact_response(e, cval, lambda_before(s), rx, &n)) {
         return;
     }
-    let dl = max(l + raw, 0.0) - l;
-    let l_new = l + dl;
-    store_lambda(s, l_new);
-    contact_l = l_new;
-    for (var a = 0u; a < DIM; a++) {
-        set_lane(rx, a, lane(rx, a) + w * normal(a) * dl);
-    }
     let mu = call.friction;
-    if (mu > 0.0 && l_new > 0.0) {
+    if (mu > 0.0 && contact_l > 0.0) {
+        // The obstacle point under p at the substep's start, now at q.
         var q: Record;
         for (var a = 0u; a < DIM; a++) {
             set_lane(&q, a, kept(carry_at(a, rp)) + lane(rp, a));
         }
-        var dn: real = 0.0;
-        for (var a = 0u; a < DIM; a++) {
-            dn += (lane(rx, a) - lane(&q, a)) * normal(a);
-        }
-        var t2: real = 0.0;
-        for (var a = 0u; a < DIM; a++) {
-            let tan = (lane(rx, a) - lane(&q, a)) - dn * normal(a);
-            t2 += tan * tan;
-        }
-        if (sqrt(t2) <= mu * w * l_new) {
-            for (var a = 0u; a < DIM; a++) {
-                let tan = (lane(rx, a) - lane(&q, a)) - dn * normal(a);
-                set_lane(rx, a, lane(rx, a) - tan);
-            }
-        }
+        static_friction(rx, &q, &n, mu * inverse_mass_of(rx) * contact_l);
     }
 }
 
 // Dynamic friction against a moving hyperplane (friction_particle's slot
 // and λ lookup; friction.wgsl).
 fn moving_friction_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
-    var e = contact_e;
-    var l = contact_l;
-    if (contact_family != call.family || contact_particle_index != i) {
-        e = contact_slot[call.slot_map + i];
-        if (e != NONE) {
-            l = lambda_at(call.slot_base + e);
-        }
-    }
-    if (e == NONE) {
+    let slot = friction_slot(i);
+    if (slot.e == NONE || slot.l <= 0.0) {
         return;
     }
-    if (l <= 0.0) {
-        return;
-    }
+    let l = slot.l;
     var rel: Record;
     for (var a = 0u; a < DIM; a++) {
         set_lane(&rel, a, lane(rv, a) - kept(carry_at(a, rp)) / call.h);

@@ -194,10 +194,7 @@ fn primal_measure_element(t: u32, op: u32) {
 
 // A hyperplane contact of particle i (its records in registers).
 fn primal_contact_particle(i: u32, rx: ptr<function, Record>, rp: ptr<function, Record>) {
-    let e = contact_slot[call.slot_map + i];
-    contact_family = call.family;
-    contact_particle_index = i;
-    contact_e = e;
+    let e = enter_contact(i);
     if (e == NONE) {
         return;
     }

@@ -172,44 +172,62 @@ var<private> contact_particle_index: u32;
 var<private> contact_e: u32;
 var<private> contact_l: real;
 
-// A hyperplane contact of particle i (its records in registers).
-fn contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+// Enters particle i's contact in the running contact call's family: its
+// slot (NONE: a fixed particle, no contact), noted as the last contact
+// this invocation projected.
+fn enter_contact(i: u32) -> u32 {
     let e = contact_slot[call.slot_map + i];
     contact_family = call.family;
     contact_particle_index = i;
     contact_e = e;
-    if (e == NONE) {
-        return;
-    }
-    let s = call.slot_base + e;
+    return e;
+}
+
+// The update of contact slot e with C = `cval`, λ = `l` and unit normal n:
+// Δλ = (−C − α~ λ)/(w + α~), λ' = max(λ + Δλ, 0), x += w n (λ' − λ); λ'
+// stored and noted (contact_l). False, the invocation failed at e, when
+// Δλ is not finite.
+fn contact_response(e: u32, cval: real, l: real, rx: ptr<function, Record>,
+                    n: ptr<function, array<real, DIM>>) -> bool {
     let w = inverse_mass_of(rx);
-    var nx: real = 0.0;
-    for (var a = 0u; a < DIM; a++) {
-        nx += normal(a) * lane(rx, a);
-    }
-    let cval = kept(nx) - rest_at(s);
-    let l = lambda_before(s);
     let alpha_tilde = call.alpha_tilde;
     let raw = (-cval - alpha_tilde * l) / (w + alpha_tilde);
     if (!finite(raw)) {
         contact_family = NONE;
         fail(e);
-        return;
+        return false;
     }
     let dl = max(l + raw, 0.0) - l;
     let l_new = l + dl;
-    store_lambda(s, l_new);
+    store_lambda(call.slot_base + e, l_new);
     contact_l = l_new;
     for (var a = 0u; a < DIM; a++) {
-        set_lane(rx, a, lane(rx, a) + w * normal(a) * dl);
+        set_lane(rx, a, lane(rx, a) + w * (*n)[a] * dl);
+    }
+    return true;
+}
+
+// A hyperplane contact of particle i (its records in registers).
+fn contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+    let e = enter_contact(i);
+    if (e == NONE) {
+        return;
+    }
+    let s = call.slot_base + e;
+    var n: array<real, DIM>;
+    var nx: real = 0.0;
+    for (var a = 0u; a < DIM; a++) {
+        n[a] = normal(a);
+        nx += normal(a) * lane(rx, a);
+    }
+    let cval = kept(nx) - rest_at(s);
+    let l = lambda_before(s);
+    if (!contact_response(e, cval, l, rx, &n)) {
+        return;
     }
     let mu = call.friction;
-    if (mu > 0.0 && l_new > 0.0) {
-        var n: array<real, DIM>;
-        for (var a = 0u; a < DIM; a++) {
-            n[a] = normal(a);
-        }
-        static_friction(rx, rp, &n, mu * w * l_new);
+    if (mu > 0.0 && contact_l > 0.0) {
+        static_friction(rx, rp, &n, mu * inverse_mass_of(rx) * contact_l);
     }
 }
 

@@ -4,6 +4,7 @@
 //! regenerated with `hyperpbd scene NAME --out scenes/NAME.json` and a test
 //! checks that they still match.
 
+mod bowl;
 mod demo;
 mod drum;
 mod granular;
@@ -11,6 +12,7 @@ mod peer_cloth;
 mod stretched_bar;
 mod twirl;
 
+pub use bowl::bowl3d;
 pub use demo::{BELT_SPEED, demo};
 pub use drum::{DRUM_RATE, DrumSpec, drum, drum_motion, drum_spec, drum3d, drum4d};
 pub use granular::{ballpit4d, column3d, pit3d, sandpile2d};
@@ -35,6 +37,7 @@ pub const NAMES: &[&str] = &[
     "drum3d",
     "drum4d",
     "twirl",
+    "bowl3d",
 ];
 
 /// Built-in scenes too large to ship as files; generate them with
@@ -59,6 +62,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "drum3d" => Some(drum3d()),
         "drum4d" => Some(drum4d()),
         "twirl" => Some(twirl()),
+        "bowl3d" => Some(bowl3d()),
         _ => None,
     }
 }

@@ -4,7 +4,8 @@
 //! from the world origin, where f32 works relative to the scene origin),
 //! tetrahedra in R^4 — gpu-f64 the golden path bit for bit, reports
 //! included, and gpu-f32 the f32 reference bit for bit, every frame, on
-//! lavapipe; a batch of worlds sweeping the floor's μ from 0, each world
+//! lavapipe; the built-in `bowl3d` (36 balls in contact with each other
+//! and a curved mesh); a batch of worlds sweeping the floor's μ from 0, each world
 //! its own run. On another adapter nothing is claimed bit for bit, and no
 //! per-frame model bounds a mesh contact yet: the largest difference is
 //! printed (`MESH | … | unbounded`) and the run must stay finite and
@@ -226,6 +227,17 @@ fn mesh_contacts_match_the_references_in_r4() {
         "mesh R^4",
         (&scene(4, 2, 0.0), 0.0),
         20,
+    );
+}
+
+#[test]
+fn the_bowl_with_particle_contact_matches_the_references() {
+    // Mesh contact among the particle contact stage's host dispatches.
+    against_the_references(
+        "the_bowl_with_particle_contact_matches_the_references",
+        "bowl3d",
+        (&hyperpbd::scenes::bowl3d(), 0.0),
+        30,
     );
 }
 
