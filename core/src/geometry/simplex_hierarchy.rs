@@ -32,6 +32,10 @@
 //! Every batch holds the smallest K remaining, so the concatenation is the
 //! sorted list. Traversal: an explicit stack, right child pushed before
 //! the left; at most depth + 1 ≤ 32 entries (fewer than 2^31 simplices).
+//!
+//! [`SimplexHierarchy::gather`] is the same traversal in one pass, for a
+//! caller that restores the order itself: the query's set in walk order
+//! into a fixed slice, or `None` when it holds more than the slice.
 
 /// Simplices per walk batch (`HIERARCHY_BATCH` in `shaders/barrier.wgsl`).
 pub const WALK_BATCH: usize = 32;
@@ -243,6 +247,33 @@ impl SimplexHierarchy {
         }
         out.sort_unstable();
         visited
+    }
+
+    /// The candidates of the box `[lo, hi]` (the set of
+    /// [`SimplexHierarchy::query`]) in walk order, not sorted, into `out`:
+    /// their count, or `None` when there are more than `out.len()`.
+    pub fn gather(&self, lo: &[f64], hi: &[f64], out: &mut [u32]) -> Option<usize> {
+        let mut count = 0;
+        let mut stack = [0u32; WALK_STACK];
+        let mut depth = usize::from(self.node_count() > 0);
+        while depth > 0 {
+            depth -= 1;
+            let n = stack[depth] as usize;
+            if !overlaps(self.node_box(n as u32), lo, hi) {
+                continue;
+            }
+            let w = &self.words[n * NODE_WORDS..(n + 1) * NODE_WORDS];
+            if w[1] == w[2] {
+                *out.get_mut(count)? = w[1];
+                count += 1;
+            } else {
+                // depth + 2 ≤ WALK_STACK: see the module docs.
+                stack[depth] = w[0];
+                stack[depth + 1] = n as u32 + 1;
+                depth += 2;
+            }
+        }
+        Some(count)
     }
 
     /// The oracle: every simplex in index order whose box overlaps
