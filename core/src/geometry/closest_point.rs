@@ -155,6 +155,7 @@ fn face_projection(
 
 /// Solves G μ = b for an SPD m×m G (m ≤ 3) by Gaussian elimination
 /// without pivoting; `None` on a zero pivot.
+#[inline(always)]
 fn solve_spd(
     g: &mut [[f64; MAX_SIMPLEX_ORDER]; MAX_SIMPLEX_ORDER],
     b: &mut [f64; MAX_SIMPLEX_ORDER],

@@ -253,13 +253,26 @@ impl SimplexHierarchy {
     /// [`SimplexHierarchy::query`]) in walk order, not sorted, into `out`:
     /// their count, or `None` when there are more than `out.len()`.
     pub fn gather(&self, lo: &[f64], hi: &[f64], out: &mut [u32]) -> Option<usize> {
+        // The same walk with N a constant in R^2–R^4 (unrolled box tests).
+        match lo.len() {
+            2 => self.gather_in(&lo[..2], &hi[..2], out),
+            3 => self.gather_in(&lo[..3], &hi[..3], out),
+            4 => self.gather_in(&lo[..4], &hi[..4], out),
+            _ => self.gather_in(lo, hi, out),
+        }
+    }
+
+    #[inline(always)]
+    fn gather_in(&self, lo: &[f64], hi: &[f64], out: &mut [u32]) -> Option<usize> {
+        let d2 = 2 * lo.len();
+        debug_assert_eq!(lo.len(), self.dim);
         let mut count = 0;
         let mut stack = [0u32; WALK_STACK];
         let mut depth = usize::from(self.node_count() > 0);
         while depth > 0 {
             depth -= 1;
             let n = stack[depth] as usize;
-            if !overlaps(self.node_box(n as u32), lo, hi) {
+            if !overlaps(&self.boxes[n * d2..(n + 1) * d2], lo, hi) {
                 continue;
             }
             let w = &self.words[n * NODE_WORDS..(n + 1) * NODE_WORDS];
@@ -309,6 +322,7 @@ pub fn push_box(out: &mut Vec<f64>, points: &[f64], dim: usize) {
 }
 
 /// Closed-box overlap of `b` = (`lo[N]`, `hi[N]`) with `[lo, hi]`.
+#[inline(always)]
 pub fn overlaps(b: &[f64], lo: &[f64], hi: &[f64]) -> bool {
     let dim = lo.len();
     (0..dim).all(|a| b[a] <= hi[a] && lo[a] <= b[dim + a])
