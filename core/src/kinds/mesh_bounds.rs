@@ -9,6 +9,7 @@
 //! t     a candidate of A with the smallest D̂ (the first in walk order); Ĉ_t solved
 //! T     min(Ĉ_t, reach) + r + pad      (pad = M (‖x‖∞ + G + r + reach), candidate_box's)
 //! K     {t} ∪ {s ∈ A : not D̂_s > T}, in index order        R(K) = R(A) bit for bit
+//!       (K = ∅ without solving t when every D̂_s > reach + r + pad)
 //! ```
 //! A dropped s has Ĉ_s > min(Ĉ_t, reach):
 //! ```text
@@ -17,6 +18,7 @@
 //! dist(x, s) ≥ dist(x, box_s) ≥ D̂_s − e'    e' ≤ (N + 4) √N ε (‖x‖∞ + G)  (D̂ ≤ √N (‖x‖∞ + G))
 //! T is computed within e'' ≤ 2 ε (|Ĉ_t| + r + pad)
 //! e + e' + e'' < pad (M = 16 N (N + 4) ε)  ⇒  D̂_s > T gives Ĉ_s > min(Ĉ_t, reach)
+//!                                              (and D̂_s > reach + r + pad gives Ĉ_s > reach)
 //! ```
 //! If the first smallest s* of A has Ĉ_s* ≤ reach, then Ĉ_s* ≤ Ĉ_t (t ∈ A)
 //! and Ĉ_s* ≤ reach, so s* ∈ K; K ⊆ A, so s* is also K's first smallest,
@@ -64,6 +66,10 @@ pub fn deciding(
         if bound[k] < bound[nearest] {
             nearest = k;
         }
+    }
+    if bound[nearest] > reach + radius + pad {
+        // Every Ĉ_s > reach: no update, and nothing to solve.
+        return Some(0);
     }
     let t = kept[nearest];
     let threshold = solve(t as usize).min(reach) + radius + pad;
