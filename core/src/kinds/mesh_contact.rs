@@ -19,7 +19,9 @@
 //! update is therefore within r + w λ of x, and only simplices whose box
 //! meets the candidate box x ± (r + wλ + pad) are visited, through the
 //! mesh's hierarchy in index order (`barrier::candidate_box`, pad =
-//! 16 N (N + 4) ε (‖x‖∞ + G + r + wλ): rounding of boxes and distances).
+//! 16 N (N + 4) ε (‖x‖∞ + G + r + wλ): rounding of boxes and distances);
+//! of those, `mesh_bounds.rs` drops the ones whose box alone shows they
+//! can neither win nor tie (the same choice with fewer solves).
 //! ```text
 //! (C, n) = the smallest |x − q_s| − r over the visited s (the lowest s on a tie;
 //!          within a simplex the first face in bitmask order: closest_point.rs)
