@@ -24,8 +24,8 @@
 //! and Ĉ_s* ≤ reach, so s* ∈ K; K ⊆ A, so s* is also K's first smallest,
 //! with the same n. Otherwise every Ĉ over A exceeds reach, and so every
 //! Ĉ over K ∋ t: no update either way (the normal is then not read). The
-//! bounds hold only where nothing overflows: with ‖x‖∞ + G + r + reach <
-//! 10^100 every computed distance is finite (a NaN, which first_closest
+//! bounds hold only where nothing overflows: with x finite and ‖x‖∞ + G +
+//! r + reach < 10^100 every computed distance is finite (a NaN, which first_closest
 //! would keep, cannot occur); beyond that, with more than [`GATHER`]
 //! candidates, or with a set not indexed, the caller scans A whole.
 

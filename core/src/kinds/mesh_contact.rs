@@ -91,7 +91,8 @@ fn closest_in<const D: usize>(
     let size = largest + mesh.scale + radius + reach;
     let mut kept = [0u32; GATHER];
     let (mut t, mut ct) = (usize::MAX, 0.0);
-    let bounded = size < BOUNDED && mesh.plane_count() == 0 && mesh.is_indexed();
+    let finite = x.iter().all(|c| c.is_finite());
+    let bounded = finite && size < BOUNDED && mesh.plane_count() == 0 && mesh.is_indexed();
     let found = bounded.then(|| {
         let (box_, pad) = ((&*x, &*lo, &*hi), (radius, reach, margin * size));
         deciding(&mesh.hierarchy, box_, pad, &mut kept, |s| {
