@@ -10,12 +10,18 @@
 //! gpu-{f32,f64}       BarrierKernels::evaluate of the same particles, one dispatch
 //!                     + wait on resident buffers (lavapipe: NODEVICE_SELECT=1),
 //!                     mesh and plane
+//! xpbd/{mesh,plane}   CpuBackend (one thread) stepping 317² = 100 489 balls
+//!                     (r = 0.02, μ = 0.3) resting on and sliding over the
+//!                     flat 100 352-triangle mesh y = 0 / the plane y = 0:
+//!                     XPBD_STEPS steps of 4 substeps × 2 iterations, per round;
+//!                     XPBD_ROUNDS interleaved rounds, medians, and the ratio
 //! ```
-//! Every case is run `REPEATS` times and the fastest is printed.
+//! Every other case is run `REPEATS` times and the fastest is printed.
+//! `cargo bench --bench mesh_hierarchy -- xpbd` runs only the xpbd case.
 //!
 //! `cargo bench` passes `--bench`; `cargo test --all-targets` runs this
 //! binary without it: then a smoke run of every case once, on a 40 × 40
-//! mesh (3 200 triangles) under 50² particles.
+//! mesh (3 200 triangles) under 50² particles (xpbd: 20² balls, one step).
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -27,9 +33,11 @@ use hyperpbd::barrier::{
 use hyperpbd::core::geometry::SimplexHierarchy;
 use hyperpbd::gpu::Precision;
 use hyperpbd::gpu::barrier::BarrierKernels;
-use hyperpbd::{Obstacle, Scene};
+use hyperpbd::{Backend, CpuBackend, Obstacle, Particle, Plan, Scene, State};
 
 const REPEATS: usize = 3;
+const XPBD_STEPS: usize = 2;
+const XPBD_ROUNDS: usize = 3;
 const LAW: BarrierLaw = BarrierLaw {
     stiffness: 1e3,
     activation_distance: 0.01,
@@ -94,7 +102,88 @@ fn scene(obstacle: Obstacle) -> Scene {
     scene
 }
 
+/// `rows`² balls of radius 0.02 resting on y = 0 over the `side` × `side`
+/// mesh, sliding at 0.5 m/s in directions that vary from ball to ball.
+fn xpbd_scene(side: usize, rows: usize, obstacle: Obstacle) -> Scene {
+    let mut scene = Scene::new(3, 1.0 / 60.0, 4, 2);
+    scene.gravity = Some(vec![0.0, -9.81, 0.0]);
+    let s = side as f64 * 0.1 / rows as f64;
+    for j in 0..rows {
+        for i in 0..rows {
+            let angle = (i * 7 + j * 13) as f64 * 0.37;
+            let x = vec![(i as f64 + 0.5) * s, 0.02, (j as f64 + 0.5) * s];
+            let v = vec![0.5 * angle.cos(), 0.0, 0.5 * angle.sin()];
+            let ball = Particle::new(x, 1.0).with_radius(0.02);
+            scene.particles.push(ball.with_velocity(v));
+        }
+    }
+    scene.obstacles.push(obstacle);
+    scene
+}
+
+/// The xpbd case: interleaved rounds of `steps` steps on the mesh and on
+/// the plane, one thread; medians and their ratio.
+fn xpbd(side: usize, rows: usize, (steps, rounds): (usize, usize)) {
+    let (vertices, simplices) = grid(side);
+    let triangles = simplices.len();
+    let mesh = Obstacle::SimplexMesh {
+        vertices,
+        simplices,
+        friction: 0.3,
+    };
+    let plane = Obstacle::Hyperplane {
+        normal: vec![0.0, 1.0, 0.0],
+        offset: 0.0,
+        friction: 0.3,
+        compliance: 0.0,
+        motion: Vec::new(),
+    };
+    let scenes = [xpbd_scene(side, rows, mesh), xpbd_scene(side, rows, plane)];
+    let mut seconds = [vec![], vec![]];
+    let mut ends = scenes.each_ref().map(State::from_scene);
+    for _ in 0..rounds {
+        for (k, scene) in scenes.iter().enumerate() {
+            let plan = Plan::compile(scene).expect("valid scene");
+            let state = State::from_scene(scene);
+            let mut sim = CpuBackend::with_threads(plan, &state, 1).expect("cpu");
+            let t = Instant::now();
+            for _ in 0..steps {
+                sim.step().expect("step");
+            }
+            seconds[k].push(t.elapsed().as_secs_f64());
+            ends[k] = sim.read_state().expect("state");
+        }
+    }
+    let median = |s: &mut Vec<f64>| {
+        s.sort_by(f64::total_cmp);
+        s[s.len() / 2]
+    };
+    let (mesh, plane) = (median(&mut seconds[0]), median(&mut seconds[1]));
+    let n = scenes[0].particles.len();
+    println!("xpbd/mesh: {n} balls on {triangles} triangles, {steps} steps in {mesh:.3} s");
+    println!("xpbd/plane: {n} balls on y = 0, {steps} steps in {plane:.4} s");
+    let apart = ends[0]
+        .positions
+        .iter()
+        .zip(&ends[1].positions)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    println!(
+        "xpbd mesh / plane: {:.2}x (medians of {rounds} interleaved rounds, one thread; final positions {apart:.1e} m apart)",
+        mesh / plane
+    );
+    println!("xpbd/mesh final state hash {:016x}", ends[0].hash());
+}
+
 fn main() {
+    if measuring() {
+        xpbd(224, 317, (XPBD_STEPS, XPBD_ROUNDS));
+    } else {
+        xpbd(20, 20, (1, 1));
+    }
+    if std::env::args().any(|a| a == "xpbd") {
+        return;
+    }
     // (side of the built mesh, side of the queried mesh, particle rows)
     let (built, side, rows) = if measuring() {
         (708, 224, 317)

@@ -3,7 +3,8 @@
 //! fixed seed: the candidate list of every query box is exactly the
 //! exhaustive one (identity and order), by `query`, by the allocation-free
 //! walk at the GPU's batch size and at batch sizes 1, 2, 3 (many refills),
-//! and after a refit; degenerate meshes included (coincident vertices,
+//! by `gather` (the same set; `None` into a slice one too short), and
+//! after a refit; degenerate meshes included (coincident vertices,
 //! zero-extent boxes, one simplex). Then the barrier path: every barrier
 //! term, filter fraction and certified time computed over the hierarchy's
 //! candidates is bit for bit the one over every simplex.
@@ -103,6 +104,15 @@ fn walked<const K: usize>(tree: &SimplexHierarchy, lo: &[f64], hi: &[f64]) -> Ve
     OrderedWalk::<K>::new(tree, lo, hi).collect()
 }
 
+/// `gather` into a slice of `room`, sorted (it hands out walk order).
+fn gathered(tree: &SimplexHierarchy, lo: &[f64], hi: &[f64], room: usize) -> Option<Vec<u32>> {
+    let mut out = vec![u32::MAX; room];
+    let count = tree.gather(lo, hi, &mut out)?;
+    out.truncate(count);
+    out.sort_unstable();
+    Some(out)
+}
+
 #[test]
 fn candidates_are_the_exhaustive_list_in_every_dimension() {
     let mut rng = Stream(0x5eed_0031);
@@ -148,6 +158,11 @@ fn candidates_are_the_exhaustive_list_in_every_dimension() {
                 assert_eq!(walked::<1>(&tree, &lo, &hi), expected, "walk 1, {at}");
                 assert_eq!(walked::<2>(&tree, &lo, &hi), expected, "walk 2, {at}");
                 assert_eq!(walked::<3>(&tree, &lo, &hi), expected, "walk 3, {at}");
+                assert_eq!(gathered(&tree, &lo, &hi, count), Some(expected.clone()));
+                if !expected.is_empty() {
+                    let short = gathered(&tree, &lo, &hi, expected.len() - 1);
+                    assert_eq!(short, None, "gather into too short a slice, {at}");
+                }
                 nonempty += usize::from(!expected.is_empty() && expected.len() < count);
                 queries += 1;
             }
@@ -186,6 +201,7 @@ fn an_empty_mesh_has_no_candidates() {
     assert_eq!(tree.query(&lo, &hi, &mut out), 0);
     assert!(out.is_empty());
     assert_eq!(tree.walk(&lo, &hi).count(), 0);
+    assert_eq!(tree.gather(&lo, &hi, &mut []), Some(0));
 }
 
 /// A scene with one plane and one random mesh of non-degenerate

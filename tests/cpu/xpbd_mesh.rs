@@ -6,69 +6,13 @@
 //! is the exhaustive scan's; every thread count gives the same bytes; the
 //! f32 reference follows the golden path within f32 rounding.
 
+use crate::common::meshes::floor;
 use hyperpbd::barrier::{BarrierObstacles, distance_margin};
 use hyperpbd::geometry::SimplexHierarchy;
 use hyperpbd::kinds::mesh_contact::closest;
 use hyperpbd::{Backend, CpuBackend, F32Reference, Obstacle, Particle, Plan, Scene, State};
 
 const G: f64 = 9.81;
-
-/// A flat floor x_1 = `height` of R^`dim`: the grid [−half, half]^(N−1)
-/// of the other axes, `cells` cells a side, each cube cut into (N−1)!
-/// simplices (Kuhn: [c, c + e_π0, c + e_π0 + e_π1, …] per permutation π).
-fn floor(dim: usize, height: f64, half: f64, cells: usize, friction: f64) -> Obstacle {
-    let k = dim - 1;
-    let axes: Vec<usize> = (0..dim).filter(|&a| a != 1).collect();
-    let side = cells + 1;
-    let index = |c: &[usize]| c.iter().fold(0, |acc, &ci| acc * side + ci);
-    let mut vertices = Vec::new();
-    for v in 0..side.pow(k as u32) {
-        let mut x = vec![0.0; dim];
-        x[1] = height;
-        let mut rest = v;
-        for j in (0..k).rev() {
-            x[axes[j]] = -half + 2.0 * half * (rest % side) as f64 / cells as f64;
-            rest /= side;
-        }
-        vertices.push(x);
-    }
-    let mut permutations = vec![vec![]];
-    for n in 0..k {
-        permutations = permutations
-            .into_iter()
-            .flat_map(|p: Vec<usize>| {
-                (0..=n).map(move |at| {
-                    let mut q = p.clone();
-                    q.insert(at, n);
-                    q
-                })
-            })
-            .collect();
-    }
-    let mut simplices = Vec::new();
-    for cube in 0..cells.pow(k as u32) {
-        let mut corner = vec![0; k];
-        let mut rest = cube;
-        for j in (0..k).rev() {
-            corner[j] = rest % cells;
-            rest /= cells;
-        }
-        for p in &permutations {
-            let mut c = corner.clone();
-            let mut simplex = vec![index(&c)];
-            for &axis in p {
-                c[axis] += 1;
-                simplex.push(index(&c));
-            }
-            simplices.push(simplex);
-        }
-    }
-    Obstacle::SimplexMesh {
-        vertices,
-        simplices,
-        friction,
-    }
-}
 
 fn plane(dim: usize, height: f64, friction: f64) -> Obstacle {
     let mut normal = vec![0.0; dim];
@@ -251,46 +195,116 @@ fn a_tie_between_simplices_picks_the_lowest_index() {
     assert_close(&down, &[0.0, -0.1], "above listed first: pushed down");
 }
 
+/// `closest` over the hierarchy (the pruned candidates of
+/// core/src/kinds/mesh_bounds.rs) against the scan of every simplex at
+/// `points`, radii 0 and 0.1, reaches 0, 0.05 and 0.4: the same C and n to
+/// the bit. Returns the contacts within reach.
+fn assert_as_scan(
+    dim: usize,
+    vertices: &[Vec<f64>],
+    simplices: &[Vec<usize>],
+    points: &[Vec<f64>],
+) -> usize {
+    let indexed = BarrierObstacles::mesh(dim, 0, vertices, simplices);
+    let mut every = indexed.clone();
+    every.hierarchy = SimplexHierarchy::default();
+    assert!(indexed.is_indexed() && !every.is_indexed());
+    let (mut n1, mut n2) = (vec![0.0; dim], vec![0.0; dim]);
+    let mut seen = 0;
+    for x in points {
+        for (radius, reach) in [0.0, 0.1]
+            .into_iter()
+            .flat_map(|r| [(r, 0.0), (r, 0.05), (r, 0.4)])
+        {
+            let a = closest(&indexed, x, radius, reach, &mut n1);
+            let b = closest(&every, x, radius, reach, &mut n2);
+            let at = format!("R^{dim} x {x:?} r {radius} reach {reach}");
+            assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits), "{at}");
+            if a.is_some() {
+                assert_eq!(n1, n2, "{at}");
+                seen += 1;
+            }
+        }
+    }
+    seen
+}
+
+/// `count` points of [−1.2, 1.2]^N (x_1 within ±0.36) from a fixed stream.
+fn scattered(dim: usize, count: usize) -> Vec<Vec<f64>> {
+    let mut u = 0.123_456_789_f64;
+    (0..count)
+        .map(|_| {
+            (0..dim)
+                .map(|a| {
+                    u = (u * 9_301.0 + 0.497_5).fract();
+                    (2.4 * u - 1.2) * if a == 1 { 0.3 } else { 1.0 }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn floor_mesh(dim: usize, cells: usize) -> (Vec<Vec<f64>>, Vec<Vec<usize>>) {
+    let Obstacle::SimplexMesh {
+        vertices,
+        simplices,
+        ..
+    } = floor(dim, 0.0, 1.0, cells, 0.0)
+    else {
+        unreachable!("floor builds a mesh")
+    };
+    (vertices, simplices)
+}
+
 #[test]
 fn the_hierarchy_chooses_as_the_exhaustive_scan() {
     for (dim, cells) in [(2, 16), (3, 6), (4, 3)] {
-        let Obstacle::SimplexMesh {
-            vertices,
-            simplices,
-            ..
-        } = floor(dim, 0.0, 1.0, cells, 0.0)
-        else {
-            unreachable!("floor builds a mesh")
-        };
-        let indexed = BarrierObstacles::mesh(dim, 0, &vertices, &simplices);
-        let mut every = indexed.clone();
-        every.hierarchy = SimplexHierarchy::default();
-        assert!(indexed.is_indexed() && !every.is_indexed());
-        let (mut n1, mut n2) = (vec![0.0; dim], vec![0.0; dim]);
-        let mut seen = 0;
-        let mut u = 0.123_456_789_f64;
-        for _ in 0..2000 {
-            let x: Vec<f64> = (0..dim)
-                .map(|_| {
-                    u = (u * 9_301.0 + 0.497_5).fract();
-                    2.4 * u - 1.2
-                })
-                .collect();
-            let x: Vec<f64> = x
-                .iter()
-                .enumerate()
-                .map(|(a, &c)| if a == 1 { 0.3 * c } else { c })
-                .collect();
-            for reach in [0.0, 0.05, 0.4] {
-                let a = closest(&indexed, &x, 0.1, reach, &mut n1);
-                let b = closest(&every, &x, 0.1, reach, &mut n2);
-                assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits), "R^{dim} x {x:?}");
-                if a.is_some() {
-                    assert_eq!(n1, n2, "R^{dim} x {x:?}");
-                    seen += 1;
+        let (vertices, simplices) = floor_mesh(dim, cells);
+        let seen = assert_as_scan(dim, &vertices, &simplices, &scattered(dim, 2000));
+        println!("R^{dim}: {seen} contacts within reach, identical");
+        assert!(seen > 100);
+    }
+}
+
+#[test]
+fn the_pruned_choice_holds_at_ties_on_features_and_with_degenerate_simplices() {
+    for (dim, cells) in [(2, 4), (3, 3), (4, 2)] {
+        let (mut vertices, mut simplices) = floor_mesh(dim, cells);
+        // Exact ties between simplices: every simplex again, the copies
+        // with their vertices reversed (the same set, other rounding).
+        let again: Vec<Vec<usize>> = simplices
+            .iter()
+            .map(|s| s.iter().rev().copied().collect())
+            .collect();
+        simplices.extend(again);
+        // Degenerate simplices: a repeated vertex, a zero-length segment,
+        // collinear vertices (an edge's midpoint added as a vertex).
+        let (a, b) = (simplices[0][0], simplices[0][1]);
+        let mid: Vec<f64> = (0..dim)
+            .map(|k| 0.5 * (vertices[a][k] + vertices[b][k]))
+            .collect();
+        vertices.push(mid);
+        let m = vertices.len() - 1;
+        simplices.extend([vec![a, a, b], vec![b, b], vec![a, m, b], vec![m, a]]);
+        // Points on grid vertices, edges and diagonals (where neighbours
+        // tie), at heights 0 (on the mesh: no direction), 0.05 and 0.1.
+        let step = 2.0 / cells as f64;
+        let mut points = Vec::new();
+        for (k, height) in [0.0, 0.05, 0.1].into_iter().enumerate() {
+            for i in 0..=cells {
+                for offset in [0.0, 0.25 * step, 0.5 * step] {
+                    let mut x = vec![-1.0 + i as f64 * step + offset; dim];
+                    x[1] = height;
+                    if k == 1 && dim > 2 {
+                        x[dim - 1] = -1.0 + i as f64 * step;
+                    }
+                    points.push(x);
                 }
             }
+            points.push(vertices[m].iter().map(|c| c + height).collect());
         }
+        points.extend(scattered(dim, 300));
+        let seen = assert_as_scan(dim, &vertices, &simplices, &points);
         println!("R^{dim}: {seen} contacts within reach, identical");
         assert!(seen > 100);
     }

@@ -48,6 +48,25 @@ pub fn closest_point_on_simplex(
     dim: usize,
     offset: &mut [f64],
 ) -> ClosestPoint {
+    // The same code with N a constant in R^2–R^4 (unrolled loops, the
+    // same operations in the same order) and a scratch of a few
+    // coordinates there (no 2 KiB to clear).
+    match dim {
+        2 => closest_in::<4>(p, vertices, 2, offset),
+        3 => closest_in::<4>(p, vertices, 3, offset),
+        4 => closest_in::<4>(p, vertices, 4, offset),
+        _ => closest_in::<{ crate::MAX_DIM }>(p, vertices, dim, offset),
+    }
+}
+
+/// [`closest_point_on_simplex`] with a scratch of `D` ≥ `dim` coordinates.
+#[inline(always)]
+fn closest_in<const D: usize>(
+    p: &[f64],
+    vertices: &[f64],
+    dim: usize,
+    offset: &mut [f64],
+) -> ClosestPoint {
     let count = vertices.len() / dim;
     let mut best = ClosestPoint {
         distance: f64::INFINITY,
@@ -55,7 +74,7 @@ pub fn closest_point_on_simplex(
         face: 0,
     };
     let mut best_squared = f64::INFINITY;
-    let mut r = [0.0f64; crate::MAX_DIM];
+    let mut r = [0.0f64; D];
     let r = &mut r[..dim];
     for face in 1u32..(1 << count) {
         let Some(lambda) = face_projection(p, vertices, dim, face) else {
@@ -87,6 +106,7 @@ pub fn closest_point_on_simplex(
 
 /// Barycentric coordinates of the affine projection of `p` onto the face
 /// `face` (zeros outside it), or `None` if its Gram matrix is singular.
+#[inline(always)]
 fn face_projection(
     p: &[f64],
     vertices: &[f64],
@@ -135,6 +155,7 @@ fn face_projection(
 
 /// Solves G μ = b for an SPD m×m G (m ≤ 3) by Gaussian elimination
 /// without pivoting; `None` on a zero pivot.
+#[inline(always)]
 fn solve_spd(
     g: &mut [[f64; MAX_SIMPLEX_ORDER]; MAX_SIMPLEX_ORDER],
     b: &mut [f64; MAX_SIMPLEX_ORDER],

@@ -32,6 +32,10 @@
 //! Every batch holds the smallest K remaining, so the concatenation is the
 //! sorted list. Traversal: an explicit stack, right child pushed before
 //! the left; at most depth + 1 ≤ 32 entries (fewer than 2^31 simplices).
+//!
+//! [`SimplexHierarchy::gather`] is the same traversal in one pass, for a
+//! caller that restores the order itself: the query's set in walk order
+//! into a fixed slice, or `None` when it holds more than the slice.
 
 /// Simplices per walk batch (`HIERARCHY_BATCH` in `shaders/barrier.wgsl`).
 pub const WALK_BATCH: usize = 32;
@@ -245,6 +249,46 @@ impl SimplexHierarchy {
         visited
     }
 
+    /// The candidates of the box `[lo, hi]` (the set of
+    /// [`SimplexHierarchy::query`]) in walk order, not sorted, into `out`:
+    /// their count, or `None` when there are more than `out.len()`.
+    pub fn gather(&self, lo: &[f64], hi: &[f64], out: &mut [u32]) -> Option<usize> {
+        // The same walk with N a constant in R^2–R^4 (unrolled box tests).
+        match lo.len() {
+            2 => self.gather_in(&lo[..2], &hi[..2], out),
+            3 => self.gather_in(&lo[..3], &hi[..3], out),
+            4 => self.gather_in(&lo[..4], &hi[..4], out),
+            _ => self.gather_in(lo, hi, out),
+        }
+    }
+
+    #[inline(always)]
+    fn gather_in(&self, lo: &[f64], hi: &[f64], out: &mut [u32]) -> Option<usize> {
+        let d2 = 2 * lo.len();
+        debug_assert_eq!(lo.len(), self.dim);
+        let mut count = 0;
+        let mut stack = [0u32; WALK_STACK];
+        let mut depth = usize::from(self.node_count() > 0);
+        while depth > 0 {
+            depth -= 1;
+            let n = stack[depth] as usize;
+            if !overlaps(&self.boxes[n * d2..(n + 1) * d2], lo, hi) {
+                continue;
+            }
+            let w = &self.words[n * NODE_WORDS..(n + 1) * NODE_WORDS];
+            if w[1] == w[2] {
+                *out.get_mut(count)? = w[1];
+                count += 1;
+            } else {
+                // depth + 2 ≤ WALK_STACK: see the module docs.
+                stack[depth] = w[0];
+                stack[depth + 1] = n as u32 + 1;
+                depth += 2;
+            }
+        }
+        Some(count)
+    }
+
     /// The oracle: every simplex in index order whose box overlaps
     /// `[lo, hi]` (a scan of all of them).
     pub fn exhaustive(&self, lo: &[f64], hi: &[f64], out: &mut Vec<u32>) {
@@ -278,6 +322,7 @@ pub fn push_box(out: &mut Vec<f64>, points: &[f64], dim: usize) {
 }
 
 /// Closed-box overlap of `b` = (`lo[N]`, `hi[N]`) with `[lo, hi]`.
+#[inline(always)]
 pub fn overlaps(b: &[f64], lo: &[f64], hi: &[f64]) -> bool {
     let dim = lo.len();
     (0..dim).all(|a| b[a] <= hi[a] && lo[a] <= b[dim + a])

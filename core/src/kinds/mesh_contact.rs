@@ -19,7 +19,9 @@
 //! update is therefore within r + w λ of x, and only simplices whose box
 //! meets the candidate box x ± (r + wλ + pad) are visited, through the
 //! mesh's hierarchy in index order (`barrier::candidate_box`, pad =
-//! 16 N (N + 4) ε (‖x‖∞ + G + r + wλ): rounding of boxes and distances).
+//! 16 N (N + 4) ε (‖x‖∞ + G + r + wλ): rounding of boxes and distances);
+//! of those, `mesh_bounds.rs` drops the ones whose box alone shows they
+//! can neither win nor tie (the same choice with fewer solves).
 //! ```text
 //! (C, n) = the smallest |x − q_s| − r over the visited s (the lowest s on a tie;
 //!          within a simplex the first face in bitmask order: closest_point.rs)
@@ -38,6 +40,7 @@
 //! Substeps must keep |v| h below r, as for particle–particle contact.
 
 use super::ProjectionReal;
+use super::mesh_bounds::{BOUNDED, GATHER, deciding};
 use super::relation::Relation;
 use crate::barrier::{BarrierObstacles, candidate_box, distance_margin};
 
@@ -45,7 +48,9 @@ pub(super) const RELATION: Relation = Relation::AtLeast;
 
 /// C and the unit normal n (into `normal`) of the contact of a particle at
 /// `x` with radius `radius` against `mesh`, for a slot whose reach is
-/// `reach` = w λ (module docs); `None` out of reach or with no direction.
+/// `reach` = w λ (module docs); `None` out of reach or with no direction
+/// (`normal` is then unspecified). The candidates are those of
+/// `mesh_bounds.rs` (the same choice with fewer closest-point solves).
 pub fn closest(
     mesh: &BarrierObstacles,
     x: &[f64],
@@ -53,16 +58,67 @@ pub fn closest(
     reach: f64,
     normal: &mut [f64],
 ) -> Option<f64> {
+    // Scratch of a few coordinates in low dimensions (no 2 KiB to clear).
+    if x.len() <= 4 {
+        closest_in::<4>(mesh, x, radius, reach, normal)
+    } else {
+        closest_in::<{ crate::MAX_DIM }>(mesh, x, radius, reach, normal)
+    }
+}
+
+/// [`closest`] with scratch arrays of `D` ≥ N coordinates.
+fn closest_in<const D: usize>(
+    mesh: &BarrierObstacles,
+    x: &[f64],
+    radius: f64,
+    reach: f64,
+    normal: &mut [f64],
+) -> Option<f64> {
     let dim = x.len();
-    let mut lo = [0.0f64; crate::MAX_DIM];
-    let mut hi = [0.0f64; crate::MAX_DIM];
-    let mut n = [0.0f64; crate::MAX_DIM];
-    let (lo, hi, n) = (&mut lo[..dim], &mut hi[..dim], &mut n[..dim]);
+    let mut lo = [0.0f64; D];
+    let mut hi = [0.0f64; D];
+    let mut n = [0.0f64; D];
+    let mut nt = [0.0f64; D];
+    let (lo, hi, n, nt) = (
+        &mut lo[..dim],
+        &mut hi[..dim],
+        &mut n[..dim],
+        &mut nt[..dim],
+    );
     let margin = distance_margin(dim, f64::EPSILON);
     candidate_box(x, radius, reach, mesh.scale, margin, lo, hi);
-    first_closest(mesh.near(lo, hi), reach, (n, normal), |o, n| {
-        mesh.distance(o, x, radius, n)
-    })
+    let largest = x.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    let size = largest + mesh.scale + radius + reach;
+    let mut kept = [0u32; GATHER];
+    let (mut t, mut ct) = (usize::MAX, 0.0);
+    let finite = x.iter().all(|c| c.is_finite());
+    let bounded = finite && size < BOUNDED && mesh.plane_count() == 0 && mesh.is_indexed();
+    let found = bounded.then(|| {
+        let (box_, pad) = ((&*x, &*lo, &*hi), (radius, reach, margin * size));
+        deciding(&mesh.hierarchy, box_, pad, &mut kept, |s| {
+            t = s;
+            ct = mesh.distance(s, x, radius, nt);
+            ct
+        })
+    });
+    let solve = |s: usize, n: &mut [f64]| {
+        if s == t {
+            n.copy_from_slice(nt);
+            return ct;
+        }
+        mesh.distance(s, x, radius, n)
+    };
+    match found.flatten() {
+        Some(len) => first_closest(
+            kept[..len].iter().map(|&s| s as usize),
+            reach,
+            (n, normal),
+            solve,
+        ),
+        None => first_closest(mesh.near(lo, hi), reach, (n, normal), |o, n| {
+            mesh.distance(o, x, radius, n)
+        }),
+    }
 }
 
 /// The first smallest C = `distance(s, n)` over the `candidates` in their

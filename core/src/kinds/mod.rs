@@ -32,6 +32,7 @@ mod expression;
 mod expression_tests;
 pub mod hyperplane_contact;
 mod material;
+mod mesh_bounds;
 pub mod mesh_contact;
 mod oriented_measure;
 pub mod particle_contact;
