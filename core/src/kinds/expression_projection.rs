@@ -320,13 +320,19 @@ fn project_block<S: Shape, R: ProjectionReal, X: Positions<R> + ?Sized>(
     // value non-finite, or Δλ non-finite where wsum is finite and not 0 →
     // the element fails; wsum non-finite or 0 → no response.
     let value = &columns[tape.value];
-    let mut raw = [zero; BLOCK];
-    let mut case = [Case::Move; BLOCK];
-    for (lane, e) in slots.clone().enumerate() {
-        raw[lane] = (-(value[lane] - c.rest[e]) - c.alpha_tilde * lambda[lane])
-            / (wsum[lane] + c.alpha_tilde);
-        let responds = wsum[lane].finite() && wsum[lane] != zero;
-        case[lane] = match (value[lane].finite(), responds, raw[lane].finite()) {
+    let (mut raw, mut case) = ([zero; BLOCK], [Case::Move; BLOCK]);
+    let lanes = raw
+        .iter_mut()
+        .zip(&wsum)
+        .zip(value)
+        .zip(&c.rest[slots.clone()]);
+    for ((((raw, &wsum), &value), &rest), &l) in lanes.zip(lambda.iter()) {
+        *raw = (-(value - rest) - c.alpha_tilde * l) / (wsum + c.alpha_tilde);
+    }
+    let lanes = case.iter_mut().zip(&wsum).zip(value).zip(&raw);
+    for (((case, &wsum), &value), &raw) in lanes {
+        let responds = wsum.finite() && wsum != zero;
+        *case = match (value.finite(), responds, raw.finite()) {
             (false, _, _) | (true, true, false) => Case::Fail,
             (true, false, _) => Case::Skip,
             (true, true, true) => Case::Move,
