@@ -370,7 +370,7 @@ fn project_block<S: Shape, R: ProjectionReal, X: Positions<R> + ?Sized>(
             let (w, k) = (w[lane], k[lane]);
             if w != zero {
                 for (a, v) in x.values_mut(k..k + dim).iter_mut().enumerate() {
-                    *v = *v + w * gradient(j, a)[lane] * step;
+                    *v += w * gradient(j, a)[lane] * step;
                 }
             }
         }
