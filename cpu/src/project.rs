@@ -92,11 +92,13 @@ pub struct Workspace {
 struct Positions<'a, X: ?Sized>(&'a mut X);
 
 impl<X: Coordinates + ?Sized> kinds::Positions<f64> for Positions<'_, X> {
-    fn get(&self, k: usize) -> f64 {
-        self.0.values(k..k + 1)[0]
+    #[inline(always)]
+    fn values(&self, range: Range<usize>) -> &[f64] {
+        self.0.values(range)
     }
-    fn set(&mut self, k: usize, value: f64) {
-        self.0.values_mut(k..k + 1)[0] = value;
+    #[inline(always)]
+    fn values_mut(&mut self, range: Range<usize>) -> &mut [f64] {
+        self.0.values_mut(range)
     }
 }
 

@@ -91,7 +91,7 @@ fn violation<D: Dim>(
 }
 
 /// The largest violation of expression elements `elements`: C over
-/// blocks of elements (`ExpressionKind::values`, bit for bit C element by
+/// blocks of elements (`kinds::values`, bit for bit C element by
 /// element), each violation formed as the generic path forms it.
 fn expression_violation(
     kind: &ExpressionKind,
@@ -102,7 +102,8 @@ fn expression_violation(
 ) -> f64 {
     let mut worst: f64 = 0.0;
     let mut block = Block::new();
-    kind.values(
+    hyperpbd_core::kinds::values(
+        kind,
         dim,
         &family.elements,
         elements,

@@ -45,15 +45,36 @@ impl<R: Real> Block<R> {
         &self.data[slot]
     }
 
-    /// Sizes the block for `tape` (one column per op; values kept), so
-    /// that a caller can fill the input columns with [`Block::column_mut`].
+    /// Sizes the block for `tape` (at least one column per op; values
+    /// kept), so that a caller can fill the input columns with
+    /// [`Block::column_mut`].
     pub fn fit(&mut self, tape: &Tape) {
-        self.data.resize(tape.ops.len(), [R::default(); BLOCK]);
+        self.fit_with_spare(tape, 0);
+    }
+
+    /// [`Block::fit`] with `spare` more columns after the tape's (slots
+    /// `tape.ops.len()` …): scratch no op reads, kept by
+    /// [`Tape::eval_block`].
+    pub fn fit_with_spare(&mut self, tape: &Tape, spare: usize) {
+        let columns = tape.ops.len() + spare;
+        if self.data.len() < columns {
+            self.data.resize(columns, [R::default(); BLOCK]);
+        }
     }
 
     /// Slot `slot` to write (after [`Block::fit`]).
     pub fn column_mut(&mut self, slot: Slot) -> &mut Column<R> {
         &mut self.data[slot]
+    }
+
+    /// Every column, indexed by slot (after [`Block::fit`]).
+    pub fn columns(&self) -> &[Column<R>] {
+        &self.data
+    }
+
+    /// Every column, to write (after [`Block::fit`]).
+    pub fn columns_mut(&mut self) -> &mut [Column<R>] {
+        &mut self.data
     }
 }
 

@@ -1,14 +1,14 @@
 //! Expression families: C = value(x0 … x{arity−1}) − rest for a user's
 //! `value` expression (docs/expressions.md), compiled once per (dimension,
 //! arity) by [`crate::expr`] into straight-line tapes; ∇C is derived,
-//! never written. The projection below is generic over the precision, so
-//! the golden path (f64) and the f32 reference (f32) run one code, and
-//! the WGSL kernel performs the same operations in the same order.
+//! never written. The projection (`expression_projection.rs`) is generic
+//! over the precision, so the golden path (f64) and the f32 reference
+//! (f32) run one code, and the WGSL kernel performs the same operations in
+//! the same order.
 //!
 //! ```text
-//! per block of BLOCK = 64 slots of a colour: gather the coordinates, evaluate
-//!   the value+gradient tape over the block (a column per tape slot) and the
-//!   wsum and Δλ below lane-wise (the same operations per lane), then update
+//! per block of BLOCK = 64 slots of a colour: gather, the value+gradient tape
+//!   over the block (a column per tape slot), then the update below
 //!   (elements of a colour share no dynamic particle, so this equals
 //!   evaluating them one after another); the tape's inputs are the element's
 //!   coordinates, then its per-element constants (m per element, computed at
@@ -27,13 +27,9 @@
 use std::ops::Range;
 use std::sync::OnceLock;
 
-use multiversion::multiversion;
-
 use super::real::ProjectionReal;
 use super::relation::Relation;
-use crate::expr::{
-    self, BLOCK, Block, Column, Columns, Compiled, Outputs, ParamValue, Real, Slot, Stats, Tape,
-};
+use crate::expr::{self, Columns, Compiled, Outputs, ParamValue, Real, Slot, Stats, Tape};
 
 /// A compiled expression family.
 #[derive(Debug, Clone)]
@@ -63,7 +59,9 @@ pub struct ExpressionKind {
     /// quadratic bending: 0, flat).
     pub fixed_rest: Option<f64>,
     /// The slot of each input in [`ExpressionKind::gradient`].
-    gradient_inputs: Vec<Option<Slot>>,
+    pub(super) gradient_inputs: Vec<Option<Slot>>,
+    /// The slot of each input in [`ExpressionKind::value`].
+    pub(super) value_inputs: Vec<Option<Slot>>,
     compiled: Compiled,
     /// C, ∇C and ∇²C, derived on first request (the implicit paths).
     hessian: OnceLock<Result<Tape, expr::ExprError>>,
@@ -116,7 +114,7 @@ impl ExpressionKind {
         let compiled = expr::compile_with_constants(source, params, names, arity, dim)?;
         let value = compiled.tape(Outputs::Value)?;
         let gradient = compiled.tape(Outputs::ValueGradient)?;
-        let gradient_inputs = gradient.input_slots();
+        let (gradient_inputs, value_inputs) = (gradient.input_slots(), value.input_slots());
         Ok(ExpressionKind {
             name,
             source: source.into(),
@@ -128,6 +126,7 @@ impl ExpressionKind {
             constants,
             fixed_rest: None,
             gradient_inputs,
+            value_inputs,
             compiled,
             hessian: OnceLock::new(),
         })
@@ -237,42 +236,6 @@ impl ExpressionKind {
         }
     }
 
-    /// C of slots `slots` of a family of this kind (`elements`: `arity`
-    /// particle indices per slot) at `x` (flat, `dim` per particle), in
-    /// precision `R`: the value tape over blocks of [`BLOCK`] slots, each
-    /// value handed to `each(slot, C)` in slot order. Bit for bit
-    /// [`ExpressionKind::value_at`] per slot.
-    pub fn values<R: Real>(
-        &self,
-        dim: usize,
-        elements: &[u32],
-        slots: Range<usize>,
-        x: &[R],
-        block: &mut Block<R>,
-        mut each: impl FnMut(usize, R),
-    ) {
-        let (arity, m) = (self.arity, self.element_constants);
-        let n = arity * dim;
-        let mut start = slots.start;
-        while start < slots.end {
-            let block_slots = start..BLOCK.min(slots.end - start) + start;
-            self.value.eval_block(block, |j, column| {
-                let (p, a) = (j / dim, j % dim);
-                for (lane, e) in block_slots.clone().enumerate() {
-                    column[lane] = match j < n {
-                        true => x[elements[e * arity + p] as usize * dim + a],
-                        false => R::constant(self.constants[e * m + (j - n)]),
-                    };
-                }
-            });
-            let value = block.column(self.value.value);
-            for (lane, e) in block_slots.clone().enumerate() {
-                each(e, value[lane]);
-            }
-            start = block_slots.end;
-        }
-    }
-
     /// The violation of an element whose value is `value` and rest `rest`,
     /// in precision `R`.
     pub fn violation<R: ProjectionReal>(&self, value: R, rest: R) -> R {
@@ -285,210 +248,4 @@ impl ExpressionKind {
             Relation::AtMost => positive(c),
         }
     }
-}
-
-/// Positions an expression projection reads and writes (flat, `dim` per
-/// particle).
-pub trait Positions<R> {
-    /// Coordinate `k`.
-    fn get(&self, k: usize) -> R;
-    /// Sets coordinate `k`.
-    fn set(&mut self, k: usize, value: R);
-}
-
-impl<R: Copy> Positions<R> for [R] {
-    fn get(&self, k: usize) -> R {
-        self[k]
-    }
-    fn set(&mut self, k: usize, value: R) {
-        self[k] = value;
-    }
-}
-
-/// Slots `slots` (one colour, or a chunk of one) of an expression family
-/// in precision `R`.
-pub struct Colour<'a, R> {
-    /// The family's kind.
-    pub kind: &'a ExpressionKind,
-    /// Dimension N.
-    pub dim: usize,
-    /// The family's particle indices, `arity` per (colour-ordered) slot.
-    pub elements: &'a [u32],
-    /// The family's rest values, per slot.
-    pub rest: &'a [R],
-    /// The family's per-element constants, `kind.element_constants` per
-    /// slot (the kind's [`ExpressionKind::constants`] in precision `R`).
-    pub constants: &'a [R],
-    /// α / h².
-    pub alpha_tilde: R,
-    /// Inverse mass per particle.
-    pub inverse_mass: &'a [R],
-    /// The slots to project.
-    pub slots: Range<usize>,
-}
-
-/// The projection's scratch, reused across blocks and calls: the tape's
-/// columns and, per member j of the element, each lane's particle offset
-/// (particle · N) and inverse mass.
-#[derive(Debug, Clone, Default)]
-pub struct ProjectionScratch<R> {
-    block: Block<R>,
-    offset: Vec<[usize; BLOCK]>,
-    weight: Vec<Column<R>>,
-}
-
-impl<R: Real> ProjectionScratch<R> {
-    /// Empty scratch.
-    pub fn new() -> Self {
-        ProjectionScratch {
-            block: Block::new(),
-            offset: Vec::new(),
-            weight: Vec::new(),
-        }
-    }
-}
-
-/// Projects the slots of `c` (module docs); `lambda` holds their
-/// multipliers (`lambda[0]` is slot `c.slots.start`). Every element is
-/// projected; the first failing slot is returned.
-///
-/// The slots run in blocks of [`BLOCK`]: gather the block's coordinates,
-/// evaluate the tape over the block ([`Tape::eval_block`]), then update
-/// its elements in slot order. A colour's elements share no dynamic
-/// particle and fixed ones are never written, so this reads and writes
-/// what projecting the elements one after another would.
-pub fn project<R: ProjectionReal, X: Positions<R> + ?Sized>(
-    c: &Colour<'_, R>,
-    x: &mut X,
-    lambda: &mut [R],
-    scratch: &mut ProjectionScratch<R>,
-) -> Result<(), usize> {
-    let mut failed = None;
-    let mut start = c.slots.start;
-    while start < c.slots.end {
-        let len = BLOCK.min(c.slots.end - start);
-        let lambda = &mut lambda[start - c.slots.start..][..len];
-        if let Some(e) = project_block(c, start..start + len, x, lambda, scratch) {
-            failed = failed.or(Some(e));
-        }
-        start += len;
-    }
-    failed.map_or(Ok(()), Err)
-}
-
-/// One block (≤ [`BLOCK`] slots) of [`project`]; the first failing slot.
-#[multiversion(targets("x86_64+avx"))]
-fn project_block<R: ProjectionReal, X: Positions<R> + ?Sized>(
-    c: &Colour<'_, R>,
-    slots: Range<usize>,
-    x: &mut X,
-    lambda: &mut [R],
-    s: &mut ProjectionScratch<R>,
-) -> Option<usize> {
-    let (dim, arity, len) = (c.dim, c.kind.arity, slots.len());
-    let tape = &c.kind.gradient;
-    let zero = R::constant(0.0);
-    // Gather, member by member: each lane's particle offset and inverse
-    // mass, then its coordinates into the tape's input columns.
-    s.offset.resize(arity, [0; BLOCK]);
-    s.weight.resize(arity, [zero; BLOCK]);
-    s.block.fit(tape);
-    let members = &c.elements[slots.start * arity..slots.end * arity];
-    for j in 0..arity {
-        let (offset, weight) = (&mut s.offset[j], &mut s.weight[j]);
-        for (lane, &i) in members.iter().skip(j).step_by(arity).enumerate() {
-            offset[lane] = i as usize * dim;
-            weight[lane] = c.inverse_mass[i as usize];
-        }
-        for a in 0..dim {
-            if let Some(slot) = c.kind.gradient_inputs[j * dim + a] {
-                let column = s.block.column_mut(slot);
-                for (value, &k) in column[..len].iter_mut().zip(&s.offset[j][..len]) {
-                    *value = x.get(k + a);
-                }
-            }
-        }
-    }
-    // The per-element constants (tape inputs arity·N …), per lane.
-    let m = c.kind.element_constants;
-    for q in 0..m {
-        if let Some(slot) = c.kind.gradient_inputs[arity * dim + q] {
-            let column = s.block.column_mut(slot);
-            for (lane, e) in slots.clone().enumerate() {
-                column[lane] = c.constants[e * m + q];
-            }
-        }
-    }
-    tape.eval_block(&mut s.block, |_, _| {});
-    let columns = &s.block;
-    let gradient = |j: usize, a: usize| columns.column(tape.gradient[j * dim + a]);
-    // wsum = Σ_j [w_j ≠ 0] w_j Σ_a g_ja², every lane at once.
-    let mut wsum = [zero; BLOCK];
-    for (j, w) in s.weight.iter().enumerate() {
-        let mut g2 = [zero; BLOCK];
-        for a in 0..dim {
-            let g = gradient(j, a);
-            for lane in 0..BLOCK {
-                g2[lane] += g[lane] * g[lane];
-            }
-        }
-        for lane in 0..BLOCK {
-            let with = wsum[lane] + w[lane] * g2[lane];
-            wsum[lane] = if w[lane] == zero { wsum[lane] } else { with };
-        }
-    }
-    // Δλ before the clamp, every lane at once (read only where it applies).
-    let value = columns.column(tape.value);
-    let mut raw = [zero; BLOCK];
-    for (lane, e) in slots.clone().enumerate() {
-        raw[lane] = (-(value[lane] - c.rest[e]) - c.alpha_tilde * lambda[lane])
-            / (wsum[lane] + c.alpha_tilde);
-    }
-    // Failures, responses, the clamp and λ, lane by lane.
-    let mut failed = None;
-    let mut dl = [zero; BLOCK];
-    let mut moves = [false; BLOCK];
-    for (lane, e) in slots.enumerate() {
-        if !value[lane].finite() {
-            failed = failed.or(Some(e));
-            continue;
-        }
-        if !wsum[lane].finite() || wsum[lane] == zero {
-            continue;
-        }
-        if !raw[lane].finite() {
-            failed = failed.or(Some(e));
-            continue;
-        }
-        let l = lambda[lane];
-        let t = l + raw[lane];
-        let (next, step) = match c.kind.relation {
-            Relation::Equal => (t, raw[lane]),
-            Relation::AtLeast => {
-                let next = if t < zero { zero } else { t };
-                (next, next - l)
-            }
-            Relation::AtMost => {
-                let next = if t < zero { t } else { zero };
-                (next, next - l)
-            }
-        };
-        lambda[lane] = next;
-        dl[lane] = step;
-        moves[lane] = true;
-    }
-    // x_ja += (w_j g_ja) Δλ for the moving lanes' dynamic members, member j
-    // then axis a (a coordinate's updates keep the element's order).
-    for (j, (w, offset)) in s.weight.iter().zip(&s.offset).enumerate() {
-        for a in 0..dim {
-            let g = gradient(j, a);
-            for lane in 0..len {
-                if moves[lane] && w[lane] != zero {
-                    let k = offset[lane] + a;
-                    x.set(k, x.get(k) + w[lane] * g[lane] * dl[lane]);
-                }
-            }
-        }
-    }
-    failed
 }

@@ -2,9 +2,12 @@
 //! slots) against projecting the same slots one call per slot (one lane
 //! per block), bit for bit: positions, multipliers and the first failing
 //! slot, for each relation, with fixed particles, coincident points (no
-//! response) and a non-finite value (a failing slot) among them.
+//! response) and a non-finite value (a failing slot) among them; the
+//! shapes compiled for their (arity, N) against the run-time shape, and
+//! the block values against C element by element.
 
-use super::expression::{Colour, ExpressionKind, ProjectionScratch, project};
+use super::expression::ExpressionKind;
+use super::expression_projection::{Colour, ProjectionScratch, project, project_any, values};
 use super::relation::Relation;
 use crate::expr::BLOCK;
 
@@ -77,5 +80,69 @@ fn blocks_project_as_slot_by_slot_bit_for_bit() {
             // sqrt of a negative difference: some slots fail.
             assert!(!blocks.is_empty());
         }
+    }
+}
+
+#[test]
+fn compiled_shapes_project_as_the_run_time_shape_bit_for_bit() {
+    // (2, 3) and (3, 4) are compiled shapes; (5, 4) runs the run-time
+    // shape with its column map on the heap (20 coordinates).
+    for (source, arity, dim) in [
+        ("norm(x1 - x0)", 2, 3),
+        ("dot(x1 - x0, x2 - x0) + norm(x2 - x1)", 3, 4),
+        ("norm(x4 - x0) + norm(x3 - x1) * x2[0]", 5, 4),
+    ] {
+        let kind = ExpressionKind::new("expression", source, &[], Relation::Equal, arity, dim)
+            .expect("compiles");
+        let count = BLOCK + 23;
+        let elements: Vec<u32> = (0..(arity * count) as u32).collect();
+        let rest: Vec<f64> = (0..count).map(|e| 0.3 + 0.01 * (e % 5) as f64).collect();
+        let inverse_mass: Vec<f64> = (0..arity * count)
+            .map(|i| {
+                if i % 7 == 2 {
+                    0.0
+                } else {
+                    1.0 + (i % 4) as f64
+                }
+            })
+            .collect();
+        let x: Vec<f64> = (0..arity * count * dim)
+            .map(|k| ((k * 7919) % 103) as f64 * 0.011 - 0.5)
+            .collect();
+        let colour = Colour {
+            kind: &kind,
+            dim,
+            elements: &elements,
+            rest: &rest,
+            constants: &[],
+            alpha_tilde: 1e-3,
+            inverse_mass: &inverse_mass,
+            slots: 0..count,
+        };
+        let (mut x0, mut x1) = (x.clone(), x.clone());
+        let (mut l0, mut l1) = (vec![1e-3; count], vec![1e-3; count]);
+        let mut scratch = ProjectionScratch::new();
+        let r0 = project(&colour, &mut x0[..], &mut l0, &mut scratch);
+        let r1 = project_any(&colour, &mut x1[..], &mut l1, &mut scratch);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(r0, r1, "{source}");
+        assert_eq!(bits(&x0), bits(&x1), "{source}");
+        assert_eq!(bits(&l0), bits(&l1), "{source}");
+        assert_ne!(
+            bits(&x0),
+            bits(&x),
+            "{source}: the projection moved nothing"
+        );
+        // C by blocks = C element by element.
+        let mut block = crate::expr::Block::new();
+        let mut columns = crate::expr::Columns::new();
+        let mut seen = 0;
+        values(&kind, dim, &elements, 3..count, &x, &mut block, |e, c| {
+            let points = &x[e * arity * dim..(e + 1) * arity * dim];
+            let one = kind.value_at(e, points, &mut columns);
+            assert_eq!(c.to_bits(), one.to_bits(), "{source}, slot {e}");
+            seen += 1;
+        });
+        assert_eq!(seen, count - 3, "{source}");
     }
 }

@@ -28,6 +28,7 @@ mod bending;
 pub mod contact_friction;
 mod distance;
 mod expression;
+mod expression_projection;
 #[cfg(test)]
 mod expression_tests;
 pub mod hyperplane_contact;
@@ -43,7 +44,8 @@ mod simplex_measure;
 mod tether;
 
 pub use bending::{BendingModel, quadratic_weights};
-pub use expression::{Colour, ExpressionKind, Positions, ProjectionScratch, project};
+pub use expression::ExpressionKind;
+pub use expression_projection::{Colour, Positions, ProjectionScratch, project, values};
 pub use real::ProjectionReal;
 pub use relation::Relation;
 
