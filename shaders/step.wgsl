@@ -116,7 +116,7 @@ const NONE: u32 = 0xffffffffu;
 // Per family [max violation, active contacts].
 @group(0) @binding(9) var<storage, read_write> report: array<real>;
 @group(0) @binding(10) var<storage, read> calls: array<Call>;
-// Per hyperplane family, per particle: its slot in the family (NONE: fixed).
+// Per contact (hyperplane or mesh) family, per particle: its slot in the family (NONE: fixed).
 @group(0) @binding(11) var<storage, read> contact_slot: array<u32>;
 // Per residual chunk [max violation, active contacts].
 @group(0) @binding(12) var<storage, read_write> partials: array<real>;

@@ -54,7 +54,7 @@ pub(crate) fn generated(plan: &Plan, families: &Families, precision: crate::Prec
     source
 }
 
-/// No slot (a fixed particle in a hyperplane family's slot map).
+/// No slot (a fixed particle in a contact family's slot map).
 pub(crate) const NONE: u32 = u32::MAX;
 
 /// The families in the shared element / slot arrays of the device.
@@ -77,10 +77,10 @@ pub(crate) struct Families {
     pub elem_base: Vec<u32>,
     /// Offset of each family's slots in `rest` and `lambda`.
     pub slot_base: Vec<u32>,
-    /// Offset of each hyperplane family's particle → slot map in
+    /// Offset of each contact (hyperplane or mesh) family's particle → slot map in
     /// `slot_maps` (0 for the others).
     pub slot_map: Vec<u32>,
-    /// Per hyperplane family, per particle: its slot, or NONE (then the
+    /// Per contact family, per particle: its slot, or NONE (then the
     /// pins' particle → pin map, with prescribed motion; then, with the
     /// primal residual, the warm start's rows at `warm_start`).
     pub slot_maps: Vec<u32>,
