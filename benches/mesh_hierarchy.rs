@@ -130,6 +130,7 @@ fn xpbd(side: usize, rows: usize, (steps, rounds): (usize, usize)) {
         vertices,
         simplices,
         friction: 0.3,
+        motion: Vec::new(),
     };
     let plane = Obstacle::Hyperplane {
         normal: vec![0.0, 1.0, 0.0],
@@ -201,6 +202,7 @@ fn main() {
         vertices,
         simplices,
         friction: 0.0,
+        motion: Vec::new(),
     }));
     let plane = BarrierObstacles::compile(&scene(Obstacle::Hyperplane {
         normal: vec![0.0, 1.0, 0.0],

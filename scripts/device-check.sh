@@ -166,7 +166,7 @@ if [ -n "$dry" ]; then
     diff_scenes="chain2d"
     frames=2
 else
-    diff_scenes="chain2d cloth tesseract jelly4d incline5d example barrier4d sandpile2d ballpit4d column3d bowl3d"
+    diff_scenes="chain2d cloth tesseract jelly4d incline5d example barrier4d sandpile2d ballpit4d column3d bowl3d drape3d"
     frames=20
 fi
 diff_scenes="${HYPERPBD_DEVICE_SCENES:-$diff_scenes}"

@@ -31,6 +31,7 @@ scenes=(
     "drum4d|240|12|240|"
     "twirl|150|10|150|--perspective --elevation 20"
     "bowl3d|120|6|120|--perspective --elevation 30"
+    "drape3d|180|9|180|--perspective --elevation 25"
 )
 
 wanted=("$@")

@@ -14,12 +14,21 @@
 //   friction   λ > 0: n at the substep's final x within reach w λ, then
 //              friction.wgsl's dynamic friction with that n
 //   residual   max(0, −C) with reach 0
+//   moving     (FLAG_MOVING) the query point mapped into the mesh's frame,
+//              y = Rᵀ x + e, and n turned back, n = R n_f
+//              (core/src/moving_mesh.rs); static friction against
+//              q = D(p) + p and dynamic friction on v − D(p)/h
+//              (motion.wgsl's carried_start, carried_friction). The values
+//              of a substep at rest[F]: Ā (DIM²), Rᵀ (DIM²), e (DIM) with
+//              FLAG_ROTATES, e alone without; F = call.chunk on the contact
+//              and friction calls, the mesh header's F on the residual call
+//              (the last substep's)
 //
 // Composed only into the step modules of plans with mesh families
 // (gpu/src/xpbd/mesh.rs; mesh_off.wgsl stands in elsewhere). The meshes,
 // in device coordinates (x − o), laid out by gpu/src/xpbd/mesh.rs:
 //   mesh_words[f]          family f's mesh header h (NONE: not a mesh family)
-//   mesh_words[h .. h + 3] (reals base b, words base k, simplices S)
+//   mesh_words[h .. h + 4] (reals base b, words base k, simplices S, frame F)
 //   mesh_reals[b]          the rounding scale (largest |coordinate|)
 //   mesh_reals[b + 1 ..]   vertices (S · SLOTS · DIM), then node boxes
 //                          ((2S − 1) · 2 · DIM: lo then hi per node)
@@ -111,6 +120,46 @@ fn mesh_closest(p: ptr<function, array<real, DIM>>, r: real, reach: real,
     return hit;
 }
 
+// y = Rᵀ p + e into p: p into the frame of the running moving-mesh call's
+// mesh, whose values start at rest[frame] (the header above).
+fn to_mesh_frame(p: ptr<function, array<real, DIM>>, frame: u32) {
+    let x = *p;
+    if ((call.flags & FLAG_ROTATES) == 0u) {
+        for (var a = 0u; a < DIM; a++) {
+            (*p)[a] = x[a] + rest_at(frame + a);
+        }
+        return;
+    }
+    let offset = frame + 2u * DIM * DIM;
+    for (var a = 0u; a < DIM; a++) {
+        var s: real = 0.0;
+        for (var b = 0u; b < DIM; b++) {
+            s += rest_at(frame + DIM * DIM + a * DIM + b) * x[b];
+        }
+        (*p)[a] = kept(s) + rest_at(offset + a);
+    }
+}
+
+// n ← R n: a normal of the frame back to the world (FLAG_ROTATES only).
+fn mesh_normal_back(n: ptr<function, array<real, DIM>>, frame: u32) {
+    if ((call.flags & FLAG_ROTATES) == 0u) {
+        return;
+    }
+    let f = *n;
+    for (var a = 0u; a < DIM; a++) {
+        var s: real = 0.0;
+        for (var b = 0u; b < DIM; b++) {
+            s += rest_at(frame + DIM * DIM + b * DIM + a) * f[b];
+        }
+        (*n)[a] = kept(s);
+    }
+}
+
+// Whether the running contact or friction call's mesh moves.
+fn mesh_moves() -> bool {
+    return (call.flags & FLAG_MOVING) != 0u;
+}
+
 // Coordinates of a record.
 fn record_point(r: ptr<function, Record>) -> array<real, DIM> {
     var p: array<real, DIM>;
@@ -131,6 +180,9 @@ fn mesh_contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Re
     let w = inverse_mass_of(rx);
     let l = lambda_before(s);
     var p = record_point(rx);
+    if (mesh_moves()) {
+        to_mesh_frame(&p, call.chunk);
+    }
     var n: array<real, DIM>;
     use_mesh(call.family);
     let hit = mesh_closest(&p, rest_at(s), w * l, &n);
@@ -139,12 +191,20 @@ fn mesh_contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Re
         contact_l = l;
         return;
     }
+    if (mesh_moves()) {
+        mesh_normal_back(&n, call.chunk);
+    }
     if (!contact_response(e, hit.c, l, rx, &n)) {
         return;
     }
     let mu = call.friction;
     if (mu > 0.0 && contact_l > 0.0) {
-        static_friction(rx, rp, &n, mu * w * contact_l);
+        if (mesh_moves()) {
+            var q = carried_start(rp);
+            static_friction(rx, &q, &n, mu * w * contact_l);
+        } else {
+            static_friction(rx, rp, &n, mu * w * contact_l);
+        }
     }
 }
 
@@ -159,18 +219,32 @@ fn mesh_friction_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, R
         return;
     }
     var p = record_point(rx);
+    if (mesh_moves()) {
+        to_mesh_frame(&p, call.chunk);
+    }
     var n: array<real, DIM>;
     use_mesh(call.family);
     let hit = mesh_closest(&p, rest_at(call.slot_base + slot.e), inverse_mass_of(rx) * slot.l, &n);
-    if (hit.found) {
+    if (!hit.found) {
+        return;
+    }
+    if (mesh_moves()) {
+        mesh_normal_back(&n, call.chunk);
+        carried_friction(i, rx, rv, rp, slot.l, &n);
+    } else {
         dynamic_friction(i, rx, rv, slot.l, &n);
     }
 }
 
-// max(0, −C) of slot s of the running residual call at p (reach 0).
+// max(0, −C) of slot s of the running residual call at p (reach 0; a
+// moving mesh where the last substep placed it).
 fn mesh_violation(s: u32, p: ptr<function, array<real, DIM>>) -> real {
     var n: array<real, DIM>;
     use_mesh(call.family);
+    let frame = mesh_words[mesh_words[call.family] + 3u];
+    if (frame != NONE) {
+        to_mesh_frame(p, frame);
+    }
     let hit = mesh_closest(p, rest_at(s), 0.0, &n);
     if (!hit.found) {
         return 0.0;

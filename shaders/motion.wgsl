@@ -1,5 +1,6 @@
 // Prescribed motion on the device: animated pins, and the contact,
-// friction and residual of a moving hyperplane (FLAG_MOVING). The host
+// friction and residual of a moving hyperplane (FLAG_MOVING; a moving
+// mesh's are mesh_contact.wgsl's with this carry and friction). The host
 // evaluates every motion in f64 once per step for all its substeps
 // (core/src/motion.rs) and hands the values over in the call blocks and
 // in `rest` (gpu/src/xpbd/motion.rs):
@@ -64,13 +65,19 @@ fn moving_contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, 
     }
     let mu = call.friction;
     if (mu > 0.0 && contact_l > 0.0) {
-        // The obstacle point under p at the substep's start, now at q.
-        var q: Record;
-        for (var a = 0u; a < DIM; a++) {
-            set_lane(&q, a, kept(carry_at(a, rp)) + lane(rp, a));
-        }
+        var q = carried_start(rp);
         static_friction(rx, &q, &n, mu * inverse_mass_of(rx) * contact_l);
     }
+}
+
+// The obstacle point under p at the substep's start, now at q = D(p) + p
+// (the running moving-plane or moving-mesh call's carry).
+fn carried_start(rp: ptr<function, Record>) -> Record {
+    var q: Record;
+    for (var a = 0u; a < DIM; a++) {
+        set_lane(&q, a, kept(carry_at(a, rp)) + lane(rp, a));
+    }
+    return q;
 }
 
 // Dynamic friction against a moving hyperplane (friction_particle's slot
@@ -80,18 +87,29 @@ fn moving_friction_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function,
     if (slot.e == NONE || slot.l <= 0.0) {
         return;
     }
-    let l = slot.l;
+    var n: array<real, DIM>;
+    for (var a = 0u; a < DIM; a++) {
+        n[a] = normal(a);
+    }
+    carried_friction(i, rx, rv, rp, slot.l, &n);
+}
+
+// v −= u_t · min(μ w λ / h, |u_t|) / |u_t|, u = v − D(p)/h: dynamic
+// friction of particle i (multiplier `l` > 0) against the running call's
+// moving obstacle, with unit normal n (a plane's, or a moving mesh's at x).
+fn carried_friction(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
+                    rp: ptr<function, Record>, l: real, n: ptr<function, array<real, DIM>>) {
     var rel: Record;
     for (var a = 0u; a < DIM; a++) {
         set_lane(&rel, a, lane(rv, a) - kept(carry_at(a, rp)) / call.h);
     }
     var vn: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        vn += normal(a) * lane(&rel, a);
+        vn += (*n)[a] * lane(&rel, a);
     }
     var t2: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        let t = lane(&rel, a) - vn * normal(a);
+        let t = lane(&rel, a) - vn * (*n)[a];
         t2 += t * t;
     }
     let vt = sqrt(t2);
@@ -102,7 +120,7 @@ fn moving_friction_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function,
     let scale = min(limit, vt) / vt;
     var ok = true;
     for (var a = 0u; a < DIM; a++) {
-        let t = lane(&rel, a) - vn * normal(a);
+        let t = lane(&rel, a) - vn * (*n)[a];
         let vk = lane(rv, a) - t * scale;
         set_lane(rv, a, vk);
         ok = ok && finite(vk);

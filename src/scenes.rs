@@ -6,6 +6,7 @@
 
 mod bowl;
 mod demo;
+mod drape;
 mod drum;
 mod granular;
 mod peer_cloth;
@@ -14,6 +15,7 @@ mod twirl;
 
 pub use bowl::bowl3d;
 pub use demo::{BELT_SPEED, demo};
+pub use drape::{DOME_RATE, dome_height, dome_motion, drape3d};
 pub use drum::{DRUM_RATE, DrumSpec, drum, drum_motion, drum_spec, drum3d, drum4d};
 pub use granular::{ballpit4d, column3d, pit3d, sandpile2d};
 use hyperpbd_core::builders::{BlockSpec, GridSpec};
@@ -38,6 +40,7 @@ pub const NAMES: &[&str] = &[
     "drum4d",
     "twirl",
     "bowl3d",
+    "drape3d",
 ];
 
 /// Built-in scenes too large to ship as files; generate them with
@@ -63,6 +66,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "drum4d" => Some(drum4d()),
         "twirl" => Some(twirl()),
         "bowl3d" => Some(bowl3d()),
+        "drape3d" => Some(drape3d()),
         _ => None,
     }
 }

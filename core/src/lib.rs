@@ -28,6 +28,7 @@ pub mod material;
 mod material_plan;
 mod minimisation;
 pub mod motion;
+pub mod moving_mesh;
 mod plan;
 mod precision;
 mod scene;

@@ -1,5 +1,6 @@
-//! Prescribed motion of hyperplane obstacles and fixed particles (pins):
-//! a list of rigid motions composed in order, a pure function of time.
+//! Prescribed motion of obstacles (hyperplanes, simplex meshes:
+//! `moving_mesh.rs`) and fixed particles (pins): a list of rigid motions
+//! composed in order, a pure function of time.
 //!
 //! ```text
 //! M(t) = M_k(t) ∘ … ∘ M_1(t),  each M_j(t): x ↦ R_j x + b_j   (rigid)
@@ -29,7 +30,7 @@
 
 use serde::{Deserialize, Serialize};
 
-/// One rigid motion of a list (`"motion": [...]` on a hyperplane or a
+/// One rigid motion of a list (`"motion": [...]` on an obstacle or a
 /// fixed particle).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
@@ -233,6 +234,24 @@ pub struct MovingPlane {
     pub motion: Vec<Motion>,
 }
 
+/// A moving simplex mesh of the plan (`moving_mesh.rs` has its frame).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MovingMesh {
+    /// Its contact family in [`crate::Plan::families`].
+    pub family: usize,
+    /// Its motion list.
+    pub motion: Vec<Motion>,
+}
+
+/// A moving mesh over one substep.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshAt {
+    /// M(t1).
+    pub placed: Rigid,
+    /// D over [t0, t1].
+    pub carry: Carry,
+}
+
 /// A fixed particle with a motion.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Pin {
@@ -250,6 +269,9 @@ pub struct Pin {
 pub struct MotionPlan {
     /// Moving hyperplanes (those with a contact family), in obstacle order.
     pub planes: Vec<MovingPlane>,
+    /// Moving simplex meshes (those with a contact family), in obstacle
+    /// order.
+    pub meshes: Vec<MovingMesh>,
     /// Animated pins, in particle order.
     pub pins: Vec<Pin>,
 }
@@ -270,6 +292,8 @@ pub struct PlaneAt {
 pub struct SubstepMotion {
     /// Per [`MotionPlan::planes`] entry.
     pub planes: Vec<PlaneAt>,
+    /// Per [`MotionPlan::meshes`] entry.
+    pub meshes: Vec<MeshAt>,
     /// Per [`MotionPlan::pins`] entry: x(t1), `dim` each.
     pub pin_positions: Vec<f64>,
     /// Per pin: (x(t1) − x(t0)) / h.
@@ -280,6 +304,16 @@ impl MotionPlan {
     /// The index in [`MotionPlan::planes`] of family `family`'s plane.
     pub fn plane_of(&self, family: usize) -> Option<usize> {
         self.planes.iter().position(|p| p.family == family)
+    }
+
+    /// The index in [`MotionPlan::meshes`] of family `family`'s mesh.
+    pub fn mesh_of(&self, family: usize) -> Option<usize> {
+        self.meshes.iter().position(|m| m.family == family)
+    }
+
+    /// Whether nothing moves.
+    pub fn is_empty(&self) -> bool {
+        self.planes.is_empty() && self.meshes.is_empty() && self.pins.is_empty()
     }
 
     /// The prescribed values of the substep from `t0` to `t1` (length h).
@@ -301,6 +335,20 @@ impl MotionPlan {
                 }
             })
             .collect();
+        let meshes = self
+            .meshes
+            .iter()
+            .map(|mesh| {
+                let (m0, m1) = (
+                    rigid_at(&mesh.motion, dim, t0),
+                    rigid_at(&mesh.motion, dim, t1),
+                );
+                MeshAt {
+                    carry: carry(&m0, &m1, dim),
+                    placed: m1,
+                }
+            })
+            .collect();
         let mut pin_positions = Vec::with_capacity(self.pins.len() * dim);
         let mut pin_velocities = Vec::with_capacity(self.pins.len() * dim);
         for pin in &self.pins {
@@ -311,6 +359,7 @@ impl MotionPlan {
         }
         SubstepMotion {
             planes,
+            meshes,
             pin_positions,
             pin_velocities,
         }
@@ -337,20 +386,25 @@ pub fn local_plane(plane: &PlaneAt, origin: &[f64]) -> (f64, Vec<f64>) {
     let Some(no) = along(&plane.normal, origin) else {
         return (plane.shift, plane.carry.offset.clone());
     };
+    (plane.shift - no, local_carry(&plane.carry, origin))
+}
+
+/// A carry's offset relative to `origin`: c + Ā o (f64; c unchanged
+/// without an origin or without a rotation).
+pub fn local_carry(carry: &Carry, origin: &[f64]) -> Vec<f64> {
     let n = origin.len();
-    let offset = match &plane.carry.matrix {
-        None => plane.carry.offset.clone(),
-        Some(m) => (0..n)
+    match &carry.matrix {
+        Some(m) if origin.iter().any(|&o| o != 0.0) => (0..n)
             .map(|a| {
                 let mut s = 0.0;
                 for b in 0..n {
                     s += m[a * n + b] * origin[b];
                 }
-                plane.carry.offset[a] + s
+                carry.offset[a] + s
             })
             .collect(),
-    };
-    (plane.shift - no, offset)
+        Some(_) | None => carry.offset.clone(),
+    }
 }
 
 /// A pin coordinate relative to origin coordinate `o` (f64; unchanged

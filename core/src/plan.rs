@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! per step, substeps × {
-//!   Motion                       moving planes and pins at the substep's
+//!   Motion                       moving planes, meshes and pins at the substep's
 //!                                end time (only with a `motion`; motion.rs)
 //!   Predict                      v += h (s g + w f); p = x; x += h v; λ = 0
 //!                                (gravity / force terms only if authored)
@@ -30,7 +30,7 @@ use crate::geometry::{Scratch, unit_vector};
 use crate::guard_rules::{Adaptive, Guards, guarded_families};
 use crate::kinds;
 use crate::material_plan::{self, FamilyMass};
-use crate::motion::{MotionPlan, MovingPlane, Pin};
+use crate::motion::{MotionPlan, MovingMesh, MovingPlane, Pin};
 use crate::{Family, FamilyKind, Obstacle, Scene, SceneError, Solver, StageName, XpbdSettings};
 
 /// Which terms prediction includes.
@@ -336,10 +336,17 @@ impl Plan {
                     vertices,
                     simplices,
                     friction,
+                    motion,
                 } => {
                     // kinds/mesh_contact.rs: C = dist(x, mesh) − radius.
                     let mesh = crate::barrier::BarrierObstacles::mesh(dim, o, vertices, simplices);
                     let rest: Vec<f64> = particles.iter().map(|&i| radius[i]).collect();
+                    if !motion.is_empty() {
+                        moving.meshes.push(MovingMesh {
+                            family: families.len(),
+                            motion: motion.clone(),
+                        });
+                    }
                     obstacle_families[o] = Some(families.len());
                     families.push(colored_family(
                         format!("obstacles[{o}]"),
@@ -396,7 +403,7 @@ impl Plan {
                     friction: c.friction,
                     margin: c.margin,
                 });
-        let motion = (!moving.planes.is_empty() || !moving.pins.is_empty()).then_some(moving);
+        let motion = (!moving.is_empty()).then_some(moving);
         let mut substep_kernels = Vec::new();
         if motion.is_some() {
             substep_kernels.push(Kernel::Motion);

@@ -355,9 +355,11 @@ pub enum Obstacle {
         #[serde(default, skip_serializing_if = "Vec::is_empty")]
         motion: Vec<Motion>,
     },
-    /// A static mesh of k-simplices (segments, triangles, tetrahedra:
-    /// k = 1, 2, 3) in R^N. Used by the incremental-potential path only:
-    /// a particle keeps d = dist(x, simplex) − radius > 0 from every one.
+    /// A mesh of k-simplices (segments, triangles, tetrahedra: k = 1, 2,
+    /// 3) in R^N: a contact inequality dist(x, mesh) − radius ≥ 0 on the
+    /// XPBD path (`kinds/mesh_contact.rs`), a barrier on the implicit
+    /// paths. Static, or moving rigidly with a `motion` (XPBD path:
+    /// `moving_mesh.rs`).
     SimplexMesh {
         /// Vertex positions (each of length `dim`).
         vertices: Vec<Vec<f64>>,
@@ -368,6 +370,9 @@ pub enum Obstacle {
         /// (the implicit path's lagged friction; 0: frictionless).
         #[serde(default, skip_serializing_if = "is_zero")]
         friction: f64,
+        /// Prescribed rigid motion (`motion.rs`); empty: static.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        motion: Vec<Motion>,
     },
 }
 
@@ -422,12 +427,6 @@ impl TryFrom<ObstacleDocument> for Obstacle {
                 if doc.normal.is_some() {
                     return Err("unknown field `normal` for a simplex_mesh".into());
                 }
-                if !doc.motion.is_empty() {
-                    return Err(
-                        "a simplex_mesh takes no `motion` yet (moving obstacles are hyperplanes)"
-                            .into(),
-                    );
-                }
                 if doc.offset != 0.0 || doc.compliance != 0.0 {
                     return Err(
                         "a simplex_mesh takes only `vertices`, `simplices` and `friction` (no offset or compliance)"
@@ -438,6 +437,7 @@ impl TryFrom<ObstacleDocument> for Obstacle {
                     vertices: doc.vertices.ok_or("missing field `vertices`")?,
                     simplices: doc.simplices.ok_or("missing field `simplices`")?,
                     friction: doc.friction,
+                    motion: doc.motion,
                 })
             }
         }

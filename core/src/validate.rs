@@ -304,6 +304,7 @@ impl Scene {
                     vertices,
                     simplices,
                     friction,
+                    motion,
                 } => {
                     for (v, vertex) in vertices.iter().enumerate() {
                         vector(&at(&format!("vertices[{v}]")), vertex, self.dim)?;
@@ -316,6 +317,7 @@ impl Scene {
                             value: *friction,
                         });
                     }
+                    self.validate_motion(&at("motion"), motion)?;
                 }
             }
         }

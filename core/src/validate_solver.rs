@@ -47,10 +47,11 @@ impl Scene {
         if let Some(i) = self.particles.iter().position(|p| !p.motion.is_empty()) {
             return Some(format!("particles[{i}].motion"));
         }
-        let obstacle = self
-            .obstacles
-            .iter()
-            .position(|o| matches!(o, Obstacle::Hyperplane { motion, .. } if !motion.is_empty()));
+        let obstacle = self.obstacles.iter().position(|o| match o {
+            Obstacle::Hyperplane { motion, .. } | Obstacle::SimplexMesh { motion, .. } => {
+                !motion.is_empty()
+            }
+        });
         obstacle.map(|o| format!("obstacles[{o}].motion"))
     }
 

@@ -201,6 +201,7 @@ impl CpuBackend {
                     alpha_tilde: fam.alpha_tilde(plan.h),
                     start: &self.p,
                     meshes: &plan.meshes,
+                    moving_mesh: motion::mesh(plan, &self.motion_now, family),
                 };
                 let lambda =
                     &mut self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]];

@@ -18,16 +18,17 @@
 //!     J_i += m_i (x_i(after) − x_i(before)) / h    (dynamic particles)
 //! barrier path, per substep at the accepted iterate x:
 //!   J_i += −b'(d_io) ∇d_io h for every active obstacle o, also on o
-//! moving plane o, with every impulse J_i above:  W_o += J_i · D_o(p_i) / h
-//!   (p_i the particle's position at the substep's start, D_o the plane's carry)
+//! moving plane or mesh o, with every impulse J_i above:  W_o += J_i · D_o(p_i) / h
+//!   (p_i the particle's position at the substep's start, D_o the obstacle's carry;
+//!   a moving mesh's n is taken in its frame and turned back: `moving_mesh`)
 //! the step's end:  F = J / dt,  P_o = W_o / dt
 //! ```
 //! Fixed particles never move, so on the XPBD path their particle contacts
 //! report 0 (obstacle families hold dynamic particles only).
 
 use hyperpbd_core::contact_forces::barrier_forces;
-use hyperpbd_core::kinds::mesh_contact;
 use hyperpbd_core::motion::SubstepMotion;
+use hyperpbd_core::moving_mesh::closest_placed;
 use hyperpbd_core::{ContactForces, FamilyKind, IncrementalPotentialPlan, Kernel, Plan};
 
 /// The impulses of the step so far, and the snapshot of the kernel
@@ -179,9 +180,9 @@ impl Recorder {
         }
     }
 
-    /// The work J·D(p)/h of impulse `j` of plane family `family` (obstacle
-    /// `o`) on a particle that started the substep at `p`, when the plane
-    /// moves.
+    /// The work J·D(p)/h of impulse `j` of contact family `family`
+    /// (obstacle `o`) on a particle that started the substep at `p`, when
+    /// the plane or mesh moves.
     fn work(
         &mut self,
         plan: &Plan,
@@ -190,11 +191,14 @@ impl Recorder {
         p: &[f64],
         j: &[f64],
     ) {
-        let (Some(o), Some(plane)) = (o, crate::motion::plane(plan, now, family)) else {
+        let moving = crate::motion::plane(plan, now, family)
+            .map(|plane| &plane.carry)
+            .or_else(|| crate::motion::mesh(plan, now, family).map(|mesh| &mesh.carry));
+        let (Some(o), Some(carry)) = (o, moving) else {
             return;
         };
         let mut u = vec![0.0; p.len()];
-        plane.carry.at(p, &mut u);
+        carry.at(p, &mut u);
         let w: f64 = j.iter().zip(&u).map(|(j, u)| j * u / plan.h).sum();
         self.impulses.add_obstacle_work(o, w);
     }
@@ -289,7 +293,8 @@ fn normal_at<'a>(
             let reach = plan.inverse_mass[i] * l;
             let xi = &x[i * n..(i + 1) * n];
             let mesh = &plan.meshes[*mesh];
-            if mesh_contact::closest(mesh, xi, f.rest[e], reach, buf).is_none() {
+            let frame = crate::motion::mesh(plan, now, family).map(|m| m.frame(&[]));
+            if closest_placed(mesh, frame.as_ref(), xi, f.rest[e], reach, buf).is_none() {
                 buf.fill(0.0);
             }
             buf

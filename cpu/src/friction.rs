@@ -16,7 +16,8 @@
 use crate::dim::{Dim, with_dim};
 use crate::parallel::{Coordinates, DisjointSlice, Shared, Workers, first_error};
 use crate::project::ELEMENT_GRAIN;
-use hyperpbd_core::kinds::contact_friction::clamp_tangential;
+use hyperpbd_core::kinds::contact_friction::{clamp_relative, clamp_tangential};
+use hyperpbd_core::motion::Carry;
 use hyperpbd_core::{Family, FamilyKind};
 use std::ops::Range;
 
@@ -93,4 +94,24 @@ fn friction_in<D: Dim, V: Coordinates + ?Sized>(
         }
     }
     Ok(())
+}
+
+/// Dynamic friction of one particle (velocity `v`, substep start `p`)
+/// against an obstacle that carries its points by `carry`: u = v − D(p)/h,
+/// v −= u_t · min(`limit`, |u_t|) / |u_t| (`rel`: scratch). Whether v
+/// changed.
+pub(crate) fn carried_friction(
+    normal: &[f64],
+    carry: &Carry,
+    p: &[f64],
+    (limit, h): (f64, f64),
+    rel: &mut [f64],
+    v: &mut [f64],
+) -> bool {
+    carry.at(p, rel);
+    for a in 0..v.len() {
+        rel[a] = v[a] - rel[a] / h;
+    }
+    let vn = crate::project::dot(normal, rel);
+    clamp_relative(normal, limit, (vn, rel), v)
 }

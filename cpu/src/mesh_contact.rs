@@ -11,6 +11,9 @@
 //!           n from closest(mesh, x, r, w λ) at the substep's final x (none: no friction)
 //!           v_t = v − (n·v) n;  v −= v_t · min(μ w λ / h, |v_t|) / |v_t|   (friction.rs's)
 //! residual  max_e max(0, −C_e)    (C from closest(mesh, x, r, 0): only C ≤ 0 counts)
+//! moving    closest in the mesh's frame, n turned back (`hyperpbd_core::
+//!           moving_mesh`); static friction against q = p + D(p) and
+//!           dynamic friction on v − D(p)/h, as a moving plane's (motion.rs)
 //! ```
 //! These are the hyperplane's updates (`project.rs`, `friction.rs`) with
 //! the plane's fixed normal replaced by the mesh's normal at x. A family
@@ -24,7 +27,8 @@ use crate::parallel::{Coordinates, DisjointSlice, Shared, Workers, first_error};
 use crate::project::ELEMENT_GRAIN;
 use hyperpbd_core::barrier::BarrierObstacles;
 use hyperpbd_core::kinds::contact_friction::clamp_tangential;
-use hyperpbd_core::kinds::mesh_contact::closest;
+use hyperpbd_core::motion::MeshAt;
+use hyperpbd_core::moving_mesh::closest_placed;
 use hyperpbd_core::{Family, MAX_DIM};
 use std::ops::Range;
 
@@ -39,6 +43,9 @@ pub(crate) struct MeshFriction<'a> {
     pub lambda: &'a [f64],
     /// Positions at the substep's end.
     pub x: &'a [f64],
+    /// A moving mesh's placement this substep and the positions at the
+    /// substep's start (`None`: static).
+    pub moving: Option<(&'a MeshAt, &'a [f64])>,
 }
 
 /// Dynamic friction of a mesh family; the first particle (in element
@@ -69,6 +76,8 @@ fn friction_in<V: Coordinates + ?Sized>(
     let dim = m.dim;
     let mut normal = [0.0f64; MAX_DIM];
     let normal = &mut normal[..dim];
+    let mut rel = [0.0f64; MAX_DIM];
+    let frame = m.moving.map(|(at, _)| at.frame(&[]));
     for e in elements {
         let l = m.lambda[e];
         if l <= 0.0 {
@@ -77,12 +86,29 @@ fn friction_in<V: Coordinates + ?Sized>(
         let i = m.family.elements[e] as usize;
         let w = m.inverse_mass[i];
         let xi = &m.x[i * dim..(i + 1) * dim];
-        if closest(m.mesh, xi, m.family.rest[e], w * l, normal).is_none() {
+        let reach = w * l;
+        if closest_placed(m.mesh, frame.as_ref(), xi, m.family.rest[e], reach, normal).is_none() {
             continue;
         }
         let vi = v.values_mut(i * dim..(i + 1) * dim);
-        let vn = crate::project::dot(normal, vi);
-        let applied = clamp_tangential(normal, m.mu * w * l / m.h, vn, vi);
+        let limit = m.mu * w * l / m.h;
+        let applied = match m.moving {
+            None => {
+                let vn = crate::project::dot(normal, vi);
+                clamp_tangential(normal, limit, vn, vi)
+            }
+            Some((at, start)) => {
+                let p = &start[i * dim..(i + 1) * dim];
+                crate::friction::carried_friction(
+                    normal,
+                    &at.carry,
+                    p,
+                    (limit, m.h),
+                    &mut rel[..dim],
+                    vi,
+                )
+            }
+        };
         if applied && !vi.iter().all(|c| c.is_finite()) {
             return Err(e);
         }
@@ -90,13 +116,27 @@ fn friction_in<V: Coordinates + ?Sized>(
     Ok(())
 }
 
-/// max_e max(0, −C_e) of mesh family `family` at `x`.
-pub(crate) fn residual(dim: usize, family: &Family, mesh: &BarrierObstacles, x: &[f64]) -> f64 {
+/// max_e max(0, −C_e) of mesh family `family` at `x` (a moving mesh
+/// where the last substep placed it).
+pub(crate) fn residual(
+    dim: usize,
+    family: &Family,
+    (mesh, moving): (&BarrierObstacles, Option<&MeshAt>),
+    x: &[f64],
+) -> f64 {
     let mut normal = [0.0f64; MAX_DIM];
     let mut worst: f64 = 0.0;
+    let frame = moving.map(|m| m.frame(&[]));
     for (e, &i) in family.elements.iter().enumerate() {
         let xi = &x[i as usize * dim..(i as usize + 1) * dim];
-        if let Some(c) = closest(mesh, xi, family.rest[e], 0.0, &mut normal[..dim]) {
+        if let Some(c) = closest_placed(
+            mesh,
+            frame.as_ref(),
+            xi,
+            family.rest[e],
+            0.0,
+            &mut normal[..dim],
+        ) {
             worst = worst.max(-c);
         }
     }

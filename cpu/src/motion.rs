@@ -1,6 +1,7 @@
 //! Prescribed motion on the golden path (`hyperpbd_core::motion` has the
 //! definitions): the Motion kernel, and the contact projection, friction
-//! and residual of a moving hyperplane.
+//! and residual of a moving hyperplane (a moving mesh's are
+//! `mesh_contact.rs`'s and `project.rs`'s, given [`mesh`]).
 //!
 //! ```text
 //! Motion     t0 = step·dt + s·h,  t1 = t0's successor (s + 1)
@@ -22,12 +23,12 @@
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
 
-use hyperpbd_core::motion::{PlaneAt, SubstepMotion, substep_time};
+use hyperpbd_core::motion::{MeshAt, PlaneAt, SubstepMotion, substep_time};
 use hyperpbd_core::{Family, FamilyKind, FamilyResidual, Plan};
 
 use crate::parallel::Workers;
 use crate::project::dot;
-use hyperpbd_core::kinds::contact_friction::{clamp_relative, static_friction};
+use hyperpbd_core::kinds::contact_friction::static_friction;
 use hyperpbd_core::kinds::hyperplane_contact::contact_update;
 
 /// The Motion kernel of substep `substep` of step `step`: the substep's
@@ -57,6 +58,12 @@ pub fn place(
 pub fn plane<'a>(plan: &Plan, now: &'a SubstepMotion, family: usize) -> Option<&'a PlaneAt> {
     let k = plan.motion.as_ref()?.plane_of(family)?;
     now.planes.get(k)
+}
+
+/// The mesh of family `family` in this substep, if it moves.
+pub fn mesh<'a>(plan: &Plan, now: &'a SubstepMotion, family: usize) -> Option<&'a MeshAt> {
+    let k = plan.motion.as_ref()?.mesh_of(family)?;
+    now.meshes.get(k)
 }
 
 /// Projection of moving-plane family `family` (every element; one
@@ -117,6 +124,7 @@ pub fn friction_of(
             mu: *friction,
             lambda,
             x,
+            moving: self::mesh(plan, now, family).map(|m| (m, start)),
         };
         return crate::mesh_contact::friction(workers, &mesh, v);
     }
@@ -142,7 +150,12 @@ pub fn residual_of(
     if let FamilyKind::MeshContact { mesh, .. } = &f.kind {
         return FamilyResidual {
             label: f.label.clone(),
-            max_violation: crate::mesh_contact::residual(plan.dim, f, &plan.meshes[*mesh], x),
+            max_violation: crate::mesh_contact::residual(
+                plan.dim,
+                f,
+                (&plan.meshes[*mesh], self::mesh(plan, now, family)),
+                x,
+            ),
         };
     }
     match plane(plan, now, family) {
@@ -177,13 +190,11 @@ pub fn friction(
         }
         let i = family.elements[e] as usize;
         let vi = &mut v[i * n..(i + 1) * n];
-        plane.carry.at(&start[i * n..(i + 1) * n], &mut rel);
-        for a in 0..n {
-            rel[a] = vi[a] - rel[a] / h;
-        }
-        let vn = dot(normal, &rel);
         let limit = friction * inverse_mass[i] * l / h;
-        if clamp_relative(normal, limit, (vn, &rel), vi) && !vi.iter().all(|c| c.is_finite()) {
+        let p = &start[i * n..(i + 1) * n];
+        if crate::friction::carried_friction(normal, &plane.carry, p, (limit, h), &mut rel, vi)
+            && !vi.iter().all(|c| c.is_finite())
+        {
             return Err(i);
         }
     }

@@ -51,8 +51,9 @@ use hyperpbd_core::geometry::{Scratch, oriented_measure, simplex_squared_measure
 use hyperpbd_core::kinds;
 use hyperpbd_core::kinds::contact_friction::static_friction;
 use hyperpbd_core::kinds::hyperplane_contact::contact_update;
-use hyperpbd_core::kinds::mesh_contact::closest;
 use hyperpbd_core::material::MaterialScratch;
+use hyperpbd_core::motion::MeshAt;
+use hyperpbd_core::moving_mesh::closest_placed;
 use hyperpbd_core::{Family, FamilyKind, MAX_DIM};
 use std::ops::Range;
 
@@ -72,6 +73,8 @@ pub struct Batch<'a> {
     pub start: &'a [f64],
     /// The plan's meshes (mesh contact families).
     pub meshes: &'a [std::sync::Arc<hyperpbd_core::barrier::BarrierObstacles>],
+    /// A moving mesh family's placement this substep (`None`: static).
+    pub moving_mesh: Option<&'a MeshAt>,
 }
 
 /// Per-batch scratch.
@@ -187,7 +190,7 @@ fn project_elements<X: Coordinates + ?Sized>(
                 batch.start,
             ),
             batch.family,
-            &batch.meshes[*mesh],
+            (&batch.meshes[*mesh], batch.moving_mesh),
             *friction,
             elements,
             x,
@@ -418,13 +421,15 @@ fn contact_in<D: Dim, X: Coordinates + ?Sized>(
 }
 
 /// Projects elements `elements` of mesh family `family` (`mesh_contact.rs`
-/// has the update) (`lambda`: their
-/// slots); the first slot whose update was not finite.
+/// has the update; a moving mesh is queried in its frame and its static
+/// friction measured against the carried point q = p + D(p), as a moving
+/// plane's: `hyperpbd_core::moving_mesh`) (`lambda`: their slots); the
+/// first slot whose update was not finite.
 #[allow(clippy::too_many_arguments)]
 fn mesh_contact_in<X: Coordinates + ?Sized>(
     (dim, inverse_mass, alpha_tilde, start): (usize, &[f64], f64, &[f64]),
     family: &Family,
-    mesh: &BarrierObstacles,
+    (mesh, moving): (&BarrierObstacles, Option<&MeshAt>),
     friction: f64,
     elements: Range<usize>,
     x: &mut X,
@@ -433,19 +438,33 @@ fn mesh_contact_in<X: Coordinates + ?Sized>(
     let n = dim;
     let mut normal = [0.0f64; MAX_DIM];
     let normal = &mut normal[..n];
+    let mut carried = [0.0f64; MAX_DIM];
+    let q = &mut carried[..n];
+    let frame = moving.map(|m| m.frame(&[]));
     let first = elements.start;
     for e in elements {
         let i = family.elements[e] as usize;
         let w = inverse_mass[i];
         let l = lambda[e - first];
         let xi = x.values_mut(i * n..i * n + n);
-        let Some(c) = closest(mesh, xi, family.rest[e], w * l, normal) else {
+        let Some(c) = closest_placed(mesh, frame.as_ref(), xi, family.rest[e], w * l, normal)
+        else {
             continue;
         };
         lambda[e - first] = contact_update(c, (l, w, alpha_tilde), normal, xi).ok_or(e)?;
         if friction > 0.0 && lambda[e - first] > 0.0 {
             let p = &start[i * n..i * n + n];
-            static_friction(normal, friction * w * lambda[e - first], p, xi);
+            let bound = friction * w * lambda[e - first];
+            match moving {
+                None => static_friction(normal, bound, p, xi),
+                Some(m) => {
+                    m.carry.at(p, q);
+                    for a in 0..n {
+                        q[a] += p[a];
+                    }
+                    static_friction(normal, bound, q, xi);
+                }
+            }
         }
     }
     Ok(())

@@ -58,6 +58,7 @@ pub fn bowl3d() -> Scene {
         vertices,
         simplices,
         friction: 0.3,
+        motion: Vec::new(),
     });
     super::built(b)
 }

@@ -186,6 +186,7 @@ pub fn balls_in_a_v() -> Scene {
         vertices: vec![vec![-1.0, 0.5], vec![0.0, -0.2], vec![1.0, 0.5]],
         simplices: vec![vec![0, 1], vec![1, 2]],
         friction: 0.0,
+        motion: Vec::new(),
     });
     scene.collisions = Some(Collisions {
         friction: 0.0,

@@ -56,5 +56,6 @@ pub fn floor(dim: usize, height: f64, half: f64, cells: usize, friction: f64) ->
         vertices,
         simplices,
         friction,
+        motion: Vec::new(),
     }
 }

@@ -293,6 +293,7 @@ fn barrier_kernels_are_the_golden_path_within_f32_rounding() {
         ],
         simplices: vec![vec![0, 1, 2], vec![0, 1, 2, 3]],
         friction: 0.0,
+        motion: Vec::new(),
     });
     let geometry = BarrierObstacles::compile(&scene);
     let law = BarrierLaw {

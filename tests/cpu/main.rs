@@ -22,6 +22,7 @@ mod f32_reference;
 mod granular;
 mod guards;
 mod motion;
+mod moving_mesh;
 mod scenes;
 mod simplex_hierarchy;
 mod threads;

@@ -233,6 +233,7 @@ fn barrier_scene(rng: &mut Stream, dim: usize, count: usize) -> Scene {
         vertices,
         simplices,
         friction: 0.0,
+        motion: Vec::new(),
     });
     scene
 }

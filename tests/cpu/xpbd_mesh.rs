@@ -134,6 +134,7 @@ fn mesh(vertices: Vec<Vec<f64>>, simplices: Vec<Vec<usize>>) -> Obstacle {
         vertices,
         simplices,
         friction: 0.0,
+        motion: Vec::new(),
     }
 }
 
@@ -390,6 +391,7 @@ fn the_plan_and_validation_of_a_mesh_on_the_xpbd_path() {
             vertices,
             simplices,
             friction,
+            ..
         } = &mut s.obstacles[0]
         else {
             unreachable!("a mesh")

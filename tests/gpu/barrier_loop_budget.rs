@@ -67,6 +67,7 @@ fn ball_over_mesh(side: usize, at: f64, reach: f64) -> Scene {
         vertices,
         simplices,
         friction: 0.0,
+        motion: Vec::new(),
     });
     scene.solver = hyperpbd::Solver::IncrementalPotential(hyperpbd::IncrementalPotentialSettings {
         barrier_stiffness: 1e3,

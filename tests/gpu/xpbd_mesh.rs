@@ -4,7 +4,9 @@
 //! from the world origin, where f32 works relative to the scene origin),
 //! tetrahedra in R^4 — gpu-f64 the golden path bit for bit, reports
 //! included, and gpu-f32 the f32 reference bit for bit, every frame, on
-//! lavapipe; the built-in `bowl3d` (36 balls in contact with each other
+//! lavapipe, with the floor moving (a belt with a keyframed lift in R^2, a
+//! turntable 1 000 m out in R^3, a tilt in R^4: core/src/moving_mesh.rs)
+//! and the ramp static; the built-in `bowl3d` (36 balls in contact with each other
 //! and a curved mesh); a batch of worlds sweeping the floor's μ from 0, each world
 //! its own run. On another adapter nothing is claimed bit for bit, and no
 //! per-frame model bounds a mesh contact yet: the largest difference is
@@ -16,6 +18,8 @@ use crate::common;
 use common::exact::{assert_f32_reference_step, bits, f32_identical, f64_identical};
 use common::gpu::adapter_or_skip;
 use common::meshes::floor;
+use common::motion_scenes::{belt, spin};
+use hyperpbd::motion::Motion;
 use hyperpbd::{
     Backend, ConstraintFamily, ConstraintKind, CpuBackend, F32Reference, Obstacle, Particle, Plan,
     Scene, State,
@@ -50,6 +54,7 @@ fn ramp(dim: usize, angle: f64, friction: f64) -> Obstacle {
         vertices,
         simplices,
         friction,
+        motion: Vec::new(),
     }
 }
 
@@ -104,6 +109,7 @@ fn scene(dim: usize, cells: usize, shift: f64) -> Scene {
             vertices,
             simplices,
             friction,
+            motion,
         } => Obstacle::SimplexMesh {
             vertices: vertices
                 .into_iter()
@@ -114,6 +120,7 @@ fn scene(dim: usize, cells: usize, shift: f64) -> Scene {
                 .collect(),
             simplices,
             friction,
+            motion,
         },
         other => other,
     };
@@ -203,32 +210,52 @@ fn against_the_references(test: &str, name: &str, (scene, shift): (&Scene, f64),
     }
 }
 
+/// `scene` with its floor moving by `motion` (the ramp stays).
+fn moving_floor(mut s: Scene, motion: Vec<Motion>) -> Scene {
+    if let Obstacle::SimplexMesh { motion: m, .. } = &mut s.obstacles[0] {
+        *m = motion;
+    }
+    s
+}
+
 #[test]
 fn mesh_contacts_match_the_references_in_r2() {
+    // The floor a belt with a keyframed lift.
+    let mut belt_and_lift = belt(0.2, 2);
+    belt_and_lift.push(Motion::Keyframes {
+        times: vec![0.1, 0.4],
+        translations: vec![vec![0.0; 2], vec![0.0, 0.05]],
+    });
     against_the_references(
         "mesh_contacts_match_the_references_in_r2",
-        "mesh R^2",
-        (&scene(2, 8, 0.0), 0.0),
+        "mesh R^2, the floor a belt and lift",
+        (&moving_floor(scene(2, 8, 0.0), belt_and_lift), 0.0),
         40,
     );
 }
 
 #[test]
 fn mesh_contacts_match_the_references_in_r3_far_from_the_origin() {
+    // The floor a turntable about a point 1 000 m out (f32 works relative
+    // to the scene origin: the frame map's e = Rᵀ(o − b) − o).
+    let turning = spin([0, 2], vec![1000.0, 0.0, 0.13], 1.0);
     against_the_references(
         "mesh_contacts_match_the_references_in_r3_far_from_the_origin",
-        "mesh R^3 at x = 1000",
-        (&scene(3, 6, 1000.0), 1000.0),
+        "mesh R^3 at x = 1000, the floor turning",
+        (&moving_floor(scene(3, 6, 1000.0), turning), 1000.0),
         30,
     );
 }
 
 #[test]
 fn mesh_contacts_match_the_references_in_r4() {
+    // The floor tilting in (e1, e3) while it slides along e0.
+    let mut tilt = spin([1, 3], vec![0.0; 4], 0.2);
+    tilt.extend(belt(0.1, 4));
     against_the_references(
         "mesh_contacts_match_the_references_in_r4",
-        "mesh R^4",
-        (&scene(4, 2, 0.0), 0.0),
+        "mesh R^4, the floor tilting",
+        (&moving_floor(scene(4, 2, 0.0), tilt), 0.0),
         20,
     );
 }

@@ -104,6 +104,7 @@ fn shifted(mesh: Obstacle, by: &[f64], mu: f64) -> Obstacle {
             .collect(),
         simplices,
         friction: mu,
+        motion: Vec::new(),
     }
 }
 
@@ -125,6 +126,7 @@ fn mesh_incline(mu: f64, segments: usize) -> (Scene, f64) {
         vertices,
         simplices,
         friction: mu,
+        motion: Vec::new(),
     }];
     (scene, angle)
 }
@@ -257,6 +259,7 @@ fn flat4(mu: f64, mesh: bool) -> Scene {
             vertices,
             simplices,
             friction: mu,
+            motion: Vec::new(),
         }
     });
     // A simplex's step filter is the Lipschitz one, t* = d0/|Δ| (a

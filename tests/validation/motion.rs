@@ -1,6 +1,6 @@
-//! Prescribed motion (`motion` on a hyperplane or a fixed particle): one
-//! test per rule, each with its exact variant and field path; the
-//! messages are quoted in docs/errors.md ("Prescribed motion").
+//! Prescribed motion (`motion` on a hyperplane, a simplex mesh or a fixed
+//! particle): one test per rule, each with its exact variant and field
+//! path; the messages are quoted in docs/errors.md ("Prescribed motion").
 
 use super::*;
 use hyperpbd::motion::Motion;
@@ -139,14 +139,43 @@ fn unknown_keys_and_kinds_are_refused_with_their_path() {
             other => panic!("{motion}: {other:?}"),
         }
     }
-    // A mesh takes no motion (yet).
-    let mesh = r#"{"dim": 2, "dt": 0.01, "obstacles": [{"type": "simplex_mesh",
-        "vertices": [[0, 0], [1, 0]], "simplices": [[0, 1]],
-        "motion": [{"type": "translate", "velocity": [1, 0]}]}]}"#;
-    assert!(matches!(
-        Scene::from_json_str(mesh),
-        Err(SceneError::Json { .. })
-    ));
+}
+
+/// A segment mesh of R^2 with `motion` (JSON), and `extra` scene keys.
+fn moving_mesh(motion: &str, extra: &str) -> Result<Scene, SceneError> {
+    Scene::from_json_str(&format!(
+        r#"{{"dim": 2, "dt": 0.01, "particles": [{{"position": [0, 1], "mass": 1}}],
+            "obstacles": [{{"type": "simplex_mesh", "vertices": [[0, 0], [1, 0]],
+            "simplices": [[0, 1]], "motion": [{motion}]}}]{extra}}}"#
+    ))
+}
+
+#[test]
+fn a_mesh_motion_is_read_and_checked_as_a_plane_motion() {
+    let scene = moving_mesh(r#"{"type": "translate", "velocity": [1, 0]}"#, "").expect("valid");
+    let Obstacle::SimplexMesh { motion, .. } = &scene.obstacles[0] else {
+        panic!("a mesh: {:?}", scene.obstacles[0]);
+    };
+    assert_eq!(
+        motion,
+        &[Motion::Translate {
+            velocity: vec![1.0, 0.0]
+        }]
+    );
+    let plan = Plan::compile(&scene).expect("compiles");
+    let moving = plan.motion.as_ref().expect("the mesh moves");
+    assert_eq!((moving.meshes.len(), moving.planes.len()), (1, 0));
+    let e = moving_mesh(
+        r#"{"type": "rotate", "plane": [0, 2], "center": [0, 0], "rate": 1}"#,
+        "",
+    )
+    .expect_err("refused");
+    assert_eq!(inconsistent(&e), "obstacles[0].motion[0].plane[1]");
+    let e = moving_mesh(r#"{"type": "translate", "velocity": [1]}"#, "").expect_err("refused");
+    assert!(
+        matches!(&e, SceneError::WrongLength { path, .. } if path == "obstacles[0].motion[0].velocity"),
+        "{e:?}"
+    );
 }
 
 #[test]
@@ -168,6 +197,13 @@ fn the_implicit_paths_and_primal_residual_refuse_motion_by_name() {
     .expect_err("refused");
     assert!(
         matches!(&e, SceneError::UnsupportedBySolver { path, solver: "xpbd", .. } if path == "particles[1].motion"),
+        "{e:?}"
+    );
+    // A moving mesh too, named by its obstacle.
+    let e =
+        moving_mesh(r#"{"type": "translate", "velocity": [1, 0]}"#, solver).expect_err("refused");
+    assert!(
+        matches!(&e, SceneError::UnsupportedBySolver { path, solver: "incremental_potential", .. } if path == "obstacles[0].motion"),
         "{e:?}"
     );
 }
@@ -204,10 +240,8 @@ pub(super) fn catalogue() -> Vec<String> {
         pin(solver),
         pin(r#", "solver": {"type": "xpbd", "primal_residual": true}"#),
         text(
-            Scene::from_json_str(
-                r#"{"dim": 2, "dt": 0.01, "obstacles": [{"type": "simplex_mesh", "vertices": [[0, 0], [1, 0]], "simplices": [[0, 1]], "motion": [{"type": "translate", "velocity": [1, 0]}]}]}"#,
-            )
-            .expect_err("rejected"),
+            moving_mesh(r#"{"type": "translate", "velocity": [1, 0]}"#, solver)
+                .expect_err("rejected"),
         ),
     ]
 }

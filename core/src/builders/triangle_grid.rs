@@ -36,6 +36,7 @@ pub fn triangle_grid(dim: usize, axes: [usize; 2], side: usize, spacing: f64) ->
         vertices,
         simplices,
         friction: 0.0,
+        motion: Vec::new(),
     }
 }
 

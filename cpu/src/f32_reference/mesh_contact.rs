@@ -17,6 +17,9 @@
 //! friction   n at the substep's final x (reach w λ), then integrate.rs's
 //!            dynamic friction of one element with that n
 //! residual   max(0, −C) with reach 0
+//! moving     the query point mapped into the mesh's frame and n turned
+//!            back (`hyperpbd_core::moving_mesh`, the frame rounded once);
+//!            friction against the carry, as a moving plane's (motion.rs)
 //! ```
 
 use std::sync::Arc;
@@ -28,6 +31,7 @@ use hyperpbd_core::{Family, FamilyKind, MAX_DIM, Plan};
 use super::Particles;
 use super::barrier::{BarrierInputs, obstacle_distance};
 use super::integrate::{Friction, friction as plane_friction};
+use super::motion::{Mesh32At, carried_friction, carried_static_friction};
 use super::project::Colour;
 use hyperpbd_core::kinds::contact_friction::static_friction;
 use hyperpbd_core::kinds::hyperplane_contact::contact_update;
@@ -97,27 +101,50 @@ impl Mesh32 {
             obstacle_distance(&self.inputs, s, x, r, n)
         })
     }
+
+    /// [`Mesh32::closest`] for a mesh placed by `moving` (`None`: static):
+    /// the query in its frame, the normal turned back
+    /// (`hyperpbd_core::moving_mesh`).
+    pub fn closest_placed(
+        &self,
+        moving: Option<&Mesh32At>,
+        x: &[f32],
+        (r, reach): (f32, f32),
+        normal: &mut [f32],
+    ) -> Option<f32> {
+        let Some(at) = moving else {
+            return self.closest(x, r, reach, normal);
+        };
+        let dim = x.len();
+        let (mut y, mut scratch) = ([0.0f32; MAX_DIM], [0.0f32; MAX_DIM]);
+        at.frame.to_frame(x, &mut y[..dim]);
+        let c = self.closest(&y[..dim], r, reach, normal)?;
+        at.frame.normal_back(normal, &mut scratch[..dim]);
+        Some(c)
+    }
 }
 
-/// Projects colour `c` of a mesh family with friction `mu`; the first
-/// slot whose update was not finite (every slot is still visited).
+/// Projects colour `c` of a mesh family with friction `mu` (a moving mesh
+/// where `moving` places it); the first slot whose update was not finite
+/// (every slot is still visited).
 pub fn project(
     s: &mut Particles,
     c: &Colour,
-    mesh: &Mesh32,
+    (mesh, moving): (&Mesh32, Option<&Mesh32At>),
     mu: f32,
     lambda: &mut [f32],
 ) -> Result<(), usize> {
     let n = s.dim;
     let mut normal = [0.0f32; MAX_DIM];
     let normal = &mut normal[..n];
+    let mut q = [0.0f32; MAX_DIM];
     let mut failed = None;
     for e in c.slots.clone() {
         let i = c.elements[e] as usize;
         let w = s.w[i];
         let l = lambda[e];
         let (x, p) = (&mut s.x[i * n..(i + 1) * n], &s.p[i * n..(i + 1) * n]);
-        let Some(cval) = mesh.closest(x, c.rest[e], w * l, normal) else {
+        let Some(cval) = mesh.closest_placed(moving, x, (c.rest[e], w * l), normal) else {
             continue;
         };
         let Some(l_new) = contact_update(cval, (l, w, c.alpha_tilde), normal, x) else {
@@ -126,23 +153,29 @@ pub fn project(
         };
         lambda[e] = l_new;
         if mu > 0.0 && l_new > 0.0 {
-            static_friction(normal, mu * w * l_new, p, x);
+            let bound = mu * w * l_new;
+            match moving {
+                None => static_friction(normal, bound, p, x),
+                Some(at) => carried_static_friction(&at.carry, (normal, bound), p, &mut q[..n], x),
+            }
         }
     }
     failed.map_or(Ok(()), Err)
 }
 
-/// Dynamic friction of mesh family `f` (stored rest values `rest`); the
-/// smallest particle whose velocity became non-finite.
+/// Dynamic friction of mesh family `f` (stored rest values `rest`; a
+/// moving mesh where `moving` places it); the smallest particle whose
+/// velocity became non-finite.
 pub fn friction(
     s: &mut Particles,
-    (f, rest, mesh): (&Family, &[f32], &Mesh32),
+    (f, rest, mesh, moving): (&Family, &[f32], &Mesh32, Option<&Mesh32At>),
     (mu, h): (f32, f32),
     lambda: &[f32],
 ) -> Result<(), usize> {
     let n = s.dim;
     let mut normal = [0.0f32; MAX_DIM];
     let normal = &mut normal[..n];
+    let mut rel = [0.0f32; MAX_DIM];
     let mut failed: Option<usize> = None;
     for (e, (&i, &l)) in f.elements.iter().zip(lambda).enumerate() {
         if l <= 0.0 {
@@ -150,7 +183,20 @@ pub fn friction(
         }
         let iu = i as usize;
         let x = &s.x[iu * n..(iu + 1) * n];
-        if mesh.closest(x, rest[e], s.w[iu] * l, normal).is_none() {
+        let reach = s.w[iu] * l;
+        if mesh
+            .closest_placed(moving, x, (rest[e], reach), normal)
+            .is_none()
+        {
+            continue;
+        }
+        if let Some(at) = moving {
+            let limit = mu * s.w[iu] * l / h;
+            let (p, v) = (&s.p[iu * n..(iu + 1) * n], &mut s.v[iu * n..(iu + 1) * n]);
+            let applied = carried_friction(&at.carry, (normal, limit, h), p, &mut rel[..n], v);
+            if applied && !v.iter().all(|c| c.is_finite()) {
+                failed = Some(failed.map_or(iu, |f| f.min(iu)));
+            }
             continue;
         }
         let one = Friction {
@@ -167,8 +213,10 @@ pub fn friction(
     failed.map_or(Ok(()), Err)
 }
 
-/// max(0, −C) of a particle at `x` with radius `r`.
-pub fn violation(mesh: &Mesh32, x: &[f32], r: f32) -> f32 {
+/// max(0, −C) of a particle at `x` with radius `r` (a moving mesh where
+/// `moving` places it).
+pub fn violation(mesh: &Mesh32, moving: Option<&Mesh32At>, x: &[f32], r: f32) -> f32 {
     let mut normal = [0.0f32; MAX_DIM];
-    (mesh.closest(x, r, 0.0, &mut normal[..x.len()])).map_or(0.0, |c| (-c).max(0.0))
+    let normal = &mut normal[..x.len()];
+    (mesh.closest_placed(moving, x, (r, 0.0), normal)).map_or(0.0, |c| (-c).max(0.0))
 }

@@ -353,6 +353,9 @@ impl F32Reference {
                     normal: &stored.normal,
                     material: stored.material.as_ref(),
                     mesh: stored.mesh.as_ref(),
+                    moving_mesh: (self.plan.motion.as_ref())
+                        .and_then(|m| m.mesh_of(index))
+                        .and_then(|k| self.motion_now.meshes.get(k)),
                 };
                 let r = residual::residual(f, n, &self.particles.x, &stored_family);
                 f64::from(r)
@@ -418,6 +421,10 @@ impl F32Reference {
         let moving = |family: usize| {
             let k = self.plan.motion.as_ref()?.plane_of(family)?;
             self.motion_now.planes.get(k)
+        };
+        let moving_mesh = |family: usize| {
+            let k = self.plan.motion.as_ref()?.mesh_of(family)?;
+            self.motion_now.meshes.get(k)
         };
         let s = &mut self.particles;
         match kernel {
@@ -502,7 +509,10 @@ impl F32Reference {
                         }
                     },
                     FamilyKind::MeshContact { .. } => match &stored.mesh {
-                        Some(mesh) => mesh_contact::project(s, &colour, mesh, stored.mu, lambda),
+                        Some(mesh) => {
+                            let placed = (mesh, moving_mesh(family));
+                            mesh_contact::project(s, &colour, placed, stored.mu, lambda)
+                        }
                         None => Ok(()),
                     },
                     FamilyKind::Expression(kind) => {
@@ -540,7 +550,7 @@ impl F32Reference {
                     let (mu, h) = (stored.mu, self.h);
                     return mesh_contact::friction(
                         s,
-                        (f, &stored.rest, mesh),
+                        (f, &stored.rest, mesh, moving_mesh(family)),
                         (mu, h),
                         &stored.lambda,
                     );

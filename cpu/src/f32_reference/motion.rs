@@ -6,6 +6,8 @@
 //!
 //! ```text
 //! stored per substep:   n(t1), s(t1) − n(t1)·o, Ā, c + Ā o   (→ f32)
+//!                       meshes: Rᵀ, e = Rᵀ(o − b) − o, Ā, c + Ā o (→ f32;
+//!                       hyperpbd_core::moving_mesh)
 //!                       pins: x(t1) − o, (x(t1) − x(t0)) / h (→ f32)
 //! contact   C = n·x − rest − s;  q = (Ā p + c) + p  (static friction)
 //! friction  rel = v − (Ā p + c) / h
@@ -17,26 +19,43 @@
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
 
-use hyperpbd_core::motion::{SubstepMotion, local_plane, local_position};
+use hyperpbd_core::motion::{SubstepMotion, local_carry, local_plane, local_position};
+use hyperpbd_core::moving_mesh::MeshFrame;
 
 use super::Particles;
 use hyperpbd_core::kinds::contact_friction::{clamp_relative, dot_from_zero, static_friction};
 use hyperpbd_core::kinds::hyperplane_contact::contact_update;
+
+/// A carry D(p) = Ā p + c of one substep, in f32 device coordinates.
+#[derive(Debug, Clone, Default)]
+pub struct Carry32 {
+    /// Ā, row-major (`None`: no rotation, D = c).
+    pub matrix: Option<Vec<f32>>,
+    /// c + Ā o.
+    pub offset: Vec<f32>,
+}
 
 /// A moving plane of one substep, in f32 device coordinates.
 #[derive(Debug, Clone, Default)]
 pub struct Plane32 {
     pub normal: Vec<f32>,
     pub shift: f32,
-    /// Ā, row-major (`None`: no rotation, D = c).
-    pub matrix: Option<Vec<f32>>,
-    pub offset: Vec<f32>,
+    pub carry: Carry32,
+}
+
+/// A moving mesh of one substep, in f32 device coordinates: the map into
+/// its frame (`hyperpbd_core::moving_mesh`) and its carry.
+#[derive(Debug, Clone)]
+pub struct Mesh32At {
+    pub frame: MeshFrame<f32>,
+    pub carry: Carry32,
 }
 
 /// One substep's prescribed values in f32.
 #[derive(Debug, Clone, Default)]
 pub struct Motion32 {
     pub planes: Vec<Plane32>,
+    pub meshes: Vec<Mesh32At>,
     pub pin_positions: Vec<f32>,
     pub pin_velocities: Vec<f32>,
 }
@@ -51,13 +70,22 @@ pub fn round(now: &SubstepMotion, origin: &[f64], dim: usize) -> Motion32 {
             Plane32 {
                 normal: plane.normal.iter().map(|&v| v as f32).collect(),
                 shift: shift as f32,
-                matrix: plane
-                    .carry
-                    .matrix
-                    .as_ref()
-                    .map(|m| m.iter().map(|&v| v as f32).collect()),
-                offset: offset.iter().map(|&v| v as f32).collect(),
+                carry: Carry32 {
+                    matrix: plane.carry.matrix.as_deref().map(round_all),
+                    offset: round_all(&offset),
+                },
             }
+        })
+        .collect();
+    let meshes = now
+        .meshes
+        .iter()
+        .map(|mesh| Mesh32At {
+            frame: mesh.frame(origin).to_f32(),
+            carry: Carry32 {
+                matrix: mesh.carry.matrix.as_deref().map(round_all),
+                offset: round_all(&local_carry(&mesh.carry, origin)),
+            },
         })
         .collect();
     let pin_positions = now
@@ -68,23 +96,31 @@ pub fn round(now: &SubstepMotion, origin: &[f64], dim: usize) -> Motion32 {
         .collect();
     Motion32 {
         planes,
+        meshes,
         pin_positions,
         pin_velocities: now.pin_velocities.iter().map(|&v| v as f32).collect(),
     }
 }
 
-/// D(p) = Σ_b Ā_ab p_b + c_a (or c_a).
-fn carry(plane: &Plane32, p: &[f32], out: &mut [f32]) {
-    let n = p.len();
-    match &plane.matrix {
-        None => out.copy_from_slice(&plane.offset),
-        Some(m) => {
-            for a in 0..n {
-                let mut s = 0.0f32;
-                for b in 0..n {
-                    s += m[a * n + b] * p[b];
+/// Each value rounded to f32 once.
+fn round_all(values: &[f64]) -> Vec<f32> {
+    values.iter().map(|&v| v as f32).collect()
+}
+
+impl Carry32 {
+    /// D(p) = Σ_b Ā_ab p_b + c_a (or c_a).
+    pub fn at(&self, p: &[f32], out: &mut [f32]) {
+        let n = p.len();
+        match &self.matrix {
+            None => out.copy_from_slice(&self.offset),
+            Some(m) => {
+                for a in 0..n {
+                    let mut s = 0.0f32;
+                    for b in 0..n {
+                        s += m[a * n + b] * p[b];
+                    }
+                    out[a] = s + self.offset[a];
                 }
-                out[a] = s + plane.offset[a];
             }
         }
     }
@@ -129,11 +165,7 @@ pub fn contact(s: &mut Particles, c: &Contact, lambda: &mut [f32]) -> Result<(),
         };
         lambda[e] = l_new;
         if c.mu > 0.0 && l_new > 0.0 {
-            carry(c.plane, p, &mut q);
-            for a in 0..n {
-                q[a] += p[a];
-            }
-            static_friction(normal, c.mu * w * l_new, &q, x);
+            carried_static_friction(&c.plane.carry, (normal, c.mu * w * l_new), p, &mut q, x);
         }
     }
     failed.map_or(Ok(()), Err)
@@ -150,18 +182,47 @@ pub fn friction(s: &mut Particles, c: &Contact, h: f32, lambda: &[f32]) -> Resul
         if l <= 0.0 {
             continue;
         }
-        carry(c.plane, &s.p[i * n..(i + 1) * n], &mut rel);
-        let v = &mut s.v[i * n..(i + 1) * n];
-        for a in 0..n {
-            rel[a] = v[a] - rel[a] / h;
-        }
-        let vn = dot_from_zero(normal, &rel);
         let limit = c.mu * s.w[i] * l / h;
-        if clamp_relative(normal, limit, (vn, &rel), v) && !v.iter().all(|c| c.is_finite()) {
+        let (p, v) = (&s.p[i * n..(i + 1) * n], &mut s.v[i * n..(i + 1) * n]);
+        if carried_friction(&c.plane.carry, (normal, limit, h), p, &mut rel, v)
+            && !v.iter().all(|c| c.is_finite())
+        {
             failed = Some(failed.map_or(i, |f: usize| f.min(i)));
         }
     }
     failed.map_or(Ok(()), Err)
+}
+
+/// Static friction against the carried point q = D(p) + p (`q`: scratch).
+pub fn carried_static_friction(
+    carry: &Carry32,
+    (normal, bound): (&[f32], f32),
+    p: &[f32],
+    q: &mut [f32],
+    x: &mut [f32],
+) {
+    carry.at(p, q);
+    for a in 0..p.len() {
+        q[a] += p[a];
+    }
+    static_friction(normal, bound, q, x);
+}
+
+/// Dynamic friction on v relative to the carry: u = v − D(p)/h clamped
+/// (`rel`: scratch); whether v changed.
+pub fn carried_friction(
+    carry: &Carry32,
+    (normal, limit, h): (&[f32], f32, f32),
+    p: &[f32],
+    rel: &mut [f32],
+    v: &mut [f32],
+) -> bool {
+    carry.at(p, rel);
+    for a in 0..v.len() {
+        rel[a] = v[a] - rel[a] / h;
+    }
+    let vn = dot_from_zero(normal, rel);
+    clamp_relative(normal, limit, (vn, rel), v)
 }
 
 /// Places the pins (`pins[k]` the particle of pin k).

@@ -40,6 +40,8 @@ pub struct StoredFamily<'a> {
     pub material: Option<&'a Law>,
     /// A mesh contact family's mesh.
     pub mesh: Option<&'a super::mesh_contact::Mesh32>,
+    /// Where the last substep placed it, if it moves.
+    pub moving_mesh: Option<&'a super::motion::Mesh32At>,
 }
 
 /// Largest violation of family `f` at positions `x` (device coordinates).
@@ -71,7 +73,9 @@ pub fn residual(f: &Family, n: usize, x: &[f32], stored: &StoredFamily) -> f32 {
                 (rest[e] - dot_from_zero(normal, &pts[..n])).max(0.0)
             }
             FamilyKind::MeshContact { .. } => match stored.mesh {
-                Some(mesh) => super::mesh_contact::violation(mesh, &pts[..n], rest[e]),
+                Some(mesh) => {
+                    super::mesh_contact::violation(mesh, stored.moving_mesh, &pts[..n], rest[e])
+                }
                 None => 0.0,
             },
             FamilyKind::Expression(kind) => {

@@ -7,7 +7,9 @@
 //!
 //! ```text
 //! words  [per family: its mesh's header (NONE: not a mesh family)]
-//!        per mesh: header (reals base b, words base k, simplices S),
+//!        per mesh: header (reals base b, words base k, simplices S, frame F),
+//!                  F: where its values of the last substep start in `rest`
+//!                  (a moving mesh's residual: motion.rs; NONE when static),
 //!                  at k: arity of each simplex, then node words (right, first, last)
 //! reals  per mesh: at b the scale, then the vertices (4 slots each), then the node boxes
 //! ```
@@ -17,6 +19,7 @@
 use hyperpbd_core::{FamilyKind, Plan};
 
 use super::NONE;
+use super::motion::MotionLayout;
 use crate::barrier::{local_obstacles, obstacle_geometry};
 use crate::origin::SceneOrigin;
 
@@ -29,9 +32,10 @@ pub(crate) struct MeshLayout {
 }
 
 impl MeshLayout {
-    /// The layout of `plan`'s meshes relative to `origin`; `None` when no
-    /// family is a mesh contact (the module then has no mesh bindings).
-    pub fn new(plan: &Plan, origin: &SceneOrigin) -> Option<Self> {
+    /// The layout of `plan`'s meshes relative to `origin` (`motion`: the
+    /// plan's motion values, if it has any); `None` when no family is a
+    /// mesh contact (the module then has no mesh bindings).
+    pub fn new(plan: &Plan, origin: &SceneOrigin, motion: Option<&MotionLayout>) -> Option<Self> {
         let is_mesh = |kind: &FamilyKind| matches!(kind, FamilyKind::MeshContact { .. });
         if !plan.families.iter().any(|f| is_mesh(&f.kind)) {
             return None;
@@ -39,15 +43,23 @@ impl MeshLayout {
         let mut words = vec![NONE; plan.families.len()];
         let mut reals = Vec::new();
         let mut headers = Vec::with_capacity(plan.meshes.len());
-        for mesh in &plan.meshes {
+        for (m, mesh) in plan.meshes.iter().enumerate() {
             let local = local_obstacles(mesh, origin);
             let (geometry, arity) = obstacle_geometry(&local);
             headers.push(words.len() as u32);
-            let base = words.len() + 3;
+            let base = words.len() + 4;
+            let family = plan
+                .families
+                .iter()
+                .position(|f| matches!(f.kind, FamilyKind::MeshContact { mesh, .. } if mesh == m));
+            let frame = motion
+                .zip(family)
+                .and_then(|(l, f)| l.last_mesh_block(plan, f));
             words.extend([
                 reals.len() as u32,
                 base as u32,
                 local.simplex_count() as u32,
+                frame.unwrap_or(NONE),
             ]);
             reals.push(local.scale);
             reals.extend(geometry);

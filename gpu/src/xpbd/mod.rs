@@ -173,7 +173,7 @@ impl Families {
             }
         }
         out.motion = motion::MotionLayout::new(plan, &mut out.slot_maps, &mut out.rest);
-        out.meshes = mesh::MeshLayout::new(plan, origin);
+        out.meshes = mesh::MeshLayout::new(plan, origin, out.motion.as_ref());
         if plan.primal_residual {
             out.lay_out_carried(plan);
         }

@@ -4,6 +4,8 @@
 //! ```text
 //! rest    … families' rest data | substep 0 block | … | substep S−1 block
 //!         block = Ā of each rotating moving plane (DIM² each)
+//!               | per moving mesh: Ā (DIM²), Rᵀ (DIM²), e (DIM) when it
+//!                 rotates, e (DIM) alone otherwise (moving_mesh.rs)
 //!               | per pin: x(t1) − o (DIM), v (DIM)
 //! calls   Motion        OP_MOTION, slot_map → particle → pin map in
 //!                       contact_slot, slot_base → the substep's pin table
@@ -11,6 +13,10 @@
 //!                       chunk → its Ā), normal = n(t1), factor = s − n·o,
 //!                       gravity = c + Ā o;  residual: FLAG_MOVING, the last
 //!                       substep's n and s
+//!         moving mesh   contact / friction: FLAG_MESH | FLAG_MOVING
+//!                       (+ FLAG_ROTATES), chunk → its block, gravity =
+//!                       c + Ā o;  residual: the same flags, its block of
+//!                       the last substep in its mesh header (mesh.rs)
 //! per step (before its one submit): every substep's values from
 //!   MotionPlan::substep (f64, the golden path's), written into `rest`, the
 //!   call blocks and the dispatch blocks
@@ -18,7 +24,7 @@
 //! gpu-f64 runs on o = 0 and takes the golden path's values as they are;
 //! gpu-f32 takes them rounded once, as the f32 reference does.
 
-use hyperpbd_core::motion::{Motion, local_plane, local_position, substep_time};
+use hyperpbd_core::motion::{Motion, local_carry, local_plane, local_position, substep_time};
 use hyperpbd_core::{Kernel, Plan};
 
 use super::NONE;
@@ -42,6 +48,9 @@ pub(crate) struct MotionLayout {
     per_substep: usize,
     /// Per moving plane: its Ā's offset in a block (rotating ones).
     matrices: Vec<Option<usize>>,
+    /// Per moving mesh: its values' offset in a block, and whether it
+    /// rotates.
+    meshes: Vec<(usize, bool)>,
     /// Offset of the pin table in a block.
     pins: usize,
 }
@@ -76,6 +85,16 @@ impl MotionLayout {
                 })
             })
             .collect();
+        let meshes = motion
+            .meshes
+            .iter()
+            .map(|mesh| {
+                let turns = rotates(&mesh.motion);
+                let at = per_substep;
+                per_substep += if turns { 2 * n * n + n } else { n };
+                (at, turns)
+            })
+            .collect();
         let pins = per_substep;
         per_substep += motion.pins.len() * 2 * n;
         let base = rest.len();
@@ -85,8 +104,17 @@ impl MotionLayout {
             base,
             per_substep,
             matrices,
+            meshes,
             pins,
         })
+    }
+
+    /// Where moving mesh family `family`'s values of the last substep
+    /// start in `rest` (`None`: the family's mesh does not move).
+    pub fn last_mesh_block(&self, plan: &Plan, family: usize) -> Option<u32> {
+        let k = plan.motion.as_ref()?.mesh_of(family)?;
+        let last = (plan.substeps as usize).saturating_sub(1);
+        Some((self.block(last) + self.meshes[k].0) as u32)
     }
 
     fn block(&self, substep: usize) -> usize {
@@ -110,7 +138,21 @@ impl MotionLayout {
     /// substep `substep` (or its residual call, `residual`), when the
     /// family's plane moves.
     pub fn mark(&self, plan: &Plan, family: usize, substep: usize, residual: bool, c: &mut Call) {
-        let Some(k) = plan.motion.as_ref().and_then(|m| m.plane_of(family)) else {
+        let Some(motion) = plan.motion.as_ref() else {
+            return;
+        };
+        if let Some(k) = motion.mesh_of(family) {
+            let (offset, turns) = self.meshes[k];
+            c.flags |= FLAG_MOVING;
+            if turns {
+                c.flags |= FLAG_ROTATES;
+            }
+            if !residual {
+                c.chunk = (self.block(substep) + offset) as u32;
+            }
+            return;
+        }
+        let Some(k) = motion.plane_of(family) else {
             return;
         };
         c.flags |= FLAG_MOVING;
@@ -142,7 +184,8 @@ impl MotionLayout {
         let o = origin.as_slice();
         let substeps = plan.substeps as usize;
         let mut blocks = vec![0.0; self.per_substep * substeps];
-        // Per substep, per moving plane: (n, s − n·o, c + Ā o).
+        // Per substep: per moving plane (n, s − n·o, c + Ā o), per moving
+        // mesh c + Ā o.
         let mut planes = Vec::with_capacity(substeps);
         for s in 0..substeps {
             let t0 = substep_time(step, plan.dt, s as u32, plan.h);
@@ -157,6 +200,18 @@ impl MotionLayout {
                 let (shift, carry) = local_plane(plane, o);
                 values.push((plane.normal.clone(), shift, carry));
             }
+            let mut carries = Vec::with_capacity(now.meshes.len());
+            for (mesh, &(offset, turns)) in now.meshes.iter().zip(&self.meshes) {
+                let frame = mesh.frame(o);
+                let mut at = offset;
+                if let (true, Some(m), Some(t)) = (turns, &mesh.carry.matrix, &frame.inverse) {
+                    block[at..at + n * n].copy_from_slice(m);
+                    block[at + n * n..at + 2 * n * n].copy_from_slice(t);
+                    at += 2 * n * n;
+                }
+                block[at..at + n].copy_from_slice(&frame.offset);
+                carries.push(local_carry(&mesh.carry, o));
+            }
             for k in 0..motion.pins.len() {
                 let at = self.pins + 2 * n * k;
                 for a in 0..n {
@@ -164,7 +219,7 @@ impl MotionLayout {
                     block[at + n + a] = now.pin_velocities[k * n + a];
                 }
             }
-            planes.push(values);
+            planes.push((values, carries));
         }
         let per = plan.substep_kernels.len().max(1);
         for (index, c) in calls.iter_mut().enumerate() {
@@ -181,10 +236,16 @@ impl MotionLayout {
                 None if c.op == OP_RESIDUAL => c.family as usize,
                 None => continue,
             };
+            if let Some(k) = motion.mesh_of(family) {
+                if c.op != OP_RESIDUAL {
+                    c.gravity.clone_from(&planes[substep].1[k]);
+                }
+                continue;
+            }
             let Some(k) = motion.plane_of(family) else {
                 continue;
             };
-            let (normal, shift, carry) = &planes[substep][k];
+            let (normal, shift, carry) = &planes[substep].0[k];
             c.normal.clone_from(normal);
             c.factor = *shift;
             if c.op != OP_RESIDUAL {

@@ -64,6 +64,10 @@ pub(crate) fn project(
             c.count = plan.particle_count() as u32;
             c.slot_map = families.slot_map[family];
             c.friction = *friction;
+            if let Some(layout) = &families.motion {
+                let substep = super::motion::substep_of(plan, call);
+                layout.mark(plan, family, substep, false, &mut c);
+            }
         }
         FamilyKind::HyperplaneContact { normal, friction } => {
             // friction and the report read a contact's λ: always stored.

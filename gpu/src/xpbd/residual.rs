@@ -45,9 +45,9 @@ pub(crate) fn residual_calls(
         };
         if let FamilyKind::HyperplaneContact { normal, .. } = &f.kind {
             call.normal = normal.clone();
-            if let Some(layout) = &families.motion {
-                layout.mark(plan, family, 0, true, &mut call);
-            }
+        }
+        if let (Some(layout), true) = (&families.motion, f.kind.is_inequality()) {
+            layout.mark(plan, family, 0, true, &mut call);
         }
         if f.kind.is_expression() {
             call.slot_map = super::expression::expression_index(plan, family);

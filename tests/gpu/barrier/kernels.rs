@@ -77,6 +77,7 @@ fn obstacles(dim: usize) -> Scene {
         vertices: vec![point(&[0.0, 0.0, 0.3]), point(&[0.9, 0.1, 0.2])],
         simplices: vec![vec![0, 1]],
         friction: 0.0,
+        motion: Vec::new(),
     });
     if dim >= 2 {
         scene.obstacles.push(Obstacle::SimplexMesh {
@@ -88,6 +89,7 @@ fn obstacles(dim: usize) -> Scene {
             ],
             simplices: vec![vec![0, 1, 2], vec![1, 3, 2]],
             friction: 0.0,
+            motion: Vec::new(),
         });
     }
     if dim >= 3 {
@@ -100,6 +102,7 @@ fn obstacles(dim: usize) -> Scene {
             ],
             simplices: vec![vec![0, 1, 2, 3]],
             friction: 0.0,
+            motion: Vec::new(),
         });
     }
     scene.solver = hyperpbd::Solver::IncrementalPotential(hyperpbd::IncrementalPotentialSettings {

@@ -255,6 +255,7 @@ fn barrier_fields(tolerance: f64) -> Scene {
         ],
         simplices: vec![vec![0, 1, 2]],
         friction: 0.0,
+        motion: Vec::new(),
     });
     scene.solver = Solver::IncrementalPotential(IncrementalPotentialSettings {
         barrier_stiffness: 2e3,

@@ -49,6 +49,7 @@ fn triangle_mesh_obstacles(dim: usize) -> (Scene, BarrierObstacles) {
         vertices: vec![v([0.0, 0.0]), v([1.0, 0.0]), v([0.0, 1.0]), v([1.0, 1.0])],
         simplices: vec![vec![0, 1, 2], vec![1, 3, 2]],
         friction: 0.0,
+        motion: Vec::new(),
     });
     let obstacles = BarrierObstacles::compile(&scene);
     (scene, obstacles)

@@ -184,6 +184,7 @@ fn barrier_validation_names_the_field() {
             vertices,
             simplices,
             friction: 0.0,
+            motion: Vec::new(),
         });
         s
     };
