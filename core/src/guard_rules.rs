@@ -51,6 +51,11 @@ pub enum GuardKind {
     MinMeasureRatio,
     /// `max_speed`: |v| > v.
     MaxSpeed,
+    /// Always on for a moving simplex mesh (no key): a point of the mesh
+    /// moves by d ≥ r in one substep, r the smallest radius of a particle
+    /// it contacts, so it could pass through that particle
+    /// (`moving_mesh::reach_rejection`).
+    MeshReach,
 }
 
 impl GuardKind {
@@ -60,6 +65,7 @@ impl GuardKind {
             GuardKind::Orientation => "orientation",
             GuardKind::MinMeasureRatio => "min_measure_ratio",
             GuardKind::MaxSpeed => "max_speed",
+            GuardKind::MeshReach => "moving_mesh",
         }
     }
 }
@@ -78,6 +84,8 @@ pub enum GuardSubject {
     },
     /// Particle `particle`.
     Particle(usize),
+    /// Authored obstacle `obstacle` (`obstacles[k]`).
+    Obstacle(usize),
 }
 
 impl std::fmt::Display for GuardSubject {
@@ -89,6 +97,7 @@ impl std::fmt::Display for GuardSubject {
                 ..
             } => write!(f, "{family_label} element {element}"),
             GuardSubject::Particle(i) => write!(f, "particle {i}"),
+            GuardSubject::Obstacle(o) => write!(f, "obstacles[{o}]"),
         }
     }
 }
@@ -114,6 +123,7 @@ impl std::fmt::Display for GuardRejection {
             GuardKind::Orientation => ("measure ratio", "<="),
             GuardKind::MinMeasureRatio => ("measure ratio", "<"),
             GuardKind::MaxSpeed => ("speed", ">"),
+            GuardKind::MeshReach => ("a displacement per substep", ">="),
         };
         write!(
             f,

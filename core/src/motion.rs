@@ -239,8 +239,14 @@ pub struct MovingPlane {
 pub struct MovingMesh {
     /// Its contact family in [`crate::Plan::families`].
     pub family: usize,
+    /// Its authored obstacle index.
+    pub obstacle: usize,
     /// Its motion list.
     pub motion: Vec<Motion>,
+    /// The box of its authored vertices: lowest, then highest coordinates.
+    pub bounds: [Vec<f64>; 2],
+    /// The smallest radius of a particle it contacts.
+    pub smallest_radius: f64,
 }
 
 /// A moving mesh over one substep.

@@ -13,6 +13,19 @@
 //! friction         the moving plane's (motion.rs): static friction against
 //!                  q = p + D(p), dynamic friction on v − D(p) / h, with this n
 //! ```
+//! Reach: the unsigned distance pushes a particle out on the side its
+//! centre is on, so a mesh that moves by d ≥ r (r a particle's radius) in
+//! one substep could carry a resting particle's centre through it.
+//! ```text
+//! d = max over the corners c of the mesh's authored box |D(c)|
+//!   ≥ max over its points |D(p)|  (|D(p)| = |Ā p + c| is convex in p)
+//! d ≥ the smallest radius of the particles it contacts → the substep is
+//! rejected (a guard rejection, `GuardKind::MeshReach`: with `adaptive`
+//! the step is retried with more substeps; without, it fails, the state
+//! unchanged), before anything moves
+//! ```
+//! The particles' own speed is theirs to bound (substeps, `max_speed`).
+//!
 //! e, Rᵀ and D are evaluated on the host in f64 once per substep (the
 //! golden path with o = 0; the f32 device and its reference take them
 //! relative to their origin, rounded once), so every backend maps a
@@ -24,9 +37,10 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::barrier::BarrierObstacles;
+use crate::guard_rules::{GuardKind, GuardRejection, GuardSubject};
 use crate::kinds::ProjectionReal;
 use crate::kinds::mesh_contact::closest;
-use crate::motion::MeshAt;
+use crate::motion::{Carry, MeshAt, MotionPlan, SubstepMotion};
 
 /// The map into a mesh's frame in some precision (module docs).
 #[derive(Debug, Clone, PartialEq)]
@@ -138,6 +152,65 @@ pub fn closest_placed(
     Some(c)
 }
 
+/// Up to this dimension [`box_reach`] visits the box's 2^N corners.
+const CORNERS_UP_TO: usize = 8;
+
+/// The largest displacement over the substep of a point of the box
+/// `bounds` carried by `carry` (module docs, "Reach"); above
+/// [`CORNERS_UP_TO`] dimensions the bound |D(m)| + ‖Ā‖_F |h| (m the box's
+/// centre, h its half-diagonal), which is at least that.
+pub fn box_reach(bounds: &[Vec<f64>; 2], carry: &Carry) -> f64 {
+    let n = bounds[0].len();
+    let length = |d: &[f64]| d.iter().map(|c| c * c).sum::<f64>().sqrt();
+    let Some(matrix) = &carry.matrix else {
+        return length(&carry.offset);
+    };
+    let (mut corner, mut d) = (vec![0.0; n], vec![0.0; n]);
+    if n > CORNERS_UP_TO {
+        let centre: Vec<f64> = (0..n)
+            .map(|a| 0.5 * (bounds[0][a] + bounds[1][a]))
+            .collect();
+        let half: Vec<f64> = (0..n)
+            .map(|a| 0.5 * (bounds[1][a] - bounds[0][a]))
+            .collect();
+        carry.at(&centre, &mut d);
+        return length(&d) + length(matrix) * length(&half);
+    }
+    let mut largest: f64 = 0.0;
+    for k in 0..1usize << n {
+        for a in 0..n {
+            corner[a] = bounds[(k >> a) & 1][a];
+        }
+        carry.at(&corner, &mut d);
+        largest = largest.max(length(&d));
+    }
+    largest
+}
+
+/// The first moving mesh of `motion` whose reach over substep `substep`
+/// (values `now`) is at least the smallest radius it contacts (module
+/// docs, "Reach"), as a guard rejection.
+pub fn reach_rejection(
+    motion: &MotionPlan,
+    now: &SubstepMotion,
+    substep: u32,
+) -> Option<GuardRejection> {
+    motion
+        .meshes
+        .iter()
+        .zip(&now.meshes)
+        .find_map(|(mesh, at)| {
+            let reach = box_reach(&mesh.bounds, &at.carry);
+            (reach >= mesh.smallest_radius || reach.is_nan()).then_some(GuardRejection {
+                guard: GuardKind::MeshReach,
+                subject: GuardSubject::Obstacle(mesh.obstacle),
+                value: reach,
+                limit: mesh.smallest_radius,
+                substep,
+            })
+        })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -206,5 +279,39 @@ mod tests {
         frame.to_frame(&x, &mut y);
         let b = &at.placed.translation;
         assert_eq!(y, [x[0] - b[0], x[1] - b[1]]);
+    }
+
+    #[test]
+    fn the_reach_of_a_turn_is_its_farthest_corner_chord() {
+        let turn = [Motion::Rotate {
+            plane: [0, 1],
+            center: vec![0.0, 0.0],
+            rate: 1.0,
+        }];
+        let (m0, m1) = (rigid_at(&turn, 2, 0.2), rigid_at(&turn, 2, 0.25));
+        let plan = MotionPlan {
+            meshes: vec![crate::motion::MovingMesh {
+                family: 0,
+                obstacle: 3,
+                motion: turn.to_vec(),
+                bounds: [vec![-1.0, -1.0], vec![1.0, 1.0]],
+                smallest_radius: 0.1,
+            }],
+            ..MotionPlan::default()
+        };
+        let now = plan.substep(2, 0.2, 0.25, 0.05);
+        // The corner at √2 moves along a chord 2 √2 sin(θ/2), θ = 0.05.
+        let want = 2.0 * 2f64.sqrt() * (0.025f64).sin();
+        let reach = box_reach(&plan.meshes[0].bounds, &now.meshes[0].carry);
+        assert!((reach - want).abs() <= 1e-14, "{reach} vs {want}");
+        let _ = (m0, m1);
+        assert!(reach_rejection(&plan, &now, 4).is_none());
+        let mut small = plan.clone();
+        small.meshes[0].smallest_radius = 0.05;
+        let r = reach_rejection(&small, &now, 4).expect("0.0707 ≥ 0.05");
+        assert_eq!(
+            (r.guard, r.subject, r.substep),
+            (GuardKind::MeshReach, GuardSubject::Obstacle(3), 4)
+        );
     }
 }

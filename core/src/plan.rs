@@ -342,9 +342,19 @@ impl Plan {
                     let mesh = crate::barrier::BarrierObstacles::mesh(dim, o, vertices, simplices);
                     let rest: Vec<f64> = particles.iter().map(|&i| radius[i]).collect();
                     if !motion.is_empty() {
+                        let mut bounds = [vec![f64::INFINITY; dim], vec![f64::NEG_INFINITY; dim]];
+                        for v in vertices {
+                            for (a, &c) in v.iter().enumerate() {
+                                bounds[0][a] = bounds[0][a].min(c);
+                                bounds[1][a] = bounds[1][a].max(c);
+                            }
+                        }
                         moving.meshes.push(MovingMesh {
                             family: families.len(),
+                            obstacle: o,
                             motion: motion.clone(),
+                            bounds,
+                            smallest_radius: rest.iter().copied().fold(f64::INFINITY, f64::min),
                         });
                     }
                     obstacle_families[o] = Some(families.len());

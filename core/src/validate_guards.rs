@@ -6,7 +6,8 @@
 //! guards                     XPBD path only (the barrier path has its own
 //!                            filter and no constraint families)
 //! adaptive.max_subdivisions  in 1 ..= MAX_SUBDIVISIONS, substeps · 2^k < 2^32;
-//!                            needs `guards` (only a guard rejection is retried)
+//!                            needs `guards` or a moving simplex mesh (its reach
+//!                            guard: only a guard rejection is retried)
 //! ```
 
 use crate::guard_rules::MAX_SUBDIVISIONS;
@@ -63,10 +64,15 @@ impl Scene {
                     ),
                 });
             }
-            if self.guards.is_none() {
+            let moving_mesh = self.obstacles.iter().any(
+                |o| matches!(o, crate::Obstacle::SimplexMesh { motion, .. } if !motion.is_empty()),
+            );
+            if self.guards.is_none() && !moving_mesh {
                 return Err(SceneError::Inconsistent {
                     path: "adaptive".into(),
-                    why: "needs \"guards\": only a guard rejection is retried".into(),
+                    why: "needs \"guards\" or a moving simplex_mesh: only a guard rejection is \
+                          retried"
+                        .into(),
                 });
             }
         }

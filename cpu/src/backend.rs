@@ -183,7 +183,7 @@ impl CpuBackend {
         match kernel {
             Kernel::Motion => {
                 let clock = (self.step_count, self.substep);
-                self.motion_now = motion::place(plan, clock, &mut self.x, &mut self.v);
+                self.motion_now = motion::place(plan, clock, &mut self.x, &mut self.v)?;
                 Ok(())
             }
             Kernel::Predict => {

@@ -24,7 +24,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use hyperpbd_core::motion::{MeshAt, PlaneAt, SubstepMotion, substep_time};
-use hyperpbd_core::{Family, FamilyKind, FamilyResidual, Plan};
+use hyperpbd_core::moving_mesh::reach_rejection;
+use hyperpbd_core::{BackendError, Family, FamilyKind, FamilyResidual, Plan, StepError};
 
 use crate::parallel::Workers;
 use crate::project::dot;
@@ -32,26 +33,31 @@ use hyperpbd_core::kinds::contact_friction::static_friction;
 use hyperpbd_core::kinds::hyperplane_contact::contact_update;
 
 /// The Motion kernel of substep `substep` of step `step`: the substep's
-/// prescribed values, pins placed in `x` with their velocities in `v`.
+/// prescribed values, pins placed in `x` with their velocities in `v`; a
+/// moving mesh that would move too far in the substep is a guard
+/// rejection before anything moves (`hyperpbd_core::moving_mesh`).
 pub fn place(
     plan: &Plan,
     (step, substep): (u64, u32),
     x: &mut [f64],
     v: &mut [f64],
-) -> SubstepMotion {
+) -> Result<SubstepMotion, BackendError> {
     let Some(motion) = &plan.motion else {
-        return SubstepMotion::default();
+        return Ok(SubstepMotion::default());
     };
     let t0 = substep_time(step, plan.dt, substep, plan.h);
     let t1 = substep_time(step, plan.dt, substep + 1, plan.h);
     let now = motion.substep(plan.dim, t0, t1, plan.h);
+    if let Some(rejection) = reach_rejection(motion, &now, substep) {
+        return Err(StepError::GuardRejected(rejection).into());
+    }
     let n = plan.dim;
     for (k, pin) in motion.pins.iter().enumerate() {
         let i = pin.particle;
         x[i * n..(i + 1) * n].copy_from_slice(&now.pin_positions[k * n..(k + 1) * n]);
         v[i * n..(i + 1) * n].copy_from_slice(&now.pin_velocities[k * n..(k + 1) * n]);
     }
-    now
+    Ok(now)
 }
 
 /// The plane of family `family` in this substep, if it moves.

@@ -194,7 +194,7 @@ impl XpbdStep {
                 on,
                 &mut p.schedule,
                 p.exact.iter().chain(&p.fast).chain(&p.alone),
-            );
+            )?;
         }
         if self.contacts.is_some() {
             let (outcomes, block) = self.submit_fitting_contact_step(on)?;

@@ -267,7 +267,7 @@ fn bad_guard_and_adaptive_keys_are_named() {
         ),
         (
             r#", "adaptive": {"max_subdivisions": 2}"#,
-            "adaptive: needs \"guards\": only a guard rejection is retried",
+            "adaptive: needs \"guards\" or a moving simplex_mesh: only a guard rejection is retried",
         ),
         (
             r#", "guards": {"max_speed": 1}, "solver": {"type": "incremental_potential", "barrier_stiffness": 1, "activation_distance": 0.1, "convergence": {"kind": "packed_gradient", "tolerance": 1e-9}, "max_iterations": 20}"#,

@@ -2,7 +2,12 @@
 
 use super::*;
 
-on_every_backend!(dt_one_second, dt_one_microsecond, fast_impact_xpbd,);
+on_every_backend!(
+    dt_one_second,
+    dt_one_microsecond,
+    fast_impact_xpbd,
+    fast_moving_mesh_wall,
+);
 
 /// A 10-link rigid chain (0.1 m links, 0.1 kg) released horizontally from
 /// a fixed end above a ground plane with friction, at time step `dt`.
@@ -187,4 +192,90 @@ fn fast_impact_xpbd(kind: BackendKind) {
         "{case}: y = {y}"
     );
     assert!(vy.abs() <= 9.81 / 600.0 * (1.0 + 1e-6), "{case}: vy = {vy}");
+}
+
+/// A mesh wall (two triangles in the plane x = −0.3) moving at 20 m/s
+/// along +x into a resting ball (r = 0.05, no gravity).
+fn wall(substeps: u32) -> Scene {
+    let mut b = SceneBuilder::new(3).dt(1.0 / 60.0).substeps(substeps);
+    b.particle(Particle::new(vec![0.0; 3], 1.0).with_radius(0.05));
+    let mut scene = b.build().expect("valid");
+    scene.obstacles.push(hyperpbd::Obstacle::SimplexMesh {
+        vertices: vec![
+            vec![-0.3, -1.0, -1.0],
+            vec![-0.3, 1.0, -1.0],
+            vec![-0.3, -1.0, 1.0],
+            vec![-0.3, 1.0, 1.0],
+        ],
+        simplices: vec![vec![0, 1, 2], vec![1, 3, 2]],
+        friction: 0.0,
+        motion: vec![hyperpbd::motion::Motion::Translate {
+            velocity: vec![20.0, 0.0, 0.0],
+        }],
+    });
+    scene
+}
+
+/// The mesh wall of [`wall`] (a mesh's distance is unsigned: a ball whose
+/// centre it crosses in one substep comes out behind it). With 30
+/// substeps it moves 1.1 cm per substep, under the radius: it pushes the
+/// ball ahead, no tunnelling, at its own speed. With 2 (16.7 cm ≥ r) the
+/// step is a guard rejection (`moving_mesh`), the state unchanged; with
+/// `adaptive` it is retried and runs with 8 (4.2 cm).
+fn fast_moving_mesh_wall(kind: BackendKind) {
+    let case = "fast_moving_mesh_wall";
+    let Some((mut backend, initial)) = start(case, kind, &wall(30)) else {
+        return;
+    };
+    let m = run(case, backend.as_mut(), &initial, 6);
+    // After 0.1 s the wall is at x = 1.7: the ball touches it ahead.
+    let (x, vx) = (m.last.positions[0], m.last.velocities[0]);
+    let gap = x - 1.7 - 0.05;
+    report(
+        case,
+        kind,
+        "ok",
+        "gap ahead of the wall (m)",
+        gap,
+        "≥ −ε·64·2: no tunnelling",
+    );
+    report(case, kind, "ok", "ball speed (m/s)", vx, "= the wall's 20");
+    assert!(gap >= -64.0 * epsilon(kind) * 2.0, "{case}: gap {gap}");
+    assert!((vx - 20.0).abs() <= 1e-3 * 20.0, "{case}: v = {vx}");
+    // Too few substeps: a typed guard rejection, nothing moved.
+    let Some((mut coarse, initial)) = start(case, kind, &wall(2)) else {
+        return;
+    };
+    match coarse.step() {
+        Err(BackendError::Step(hyperpbd::StepError::GuardRejected(r))) => {
+            assert_eq!(r.guard, hyperpbd::GuardKind::MeshReach, "{case}: {r}");
+            assert_eq!(r.subject, hyperpbd::GuardSubject::Obstacle(0), "{case}");
+            assert!(
+                (r.value - 20.0 / 120.0).abs() <= 1e-9 && r.limit == 0.05,
+                "{case}: {r}"
+            );
+            report(
+                case,
+                kind,
+                "refused",
+                "wall travel per substep (m)",
+                r.value,
+                "≥ r = 0.05",
+            );
+        }
+        other => panic!("{case} ({}): {other:?}", kind.name()),
+    }
+    let after = coarse.read_state().expect("state");
+    assert_eq!(after.positions, initial.positions, "{case}: state moved");
+    // Adaptive: retried with 4 and 8 substeps; 8 is accepted.
+    let mut retried = wall(2);
+    retried.adaptive = Some(hyperpbd::Adaptive {
+        max_subdivisions: 3,
+    });
+    let Some((mut adaptive, _)) = start(case, kind, &retried) else {
+        return;
+    };
+    let report_ = adaptive.step().expect("adaptive step");
+    let substeps: Vec<u32> = report_.attempts.iter().map(|a| a.substeps).collect();
+    assert_eq!(substeps, [2, 4, 8], "{case} ({})", kind.name());
 }

@@ -9,7 +9,7 @@
 //! ```
 //! A plan without motion has none of this: nothing is written.
 
-use hyperpbd_core::{BackendError, Kernel};
+use hyperpbd_core::{BackendError, Kernel, StepError};
 
 use crate::params::push_reals;
 use crate::resident_backend::Resident;
@@ -30,22 +30,25 @@ pub(crate) struct Moving {
 impl Moving {
     /// Writes step `self.step`'s values: into `schedule`'s call blocks
     /// and onto the device (`rest`, the call blocks, every dispatch block
-    /// of `placed`).
+    /// of `placed`); a moving mesh's reach rejection writes nothing.
     pub fn upload<'a>(
         &self,
         on: &Resident,
         schedule: &mut Schedule,
         placed: impl Iterator<Item = &'a Placed>,
-    ) {
+    ) -> Result<(), BackendError> {
         let (dim, precision) = (on.plan.dim, on.precision);
         let origin = on.state.origin();
-        let (base, blocks) = self.layout.step(
-            &on.plan,
-            origin,
-            self.step,
-            &mut schedule.calls,
-            schedule.run_base,
-        );
+        let (base, blocks) = self
+            .layout
+            .step(
+                &on.plan,
+                origin,
+                self.step,
+                &mut schedule.calls,
+                schedule.run_base,
+            )
+            .map_err(|rejection| BackendError::from(StepError::GuardRejected(rejection)))?;
         let queue = &on.ctx.queue;
         let mut bytes = Vec::new();
         push_reals(&mut bytes, &blocks, precision);
@@ -63,6 +66,7 @@ impl Moving {
             blocks[at..at + block.len()].copy_from_slice(&block);
         }
         queue.write_buffer(&self.dispatches, 0, &blocks);
+        Ok(())
     }
 
     /// The clock after an accepted step.

@@ -24,7 +24,9 @@
 //! gpu-f64 runs on o = 0 and takes the golden path's values as they are;
 //! gpu-f32 takes them rounded once, as the f32 reference does.
 
+use hyperpbd_core::GuardRejection;
 use hyperpbd_core::motion::{Motion, local_carry, local_plane, local_position, substep_time};
+use hyperpbd_core::moving_mesh::reach_rejection;
 use hyperpbd_core::{Kernel, Plan};
 
 use super::NONE;
@@ -168,7 +170,9 @@ impl MotionLayout {
     /// Step `step`'s values: the blocks (to write at `base` in `rest`),
     /// and the calls patched (`k` calls per substep in the first
     /// `substeps · k`; residual calls; the run-alone copies from
-    /// `run_base` take substep 0).
+    /// `run_base` take substep 0). A moving mesh that would move too far
+    /// in a substep is that substep's guard rejection, before anything is
+    /// written (`hyperpbd_core::moving_mesh`).
     pub fn step(
         &self,
         plan: &Plan,
@@ -176,9 +180,9 @@ impl MotionLayout {
         step: u64,
         calls: &mut [Call],
         run_base: usize,
-    ) -> (usize, Vec<f64>) {
+    ) -> Result<(usize, Vec<f64>), GuardRejection> {
         let Some(motion) = &plan.motion else {
-            return (self.base, Vec::new());
+            return Ok((self.base, Vec::new()));
         };
         let n = plan.dim;
         let o = origin.as_slice();
@@ -191,6 +195,9 @@ impl MotionLayout {
             let t0 = substep_time(step, plan.dt, s as u32, plan.h);
             let t1 = substep_time(step, plan.dt, s as u32 + 1, plan.h);
             let now = motion.substep(n, t0, t1, plan.h);
+            if let Some(rejection) = reach_rejection(motion, &now, s as u32) {
+                return Err(rejection);
+            }
             let block = &mut blocks[s * self.per_substep..(s + 1) * self.per_substep];
             let mut values = Vec::with_capacity(now.planes.len());
             for (plane, offset) in now.planes.iter().zip(&self.matrices) {
@@ -252,6 +259,6 @@ impl MotionLayout {
                 c.gravity.clone_from(carry);
             }
         }
-        (self.base, blocks)
+        Ok((self.base, blocks))
     }
 }
