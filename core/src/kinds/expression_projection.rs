@@ -5,9 +5,14 @@
 //! ```text
 //! per block of BLOCK = 64 slots:
 //!   gather  element by element: each member's offset, inverse mass and
-//!           coordinates (into the tape's input columns), the constants
+//!           coordinates (into the tape's input columns: without the
+//!           column map when they are its first columns, as compiled),
+//!           the constants
 //!   tape    C and ∇C over the block (Tape::eval_block, one op over the lanes)
-//!   wsum, Δλ before the clamp: lane-wise over the block
+//!   wsum = Σ_j [w_j ≠ 0] w_j Σ_a g_ja², w_j g_ja: lane by lane, each
+//!           lane's sums in registers (≤ 16 coordinates; else member by
+//!           member over the lanes)
+//!   Δλ before the clamp and each lane's case: lane-wise over the block
 //!   update  element by element in slot order: the checks, the clamp, λ,
 //!           x_j += (w_j g_j) Δλ (member j, then axis a)
 //! ```
@@ -284,41 +289,37 @@ fn gather_columns<S: Shape, R: Copy, X: Positions<R> + ?Sized>(
 /// at most [`SMALL`] coordinates, else [`weights_by_member`] — the same
 /// operations either way.
 #[inline(always)]
-fn weights<S: Shape, R: ProjectionReal>(
-    shape: S,
-    columns: &[Column<R>],
-    gradient: &[usize],
-    weight: &[Column<R>],
-    wg: &mut [Column<R>],
-    wsum: &mut Column<R>,
-) {
+fn weights<S: Shape, R: ProjectionReal>(shape: S, sums: Weights<'_, R>) {
     if shape.arity() * shape.dim() <= SMALL {
-        weights_by_lane(shape, columns, gradient, weight, wg, wsum);
+        weights_by_lane(shape, sums);
     } else {
-        weights_by_member(shape, columns, gradient, weight, wg, wsum);
+        weights_by_member(shape, sums);
     }
+}
+
+/// What [`weights`] reads (the block's columns, the column of each
+/// ∂C/∂coordinate, each member's inverse masses) and writes (w g per
+/// coordinate, wsum).
+struct Weights<'a, R> {
+    columns: &'a [Column<R>],
+    gradient: &'a [usize],
+    weight: &'a [Column<R>],
+    wg: &'a mut [Column<R>],
+    wsum: &'a mut Column<R>,
 }
 
 /// [`weights`] lane by lane, each lane's sums in registers (the ∂C
 /// columns looked up once; at most [`SMALL`] coordinates).
 #[inline(always)]
-fn weights_by_lane<S: Shape, R: ProjectionReal>(
-    shape: S,
-    columns: &[Column<R>],
-    gradient: &[usize],
-    weight: &[Column<R>],
-    wg: &mut [Column<R>],
-    wsum: &mut Column<R>,
-) {
-    let dim = shape.dim();
-    let zero = R::constant(0.0);
-    let mut g = [&columns[0]; SMALL];
-    for (g, &k) in g.iter_mut().zip(gradient) {
-        *g = &columns[k];
+fn weights_by_lane<S: Shape, R: ProjectionReal>(shape: S, sums: Weights<'_, R>) {
+    let (dim, zero, wg) = (shape.dim(), R::constant(0.0), sums.wg);
+    let mut g = [&sums.columns[0]; SMALL];
+    for (g, &k) in g.iter_mut().zip(sums.gradient) {
+        *g = &sums.columns[k];
     }
     for lane in 0..BLOCK {
         let mut sum = zero;
-        for (j, w) in weight.iter().enumerate() {
+        for (j, w) in sums.weight.iter().enumerate() {
             let (w, mut g2) = (w[lane], zero);
             for a in 0..dim {
                 let g = g[j * dim + a][lane];
@@ -328,27 +329,19 @@ fn weights_by_lane<S: Shape, R: ProjectionReal>(
             let with = sum + w * g2;
             sum = if w == zero { sum } else { with };
         }
-        wsum[lane] = sum;
+        sums.wsum[lane] = sum;
     }
 }
 
 /// [`weights`] member by member, one axis over every lane at a time.
 #[inline(always)]
-fn weights_by_member<S: Shape, R: ProjectionReal>(
-    shape: S,
-    columns: &[Column<R>],
-    gradient: &[usize],
-    weight: &[Column<R>],
-    wg: &mut [Column<R>],
-    wsum: &mut Column<R>,
-) {
-    let dim = shape.dim();
-    let zero = R::constant(0.0);
+fn weights_by_member<S: Shape, R: ProjectionReal>(shape: S, sums: Weights<'_, R>) {
+    let (dim, zero, wsum) = (shape.dim(), R::constant(0.0), sums.wsum);
     wsum.fill(zero);
-    for (j, w) in weight.iter().enumerate() {
+    for (j, w) in sums.weight.iter().enumerate() {
         let mut g2 = [zero; BLOCK];
-        for (a, wg) in wg[j * dim..][..dim].iter_mut().enumerate() {
-            let g = &columns[gradient[j * dim + a]];
+        for (a, wg) in sums.wg[j * dim..][..dim].iter_mut().enumerate() {
+            let g = &sums.columns[sums.gradient[j * dim + a]];
             for lane in 0..BLOCK {
                 g2[lane] += g[lane] * g[lane];
                 wg[lane] = w[lane] * g[lane];
@@ -375,8 +368,15 @@ pub(super) fn weights_both<R: ProjectionReal>(
     let zero = R::constant(0.0);
     let mut out = [(); 2].map(|_| ([zero; BLOCK], vec![[zero; BLOCK]; arity * dim]));
     let [(sum, wg), (sum_m, wg_m)] = &mut out;
-    weights_by_lane(Any(arity, dim), columns, gradient, weight, wg, sum);
-    weights_by_member(Any(arity, dim), columns, gradient, weight, wg_m, sum_m);
+    let sums = |wg, wsum| Weights {
+        columns,
+        gradient,
+        weight,
+        wg,
+        wsum,
+    };
+    weights_by_lane(Any(arity, dim), sums(wg, sum));
+    weights_by_member(Any(arity, dim), sums(wg_m, sum_m));
     out
 }
 
@@ -429,7 +429,14 @@ fn project_block<S: Shape, R: ProjectionReal, X: Positions<R> + ?Sized>(
     // wsum = Σ_j [w_j ≠ 0] w_j Σ_a g_ja², and each w_j g_ja of the update
     // (`wg`, the same product it multiplies by Δλ), every lane at once.
     let (mut wsum, wg) = ([zero; BLOCK], &mut s.step[..n]);
-    weights(shape, columns, gradient, weight, wg, &mut wsum);
+    let sums = Weights {
+        columns,
+        gradient,
+        weight,
+        wg,
+        wsum: &mut wsum,
+    };
+    weights(shape, sums);
     // Δλ before the clamp and each lane's case, every lane at once: the
     // value non-finite, or Δλ non-finite where wsum is finite and not 0 →
     // the element fails; wsum non-finite or 0 → no response.
