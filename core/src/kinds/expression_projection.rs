@@ -5,9 +5,14 @@
 //! ```text
 //! per block of BLOCK = 64 slots:
 //!   gather  element by element: each member's offset, inverse mass and
-//!           coordinates (into the tape's input columns), the constants
+//!           coordinates (into the tape's input columns: without the
+//!           column map when they are its first columns, as compiled),
+//!           the constants
 //!   tape    C and ∇C over the block (Tape::eval_block, one op over the lanes)
-//!   wsum, Δλ before the clamp: lane-wise over the block
+//!   wsum = Σ_j [w_j ≠ 0] w_j Σ_a g_ja², w_j g_ja: lane by lane, each
+//!           lane's sums in registers (≤ 16 coordinates; else member by
+//!           member over the lanes)
+//!   Δλ before the clamp and each lane's case: lane-wise over the block
 //!   update  element by element in slot order: the checks, the clamp, λ,
 //!           x_j += (w_j g_j) Δλ (member j, then axis a)
 //! ```
@@ -77,6 +82,8 @@ pub struct ProjectionScratch<R> {
     block: Block<R>,
     offset: Vec<[usize; BLOCK]>,
     weight: Vec<Column<R>>,
+    /// w_j ∂C/∂x_ja per coordinate (member j, axis a) of each lane.
+    step: Vec<Column<R>>,
     /// The column map of an element of more than [`SMALL`] coordinates.
     map: [Vec<usize>; 2],
 }
@@ -88,6 +95,7 @@ impl<R: Real> ProjectionScratch<R> {
             block: Block::new(),
             offset: Vec::new(),
             weight: Vec::new(),
+            step: Vec::new(),
             map: [Vec::new(), Vec::new()],
         }
     }
@@ -228,31 +236,148 @@ fn column_map<'a>(
     }
 }
 
-/// Gathers the coordinates of the elements `members` (arity per lane),
-/// element by element, into `columns` (coordinate k of a lane's element
-/// into column `input[k]`); `member(j, lane, particle)` sees each member.
+/// Gathers the coordinates of the elements `members` (arity per lane, at
+/// most [`BLOCK`] lanes), element by element: coordinate k of a lane's
+/// element goes to `store(k, lane, value)`; `member(j, lane, particle)`
+/// sees each member.
 #[inline(always)]
 fn gather<S: Shape, R: Copy, X: Positions<R> + ?Sized>(
     shape: S,
     members: &[u32],
     x: &X,
-    input: &[usize],
-    columns: &mut [Column<R>],
+    mut store: impl FnMut(usize, usize, R),
     mut member: impl FnMut(usize, usize, usize),
 ) {
     let (arity, dim) = (shape.arity(), shape.dim());
-    for (lane, element) in members.chunks_exact(arity).enumerate() {
+    for (lane, element) in members.chunks_exact(arity).take(BLOCK).enumerate() {
+        let lane = lane % BLOCK;
         for (j, &i) in element.iter().enumerate() {
             let i = i as usize;
             member(j, lane, i);
-            for (&column, &v) in input[j * dim..][..dim]
-                .iter()
-                .zip(x.values(i * dim..i * dim + dim))
-            {
-                columns[column][lane] = v;
+            for (a, &v) in x.values(i * dim..i * dim + dim).iter().enumerate() {
+                store(j * dim + a, lane, v);
             }
         }
     }
+}
+
+/// [`gather`] into the tape's input columns (`input[k]`: the column of
+/// coordinate k); when the tape's first columns are its coordinates in
+/// order (k → k, as the compiler numbers them), stored without the map.
+#[inline(always)]
+fn gather_columns<S: Shape, R: Copy, X: Positions<R> + ?Sized>(
+    shape: S,
+    members: &[u32],
+    x: &X,
+    input: &[usize],
+    columns: &mut [Column<R>],
+    member: impl FnMut(usize, usize, usize),
+) {
+    let n = shape.arity() * shape.dim();
+    if input.iter().enumerate().all(|(k, &c)| c == k) {
+        let columns = &mut columns[..n];
+        gather(shape, members, x, |k, lane, v| columns[k][lane] = v, member);
+    } else {
+        let store = |k: usize, lane: usize, v| columns[input[k]][lane] = v;
+        gather(shape, members, x, store, member);
+    }
+}
+
+/// wsum = Σ_j [w_j ≠ 0] w_j Σ_a g_ja² (from 0, j then a ascending) and
+/// each w_j g_ja into `wg`, every lane of the block (`gradient[k]`: the
+/// column of ∂C/∂coordinate k): [`weights_by_lane`] when the element has
+/// at most [`SMALL`] coordinates, else [`weights_by_member`] — the same
+/// operations either way.
+#[inline(always)]
+fn weights<S: Shape, R: ProjectionReal>(shape: S, sums: Weights<'_, R>) {
+    if shape.arity() * shape.dim() <= SMALL {
+        weights_by_lane(shape, sums);
+    } else {
+        weights_by_member(shape, sums);
+    }
+}
+
+/// What [`weights`] reads (the block's columns, the column of each
+/// ∂C/∂coordinate, each member's inverse masses) and writes (w g per
+/// coordinate, wsum).
+struct Weights<'a, R> {
+    columns: &'a [Column<R>],
+    gradient: &'a [usize],
+    weight: &'a [Column<R>],
+    wg: &'a mut [Column<R>],
+    wsum: &'a mut Column<R>,
+}
+
+/// [`weights`] lane by lane, each lane's sums in registers (the ∂C
+/// columns looked up once; at most [`SMALL`] coordinates).
+#[inline(always)]
+fn weights_by_lane<S: Shape, R: ProjectionReal>(shape: S, sums: Weights<'_, R>) {
+    let (dim, zero, wg) = (shape.dim(), R::constant(0.0), sums.wg);
+    let mut g = [&sums.columns[0]; SMALL];
+    for (g, &k) in g.iter_mut().zip(sums.gradient) {
+        *g = &sums.columns[k];
+    }
+    for lane in 0..BLOCK {
+        let mut sum = zero;
+        for (j, w) in sums.weight.iter().enumerate() {
+            let (w, mut g2) = (w[lane], zero);
+            for a in 0..dim {
+                let g = g[j * dim + a][lane];
+                g2 += g * g;
+                wg[j * dim + a][lane] = w * g;
+            }
+            let with = sum + w * g2;
+            sum = if w == zero { sum } else { with };
+        }
+        sums.wsum[lane] = sum;
+    }
+}
+
+/// [`weights`] member by member, one axis over every lane at a time.
+#[inline(always)]
+fn weights_by_member<S: Shape, R: ProjectionReal>(shape: S, sums: Weights<'_, R>) {
+    let (dim, zero, wsum) = (shape.dim(), R::constant(0.0), sums.wsum);
+    wsum.fill(zero);
+    for (j, w) in sums.weight.iter().enumerate() {
+        let mut g2 = [zero; BLOCK];
+        for (a, wg) in sums.wg[j * dim..][..dim].iter_mut().enumerate() {
+            let g = &sums.columns[sums.gradient[j * dim + a]];
+            for lane in 0..BLOCK {
+                g2[lane] += g[lane] * g[lane];
+                wg[lane] = w[lane] * g[lane];
+            }
+        }
+        for lane in 0..BLOCK {
+            let with = wsum[lane] + w[lane] * g2[lane];
+            wsum[lane] = if w[lane] == zero { wsum[lane] } else { with };
+        }
+    }
+}
+
+/// (wsum, w g) of [`weights_by_lane`] and of [`weights_by_member`] on the
+/// same block (tests: they agree bit for bit); at most [`SMALL`]
+/// coordinates.
+#[cfg(test)]
+pub(super) fn weights_both<R: ProjectionReal>(
+    (arity, dim): (usize, usize),
+    columns: &[Column<R>],
+    gradient: &[usize],
+    weight: &[Column<R>],
+) -> [(Column<R>, Vec<Column<R>>); 2] {
+    assert!(arity * dim <= SMALL);
+    let zero = R::constant(0.0);
+    let mut out = [(); 2].map(|_| ([zero; BLOCK], vec![[zero; BLOCK]; arity * dim]));
+    let [(sum, wg), (sum_m, wg_m)] = &mut out;
+    let sums = |wg, wsum| Weights {
+        columns,
+        gradient,
+        weight,
+        wg,
+        wsum,
+    };
+    weights_by_lane(Any(arity, dim), sums(wg, sum));
+    weights_by_member(Any(arity, dim), sums(wg_m, sum_m));
+    out
 }
 
 /// One block (≤ [`BLOCK`] slots) of [`project`]; the first failing slot.
@@ -279,6 +404,7 @@ fn project_block<S: Shape, R: ProjectionReal, X: Positions<R> + ?Sized>(
     let gradient = column_map(n, |k| tape.gradient[k], small_gradient, large_gradient);
     s.offset.resize(arity, [0; BLOCK]);
     s.weight.resize(arity, [zero; BLOCK]);
+    s.step.resize(n, [zero; BLOCK]);
     let (offset, weight) = (&mut s.offset[..arity], &mut s.weight[..arity]);
     s.block.fit_with_spare(tape, 1);
     // Gather: each member's particle offset and inverse mass, the
@@ -286,7 +412,7 @@ fn project_block<S: Shape, R: ProjectionReal, X: Positions<R> + ?Sized>(
     // constants (tape inputs arity·N …).
     let columns = s.block.columns_mut();
     let members = &c.elements[slots.start * arity..slots.end * arity];
-    gather(shape, members, x, input, columns, |j, lane, i| {
+    gather_columns(shape, members, x, input, columns, |j, lane, i| {
         offset[j][lane] = i * dim;
         weight[j][lane] = c.inverse_mass[i];
     });
@@ -300,22 +426,17 @@ fn project_block<S: Shape, R: ProjectionReal, X: Positions<R> + ?Sized>(
     }
     tape.eval_block(&mut s.block, |_, _| {});
     let columns = s.block.columns();
-    let gradient = |j: usize, a: usize| &columns[gradient[j * dim + a]];
-    // wsum = Σ_j [w_j ≠ 0] w_j Σ_a g_ja², every lane at once.
-    let mut wsum = [zero; BLOCK];
-    for (j, w) in weight.iter().enumerate() {
-        let mut g2 = [zero; BLOCK];
-        for a in 0..dim {
-            let g = gradient(j, a);
-            for lane in 0..BLOCK {
-                g2[lane] += g[lane] * g[lane];
-            }
-        }
-        for lane in 0..BLOCK {
-            let with = wsum[lane] + w[lane] * g2[lane];
-            wsum[lane] = if w[lane] == zero { wsum[lane] } else { with };
-        }
-    }
+    // wsum = Σ_j [w_j ≠ 0] w_j Σ_a g_ja², and each w_j g_ja of the update
+    // (`wg`, the same product it multiplies by Δλ), every lane at once.
+    let (mut wsum, wg) = ([zero; BLOCK], &mut s.step[..n]);
+    let sums = Weights {
+        columns,
+        gradient,
+        weight,
+        wg,
+        wsum: &mut wsum,
+    };
+    weights(shape, sums);
     // Δλ before the clamp and each lane's case, every lane at once: the
     // value non-finite, or Δλ non-finite where wsum is finite and not 0 →
     // the element fails; wsum non-finite or 0 → no response.
@@ -343,7 +464,8 @@ fn project_block<S: Shape, R: ProjectionReal, X: Positions<R> + ?Sized>(
     // axis a.
     let relation = kind.relation;
     let mut failed = None;
-    for (lane, e) in slots.enumerate() {
+    for (lane, e) in slots.enumerate().take(BLOCK) {
+        let lane = lane % BLOCK;
         match case[lane] {
             Case::Move => {}
             Case::Skip => continue,
@@ -369,8 +491,9 @@ fn project_block<S: Shape, R: ProjectionReal, X: Positions<R> + ?Sized>(
         for (j, (w, k)) in weight.iter().zip(offset.iter()).enumerate() {
             let (w, k) = (w[lane], k[lane]);
             if w != zero {
-                for (a, v) in x.values_mut(k..k + dim).iter_mut().enumerate() {
-                    *v += w * gradient(j, a)[lane] * step;
+                let wg = &wg[j * dim..][..dim];
+                for (v, wg) in x.values_mut(k..k + dim).iter_mut().zip(wg) {
+                    *v += wg[lane] * step;
                 }
             }
         }
@@ -425,7 +548,7 @@ fn values_of<S: Shape, R: Real>(
         block.fit_with_spare(tape, 1);
         let columns = block.columns_mut();
         let members = &elements[start * arity..block_slots.end * arity];
-        gather(shape, members, x, input, columns, |_, _, _| {});
+        gather_columns(shape, members, x, input, columns, |_, _, _| {});
         for q in 0..m {
             if let Some(slot) = kind.value_inputs[n + q] {
                 for (lane, e) in block_slots.clone().enumerate() {

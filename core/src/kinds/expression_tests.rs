@@ -4,10 +4,13 @@
 //! slot, for each relation, with fixed particles, coincident points (no
 //! response) and a non-finite value (a failing slot) among them; the
 //! shapes compiled for their (arity, N) against the run-time shape, and
-//! the block values against C element by element.
+//! the block values against C element by element; the lane-by-lane sums
+//! of w|∇C|² against the member-by-member ones.
 
 use super::expression::ExpressionKind;
-use super::expression_projection::{Colour, ProjectionScratch, project, project_any, values};
+use super::expression_projection::{
+    Colour, ProjectionScratch, project, project_any, values, weights_both,
+};
 use super::relation::Relation;
 use crate::expr::BLOCK;
 
@@ -144,5 +147,44 @@ fn compiled_shapes_project_as_the_run_time_shape_bit_for_bit() {
             seen += 1;
         });
         assert_eq!(seen, count - 3, "{source}");
+    }
+}
+
+#[test]
+fn lane_by_lane_weights_are_member_by_member_bit_for_bit() {
+    // ∂C columns with zeros, signed zeros, tiny, huge, ∞ and NaN entries,
+    // read in a scrambled order; fixed members (w = 0) on some lanes.
+    let specials = [0.0, -0.0, 1e-300, 1e300, f64::INFINITY, f64::NAN, -3.5];
+    for (arity, dim) in [(2, 3), (3, 2), (4, 4), (1, 1)] {
+        let n = arity * dim;
+        let columns: Vec<[f64; BLOCK]> = (0..n + 3)
+            .map(|c| {
+                std::array::from_fn(|l| match (c * 31 + l * 17) % 23 {
+                    k if k < specials.len() => specials[k],
+                    k => (k as f64 - 11.0) * 0.37,
+                })
+            })
+            .collect();
+        let gradient: Vec<usize> = (0..n).map(|k| (k * 5 + 2) % (n + 3)).collect();
+        let weight: Vec<[f64; BLOCK]> = (0..arity)
+            .map(|j| {
+                std::array::from_fn(|l| {
+                    if (l + j) % 5 == 0 {
+                        0.0
+                    } else {
+                        0.5 + j as f64
+                    }
+                })
+            })
+            .collect();
+        let [(sum, wg), (sum_m, wg_m)] = weights_both((arity, dim), &columns, &gradient, &weight);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&sum), bits(&sum_m), "({arity}, {dim})");
+        assert_eq!(
+            bits(wg.as_flattened()),
+            bits(wg_m.as_flattened()),
+            "({arity}, {dim})"
+        );
+        assert!(sum.iter().any(|s| s.is_nan()) && sum.iter().any(|s| s.is_finite()));
     }
 }
