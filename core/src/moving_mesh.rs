@@ -157,7 +157,7 @@ const CORNERS_UP_TO: usize = 8;
 
 /// The largest displacement over the substep of a point of the box
 /// `bounds` carried by `carry` (module docs, "Reach"); above
-/// [`CORNERS_UP_TO`] dimensions the bound |D(m)| + ‖Ā‖_F |h| (m the box's
+/// 8 dimensions (`CORNERS_UP_TO`) the bound |D(m)| + ‖Ā‖_F |h| (m the box's
 /// centre, h its half-diagonal), which is at least that.
 pub fn box_reach(bounds: &[Vec<f64>; 2], carry: &Carry) -> f64 {
     let n = bounds[0].len();

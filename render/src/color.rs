@@ -36,6 +36,10 @@ pub(crate) const GROUND_LINE: [u8; 4] = [96, 88, 78, 255];
 pub(crate) const FLOOR_FILL: [u8; 4] = [205, 199, 186, 170];
 /// Floor grid lines in perspective.
 pub(crate) const FLOOR_GRID: [u8; 4] = [150, 143, 130, 150];
+/// A simplex mesh's faces (translucent).
+pub(crate) const MESH_FILL: [u8; 4] = [176, 186, 200, 150];
+/// A simplex mesh's edges.
+pub(crate) const MESH_EDGE: [u8; 4] = [104, 114, 130, 180];
 /// Fixed particles.
 pub(crate) const FIXED: [u8; 3] = [40, 40, 44];
 

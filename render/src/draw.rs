@@ -5,6 +5,7 @@
 //! hyperplanes   where their prescribed motion has them at the snapshot's time
 //!               orthographic: excluded half-space shaded, trace as a line
 //!               perspective:  floor patch with grid lines
+//! meshes        their faces where their motion has them (mesh.rs)
 //! edges         anti-aliased lines, colour of the edge's value (darkened)
 //! particles     anti-aliased discs, radius max(min px, r · pixels per length);
 //!               fixed particles as dark squares
@@ -50,6 +51,7 @@ pub struct PixelMap {
 #[derive(Debug, Clone)]
 pub struct Renderer {
     geometry: SceneGeometry,
+    meshes: Vec<crate::mesh::Mesh>,
     camera: Camera,
     max_speed: f64,
 }
@@ -140,6 +142,7 @@ impl Renderer {
         let camera = Camera::fit(view, &geometry, snapshots);
         Ok(Renderer {
             geometry,
+            meshes: crate::mesh::meshes(scene),
             camera,
             max_speed,
         })
@@ -224,6 +227,7 @@ impl Renderer {
         let unit = (f64::from(view.width.min(view.height)) / 360.0).max(0.75);
 
         self.draw_planes(&mut pixmap, snap.time, unit);
+        crate::mesh::draw_meshes(&self.meshes, &self.camera, (&mut pixmap, snap.time, unit));
 
         // Values in [0, 1] per particle and per edge.
         let (particle_value, edge_value): (Vec<f64>, Vec<f64>) = match view.color {

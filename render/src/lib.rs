@@ -13,7 +13,7 @@
 //! discs sized by their radius, constraint elements are drawn as their
 //! edges, hyperplanes as the slice of the hyperplane through the view (a
 //! line with the excluded half-space shaded, or a floor patch in
-//! perspective). Colour is speed or constraint residual ([`ColorBy`]).
+//! perspective), simplex meshes as their faces. Colour is speed or constraint residual ([`ColorBy`]).
 //!
 //! All drawing goes through `tiny-skia` (anti-aliased paths); PNG encoding
 //! through `tiny-skia`'s `png` support, animation through the `gif` crate.
@@ -27,6 +27,7 @@ mod encode;
 mod error;
 mod framing;
 mod geometry;
+mod mesh;
 pub mod view;
 
 pub use color::{BACKGROUND, ColorBy, colormap};

@@ -1,4 +1,5 @@
-//! `hyperpbd render` draws a moving hyperplane where its prescribed motion
+//! `hyperpbd render` draws a moving hyperplane (and a moving simplex mesh:
+//! render/src/mesh.rs) where its prescribed motion
 //! has it at the snapshot's time (render/src/geometry.rs `Plane::at`),
 //! by core's motion evaluation — the one every backend steps with.
 //!
@@ -129,4 +130,37 @@ fn a_turning_floor_is_a_wall_a_quarter_turn_later() {
 fn a_still_floor_draws_the_same_picture_at_every_time() {
     let (_, first, later) = pictures(&scene(Vec::new()));
     assert_eq!(first.rgba(), later.rgba());
+}
+
+#[test]
+fn a_moving_mesh_is_drawn_where_its_motion_has_it() {
+    // The floor replaced by a segment mesh from (−1, 0) to (1, 0) rising
+    // at 0.5 m/s: drawn on y = 0 at t = 0 and on y = 0.5 at t = 1.
+    let mut s = scene(Vec::new());
+    // Two more balls below, so the framing holds the mesh's way.
+    for x in [-1.5, 1.5] {
+        s.particles
+            .push(Particle::new(vec![x, -0.5], 1.0).with_radius(0.05));
+    }
+    s.obstacles = vec![Obstacle::SimplexMesh {
+        vertices: vec![vec![-1.0, 0.0], vec![1.0, 0.0]],
+        simplices: vec![vec![0, 1]],
+        friction: 0.0,
+        motion: vec![Motion::Translate {
+            velocity: vec![0.0, 0.5],
+        }],
+    }];
+    let (renderer, first, later) = pictures(&s);
+    let map = renderer.pixel_map().expect("orthographic, not turning");
+    for (image, y, time) in [(&first, 0.0, 0.0), (&later, 0.5, 1.0)] {
+        assert!(
+            !is_background(image, &map, [0.3, y]),
+            "t = {time}: no mesh on y = {y}"
+        );
+        let off = 0.5 - y;
+        assert!(
+            is_background(image, &map, [0.3, off]),
+            "t = {time}: mesh on y = {off}"
+        );
+    }
 }
