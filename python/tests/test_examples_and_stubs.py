@@ -17,6 +17,7 @@ PICTURES = {
     "damping_sweep.py": "damping_sweep.png",
     "energy_4d.py": "energy_4d.png",
     "expression_families.py": "expression_families.png",
+    "moving_obstacles.py": None,
     "scene_from_dict.py": None,
 }
 
