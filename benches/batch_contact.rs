@@ -112,7 +112,8 @@ fn measure(precision: Precision, worlds: &[Scene], rounds: usize, frames: usize)
         "| gpu-{precision} ({}) | {} × {n} balls | {frames} | {} | {b:.3} s | {s:.3} s | {r:.3} | {} |",
         summary.name,
         worlds.len(),
-        gpu.dispatches_per_step(),
+        gpu.dispatches_per_step()
+            .map_or("-".into(), |d| d.to_string()),
         if identical { "bit for bit" } else { "differs" }
     );
 }

@@ -17,7 +17,7 @@
 //!          and 60 frames from the start): a GpuBatch against the W single
 //!          adaptive GpuBackend runs, interleaved rounds, the median
 //! ```
-//! `cargo bench --bench batch_worlds [-- chain|damping|cloth|guarded]` (without `--bench`,
+//! `cargo bench --bench batch_worlds [-- chain|damping|cloth|guarded|implicit]` (without `--bench`,
 //! as under `cargo test --all-targets`: a smoke run of 1 and 16 worlds). The CPU variants step
 //! the same frames; the final states are asserted bit-identical, so a fast
 //! wrong answer cannot pass (the GPU batch's worlds are held to their own
@@ -161,7 +161,8 @@ fn measure_gpu(name: &str, (base, worlds): (&Scene, Worlds), counts: &[usize], c
         let rate = |s: f64| w as f64 / s;
         println!(
             "| {name} | {w} | gpu-{precision}, {} dispatches | {:.3e} | {:.3e} | {:.1}× ({:.4} of W runs) | {:.2}× |",
-            gpu.dispatches_per_step(),
+            gpu.dispatches_per_step()
+                .map_or("-".into(), |d| d.to_string()),
             rate(alone_step),
             rate(batch_step),
             alone_step / batch_step,
@@ -222,20 +223,21 @@ fn guarded_worlds(count: usize) -> Vec<Scene> {
         .collect()
 }
 
-/// The guarded sweep's row (issue 35 item 5): gpu-f32, W worlds, `frames`
-/// steps from the start, one GpuBatch against the W single adaptive
-/// GpuBackend runs (loads not timed), `rounds` interleaved rounds after
-/// an untimed one; the median of batch / W single runs.
-fn measure_guarded(w: usize, frames: usize, rounds: usize) {
+/// A sweep's row against its single runs (issue 35 item 5): gpu-f32, the
+/// worlds of `scenes`, `frames` steps from the start, one GpuBatch against
+/// the W single GPU runs one after another (loads not timed), `rounds`
+/// interleaved rounds after an untimed one; the median of batch / W single
+/// runs, with the host waits of both.
+fn measure_sweep(label: &str, scenes: &[Scene], frames: usize, rounds: usize) {
     let precision = Precision::F32;
     let Ok((adapter, _)) = hyperpbd::gpu::request_adapter(precision) else {
-        println!("SKIPPED guarded row: no adapter");
+        println!("SKIPPED {label} row: no adapter");
         return;
     };
-    let scenes = guarded_worlds(w);
-    let batch = Batch::new(&scenes).expect("one topology");
+    let w = scenes.len();
+    let batch = Batch::new(scenes).expect("one topology");
     let mut ratios = Vec::new();
-    let (mut retried, mut waits) = (0, 0);
+    let (mut retried, mut waits, mut alone_waits) = (0, 0, 0);
     for round in 0..=rounds {
         let mut gpu = GpuBatch::on_adapter(&adapter, &batch, precision).expect("gpu batch");
         let start = Instant::now();
@@ -246,18 +248,18 @@ fn measure_guarded(w: usize, frames: usize, rounds: usize) {
         }
         let batch_s = start.elapsed().as_secs_f64();
         let mut alone_s = 0.0;
-        for s in &scenes {
+        for s in scenes {
             let (plan, state) = (Plan::compile(s).expect("plan"), State::from_scene(s));
-            let mut b = GpuBackend::with_adapter(&adapter, plan, &state, precision).expect("gpu");
+            let mut b = hyperpbd::load_on_adapter(&adapter, plan, &state, precision).expect("gpu");
             let start = Instant::now();
             for _ in 0..frames {
-                b.step().expect("step");
+                alone_waits += b.step().expect("step").host_waits;
             }
             alone_s += start.elapsed().as_secs_f64();
         }
         if round > 0 {
             println!(
-                "| guarded material sweep, round {round} | {w} | {frames} frames | {:.3} s | {:.3} s | {:.3} |",
+                "| {label}, round {round} | {w} | {frames} frames | {:.3} s | {:.3} s | {:.3} |",
                 alone_s,
                 batch_s,
                 batch_s / alone_s
@@ -268,11 +270,28 @@ fn measure_guarded(w: usize, frames: usize, rounds: usize) {
     ratios.sort_by(f64::total_cmp);
     let per_round = (rounds + 1) as f64;
     println!(
-        "| guarded material sweep, median of {rounds} | {w} | {:.0} retries, {:.0} host waits per batch run | | | **{:.3}** |",
+        "| {label}, median of {rounds} | {w} | {:.0} retries; host waits per run: {:.0} batched, {:.0} alone | | | **{:.3}** |",
         retried as f64 / per_round,
         waits as f64 / per_round,
+        alone_waits as f64 / per_round,
         ratios.get(ratios.len() / 2).copied().unwrap_or(f64::NAN)
     );
+}
+
+/// The implicit chain (scenes/chain2d_implicit.json, the coupled step)
+/// with gravity[1] swept over −12…−6 m/s² (`gravity[1]=-12:-6:count`).
+fn implicit_chains(count: usize) -> Vec<Scene> {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/chain2d_implicit.json");
+    let base = Scene::from_json_file(&path).expect("chain2d_implicit");
+    (0..count)
+        .map(|k| {
+            let mut scene = base.clone();
+            let g = -12.0 + 6.0 * k as f64 / (count.max(2) - 1) as f64;
+            scene.gravity.as_mut().expect("gravity")[1] = g;
+            scene
+        })
+        .collect()
 }
 
 fn main() {
@@ -331,8 +350,20 @@ fn main() {
             false => &[(2, 4, 1)],
         };
         for &(w, frames, rounds) in rows {
-            measure_guarded(w, frames, rounds);
+            measure_sweep("guarded material sweep", &guarded_worlds(w), frames, rounds);
         }
+    }
+    if wanted("implicit") {
+        println!();
+        println!("| implicit (gpu-f32) | worlds | | W single runs | batch | batch / W runs |");
+        println!("|---|---:|---|---:|---:|---:|");
+        let (w, frames, rounds) = if full { (16, 30, 3) } else { (2, 2, 1) };
+        measure_sweep(
+            "implicit chain, gravity swept",
+            &implicit_chains(w),
+            frames,
+            rounds,
+        );
     }
     if !full {
         println!("smoke run; `cargo bench --bench batch_worlds` for the table");

@@ -115,6 +115,25 @@ def performance() -> list[str]:
     ]
 
 
+def batches() -> str:
+    sweeps, log = rows(read("sweeps.md")), rows(read("performance-log.md"))
+    plain = lambda cell: cell.replace("**", "").split(" (")[0]
+    damping = plain(row(sweeps, "batch ratio after: batch / (256 × one world of the round)")[4])
+    pits = [r for r in log if r[0] == "gpu-f64" and "16 224 balls" in r[1]]
+    if not pits:
+        sys.exit("readme-summary: no 16k pit batch row")
+    pit = plain(pits[-1][6])
+    landing = plain(row(sweeps, "12 (landing)")[3])
+    resting = plain(row(sweeps, "60 (then resting)")[3])
+    implicit = plain(row(sweeps, "batch / 16 single runs")[4])
+    waits = row(sweeps, "host waits per 30 frames")[4].split(" (")[0]
+    return (f"| GPU batch / its worlds' single GPU runs, lavapipe (medians) | chains, damping swept "
+            f"from 0, 256 worlds: {damping}; 16k-ball pit's friction, 8 worlds: {pit} (gpu-f64); "
+            f"guarded material drop, 16 worlds: {landing} landing, {resting} resting; implicit "
+            f"chain, 16 worlds: {implicit}, host waits {waits} "
+            f"| [sweeps](docs/sweeps.md#on-the-gpu) |")
+
+
 def table() -> str:
     lines = ["| what | figure | source |", "|---|---|---|"]
     lines += whole_steps()
@@ -122,6 +141,7 @@ def table() -> str:
     lines.append(mutation())
     lines.append(accuracy())
     lines += performance()
+    lines.append(batches())
     return "\n".join(lines)
 
 

@@ -21,6 +21,9 @@
 //!   own plan lacks (see hyperpbd_gpu::GpuBatch for that and for what a
 //!   GPU batch refuses); a world a guard rejects is retried alone with
 //!   more substeps, as its own adaptive run, the others untouched.
+//!   Incremental-potential worlds: each its own backend, the worlds' steps
+//!   in lockstep on one device, sharing the host's waits; world k is its
+//!   own run bit for bit in both precisions.
 //! ```
 //! The CPU batch is the reference the GPU batch is held to
 //! (tests/gpu/batch.rs).
@@ -307,8 +310,10 @@ impl GpuBatch {
         self.inner.plans().is_empty()
     }
 
-    /// Compute dispatches per step, for all worlds together.
-    pub fn dispatches_per_step(&self) -> usize {
+    /// Compute dispatches per step, for all worlds together (`None` for
+    /// incremental-potential worlds: theirs follow their Newton
+    /// iterations).
+    pub fn dispatches_per_step(&self) -> Option<usize> {
         self.inner.dispatches_per_step()
     }
 
@@ -318,10 +323,16 @@ impl GpuBatch {
         self.inner.contact_list_slots()
     }
 
-    /// The origin device positions are relative to (every world's; 0 in
-    /// f64).
+    /// The origin device positions are relative to (every world's in an
+    /// XPBD batch, world 0's in an incremental-potential one; 0 in f64).
     pub fn origin(&self) -> &crate::gpu::SceneOrigin {
         self.inner.origin()
+    }
+
+    /// The origin world `world`'s device positions are relative to (its
+    /// own in an incremental-potential batch, the batch's in an XPBD one).
+    pub fn world_origin(&self, world: usize) -> &crate::gpu::SceneOrigin {
+        self.inner.world_origin(world)
     }
 
     /// One step of every world; their reports in world order. All or

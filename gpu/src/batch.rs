@@ -40,9 +40,16 @@
 //! contact.wgsl): per world its own grid, lists (grown on their own) and
 //! outcome, its μ and margin from its own plan (μ = 0 takes the kernel's
 //! frictionless branch, as its own run does: an exact identity).
-//! Guards and adaptive steps run per world (retry.rs); the small schedule,
-//! the incremental-potential solver and the primal residual are refused.
+//! Guards and adaptive steps run per world (retry.rs); the small schedule
+//! and the primal residual are refused.
+//!
+//! Worlds of the incremental-potential solvers (barrier, coupled) are
+//! stepped another way (lockstep.rs): a backend of its own plan per world,
+//! the worlds' steps on host threads in lockstep, sharing the device and
+//! the host's waits (one wait per round for every world), each world bit
+//! for bit its own run.
 
+mod lockstep;
 mod retry;
 mod union;
 
@@ -57,11 +64,12 @@ use crate::backend::{GpuBackend, XpbdStep};
 use crate::contact::Outcome;
 use crate::context::DeviceSource;
 use crate::params::read_reals;
-use crate::resident_backend::ResidentBackend;
+use crate::resident_backend::{Resident, ResidentBackend};
 use crate::xpbd::Families;
 use crate::xpbd::call::Call;
 use crate::xpbd::schedule::{Schedule, StepMode};
 use crate::{Precision, SceneOrigin};
+use lockstep::LockstepWorlds;
 use retry::Retries;
 use union::Union;
 
@@ -154,12 +162,23 @@ impl WorldError {
     }
 }
 
-/// W worlds of one topology on one GPU backend (see the module docs).
+/// W worlds of one topology on one GPU device (see the module docs).
 pub struct GpuBatch {
-    backend: GpuBackend,
     plans: Vec<Plan>,
-    /// A backend of its own plan per world, for retries (retry.rs).
-    retries: Retries,
+    stepping: Stepping,
+}
+
+/// How the worlds are stepped.
+enum Stepping {
+    /// XPBD: one backend, every world in the same dispatches, and a
+    /// backend of its own plan per world for retries (retry.rs).
+    Dispatched {
+        backend: Box<GpuBackend>,
+        retries: Retries,
+    },
+    /// The incremental-potential solvers: a backend per world, in
+    /// lockstep (lockstep.rs).
+    Lockstep(LockstepWorlds),
 }
 
 impl GpuBatch {
@@ -184,7 +203,14 @@ impl GpuBatch {
                 source,
             };
             check_state(plan, state).map_err(&world)?;
-            refuse_in_batch(plan).map_err(|e| world(e.into()))?;
+            refuse_in_batch(plan, &plans[0]).map_err(|e| world(e.into()))?;
+        }
+        if plans[0].incremental_potential().is_some() {
+            let worlds = LockstepWorlds::new(adapter, &plans, states, precision)?;
+            return Ok(GpuBatch {
+                plans,
+                stepping: Stepping::Lockstep(worlds),
+            });
         }
         let dim = plans[0].dim;
         let all: Vec<f64> = states
@@ -213,12 +239,11 @@ impl GpuBatch {
         let (on, step) = ctx
             .building(|| XpbdStep::build(&ctx, ran[0].clone(), &states[0], how, Some(worlds)))
             .map_err(WorldError::batch)?;
-        let backend = ResidentBackend::from_parts(on, step);
+        let backend = Box::new(ResidentBackend::from_parts(on, step));
         let retries = Retries::new(plans.len());
         Ok(GpuBatch {
-            backend,
             plans,
-            retries,
+            stepping: Stepping::Dispatched { backend, retries },
         })
     }
 
@@ -228,14 +253,30 @@ impl GpuBatch {
         &self.plans
     }
 
-    /// Compute dispatches per step, for all worlds together.
-    pub fn dispatches_per_step(&self) -> usize {
-        self.backend.dispatches_per_step()
+    /// Compute dispatches per step, for all worlds together (`None` for
+    /// incremental-potential worlds, whose dispatches follow their Newton
+    /// iterations).
+    pub fn dispatches_per_step(&self) -> Option<usize> {
+        match &self.stepping {
+            Stepping::Dispatched { backend, .. } => Some(backend.dispatches_per_step()),
+            Stepping::Lockstep(_) => None,
+        }
     }
 
-    /// The origin device positions are relative to (every world's).
+    /// The origin world 0's device positions are relative to: every
+    /// world's in an XPBD batch, world 0's own in an incremental-potential
+    /// batch ([`GpuBatch::world_origin`]); 0 in f64.
     pub fn origin(&self) -> &SceneOrigin {
-        self.backend.origin()
+        self.world_origin(0)
+    }
+
+    /// The origin world `world`'s device positions are relative to (the
+    /// last world's past the last).
+    pub fn world_origin(&self, world: usize) -> &SceneOrigin {
+        match &self.stepping {
+            Stepping::Dispatched { backend, .. } => backend.origin(),
+            Stepping::Lockstep(worlds) => worlds.origin(world.min(self.plans.len() - 1)),
+        }
     }
 
     /// One step of every world; their reports in world order. A world
@@ -246,71 +287,36 @@ impl GpuBatch {
     /// own single run names it. Every report's `host_waits` is the whole
     /// batch step's.
     pub fn step(&mut self) -> Result<Vec<StepReport>, WorldError> {
-        let before = self.backend.on.ctx.host_waits();
-        // With particle contact: every world's lists fitted (a world whose
-        // did not grew its own and the step ran again), one outcome each.
-        let ResidentBackend { on, step, .. } = &mut self.backend;
-        let (block, outcomes) = match step.has_contacts() {
-            true => {
-                let (outcomes, block) =
-                    (step.submit_fitting_contact_step(on)).map_err(WorldError::batch)?;
-                refuse_cut_loops(on, &block).map_err(WorldError::batch)?;
-                (block, Some(outcomes))
+        match &mut self.stepping {
+            Stepping::Dispatched { backend, retries } => {
+                step_dispatched(backend, retries, &self.plans)
             }
-            false => (step.submit_step(on).map_err(WorldError::batch)?, None),
-        };
-        // The worlds the status names as failed, and those retried alone:
-        // the same — but every world with particle contact, whose kernels
-        // skip every world's later calls after a failure (contact.wgsl's
-        // `failed_before`), so that no world's result stands.
-        let status = step.status();
-        let (named, retried) = failed_worlds(status, &block, self.plans.len(), outcomes.is_some());
-        let values = read_reals(status.report_of(&block), self.backend.precision());
-        let per_world = values.len() / self.plans.len();
-        let mut reports = Vec::with_capacity(self.plans.len());
-        for ((k, plan), report) in self.plans.iter().enumerate().zip(
-            values
-                .chunks(per_world.max(1))
-                .chain(std::iter::repeat(&[][..])),
-        ) {
-            if retried[k] {
-                let alone = self
-                    .retries
-                    .step_world(&mut self.backend.on, &self.plans, k);
-                reports.push(match alone {
-                    Ok(r) if !named[k] || r.retries() > 0 => r,
-                    Ok(_) => return Err(self.roll_back(k, passes_alone(k))),
-                    Err(e) => return Err(self.roll_back(k, e)),
-                });
-                continue;
-            }
-            let mut r = match &outcomes {
-                Some(o) => contact_report(plan, report, o.get(k).unwrap_or(&Outcome::EMPTY)),
-                None => crate::xpbd::step_report(plan, report),
-            };
-            r.attempts = vec![Attempt {
-                substeps: plan.substeps,
-                rejection: None,
-            }];
-            reports.push(r);
+            Stepping::Lockstep(worlds) => worlds.step(),
         }
-        let waits = self.backend.on.ctx.host_waits() - before;
-        for r in &mut reports {
-            r.host_waits = waits;
-        }
-        Ok(reports)
     }
 
     /// Every world's contact list slots per particle (`None` without
-    /// particle contact): each world's grow on their own, when a step finds
-    /// a longer list in it (that step then runs again for every world).
+    /// particle contact on the XPBD path): each world's grow on their own,
+    /// when a step finds a longer list in it (that step then runs again
+    /// for every world).
     pub fn contact_list_slots(&self) -> Option<Vec<usize>> {
-        self.backend.world_list_slots()
+        match &self.stepping {
+            Stepping::Dispatched { backend, .. } => backend.world_list_slots(),
+            Stepping::Lockstep(_) => None,
+        }
     }
 
     /// Every world's state, in world order (world coordinates).
     pub fn read_states(&mut self) -> Result<Vec<State>, BackendError> {
-        let all = self.backend.read_state()?;
+        let backend = match &mut self.stepping {
+            Stepping::Dispatched { backend, .. } => backend,
+            Stepping::Lockstep(worlds) => {
+                return (0..self.plans.len())
+                    .map(|k| worlds.backend(k).read_state())
+                    .collect();
+            }
+        };
+        let all = backend.read_state()?;
         let dim = all.dim;
         let len = self.plans[0].particle_count() * dim;
         Ok(all
@@ -330,9 +336,14 @@ impl GpuBatch {
     /// plan first: a bad state is a typed error and changes nothing).
     pub fn write_state(&mut self, world: usize, state: &State) -> Result<(), BackendError> {
         let plan = world_plan(&self.plans, world)?;
-        let first = world * plan.particle_count();
-        let on = &mut self.backend.on;
-        on.state.write_from(&on.ctx, plan, first, state)
+        match &mut self.stepping {
+            Stepping::Dispatched { backend, .. } => {
+                let first = world * plan.particle_count();
+                let on = &mut backend.on;
+                on.state.write_from(&on.ctx, plan, first, state)
+            }
+            Stepping::Lockstep(worlds) => worlds.backend(world).write_state(state),
+        }
     }
 
     /// Replaces world `world`'s external forces (flat, `dim` per particle;
@@ -340,19 +351,83 @@ impl GpuBatch {
     /// one world: they act from the next step on.
     pub fn set_forces(&mut self, world: usize, forces: &[f64]) -> Result<(), BackendError> {
         let plan = world_plan(&self.plans, world)?;
-        let first = world * plan.particle_count();
-        let on = &mut self.backend.on;
-        on.state.set_forces_from(&on.ctx, plan, first, forces)
-    }
-
-    /// `source`, world `world`'s, after every world is put back to its
-    /// state before the step.
-    fn roll_back(&mut self, world: usize, source: BackendError) -> WorldError {
-        let on = &mut self.backend.on;
-        WorldError {
-            world: Some(world),
-            source: source.after_rollback(on.state.rollback(&on.ctx)),
+        match &mut self.stepping {
+            Stepping::Dispatched { backend, .. } => {
+                let first = world * plan.particle_count();
+                let on = &mut backend.on;
+                on.state.set_forces_from(&on.ctx, plan, first, forces)
+            }
+            Stepping::Lockstep(worlds) => worlds.backend(world).set_forces(forces),
         }
+    }
+}
+
+/// One step of the XPBD worlds in the same dispatches (`GpuBatch::step`).
+fn step_dispatched(
+    backend: &mut GpuBackend,
+    retries: &mut Retries,
+    plans: &[Plan],
+) -> Result<Vec<StepReport>, WorldError> {
+    let before = backend.on.ctx.host_waits();
+    // With particle contact: every world's lists fitted (a world whose
+    // did not grew its own and the step ran again), one outcome each.
+    let precision = backend.precision();
+    let ResidentBackend { on, step, .. } = backend;
+    let (block, outcomes) = match step.has_contacts() {
+        true => {
+            let (outcomes, block) =
+                (step.submit_fitting_contact_step(on)).map_err(WorldError::batch)?;
+            refuse_cut_loops(on, &block).map_err(WorldError::batch)?;
+            (block, Some(outcomes))
+        }
+        false => (step.submit_step(on).map_err(WorldError::batch)?, None),
+    };
+    // The worlds the status names as failed, and those retried alone:
+    // the same — but every world with particle contact, whose kernels
+    // skip every world's later calls after a failure (contact.wgsl's
+    // `failed_before`), so that no world's result stands.
+    let status = step.status();
+    let (named, retried) = failed_worlds(status, &block, plans.len(), outcomes.is_some());
+    let values = read_reals(status.report_of(&block), precision);
+    let per_world = values.len() / plans.len();
+    let mut reports = Vec::with_capacity(plans.len());
+    for ((k, plan), report) in plans.iter().enumerate().zip(
+        values
+            .chunks(per_world.max(1))
+            .chain(std::iter::repeat(&[][..])),
+    ) {
+        if retried[k] {
+            let alone = retries.step_world(on, plans, k);
+            reports.push(match alone {
+                Ok(r) if !named[k] || r.retries() > 0 => r,
+                Ok(_) => return Err(roll_back(on, k, passes_alone(k))),
+                Err(e) => return Err(roll_back(on, k, e)),
+            });
+            continue;
+        }
+        let mut r = match &outcomes {
+            Some(o) => contact_report(plan, report, o.get(k).unwrap_or(&Outcome::EMPTY)),
+            None => crate::xpbd::step_report(plan, report),
+        };
+        r.attempts = vec![Attempt {
+            substeps: plan.substeps,
+            rejection: None,
+        }];
+        reports.push(r);
+    }
+    let waits = on.ctx.host_waits() - before;
+    for r in &mut reports {
+        r.host_waits = waits;
+    }
+    Ok(reports)
+}
+
+/// `source`, world `world`'s, after every world is put back to its state
+/// before the step.
+fn roll_back(on: &mut Resident, world: usize, source: BackendError) -> WorldError {
+    WorldError {
+        world: Some(world),
+        source: source.after_rollback(on.state.rollback(&on.ctx)),
     }
 }
 
@@ -406,11 +481,12 @@ fn world_plan(plans: &[Plan], world: usize) -> Result<&Plan, BackendError> {
     })
 }
 
-/// What a batch does not run: the incremental-potential solver, XPBD
-/// with the primal residual (its element displacements are per world).
-fn refuse_in_batch(plan: &Plan) -> Result<(), GpuError> {
-    let what = if plan.incremental_potential().is_some() {
-        "the incremental-potential solver"
+/// What a batch does not run: XPBD with the primal residual (its element
+/// displacements are per world), a world whose solver is not world 0's.
+fn refuse_in_batch(plan: &Plan, first: &Plan) -> Result<(), GpuError> {
+    let what = if plan.incremental_potential().is_some() != first.incremental_potential().is_some()
+    {
+        "worlds of two solvers (XPBD and the incremental potential)"
     } else if plan.primal_residual {
         "XPBD with the primal residual"
     } else {
@@ -418,8 +494,7 @@ fn refuse_in_batch(plan: &Plan) -> Result<(), GpuError> {
     };
     Err(GpuError::Unsupported {
         what: format!(
-            "{what} in a GPU batch (worlds share one schedule of device dispatches; run these \
-             worlds on the CPU batch or one GPU backend each)"
+            "{what} in a GPU batch (run these worlds on the CPU batch or one GPU backend each)"
         ),
     })
 }

@@ -27,6 +27,7 @@ use hyperpbd_core::{BackendError, GpuError};
 
 use crate::device_pool::{self, Pooled};
 use crate::kernel_cache::KernelCache;
+use crate::lockstep::Lockstep;
 use crate::{AdapterSummary, Precision};
 
 /// A device, its queue, and where its errors go (clones share them).
@@ -45,6 +46,9 @@ pub(crate) struct GpuContext {
     /// Times the host waited for the device: the calls of
     /// [`GpuContext::poll`], the crate's only `device.poll`.
     waits: Arc<AtomicU64>,
+    /// The batch whose worlds share the host's waits, when the context is
+    /// one of its worlds' (crate::lockstep).
+    lockstep: Option<Arc<Lockstep>>,
 }
 
 impl GpuContext {
@@ -78,6 +82,7 @@ impl GpuContext {
             summary: AdapterSummary::of(adapter),
             lost: pooled.lost,
             waits: Arc::default(),
+            lockstep: None,
         }
     }
 
@@ -110,6 +115,7 @@ impl GpuContext {
             errors: Arc::default(),
             lost: Arc::default(),
             waits: Arc::default(),
+            lockstep: None,
         })
     }
 
@@ -160,8 +166,35 @@ impl GpuContext {
     /// Blocks until the device has finished `submission` (every submission
     /// when `None`) and the map callbacks it completes have run: the crate's
     /// one `device.poll`, counted in [`GpuContext::host_waits`].
+    /// In a lockstep batch's step the wait is the batch's round, for
+    /// every submission of every world (crate::lockstep).
     pub fn poll(&self, submission: Option<wgpu::SubmissionIndex>) -> Result<(), GpuError> {
         self.waits.fetch_add(1, Ordering::Relaxed);
+        match &self.lockstep {
+            Some(lockstep) => lockstep.wait(&|| self.device_poll(None)),
+            None => self.device_poll(submission),
+        }
+    }
+
+    /// Joins `lockstep`: this context's waits become its rounds.
+    pub fn join(&mut self, lockstep: Arc<Lockstep>) {
+        self.lockstep = Some(lockstep);
+    }
+
+    /// Whether `other` works on the same device (one pool entry).
+    pub fn same_device(&self, other: &GpuContext) -> bool {
+        Arc::ptr_eq(&self.lost, &other.lost)
+    }
+
+    /// Leaves the lockstep batch's step (the context's world is done).
+    pub fn leave_lockstep(&self) {
+        if let Some(lockstep) = &self.lockstep {
+            lockstep.leave(&|| self.device_poll(None));
+        }
+    }
+
+    /// The device's wait itself.
+    fn device_poll(&self, submission: Option<wgpu::SubmissionIndex>) -> Result<(), GpuError> {
         self.device
             .poll(wgpu::PollType::Wait {
                 submission_index: submission,

@@ -28,6 +28,7 @@ mod ip_decision;
 mod kernel_cache;
 mod kernel_set;
 pub mod layout;
+mod lockstep;
 mod loop_budget;
 mod minimising;
 pub mod no_contraction;

@@ -279,7 +279,10 @@ fn batch_rows(adapter: &wgpu::Adapter, sizes: &Sizes) {
                 &[
                     ("scene", text("chain2d")),
                     ("worlds", w.to_string()),
-                    ("dispatches", dispatches.to_string()),
+                    (
+                        "dispatches",
+                        dispatches.map_or("none".into(), |d| d.to_string()),
+                    ),
                     ("seconds", format!("{t:e}")),
                     ("world_steps_per_second", format!("{:e}", w as f64 / t)),
                 ],

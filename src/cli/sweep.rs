@@ -16,7 +16,9 @@
 //! identities —, world k bit for bit its own run in f64), or, where the
 //! worlds cannot share one GPU schedule (another topology or law),
 //! one GPU backend each, with a notice naming the world and what differs.
-//! Particle contact batches (each world its own grid and lists).
+//! Particle contact batches (each world its own grid and lists); so do the
+//! incremental-potential solvers (each world its own backend, the worlds'
+//! steps in lockstep on one device, sharing the host's waits).
 
 use super::error::{CliError, with_sources};
 use super::load::{load_backend, parse_backend};
@@ -200,7 +202,12 @@ pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
 /// Worlds per GPU batch of a sweep at most.
 const BATCH_WORLDS: usize = 4096;
 
-/// `worlds` as GPU batches of at most [`BATCH_WORLDS`] worlds, each frame
+/// Worlds per GPU batch of an incremental-potential sweep at most (one
+/// host thread each: gpu/src/batch/lockstep.rs).
+const LOCKSTEP_WORLDS: usize = 256;
+
+/// `worlds` as GPU batches of at most [`BATCH_WORLDS`] worlds ([`LOCKSTEP_WORLDS`]
+/// with the incremental-potential solver), each frame
 /// one step of every world of a batch; `Ok(None)` after a notice when the
 /// worlds cannot share a GPU batch (then they run one backend each, with
 /// the same results).
@@ -213,7 +220,13 @@ fn run_batched(
 ) -> Result<Option<Vec<Finished>>, CliError> {
     let ids: Vec<usize> = worlds.collect();
     let mut out = Vec::with_capacity(ids.len());
-    for group in ids.chunks(BATCH_WORLDS) {
+    let first = ids.first().map(|&w| sweep.scene(w)).transpose();
+    let first = first.map_err(|e| CliError::Input(e.to_string()))?;
+    let per_batch = match first.map(|s| s.solver) {
+        Some(hyperpbd::Solver::IncrementalPotential(_)) => LOCKSTEP_WORLDS,
+        Some(hyperpbd::Solver::Xpbd(_)) | None => BATCH_WORLDS,
+    };
+    for group in ids.chunks(per_batch) {
         let scenes = group
             .iter()
             .map(|&w| sweep.scene(w))

@@ -239,6 +239,21 @@ fn a_gpu_sweep_of_a_guarded_adaptive_scene_runs_one_batch() {
 }
 
 #[test]
+fn a_gpu_sweep_of_an_implicit_scene_runs_one_batch() {
+    // The coupled implicit chain at four gravities: each world its own
+    // backend, stepped in lockstep on one device (gpu/src/batch/lockstep.rs),
+    // each world's line its CPU run's.
+    let scene = include_str!("../../scenes/chain2d_implicit.json");
+    let axes = ["gravity[1]=-12:-6:4"];
+    let test = "sweep-gpu-implicit";
+    let Some((stdout, stderr)) = gpu_f64_scene_equals_cpu(test, scene, &axes) else {
+        return;
+    };
+    assert!(!stderr.contains("one GPU backend each"), "{stderr}");
+    assert!(stdout.contains("gpu-f64, 4 worlds per batch"), "{stdout}");
+}
+
+#[test]
 fn worlds_of_another_topology_run_one_gpu_backend_each_with_a_notice() {
     // World 1's first link is heavier: masses are the batch's topology.
     let axes = ["gravity[0]=-1:1:3", "particles[1].mass=0.1:0.3:5"];

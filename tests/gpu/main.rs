@@ -15,6 +15,7 @@ mod barrier_loop_budget;
 mod batch;
 mod batch_contact;
 mod batch_guards;
+mod batch_implicit;
 mod broadphase;
 mod collide;
 mod contact_step;
