@@ -120,6 +120,17 @@ impl Batch {
     }
 }
 
+/// Worlds of `scene`'s solver one GPU batch takes at most: 4096 XPBD
+/// worlds (one set of dispatches for all), 256 incremental-potential
+/// worlds (one host thread each). Sweeps split their worlds into batches of
+/// this size.
+pub fn gpu_batch_worlds(scene: &Scene) -> usize {
+    match scene.solver {
+        crate::Solver::Xpbd(_) => 4096,
+        crate::Solver::IncrementalPotential(_) => 256,
+    }
+}
+
 /// The first field where `other`'s topology differs from `first`'s, and
 /// what a batch shares there.
 fn same_topology(first: &Plan, other: &Plan) -> Result<(), (String, &'static str)> {

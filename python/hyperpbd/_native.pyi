@@ -169,4 +169,6 @@ def sweep(
     threads: int | None = None,
 ) -> list[SweepRow]:
     """One world per combination of `axes` values (PATH -> values or
-    "LO:HI:COUNT", the last axis fastest), as `hyperpbd sweep`."""
+    "LO:HI:COUNT", the last axis fastest), as `hyperpbd sweep` (on a GPU in
+    its batches; worlds that cannot share one warn and run one backend
+    each)."""

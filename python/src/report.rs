@@ -51,8 +51,14 @@ pub fn report_dict<'py>(py: Python<'py>, report: &StepReport) -> PyResult<Bound<
     dict.set_item(intern!(py, "minimisation"), minimisation)?;
     if let Some(f) = &report.contact_forces {
         let forces = PyDict::new(py);
-        forces.set_item(intern!(py, "obstacles"), rows(py, f.obstacles.clone(), f.dim)?)?;
-        forces.set_item(intern!(py, "particles"), rows(py, f.particles.clone(), f.dim)?)?;
+        forces.set_item(
+            intern!(py, "obstacles"),
+            rows(py, f.obstacles.clone(), f.dim)?,
+        )?;
+        forces.set_item(
+            intern!(py, "particles"),
+            rows(py, f.particles.clone(), f.dim)?,
+        )?;
         let power = numpy::PyArray1::from_vec(py, f.obstacle_power.clone());
         forces.set_item(intern!(py, "obstacle_power"), power)?;
         dict.set_item(intern!(py, "contact_forces"), forces)?;

@@ -12,15 +12,22 @@
 //!           before any runs
 //! cpu       worlds in parallel on `threads` threads, one thread each (the
 //!           CLI's schedule; any count gives the same bytes)
-//! gpu, …    one backend per world, in order (no GPU batching here; in f64
-//!           the CLI's batches give world k bit for bit its own run)
+//! gpu, …    GPU batches, as the CLI runs them (hyperpbd::batch::GpuBatch:
+//!           XPBD worlds in the same dispatches, incremental-potential
+//!           worlds in lockstep; world k bit for bit its own run in f64);
+//!           where the worlds cannot share a batch (another topology, law
+//!           or solver) a UserWarning says which world and why, and they run
+//!           one backend each, in order, with the same results
+//! auto      one backend per world, in order
 //! ```
 
+use std::ffi::CString;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
+use hyperpbd::batch::{Batch, BatchError, GpuBatch, gpu_batch_worlds};
 use hyperpbd::sweep::{FieldPath, SweepAxis, SweepError};
-use hyperpbd::{BackendError, BackendKind, Plan, Scene as RustScene, State, StepReport};
-use pyo3::exceptions::PyValueError;
+use hyperpbd::{BackendError, BackendKind, Plan, Precision, Scene as RustScene, State, StepReport};
+use pyo3::exceptions::{PyUserWarning, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
 use rayon::prelude::*;
@@ -60,7 +67,9 @@ struct Failed {
 /// `axes` maps a field path ("damping.rate", "obstacles[0].friction") to a
 /// list of values or to "LO:HI:COUNT" (as `hyperpbd sweep --set`); the
 /// last axis varies fastest. A value that makes an invalid scene raises
-/// SceneError naming the world and the field before anything runs.
+/// SceneError naming the world and the field before anything runs. On a
+/// GPU the worlds run as `hyperpbd sweep`'s batches; worlds that cannot
+/// share one raise a UserWarning and run one backend each.
 #[pyfunction]
 #[pyo3(signature = (scene, axes, frames = 60, backend = "auto", threads = None))]
 pub fn sweep<'py>(
@@ -128,6 +137,7 @@ pub fn sweep<'py>(
             backend: backend.name(),
         })
     };
+    let mut notice = None;
     let results = py
         .detach(|| {
             catch_unwind(AssertUnwindSafe(|| -> Result<Vec<Finished>, Failed> {
@@ -158,13 +168,23 @@ pub fn sweep<'py>(
                                 .collect()
                         })
                     }
-                    BackendKind::Gpu(_) | BackendKind::Auto => {
-                        (0..count).map(|w| run(w, threads)).collect()
-                    }
+                    BackendKind::Gpu(precision) => match run_batched(&scenes, frames, precision)? {
+                        Ok(done) => Ok(done),
+                        Err(why) => {
+                            notice = Some(why);
+                            (0..count).map(|w| run(w, threads)).collect()
+                        }
+                    },
+                    BackendKind::Auto => (0..count).map(|w| run(w, threads)).collect(),
                 }
             }))
         })
         .map_err(|payload| panic_error(payload.as_ref(), "sweep"))?;
+    if let Some(why) = notice {
+        let message = format!("sweep: the worlds run one GPU backend each: {why}");
+        let message = CString::new(message.replace('\0', " ")).unwrap_or_default();
+        PyErr::warn(py, &py.get_type::<PyUserWarning>(), &message, 1)?;
+    }
     let finished = results.map_err(|f| {
         let prefix = match f.frame {
             0 => format!("worlds[{}]: ", f.world),
@@ -191,6 +211,90 @@ pub fn sweep<'py>(
         out.push(row);
     }
     Ok(out)
+}
+
+/// Every world of `scenes` on the GPU in batches of at most
+/// `gpu_batch_worlds` worlds, `frames` steps each, as `hyperpbd sweep`
+/// runs them; `Ok(Err(why))` when the worlds cannot share a batch (why
+/// names the world by its index in the sweep).
+fn run_batched(
+    scenes: &[RustScene],
+    frames: u64,
+    precision: Precision,
+) -> Result<Result<Vec<Finished>, String>, Failed> {
+    let mut out = Vec::with_capacity(scenes.len());
+    let per_batch = scenes.first().map_or(1, gpu_batch_worlds);
+    for (g, group) in scenes.chunks(per_batch).enumerate() {
+        let first = g * per_batch;
+        let mut gpu = match Batch::new(group).and_then(|b| GpuBatch::new(&b, precision)) {
+            Ok(gpu) => gpu,
+            Err(e) => return Ok(Err(in_sweep(e, first).to_string())),
+        };
+        let mut last = vec![None; group.len()];
+        for frame in 1..=frames {
+            let reports = gpu.step().map_err(|e| batch_failed(e, first, frame))?;
+            for (slot, report) in last.iter_mut().zip(reports) {
+                *slot = Some(report);
+            }
+        }
+        let states = gpu
+            .read_states()
+            .map_err(|e| batch_failed(e, first, frames))?;
+        let backend = format!("gpu-{precision}, {} worlds per batch", group.len());
+        for (state, report) in states.into_iter().zip(last) {
+            out.push(Finished {
+                state,
+                report,
+                backend: backend.clone(),
+            });
+        }
+    }
+    Ok(Ok(out))
+}
+
+/// `error` of a batch whose world 0 is the sweep's world `first`, its
+/// world named by its index in the sweep.
+fn in_sweep(error: BatchError, first: usize) -> BatchError {
+    match error {
+        BatchError::Backend { world, source } => BatchError::Backend {
+            world: first + world,
+            source,
+        },
+        BatchError::Topology { world, field, what } => BatchError::Topology {
+            world: first + world,
+            field,
+            what,
+        },
+        BatchError::Scene { world, source } => BatchError::Scene {
+            world: first + world,
+            source,
+        },
+        other @ (BatchError::Empty | BatchError::Device { .. } | BatchError::Threads { .. }) => {
+            other
+        }
+    }
+}
+
+/// A batch step (or read) of frame `frame` that failed, as the failing
+/// world's own run would.
+fn batch_failed(error: BatchError, first: usize, frame: u64) -> Failed {
+    match in_sweep(error, first) {
+        BatchError::Backend { world, source } => Failed {
+            world,
+            frame,
+            error: source,
+        },
+        BatchError::Device { source } => Failed {
+            world: first,
+            frame,
+            error: source,
+        },
+        other => Failed {
+            world: first,
+            frame,
+            error: BackendError::InvalidCall(other.to_string()),
+        },
+    }
 }
 
 /// The axes of a sweep from `{path: values or "LO:HI:COUNT"}`.

@@ -24,7 +24,7 @@ use super::error::{CliError, with_sources};
 use super::load::{load_backend, parse_backend};
 use super::output::{rows, write_file};
 use hyperpbd::atomic_file::AtomicFile;
-use hyperpbd::batch::{Batch, BatchError, GpuBatch};
+use hyperpbd::batch::{Batch, BatchError, GpuBatch, gpu_batch_worlds};
 use hyperpbd::sweep::{Metric, Shard, Sweep, SweepAxis};
 use hyperpbd::{Backend, BackendKind, CpuBackend, Plan, Precision, Scene, State, StepReport};
 use hyperpbd_render::chart::{Series, line_chart};
@@ -199,15 +199,7 @@ pub fn sweep(args: &SweepArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-/// Worlds per GPU batch of a sweep at most.
-const BATCH_WORLDS: usize = 4096;
-
-/// Worlds per GPU batch of an incremental-potential sweep at most (one
-/// host thread each: gpu/src/batch/lockstep.rs).
-const LOCKSTEP_WORLDS: usize = 256;
-
-/// `worlds` as GPU batches of at most [`BATCH_WORLDS`] worlds ([`LOCKSTEP_WORLDS`]
-/// with the incremental-potential solver), each frame
+/// `worlds` as GPU batches of at most [`gpu_batch_worlds`] worlds, each frame
 /// one step of every world of a batch; `Ok(None)` after a notice when the
 /// worlds cannot share a GPU batch (then they run one backend each, with
 /// the same results).
@@ -222,10 +214,7 @@ fn run_batched(
     let mut out = Vec::with_capacity(ids.len());
     let first = ids.first().map(|&w| sweep.scene(w)).transpose();
     let first = first.map_err(|e| CliError::Input(e.to_string()))?;
-    let per_batch = match first.map(|s| s.solver) {
-        Some(hyperpbd::Solver::IncrementalPotential(_)) => LOCKSTEP_WORLDS,
-        Some(hyperpbd::Solver::Xpbd(_)) | None => BATCH_WORLDS,
-    };
+    let per_batch = first.as_ref().map_or(1, gpu_batch_worlds);
     for group in ids.chunks(per_batch) {
         let scenes = group
             .iter()
