@@ -68,7 +68,7 @@ fn dry_device_check_runs_and_reports_every_section() {
     );
     let bench = report["bench"].as_array().expect("bench rows");
     for kind in [
-        "adapter", "step", "step_fit", "frame", "dispatch", "batch", "granular",
+        "adapter", "step", "step_fit", "frame", "dispatch", "batch", "implicit", "granular",
     ] {
         assert!(
             bench.iter().any(|r| r["kind"] == kind),

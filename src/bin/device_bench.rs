@@ -13,6 +13,10 @@
 //!           R = 1 and R = 1 + D times in one pass and one submit;
 //!           (t(1 + D) − t(1)) / D
 //! batch     chain2d × W worlds (GpuBatch, f32): worlds·steps per second
+//! implicit  W implicit chains (chain2d_implicit, gravity swept; GpuBatch,
+//!           f32, the worlds in lockstep) against the W single runs one
+//!           after another: seconds and host waits of both, and what one
+//!           host wait costs, (t_alone − t_batch) / (waits_alone − waits_batch)
 //! granular  pit16k (scenes::pit3d(26, 24)) and the 100k column
 //!           (column3d_100k), gpu-f32: s per frame and host waits per frame
 //! ```
@@ -35,6 +39,8 @@ struct Sizes {
     cloth: &'static [usize],
     frame_cloth: usize,
     worlds: &'static [usize],
+    /// Implicit chains and frames of the implicit row.
+    implicit: (usize, usize),
     pit: (usize, usize),
     column: (usize, usize),
     steps: usize,
@@ -46,6 +52,7 @@ const FULL: Sizes = Sizes {
     cloth: &[64, 128, 256, 512, 1024],
     frame_cloth: 256,
     worlds: &[16, 256, 4096],
+    implicit: (16, 30),
     pit: (26, 24),
     column: (40, 64),
     steps: 15,
@@ -57,6 +64,7 @@ const DRY: Sizes = Sizes {
     cloth: &[4, 8, 12, 16],
     frame_cloth: 8,
     worlds: &[2, 4, 16],
+    implicit: (2, 2),
     pit: (4, 3),
     column: (4, 4),
     steps: 3,
@@ -292,6 +300,73 @@ fn batch_rows(adapter: &wgpu::Adapter, sizes: &Sizes) {
     }
 }
 
+/// The implicit row (module docs): seconds and host waits of `frames`
+/// frames of W implicit chains, batched and one after another.
+fn implicit_rows(adapter: &wgpu::Adapter, sizes: &Sizes) {
+    let (w, frames) = sizes.implicit;
+    let base = match Scene::from_json_str(include_str!("../../scenes/chain2d_implicit.json")) {
+        Ok(scene) => scene,
+        Err(e) => return skipped("implicit", &e.to_string()),
+    };
+    let worlds: Vec<Scene> = (0..w)
+        .map(|k| {
+            let mut s = base.clone();
+            if let Some(g) = s.gravity.as_mut() {
+                g[1] = -12.0 + 6.0 * k as f64 / (w.max(2) - 1) as f64;
+            }
+            s
+        })
+        .collect();
+    let measured = || -> Result<[f64; 4], String> {
+        let batch = Batch::new(&worlds).map_err(|e| e.to_string())?;
+        let mut gpu =
+            GpuBatch::on_adapter(adapter, &batch, Precision::F32).map_err(|e| e.to_string())?;
+        let (mut batched, mut batch_waits) = (0.0, 0);
+        for _ in 0..frames {
+            let start = Instant::now();
+            let reports = gpu.step().map_err(|e| e.to_string())?;
+            batched += start.elapsed().as_secs_f64();
+            batch_waits += reports.first().map_or(0, |r| r.host_waits);
+        }
+        let (mut alone, mut alone_waits) = (0.0, 0);
+        for scene in &worlds {
+            let plan = Plan::compile(scene).map_err(|e| e.to_string())?;
+            let state = State::from_scene(scene);
+            let mut b = hyperpbd::load_on_adapter(adapter, plan, &state, Precision::F32)
+                .map_err(|e| e.to_string())?;
+            for _ in 0..frames {
+                let start = Instant::now();
+                alone_waits += b.step().map_err(|e| e.to_string())?.host_waits;
+                alone += start.elapsed().as_secs_f64();
+            }
+        }
+        Ok([batched, alone, batch_waits as f64, alone_waits as f64])
+    };
+    match measured() {
+        Ok([batched, alone, batch_waits, alone_waits]) => emit(
+            "implicit",
+            &[
+                ("scene", text("chain2d_implicit")),
+                ("worlds", w.to_string()),
+                ("frames", frames.to_string()),
+                ("seconds_batch", format!("{batched:e}")),
+                ("seconds_alone", format!("{alone:e}")),
+                ("host_waits_batch", batch_waits.to_string()),
+                ("host_waits_alone", alone_waits.to_string()),
+                ("batch_over_alone", format!("{:e}", batched / alone)),
+                (
+                    "seconds_per_wait_saved",
+                    format!(
+                        "{:e}",
+                        (alone - batched) / (alone_waits - batch_waits).max(1.0)
+                    ),
+                ),
+            ],
+        ),
+        Err(e) => skipped(&format!("implicit chain2d_implicit × {w}"), &e),
+    }
+}
+
 fn granular_rows(adapter: &wgpu::Adapter, sizes: &Sizes) {
     let cases = [
         ("pit", scenes::pit3d(sizes.pit.0, sizes.pit.1)),
@@ -363,6 +438,9 @@ fn main() {
     }
     if wanted("batch") {
         batch_rows(&adapter, sizes);
+    }
+    if wanted("implicit") {
+        implicit_rows(&adapter, sizes);
     }
     if wanted("granular") {
         granular_rows(&adapter, sizes);
