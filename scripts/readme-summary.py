@@ -123,8 +123,11 @@ def batches() -> str:
     if not pits:
         sys.exit("readme-summary: no 16k pit batch row")
     pit = plain(pits[-1][6])
-    landing = plain(row(sweeps, "12 (landing)")[3])
-    resting = plain(row(sweeps, "60 (then resting)")[3])
+    guarded = {(r[0], r[1]): plain(r[4]) for r in sweeps if r[1:2] == ["in lockstep"]}
+    landing = guarded.get(("12 (landing)", "in lockstep"))
+    resting = guarded.get(("60 (then resting)", "in lockstep"))
+    if landing is None or resting is None:
+        sys.exit("readme-summary: no guarded batch rows")
     implicit = plain(row(sweeps, "batch / 16 single runs")[4])
     waits = row(sweeps, "host waits per 30 frames")[4].split(" (")[0]
     return (f"| GPU batch / its worlds' single GPU runs, lavapipe (medians) | chains, damping swept "

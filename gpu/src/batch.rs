@@ -16,7 +16,8 @@
 //!             a one-world backend compiles to the single-world kernels
 //! failure     each failed world (its status word; every world with
 //!             particle contact) is stepped alone on a backend of its own
-//!             plan from its start-of-step copy (retry.rs): a guard
+//!             plan from its start-of-step copy, the failed worlds in
+//!             lockstep (retry.rs): a guard
 //!             rejection is retried with more substeps as its own
 //!             adaptive run does, the result put back in its place; an
 //!             error that stays fails the step: every world rolled back,
@@ -281,7 +282,8 @@ impl GpuBatch {
 
     /// One step of every world; their reports in world order. A world
     /// whose step a guard rejects is retried with more substeps as its
-    /// own adaptive run would be, the others untouched (retry.rs). All or
+    /// own adaptive run would be, the others untouched; the retried worlds
+    /// run in lockstep (retry.rs). All or
     /// nothing: when a world fails, every world is put back to its state
     /// before the step and the error is the lowest failing world's, as its
     /// own single run names it. Every report's `host_waits` is the whole
@@ -390,6 +392,17 @@ fn step_dispatched(
     let (named, retried) = failed_worlds(status, &block, plans.len(), outcomes.is_some());
     let values = read_reals(status.report_of(&block), precision);
     let per_world = values.len() / plans.len();
+    // The failed worlds, each stepped alone as its own adaptive run, all
+    // of them in lockstep: their waits are the lockstep's rounds, not the
+    // sum of their own (their contexts count every wait they make).
+    let failed: Vec<usize> = (0..plans.len()).filter(|&k| retried[k]).collect();
+    let counted = on.ctx.host_waits();
+    let (alone, rounds) = match failed.is_empty() {
+        true => (Vec::new(), 0),
+        false => retries.step_worlds(on, plans, &failed),
+    };
+    let retry_calls = on.ctx.host_waits() - counted;
+    let mut alone = failed.iter().zip(alone);
     let mut reports = Vec::with_capacity(plans.len());
     for ((k, plan), report) in plans.iter().enumerate().zip(
         values
@@ -397,8 +410,11 @@ fn step_dispatched(
             .chain(std::iter::repeat(&[][..])),
     ) {
         if retried[k] {
-            let alone = retries.step_world(on, plans, k);
-            reports.push(match alone {
+            let own = match alone.next() {
+                Some((&world, own)) if world == k => own,
+                _ => Err(passes_alone(k)),
+            };
+            reports.push(match own {
                 Ok(r) if !named[k] || r.retries() > 0 => r,
                 Ok(_) => return Err(roll_back(on, k, passes_alone(k))),
                 Err(e) => return Err(roll_back(on, k, e)),
@@ -415,7 +431,7 @@ fn step_dispatched(
         }];
         reports.push(r);
     }
-    let waits = on.ctx.host_waits() - before;
+    let waits = on.ctx.host_waits() - before - retry_calls + rounds;
     for r in &mut reports {
         r.host_waits = waits;
     }

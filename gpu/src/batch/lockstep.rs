@@ -62,10 +62,10 @@ impl World {
         })
     }
 
-    fn backend(&mut self) -> &mut (dyn Backend + Send) {
+    fn backend(&mut self) -> (GpuContext, &mut (dyn Backend + Send)) {
         match self {
-            World::Barrier(b) => b.as_mut(),
-            World::Coupled(c) => c.as_mut(),
+            World::Barrier(b) => (b.on.ctx.clone(), b.as_mut()),
+            World::Coupled(c) => (c.on.ctx.clone(), c.as_mut()),
         }
     }
 
@@ -101,6 +101,49 @@ impl Drop for Leaving {
     fn drop(&mut self) {
         self.0.leave_lockstep();
     }
+}
+
+/// Steps every backend of `worlds` (each with its context, joined to
+/// `lockstep`) on a thread of its own, in lockstep; their results in
+/// order. A thread that cannot start is that world's error.
+pub(super) fn step_all(
+    lockstep: &Lockstep,
+    worlds: Vec<(GpuContext, &mut (dyn Backend + Send))>,
+) -> Vec<Result<StepReport, BackendError>> {
+    let Some(device) = worlds.first().map(|(ctx, _)| ctx.clone()) else {
+        return Vec::new();
+    };
+    lockstep.begin(worlds.len());
+    let results = std::thread::scope(|s| {
+        let mut running = Vec::with_capacity(worlds.len());
+        for (ctx, backend) in worlds {
+            let thread = std::thread::Builder::new().spawn_scoped(s, move || {
+                let _leaving = Leaving(ctx);
+                backend.step()
+            });
+            running.push(thread.map_err(|e| e.to_string()));
+        }
+        // A world whose thread did not start never takes part.
+        for thread in &running {
+            if thread.is_err() {
+                device.leave_lockstep();
+            }
+        }
+        running
+            .into_iter()
+            .map(|thread| match thread {
+                Ok(handle) => handle
+                    .join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
+                Err(why) => Err(GpuError::Other {
+                    message: format!("cannot start the world's thread: {why}"),
+                }
+                .into()),
+            })
+            .collect()
+    });
+    lockstep.begin(0);
+    results
 }
 
 /// The worlds of an incremental-potential batch (module docs).
@@ -146,38 +189,8 @@ impl LockstepWorlds {
     /// `host_waits` is the batch step's.
     pub fn step(&mut self) -> Result<Vec<StepReport>, WorldError> {
         let before = self.lockstep.waits();
-        self.lockstep.begin(self.worlds.len());
-        let device = self.worlds[0].resident().ctx.clone();
-        let results: Vec<Result<StepReport, BackendError>> = std::thread::scope(|s| {
-            let mut running = Vec::with_capacity(self.worlds.len());
-            for world in &mut self.worlds {
-                let ctx = world.resident().ctx.clone();
-                let thread = std::thread::Builder::new().spawn_scoped(s, move || {
-                    let _leaving = Leaving(ctx);
-                    world.backend().step()
-                });
-                running.push(thread.map_err(|e| e.to_string()));
-            }
-            // A world whose thread did not start never takes part.
-            for thread in &running {
-                if thread.is_err() {
-                    device.leave_lockstep();
-                }
-            }
-            running
-                .into_iter()
-                .map(|thread| match thread {
-                    Ok(handle) => handle
-                        .join()
-                        .unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
-                    Err(why) => Err(GpuError::Other {
-                        message: format!("cannot start the world's thread: {why}"),
-                    }
-                    .into()),
-                })
-                .collect()
-        });
-        self.lockstep.begin(0);
+        let worlds = self.worlds.iter_mut().map(World::backend).collect();
+        let results = step_all(&self.lockstep, worlds);
         let waits = self.lockstep.waits() - before;
         let Some(failed) = results.iter().position(Result::is_err) else {
             let mut reports: Vec<StepReport> = results.into_iter().flatten().collect();
@@ -209,7 +222,7 @@ impl LockstepWorlds {
 
     /// World `world`'s backend (the caller checks the index).
     pub fn backend(&mut self, world: usize) -> &mut (dyn Backend + Send) {
-        self.worlds[world].backend()
+        self.worlds[world].backend().1
     }
 
     /// The origin world `world`'s device positions are relative to (its
