@@ -402,7 +402,8 @@ fn step_dispatched(
         false => retries.step_worlds(on, plans, &failed),
     };
     let retry_calls = on.ctx.host_waits() - counted;
-    let mut alone = failed.iter().zip(alone);
+    // One result per retried world, in world order.
+    let mut alone = alone.into_iter();
     let mut reports = Vec::with_capacity(plans.len());
     for ((k, plan), report) in plans.iter().enumerate().zip(
         values
@@ -410,10 +411,12 @@ fn step_dispatched(
             .chain(std::iter::repeat(&[][..])),
     ) {
         if retried[k] {
-            let own = match alone.next() {
-                Some((&world, own)) if world == k => own,
-                _ => Err(passes_alone(k)),
-            };
+            let own = alone.next().unwrap_or_else(|| {
+                Err(GpuError::Other {
+                    message: format!("world {k}'s retry did not run"),
+                }
+                .into())
+            });
             reports.push(match own {
                 Ok(r) if !named[k] || r.retries() > 0 => r,
                 Ok(_) => return Err(roll_back(on, k, passes_alone(k))),
