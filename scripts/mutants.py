@@ -54,6 +54,8 @@ ENV = {
     "HYPERPBD_REQUIRE_GPU": "1",
     "NODEVICE_SELECT": "1",
     "CARGO_TERM_COLOR": "never",
+    # As scripts/test.sh: lavapipe without LLVM's passes (same bits, faster).
+    "GALLIVM_PERF": "nopt",
 }
 
 

@@ -12,6 +12,13 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# lavapipe (llvmpipe) runs LLVM's optimisation passes on every pipeline it
+# compiles unless GALLIVM_PERF=nopt; the tests compile many pipelines and
+# run each for a few steps, so they finish sooner without the passes
+# (docs/testing.md, "Pipelines the driver compiles"). IEEE semantics are
+# the same either way: every bit-for-bit test passes with both. The
+# benchmarks (scripts/accuracy.sh, cargo bench) keep the default.
+export GALLIVM_PERF="${GALLIVM_PERF-nopt}"
 export CARGO_TARGET_DIR="$PWD/target"
 venv="$CARGO_TARGET_DIR/python-venv"
 python="${PYTHON:-python3}"

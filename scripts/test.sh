@@ -15,6 +15,14 @@ cd "$(dirname "$0")/.."
 
 source scripts/install-lavapipe.sh
 
+# lavapipe (llvmpipe) runs LLVM's optimisation passes on every pipeline it
+# compiles unless GALLIVM_PERF=nopt; the tests compile many pipelines and
+# run each for a few steps, so they finish sooner without the passes
+# (docs/testing.md, "Pipelines the driver compiles"). IEEE semantics are
+# the same either way: every bit-for-bit test passes with both. The
+# benchmarks (scripts/accuracy.sh, cargo bench) keep the default.
+export GALLIVM_PERF="${GALLIVM_PERF-nopt}"
+
 skip_log="${CARGO_TARGET_DIR:-target}/tmp/gpu-skipped.txt"
 mkdir -p "$(dirname "$skip_log")"
 : > "$skip_log"

@@ -296,22 +296,24 @@ fn check_loops() {
     }
 }
 
-// The running per-particle call on particle i (its records in registers).
-fn run_op(op: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
+// The running per-particle call on particle i (its records in registers),
+// its op `op` and flags `flags` (= call.flags; passed, so a pipeline whose
+// flags are constants compiles only the branches they select, specialize.rs).
+fn run_op(op: u32, flags: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
           rp: ptr<function, Record>) {
     switch (op) {
         case OP_PREDICT: {
             predict_particle(i, rx, rv, rp);
-            if ((call.flags & FLAG_PRIMAL) != 0u) {
+            if ((flags & FLAG_PRIMAL) != 0u) {
                 warm_start_particle(i, rx);
             }
         }
         case OP_PROJECT_CONTACT: {
-            if ((call.flags & FLAG_PRIMAL) != 0u) {
+            if ((flags & FLAG_PRIMAL) != 0u) {
                 primal_contact_particle(i, rx, rp);
-            } else if ((call.flags & FLAG_MESH) != 0u) {
+            } else if ((flags & FLAG_MESH) != 0u) {
                 mesh_contact_particle(i, rx, rv, rp);
-            } else if ((call.flags & FLAG_MOVING) != 0u) {
+            } else if ((flags & FLAG_MOVING) != 0u) {
                 moving_contact_particle(i, rx, rv, rp);
             } else {
                 contact_particle(i, rx, rv, rp);
@@ -321,9 +323,9 @@ fn run_op(op: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
             velocity_particle(i, rx, rv, rp);
         }
         case OP_FRICTION: {
-            if ((call.flags & FLAG_MESH) != 0u) {
+            if ((flags & FLAG_MESH) != 0u) {
                 mesh_friction_particle(i, rx, rv, rp);
-            } else if ((call.flags & FLAG_MOVING) != 0u) {
+            } else if ((flags & FLAG_MOVING) != 0u) {
                 moving_friction_particle(i, rx, rv, rp);
             } else {
                 friction_particle(i, rx, rv, rp);
@@ -418,7 +420,7 @@ fn run_slot(op: u32, flags: u32, k: u32, i: u32, rx: ptr<function, Record>,
     if (op != OP_NONE) {
         take_call(k, flags);
         world_reals(op, here.first_call + k);
-        run_op(op, i, rx, rv, rp);
+        run_op(op, flags, i, rx, rv, rp);
     }
 }
 
@@ -467,7 +469,7 @@ fn step_small(@builtin(local_invocation_index) lid: u32) {
                 var rv: Record;
                 var rp: Record;
                 load_records(io, i, &rx, &rv, &rp);
-                run_op(op, i, &rx, &rv, &rp);
+                run_op(op, call.flags, i, &rx, &rv, &rp);
                 store_records(io, i, &rx, &rv, &rp);
             }
         }

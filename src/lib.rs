@@ -33,6 +33,19 @@ pub use load::{BackendKind, Loaded, load, load_on_adapter, load_with};
 #[cfg(doctest)]
 pub struct ReadmeDoctests;
 
+/// An error and every source under it, `: `-separated, as the CLI and the
+/// Python package print it (a failed rollback names the step failure it
+/// could not undo).
+pub fn with_sources(error: &dyn std::error::Error) -> String {
+    let mut text = error.to_string();
+    let mut source = error.source();
+    while let Some(e) = source {
+        text.push_str(&format!(": {e}"));
+        source = e.source();
+    }
+    text
+}
+
 /// Compiles `scene` and loads it on the CPU golden backend.
 pub fn cpu_backend(scene: &Scene) -> Result<CpuBackend, String> {
     let plan = Plan::compile(scene).map_err(|e| e.to_string())?;

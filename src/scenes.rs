@@ -18,7 +18,8 @@ pub use demo::{BELT_SPEED, demo};
 pub use drape::{DOME_RATE, dome_height, dome_motion, drape3d};
 pub use drum::{DRUM_RATE, DrumSpec, drum, drum_motion, drum_spec, drum3d, drum4d};
 pub use granular::{ballpit4d, column3d, pit3d, sandpile2d};
-use hyperpbd_core::builders::{BlockSpec, GridSpec};
+use hyperpbd_core::builders::{BlockSpec, Grid, GridSpec};
+use hyperpbd_core::kinds::BendingModel;
 use hyperpbd_core::{Scene, SceneBuilder};
 pub use peer_cloth::peer_cloth;
 pub use stretched_bar::{BAR_POISSON, BAR_YOUNGS, bar_strains, stretched_bar};
@@ -88,16 +89,31 @@ fn drop_in_4d() -> SceneBuilder {
         .damping(0.2)
 }
 
-/// The demo: an `n × n` cloth (1 m square, rigid edges and shear springs)
-/// dropped from 0.5 m onto a ground plane with friction 0.4, light damping.
-pub fn cloth(n: usize) -> Scene {
-    let spacing = 1.0 / (n.max(2) - 1) as f64;
-    let mut b = SceneBuilder::new(3)
+/// The settings the 3D cloths share: 1/60 s frames of 10 substeps and 1
+/// iteration, gravity 9.81 m/s² along −y, damping 0.1 /s.
+fn cloth_in_3d() -> SceneBuilder {
+    SceneBuilder::new(3)
         .dt(1.0 / 60.0)
         .substeps(10)
         .iterations(1)
         .gravity_along(1, 9.81)
-        .damping(0.1);
+        .damping(0.1)
+}
+
+/// An `n × n` cloth of `spacing` at height `y` with the cosine fold over
+/// every interior edge (compliance 1e-3).
+fn folding_cloth(b: &mut SceneBuilder, n: usize, spacing: f64, y: f64) -> Grid {
+    let grid = b.grid(&GridSpec::cloth(n, n, spacing, y));
+    b.grid_bending(&grid, 1e-3, BendingModel::Cosine)
+        .unwrap_or_else(|| unreachable!("a 2-grid has hinges"));
+    grid
+}
+
+/// The demo: an `n × n` cloth (1 m square, rigid edges and shear springs)
+/// dropped from 0.5 m onto a ground plane with friction 0.4, light damping.
+pub fn cloth(n: usize) -> Scene {
+    let spacing = 1.0 / (n.max(2) - 1) as f64;
+    let mut b = cloth_in_3d();
     let mut spec = GridSpec::cloth(n, n, spacing, 0.5);
     // A slight tilt so the cloth lands corner first and folds.
     spec.origin[1] = 0.5;

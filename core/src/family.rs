@@ -69,6 +69,23 @@ impl FamilyKind {
         }
     }
 
+    /// The compiled expression of an expression family; `None` for other
+    /// kinds.
+    pub fn expression(&self) -> Option<&crate::kinds::ExpressionKind> {
+        let FamilyKind::Expression(kind) = self else {
+            return None;
+        };
+        Some(kind)
+    }
+
+    /// The law of a material family; `None` for other kinds.
+    pub fn material(&self) -> Option<&Material> {
+        let FamilyKind::Material { material, .. } = self else {
+            return None;
+        };
+        Some(material)
+    }
+
     /// The rest data of element `e` (colour-ordered slot) of a material
     /// family; `None` for other kinds.
     pub fn rest_view(&self, e: usize) -> Option<(&Material, RestView<'_>)> {

@@ -34,6 +34,8 @@ mod precision;
 mod scene;
 mod solver;
 mod state;
+#[cfg(test)]
+mod ulps;
 mod validate;
 mod validate_guards;
 mod validate_material;

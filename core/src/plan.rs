@@ -256,17 +256,9 @@ impl Plan {
                                 points[j * dim..(j + 1) * dim]
                                     .copy_from_slice(&scene.particles[i].position);
                             }
-                            match &kind {
-                                FamilyKind::Expression(kind) => {
-                                    kind.default_rest(e, &points, &mut columns)
-                                }
-                                FamilyKind::Distance
-                                | FamilyKind::Tether
-                                | FamilyKind::SimplexMeasure { .. }
-                                | FamilyKind::OrientedMeasure
-                                | FamilyKind::Material { .. }
-                                | FamilyKind::HyperplaneContact { .. }
-                                | FamilyKind::MeshContact { .. } => kinds::value(
+                            match kind.expression() {
+                                Some(kind) => kind.default_rest(e, &points, &mut columns),
+                                None => kinds::value(
                                     authored.kind,
                                     &points,
                                     dim,

@@ -180,16 +180,7 @@ pub fn project(
         return with_dim!(dim, distances(batch, range, x, displacement, lambda));
     }
     if let FamilyKind::Expression(kind) = &f.kind {
-        let (tape, slots) = (&kind.gradient, range.clone());
-        kind.eval_slots(
-            tape,
-            dim,
-            &f.elements,
-            &kind.constants,
-            slots,
-            |k| x[k],
-            &mut ws.columns,
-        );
+        kind.gradient_slots(dim, &f.elements, range.clone(), x, &mut ws.columns);
     }
     sc.anchor.resize(arity * dim, 0.0);
     ws.points.resize(arity * dim, 0.0);

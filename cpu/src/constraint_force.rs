@@ -81,17 +81,7 @@ fn accumulate(
     let (dim, arity) = (plan.dim, family.arity);
     let w = &plan.inverse_mass;
     if let FamilyKind::Expression(kind) = &family.kind {
-        let (tape, elements) = (&kind.gradient, &family.elements);
-        let slots = 0..family.len();
-        kind.eval_slots(
-            tape,
-            dim,
-            elements,
-            &kind.constants,
-            slots,
-            |k| x[k],
-            &mut ws.columns,
-        );
+        kind.gradient_slots(dim, &family.elements, 0..family.len(), x, &mut ws.columns);
     }
     ws.points.resize(arity * dim, 0.0);
     ws.grad.resize(arity * dim, 0.0);

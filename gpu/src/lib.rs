@@ -39,6 +39,7 @@ mod resident;
 mod resident_backend;
 pub mod shader;
 pub mod software_threads;
+mod specialize;
 pub mod spirv;
 mod xpbd;
 

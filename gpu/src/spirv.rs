@@ -6,6 +6,8 @@
 //!         stated f32/f64 bounds, not bit for bit
 //! spirv   per pipeline (entry point, override constants):
 //!           compose → naga parse + validate → process_overrides
+//!           → constant call arguments folded into their callees
+//!             (specialize.rs) → validate
 //!           → naga SPIR-V (wgpu's Vulkan options: bounds checks, loop
 //!             bounding, workgroup zeroing) → NoContraction on every float
 //!             arithmetic result (no_contraction.rs)
@@ -208,13 +210,22 @@ pub(crate) fn pipeline_words(
         values.insert(name.to_owned(), value);
     }
     let stage = naga::ShaderStage::Compute;
-    let (module, info) = naga::back::pipeline_constants::process_overrides(
+    let (module, _) = naga::back::pipeline_constants::process_overrides(
         &parsed.0,
         &parsed.1,
         Some((stage, entry)),
         &values,
     )
     .map_err(|e| fail(format!("override constants: {e}")))?;
+    // Constant call arguments folded into their callees: the driver gets
+    // only the branches this pipeline runs (specialize.rs).
+    let module = crate::specialize::constant_arguments(module.into_owned());
+    let info = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .map_err(|e| fail(format!("specialised module: {e:?}")))?;
     let pipeline = naga::back::spv::PipelineOptions {
         shader_stage: stage,
         entry_point: entry.to_owned(),

@@ -15,7 +15,7 @@
 //! module: the path in the JSON document's notation) except an unreadable
 //! file; `.path` is that prefix.
 
-use hyperpbd::{BackendError, SceneError as RustSceneError};
+use hyperpbd::{BackendError, SceneError as RustSceneError, with_sources};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -71,17 +71,6 @@ pub fn scene_error(py: Python<'_>, error: &RustSceneError, prefix: &str) -> PyEr
     // short of memory exhaustion; the message alone is still right then.
     let _ = err.value(py).setattr("path", path);
     err
-}
-
-/// `error` and its sources, joined as the CLI prints them.
-pub fn with_sources(error: &dyn std::error::Error) -> String {
-    let mut text = error.to_string();
-    let mut source = error.source();
-    while let Some(e) = source {
-        text.push_str(&format!(": {e}"));
-        source = e.source();
-    }
-    text
 }
 
 /// A backend failure as its Python exception (see the module docs);

@@ -15,9 +15,10 @@
 //!                        makes any nonzero distance a failure (exit 3)
 //! ```
 
-use super::error::{CliError, with_sources};
+use super::error::CliError;
 use super::load::load_scene;
 use hyperpbd::gpu::SceneOrigin;
+use hyperpbd::with_sources;
 use hyperpbd::{
     Backend, BackendError, BackendKind, F32Reference, Plan, Precision, SolverPlan, State,
 };

@@ -31,15 +31,3 @@ impl CliError {
         }
     }
 }
-
-/// An error and every source under it, `: `-separated (a failed rollback
-/// names the step failure it could not undo).
-pub fn with_sources(error: &dyn std::error::Error) -> String {
-    let mut text = error.to_string();
-    let mut source = error.source();
-    while let Some(e) = source {
-        text.push_str(&format!(": {e}"));
-        source = e.source();
-    }
-    text
-}

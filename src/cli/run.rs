@@ -1,10 +1,11 @@
 //! `hyperpbd run` and `hyperpbd demo`.
 
-use super::error::{CliError, with_sources};
+use super::error::CliError;
 use super::load::{load_backend, load_scene, parse_backend};
 use super::output::{forces_json, state_json, write_file};
 use hyperpbd::atomic_file::AtomicFile;
 use hyperpbd::sweep::Metric;
+use hyperpbd::with_sources;
 use hyperpbd::{Backend, BackendKind, Plan, State, StepReport};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::{IsTerminal, Write};

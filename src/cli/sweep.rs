@@ -20,12 +20,13 @@
 //! incremental-potential solvers (each world its own backend, the worlds'
 //! steps in lockstep on one device, sharing the host's waits).
 
-use super::error::{CliError, with_sources};
+use super::error::CliError;
 use super::load::{load_backend, parse_backend};
 use super::output::{rows, write_file};
 use hyperpbd::atomic_file::AtomicFile;
 use hyperpbd::batch::{Batch, BatchError, GpuBatch, gpu_batch_worlds};
 use hyperpbd::sweep::{Metric, Shard, Sweep, SweepAxis};
+use hyperpbd::with_sources;
 use hyperpbd::{Backend, BackendKind, CpuBackend, Plan, Precision, Scene, State, StepReport};
 use hyperpbd_render::chart::{Series, line_chart};
 use indicatif::{ProgressBar, ProgressStyle};

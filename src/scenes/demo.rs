@@ -12,10 +12,8 @@
 //! hands hold the far edge: the cloth drapes from the hands to the belt and
 //! folds where the belt pulls it.
 
-use hyperpbd_core::builders::GridSpec;
-use hyperpbd_core::kinds::BendingModel;
 use hyperpbd_core::motion::Motion;
-use hyperpbd_core::{Obstacle, Scene, SceneBuilder};
+use hyperpbd_core::{Obstacle, Scene};
 
 /// The belt's speed along x (m/s).
 pub const BELT_SPEED: f64 = 0.5;
@@ -24,15 +22,8 @@ pub const BELT_SPEED: f64 = 0.5;
 pub fn demo() -> Scene {
     let n = 32;
     let spacing = 1.0 / (n - 1) as f64;
-    let mut b = SceneBuilder::new(3)
-        .dt(1.0 / 60.0)
-        .substeps(10)
-        .iterations(1)
-        .gravity_along(1, 9.81)
-        .damping(0.1);
-    let grid = b.grid(&GridSpec::cloth(n, n, spacing, 0.6));
-    b.grid_bending(&grid, 1e-3, BendingModel::Cosine)
-        .unwrap_or_else(|| unreachable!("a 2-grid has hinges"));
+    let mut b = super::cloth_in_3d();
+    let grid = super::folding_cloth(&mut b, n, spacing, 0.6);
     b.hyperplane(vec![0.0, 1.0, 0.0], 0.0, 0.6);
     let lowered = Motion::Keyframes {
         times: vec![0.0, 1.0],

@@ -17,10 +17,8 @@
 //! lifts it by its top, and the top of the drape turns with the dome
 //! (friction carries it) while the hem drags on the ground.
 
-use hyperpbd_core::builders::GridSpec;
-use hyperpbd_core::kinds::BendingModel;
 use hyperpbd_core::motion::Motion;
-use hyperpbd_core::{Obstacle, Scene, SceneBuilder};
+use hyperpbd_core::{Obstacle, Scene};
 
 /// The dome's turning rate about the vertical (rad/s).
 pub const DOME_RATE: f64 = 1.0;
@@ -49,15 +47,8 @@ pub fn dome_motion() -> Vec<Motion> {
 pub fn drape3d() -> Scene {
     let n = 24;
     let spacing = 0.9 / (n - 1) as f64;
-    let mut b = SceneBuilder::new(3)
-        .dt(1.0 / 60.0)
-        .substeps(10)
-        .iterations(1)
-        .gravity_along(1, 9.81)
-        .damping(0.1);
-    let grid = b.grid(&GridSpec::cloth(n, n, spacing, 0.45));
-    b.grid_bending(&grid, 1e-3, BendingModel::Cosine)
-        .unwrap_or_else(|| unreachable!("a 2-grid has hinges"));
+    let mut b = super::cloth_in_3d();
+    let grid = super::folding_cloth(&mut b, n, spacing, 0.45);
     b.hyperplane(vec![0.0, 1.0, 0.0], 0.0, 0.4);
     let cells = 16;
     let side = cells + 1;

@@ -86,18 +86,12 @@ pub(crate) fn gradient(
                 let c = g.mul(bar, i);
                 accumulate(g, &mut adj, a, c)?;
             }
-            Op::Select {
-                cmp,
-                lhs,
-                rhs,
-                then,
-                otherwise,
-            } => {
+            Op::Select(s) => {
                 let zero = g.constant(0.0)?;
-                let c = g.select(cmp, lhs, rhs, bar, zero);
-                accumulate(g, &mut adj, then, c)?;
-                let c = g.select(cmp, lhs, rhs, zero, bar);
-                accumulate(g, &mut adj, otherwise, c)?;
+                let c = g.select(s.cmp, s.lhs, s.rhs, bar, zero);
+                accumulate(g, &mut adj, s.then, c)?;
+                let c = g.select(s.cmp, s.lhs, s.rhs, zero, bar);
+                accumulate(g, &mut adj, s.otherwise, c)?;
             }
         }
     }

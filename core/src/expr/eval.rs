@@ -187,16 +187,10 @@ pub(super) fn apply<'a, R: Real + 'a>(
         Op::Abs(a) => unary(out, col(a), R::abs),
         Op::Ln(a) => unary(out, col(a), R::ln),
         Op::Exp(a) => unary(out, col(a), R::exp),
-        Op::Select {
-            cmp,
-            lhs,
-            rhs,
-            then,
-            otherwise,
-        } => {
-            let (l, r, t, f) = (col(lhs), col(rhs), col(then), col(otherwise));
+        Op::Select(s) => {
+            let [l, r, t, f] = s.operands().map(col);
             let lanes_iter = out.iter_mut().zip(l).zip(r).zip(t).zip(f);
-            match cmp {
+            match s.cmp {
                 Cmp::Lt => {
                     for ((((o, &l), &r), &t), &f) in lanes_iter {
                         *o = if l < r { t } else { f };

@@ -125,26 +125,7 @@ pub fn exp_f32(x: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn ulps64(a: f64, b: f64) -> u64 {
-        let key = |v: f64| {
-            let b = v.to_bits() as i128;
-            if b < 0x8000_0000_0000_0000 {
-                b
-            } else {
-                0x8000_0000_0000_0000 - b
-            }
-        };
-        key(a).abs_diff(key(b)) as u64
-    }
-
-    fn ulps32(a: f32, b: f32) -> u64 {
-        let key = |v: f32| {
-            let b = v.to_bits() as i64;
-            if b < 0x8000_0000 { b } else { 0x8000_0000 - b }
-        };
-        key(a).abs_diff(key(b))
-    }
+    use crate::ulps::{ulps_f32 as ulps32, ulps_f64 as ulps64};
 
     #[test]
     fn constants_are_fdlibms_bits() {

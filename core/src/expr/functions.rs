@@ -125,17 +125,15 @@ impl Parser<'_> {
 
     fn det(&mut self, args: Vec<(usize, Val)>, at: usize) -> Parsed<Val> {
         let n = args.len();
+        let miscount = ExprErrorKind::ArgumentCount {
+            function: "det",
+            expected: format!("{} vectors (N) or k² scalars", self.dim),
+            found: n,
+        };
         let (k, matrix) = match &args[0].1 {
             Val::V(_) => {
                 if n != self.dim {
-                    return Err(self.error_at(
-                        at,
-                        ExprErrorKind::ArgumentCount {
-                            function: "det",
-                            expected: format!("{} vectors (N) or k² scalars", self.dim),
-                            found: n,
-                        },
-                    ));
+                    return Err(self.error_at(at, miscount));
                 }
                 let cols: Vec<Vec<Slot>> =
                     args.iter().map(|a| self.vector(a)).collect::<Parsed<_>>()?;
@@ -147,14 +145,7 @@ impl Parser<'_> {
             Val::S(_) => {
                 let k = (1..=n).find(|k| k * k >= n).unwrap_or(n);
                 if k * k != n {
-                    return Err(self.error_at(
-                        at,
-                        ExprErrorKind::ArgumentCount {
-                            function: "det",
-                            expected: format!("{} vectors (N) or k² scalars", self.dim),
-                            found: n,
-                        },
-                    ));
+                    return Err(self.error_at(at, miscount));
                 }
                 let entries = args.iter().map(|a| self.scalar(a)).collect::<Parsed<_>>()?;
                 (k, entries)

@@ -52,20 +52,42 @@ pub enum Op {
     Ln(Slot),
     /// exp a: `expr::exp_f64`, `expr::exp_f32`, `exp_real` (WGSL).
     Exp(Slot),
-    /// `if lhs cmp rhs { then } else { otherwise }` (a NaN comparison is
-    /// false).
-    Select {
-        /// The comparison.
-        cmp: Cmp,
-        /// Its left operand.
-        lhs: Slot,
-        /// Its right operand.
-        rhs: Slot,
-        /// The value when it holds.
-        then: Slot,
-        /// The value when it does not.
-        otherwise: Slot,
-    },
+    /// `if lhs cmp rhs { then } else { otherwise }`.
+    Select(Select),
+}
+
+/// `if lhs cmp rhs { then } else { otherwise }` (a NaN comparison is
+/// false).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Select {
+    /// The comparison.
+    pub cmp: Cmp,
+    /// Its left operand.
+    pub lhs: Slot,
+    /// Its right operand.
+    pub rhs: Slot,
+    /// The value when it holds.
+    pub then: Slot,
+    /// The value when it does not.
+    pub otherwise: Slot,
+}
+
+impl Select {
+    /// `cmp` over the operands `[lhs, rhs, then, otherwise]`.
+    pub fn new(cmp: Cmp, [lhs, rhs, then, otherwise]: [Slot; 4]) -> Select {
+        Select {
+            cmp,
+            lhs,
+            rhs,
+            then,
+            otherwise,
+        }
+    }
+
+    /// The operands `[lhs, rhs, then, otherwise]`.
+    pub fn operands(&self) -> [Slot; 4] {
+        [self.lhs, self.rhs, self.then, self.otherwise]
+    }
 }
 
 impl Op {
@@ -75,13 +97,7 @@ impl Op {
             Op::Input(_) | Op::Const(_) => (0, [0; 4]),
             Op::Neg(a) | Op::Sqrt(a) | Op::Abs(a) | Op::Ln(a) | Op::Exp(a) => (1, [a, 0, 0, 0]),
             Op::Add(a, b) | Op::Sub(a, b) | Op::Mul(a, b) | Op::Div(a, b) => (2, [a, b, 0, 0]),
-            Op::Select {
-                lhs,
-                rhs,
-                then,
-                otherwise,
-                ..
-            } => (4, [lhs, rhs, then, otherwise]),
+            Op::Select(s) => (4, s.operands()),
         };
         a.into_iter().take(n)
     }
@@ -100,19 +116,7 @@ impl Op {
             Op::Abs(a) => Op::Abs(f(a)),
             Op::Ln(a) => Op::Ln(f(a)),
             Op::Exp(a) => Op::Exp(f(a)),
-            Op::Select {
-                cmp,
-                lhs,
-                rhs,
-                then,
-                otherwise,
-            } => Op::Select {
-                cmp,
-                lhs: f(lhs),
-                rhs: f(rhs),
-                then: f(then),
-                otherwise: f(otherwise),
-            },
+            Op::Select(s) => Op::Select(Select::new(s.cmp, s.operands().map(f))),
         }
     }
 
@@ -131,18 +135,13 @@ impl Op {
             Op::Abs(a) => [8, s(a), 0, 0, 0],
             Op::Ln(a) => [9, s(a), 0, 0, 0],
             Op::Exp(a) => [10, s(a), 0, 0, 0],
-            Op::Select {
-                cmp,
-                lhs,
-                rhs,
-                then,
-                otherwise,
-            } => {
-                let tag = match cmp {
+            Op::Select(select) => {
+                let tag = match select.cmp {
                     Cmp::Lt => 11,
                     Cmp::Le => 12,
                 };
-                [tag, s(lhs), s(rhs), s(then), s(otherwise)]
+                let [l, r, t, f] = select.operands().map(s);
+                [tag, l, r, t, f]
             }
         }
     }
@@ -232,12 +231,6 @@ impl Graph {
         if then == otherwise {
             return Ok(then);
         }
-        self.push(Op::Select {
-            cmp,
-            lhs,
-            rhs,
-            then,
-            otherwise,
-        })
+        self.push(Op::Select(Select::new(cmp, [lhs, rhs, then, otherwise])))
     }
 }

@@ -34,7 +34,7 @@ pub use exp::{
     EXP_LN2_LO_F64, EXP_MAX_F32, EXP_MAX_F64, EXP_MIN_F32, EXP_MIN_F64, EXP_SERIES_F32,
     EXP_SERIES_F64, exp_f32, exp_f64,
 };
-pub use graph::{Cmp, Op, Slot};
+pub use graph::{Cmp, Op, Select, Slot};
 pub use tape::{Outputs, Tape};
 pub use wgsl::{emit_wgsl, literal, wgsl_support};
 

@@ -88,17 +88,12 @@ pub fn emit_wgsl(tape: &Tape, fn_name: &str, precision: Precision) -> String {
             Op::Abs(a) => (format!("abs(v{a})"), true),
             Op::Ln(a) => (format!("ln_real(v{a})"), true),
             Op::Exp(a) => (format!("exp_real(v{a})"), true),
-            Op::Select {
-                cmp,
-                lhs,
-                rhs,
-                then,
-                otherwise,
-            } => {
-                let c = match cmp {
+            Op::Select(s) => {
+                let c = match s.cmp {
                     Cmp::Lt => "<",
                     Cmp::Le => "<=",
                 };
+                let [lhs, rhs, then, otherwise] = s.operands();
                 (
                     format!("select(v{otherwise}, v{then}, v{lhs} {c} v{rhs})"),
                     false,

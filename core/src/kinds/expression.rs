@@ -183,6 +183,21 @@ impl ExpressionKind {
         );
     }
 
+    /// The gradient tape in f64 on `slots` of a family whose particle
+    /// indices are `elements`, at the flat positions `x` (the golden path's
+    /// [`Self::eval_slots`]).
+    pub fn gradient_slots(
+        &self,
+        dim: usize,
+        elements: &[u32],
+        slots: Range<usize>,
+        x: &[f64],
+        columns: &mut Columns<f64>,
+    ) {
+        let (tape, constants) = (&self.gradient, &self.constants);
+        self.eval_slots(tape, dim, elements, constants, slots, |k| x[k], columns);
+    }
+
     /// Op counts and derivative sizes (`hyperpbd plan`).
     pub fn stats(&self) -> Stats {
         self.compiled.stats()

@@ -55,16 +55,7 @@ pub fn ln_f32(x: f32) -> f32 {
 mod tests {
     use super::ln_f32 as ln;
     use super::*;
-
-    /// Distance in ulp between two finite f32 (through the sign-magnitude
-    /// order of their bits).
-    fn ulps(a: f32, b: f32) -> u64 {
-        let key = |v: f32| {
-            let b = v.to_bits() as i64;
-            if b < 0x8000_0000 { b } else { 0x8000_0000 - b }
-        };
-        key(a).abs_diff(key(b))
-    }
+    use crate::ulps::ulps_f32 as ulps;
 
     #[test]
     fn constants_are_fdlibms_bits() {

@@ -567,15 +567,9 @@ fn constraint_kind(kind: &FamilyKind) -> ConstraintKind {
 
 /// The compiled expression of an expression family.
 fn expression_kind(kind: &FamilyKind) -> &hyperpbd_core::kinds::ExpressionKind {
-    match kind {
-        FamilyKind::Expression(expression) => expression,
-        FamilyKind::Distance
-        | FamilyKind::Tether
-        | FamilyKind::SimplexMeasure { .. }
-        | FamilyKind::OrientedMeasure
-        | FamilyKind::HyperplaneContact { .. }
-        | FamilyKind::MeshContact { .. }
-        | FamilyKind::Material { .. } => {
+    match kind.expression() {
+        Some(expression) => expression,
+        None => {
             unreachable!("expression elements come from expression families (Elements::rebuild)")
         }
     }

@@ -223,19 +223,11 @@ impl CoupledStep {
             };
             for e in 0..family.len() {
                 let members = &family.elements[e * family.arity..(e + 1) * family.arity];
-                match &family.kind {
-                    FamilyKind::Material { material, .. } => {
+                match family.kind.material() {
+                    Some(material) => {
                         push(members, code, &[material.lame.mu, material.lame.lambda]);
                     }
-                    FamilyKind::Distance
-                    | FamilyKind::Tether
-                    | FamilyKind::SimplexMeasure { .. }
-                    | FamilyKind::OrientedMeasure
-                    | FamilyKind::HyperplaneContact { .. }
-                    | FamilyKind::MeshContact { .. }
-                    | FamilyKind::Expression(_) => {
-                        push(members, code, &[family.compliance, family.rest[e]])
-                    }
+                    None => push(members, code, &[family.compliance, family.rest[e]]),
                 }
             }
         }

@@ -25,23 +25,14 @@ use std::fmt::Write;
 
 use hyperpbd_core::expr::emit_wgsl;
 use hyperpbd_core::kinds::{ExpressionKind, Relation};
-use hyperpbd_core::{FamilyKind, Plan, Precision};
+use hyperpbd_core::{Plan, Precision};
 
 use super::Families;
 
 /// The expression families of `plan`, in plan order: (family index, kind).
 pub(crate) fn expression_families(plan: &Plan) -> Vec<(usize, &ExpressionKind)> {
     (plan.families.iter().enumerate())
-        .filter_map(|(f, family)| match &family.kind {
-            FamilyKind::Expression(kind) => Some((f, kind.as_ref())),
-            FamilyKind::Distance
-            | FamilyKind::Tether
-            | FamilyKind::SimplexMeasure { .. }
-            | FamilyKind::OrientedMeasure
-            | FamilyKind::Material { .. }
-            | FamilyKind::HyperplaneContact { .. }
-            | FamilyKind::MeshContact { .. } => None,
-        })
+        .filter_map(|(f, family)| Some((f, family.kind.expression()?)))
         .collect()
 }
 
@@ -411,9 +402,8 @@ mod tests {
         let plan = Plan::compile(&b.build().expect("valid")).expect("plan");
         let families = Families::new(&plan, &SceneOrigin::zero(3)).expect("families");
         let (cosine, quadratic) = (cosine.expect("hinges"), quadratic.expect("hinges"));
-        let FamilyKind::Expression(kind) = &plan.families[quadratic].kind else {
-            panic!("bending is an expression family")
-        };
+        let kind =
+            (plan.families[quadratic].kind.expression()).expect("bending is an expression family");
         let base = families.constants_base[quadratic] as usize;
         assert!(base >= families.slots);
         assert_eq!(kind.constants.len(), 3 * plan.families[quadratic].len());

@@ -57,6 +57,7 @@ pub use rounding::gradient_rounding;
 
 use hyperpbd_core::barrier::BarrierLaw;
 use hyperpbd_core::geometry::closest_point_on_simplex;
+use hyperpbd_core::material::cholesky;
 use hyperpbd_core::{FamilyKind, Plan};
 
 /// The bound of one step from a common start, per free particle.
@@ -248,34 +249,19 @@ fn negative_curvature(plan: &Plan, a: &[f64], b: &[f64]) -> Result<Vec<f64>, Str
     Ok(d)
 }
 
-/// Solves the SPD system `a` y = `g` (N × N, Cholesky) and returns gᵀy.
-fn inverse_quadratic(a: &mut [f64], g: &[f64]) -> Option<f64> {
+/// Solves the SPD system `a` y = `g` (N × N, core's Cholesky) and returns
+/// gᵀy.
+fn inverse_quadratic(a: &[f64], g: &[f64]) -> Option<f64> {
     let n = g.len();
-    for j in 0..n {
-        let mut s = a[j * n + j];
-        for k in 0..j {
-            s -= a[j * n + k] * a[j * n + k];
-        }
-        if s.is_nan() || s <= 0.0 {
-            return None;
-        }
-        let l = s.sqrt();
-        a[j * n + j] = l;
-        for i in j + 1..n {
-            let mut t = a[i * n + j];
-            for k in 0..j {
-                t -= a[i * n + k] * a[j * n + k];
-            }
-            a[i * n + j] = t / l;
-        }
-    }
+    let mut l = vec![0.0; n * n];
+    cholesky(a, n, &mut l).ok()?;
     // gᵀ A⁻¹ g = |L⁻¹ g|².
     let mut y = g.to_vec();
     for i in 0..n {
         for k in 0..i {
-            y[i] -= a[i * n + k] * y[k];
+            y[i] -= l[i * n + k] * y[k];
         }
-        y[i] /= a[i * n + i];
+        y[i] /= l[i * n + i];
     }
     Some(y.iter().map(|v| v * v).sum())
 }
@@ -352,7 +338,7 @@ pub fn coupled_step_bound(
         for (gradient, norm) in [(gradient_a, &mut norm_a), (gradient_b, &mut norm_b)] {
             assemble(&mut block)?;
             let g = &gradient[i * dim..(i + 1) * dim];
-            *norm += inverse_quadratic(&mut block, g).ok_or("a block is not SPD")?;
+            *norm += inverse_quadratic(&block, g).ok_or("a block is not SPD")?;
         }
     }
     let (norm_a, norm_b) = (norm_a.sqrt(), norm_b.sqrt());

@@ -51,17 +51,12 @@ fn bounds(tape: &Tape, v: &Columns<f64>, lane: usize) -> Option<Vec<f64>> {
                 e[a] / (val(a) - e[a]) + 2.0 * u * r + 2.0 * u
             }
             Op::Exp(a) => r * (e[a].exp() - 1.0) + 2.0 * u * r * e[a].exp(),
-            Op::Select {
-                cmp,
-                lhs,
-                rhs,
-                then,
-                otherwise,
-            } => {
+            Op::Select(s) => {
+                let [lhs, rhs, then, otherwise] = s.operands();
                 if (val(lhs) - val(rhs)).abs() <= e[lhs] + e[rhs] {
                     return None;
                 }
-                let holds = match cmp {
+                let holds = match s.cmp {
                     Cmp::Lt => val(lhs) < val(rhs),
                     Cmp::Le => val(lhs) <= val(rhs),
                 };
