@@ -54,9 +54,17 @@ ENV = {
     "HYPERPBD_REQUIRE_GPU": "1",
     "NODEVICE_SELECT": "1",
     "CARGO_TERM_COLOR": "never",
-    # As scripts/test.sh: lavapipe without LLVM's passes (same bits, faster).
-    "GALLIVM_PERF": "nopt",
 }
+
+
+def binary_env(env: dict, exe: str) -> dict:
+    """`env` for running the test binary `exe`: as scripts/test.sh, the
+    `gpu` binary (hundreds of short-lived pipelines) runs lavapipe without
+    LLVM's passes (GALLIVM_PERF=nopt, unless set: the same bits, faster
+    there), the others with them."""
+    if Path(exe).name.rsplit("-", 1)[0] != "gpu" or "GALLIVM_PERF" in env:
+        return env
+    return {**env, "GALLIVM_PERF": "nopt"}
 
 
 def sha256(data: bytes) -> str:
@@ -257,7 +265,7 @@ def run_target(
         out = subprocess.run(
             [exe, f"--test-threads={threads}", *selection(repo, env, exe, module)],
             cwd=repo,
-            env=env,
+            env=binary_env(env, exe),
             capture_output=True,
             text=True,
             timeout=timeout,

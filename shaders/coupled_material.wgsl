@@ -43,14 +43,7 @@ const MATERIAL_LOOPS: u32 = 0x80000000u;
 // check_loops (barrier.wgsl) for material element e: the Jacobi sweeps of
 // an (N k)² frame Hessian reach llvmpipe's loop budget from N k ≈ 20.
 fn check_material_loops(e: u32) {
-    let trips = 2u + (bp.count >> 31u);
-    var probe = 0u;
-    for (var t = 0u; t < trips; t++) {
-        probe++;
-    }
-    if (probe != 2u) {
-        atomicMin(&status[LOOPS_CUT], MATERIAL_LOOPS | e);
-    }
+    check_loops(MATERIAL_LOOPS | e);
 }
 
 // The fields of material.wgsl's running call.
@@ -279,15 +272,7 @@ fn material_curvature_product(e: u32, block: u32, p: ptr<function, array<real, P
     let base = call.slot_map + e * (k * k + 1u);
     let v0 = rest_at(base + k * k);
     var df: array<real, MAT>;
-    for (var a = 0u; a < DIM; a++) {
-        for (var j = 0u; j < k; j++) {
-            var v: real = 0.0;
-            for (var i = 0u; i <= j; i++) {
-                v += ((*p)[(i + 1u) * DIM + a] - (*p)[a]) * rest_at(base + i * k + j);
-            }
-            df[a * k + j] = v;
-        }
-    }
+    material_frame_change(base, k, p, &df);
     var yf: array<real, MAT>;
     for (var row = 0u; row < size; row++) {
         var v: real = 0.0;
@@ -296,19 +281,7 @@ fn material_curvature_product(e: u32, block: u32, p: ptr<function, array<real, P
         }
         yf[row] = v;
     }
-    for (var a = 0u; a < DIM; a++) {
-        var first: real = 0.0;
-        for (var i = 0u; i < k; i++) {
-            var v: real = 0.0;
-            for (var j = i; j < k; j++) {
-                v += yf[a * k + j] * rest_at(base + i * k + j);
-            }
-            let y = v0 * v;
-            (*out)[(i + 1u) * DIM + a] = y;
-            first -= y;
-        }
-        (*out)[a] = first;
-    }
+    material_point_forces(base, k, v0, &yf, out);
 }
 
 // The diagonal of the vertex block of [`material_curvature_product`] into `out`.

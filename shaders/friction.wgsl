@@ -51,13 +51,23 @@ fn friction_slot(i: u32) -> FrictionSlot {
 // mesh's at x: mesh_contact.wgsl).
 fn dynamic_friction(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, l: real,
                     n: ptr<function, array<real, DIM>>) {
+    var u = *rv;
+    relative_friction(i, rx, rv, &u, l, n);
+}
+
+// v −= u_t · min(μ w λ / h, |u_t|) / |u_t|, u_t = u − (n·u) n: dynamic
+// friction of particle i (multiplier `l` > 0, unit normal n) on its
+// velocity `u` relative to the obstacle (v itself against a resting one;
+// motion.wgsl's carried_friction against a moving one).
+fn relative_friction(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>,
+                     u: ptr<function, Record>, l: real, n: ptr<function, array<real, DIM>>) {
     var vn: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        vn += (*n)[a] * lane(rv, a);
+        vn += (*n)[a] * lane(u, a);
     }
     var t2: real = 0.0;
     for (var a = 0u; a < DIM; a++) {
-        let t = lane(rv, a) - vn * (*n)[a];
+        let t = lane(u, a) - vn * (*n)[a];
         t2 += t * t;
     }
     let vt = sqrt(t2);
@@ -68,7 +78,7 @@ fn dynamic_friction(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>
     let scale = min(limit, vt) / vt;
     var ok = true;
     for (var a = 0u; a < DIM; a++) {
-        let t = lane(rv, a) - vn * (*n)[a];
+        let t = lane(u, a) - vn * (*n)[a];
         let vk = lane(rv, a) - t * scale;
         set_lane(rv, a, vk);
         ok = ok && finite(vk);

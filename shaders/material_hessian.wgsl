@@ -1,9 +1,9 @@
 // The frame Hessian of a hyperelastic simplex — the arithmetic of
 // core/src/implicit/material_hessian.rs (material_term), in the same
-// order, on material.wgsl's deformation and laws (its vertex products,
-// which read the coupled step's stored frames, are in
-// coupled_material.wgsl; primal_material.wgsl builds a vertex block from
-// one in registers).
+// order, on material.wgsl's deformation and laws, and the two ends of its
+// vertex product (frame change, point forces; the product itself reads
+// the coupled step's stored frames in coupled_material.wgsl and one in
+// registers in primal_material.wgsl, which builds a vertex block).
 //
 //   F̂ = D R, C = F̂ᵀF̂, S (the law), for column (b, m) of H_F (dF̂ = e_b e_mᵀ):
 //     StVK  dC_ij = δ_im F̂[b][j] + δ_jm F̂[b][i];  dS = μ dC + ½λ (2 F̂[b][m]) I
@@ -115,4 +115,38 @@ fn material_frame_hessian(e: u32, pts: ptr<function, array<real, POINTS>>, h: pt
         }
     }
     return true;
+}
+
+// dF̂ = dD R of an element's point change `p` (R upper triangular k × k
+// at rest[base ..]) into `df`, index a·k + j.
+fn material_frame_change(base: u32, k: u32, p: ptr<function, array<real, POINTS>>,
+                         df: ptr<function, array<real, MAT>>) {
+    for (var a = 0u; a < DIM; a++) {
+        for (var j = 0u; j < k; j++) {
+            var v: real = 0.0;
+            for (var i = 0u; i <= j; i++) {
+                v += ((*p)[(i + 1u) * DIM + a] - (*p)[a]) * rest_at(base + i * k + j);
+            }
+            (*df)[a * k + j] = v;
+        }
+    }
+}
+
+// The point vector of a frame vector `yf`: Y[a][i] = V_0 Σ_{j≥i} y[a][j]
+// R[i][j], out_{i+1} = Y[:, i], out_0 = −Σ_i Y[:, i].
+fn material_point_forces(base: u32, k: u32, v0: real, yf: ptr<function, array<real, MAT>>,
+                         out: ptr<function, array<real, POINTS>>) {
+    for (var a = 0u; a < DIM; a++) {
+        var first: real = 0.0;
+        for (var i = 0u; i < k; i++) {
+            var v: real = 0.0;
+            for (var j = i; j < k; j++) {
+                v += (*yf)[a * k + j] * rest_at(base + i * k + j);
+            }
+            let y = v0 * v;
+            (*out)[(i + 1u) * DIM + a] = y;
+            first -= y;
+        }
+        (*out)[a] = first;
+    }
 }

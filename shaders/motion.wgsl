@@ -1,6 +1,7 @@
-// Prescribed motion on the device: animated pins, and the contact,
-// friction and residual of a moving hyperplane (FLAG_MOVING; a moving
-// mesh's are mesh_contact.wgsl's with this carry and friction). The host
+// Prescribed motion on the device: animated pins, and the carry,
+// friction and residual of a moving hyperplane (FLAG_MOVING; its contact
+// is project.wgsl's contact_particle with `moving`, and a moving mesh's
+// is mesh_contact.wgsl's with this carry and friction). The host
 // evaluates every motion in f64 once per step for all its substeps
 // (core/src/motion.rs) and hands the values over in the call blocks and
 // in `rest` (gpu/src/xpbd/motion.rs):
@@ -45,31 +46,6 @@ fn carry_at(a: u32, rp: ptr<function, Record>) -> real {
     return kept(s) + gravity(a);
 }
 
-// A moving hyperplane's contact of particle i (contact_particle's
-// bookkeeping; project.wgsl).
-fn moving_contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
-    let e = enter_contact(i);
-    if (e == NONE) {
-        return;
-    }
-    let s = call.slot_base + e;
-    var n: array<real, DIM>;
-    var nx: real = 0.0;
-    for (var a = 0u; a < DIM; a++) {
-        n[a] = normal(a);
-        nx += normal(a) * lane(rx, a);
-    }
-    let cval = kept(kept(nx) - rest_at(s)) - call.factor;
-    if (!contact_response(e, cval, lambda_before(s), rx, &n)) {
-        return;
-    }
-    let mu = call.friction;
-    if (mu > 0.0 && contact_l > 0.0) {
-        var q = carried_start(rp);
-        static_friction(rx, &q, &n, mu * inverse_mass_of(rx) * contact_l);
-    }
-}
-
 // The obstacle point under p at the substep's start, now at q = D(p) + p
 // (the running moving-plane or moving-mesh call's carry).
 fn carried_start(rp: ptr<function, Record>) -> Record {
@@ -103,31 +79,7 @@ fn carried_friction(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>
     for (var a = 0u; a < DIM; a++) {
         set_lane(&rel, a, lane(rv, a) - kept(carry_at(a, rp)) / call.h);
     }
-    var vn: real = 0.0;
-    for (var a = 0u; a < DIM; a++) {
-        vn += (*n)[a] * lane(&rel, a);
-    }
-    var t2: real = 0.0;
-    for (var a = 0u; a < DIM; a++) {
-        let t = lane(&rel, a) - vn * (*n)[a];
-        t2 += t * t;
-    }
-    let vt = sqrt(t2);
-    if (vt == 0.0) {
-        return;
-    }
-    let limit = call.friction * inverse_mass_of(rx) * l / call.h;
-    let scale = min(limit, vt) / vt;
-    var ok = true;
-    for (var a = 0u; a < DIM; a++) {
-        let t = lane(&rel, a) - vn * (*n)[a];
-        let vk = lane(rv, a) - t * scale;
-        set_lane(rv, a, vk);
-        ok = ok && finite(vk);
-    }
-    if (!ok) {
-        fail(i);
-    }
+    relative_friction(i, rx, rv, &rel, l, n);
 }
 
 // The violation of a moving plane's slot s at the gathered point `pts`.

@@ -118,14 +118,7 @@ fn primal_gauss_newton(e: u32, value: real, pts: ptr<function, array<real, POINT
     let base = call.carried + e * arity * DIM;
     var anchor: array<real, POINTS>;
     var w: array<real, POINTS>;
-    for (var j = 0u; j < arity; j++) {
-        var r = load_x(elements[call.elem_base + e * arity + j]);
-        w[j] = inverse_mass_of(&r);
-        for (var a = 0u; a < DIM; a++) {
-            let k = j * DIM + a;
-            anchor[k] = (*pts)[k] - carried[base + k];
-        }
-    }
+    primal_anchor(e, base, pts, &anchor, &w);
     if (!finite(value)) {
         fail(e);
         return;
@@ -157,18 +150,41 @@ fn primal_gauss_newton(e: u32, value: real, pts: ptr<function, array<real, POINT
         fail(e);
         return;
     }
+    primal_commit(e, s, base, l, &d, &anchor, &w);
+}
+
+// Weights w_j and anchors a = x − d_e (d_e kept in `carried` at `base`) of
+// element e's points at `pts`.
+fn primal_anchor(e: u32, base: u32, pts: ptr<function, array<real, POINTS>>,
+                 anchor: ptr<function, array<real, POINTS>>, w: ptr<function, array<real, POINTS>>) {
+    let arity = call.arity;
+    for (var j = 0u; j < arity; j++) {
+        var r = load_x(elements[call.elem_base + e * arity + j]);
+        (*w)[j] = inverse_mass_of(&r);
+        for (var a = 0u; a < DIM; a++) {
+            let k = j * DIM + a;
+            (*anchor)[k] = (*pts)[k] - carried[base + k];
+        }
+    }
+}
+
+// Element e's accepted update: d_e = `d` kept in `carried` at `base`, λ = l
+// in slot s, and every dynamic point moved to its anchor + d.
+fn primal_commit(e: u32, s: u32, base: u32, l: real, d: ptr<function, array<real, POINTS>>,
+                 anchor: ptr<function, array<real, POINTS>>, w: ptr<function, array<real, POINTS>>) {
+    let arity = call.arity;
     for (var k = 0u; k < arity * DIM; k++) {
-        carried[base + k] = d[k];
+        carried[base + k] = (*d)[k];
     }
     store_lambda(s, l);
     for (var j = 0u; j < arity; j++) {
-        if (w[j] == 0.0) {
+        if ((*w)[j] == 0.0) {
             continue;
         }
         let i = elements[call.elem_base + e * arity + j];
         var r = load_x(i);
         for (var a = 0u; a < DIM; a++) {
-            set_lane(&r, a, anchor[j * DIM + a] + d[j * DIM + a]);
+            set_lane(&r, a, (*anchor)[j * DIM + a] + (*d)[j * DIM + a]);
         }
         store_x(i, r);
     }

@@ -30,15 +30,7 @@ fn primal_block_column(e: u32, h: ptr<function, array<real, HESS>>, c: u32,
     var p: array<real, POINTS>;
     p[c] = 1.0;
     var df: array<real, MAT>;
-    for (var a = 0u; a < DIM; a++) {
-        for (var j = 0u; j < k; j++) {
-            var v: real = 0.0;
-            for (var i = 0u; i <= j; i++) {
-                v += (p[(i + 1u) * DIM + a] - p[a]) * rest_at(base + i * k + j);
-            }
-            df[a * k + j] = v;
-        }
-    }
+    material_frame_change(base, k, &p, &df);
     var yf: array<real, MAT>;
     for (var row = 0u; row < size; row++) {
         var v: real = 0.0;
@@ -47,19 +39,7 @@ fn primal_block_column(e: u32, h: ptr<function, array<real, HESS>>, c: u32,
         }
         yf[row] = v;
     }
-    for (var a = 0u; a < DIM; a++) {
-        var first: real = 0.0;
-        for (var i = 0u; i < k; i++) {
-            var v: real = 0.0;
-            for (var j = i; j < k; j++) {
-                v += yf[a * k + j] * rest_at(base + i * k + j);
-            }
-            let y = v0 * v;
-            (*out)[(i + 1u) * DIM + a] = y;
-            first -= y;
-        }
-        (*out)[a] = first;
-    }
+    material_point_forces(base, k, v0, &yf, out);
 }
 
 // Cholesky factor of the symmetric n × n `a` into `l` (core::material::
@@ -177,13 +157,7 @@ fn primal_material_element(t: u32) {
     gather(e, &pts);
     var anchor: array<real, POINTS>;
     var w: array<real, POINTS>;
-    for (var j = 0u; j < arity; j++) {
-        var r = load_x(elements[call.elem_base + e * arity + j]);
-        w[j] = inverse_mass_of(&r);
-        for (var a = 0u; a < DIM; a++) {
-            anchor[j * DIM + a] = pts[j * DIM + a] - carried[base + j * DIM + a];
-        }
-    }
+    primal_anchor(e, base, &pts, &anchor, &w);
     var grad: array<real, POINTS>;
     var refused = false;
     let energy = material_energy(e, &pts, &grad, &refused);
@@ -242,19 +216,5 @@ fn primal_material_element(t: u32) {
         fail(e);
         return;
     }
-    for (var c = 0u; c < count; c++) {
-        carried[base + c] = d[c];
-    }
-    store_lambda(s, l);
-    for (var j = 0u; j < arity; j++) {
-        if (w[j] == 0.0) {
-            continue;
-        }
-        let i = elements[call.elem_base + e * arity + j];
-        var r = load_x(i);
-        for (var a = 0u; a < DIM; a++) {
-            set_lane(&r, a, anchor[j * DIM + a] + d[j * DIM + a]);
-        }
-        store_x(i, r);
-    }
+    primal_commit(e, s, base, l, &d, &anchor, &w);
 }

@@ -207,8 +207,10 @@ fn contact_response(e: u32, cval: real, l: real, rx: ptr<function, Record>,
     return true;
 }
 
-// A hyperplane contact of particle i (its records in registers).
-fn contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>, rp: ptr<function, Record>) {
+// A hyperplane contact of particle i (its records in registers);
+// `moving`: the running call's plane moves (motion.wgsl), so C less its
+// shift s, and static friction against the carried start q = D(p) + p.
+fn contact_particle(i: u32, rx: ptr<function, Record>, rp: ptr<function, Record>, moving: bool) {
     let e = enter_contact(i);
     if (e == NONE) {
         return;
@@ -221,13 +223,21 @@ fn contact_particle(i: u32, rx: ptr<function, Record>, rv: ptr<function, Record>
         nx += normal(a) * lane(rx, a);
     }
     let cval = kept(nx) - rest_at(s);
+    var c = cval;
+    if (moving) {
+        c = kept(cval) - call.factor;
+    }
     let l = lambda_before(s);
-    if (!contact_response(e, cval, l, rx, &n)) {
+    if (!contact_response(e, c, l, rx, &n)) {
         return;
     }
     let mu = call.friction;
     if (mu > 0.0 && contact_l > 0.0) {
-        static_friction(rx, rp, &n, mu * inverse_mass_of(rx) * contact_l);
+        var start = *rp;
+        if (moving) {
+            start = carried_start(rp);
+        }
+        static_friction(rx, &start, &n, mu * inverse_mass_of(rx) * contact_l);
     }
 }
 
@@ -253,7 +263,7 @@ fn static_friction(rx: ptr<function, Record>, rp: ptr<function, Record>,
 }
 
 // Invocation (gid, groups) of a per-element projection dispatch of op
-// `op` (a constant of each entry point below): element e of its world's
+// `op` (the entry point's pipeline constant OP0): element e of its world's
 // call, then the failure it noted, if any.
 fn project_elements(gid: vec3<u32>, groups: vec3<u32>, op: u32) {
     let t = linear_index(gid, groups);
@@ -290,27 +300,9 @@ fn project_elements(gid: vec3<u32>, groups: vec3<u32>, op: u32) {
     }
 }
 
+// One colour of an element family: op OP0 (an OP_PROJECT_*) and the
+// call's FLAGS, both pipeline constants (gpu/src/xpbd/mod.rs, XpbdEntry).
 @compute @workgroup_size(WORKGROUP)
-fn project_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    project_elements(gid, groups, OP_PROJECT_DISTANCE);
-}
-
-@compute @workgroup_size(WORKGROUP)
-fn project_simplex_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    project_elements(gid, groups, OP_PROJECT_SIMPLEX);
-}
-
-@compute @workgroup_size(WORKGROUP)
-fn project_oriented_measure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    project_elements(gid, groups, OP_PROJECT_ORIENTED);
-}
-
-@compute @workgroup_size(WORKGROUP)
-fn project_material(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    project_elements(gid, groups, OP_PROJECT_MATERIAL);
-}
-
-@compute @workgroup_size(WORKGROUP)
-fn project_expression(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    project_elements(gid, groups, OP_PROJECT_EXPRESSION);
+fn project(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    project_elements(gid, groups, OP0);
 }

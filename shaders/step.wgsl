@@ -14,7 +14,8 @@
 //                   damping), which read and write that particle alone, so
 //                   running them particle by particle is the golden order
 //                   for each particle.
-//   project_*       one invocation per element of one colour (project.wgsl)
+//   project         one invocation per element of one colour (project.wgsl;
+//                   its op OP0)
 //   residual/reduce one workgroup per chunk / per family (residual.wgsl)
 //   step_small      ONE workgroup runs every call of the range in order, its
 //                   invocations striding over the call's elements, with a
@@ -27,7 +28,7 @@
 //
 // THE CALL RUNNING NOW is the private `call`, copied in before each call
 // runs: from the dispatch's uniform block (`here.calls`, the calls of a
-// `particles`, `project_*` or `guard` dispatch; flags from the pipeline,
+// `particles`, `project` or `guard` dispatch; flags from the pipeline,
 // `take_call`) or, for the runners that loop over
 // calls the host cannot list in one block (step_small, residual), from
 // the storage array `calls`. Kernels read their parameters from `call`
@@ -89,7 +90,7 @@ const SEGMENT: u32 = 8u;
 
 // The calls of one dispatch (one uniform block per dispatch, dynamic
 // offset): the range, and copies of calls first_call + 0..SEGMENT for the
-// runners that read them from here (particles, project_*; zeros past the
+// runners that read them from here (particles, project; zeros past the
 // range and for the other runners).
 struct Dispatch {
     first_call: u32,
@@ -313,10 +314,8 @@ fn run_op(op: u32, flags: u32, i: u32, rx: ptr<function, Record>, rv: ptr<functi
                 primal_contact_particle(i, rx, rp);
             } else if ((flags & FLAG_MESH) != 0u) {
                 mesh_contact_particle(i, rx, rv, rp);
-            } else if ((flags & FLAG_MOVING) != 0u) {
-                moving_contact_particle(i, rx, rv, rp);
             } else {
-                contact_particle(i, rx, rv, rp);
+                contact_particle(i, rx, rp, (flags & FLAG_MOVING) != 0u);
             }
         }
         case OP_VELOCITY: {
@@ -382,8 +381,8 @@ fn store_records(io: u32, i: u32, rx: ptr<function, Record>, rv: ptr<function, R
 // THE OPS AND FLAGS OF A PIPELINE read from a uniform block are fixed
 // when it is created (pipeline-overridable constants): for `particles`,
 // OP0..OP7 the ops of calls first_call + 0..7 (OP_NONE for none), FL0..FL7
-// their FLAG_*, IO the records loaded and stored; for `project_*` and
-// `guard`, FLAGS the flags of their one call (and OP0 the guard's op).
+// their FLAG_*, IO the records loaded and stored; for `project` and
+// `guard`, FLAGS the flags of their one call and OP0 its op.
 // The runner copies them into the private `call`, so the kernels keep
 // reading `call.flags`, now a constant: the code a flag switches off (λ
 // loads and stores, the force and gravity-scale loads, the other law)

@@ -125,11 +125,7 @@ impl ShaderFile {
             ShaderFile::Step => &[
                 "particles",
                 "step_small",
-                "project_distance",
-                "project_simplex_measure",
-                "project_oriented_measure",
-                "project_material",
-                "project_expression",
+                "project",
                 "residual",
                 "reduce",
                 "residual_lanes",

@@ -80,6 +80,21 @@ pub fn load_average(load: Option<f64>) -> String {
     load.map_or("–".into(), |l| format!("{l:.2}"))
 }
 
+/// How a section of the page was measured: "took W s, load average a → b;
+/// <the machine>" (the load before and after it).
+pub fn section_timing(
+    wall_seconds: f64,
+    load: (Option<f64>, Option<f64>),
+    report: &Report,
+) -> String {
+    format!(
+        "took {wall_seconds:.1} s, load average {} → {}; {}",
+        load_average(load.0),
+        load_average(load.1),
+        report.machine.footer()
+    )
+}
+
 pub fn noise_note(report: &Report) -> String {
     let mut s = format!(
         "Timings are wall-clock and noisy: every timing is the **median of {} repetition{}** \

@@ -13,7 +13,7 @@
 //!           Newton budget of 1
 //! ```
 
-use crate::format::{cell, error_cell, load_average, ms, sci};
+use crate::format::{cell, error_cell, ms, sci, section_timing};
 use crate::implicit_budgets::{ImplicitPoint, ImplicitResult, ImplicitSection};
 use crate::measured::Report;
 use crate::outputs::{IMPLICIT_JSON, MARKDOWN};
@@ -189,15 +189,12 @@ pub fn implicit_section(report: &Report, section: &ImplicitSection) -> String {
     let _ = writeln!(
         s,
         "Measured in **{}** mode: every point run {} time(s) from the same initial state, only `step()` \
-         timed, median reported; the section took {:.1} s, load average {} → {}; {}. The raw numbers are \
+         timed, median reported; the section {}. The raw numbers are \
          in [`{IMPLICIT_JSON}`]({IMPLICIT_JSON}). `scripts/accuracy.sh --only-implicit` regenerates this \
          section alone (it may then be newer than the rest of this page).\n",
         report.mode,
         section.reps,
-        section.wall_seconds,
-        load_average(section.load.0),
-        load_average(section.load.1),
-        report.machine.footer(),
+        section_timing(section.wall_seconds, section.load, report),
     );
     for r in &section.cases {
         let _ = writeln!(s, "### implicit {} — {}\n", r.case.name(), r.title);

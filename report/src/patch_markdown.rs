@@ -14,7 +14,7 @@
 //!           where a method refused a step
 //! ```
 
-use crate::format::{cell, error_cell, load_average, ms, sci, sci_short};
+use crate::format::{cell, error_cell, ms, sci, sci_short, section_timing};
 use crate::measured::Report;
 use crate::outputs::{PATCH_JSON, PATCH_PNG};
 use crate::patch_study::{PatchMethod, PatchPoint, PatchResult, PatchSection};
@@ -245,7 +245,7 @@ pub fn patch_section(report: &Report, section: &PatchSection, figure: bool) -> S
         "Measured on **cpu-f64, one thread** for every method (the primal update runs on the calling thread, so \
          one thread compares like with like), in **{}** mode: every point run {} time(s) from the same state \
          after an untimed warm-up step, only `step()` timed, median reported (min–max beside it); the section \
-         took {:.1} s, load average {} → {}; {}. This is a noisy shared 2-vCPU VM: compare times within a table, \
+         {}. This is a noisy shared 2-vCPU VM: compare times within a table, \
          and trust ratios under ~1.5× only when the min–max ranges do not overlap. GPU rows are not measured \
          here (gpu-f64 runs the primal update bit for bit the CPU's, `tests/gpu/primal.rs`, but on lavapipe \
          its times say nothing about a GPU). The raw numbers are in [`{PATCH_JSON}`]({PATCH_JSON}); \
@@ -253,10 +253,7 @@ pub fn patch_section(report: &Report, section: &PatchSection, figure: bool) -> S
          of this page).\n",
         report.mode,
         section.reps,
-        section.wall_seconds,
-        load_average(section.load.0),
-        load_average(section.load.1),
-        report.machine.footer(),
+        section_timing(section.wall_seconds, section.load, report),
     );
     if figure {
         let _ = writeln!(s, "![patch test: error against time]({PATCH_PNG})\n");

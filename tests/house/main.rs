@@ -10,7 +10,10 @@
 //! - every XPBD kernel's three faces share its name: `cpu/src/K.rs` (the
 //!   golden path), `shaders/K.wgsl` (the kernel) and its dispatch at the
 //!   exact path [`XPBD_KERNELS`] names (`gpu/src/xpbd/K.rs`, collide's
-//!   `gpu/src/collide.rs`), not any file of that name.
+//!   `gpu/src/collide.rs`), not any file of that name;
+//! - every mutant of the mutation harness still applies: its snippet
+//!   occurs exactly once in its file (`scripts/mutants.py --check`), so
+//!   code that moves cannot silently drop a mutant from the kill set.
 //!
 //! A file's imports are the `crate::…` and `super::…` paths in its code
 //! (comments and its `#[cfg(test)] mod tests` left out), each resolved to
@@ -172,6 +175,27 @@ fn every_xpbd_kernel_has_its_three_faces_under_one_name() {
         }
     }
     assert!(missing.is_empty(), "kernel faces missing: {missing:?}");
+}
+
+/// The mutation catalog (scripts/mutants.toml) names snippets, not lines:
+/// a refactor that moves or rewrites one leaves its mutant unable to run.
+/// The harness's own check refuses such an entry.
+#[test]
+fn every_mutant_snippet_occurs_exactly_once() {
+    let out = std::process::Command::new("python3")
+        .arg("scripts/mutants.py")
+        .arg("--check")
+        .current_dir(workspace())
+        .output()
+        .expect("python3 runs scripts/mutants.py --check");
+    let text = String::from_utf8_lossy(&out.stdout);
+    let refused: Vec<&str> = text.lines().filter(|l| l.contains("REFUSED")).collect();
+    assert!(
+        out.status.success() && refused.is_empty(),
+        "mutants whose snippet no longer applies (retarget them in scripts/mutants.toml \
+         and re-run them): {refused:#?}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 /// The checker sees a cycle where there is one: two files importing each

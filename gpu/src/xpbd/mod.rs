@@ -253,7 +253,7 @@ impl Families {
 
 /// Entry points of the step module, keyed by the values of their
 /// pipeline-overridable constants: `particles` once per run shape (ops,
-/// flags, io), a `project_*` once per FLAG_* set of its calls, `guard`
+/// flags, io), `project` once per (op, FLAG_*) of its calls, `guard`
 /// once per (op, FLAG_*). The flags of a call are then constants of its
 /// pipeline and the code they switch off is removed when the pipeline is
 /// created — lavapipe runs every branch of a kernel under a mask, memory
@@ -296,27 +296,29 @@ impl EntryPoint for XpbdEntry {
     fn source(self) -> (ShaderFile, &'static str) {
         let name = match self {
             XpbdEntry::Particles(_) => "particles",
-            XpbdEntry::Distance(_) => "project_distance",
-            XpbdEntry::Simplex(_) => "project_simplex_measure",
-            XpbdEntry::Oriented(_) => "project_oriented_measure",
+            XpbdEntry::Distance(_)
+            | XpbdEntry::Simplex(_)
+            | XpbdEntry::Oriented(_)
+            | XpbdEntry::Material(_)
+            | XpbdEntry::Expression(_) => "project",
             XpbdEntry::Residual => "residual",
             XpbdEntry::Reduce => "reduce",
             XpbdEntry::Small => "step_small",
             XpbdEntry::Guard(..) => "guard",
-            XpbdEntry::Material(_) => "project_material",
             XpbdEntry::ResidualLanes => "residual_lanes",
-            XpbdEntry::Expression(_) => "project_expression",
         };
         (ShaderFile::Step, name)
     }
 
-    /// OP0..OP7, FL0..FL7 and IO of a `particles` run; FLAGS of a
-    /// `project_*` colour; OP0 and FLAGS of a guard (step.wgsl).
+    /// OP0..OP7, FL0..FL7 and IO of a `particles` run; OP0 (its
+    /// OP_PROJECT_*) and FLAGS of a `project` colour; OP0 and FLAGS of a
+    /// guard (step.wgsl).
     fn constants(self) -> Vec<(&'static str, f64)> {
         const OPS: [&str; call::SEGMENT] = ["OP0", "OP1", "OP2", "OP3", "OP4", "OP5", "OP6", "OP7"];
         const FLAGS: [&str; call::SEGMENT] =
             ["FL0", "FL1", "FL2", "FL3", "FL4", "FL5", "FL6", "FL7"];
-        let flags = |flags: u32| ("FLAGS", f64::from(flags));
+        let op_and_flags =
+            |op: u32, flags: u32| vec![("OP0", f64::from(op)), ("FLAGS", f64::from(flags))];
         match self {
             XpbdEntry::Particles(segment) => {
                 let ops = OPS
@@ -327,12 +329,12 @@ impl EntryPoint for XpbdEntry {
                 let io = std::iter::once(("IO", f64::from(segment.io)));
                 ops.chain(flags).chain(io).collect()
             }
-            XpbdEntry::Distance(f)
-            | XpbdEntry::Simplex(f)
-            | XpbdEntry::Oriented(f)
-            | XpbdEntry::Material(f)
-            | XpbdEntry::Expression(f) => vec![flags(f)],
-            XpbdEntry::Guard(op, f) => vec![("OP0", f64::from(op)), flags(f)],
+            XpbdEntry::Distance(f) => op_and_flags(call::OP_PROJECT_DISTANCE, f),
+            XpbdEntry::Simplex(f) => op_and_flags(call::OP_PROJECT_SIMPLEX, f),
+            XpbdEntry::Oriented(f) => op_and_flags(call::OP_PROJECT_ORIENTED, f),
+            XpbdEntry::Material(f) => op_and_flags(call::OP_PROJECT_MATERIAL, f),
+            XpbdEntry::Expression(f) => op_and_flags(call::OP_PROJECT_EXPRESSION, f),
+            XpbdEntry::Guard(op, f) => op_and_flags(op, f),
             XpbdEntry::Residual
             | XpbdEntry::Reduce
             | XpbdEntry::ResidualLanes

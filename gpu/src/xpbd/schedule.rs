@@ -94,15 +94,15 @@ pub(crate) enum Run {
     /// `particles`: the per-particle calls of the range (at most
     /// [`SEGMENT`]).
     Particles(Segment),
-    /// `project_distance` / `project_simplex_measure` /
-    /// `project_oriented_measure` / `project_material`: one colour, with
-    /// the call's FLAG_* (pipeline constant FLAGS).
+    /// `project` with OP_PROJECT_DISTANCE / _SIMPLEX / _ORIENTED /
+    /// _MATERIAL: one colour, with the call's FLAG_* (pipeline constants
+    /// OP0 and FLAGS).
     Distance(u32),
     Simplex(u32),
     Oriented(u32),
     Material(u32),
-    /// `project_expression`: one colour of an expression family, with
-    /// the call's FLAG_*.
+    /// `project` with OP_PROJECT_EXPRESSION: one colour of an expression
+    /// family, with the call's FLAG_*.
     Expression(u32),
     /// `residual`: one workgroup per chunk.
     Residual,
@@ -155,7 +155,7 @@ pub(crate) struct Dispatch {
 impl Dispatch {
     /// The uniform `Dispatch` block of step.wgsl (`calls`: every call
     /// block of the schedule): with copies of its calls when its runner
-    /// reads them from the block (particles, project_*, guard).
+    /// reads them from the block (particles, project, guard).
     pub fn block(&self, calls: &[Call], dim: usize, precision: Precision) -> Vec<u8> {
         let own = match self.run {
             Run::Particles(_)
