@@ -81,7 +81,7 @@ pub fn load_average(load: Option<f64>) -> String {
 }
 
 /// How a section of the page was measured: "took W s, load average a → b;
-/// <the machine>" (the load before and after it).
+/// (the machine)" (the load before and after it).
 pub fn section_timing(
     wall_seconds: f64,
     load: (Option<f64>, Option<f64>),
