@@ -398,7 +398,17 @@ mod tests {
         let step = FLAG_FIRST | FLAG_UNREAD;
         assert_eq!(
             XpbdEntry::Distance(step).constants(),
-            vec![("FLAGS", f64::from(step))]
+            vec![
+                ("OP0", f64::from(call::OP_PROJECT_DISTANCE)),
+                ("FLAGS", f64::from(step))
+            ]
+        );
+        assert_eq!(
+            XpbdEntry::Expression(0).constants(),
+            vec![
+                ("OP0", f64::from(call::OP_PROJECT_EXPRESSION)),
+                ("FLAGS", 0.0)
+            ]
         );
         // The step's colour and the run-alone one are two pipelines.
         assert_ne!(XpbdEntry::Distance(step), XpbdEntry::Distance(0));
