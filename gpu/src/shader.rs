@@ -43,6 +43,7 @@ const MESH_CONTACT: &str = include_str!("../../shaders/mesh_contact.wgsl");
 const MESH_OFF: &str = include_str!("../../shaders/mesh_off.wgsl");
 const INCREMENTAL_POTENTIAL: &str = include_str!("../../shaders/incremental_potential.wgsl");
 const COUPLED: &str = include_str!("../../shaders/coupled.wgsl");
+const COUPLED_PARTICLES: &str = include_str!("../../shaders/coupled_particles.wgsl");
 const COUPLED_SOLVE: &str = include_str!("../../shaders/coupled_solve.wgsl");
 const SYMMETRIC_EIGEN: &str = include_str!("../../shaders/symmetric_eigen.wgsl");
 const MATERIAL_HESSIAN: &str = include_str!("../../shaders/material_hessian.wgsl");
@@ -80,7 +81,8 @@ pub enum ShaderFile {
     /// incremental-potential substep (predict, gradient and residual,
     /// tree reduction, filtered Newton, velocity).
     IncrementalPotential,
-    /// `coupled.wgsl` (element and particle passes) and `coupled_solve.wgsl`
+    /// `coupled.wgsl` (element passes), `coupled_particles.wgsl` (particle
+    /// passes) and `coupled_solve.wgsl`
     /// (PCG vectors, line search, certified filter, updates, block-tree
     /// reductions) after `measure.wgsl` and `barrier.wgsl`, then
     /// `coupled_material.wgsl` (material elements) after `material.wgsl`,
@@ -220,6 +222,7 @@ impl ShaderFile {
                 CLOSEST_POINT,
                 SIMPLEX_WALK,
                 COUPLED,
+                COUPLED_PARTICLES,
                 COUPLED_SOLVE,
                 MATERIAL,
                 SYMMETRIC_EIGEN,

@@ -7,7 +7,7 @@
 use crate::kernel_set::EntryPoint;
 use crate::shader::ShaderFile;
 
-/// Entry points of `shaders/coupled.wgsl`.
+/// Entry points of `shaders/coupled.wgsl` and `coupled_particles.wgsl`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Entry {
     Elements,
