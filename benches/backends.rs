@@ -49,7 +49,7 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use hyperpbd::gpu::{GpuBackend, StepMode};
+use hyperpbd::gpu::{GpuBackend, StepMode, XpbdOptions};
 use hyperpbd::{
     Backend, BackendKind, Kernel, Particle, Plan, Precision, Scene, SceneBuilder, State, scenes,
 };
@@ -296,7 +296,7 @@ fn load_mode(scene: &Scene, precision: Precision, mode: StepMode) -> Option<GpuB
     let loaded = hyperpbd::gpu::request_adapter(precision)
         .map_err(|e| e.to_string())
         .and_then(|(adapter, _)| {
-            GpuBackend::with_step_mode(&adapter, plan, &state, precision, mode)
+            GpuBackend::with_options(&adapter, plan, &state, precision, XpbdOptions::mode(mode))
                 .map_err(|e| e.to_string())
         })
         .and_then(|mut b| {

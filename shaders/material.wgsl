@@ -25,32 +25,8 @@
 // the bits of core::material::ln; shaders/ln_f32.wgsl: the bits of the f32
 // reference's ln).
 
-// Cholesky factor L of the symmetric n×n `a` into `l` (lower; strictly
-// upper part 0); false when a pivot is not > 0 (or NaN).
-fn material_cholesky(a: ptr<function, array<real, MAT>>, n: u32, l: ptr<function, array<real, MAT>>) -> bool {
-    for (var j = 0u; j < n; j++) {
-        var d = (*a)[j * n + j];
-        for (var m = 0u; m < j; m++) {
-            d -= (*l)[j * n + m] * (*l)[j * n + m];
-        }
-        if (!(d > 0.0)) {
-            return false;
-        }
-        let ljj = sqrt(d);
-        (*l)[j * n + j] = ljj;
-        for (var c = j + 1u; c < n; c++) {
-            (*l)[j * n + c] = 0.0;
-        }
-        for (var i = j + 1u; i < n; i++) {
-            var s = (*a)[i * n + j];
-            for (var m = 0u; m < j; m++) {
-                s -= (*l)[i * n + m] * (*l)[j * n + m];
-            }
-            (*l)[i * n + j] = s / ljj;
-        }
-    }
-    return true;
-}
+// material_cholesky(a, n, l): shaders/cholesky.wgsl over array<real, MAT>
+// (composed after this file, shader.rs).
 
 // C⁻¹ = Yᵀ Y, Y = L⁻¹ (L lower triangular, nonzero diagonal), into `inv`.
 fn material_inverse(l: ptr<function, array<real, MAT>>, n: u32, inv: ptr<function, array<real, MAT>>) {

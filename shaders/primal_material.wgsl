@@ -42,32 +42,8 @@ fn primal_block_column(e: u32, h: ptr<function, array<real, HESS>>, c: u32,
     material_point_forces(base, k, v0, &yf, out);
 }
 
-// Cholesky factor of the symmetric n × n `a` into `l` (core::material::
-// cholesky); false when a pivot is not > 0 (or NaN).
-fn primal_cholesky(a: ptr<function, array<real, SYS>>, n: u32, l: ptr<function, array<real, SYS>>) -> bool {
-    for (var j = 0u; j < n; j++) {
-        var d = (*a)[j * n + j];
-        for (var m = 0u; m < j; m++) {
-            d -= (*l)[j * n + m] * (*l)[j * n + m];
-        }
-        if (!(d > 0.0)) {
-            return false;
-        }
-        let ljj = sqrt(d);
-        (*l)[j * n + j] = ljj;
-        for (var c = j + 1u; c < n; c++) {
-            (*l)[j * n + c] = 0.0;
-        }
-        for (var i = j + 1u; i < n; i++) {
-            var s = (*a)[i * n + j];
-            for (var m = 0u; m < j; m++) {
-                s -= (*l)[i * n + m] * (*l)[j * n + m];
-            }
-            (*l)[i * n + j] = s / ljj;
-        }
-    }
-    return true;
-}
+// primal_cholesky(a, n, l): shaders/cholesky.wgsl over array<real, SYS>
+// (composed after this file, shader.rs).
 
 // Element e's factor (q × q) into `carried` at `at`; false: refused.
 fn primal_material_factor(e: u32, pts: ptr<function, array<real, POINTS>>,

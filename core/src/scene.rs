@@ -376,6 +376,24 @@ pub enum Obstacle {
     },
 }
 
+impl Obstacle {
+    /// The Coulomb friction coefficient μ of the obstacle's contacts.
+    pub fn friction(&self) -> f64 {
+        match self {
+            Obstacle::Hyperplane { friction, .. } | Obstacle::SimplexMesh { friction, .. } => {
+                *friction
+            }
+        }
+    }
+
+    /// The obstacle's prescribed motion (empty: static).
+    pub fn motion(&self) -> &[Motion] {
+        match self {
+            Obstacle::Hyperplane { motion, .. } | Obstacle::SimplexMesh { motion, .. } => motion,
+        }
+    }
+}
+
 /// Obstacle kinds as written in JSON.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "snake_case")]

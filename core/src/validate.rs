@@ -277,49 +277,42 @@ impl Scene {
     fn validate_obstacles(&self) -> Result<(), SceneError> {
         for (o, obstacle) in self.obstacles.iter().enumerate() {
             let at = |field: &str| format!("obstacles[{o}].{field}");
+            // The shape first, then what every kind has: μ finite and
+            // ≥ 0, the motion valid.
             match obstacle {
                 Obstacle::Hyperplane {
                     normal,
                     offset,
-                    friction,
                     compliance: alpha,
-                    motion,
+                    ..
                 } => {
                     vector(&at("normal"), normal, self.dim)?;
                     if normal.iter().all(|&x| x == 0.0) {
                         return Err(SceneError::ZeroNormal { path: at("normal") });
                     }
                     finite(|| at("offset"), *offset)?;
-                    finite(|| at("friction"), *friction)?;
-                    if *friction < 0.0 {
-                        return Err(SceneError::NegativeFriction {
-                            path: at("friction"),
-                            value: *friction,
-                        });
-                    }
                     compliance(at("compliance"), *alpha)?;
-                    self.validate_motion(&at("motion"), motion)?;
                 }
                 Obstacle::SimplexMesh {
                     vertices,
                     simplices,
-                    friction,
-                    motion,
+                    ..
                 } => {
                     for (v, vertex) in vertices.iter().enumerate() {
                         vector(&at(&format!("vertices[{v}]")), vertex, self.dim)?;
                     }
                     crate::validate_solver::validate_simplex_mesh(o, vertices, simplices)?;
-                    finite(|| at("friction"), *friction)?;
-                    if *friction < 0.0 {
-                        return Err(SceneError::NegativeFriction {
-                            path: at("friction"),
-                            value: *friction,
-                        });
-                    }
-                    self.validate_motion(&at("motion"), motion)?;
                 }
             }
+            let friction = obstacle.friction();
+            finite(|| at("friction"), friction)?;
+            if friction < 0.0 {
+                return Err(SceneError::NegativeFriction {
+                    path: at("friction"),
+                    value: friction,
+                });
+            }
+            self.validate_motion(&at("motion"), obstacle.motion())?;
         }
         Ok(())
     }

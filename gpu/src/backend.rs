@@ -15,16 +15,14 @@
 //! algorithm of the CPU golden path, kernel for kernel, in the same order
 //! per particle and per colour.
 
-use hyperpbd_core::{
-    BackendError, GpuError, Kernel, Plan, State, StepReport, check_kernel, check_state,
-};
+use hyperpbd_core::{BackendError, GpuError, Kernel, Plan, State, StepReport, check_kernel};
 
 use crate::Precision;
 use crate::context::{DeviceSource, GpuContext};
 use crate::origin::SceneOrigin;
 use crate::params::read_reals;
 use crate::resident::ResidentState;
-use crate::resident_backend::{Resident, ResidentBackend, ResidentStep};
+use crate::resident_backend::{Load, Resident, ResidentBackend, ResidentStep};
 use crate::xpbd::schedule::StepMode;
 use contact_step::{ContactStage, contact_report};
 use diagnosis::{diagnosed_error, guard_rejection};
@@ -56,25 +54,51 @@ pub struct XpbdStep {
     subdivided: Vec<(Resident, XpbdStep)>,
 }
 
-/// How an XPBD step is loaded: positions relative to `origin` (`None`:
-/// [`SceneOrigin::for_state`]), the dispatches formed as `mode` says
-/// (`None`: as the plan's size suggests).
-#[derive(Default)]
+/// How an XPBD step is loaded ([`GpuBackend::with_options`]; the default
+/// is what `with_adapter` does).
+#[derive(Clone, Debug, Default)]
 pub struct XpbdOptions {
-    origin: Option<SceneOrigin>,
-    mode: Option<StepMode>,
+    /// Device positions are stored relative to this origin (`None`:
+    /// [`SceneOrigin::for_state`]; a plan with expression families keeps
+    /// world coordinates and refuses any other).
+    pub origin: Option<SceneOrigin>,
+    /// The step's dispatches formed as this says (`None`: as the plan's
+    /// size suggests). Every mode gives the same results;
+    /// [`StepMode::Small`] is refused for plans with particle contact.
+    pub mode: Option<StepMode>,
+}
+
+impl XpbdOptions {
+    /// Positions stored relative to `origin`.
+    pub fn origin(origin: SceneOrigin) -> Self {
+        XpbdOptions {
+            origin: Some(origin),
+            mode: None,
+        }
+    }
+
+    /// The dispatches formed as `mode` says.
+    pub fn mode(mode: StepMode) -> Self {
+        XpbdOptions {
+            origin: None,
+            mode: Some(mode),
+        }
+    }
 }
 
 impl ResidentStep for XpbdStep {
     type Options = XpbdOptions;
 
-    fn load(
-        device: DeviceSource<'_>,
-        plan: Plan,
-        state: &State,
-        precision: Precision,
-        XpbdOptions { origin, mode }: XpbdOptions,
-    ) -> Result<(Resident, Self), BackendError> {
+    fn load(load: Load<'_>, options: XpbdOptions) -> Result<(Resident, Self), BackendError> {
+        let (device, plan, state, precision) = load.into_parts();
+        let XpbdOptions { origin, mode } = options;
+        if mode == Some(StepMode::Small) && plan.contacts.is_some() {
+            return Err(BackendError::InvalidCall(
+                "step mode small: plans with particle contact run the exact or fused schedule \
+                 (the contact kernels are dispatches of their own)"
+                    .into(),
+            ));
+        }
         // An expression need not be translation-invariant (a param may be a
         // point): a plan with one keeps world coordinates.
         let expressions = plan.families.iter().any(|f| f.kind.is_expression());
@@ -89,7 +113,6 @@ impl ResidentStep for XpbdStep {
                     .into(),
             ));
         }
-        check_state(&plan, state)?;
         if origin.as_slice().len() != plan.dim {
             return Err(BackendError::InvalidCall(format!(
                 "scene origin has {} components; the plan has dim {}",
@@ -365,44 +388,16 @@ impl XpbdStep {
 
 /// What [`GpuBackend`] offers besides the resident backend's API.
 impl GpuBackend {
-    /// Loads `plan` with `state`, storing positions relative to `origin`
-    /// (see [`SceneOrigin`]; [`GpuBackend::with_adapter`] picks it).
-    pub fn with_origin(
+    /// Loads `plan` with `state` on the shared device of `adapter` as
+    /// `options` say: the scene origin (see [`SceneOrigin`];
+    /// [`GpuBackend::with_adapter`] picks it) and the step mode.
+    pub fn with_options(
         adapter: &wgpu::Adapter,
         plan: Plan,
         state: &State,
         precision: Precision,
-        origin: SceneOrigin,
+        options: XpbdOptions,
     ) -> Result<Self, BackendError> {
-        let options = XpbdOptions {
-            origin: Some(origin),
-            mode: None,
-        };
-        Self::load(DeviceSource::Own(adapter), plan, state, precision, options)
-    }
-
-    /// Loads `plan` with `state`, forming the step's dispatches as `mode`
-    /// says rather than as the plan's size suggests (every mode gives the
-    /// same results; [`StepMode::Small`] is refused for plans with particle
-    /// contact).
-    pub fn with_step_mode(
-        adapter: &wgpu::Adapter,
-        plan: Plan,
-        state: &State,
-        precision: Precision,
-        mode: StepMode,
-    ) -> Result<Self, BackendError> {
-        if mode == StepMode::Small && plan.contacts.is_some() {
-            return Err(BackendError::InvalidCall(
-                "step mode small: plans with particle contact run the exact or fused schedule \
-                 (the contact kernels are dispatches of their own)"
-                    .into(),
-            ));
-        }
-        let options = XpbdOptions {
-            origin: None,
-            mode: Some(mode),
-        };
         Self::load(DeviceSource::Own(adapter), plan, state, precision, options)
     }
 

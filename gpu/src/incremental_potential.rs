@@ -23,20 +23,18 @@
 
 use hyperpbd_core::IncrementalPotentialPlan;
 use hyperpbd_core::{
-    BackendError, Convergence, GpuError, MinimisationReport, MinimisationStatus, Plan, Refusal,
-    State, check_state,
+    BackendError, Convergence, GpuError, MinimisationReport, MinimisationStatus, Refusal,
 };
 
 use crate::Precision;
 use crate::barrier::{
     NONE, STATUS_WORDS, barrier_resources, infeasible_start, refuse_cut_loops, status_words,
 };
-use crate::context::DeviceSource;
 use crate::ip_decision::{Decisions, HEADER_WORDS, LOGGED_WORDS, disagreement};
 use crate::kernel_set::{BlockWriter, EntryPoint, KernelSet, KernelSetSpec, ParamBlocks};
 use crate::minimising::{Minimiser, Minimising};
 use crate::params::{push_reals, real_size};
-use crate::resident_backend::{Resident, ResidentBackend};
+use crate::resident_backend::{Load, Resident, ResidentBackend};
 use crate::shader::{MAX_GPU_DIM, ShaderFile};
 
 /// Armijo constant (same as the CPU's).
@@ -115,14 +113,8 @@ pub struct BarrierStep {
 }
 
 impl Minimiser for BarrierStep {
-    /// Loads `plan` with `state` on `device`.
-    fn load(
-        device: DeviceSource<'_>,
-        plan: Plan,
-        state: &State,
-        precision: Precision,
-    ) -> Result<(Resident, Self), BackendError> {
-        check_state(&plan, state)?;
+    fn load(load: Load<'_>) -> Result<(Resident, Self), BackendError> {
+        let (device, plan, state, precision) = load.into_parts();
         let Some(ip) = plan.incremental_potential().cloned() else {
             return Err(BackendError::InvalidCall(
                 "GpuBarrierBackend runs incremental_potential scenes only".into(),

@@ -55,6 +55,6 @@ pub use minimising::{Minimiser, Minimising};
 pub use origin::SceneOrigin;
 pub use params::{push_reals, read_reals};
 pub use resident::PositionLayout;
-pub use resident_backend::{Resident, ResidentBackend, ResidentStep};
+pub use resident_backend::{Load, Resident, ResidentBackend, ResidentStep};
 pub use spirv::{SHADER_PATH_VARIABLE, ShaderPath};
 pub use xpbd::schedule::{StepMode, dispatches_per_step};

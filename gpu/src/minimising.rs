@@ -13,22 +13,16 @@
 
 use hyperpbd_core::violation::{ball_overlap_residual, family_residuals};
 use hyperpbd_core::{
-    BackendError, Kernel, MinimisationReport, Plan, State, StepError, StepReport, check_kernel,
+    BackendError, Kernel, MinimisationReport, StepError, StepReport, check_kernel,
 };
 
-use crate::Precision;
-use crate::context::DeviceSource;
-use crate::resident_backend::{Resident, ResidentStep};
+use crate::resident_backend::{Load, Resident, ResidentStep};
 
 /// One minimisation of an incremental-potential step on the GPU.
 pub trait Minimiser: Sized {
-    /// Checks `plan` and `state` and loads them on `source`'s device.
-    fn load(
-        source: DeviceSource<'_>,
-        plan: Plan,
-        state: &State,
-        precision: Precision,
-    ) -> Result<(Resident, Self), BackendError>;
+    /// Checks what `load`'s plan asks of the minimiser and loads the plan
+    /// and state on its device (the state already fits the plan).
+    fn load(load: Load<'_>) -> Result<(Resident, Self), BackendError>;
 
     /// One minimisation on the resident state (CPU: `minimise`).
     fn minimise(&mut self, on: &mut Resident) -> Result<MinimisationReport, BackendError>;
@@ -63,14 +57,8 @@ impl<M: Minimiser> Minimising<M> {
 impl<M: Minimiser> ResidentStep for Minimising<M> {
     type Options = ();
 
-    fn load(
-        source: DeviceSource<'_>,
-        plan: Plan,
-        state: &State,
-        precision: Precision,
-        (): (),
-    ) -> Result<(Resident, Self), BackendError> {
-        let (on, minimiser) = M::load(source, plan, state, precision)?;
+    fn load(load: Load<'_>, (): ()) -> Result<(Resident, Self), BackendError> {
+        let (on, minimiser) = M::load(load)?;
         let step = Minimising {
             minimiser,
             substep: 0,

@@ -7,8 +7,9 @@
 //! Resident     plan, precision, ctx (the device), state (ResidentState):
 //!              what every step works on, owned by the backend
 //! step S       the step's own data and kernels (ResidentStep):
-//!              S::load(DeviceSource, plan, state, precision, S::Options)
-//!              → (Resident, S); attempt, run_kernel, prefetch_state
+//!              S::load(Load { source, plan, state, precision }, S::Options)
+//!              → (Resident, S) after the state is checked against the
+//!              plan; attempt, run_kernel, prefetch_state
 //! new          on the shared device of an adapter found for precision
 //! with_adapter on the shared device of the given adapter
 //! with_private_device  on a device of its own
@@ -23,7 +24,9 @@
 //! ```
 
 use hyperpbd_core::adaptive::{Subdivided, step_adaptive};
-use hyperpbd_core::{Backend, BackendError, GpuError, Kernel, Plan, State, StepReport};
+use hyperpbd_core::{
+    Backend, BackendError, GpuError, Kernel, Plan, State, StepReport, check_state,
+};
 
 use crate::context::{DeviceSource, GpuContext};
 use crate::export::{ExportParts, Exporter};
@@ -53,6 +56,23 @@ impl Resident {
     }
 }
 
+/// What a step is loaded from: the device, the plan and the state it will
+/// work on (checked against each other before a step sees them) and the
+/// kernels' precision.
+pub struct Load<'a> {
+    pub(crate) source: DeviceSource<'a>,
+    pub(crate) plan: Plan,
+    pub(crate) state: &'a State,
+    pub(crate) precision: Precision,
+}
+
+impl<'a> Load<'a> {
+    /// The device source, plan, state and precision, in that order.
+    pub(crate) fn into_parts(self) -> (DeviceSource<'a>, Plan, &'a State, Precision) {
+        (self.source, self.plan, self.state, self.precision)
+    }
+}
+
 /// A step a [`ResidentBackend`] runs: its own data and kernels, loaded on
 /// a device with the plan and state it then works on. Implemented by the
 /// crate's three steps ([`crate::XpbdStep`], [`crate::Minimising`] over
@@ -63,14 +83,9 @@ pub trait ResidentStep: Sized {
     /// What loading takes besides the plan, state and precision.
     type Options: Default;
 
-    /// Checks `plan` and `state` and loads them on `source`'s device.
-    fn load(
-        source: DeviceSource<'_>,
-        plan: Plan,
-        state: &State,
-        precision: Precision,
-        options: Self::Options,
-    ) -> Result<(Resident, Self), BackendError>;
+    /// Checks what `load`'s plan asks of the step and loads the plan and
+    /// state on its device (the state already fits the plan).
+    fn load(load: Load<'_>, options: Self::Options) -> Result<(Resident, Self), BackendError>;
 
     /// One attempt over the plan's dt with `substeps << subdivision`
     /// substeps (core's `Subdivided`); on error the state is exactly as
@@ -95,7 +110,8 @@ pub struct ResidentBackend<S> {
 }
 
 impl<S: ResidentStep> ResidentBackend<S> {
-    /// Loads `plan` with `state` on `source` (`options`: the step's own).
+    /// Loads `plan` with `state` on `source` (`options`: the step's own),
+    /// the state checked against the plan first.
     pub(crate) fn load(
         source: DeviceSource<'_>,
         plan: Plan,
@@ -103,7 +119,14 @@ impl<S: ResidentStep> ResidentBackend<S> {
         precision: Precision,
         options: S::Options,
     ) -> Result<Self, BackendError> {
-        let (on, step) = S::load(source, plan, state, precision, options)?;
+        check_state(&plan, state)?;
+        let load = Load {
+            source,
+            plan,
+            state,
+            precision,
+        };
+        let (on, step) = S::load(load, options)?;
         Ok(Self::from_parts(on, step))
     }
 

@@ -2,7 +2,8 @@
 //! precision) by prepending a small header.
 //!
 //! ```text
-//! module = header(DIM, real, WORKGROUP, the shared codes of codes.rs) [+ ln_real, exp_real: core::expr::wgsl_support] + prelude.wgsl [+ measure.wgsl, material.wgsl] + family.wgsl
+//! module = header(DIM, real, WORKGROUP, the shared codes of codes.rs) [+ ln_real, exp_real: core::expr::wgsl_support] + prelude.wgsl [+ measure.wgsl, material.wgsl + cholesky.wgsl] + family.wgsl
+//! (cholesky.wgsl is composed per square array it factors: `cholesky_over`)
 //! (the coupled step: measure, barrier, coupled, coupled_solve, material, symmetric_eigen,
 //! material_hessian, coupled_material)
 //! ```
@@ -22,6 +23,7 @@ const RECORD4: &str = include_str!("../../shaders/record4.wgsl");
 const RECORDS: &str = include_str!("../../shaders/records.wgsl");
 const MEASURE: &str = include_str!("../../shaders/measure.wgsl");
 const MATERIAL: &str = include_str!("../../shaders/material.wgsl");
+const CHOLESKY: &str = include_str!("../../shaders/cholesky.wgsl");
 const STEP: &str = include_str!("../../shaders/step.wgsl");
 const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
 const PROJECT: &str = include_str!("../../shaders/project.wgsl");
@@ -295,6 +297,10 @@ pub(crate) fn compose_with(
     for &part in file.body() {
         source.push_str(part);
         source.push('\n');
+        if std::ptr::eq(part, MATERIAL) {
+            source.push_str(&cholesky_over("material_cholesky", "array<real, MAT>"));
+            source.push('\n');
+        }
         if std::ptr::eq(part, PRELUDE) {
             // The record accessors of this dimension (prelude.wgsl).
             source.push_str(if crate::layout::record_words(dim) == 1 {
@@ -373,8 +379,19 @@ pub(crate) fn primal_source(primal: bool, materials: bool) -> String {
             s.push('\n');
             s.push_str(part);
         }
+        s.push('\n');
+        s.push_str(&cholesky_over("primal_cholesky", "array<real, SYS>"));
     } else {
         s.push_str("\nfn primal_material_element(t: u32) {\n    fail(call.first + t);\n}\n");
     }
     s
+}
+
+/// `cholesky.wgsl` as the function `name` over `array` (a square array
+/// type of the module, e.g. `array<real, MAT>`): the one Cholesky of the
+/// kernels, composed once per array it factors.
+fn cholesky_over(name: &str, array: &str) -> String {
+    CHOLESKY
+        .replace("CHOLESKY_ARRAY", array)
+        .replace("CHOLESKY_NAME", name)
 }

@@ -31,7 +31,7 @@
 use std::time::Instant;
 
 use hyperpbd::batch::{Batch, GpuBatch};
-use hyperpbd::gpu::{GpuBackend, StepMode};
+use hyperpbd::gpu::{GpuBackend, StepMode, XpbdOptions};
 use hyperpbd::{Backend, Kernel, Plan, Precision, Scene, State, scenes};
 
 /// Sizes of one run: full (the GPU machine) or dry (lavapipe, seconds).
@@ -117,7 +117,9 @@ fn load(
     let plan = Plan::compile(scene).map_err(|e| e.to_string())?;
     let state = State::from_scene(scene);
     match mode {
-        Some(mode) => GpuBackend::with_step_mode(adapter, plan, &state, precision, mode),
+        Some(mode) => {
+            GpuBackend::with_options(adapter, plan, &state, precision, XpbdOptions::mode(mode))
+        }
         None => GpuBackend::with_adapter(adapter, plan, &state, precision),
     }
     .map_err(|e| e.to_string())

@@ -9,7 +9,7 @@
 //! expected, so a run without an adapter never reads as a full pass.
 
 use hyperpbd::{Backend, BackendError, BackendKind, Plan, State};
-use hyperpbd_gpu::{AdapterSummary, Precision, request_adapter};
+use hyperpbd_gpu::{AdapterSummary, GpuBackend, Precision, StepMode, XpbdOptions, request_adapter};
 
 /// Environment variable that turns a missing adapter from a skip into a
 /// failure.
@@ -199,4 +199,21 @@ pub fn binary_on_one_lavapipe_thread(test: &str) -> bool {
         "{test} did not pass in the binary's run with {LAVAPIPE_THREADS}=0 (its output is above)"
     );
     false
+}
+
+/// `plan` with `state` on `adapter` in `precision`, its step's dispatches
+/// formed as `mode` says (the schedule tests compare the modes).
+pub fn in_mode(
+    adapter: &wgpu::Adapter,
+    (plan, state): (&Plan, &State),
+    precision: Precision,
+    mode: StepMode,
+) -> Result<GpuBackend, BackendError> {
+    GpuBackend::with_options(
+        adapter,
+        plan.clone(),
+        state,
+        precision,
+        XpbdOptions::mode(mode),
+    )
 }

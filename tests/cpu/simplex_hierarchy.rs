@@ -16,7 +16,7 @@ use hyperpbd::core::barrier::{
 use hyperpbd::core::geometry::SimplexHierarchy;
 use hyperpbd::core::geometry::simplex_hierarchy::{NODE_WORDS, OrderedWalk, overlaps, push_box};
 use hyperpbd::core::implicit::certified_filter::{
-    fraction, obstacle_time, plane_time, simplex_time,
+    TrialMove, fraction, obstacle_time, plane_time, simplex_time,
 };
 use hyperpbd::{Obstacle, Scene};
 
@@ -259,6 +259,11 @@ fn barrier_terms_over_the_candidates_are_the_exhaustive_ones_bit_for_bit() {
                 let r = rng.range(0.0, 0.02);
                 let length = [0.0, 0.01, 0.1, 1.0][rng.below(4)];
                 let delta: Vec<f64> = (0..dim).map(|_| length * rng.range(-1.0, 1.0)).collect();
+                let trial_move = TrialMove {
+                    x: &x,
+                    radius: r,
+                    delta: &delta,
+                };
                 // The exhaustive sums, in slot order.
                 let mut energy = 0.0;
                 let mut gradient = vec![0.0; dim];
@@ -282,18 +287,10 @@ fn barrier_terms_over_the_candidates_are_the_exhaustive_ones_bit_for_bit() {
                         t_old = t_old.min(d / approach);
                     }
                     t_certified = t_certified.min(if o < obstacles.plane_count() {
-                        plane_time(&obstacles, o, &x, r, &delta, f64::EPSILON)
+                        plane_time(&obstacles, o, trial_move, f64::EPSILON)
                     } else {
                         let s = o - obstacles.plane_count();
-                        simplex_time(
-                            &obstacles,
-                            s,
-                            &x,
-                            r,
-                            &delta,
-                            f64::EPSILON,
-                            &mut offset[..dim],
-                        )
+                        simplex_time(&obstacles, s, trial_move, f64::EPSILON, &mut offset[..dim])
                     });
                     if d >= law.activation_distance {
                         continue;
@@ -329,7 +326,7 @@ fn barrier_terms_over_the_candidates_are_the_exhaustive_ones_bit_for_bit() {
                 };
                 let got = filter_fraction(&obstacles, &x, r, &delta);
                 assert_eq!(got.to_bits(), old.to_bits(), "filter, {at}");
-                let certified = obstacle_time(&obstacles, &x, r, &delta, f64::EPSILON);
+                let certified = obstacle_time(&obstacles, trial_move, f64::EPSILON);
                 assert_eq!(
                     fraction(certified).to_bits(),
                     fraction(t_certified).to_bits(),

@@ -14,7 +14,7 @@ use common::exact::{bits, f64_identical};
 use common::gpu::adapter_or_skip;
 use common::guarded::material_block;
 use hyperpbd::batch::{Batch, BatchError, GpuBatch};
-use hyperpbd::gpu::GpuBackend;
+use hyperpbd::gpu::{GpuBackend, XpbdOptions};
 use hyperpbd::{Backend, ConstraintKind, Guards, Plan, Precision, Scene, State, StepReport};
 
 /// The drop at `speed` under the orientation guard (and a speed limit
@@ -66,8 +66,14 @@ fn worlds_are_their_own_adaptive_runs(
         .map(|s| {
             let plan = Plan::compile(s).expect("plan");
             let origin = gpu.origin().clone();
-            GpuBackend::with_origin(&adapter, plan, &State::from_scene(s), precision, origin)
-                .expect("single")
+            GpuBackend::with_options(
+                &adapter,
+                plan,
+                &State::from_scene(s),
+                precision,
+                XpbdOptions::origin(origin),
+            )
+            .expect("single")
         })
         .collect();
     let exact = f64_identical(&summary);

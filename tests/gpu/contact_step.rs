@@ -111,8 +111,7 @@ fn f64_contact_steps_equal_the_cpu_bit_for_bit_in_both_schedules() {
         for mode in [StepMode::Fused, StepMode::Exact] {
             let mut cpu = CpuBackend::new(plan.clone(), &state).expect("cpu");
             let mut gpu =
-                GpuBackend::with_step_mode(&adapter, plan.clone(), &state, Precision::F64, mode)
-                    .expect("gpu");
+                common::gpu::in_mode(&adapter, (&plan, &state), Precision::F64, mode).expect("gpu");
             for frame in 0..frames {
                 let label = format!("{name} ({}) frame {frame}", mode.as_str());
                 let rc = cpu.step().expect("cpu step");
@@ -270,8 +269,7 @@ fn a_non_finite_contact_is_named_like_the_cpu_and_rolled_back() {
     ));
     for mode in [StepMode::Fused, StepMode::Exact] {
         let mut gpu =
-            GpuBackend::with_step_mode(&adapter, plan.clone(), &state, Precision::F64, mode)
-                .expect("gpu");
+            common::gpu::in_mode(&adapter, (&plan, &state), Precision::F64, mode).expect("gpu");
         let gpu_error = gpu.step().expect_err("the GPU refuses the step");
         assert_eq!(
             gpu_error.to_string(),

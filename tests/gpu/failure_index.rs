@@ -16,7 +16,7 @@
 use crate::common;
 
 use common::gpu::adapter_or_skip;
-use hyperpbd::gpu::{GpuBackend, StepMode};
+use hyperpbd::gpu::StepMode;
 use hyperpbd::{
     Backend, BackendError, ConstraintFamily, ConstraintKind, CpuBackend, Particle, Plan, Precision,
     Scene, State, StepError,
@@ -75,8 +75,8 @@ fn every_step_mode_names_the_smallest_failing_element() {
         return;
     };
     for mode in [StepMode::Small, StepMode::Exact, StepMode::Fused] {
-        let mut gpu = GpuBackend::with_step_mode(&adapter, plan.clone(), &state, precision, mode)
-            .expect("gpu");
+        let mut gpu =
+            common::gpu::in_mode(&adapter, (&plan, &state), precision, mode).expect("gpu");
         let error = gpu.step().expect_err("the GPU fails");
         println!("gpu-{precision} {mode:?}: {error}");
         assert_eq!(

@@ -22,7 +22,7 @@ use common::gpu::adapter_or_skip;
 use hyperpbd::{
     Backend, BackendError, CpuBackend, GpuError, Particle, Plan, Scene, SceneBuilder, State,
 };
-use hyperpbd_gpu::{GpuBackend, Precision, StepMode};
+use hyperpbd_gpu::{Precision, StepMode};
 
 fn bits(values: &[f64]) -> Vec<u64> {
     values.iter().map(|v| v.to_bits()).collect()
@@ -60,8 +60,7 @@ fn a_step_longer_than_the_loop_budget_is_refused_never_cut() {
         for mode in [StepMode::Fused, StepMode::Small] {
             let label = format!("{substeps} substeps, {}", mode.as_str());
             let mut gpu =
-                GpuBackend::with_step_mode(&adapter, plan.clone(), &state, Precision::F64, mode)
-                    .expect("gpu");
+                common::gpu::in_mode(&adapter, (&plan, &state), Precision::F64, mode).expect("gpu");
             match gpu.step() {
                 Ok(_) => {
                     assert!(

@@ -201,9 +201,8 @@ fn assert_golden(
     let mut gpus: Vec<(StepMode, GpuBackend)> = [StepMode::Exact, StepMode::Fused]
         .into_iter()
         .map(|mode| {
-            let gpu =
-                GpuBackend::with_step_mode(adapter, plan.clone(), state, Precision::F64, mode)
-                    .unwrap_or_else(|e| panic!("{name} {mode:?}: {e}"));
+            let gpu = common::gpu::in_mode(adapter, (&plan, state), Precision::F64, mode)
+                .unwrap_or_else(|e| panic!("{name} {mode:?}: {e}"));
             (mode, gpu)
         })
         .collect();

@@ -18,7 +18,7 @@
 use crate::common;
 
 use common::gpu::adapter_or_skip;
-use hyperpbd::gpu::{GpuBackend, Precision, StepMode};
+use hyperpbd::gpu::{GpuBackend, Precision, StepMode, XpbdOptions};
 use hyperpbd::{
     Backend, BackendError, ConstraintFamily, ConstraintKind, CpuBackend, Particle, Plan, Scene,
     SceneBuilder, State, StepError, scenes,
@@ -33,8 +33,14 @@ fn bits(state: &State) -> (Vec<u64>, Vec<u64>) {
 
 fn gpu(adapter: &wgpu::Adapter, scene: &Scene, precision: Precision, mode: StepMode) -> GpuBackend {
     let plan = Plan::compile(scene).expect("valid scene");
-    GpuBackend::with_step_mode(adapter, plan, &State::from_scene(scene), precision, mode)
-        .unwrap_or_else(|e| panic!("GPU backend ({mode:?}): {e}"))
+    GpuBackend::with_options(
+        adapter,
+        plan,
+        &State::from_scene(scene),
+        precision,
+        XpbdOptions::mode(mode),
+    )
+    .unwrap_or_else(|e| panic!("GPU backend ({mode:?}): {e}"))
 }
 
 /// A chain of `n` links in R^`dim` hanging from its first particle, a
@@ -271,12 +277,12 @@ fn the_small_mode_is_refused_where_it_does_not_apply() {
     };
     let scene = scenes::tesseract();
     let plan = Plan::compile(&scene).unwrap();
-    let result = GpuBackend::with_step_mode(
+    let result = GpuBackend::with_options(
         &adapter,
         plan,
         &State::from_scene(&scene),
         Precision::F32,
-        StepMode::Small,
+        XpbdOptions::mode(StepMode::Small),
     );
     assert!(matches!(result, Err(BackendError::InvalidCall(_))));
 }

@@ -111,12 +111,12 @@ fn far_offset(case: &str, kind: BackendKind, d: f64) {
             "not asserted; what f32 costs with no offset at all",
         );
         // Without the remedy: positions stored in world coordinates.
-        let mut raw = GpuBackend::with_origin(
+        let mut raw = GpuBackend::with_options(
             &adapter,
             plan.clone(),
             &initial,
             Precision::F32,
-            SceneOrigin::zero(plan.dim),
+            XpbdOptions::origin(SceneOrigin::zero(plan.dim)),
         )
         .expect("gpu");
         let mut failed = None;

@@ -36,7 +36,7 @@ mod common;
 use common::bound::print_bound;
 use common::gpu::{adapter_or_skip, load_or_skip};
 use hyperpbd::core::builders::{BlockSpec, ChainSpec, GridSpec};
-use hyperpbd::gpu::{GpuBackend, Precision, SceneOrigin};
+use hyperpbd::gpu::{GpuBackend, Precision, SceneOrigin, XpbdOptions};
 use hyperpbd::{
     Backend, BackendError, BackendKind, ConstraintFamily, ConstraintKind, CpuBackend, FamilyKind,
     GpuError, Particle, Plan, Scene, SceneBuilder, SceneError, State,

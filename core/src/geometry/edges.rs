@@ -28,13 +28,25 @@ pub fn edge_matrix<R: ProjectionReal>(points: &[R], dim: usize, k: usize, edges:
 pub fn gram<R: ProjectionReal>(columns: &[R], dim: usize, k: usize, gram: &mut [R]) {
     for i in 0..k {
         for j in 0..k {
-            let mut s = R::constant(0.0);
-            for a in 0..dim {
-                s += columns[a * k + i] * columns[a * k + j];
-            }
-            gram[i * k + j] = s;
+            gram[i * k + j] = sum_of_products(0..dim, |a| (columns[a * k + i], columns[a * k + j]));
         }
     }
+}
+
+/// Σ_m u_m v_m over m in `range`, with (u_m, v_m) = `term(m)`: from
+/// +0.0, m ascending — the order of the matrix products of core, the f32
+/// reference and the kernels.
+#[inline(always)]
+pub fn sum_of_products<R: ProjectionReal>(
+    range: std::ops::Range<usize>,
+    term: impl Fn(usize) -> (R, R),
+) -> R {
+    let mut s = R::constant(0.0);
+    for m in range {
+        let (u, v) = term(m);
+        s += u * v;
+    }
+    s
 }
 
 /// The vertex gradient (k + 1 points × `dim`) of a function whose

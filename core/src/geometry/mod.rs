@@ -22,7 +22,7 @@ use crate::kinds::ProjectionReal;
 
 pub use closest_point::{ClosestPoint, MAX_SIMPLEX_ORDER, closest_point_on_simplex};
 pub use distance::distance;
-pub use edges::{edge_matrix, gram, scatter_edge_gradient};
+pub use edges::{edge_matrix, gram, scatter_edge_gradient, sum_of_products};
 pub use linalg::{adjugate, determinant, separation, unit_vector};
 pub use oriented_measure::{oriented_measure, oriented_volume};
 pub use overlap::{deepest_overlap, overlap};

@@ -113,16 +113,18 @@ pub fn pair_time(
     time(d0 - rounding, approach)
 }
 
-/// Certified time t* of plane `p` of `obstacles` for a particle at `x`
-/// with radius `radius` and step `delta`.
-pub fn plane_time(
-    obstacles: &BarrierObstacles,
-    p: usize,
-    x: &[f64],
-    radius: f64,
-    delta: &[f64],
-    epsilon: f64,
-) -> f64 {
+/// One particle's trial move against the obstacles: the ball at `x` of
+/// radius `radius`, moved by `delta` (the trial y = fl(x + fl(t Δ))).
+#[derive(Clone, Copy, Debug)]
+pub struct TrialMove<'a> {
+    pub x: &'a [f64],
+    pub radius: f64,
+    pub delta: &'a [f64],
+}
+
+/// Certified time t* of plane `p` of `obstacles` for `trial`.
+pub fn plane_time(obstacles: &BarrierObstacles, p: usize, trial: TrialMove, epsilon: f64) -> f64 {
+    let TrialMove { x, radius, delta } = trial;
     let dim = x.len();
     let n = &obstacles.plane_normals[p * dim..(p + 1) * dim];
     let offset = obstacles.plane_offsets[p];
@@ -142,18 +144,17 @@ pub fn plane_time(
     time(d0 - rounding, closing + gamma * closing_size)
 }
 
-/// Certified time t* of simplex `s` of `obstacles` (see the module docs:
-/// the support bound of the computed offset). `offset` is scratch of
-/// length `dim`.
+/// Certified time t* of simplex `s` of `obstacles` for `trial` (see the
+/// module docs: the support bound of the computed offset). `offset` is
+/// scratch of length `dim`.
 pub fn simplex_time(
     obstacles: &BarrierObstacles,
     s: usize,
-    x: &[f64],
-    radius: f64,
-    delta: &[f64],
+    trial: TrialMove,
     epsilon: f64,
     offset: &mut [f64],
 ) -> f64 {
+    let TrialMove { x, radius, delta } = trial;
     let dim = x.len();
     let vertices = obstacles.simplex(s, dim);
     closest_point_on_simplex(x, vertices, dim, offset);
@@ -188,15 +189,11 @@ pub fn simplex_time(
 
 /// The smallest certified time over every obstacle (planes, then the
 /// simplices within the filter's reach: barrier.rs, the candidate box;
-/// those beyond it have η t* ≥ 1) for one particle; ∞ with none. `fraction(obstacle_time(…))`
-/// is the certified replacement of `barrier::filter_fraction`.
-pub fn obstacle_time(
-    obstacles: &BarrierObstacles,
-    x: &[f64],
-    radius: f64,
-    delta: &[f64],
-    epsilon: f64,
-) -> f64 {
+/// those beyond it have η t* ≥ 1) for `trial`; ∞ with none.
+/// `fraction(obstacle_time(…))` is the certified replacement of
+/// `barrier::filter_fraction`.
+pub fn obstacle_time(obstacles: &BarrierObstacles, trial: TrialMove, epsilon: f64) -> f64 {
+    let TrialMove { x, radius, delta } = trial;
     let dim = x.len();
     let mut offset = [0.0f64; crate::MAX_DIM];
     let offset = &mut offset[..dim];
@@ -210,9 +207,9 @@ pub fn obstacle_time(
     let mut t = f64::INFINITY;
     for o in obstacles.near(lo, hi) {
         t = t.min(if o < planes {
-            plane_time(obstacles, o, x, radius, delta, epsilon)
+            plane_time(obstacles, o, trial, epsilon)
         } else {
-            simplex_time(obstacles, o - planes, x, radius, delta, epsilon, offset)
+            simplex_time(obstacles, o - planes, trial, epsilon, offset)
         });
     }
     t

@@ -94,11 +94,7 @@ fn clamp_with<R: ProjectionReal>(
 /// WGSL's; the golden path's `Iterator::sum` starts from −0.0).
 #[inline(always)]
 pub fn dot_from_zero<R: ProjectionReal>(normal: &[R], u: &[R]) -> R {
-    let mut s = R::constant(0.0);
-    for a in 0..u.len() {
-        s += normal[a] * u[a];
-    }
-    s
+    crate::geometry::sum_of_products(0..u.len(), |a| (normal[a], u[a]))
 }
 
 #[cfg(test)]

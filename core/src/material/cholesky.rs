@@ -12,6 +12,7 @@
 //! det A = Π L_jj²
 //! ```
 
+use crate::geometry::sum_of_products;
 use crate::kinds::ProjectionReal;
 
 /// A pivot d = a_jj − Σ L_jm² that is not > 0: the matrix is not positive
@@ -104,11 +105,7 @@ pub fn solve_factored<R: ProjectionReal>(l: &[R], n: usize, b: &mut [R]) {
 pub fn inverse_from_factor_inverse<R: ProjectionReal>(y: &[R], n: usize, inverse: &mut [R]) {
     for i in 0..n {
         for j in 0..n {
-            let mut s = R::constant(0.0);
-            for m in i.max(j)..n {
-                s += y[m * n + i] * y[m * n + j];
-            }
-            inverse[i * n + j] = s;
+            inverse[i * n + j] = sum_of_products(i.max(j)..n, |m| (y[m * n + i], y[m * n + j]));
         }
     }
 }

@@ -20,7 +20,7 @@
 
 use super::cholesky::cholesky;
 use super::{MaterialScratch, RestView};
-use crate::geometry::{determinant, edge_matrix, gram};
+use crate::geometry::{determinant, edge_matrix, gram, sum_of_products};
 use crate::kinds::ProjectionReal;
 
 /// Fills `s.edges`, `s.image` (F̂) and `s.cauchy_green` (C) for the
@@ -50,11 +50,7 @@ pub fn deform_into<R: ProjectionReal>(
     edge_matrix(points, dim, k, edges);
     for a in 0..dim {
         for j in 0..k {
-            let mut f = R::constant(0.0);
-            for i in 0..=j {
-                f += edges[a * k + i] * frame[i * k + j];
-            }
-            image[a * k + j] = f;
+            image[a * k + j] = sum_of_products(0..j + 1, |i| (edges[a * k + i], frame[i * k + j]));
         }
     }
     gram(image, dim, k, c);
@@ -130,11 +126,8 @@ pub fn pull_back_of<R: ProjectionReal>(
 ) {
     for a in 0..dim {
         for j in 0..k {
-            let mut p = R::constant(0.0);
-            for m in 0..k {
-                p += image[a * k + m] * stress[m * k + j];
-            }
-            first_piola[a * k + j] = p;
+            first_piola[a * k + j] =
+                sum_of_products(0..k, |m| (image[a * k + m], stress[m * k + j]));
         }
     }
     scatter_frame_rows((k, dim), (frame, measure), first_piola, grad);
@@ -156,11 +149,7 @@ pub fn scatter_frame_rows<R: ProjectionReal>(
     for a in 0..dim {
         let mut first = R::constant(0.0);
         for i in 0..k {
-            let mut h = R::constant(0.0);
-            for j in i..k {
-                h += y[a * k + j] * frame[i * k + j];
-            }
-            let h = measure * h;
+            let h = measure * sum_of_products(i..k, |j| (y[a * k + j], frame[i * k + j]));
             out[(i + 1) * dim + a] = h;
             first -= h;
         }

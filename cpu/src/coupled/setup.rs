@@ -24,7 +24,7 @@ use crate::parallel::Workers;
 use hyperpbd_core::IncrementalPotentialPlan;
 use hyperpbd_core::barrier::{candidate_box, distance_margin};
 use hyperpbd_core::broadphase::{Aabbs, Pair};
-use hyperpbd_core::implicit::certified_filter::{fraction, obstacle_time, pair_time};
+use hyperpbd_core::implicit::certified_filter::{TrialMove, fraction, obstacle_time, pair_time};
 use hyperpbd_core::implicit::{CoupledPlan, PairLag, normal_force, pair_lags};
 use hyperpbd_core::{Plan, Refusal, WarmStart};
 
@@ -197,13 +197,12 @@ impl Setup {
             let mut t = f64::INFINITY;
             for i in r.filter(|&i| particles.mass[i] > 0.0) {
                 let span = i * dim..(i + 1) * dim;
-                let time = obstacle_time(
-                    &ip.obstacles,
-                    &x[span.clone()],
-                    plan.radius[i],
-                    &delta[span],
-                    epsilon,
-                );
+                let trial = TrialMove {
+                    x: &x[span.clone()],
+                    radius: plan.radius[i],
+                    delta: &delta[span],
+                };
+                let time = obstacle_time(&ip.obstacles, trial, epsilon);
                 t = t.min(time);
             }
             t

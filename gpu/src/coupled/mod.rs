@@ -59,12 +59,10 @@ mod pcg;
 mod step;
 mod trials;
 
-use hyperpbd_core::{BackendError, MinimisationReport, Plan, State};
+use hyperpbd_core::{BackendError, MinimisationReport};
 
-use crate::Precision;
-use crate::context::DeviceSource;
 use crate::minimising::{Minimiser, Minimising};
-use crate::resident_backend::{Resident, ResidentBackend};
+use crate::resident_backend::{Load, Resident, ResidentBackend};
 use newton::Newton;
 pub use step::CoupledStep;
 
@@ -74,13 +72,8 @@ pub type GpuCoupledBackend = ResidentBackend<Minimising<CoupledStep>>;
 /// The coupled step minimises by Newton's loop (newton.rs) on its own
 /// data (step.rs).
 impl Minimiser for CoupledStep {
-    fn load(
-        source: DeviceSource<'_>,
-        plan: Plan,
-        state: &State,
-        precision: Precision,
-    ) -> Result<(Resident, Self), BackendError> {
-        CoupledStep::load(source, plan, state, precision)
+    fn load(load: Load<'_>) -> Result<(Resident, Self), BackendError> {
+        CoupledStep::load(load)
     }
 
     fn minimise(&mut self, on: &mut Resident) -> Result<MinimisationReport, BackendError> {

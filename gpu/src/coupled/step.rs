@@ -6,8 +6,7 @@
 use hyperpbd_core::broadphase::{Aabbs, Pair, grid_pairs};
 use hyperpbd_core::implicit::{CoupledPlan, PairLag};
 use hyperpbd_core::{
-    BackendError, Convergence, FamilyKind, GpuError, IncrementalPotentialPlan, Plan, State,
-    check_state,
+    BackendError, Convergence, FamilyKind, GpuError, IncrementalPotentialPlan, Plan,
 };
 
 use super::device::{Device, ElementUpload, Reduction};
@@ -18,10 +17,9 @@ use super::trials::TrialProbe;
 use crate::Precision;
 use crate::barrier::barrier_resources;
 use crate::codes;
-use crate::context::DeviceSource;
 use crate::kernel_set::{KernelSet, KernelSetSpec};
 use crate::params::{push_reals, real_size};
-use crate::resident_backend::Resident;
+use crate::resident_backend::{Load, Resident};
 use crate::shader::MAX_GPU_DIM;
 
 /// The coupled step's kernels, buffers and element lists.
@@ -88,13 +86,8 @@ fn unsupported(plan: &Plan, ip: &IncrementalPotentialPlan, precision: Precision)
 impl CoupledStep {
     /// Loads `plan` (an incremental-potential plan with a coupled step)
     /// with `state` on `device`.
-    pub(super) fn load(
-        device: DeviceSource<'_>,
-        plan: Plan,
-        state: &State,
-        precision: Precision,
-    ) -> Result<(Resident, Self), BackendError> {
-        check_state(&plan, state)?;
+    pub(super) fn load(load: Load<'_>) -> Result<(Resident, Self), BackendError> {
+        let (device, plan, state, precision) = load.into_parts();
         let (Some(ip), Some(coupled)) = (
             plan.incremental_potential().cloned(),
             plan.incremental_potential()

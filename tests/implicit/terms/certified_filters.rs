@@ -288,13 +288,16 @@ fn obstacle_filters_are_certified_for_planes_and_simplices() {
         if plane_gap(&y) <= q(0.0) || simplex_gap(&y) <= q(0.0) {
             uncertified_violations += 1;
         }
-        let t = fraction(obstacle_time(&obstacles, &x, radius, &delta, EPS));
-        let single = plane_time(&obstacles, 0, &x, radius, &delta, EPS).min(simplex_time(
+        let trial_move = TrialMove {
+            x: &x,
+            radius,
+            delta: &delta,
+        };
+        let t = fraction(obstacle_time(&obstacles, trial_move, EPS));
+        let single = plane_time(&obstacles, 0, trial_move, EPS).min(simplex_time(
             &obstacles,
             0,
-            &x,
-            radius,
-            &delta,
+            trial_move,
             EPS,
             &mut offset,
         ));

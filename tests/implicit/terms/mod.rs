@@ -35,7 +35,7 @@ use common::Lcg;
 use hyperpbd::ConstraintKind;
 use hyperpbd::core::barrier::{BarrierLaw, BarrierObstacles, SIMPLEX_SLOTS, filter_fraction};
 use hyperpbd::core::implicit::certified_filter::{
-    fraction, obstacle_time, pair_time, plane_time, simplex_time,
+    TrialMove, fraction, obstacle_time, pair_time, plane_time, simplex_time,
 };
 use hyperpbd::core::implicit::closed_forms::{
     backward_euler_slide, barrier_gap_under_load, hanging_chain_stretch, incline_acceleration,
