@@ -116,13 +116,8 @@ fn load(
 ) -> Result<GpuBackend, String> {
     let plan = Plan::compile(scene).map_err(|e| e.to_string())?;
     let state = State::from_scene(scene);
-    match mode {
-        Some(mode) => {
-            GpuBackend::with_options(adapter, plan, &state, precision, XpbdOptions::mode(mode))
-        }
-        None => GpuBackend::with_adapter(adapter, plan, &state, precision),
-    }
-    .map_err(|e| e.to_string())
+    let options = XpbdOptions { origin: None, mode };
+    GpuBackend::with_options(adapter, plan, &state, precision, options).map_err(|e| e.to_string())
 }
 
 /// Least-squares line through (x, y): (intercept, slope).

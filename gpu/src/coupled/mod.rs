@@ -70,7 +70,8 @@ pub use step::CoupledStep;
 pub type GpuCoupledBackend = ResidentBackend<Minimising<CoupledStep>>;
 
 /// The coupled step minimises by Newton's loop (newton.rs) on its own
-/// data (step.rs).
+/// data (step.rs). Implemented here, not in step.rs: newton.rs reads
+/// step.rs, and no two files may import each other (tests/house).
 impl Minimiser for CoupledStep {
     fn load(load: Load<'_>) -> Result<(Resident, Self), BackendError> {
         CoupledStep::load(load)
