@@ -131,15 +131,15 @@ pub const LAVAPIPE_THREADS: &str = "LP_NUM_THREADS";
 /// child process with `LP_NUM_THREADS=0` (`--exact`, its output printed
 /// here) and fails when the child fails or ran no test; it then returns
 /// `false`. A variable already set (by the user, or in that child) is
-/// kept: `true`, the body runs here. Other drivers never read it.
+/// kept: `true`, the body runs here. Other drivers never read it. The
+/// child runs with llvmpipe's optimisation passes ([`one_thread_child`]).
 pub fn on_one_lavapipe_thread(test: &str) -> bool {
     if std::env::var_os(LAVAPIPE_THREADS).is_some() {
         return true;
     }
     let exe = std::env::current_exe().expect("the test binary's path");
-    let out = std::process::Command::new(exe)
+    let out = one_thread_child(exe)
         .args([test, "--exact", "--nocapture", "--test-threads=1"])
-        .env(LAVAPIPE_THREADS, "0")
         .output()
         .unwrap_or_else(|e| panic!("{test}: cannot run it again with {LAVAPIPE_THREADS}=0: {e}"));
     let stdout = String::from_utf8_lossy(&out.stdout);
@@ -156,6 +156,27 @@ pub fn on_one_lavapipe_thread(test: &str) -> bool {
     );
     false
 }
+
+/// The command of a child that runs tests on one lavapipe thread:
+/// `exe` with `LP_NUM_THREADS=0`, and without `GALLIVM_PERF=nopt`.
+/// `scripts/test.sh` and the mutation harness set `nopt` for the `gpu`
+/// binary, whose tests compile hundreds of short-lived pipelines; a child
+/// steps a long scene on a few, where llvmpipe's passes pay (measured,
+/// one after another on a warm shader cache: the six
+/// `materials_closed_forms` tests 351 s with `nopt`, 301 s without;
+/// `coupled_f32` 29.7 s, 22.4 s). The same IEEE operations in the same
+/// order either way; any other value of the variable is kept.
+fn one_thread_child(exe: std::path::PathBuf) -> std::process::Command {
+    let mut child = std::process::Command::new(exe);
+    child.env(LAVAPIPE_THREADS, "0");
+    if std::env::var_os(LLVM_PASSES).is_some_and(|v| v == "nopt") {
+        child.env_remove(LLVM_PASSES);
+    }
+    child
+}
+
+/// llvmpipe's switch for its LLVM passes (`nopt`: none).
+const LLVM_PASSES: &str = "GALLIVM_PERF";
 
 /// [`on_one_lavapipe_thread`] for a binary whose tests share one run (a
 /// `OnceLock` every test reads: a report's sweep), where a child per test
@@ -180,9 +201,8 @@ pub fn binary_on_one_lavapipe_thread(test: &str) -> bool {
         let args = std::env::args_os()
             .skip(1)
             .filter(|a| a != "--nocapture" && a != "--show-output");
-        let out = std::process::Command::new(exe)
+        let out = one_thread_child(exe)
             .args(args)
-            .env(LAVAPIPE_THREADS, "0")
             .output()
             .unwrap_or_else(|e| {
                 panic!("{test}: cannot run the binary again with {LAVAPIPE_THREADS}=0: {e}")

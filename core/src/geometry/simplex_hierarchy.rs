@@ -266,24 +266,33 @@ impl SimplexHierarchy {
     fn gather_in(&self, lo: &[f64], hi: &[f64], out: &mut [u32]) -> Option<usize> {
         let d2 = 2 * lo.len();
         debug_assert_eq!(lo.len(), self.dim);
+        let meets = |n: usize| overlaps(&self.boxes[n * d2..(n + 1) * d2], lo, hi);
         let mut count = 0;
         let mut stack = [0u32; WALK_STACK];
-        let mut depth = usize::from(self.node_count() > 0);
+        // Only nodes whose boxes meet the query are pushed (each tested as
+        // its parent is expanded): the same nodes in the same order as
+        // testing them when popped, without the pushes and pops of those
+        // that miss.
+        let mut depth = usize::from(self.node_count() > 0 && meets(0));
         while depth > 0 {
             depth -= 1;
             let n = stack[depth] as usize;
-            if !overlaps(&self.boxes[n * d2..(n + 1) * d2], lo, hi) {
-                continue;
-            }
             let w = &self.words[n * NODE_WORDS..(n + 1) * NODE_WORDS];
             if w[1] == w[2] {
                 *out.get_mut(count)? = w[1];
                 count += 1;
             } else {
-                // depth + 2 ≤ WALK_STACK: see the module docs.
-                stack[depth] = w[0];
-                stack[depth + 1] = n as u32 + 1;
-                depth += 2;
+                // depth + 2 ≤ WALK_STACK: see the module docs. The right
+                // child is pushed first, so the left one is taken first.
+                let (right, left) = (w[0], n as u32 + 1);
+                if meets(right as usize) {
+                    stack[depth] = right;
+                    depth += 1;
+                }
+                if meets(left as usize) {
+                    stack[depth] = left;
+                    depth += 1;
+                }
             }
         }
         Some(count)
