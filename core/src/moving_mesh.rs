@@ -39,7 +39,8 @@
 use crate::barrier::BarrierObstacles;
 use crate::guard_rules::{GuardKind, GuardRejection, GuardSubject};
 use crate::kinds::ProjectionReal;
-use crate::kinds::mesh_contact::closest;
+use crate::kinds::mesh_candidates::Candidates;
+use crate::kinds::mesh_contact::{closest, closest_kept};
 use crate::motion::{Carry, MeshAt, MotionPlan, SubstepMotion};
 
 /// The map into a mesh's frame in some precision (module docs).
@@ -131,23 +132,28 @@ impl<R: ProjectionReal> MeshFrame<R> {
 }
 
 /// [`closest`] for a mesh placed by `frame` (`None`: static): the query
-/// made in the mesh's frame, the normal turned back to the world.
+/// made in the mesh's frame, the normal turned back to the world; with
+/// `kept`, the particle's candidates kept between queries (in the mesh's
+/// frame, where the hierarchy is: [`closest_kept`]).
 pub fn closest_placed(
     mesh: &BarrierObstacles,
     frame: Option<&MeshFrame<f64>>,
-    x: &[f64],
-    radius: f64,
-    reach: f64,
+    (x, radius, reach): (&[f64], f64, f64),
     normal: &mut [f64],
+    kept: Option<&mut Candidates>,
 ) -> Option<f64> {
+    let query = |y: &[f64], normal: &mut [f64]| match kept {
+        Some(kept) => closest_kept(mesh, y, (radius, reach), normal, kept),
+        None => closest(mesh, y, radius, reach, normal),
+    };
     let Some(frame) = frame else {
-        return closest(mesh, x, radius, reach, normal);
+        return query(x, normal);
     };
     let n = x.len();
     let mut y = [0.0f64; crate::MAX_DIM];
     let mut scratch = [0.0f64; crate::MAX_DIM];
     frame.to_frame(x, &mut y[..n]);
-    let c = closest(mesh, &y[..n], radius, reach, normal)?;
+    let c = query(&y[..n], normal)?;
     frame.normal_back(normal, &mut scratch[..n]);
     Some(c)
 }

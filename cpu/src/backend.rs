@@ -21,17 +21,15 @@ use crate::carried::CarriedForces;
 use crate::collide::{self, Contacts};
 use crate::contact_forces::Recorder;
 use crate::integrate::{Failed, Motion};
-use crate::parallel::Workers;
+use crate::parallel::{DisjointSlice, Workers};
 use crate::project::{Batch, Workspace, project};
 use crate::schedule::{fused_tail, splits_somewhere};
 use crate::{
-    colours, consistent, coupled, guard, incremental_potential, integrate, motion, threads,
+    colours, consistent, coupled, guard, incremental_potential, integrate, mesh_contact, motion,
+    threads,
 };
 use hyperpbd_core::broadphase::Aabbs;
 use hyperpbd_core::motion::SubstepMotion;
-
-/// Values per chunk of a reset or copy (multipliers, the saved state).
-const VALUE_GRAIN: usize = 16_384;
 
 /// The golden backend.
 pub struct CpuBackend {
@@ -84,6 +82,8 @@ pub struct CpuBackend {
     motion_now: SubstepMotion,
     /// Contact forces, when requested (`contact_forces.rs`).
     forces: Option<Recorder>,
+    /// The mesh families' kept candidates (`mesh_contact.rs`).
+    kept: mesh_contact::KeptCandidates,
 }
 
 impl CpuBackend {
@@ -106,6 +106,7 @@ impl CpuBackend {
         let lambda = vec![0.0; lambda_starts[lambda_starts.len() - 1]];
         let carried = CarriedForces::new(&plan);
         Ok(CpuBackend {
+            kept: mesh_contact::KeptCandidates::new(&plan),
             force: plan.force.clone(),
             x: state.positions.clone(),
             v: state.velocities.clone(),
@@ -194,6 +195,8 @@ impl CpuBackend {
             }
             Kernel::Project { family, color } => {
                 let fam = &plan.families[family];
+                // SAFETY: a slot is touched by its element only (project.rs).
+                let kept = unsafe { DisjointSlice::new(self.kept.family(family)) };
                 let batch = Batch {
                     dim: plan.dim,
                     inverse_mass: &plan.inverse_mass,
@@ -202,6 +205,7 @@ impl CpuBackend {
                     start: &self.p,
                     meshes: &plan.meshes,
                     moving_mesh: motion::mesh(plan, &self.motion_now, family),
+                    kept: &kept,
                 };
                 let lambda =
                     &mut self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]];
@@ -252,7 +256,8 @@ impl CpuBackend {
                 let lambda =
                     &self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]];
                 let moving = (&self.motion_now, &self.p[..], &self.x[..]);
-                motion::friction_of(workers, plan, family, lambda, moving, &mut self.v)
+                let of = (family, lambda, self.kept.family(family));
+                motion::friction_of(workers, plan, of, moving, &mut self.v)
                     .map_err(|i| self.particle_error(StageName::Friction, i))
             }
             Kernel::Damping => {
@@ -448,8 +453,8 @@ impl CpuBackend {
         let workers = &self.workers;
         self.saved_x.resize(self.x.len(), 0.0);
         self.saved_v.resize(self.v.len(), 0.0);
-        copy(workers, &self.x, &mut self.saved_x);
-        copy(workers, &self.v, &mut self.saved_v);
+        workers.copy(&self.x, &mut self.saved_x);
+        workers.copy(&self.v, &mut self.saved_v);
         self.carried.save(&self.plan, &self.lambda);
         self.minimisation.clear();
         self.revertible = false;
@@ -559,7 +564,7 @@ impl CpuBackend {
             || {
                 // With the primal residual the forces carry over (warm_start).
                 if !plan.primal_residual {
-                    reset(workers, &mut self.lambda);
+                    workers.zero(&mut self.lambda);
                 }
             },
             || pass(workers, plan, motion),
@@ -581,20 +586,4 @@ impl CpuBackend {
             }
         }
     }
-}
-
-/// λ = 0 for every family (the start of a substep).
-fn reset(workers: &Workers, lambda: &mut [f64]) {
-    let _ = workers.try_for_spans(lambda.len(), VALUE_GRAIN, 1, [lambda], |_, [l]| {
-        l.fill(0.0);
-        Ok(())
-    });
-}
-
-/// `to` = `from` (equal lengths), in chunks on `workers`.
-fn copy(workers: &Workers, from: &[f64], to: &mut [f64]) {
-    let _ = workers.try_for_spans(to.len(), VALUE_GRAIN, 1, [to], |r, [to]| {
-        to.copy_from_slice(&from[r]);
-        Ok(())
-    });
 }

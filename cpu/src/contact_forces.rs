@@ -294,7 +294,7 @@ fn normal_at<'a>(
             let xi = &x[i * n..(i + 1) * n];
             let mesh = &plan.meshes[*mesh];
             let frame = crate::motion::mesh(plan, now, family).map(|m| m.frame(&[]));
-            if closest_placed(mesh, frame.as_ref(), xi, f.rest[e], reach, buf).is_none() {
+            if closest_placed(mesh, frame.as_ref(), (xi, f.rest[e], reach), buf, None).is_none() {
                 buf.fill(0.0);
             }
             buf

@@ -17,8 +17,9 @@
 //! ```
 //! These are the hyperplane's updates (`project.rs`, `friction.rs`) with
 //! the plane's fixed normal replaced by the mesh's normal at x. A family
-//! holds each particle once and an element writes only its particle, so
-//! the elements run in chunks on every core with the serial bytes.
+//! holds each particle once and an element writes only its particle (and
+//! its own kept candidates, [`KeptCandidates`]), so the elements run in
+//! chunks on every core with the serial bytes.
 
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
@@ -27,10 +28,45 @@ use crate::parallel::{Coordinates, DisjointSlice, Shared, Workers, first_error};
 use crate::project::ELEMENT_GRAIN;
 use hyperpbd_core::barrier::BarrierObstacles;
 use hyperpbd_core::kinds::contact_friction::clamp_tangential;
+use hyperpbd_core::kinds::mesh_candidates::Candidates;
 use hyperpbd_core::motion::MeshAt;
 use hyperpbd_core::moving_mesh::closest_placed;
-use hyperpbd_core::{Family, MAX_DIM};
+use hyperpbd_core::{Family, FamilyKind, MAX_DIM, Plan};
 use std::ops::Range;
+
+/// The candidates each element of a mesh family keeps between its
+/// queries (`hyperpbd_core::kinds::mesh_candidates`: the same answers with
+/// fewer walks of the hierarchy); other families keep none. Derived data:
+/// any slot may be emptied at any time without changing a bit.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct KeptCandidates {
+    slots: Vec<Candidates>,
+    /// Family f's slots: `slots[starts[f]..starts[f + 1]]`.
+    starts: Vec<usize>,
+}
+
+impl KeptCandidates {
+    /// Empty slots for every element of `plan`'s mesh families.
+    pub fn new(plan: &Plan) -> Self {
+        let mut starts = vec![0];
+        for f in &plan.families {
+            let own = match f.kind {
+                FamilyKind::MeshContact { .. } => f.len(),
+                _ => 0,
+            };
+            starts.push(starts[starts.len() - 1] + own);
+        }
+        KeptCandidates {
+            slots: vec![Candidates::EMPTY; starts[starts.len() - 1]],
+            starts,
+        }
+    }
+
+    /// Family `family`'s slots (empty unless it is a mesh family).
+    pub fn family(&mut self, family: usize) -> &mut [Candidates] {
+        &mut self.slots[self.starts[family]..self.starts[family + 1]]
+    }
+}
 
 /// What every element of a mesh family's friction shares.
 pub(crate) struct MeshFriction<'a> {
@@ -46,6 +82,8 @@ pub(crate) struct MeshFriction<'a> {
     /// A moving mesh's placement this substep and the positions at the
     /// substep's start (`None`: static).
     pub moving: Option<(&'a MeshAt, &'a [f64])>,
+    /// The elements' kept candidates ([`KeptCandidates::family`]).
+    pub kept: &'a DisjointSlice<'a, Candidates>,
 }
 
 /// Dynamic friction of a mesh family; the first particle (in element
@@ -78,6 +116,10 @@ fn friction_in<V: Coordinates + ?Sized>(
     let normal = &mut normal[..dim];
     let mut rel = [0.0f64; MAX_DIM];
     let frame = m.moving.map(|(at, _)| at.frame(&[]));
+    // SAFETY: each element belongs to one chunk, and its slot is touched
+    // only by its own update.
+    let kept = unsafe { m.kept.range_mut(elements.clone()) };
+    let first = elements.start;
     for e in elements {
         let l = m.lambda[e];
         if l <= 0.0 {
@@ -86,8 +128,9 @@ fn friction_in<V: Coordinates + ?Sized>(
         let i = m.family.elements[e] as usize;
         let w = m.inverse_mass[i];
         let xi = &m.x[i * dim..(i + 1) * dim];
-        let reach = w * l;
-        if closest_placed(m.mesh, frame.as_ref(), xi, m.family.rest[e], reach, normal).is_none() {
+        let query = (xi, m.family.rest[e], w * l);
+        let slot = Some(&mut kept[e - first]);
+        if closest_placed(m.mesh, frame.as_ref(), query, normal, slot).is_none() {
             continue;
         }
         let vi = v.values_mut(i * dim..(i + 1) * dim);
@@ -129,14 +172,8 @@ pub(crate) fn residual(
     let frame = moving.map(|m| m.frame(&[]));
     for (e, &i) in family.elements.iter().enumerate() {
         let xi = &x[i as usize * dim..(i as usize + 1) * dim];
-        if let Some(c) = closest_placed(
-            mesh,
-            frame.as_ref(),
-            xi,
-            family.rest[e],
-            0.0,
-            &mut normal[..dim],
-        ) {
+        let query = (xi, family.rest[e], 0.0);
+        if let Some(c) = closest_placed(mesh, frame.as_ref(), query, &mut normal[..dim], None) {
             worst = worst.max(-c);
         }
     }

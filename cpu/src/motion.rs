@@ -27,10 +27,11 @@ use hyperpbd_core::motion::{MeshAt, PlaneAt, SubstepMotion, substep_time};
 use hyperpbd_core::moving_mesh::reach_rejection;
 use hyperpbd_core::{BackendError, Family, FamilyKind, FamilyResidual, Plan, StepError};
 
-use crate::parallel::Workers;
+use crate::parallel::{DisjointSlice, Workers};
 use crate::project::dot;
 use hyperpbd_core::kinds::contact_friction::static_friction;
 use hyperpbd_core::kinds::hyperplane_contact::contact_update;
+use hyperpbd_core::kinds::mesh_candidates::Candidates;
 
 /// The Motion kernel of substep `substep` of step `step`: the substep's
 /// prescribed values, pins placed in `x` with their velocities in `v`; a
@@ -114,13 +115,15 @@ pub fn project(
 pub fn friction_of(
     workers: &Workers,
     plan: &Plan,
-    family: usize,
-    lambda: &[f64],
+    (family, lambda, kept): (usize, &[f64], &mut [Candidates]),
     (now, start, x): (&SubstepMotion, &[f64], &[f64]),
     v: &mut [f64],
 ) -> Result<(), usize> {
     let f = &plan.families[family];
     if let FamilyKind::MeshContact { mesh, friction } = &f.kind {
+        // SAFETY: element e's slot is touched only by e's friction, and
+        // each element belongs to one chunk.
+        let kept = unsafe { DisjointSlice::new(kept) };
         let mesh = crate::mesh_contact::MeshFriction {
             dim: plan.dim,
             h: plan.h,
@@ -131,6 +134,7 @@ pub fn friction_of(
             lambda,
             x,
             moving: self::mesh(plan, now, family).map(|m| (m, start)),
+            kept: &kept,
         };
         return crate::mesh_contact::friction(workers, &mesh, v);
     }

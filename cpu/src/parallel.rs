@@ -72,6 +72,9 @@ impl std::fmt::Debug for Workers {
 /// Pools already started, one per thread count.
 static POOLS: Mutex<Vec<(usize, Arc<rayon::ThreadPool>)>> = Mutex::new(Vec::new());
 
+/// Values per chunk of [`Workers::zero`] and [`Workers::copy`].
+const VALUE_GRAIN: usize = 16_384;
+
 impl Workers {
     /// Everything on the calling thread.
     pub fn serial() -> Self {
@@ -242,6 +245,24 @@ impl Workers {
         let spans = Spans::new(len, stride, slices);
         // SAFETY: the chunks are disjoint and each is taken once.
         self.try_for_chunks(len, grain, |r| body(r.clone(), unsafe { spans.take(r) }))
+    }
+
+    /// `values` = 0 (the multipliers at the start of a substep), in
+    /// chunks of [`VALUE_GRAIN`].
+    pub fn zero(&self, values: &mut [f64]) {
+        let _ = self.try_for_spans(values.len(), VALUE_GRAIN, 1, [values], |_, [v]| {
+            v.fill(0.0);
+            Ok(())
+        });
+    }
+
+    /// `to` = `from` (equal lengths: the saved state), in chunks of
+    /// [`VALUE_GRAIN`].
+    pub fn copy(&self, from: &[f64], to: &mut [f64]) {
+        let _ = self.try_for_spans(to.len(), VALUE_GRAIN, 1, [to], |r, [to]| {
+            to.copy_from_slice(&from[r]);
+            Ok(())
+        });
     }
 
     /// `body` of every chunk of items, as in [`Workers::try_for_spans`],

@@ -51,6 +51,7 @@ use hyperpbd_core::geometry::{Scratch, oriented_measure, simplex_squared_measure
 use hyperpbd_core::kinds;
 use hyperpbd_core::kinds::contact_friction::static_friction;
 use hyperpbd_core::kinds::hyperplane_contact::contact_update;
+use hyperpbd_core::kinds::mesh_candidates::Candidates;
 use hyperpbd_core::material::MaterialScratch;
 use hyperpbd_core::motion::MeshAt;
 use hyperpbd_core::moving_mesh::closest_placed;
@@ -75,6 +76,9 @@ pub struct Batch<'a> {
     pub meshes: &'a [std::sync::Arc<hyperpbd_core::barrier::BarrierObstacles>],
     /// A moving mesh family's placement this substep (`None`: static).
     pub moving_mesh: Option<&'a MeshAt>,
+    /// A mesh family's kept candidates (`mesh_contact::KeptCandidates`;
+    /// empty for other families).
+    pub kept: &'a DisjointSlice<'a, Candidates>,
 }
 
 /// Per-batch scratch.
@@ -190,7 +194,7 @@ fn project_elements<X: Coordinates + ?Sized>(
                 batch.start,
             ),
             batch.family,
-            (&batch.meshes[*mesh], batch.moving_mesh),
+            (&batch.meshes[*mesh], batch.moving_mesh, batch.kept),
             *friction,
             elements,
             x,
@@ -429,7 +433,11 @@ fn contact_in<D: Dim, X: Coordinates + ?Sized>(
 fn mesh_contact_in<X: Coordinates + ?Sized>(
     (dim, inverse_mass, alpha_tilde, start): (usize, &[f64], f64, &[f64]),
     family: &Family,
-    (mesh, moving): (&BarrierObstacles, Option<&MeshAt>),
+    (mesh, moving, kept): (
+        &BarrierObstacles,
+        Option<&MeshAt>,
+        &DisjointSlice<Candidates>,
+    ),
     friction: f64,
     elements: Range<usize>,
     x: &mut X,
@@ -441,14 +449,19 @@ fn mesh_contact_in<X: Coordinates + ?Sized>(
     let mut carried = [0.0f64; MAX_DIM];
     let q = &mut carried[..n];
     let frame = moving.map(|m| m.frame(&[]));
+    // SAFETY: `elements` are this call's alone (one chunk of a colour, or
+    // the whole colour on one thread), and an element's slot is touched
+    // only by its own update.
+    let kept = unsafe { kept.range_mut(elements.clone()) };
     let first = elements.start;
     for e in elements {
         let i = family.elements[e] as usize;
         let w = inverse_mass[i];
         let l = lambda[e - first];
         let xi = x.values_mut(i * n..i * n + n);
-        let Some(c) = closest_placed(mesh, frame.as_ref(), xi, family.rest[e], w * l, normal)
-        else {
+        let query = (&*xi, family.rest[e], w * l);
+        let slot = Some(&mut kept[e - first]);
+        let Some(c) = closest_placed(mesh, frame.as_ref(), query, normal, slot) else {
             continue;
         };
         lambda[e - first] = contact_update(c, (l, w, alpha_tilde), normal, xi).ok_or(e)?;

@@ -38,18 +38,23 @@ pub const GATHER: usize = 32;
 pub const BOUNDED: f64 = 1e100;
 
 /// K (module docs) into `kept`, in index order, and its length, for the
-/// particle at `x` with radius `radius`, `reach` and `pad`, the candidate
-/// box being `[lo, hi]`. `solve(t)` returns Ĉ_t (once, for t in K).
-/// `None` when A holds more than [`GATHER`] simplices.
+/// particle at `x` with radius `radius`, `reach` and `pad`; `gather`
+/// writes A (the simplices whose boxes meet the candidate box, in walk
+/// order) into `kept` and returns its length, `None` when A holds more
+/// than [`GATHER`] simplices (then so does this). `solve(t)` returns Ĉ_t
+/// (once, for t in K).
 pub fn deciding(
     tree: &SimplexHierarchy,
-    (x, lo, hi): (&[f64], &[f64], &[f64]),
+    x: &[f64],
     (radius, reach, pad): (f64, f64, f64),
-    kept: &mut [u32; GATHER],
+    (kept, gather): (
+        &mut [u32; GATHER],
+        impl FnOnce(&mut [u32; GATHER]) -> Option<usize>,
+    ),
     solve: impl FnOnce(usize) -> f64,
 ) -> Option<usize> {
     let dim = x.len();
-    let count = tree.gather(lo, hi, kept)?;
+    let count = gather(kept)?;
     if count == 0 {
         return Some(0);
     }

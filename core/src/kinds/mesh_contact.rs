@@ -21,7 +21,10 @@
 //! mesh's hierarchy in index order (`barrier::candidate_box`, pad =
 //! 16 N (N + 4) ε (‖x‖∞ + G + r + wλ): rounding of boxes and distances);
 //! of those, `mesh_bounds.rs` drops the ones whose box alone shows they
-//! can neither win nor tie (the same choice with fewer solves).
+//! can neither win nor tie (the same choice with fewer solves). The golden
+//! path keeps each particle's walk between its queries
+//! (`mesh_candidates.rs`, [`closest_kept`]): the same list in the same
+//! order while its box stays inside a wider one walked before.
 //! ```text
 //! (C, n) = the smallest |x − q_s| − r over the visited s (the lowest s on a tie;
 //!          within a simplex the first face in bitmask order: closest_point.rs)
@@ -41,6 +44,7 @@
 
 use super::ProjectionReal;
 use super::mesh_bounds::{BOUNDED, GATHER, deciding};
+use super::mesh_candidates::Candidates;
 use super::relation::Relation;
 use crate::barrier::{BarrierObstacles, candidate_box, distance_margin};
 
@@ -58,11 +62,34 @@ pub fn closest(
     reach: f64,
     normal: &mut [f64],
 ) -> Option<f64> {
+    closest_with(mesh, x, (radius, reach), normal, None)
+}
+
+/// [`closest`] for a particle that keeps its candidates between queries
+/// in `kept` (`mesh_candidates.rs`: the same answer, bit for bit, with
+/// fewer walks of the hierarchy).
+pub fn closest_kept(
+    mesh: &BarrierObstacles,
+    x: &[f64],
+    (radius, reach): (f64, f64),
+    normal: &mut [f64],
+    kept: &mut Candidates,
+) -> Option<f64> {
+    closest_with(mesh, x, (radius, reach), normal, Some(kept))
+}
+
+fn closest_with(
+    mesh: &BarrierObstacles,
+    x: &[f64],
+    (radius, reach): (f64, f64),
+    normal: &mut [f64],
+    kept: Option<&mut Candidates>,
+) -> Option<f64> {
     // Scratch of a few coordinates in low dimensions (no 2 KiB to clear).
     if x.len() <= 4 {
-        closest_in::<4>(mesh, x, radius, reach, normal)
+        closest_in::<4>(mesh, x, (radius, reach), normal, kept)
     } else {
-        closest_in::<{ crate::MAX_DIM }>(mesh, x, radius, reach, normal)
+        closest_in::<{ crate::MAX_DIM }>(mesh, x, (radius, reach), normal, kept)
     }
 }
 
@@ -70,9 +97,9 @@ pub fn closest(
 fn closest_in<const D: usize>(
     mesh: &BarrierObstacles,
     x: &[f64],
-    radius: f64,
-    reach: f64,
+    (radius, reach): (f64, f64),
     normal: &mut [f64],
+    candidates: Option<&mut Candidates>,
 ) -> Option<f64> {
     let dim = x.len();
     let mut lo = [0.0f64; D];
@@ -94,8 +121,13 @@ fn closest_in<const D: usize>(
     let finite = x.iter().all(|c| c.is_finite());
     let bounded = finite && size < BOUNDED && mesh.plane_count() == 0 && mesh.is_indexed();
     let found = bounded.then(|| {
-        let (box_, pad) = ((&*x, &*lo, &*hi), (radius, reach, margin * size));
-        deciding(&mesh.hierarchy, box_, pad, &mut kept, |s| {
+        let (tree, bounds) = (&mesh.hierarchy, (&*lo, &*hi));
+        let gather = |out: &mut [u32; GATHER]| match candidates {
+            Some(c) => c.gather(tree, bounds, out),
+            None => tree.gather(lo, hi, out),
+        };
+        let pad = (radius, reach, margin * size);
+        deciding(tree, x, pad, (&mut kept, gather), |s| {
             t = s;
             ct = mesh.distance(s, x, radius, nt);
             ct

@@ -34,6 +34,7 @@ mod expression_tests;
 pub mod hyperplane_contact;
 mod material;
 mod mesh_bounds;
+pub mod mesh_candidates;
 pub mod mesh_contact;
 mod oriented_measure;
 pub mod particle_contact;
