@@ -52,7 +52,13 @@ impl KeptCandidates {
         for f in &plan.families {
             let own = match f.kind {
                 FamilyKind::MeshContact { .. } => f.len(),
-                _ => 0,
+                FamilyKind::Distance
+                | FamilyKind::SimplexMeasure { .. }
+                | FamilyKind::OrientedMeasure
+                | FamilyKind::Tether
+                | FamilyKind::Material { .. }
+                | FamilyKind::HyperplaneContact { .. }
+                | FamilyKind::Expression(_) => 0,
             };
             starts.push(starts[starts.len() - 1] + own);
         }

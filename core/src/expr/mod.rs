@@ -203,7 +203,7 @@ impl Compiled {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 /// Every ∂²C/∂j∂k (both triangles, row-major n×n) at `x`, each row from
 /// its own reverse pass: the symmetry test compares the two triangles.

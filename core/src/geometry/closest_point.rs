@@ -339,13 +339,8 @@ mod tests {
     /// are candidates, and the closest point is the plain enumeration's.
     #[test]
     fn shared_gram_entries_give_every_face_its_own_bits() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rng = crate::expr::tests::random::Rng(0x9e37_79b9_7f4a_7c15);
+        let mut next = || rng.uniform(-0.5, 0.5);
         let mut faces = 0;
         for dim in 1..=5 {
             for count in 2..=4 {

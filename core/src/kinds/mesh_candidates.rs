@@ -7,7 +7,8 @@
 //!                          boxes meet K, in walk order)
 //! Q ⊆ K (every axis: K.lo ≤ lo, hi ≤ K.hi)  → A = L_K filtered by "box_s meets Q", in order
 //! otherwise                                 → K = Q widened by its half-width on every axis,
-//!                                             L_K walked anew (more than GATHER: not kept)
+//!                                             L_K walked anew; more than GATHER there:
+//!                                             K = Q (its own walk; more there too: None)
 //! ```
 //! Why A is the walk of Q, in its order: a simplex whose box meets Q meets
 //! K ⊇ Q (the test compares the same stored numbers), so it is in L_K;
@@ -70,12 +71,17 @@ impl Candidates {
                 self.hi[a] = hi[a] + half;
             }
             let widened = (0..dim).all(|a| self.lo[a] <= lo[a] && hi[a] <= self.hi[a]);
-            match tree.gather(&self.lo[..dim], &self.hi[..dim], &mut self.list) {
-                Some(count) if widened => self.count = count as u32,
-                _ => {
-                    self.count = u32::MAX;
-                    return tree.gather(lo, hi, out);
-                }
+            let kept = tree.gather(&self.lo[..dim], &self.hi[..dim], &mut self.list);
+            if let (true, Some(count)) = (widened, kept) {
+                self.count = count as u32;
+            } else {
+                // More than GATHER in the widened box (or a box that did
+                // not widen): keep the box's own walk, one walk either way.
+                self.lo[..dim].copy_from_slice(lo);
+                self.hi[..dim].copy_from_slice(hi);
+                let count = tree.gather(lo, hi, &mut self.list);
+                self.count = count.map_or(u32::MAX, |c| c as u32);
+                count?;
             }
         }
         let mut count = 0;
@@ -99,13 +105,8 @@ mod tests {
     /// walk's order, and the kept list is used (not every query walks).
     #[test]
     fn kept_candidates_are_the_walk_in_its_order() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = crate::expr::tests::random::Rng(0x2545_f491_4f6c_dd1d);
+        let mut next = || rng.uniform(0.0, 1.0);
         for dim in 2..=5 {
             // 600 small triangles (edges ≲ 0.3) scattered over [0, 4]^N.
             let mut vertices: Vec<Vec<f64>> = Vec::new();
