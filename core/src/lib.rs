@@ -21,6 +21,7 @@ pub mod geometry;
 mod guard_rules;
 pub mod guards;
 pub mod implicit;
+pub mod impulse_recorder;
 mod incremental_potential_plan;
 mod json;
 pub mod kinds;

@@ -306,6 +306,20 @@ pub struct SubstepMotion {
     pub pin_velocities: Vec<f64>,
 }
 
+impl SubstepMotion {
+    /// The plane of family `family` in this substep, if it moves
+    /// (`motion`: the plan's).
+    pub fn plane(&self, motion: Option<&MotionPlan>, family: usize) -> Option<&PlaneAt> {
+        self.planes.get(motion?.plane_of(family)?)
+    }
+
+    /// The mesh of family `family` in this substep, if it moves
+    /// (`motion`: the plan's).
+    pub fn mesh(&self, motion: Option<&MotionPlan>, family: usize) -> Option<&MeshAt> {
+        self.meshes.get(motion?.mesh_of(family)?)
+    }
+}
+
 impl MotionPlan {
     /// The index in [`MotionPlan::planes`] of family `family`'s plane.
     pub fn plane_of(&self, family: usize) -> Option<usize> {

@@ -19,7 +19,6 @@ use hyperpbd_core::{
 
 use crate::carried::CarriedForces;
 use crate::collide::{self, Contacts};
-use crate::contact_forces::Recorder;
 use crate::integrate::{Failed, Motion};
 use crate::parallel::{DisjointSlice, Workers};
 use crate::project::{Batch, Workspace, project};
@@ -29,6 +28,7 @@ use crate::{
     threads,
 };
 use hyperpbd_core::broadphase::Aabbs;
+use hyperpbd_core::impulse_recorder::ImpulseRecorder;
 use hyperpbd_core::motion::SubstepMotion;
 
 /// The golden backend.
@@ -81,7 +81,7 @@ pub struct CpuBackend {
     /// The prescribed values of the current substep (`motion.rs`).
     motion_now: SubstepMotion,
     /// Contact forces, when requested (`contact_forces.rs`).
-    forces: Option<Recorder>,
+    forces: Option<ImpulseRecorder>,
     /// The mesh families' kept candidates (`mesh_contact.rs`).
     kept: mesh_contact::KeptCandidates,
 }
@@ -204,12 +204,12 @@ impl CpuBackend {
                     alpha_tilde: fam.alpha_tilde(plan.h),
                     start: &self.p,
                     meshes: &plan.meshes,
-                    moving_mesh: motion::mesh(plan, &self.motion_now, family),
+                    moving_mesh: self.motion_now.mesh(plan.motion.as_ref(), family),
                     kept: &kept,
                 };
                 let lambda =
                     &mut self.lambda[self.lambda_starts[family]..self.lambda_starts[family + 1]];
-                let moving = motion::plane(plan, &self.motion_now, family);
+                let moving = self.motion_now.plane(plan.motion.as_ref(), family);
                 let projected = if let Some(plane) = moving {
                     let (w, alpha_tilde) = (&plan.inverse_mass[..], batch.alpha_tilde);
                     motion::project(plane, fam, w, alpha_tilde, &self.p, &mut self.x, lambda)
@@ -415,7 +415,7 @@ impl Backend for CpuBackend {
     }
 
     fn request_contact_forces(&mut self, on: bool) -> Result<(), BackendError> {
-        self.forces = on.then(|| Recorder::new(&self.plan));
+        self.forces = on.then(|| ImpulseRecorder::new(&self.plan));
         Ok(())
     }
 }
@@ -540,7 +540,7 @@ impl CpuBackend {
             let state = (&self.x[..], &self.v[..], &self.p[..]);
             forces.after(&self.plan, now, kernel, state);
             if kernel == Kernel::Minimise {
-                forces.minimised(&self.plan, &self.coupled, &self.x);
+                crate::contact_forces::minimised(&mut forces, &self.plan, &self.coupled, &self.x);
             }
         }
         self.forces = Some(forces);

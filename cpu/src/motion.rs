@@ -23,7 +23,7 @@
 // Coordinate loops index several arrays at once, as a kernel does.
 #![allow(clippy::needless_range_loop)]
 
-use hyperpbd_core::motion::{MeshAt, PlaneAt, SubstepMotion, substep_time};
+use hyperpbd_core::motion::{PlaneAt, SubstepMotion, substep_time};
 use hyperpbd_core::moving_mesh::reach_rejection;
 use hyperpbd_core::{BackendError, Family, FamilyKind, FamilyResidual, Plan, StepError};
 
@@ -59,18 +59,6 @@ pub fn place(
         v[i * n..(i + 1) * n].copy_from_slice(&now.pin_velocities[k * n..(k + 1) * n]);
     }
     Ok(now)
-}
-
-/// The plane of family `family` in this substep, if it moves.
-pub fn plane<'a>(plan: &Plan, now: &'a SubstepMotion, family: usize) -> Option<&'a PlaneAt> {
-    let k = plan.motion.as_ref()?.plane_of(family)?;
-    now.planes.get(k)
-}
-
-/// The mesh of family `family` in this substep, if it moves.
-pub fn mesh<'a>(plan: &Plan, now: &'a SubstepMotion, family: usize) -> Option<&'a MeshAt> {
-    let k = plan.motion.as_ref()?.mesh_of(family)?;
-    now.meshes.get(k)
 }
 
 /// Projection of moving-plane family `family` (every element; one
@@ -133,12 +121,12 @@ pub fn friction_of(
             mu: *friction,
             lambda,
             x,
-            moving: self::mesh(plan, now, family).map(|m| (m, start)),
+            moving: now.mesh(plan.motion.as_ref(), family).map(|m| (m, start)),
             kept: &kept,
         };
         return crate::mesh_contact::friction(workers, &mesh, v);
     }
-    match plane(plan, now, family) {
+    match now.plane(plan.motion.as_ref(), family) {
         Some(moving) => friction(moving, f, (&plan.inverse_mass, plan.h), lambda, start, v),
         None => {
             crate::friction::friction(workers, plan.dim, plan.h, &plan.inverse_mass, f, lambda, v)
@@ -163,12 +151,12 @@ pub fn residual_of(
             max_violation: crate::mesh_contact::residual(
                 plan.dim,
                 f,
-                (&plan.meshes[*mesh], self::mesh(plan, now, family)),
+                (&plan.meshes[*mesh], now.mesh(plan.motion.as_ref(), family)),
                 x,
             ),
         };
     }
-    match plane(plan, now, family) {
+    match now.plane(plan.motion.as_ref(), family) {
         Some(moving) => FamilyResidual {
             label: f.label.clone(),
             max_violation: residual(moving, f, x),

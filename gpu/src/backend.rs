@@ -26,12 +26,14 @@ use crate::resident_backend::{Load, Resident, ResidentBackend, ResidentStep};
 use crate::xpbd::schedule::StepMode;
 use contact_step::{ContactStage, contact_report};
 use diagnosis::{diagnosed_error, guard_rejection};
+use forces::ForceTape;
 use motion_step::{Moving, refuse_alone_with_motion};
 use program::Program;
 use status::{StatusReader, refuse_cut_loops};
 
 pub(crate) mod contact_step;
 mod diagnosis;
+mod forces;
 mod motion_step;
 mod program;
 pub(crate) mod status;
@@ -52,6 +54,8 @@ pub struct XpbdStep {
     /// Steps of `plan.subdivided(j)`, j = 1, 2, … (adaptive), each on
     /// its own resident state on this device.
     subdivided: Vec<(Resident, XpbdStep)>,
+    /// The contact forces' copies and recorder, when asked (forces.rs).
+    forces: Option<ForceTape>,
 }
 
 /// How an XPBD step is loaded ([`GpuBackend::with_options`]; the default
@@ -160,6 +164,24 @@ impl ResidentStep for XpbdStep {
     fn prefetch_state(&mut self, on: &mut Resident) {
         on.state.prefetch();
     }
+
+    /// Reported from the device's own states (forces.rs), here and in
+    /// every subdivided step built so far or later.
+    fn request_contact_forces(
+        &mut self,
+        on: &mut Resident,
+        wanted: bool,
+    ) -> Result<(), BackendError> {
+        let tape = match wanted {
+            true => Some(ForceTape::new(on, &self.program)?),
+            false => None,
+        };
+        for (refined_on, refined) in &mut self.subdivided {
+            refined.request_contact_forces(refined_on, wanted)?;
+        }
+        self.forces = tape;
+        Ok(())
+    }
 }
 
 impl XpbdStep {
@@ -184,6 +206,7 @@ impl XpbdStep {
             contacts: built.contacts,
             motion: built.motion,
             subdivided: Vec::new(),
+            forces: None,
         };
         Ok((on, step))
     }
@@ -219,6 +242,9 @@ impl XpbdStep {
                 p.exact.iter().chain(&p.fast).chain(&p.alone),
             )?;
         }
+        if self.forces.is_some() {
+            return self.recorded_step(on);
+        }
         if self.contacts.is_some() {
             let (outcomes, block) = self.submit_fitting_contact_step(on)?;
             refuse_cut_loops(on, &block)?;
@@ -249,18 +275,8 @@ impl XpbdStep {
         program.status.reset(&on.ctx);
         let fast = (&program.fast[..], 1, true);
         let save = |e: &mut wgpu::CommandEncoder| on.state.save(e);
-        let mut encoder = program.record(&on.ctx, save, fast, self.contacts.as_ref());
-        let snapshot = on.state.record_snapshot(&mut encoder);
-        on.ctx.submit(encoder)?;
-        if let Some(slot) = snapshot {
-            on.state.map_snapshot(slot);
-        }
-        // One wait: mapping the report waits for the step, and completes
-        // the snapshot's mapping with it.
-        let block = program.status.read(&on.ctx, true)?;
-        on.ctx.check()?;
-        refuse_cut_loops(on, &block)?;
-        Ok(block)
+        let encoder = program.record(&on.ctx, save, fast, self.contacts.as_ref());
+        submit_for_status(on, &program.status, encoder)
     }
 
     /// With particle contact: the step (every world's) submitted until
@@ -277,10 +293,70 @@ impl XpbdStep {
             .into());
         };
         let program = &self.program;
-        let record = |pass: &mut wgpu::ComputePass<'_>, stage: &ContactStage| {
-            program.encode_all(pass, &program.fast, 1, Some(stage));
+        let record = |encoder: &mut wgpu::CommandEncoder, stage: &ContactStage| {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            program.encode_all(&mut pass, &program.fast, 1, Some(stage));
         };
         stage.submit_fitting(on, &program.status, &record)
+    }
+
+    /// One step with its contact forces (forces.rs): the exact schedule
+    /// with the tape's copies between its dispatches, then the tape read
+    /// back and replayed. A tape that cannot be read fails the step, the
+    /// state rolled back.
+    fn recorded_step(&mut self, on: &mut Resident) -> Result<StepReport, BackendError> {
+        let (outcome, block) = self.submit_recorded(on)?;
+        if let Some(failed) = StatusReader::failure(&block) {
+            return Err(self.diagnosed_error(on, failed));
+        }
+        let report = read_reals(&block[16..], on.precision);
+        let mut step = match outcome {
+            Some(outcome) => contact_report(&on.plan, &report, &outcome),
+            None => crate::xpbd::step_report(&on.plan, &report),
+        };
+        let clock = self.motion.as_ref().map_or(0, |m| m.step);
+        if let Some(tape) = &mut self.forces {
+            match tape.forces(&on.ctx, &on.plan, &on.state, clock) {
+                Ok(forces) => step.contact_forces = Some(forces),
+                Err(e) => return Err(on.roll_back_after(e.into())),
+            }
+        }
+        Ok(step)
+    }
+
+    /// The submission of a recorded step (every list fitted, with particle
+    /// contact): its contact outcome, if any, and its status block; a step
+    /// whose loops were cut is refused, rolled back.
+    fn submit_recorded(
+        &mut self,
+        on: &mut Resident,
+    ) -> Result<(Option<crate::contact::Outcome>, Vec<u8>), BackendError> {
+        let (program, Some(tape)) = (&self.program, self.forces.as_ref()) else {
+            return Err(GpuError::Other {
+                message: "a recorded step without its tape".into(),
+            }
+            .into());
+        };
+        let copy = |encoder: &mut wgpu::CommandEncoder, at: usize| tape.copy(encoder, at);
+        let between = (tape.stops(), &copy as program::CopyAt<'_>);
+        if let Some(stage) = self.contacts.as_mut() {
+            let record = |encoder: &mut wgpu::CommandEncoder, stage: &ContactStage| {
+                program.record_between(encoder, &program.exact, Some(stage), between);
+            };
+            let (outcomes, block) = stage.submit_fitting(on, &program.status, &record)?;
+            refuse_cut_loops(on, &block)?;
+            let outcome = outcomes.first().copied();
+            return Ok((
+                Some(outcome.unwrap_or(crate::contact::Outcome::EMPTY)),
+                block,
+            ));
+        }
+        program.status.reset(&on.ctx);
+        let mut encoder = on.encoder();
+        on.state.save(&mut encoder);
+        program.record_between(&mut encoder, &program.exact, None, between);
+        program.status.copy_out(&mut encoder, true);
+        Ok((None, submit_for_status(on, &program.status, encoder)?))
     }
 
     /// The status words and report of the step (every world's).
@@ -310,8 +386,12 @@ impl XpbdStep {
         let j = subdivision as usize;
         while self.subdivided.len() < j {
             let plan = on.plan.subdivided(self.subdivided.len() as u32 + 1);
-            let built = Self::build_beside(on, plan, self.program.schedule.mode)?;
-            self.subdivided.push(built);
+            let (mut refined_on, mut refined) =
+                Self::build_beside(on, plan, self.program.schedule.mode)?;
+            if self.forces.is_some() {
+                refined.request_contact_forces(&mut refined_on, true)?;
+            }
+            self.subdivided.push((refined_on, refined));
         }
         let clock = self.motion.as_ref().map(|m| m.step);
         let (refined_on, refined) = &mut self.subdivided[j - 1];
@@ -386,6 +466,27 @@ impl XpbdStep {
     }
 }
 
+/// Submits a recorded step (`encoder`, its status copied out), a state
+/// snapshot copied out with it when one was asked for; one wait: mapping
+/// the report waits for the step and completes the snapshot's mapping
+/// with it. The status block as read back; a step whose loops were cut is
+/// refused, rolled back.
+fn submit_for_status(
+    on: &mut Resident,
+    status: &StatusReader,
+    mut encoder: wgpu::CommandEncoder,
+) -> Result<Vec<u8>, BackendError> {
+    let snapshot = on.state.record_snapshot(&mut encoder);
+    on.ctx.submit(encoder)?;
+    if let Some(slot) = snapshot {
+        on.state.map_snapshot(slot);
+    }
+    let block = status.read(&on.ctx, true)?;
+    on.ctx.check()?;
+    refuse_cut_loops(on, &block)?;
+    Ok(block)
+}
+
 /// What [`GpuBackend`] offers besides the resident backend's API.
 impl GpuBackend {
     /// Loads `plan` with `state` on the shared device of `adapter` as
@@ -404,6 +505,12 @@ impl GpuBackend {
     /// The origin device positions are relative to.
     pub fn origin(&self) -> &SceneOrigin {
         self.on.state.origin()
+    }
+
+    /// Bytes a step copies out for its contact forces (`None` unless
+    /// they were asked for: `Backend::request_contact_forces`).
+    pub fn contact_force_tape_bytes(&self) -> Option<u64> {
+        self.step.forces.as_ref().map(|tape| tape.bytes())
     }
 
     /// How the dispatches of a step are formed.

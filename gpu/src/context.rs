@@ -256,8 +256,25 @@ impl GpuContext {
         bytes: &[u8],
         usage: wgpu::BufferUsages,
     ) -> Result<wgpu::Buffer, GpuError> {
+        let buffer = self.sized(label, bytes.len() as u64, usage)?;
+        if !bytes.is_empty() && !usage.contains(wgpu::BufferUsages::MAP_READ) {
+            let mut padded = bytes.to_vec();
+            padded.resize(padded.len().next_multiple_of(4), 0);
+            self.queue.write_buffer(&buffer, 0, &padded);
+        }
+        Ok(buffer)
+    }
+
+    /// A buffer of `len` bytes (at least 16), nothing written, refusing
+    /// sizes over the device limits with a typed error naming `label`.
+    fn sized(
+        &self,
+        label: &str,
+        len: u64,
+        usage: wgpu::BufferUsages,
+    ) -> Result<wgpu::Buffer, GpuError> {
         let limits = self.device.limits();
-        let size = (bytes.len() as u64).max(16).next_multiple_of(4);
+        let size = len.max(16).next_multiple_of(4);
         let maximum = if usage.contains(wgpu::BufferUsages::STORAGE) {
             limits
                 .max_storage_buffer_binding_size
@@ -272,18 +289,12 @@ impl GpuContext {
                 maximum,
             });
         }
-        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+        Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
             size,
             usage: usage | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
-        });
-        if !bytes.is_empty() && !usage.contains(wgpu::BufferUsages::MAP_READ) {
-            let mut padded = bytes.to_vec();
-            padded.resize(padded.len().next_multiple_of(4), 0);
-            self.queue.write_buffer(&buffer, 0, &padded);
-        }
-        Ok(buffer)
+        }))
     }
 
     /// A storage buffer (also a copy source and destination) of `bytes`.
@@ -297,9 +308,9 @@ impl GpuContext {
 
     /// A mappable read-back buffer of `len` bytes.
     pub fn staging(&self, label: &str, len: u64) -> Result<wgpu::Buffer, GpuError> {
-        self.buffer(
+        self.sized(
             label,
-            &vec![0u8; len as usize],
+            len,
             wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         )
     }

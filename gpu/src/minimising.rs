@@ -9,11 +9,18 @@
 //! attempt        every Minimise kernel of every substep, the state restored
 //!                byte for byte on any error (no adaptive steps); its report
 //!                carries the families' residuals (core's violation)
+//! forces         on request, per-particle barriers only: after each
+//!                minimisation the accepted iterate x is read back (one more
+//!                wait) and the golden path's recorder adds −∇B(x) h per
+//!                obstacle (core's impulse_recorder); the coupled step
+//!                refuses (its lagged friction and ball barriers live in its
+//!                own records on the device)
 //! ```
 
+use hyperpbd_core::impulse_recorder::ImpulseRecorder;
 use hyperpbd_core::violation::{ball_overlap_residual, family_residuals};
 use hyperpbd_core::{
-    BackendError, Kernel, MinimisationReport, StepError, StepReport, check_kernel,
+    BackendError, GpuError, Kernel, MinimisationReport, StepError, StepReport, check_kernel,
 };
 
 use crate::resident_backend::{Load, Resident, ResidentStep};
@@ -34,6 +41,8 @@ pub struct Minimising<M> {
     pub(crate) minimiser: M,
     substep: u32,
     reports: Vec<MinimisationReport>,
+    /// The contact forces' recorder, when asked (per-particle barriers).
+    forces: Option<ImpulseRecorder>,
 }
 
 impl<M: Minimiser> Minimising<M> {
@@ -42,6 +51,16 @@ impl<M: Minimiser> Minimising<M> {
         let refused = StepError::refused(self.substep, &report);
         self.reports.push(report);
         refused.map_or(Ok(()), |e| Err(e.into()))
+    }
+
+    /// The barrier impulses at the accepted iterate, when asked.
+    fn record_barriers(&mut self, on: &mut Resident) -> Result<(), BackendError> {
+        let (Some(recorder), Some(ip)) = (&mut self.forces, on.plan.incremental_potential()) else {
+            return Ok(());
+        };
+        let x = on.state.read(&on.ctx)?.positions;
+        recorder.barriers(&on.plan, ip, &x);
+        Ok(())
     }
 
     /// Saves the state (no wait: the steps' submissions follow it in
@@ -63,6 +82,7 @@ impl<M: Minimiser> ResidentStep for Minimising<M> {
             minimiser,
             substep: 0,
             reports: Vec::new(),
+            forces: None,
         };
         Ok((on, step))
     }
@@ -88,13 +108,19 @@ impl<M: Minimiser> ResidentStep for Minimising<M> {
         }
         Self::save(on)?;
         self.reports.clear();
+        if let Some(recorder) = &mut self.forces {
+            recorder.clear();
+        }
         for substep in 0..on.plan.substeps {
             self.substep = substep;
             for k in 0..on.plan.substep_kernels.len() {
                 if on.plan.substep_kernels[k] != Kernel::Minimise {
                     continue;
                 }
-                if let Err(e) = self.run_minimise(on) {
+                let done = self
+                    .run_minimise(on)
+                    .and_then(|()| self.record_barriers(on));
+                if let Err(e) = done {
                     return Err(on.roll_back_after(e));
                 }
             }
@@ -117,7 +143,35 @@ impl<M: Minimiser> ResidentStep for Minimising<M> {
             kernel_calls: plan.kernel_counts(),
             minimisation: std::mem::take(&mut self.reports),
             residuals,
+            contact_forces: self.forces.as_ref().map(|r| r.forces(plan.dt)),
             ..StepReport::default()
         })
+    }
+
+    /// Reported for per-particle barriers (module docs); the coupled step
+    /// refuses.
+    fn request_contact_forces(
+        &mut self,
+        on: &mut Resident,
+        wanted: bool,
+    ) -> Result<(), BackendError> {
+        let coupled = on
+            .plan
+            .incremental_potential()
+            .is_some_and(|ip| ip.coupled.is_some());
+        if wanted && coupled {
+            return Err(GpuError::Unsupported {
+                what: format!(
+                    "contact forces on gpu-{} with the coupled implicit step: its kernels do not \
+                     copy their lags and element records out for the recorder yet; the XPBD \
+                     step and the per-particle barrier path on the GPU, and the CPU golden path, \
+                     report them (--backend cpu)",
+                    on.precision
+                ),
+            }
+            .into());
+        }
+        self.forces = wanted.then(|| ImpulseRecorder::new(&on.plan));
+        Ok(())
     }
 }

@@ -98,6 +98,14 @@ pub trait ResidentStep: Sized {
     /// `Backend::prefetch_state` (nothing unless the step copies a
     /// snapshot out with its own submission).
     fn prefetch_state(&mut self, _on: &mut Resident) {}
+
+    /// `Backend::request_contact_forces` (every step here reports them,
+    /// or refuses with its reason).
+    fn request_contact_forces(
+        &mut self,
+        on: &mut Resident,
+        wanted: bool,
+    ) -> Result<(), BackendError>;
 }
 
 /// A GPU backend keeping the whole state on the device, running step `S`
@@ -278,20 +286,7 @@ impl<S: ResidentStep> Backend for ResidentBackend<S> {
         self.step.prefetch_state(&mut self.on);
     }
 
-    /// Refused: the kernels keep their contact multipliers on the device
-    /// and do not read them back (the CPU golden path reports contact
-    /// forces).
     fn request_contact_forces(&mut self, on: bool) -> Result<(), BackendError> {
-        if !on {
-            return Ok(());
-        }
-        Err(GpuError::Unsupported {
-            what: format!(
-                "contact forces on {}: the kernels do not read their contact multipliers back \
-                 yet; the CPU golden path reports them (--backend cpu)",
-                self.name()
-            ),
-        }
-        .into())
+        self.step.request_contact_forces(&mut self.on, on)
     }
 }

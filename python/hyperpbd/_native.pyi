@@ -124,8 +124,8 @@ class Simulation:
         """Replaces the state; wrong shape or a non-finite value raises
         ValueError and changes nothing."""
     def request_contact_forces(self, on: bool = True) -> None:
-        """Every following step reports "contact_forces"; GpuError on a
-        GPU backend."""
+        """Every following step reports "contact_forces"; GpuError for a
+        GPU scene on the coupled implicit step."""
     def set_forces(self, forces: ArrayLike) -> None:
         """Replaces the constant external forces, shape (particles, dim)."""
     def state_hash(self) -> str:

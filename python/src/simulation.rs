@@ -190,8 +190,9 @@ impl Simulation {
     /// "obstacle_power": (obstacles,)} — each obstacle's force on the
     /// particles (they press on it with the opposite), each particle's
     /// total contact force, and each obstacle's mean power into the
-    /// particles (0 unless it moves), over the last frame. Raises GpuError on a GPU
-    /// backend (they do not report them).
+    /// particles (0 unless it moves), over the last frame. On a GPU a
+    /// scene on the coupled implicit step raises GpuError (the XPBD step
+    /// and the per-particle barrier path report them).
     #[pyo3(signature = (on = true))]
     fn request_contact_forces(&self, py: Python<'_>, on: bool) -> PyResult<()> {
         self.with_backend(py, "request_contact_forces", |b| {

@@ -247,3 +247,18 @@ def test_contact_forces_on_request():
     assert forces["obstacle_power"].shape == (1,) and forces["obstacle_power"][0] == 0.0
     sim.request_contact_forces(False)
     assert "contact_forces" not in sim.step(frames=1)
+
+
+def test_contact_forces_on_the_gpu_are_the_golden_paths(gpu_f64):
+    # gpu-f64 on lavapipe (as test_cli_equality assumes): the CPU's forces
+    # bit for bit (the recorder runs over the device's own states, which are
+    # the golden path's there).
+    scene = hp.Scene.from_json(RESTING)
+    cpu, gpu = hp.Simulation(scene, backend="cpu"), hp.Simulation(scene, backend=gpu_f64)
+    for sim in (cpu, gpu):
+        sim.request_contact_forces()
+    for _ in range(10):
+        want, got = cpu.step()["contact_forces"], gpu.step()["contact_forces"]
+        for key in ("obstacles", "particles", "obstacle_power"):
+            assert np.array_equal(got[key], want[key]), key
+    assert abs(got["obstacles"][0, 1] - 2.0 * 9.81) <= 1e-9 * 2.0 * 9.81

@@ -1,6 +1,7 @@
 //! `hyperpbd run --forces`: one JSON object per frame, the library's
-//! contact forces bit for bit; an unwritable path (exit 4) and a backend
-//! that cannot report them (exit 2, GPU) leave no output.
+//! contact forces bit for bit, from the CPU and the GPU (gpu-f64 on
+//! lavapipe byte for byte the CPU's); an unwritable path (exit 4) leaves
+//! no output.
 
 use super::*;
 
@@ -92,26 +93,35 @@ fn an_unwritable_forces_path_exits_4_and_writes_nothing() {
 }
 
 #[test]
-fn a_gpu_backend_refuses_forces_with_its_reason() {
-    for (backend, precision) in [("gpu", Precision::F32), ("gpu-f64", Precision::F64)] {
-        if adapter_or_skip("a_gpu_backend_refuses_forces_with_its_reason", precision).is_none() {
+fn a_gpu_backend_writes_the_golden_paths_forces() {
+    // gpu-f64 on lavapipe: the same bytes as `--backend cpu` (its states and
+    // forces are the golden path's); gpu (f32): the floor holds 2 kg · g to
+    // its f32 bound (tests/gpu/contact_forces.rs: ε32 X / (g h²), X = 0.1 m
+    // the resting ball's largest coordinate, h = dt / 10: 4.4e-4).
+    let dir = TempDir::new("forces-gpu");
+    let cpu = dir.path("cpu.jsonl");
+    assert_success(&run_forces(&dir, "cpu", &cpu, 30));
+    let golden = std::fs::read_to_string(&cpu).expect("cpu forces");
+    for (backend, precision) in [("gpu-f64", Precision::F64), ("gpu", Precision::F32)] {
+        let test = "a_gpu_backend_writes_the_golden_paths_forces";
+        let Some((_, summary)) = adapter_or_skip(test, precision) else {
+            continue;
+        };
+        let path = dir.path(&format!("{backend}.jsonl"));
+        assert_success(&run_forces(&dir, backend, &path, 30));
+        let text = std::fs::read_to_string(&path).expect("--forces file");
+        assert_eq!(text.lines().count(), 30, "{backend}: one line per frame");
+        if precision == Precision::F64 && summary.name.contains("llvmpipe") {
+            assert_eq!(
+                text, golden,
+                "{backend}: the golden path's forces, byte for byte"
+            );
             continue;
         }
-        let dir = TempDir::new("forces-gpu");
-        let path = dir.path("f.jsonl");
-        let out = run_forces(&dir, backend, &path, 3);
-        let stderr = text(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{stderr}");
-        // (Notices about the adapter may come first.)
-        let error = stderr.lines().find(|l| l.starts_with("error: "));
-        assert!(
-            error.is_some_and(|e| e.starts_with("error: --forces: ")),
-            "{stderr}"
-        );
-        assert!(
-            stderr.contains("do not read their contact multipliers back"),
-            "{stderr}"
-        );
-        assert_eq!(dir.files(), ["scene.json"], "{backend}");
+        let last: Value = serde_json::from_str(text.lines().last().expect("a line")).expect("JSON");
+        let floor = last["obstacles"][0]["force"][1].as_f64().expect("number");
+        let error = (floor - 2.0 * 9.81).abs() / (2.0 * 9.81);
+        println!("BOUND {backend} --forces floor: relative error {error:.3e} / 4.4e-4");
+        assert!(error <= 4.4e-4, "{backend}: {floor}");
     }
 }

@@ -1,6 +1,7 @@
 //! Simplex meshes of the tests: a flat triangulated floor in any dimension.
 
 use hyperpbd::Obstacle;
+use hyperpbd::motion::Motion;
 
 /// A flat floor x_1 = `height` of R^`dim`: the grid [−half, half]^(N−1)
 /// of the other axes, `cells` cells a side, each cube cut into (N−1)!
@@ -58,4 +59,18 @@ pub fn floor(dim: usize, height: f64, half: f64, cells: usize, friction: f64) ->
         friction,
         motion: Vec::new(),
     }
+}
+
+/// [`floor`], moving by `motion`.
+pub fn moving_floor(
+    dim: usize,
+    (height, half, cells): (f64, f64, usize),
+    friction: f64,
+    motion: Vec<Motion>,
+) -> Obstacle {
+    let mut mesh = floor(dim, height, half, cells, friction);
+    if let Obstacle::SimplexMesh { motion: moves, .. } = &mut mesh {
+        *moves = motion;
+    }
+    mesh
 }

@@ -9,6 +9,7 @@ pub mod coupled_f32;
 pub mod differential;
 pub mod exact;
 pub mod expressions;
+pub mod force_scenes;
 pub mod gpu;
 pub mod guarded;
 pub mod hinges;

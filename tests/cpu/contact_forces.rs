@@ -7,24 +7,13 @@
 
 use crate::common;
 
+use common::force_scenes::{
+    assert_close, bits, imbalance, incline, on_floor, plane, square_box, stack, support, weight,
+};
 use common::implicit_scenes::{particle, settings};
 use common::motion_scenes::G;
 use hyperpbd::motion::Motion;
-use hyperpbd::{
-    Backend, Collisions, ConstraintFamily, ConstraintKind, ContactForces, CpuBackend, Obstacle,
-    Plan, Scene, Solver, State, XpbdSettings,
-};
-
-/// A plane through the origin with unit normal `normal`, friction μ.
-fn plane(normal: Vec<f64>, friction: f64, motion: Vec<Motion>) -> Obstacle {
-    Obstacle::Hyperplane {
-        normal,
-        offset: 0.0,
-        friction,
-        compliance: 0.0,
-        motion,
-    }
-}
+use hyperpbd::{Backend, ContactForces, CpuBackend, Plan, Scene, Solver, State, XpbdSettings};
 
 /// `scene` on the golden path with contact forces requested, on `threads`.
 fn asking(scene: &Scene, threads: usize) -> CpuBackend {
@@ -42,86 +31,6 @@ fn forces_after(b: &mut CpuBackend, frames: usize) -> ContactForces {
         last = b.step().expect("step").contact_forces;
     }
     last.expect("requested forces are reported")
-}
-
-/// |got − want| / |want| (want ≠ 0).
-fn relative(got: &[f64], want: &[f64]) -> f64 {
-    let diff: f64 = got.iter().zip(want).map(|(g, w)| (g - w) * (g - w)).sum();
-    let size: f64 = want.iter().map(|w| w * w).sum();
-    (diff / size).sqrt()
-}
-
-fn assert_close(what: &str, got: &[f64], want: &[f64], bound: f64) {
-    let r = relative(got, want);
-    println!("BOUND {what}: relative error {r:.3e} / {bound:.0e}  ({got:?} vs {want:?})");
-    assert!(r <= bound, "{what}: {got:?} vs {want:?}, relative {r:.3e}");
-}
-
-/// Σ_i F_i − Σ_o F_o (0 where only obstacle contacts act: every
-/// particle's contact force is some obstacle's force on it).
-fn imbalance(f: &ContactForces) -> Vec<f64> {
-    let mut sum = vec![0.0; f.dim];
-    for chunk in f.particles.chunks(f.dim) {
-        for (s, c) in sum.iter_mut().zip(chunk) {
-            *s += c;
-        }
-    }
-    for chunk in f.obstacles.chunks(f.dim) {
-        for (s, c) in sum.iter_mut().zip(chunk) {
-            *s -= c;
-        }
-    }
-    sum
-}
-
-/// Every force's bits, obstacles then particles.
-fn bits(f: &ContactForces) -> Vec<u64> {
-    f.obstacles
-        .iter()
-        .chain(&f.particles)
-        .map(|v| v.to_bits())
-        .collect()
-}
-
-/// m g of total mass `m` along −y in R^dim.
-fn weight(dim: usize, m: f64) -> Vec<f64> {
-    let mut w = vec![0.0; dim];
-    w[1] = -m * G;
-    w
-}
-
-/// The force holding up a total mass `m` at rest: −m g (along +y).
-fn support(dim: usize, m: f64) -> Vec<f64> {
-    weight(dim, m).iter().map(|c| -c).collect()
-}
-
-/// Gravity −G along y, the plane y = 0 (friction μ), no particles.
-fn on_floor(dim: usize, substeps: u32, iterations: u32, mu: f64) -> Scene {
-    let mut s = Scene::new(dim, 1.0 / 60.0, substeps, iterations);
-    s.gravity = Some(weight(dim, 1.0));
-    let mut n = vec![0.0; dim];
-    n[1] = 1.0;
-    s.obstacles = vec![plane(n, mu, Vec::new())];
-    s
-}
-
-/// A square of four 0.5 kg particles (side 0.2, radius 0.05) with rigid
-/// edges and diagonals, resting on the floor.
-fn square_box(mut s: Scene) -> Scene {
-    let r = 0.05;
-    for (x, y) in [(0.0, r), (0.2, r), (0.2, r + 0.2), (0.0, r + 0.2)] {
-        s.particles.push(particle(vec![x, y], Some(0.5), r));
-    }
-    let edges = vec![
-        vec![0, 1],
-        vec![1, 2],
-        vec![2, 3],
-        vec![3, 0],
-        vec![0, 2],
-        vec![1, 3],
-    ];
-    s.constraints = vec![ConstraintFamily::new(ConstraintKind::Distance, 0.0, edges)];
-    s
 }
 
 #[test]
@@ -165,17 +74,6 @@ fn one_particle_at_rest_reports_m_g_in_every_dimension_xpbd() {
     }
 }
 
-/// Ball A (1 kg) on the floor, ball B (2 kg) resting on A.
-fn stack(mut s: Scene) -> Scene {
-    s.particles.push(particle(vec![0.0, 0.1], Some(1.0), 0.1));
-    s.particles.push(particle(vec![0.0, 0.3], Some(2.0), 0.1));
-    s.collisions = Some(Collisions {
-        friction: 0.0,
-        margin: 0.01,
-    });
-    s
-}
-
 fn check_stack(what: &str, f: &ContactForces) {
     // B is held up by A alone; A carries its own weight net (the floor's
     // 3 kg g up, B's 2 kg g down); the floor carries both.
@@ -193,18 +91,6 @@ fn check_stack(what: &str, f: &ContactForces) {
 fn a_ball_pressed_by_another_carries_its_weight_xpbd() {
     let scene = stack(on_floor(2, 10, 4, 0.0));
     check_stack("xpbd stack", &forces_after(&mut asking(&scene, 1), 300));
-}
-
-/// A 1.5 kg particle on the plane through 0 tilted by θ (normal
-/// (−sin θ, cos θ)), friction μ.
-fn incline(s: Scene, theta: f64, mu: f64) -> (Scene, Vec<f64>) {
-    let mut s = s;
-    let n = vec![-theta.sin(), theta.cos()];
-    s.obstacles = vec![plane(n.clone(), mu, Vec::new())];
-    let r = 0.1;
-    s.particles
-        .push(particle(vec![r * n[0], r * n[1]], Some(1.5), r));
-    (s, n)
 }
 
 fn check_incline(what: &str, f: &ContactForces, n: &[f64], theta: f64, bound: f64) {
@@ -391,46 +277,6 @@ fn a_request_can_be_withdrawn() {
     assert!(b.step().expect("step").contact_forces.is_some());
     b.request_contact_forces(false).expect("withdrawn");
     assert!(b.step().expect("step").contact_forces.is_none());
-}
-
-#[test]
-fn gpu_backends_refuse_the_request_with_a_typed_reason() {
-    use common::gpu::adapter_or_skip;
-    // (GpuCoupledBackend shares the refusal: gpu/src/resident_backend.rs
-    // writes it once for every resident GPU backend.)
-    use hyperpbd::gpu::{GpuBackend, GpuBarrierBackend};
-    use hyperpbd::{BackendError, GpuError, Precision};
-    let xpbd = stack(on_floor(2, 10, 4, 0.0));
-    let mut barrier = on_floor(2, 1, 1, 0.0);
-    barrier.solver = Solver::IncrementalPotential(settings(1e8, 1e-4, 1e-10, 100));
-    barrier
-        .particles
-        .push(particle(vec![0.0, 0.10005], Some(1.0), 0.1));
-    for precision in [Precision::F32, Precision::F64] {
-        let Some((adapter, _)) = adapter_or_skip("gpu_backends_refuse_forces", precision) else {
-            continue;
-        };
-        let load = |s: &Scene| (Plan::compile(s).expect("valid"), State::from_scene(s));
-        let (p, st) = load(&xpbd);
-        let mut backends: Vec<Box<dyn Backend>> = vec![Box::new(
-            GpuBackend::with_adapter(&adapter, p, &st, precision).expect("xpbd"),
-        )];
-        let (p, st) = load(&barrier);
-        backends.push(Box::new(
-            GpuBarrierBackend::with_adapter(&adapter, p, &st, precision).expect("barrier"),
-        ));
-        for b in &mut backends {
-            match b.request_contact_forces(true) {
-                Err(BackendError::Gpu(GpuError::Unsupported { what })) => {
-                    assert!(what.contains("contact multipliers"), "{what}");
-                }
-                other => panic!("{}: {other:?}", b.name()),
-            }
-            b.request_contact_forces(false).expect("nothing to stop");
-            let report = b.step().expect("steps as before");
-            assert!(report.contact_forces.is_none());
-        }
-    }
 }
 
 #[test]

@@ -7,30 +7,16 @@
 
 use crate::common;
 
-use common::meshes::floor;
+use common::meshes::moving_floor;
 use common::motion_scenes::{G, belt, resting, spin};
 use hyperpbd::motion::{Motion, rigid_at};
-use hyperpbd::{Backend, CpuBackend, F32Reference, Obstacle, Plan, Scene, State};
+use hyperpbd::{Backend, CpuBackend, F32Reference, Plan, Scene, State};
 
 /// `resting`'s ball on a triangulated floor y = 0 (half-width `half`, μ)
 /// moving by `motion`, instead of the plane.
 fn on_mesh(dim: usize, mu: f64, motion: Vec<Motion>, half: f64) -> Scene {
     let mut s = resting(dim, mu, Vec::new(), 20);
-    let Obstacle::SimplexMesh {
-        vertices,
-        simplices,
-        friction,
-        ..
-    } = floor(dim, 0.0, half, 3, mu)
-    else {
-        unreachable!("floor builds a mesh")
-    };
-    s.obstacles = vec![Obstacle::SimplexMesh {
-        vertices,
-        simplices,
-        friction,
-        motion,
-    }];
+    s.obstacles = vec![moving_floor(dim, (0.0, half, 3), mu, motion)];
     s
 }
 

@@ -18,6 +18,7 @@ mod batch_guards;
 mod batch_implicit;
 mod broadphase;
 mod collide;
+mod contact_forces;
 mod contact_step;
 mod coupled;
 mod coupled_f32;

@@ -165,8 +165,8 @@ pub(crate) fn collide_particle(index: u32, particles: usize) -> usize {
 }
 
 /// Records a step's dispatches (the stage's own at the Host calls) into
-/// one compute pass.
-pub(crate) type RecordStep<'a> = &'a dyn Fn(&mut wgpu::ComputePass<'_>, &ContactStage);
+/// the encoder, in compute passes of its own.
+pub(crate) type RecordStep<'a> = &'a dyn Fn(&mut wgpu::CommandEncoder, &ContactStage);
 
 impl ContactStage {
     /// List slots per particle (world 0's): 32 at load, grown when a step
@@ -226,9 +226,9 @@ impl ContactStage {
         self.buffers.reset();
         let mut encoder = on.ctx.device.create_command_encoder(&Default::default());
         on.state.save(&mut encoder);
+        record(&mut encoder, self);
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            record(&mut pass, self);
             let (phase, block) = (ContactPhase::Report, self.report_block);
             self.buffers.encode(&self.kernels, &mut pass, phase, block);
         }

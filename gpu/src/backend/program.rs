@@ -31,6 +31,10 @@ use crate::shader::ShaderFile;
 use crate::xpbd::schedule::{Dispatch, Run, Schedule, StepMode};
 use crate::xpbd::{Families, Placed, XpbdEntry};
 
+/// Records copies into the encoder before dispatch k
+/// ([`Program::record_between`]).
+pub(crate) type CopyAt<'a> = &'a dyn Fn(&mut wgpu::CommandEncoder, usize);
+
 /// The XPBD kernels, bind groups and dispatch blocks of one plan.
 pub(crate) struct Program {
     pub kernels: KernelSet<XpbdEntry>,
@@ -51,6 +55,8 @@ pub(crate) struct Program {
     pub status: StatusReader,
     /// λ (cleared by a Predict run alone).
     pub lambda: wgpu::Buffer,
+    /// The substep's start positions.
+    pub p: wgpu::Buffer,
     /// Buffers only the kernels use.
     _rest: Vec<wgpu::Buffer>,
 }
@@ -256,8 +262,8 @@ impl Program {
             worlds,
             status: StatusReader::new((status, report, report_bytes), report_staging, world_words),
             lambda,
+            p,
             _rest: vec![
-                p,
                 gravity_scale,
                 elements,
                 rest,
@@ -311,6 +317,32 @@ impl Program {
             for d in dispatches {
                 self.encode(pass, d, contacts);
             }
+        }
+    }
+
+    /// Records `dispatches` into `encoder`, a compute pass for each stretch
+    /// between `stops` (dispatch indices, ascending), `copy(encoder, k)`
+    /// at each stop k (k = `dispatches.len()`: after the last): the
+    /// dispatches of one pass, in the same order.
+    pub fn record_between(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        dispatches: &[Placed],
+        contacts: Option<&ContactStage>,
+        (stops, copy): (&[usize], CopyAt<'_>),
+    ) {
+        let mut from = 0;
+        for &stop in stops {
+            if stop > from {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                self.encode_all(&mut pass, &dispatches[from..stop], 1, contacts);
+            }
+            copy(encoder, stop);
+            from = stop;
+        }
+        if from < dispatches.len() {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            self.encode_all(&mut pass, &dispatches[from..], 1, contacts);
         }
     }
 
