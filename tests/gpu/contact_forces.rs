@@ -11,7 +11,8 @@
 //!                       static and a moving triangulated floor with friction,
 //!                       and a step the adaptive guard retried
 //! gpu-f32               the closed forms at rest: m g on the floor under a box,
-//!                       the stack's floor, to a derived f32 bound
+//!                       the stack's floor, to a derived f32 bound; asking (the
+//!                       exact schedule) leaves the state the fused one's, bit for bit
 //! barrier backend       a particle at rest reports m g, to the minimiser's stop
 //!                       (both precisions)
 //! coupled backend       refused with a typed reason, nothing changed
@@ -294,18 +295,39 @@ fn the_coupled_backend_refuses_forces_with_a_typed_reason() {
 }
 
 #[test]
-fn a_request_on_the_gpu_can_be_withdrawn() {
-    let Some((adapter, _)) =
-        adapter_or_skip("a_request_on_the_gpu_can_be_withdrawn", Precision::F32)
-    else {
+fn asking_changes_no_gpu_f32_state_and_can_be_withdrawn() {
+    // The recorded step runs the exact schedule, the plain one the fused
+    // schedule: the same bits (every mode gives the same results), here on
+    // gpu-f32 with particle contact and plane friction.
+    let test = "asking_changes_no_gpu_f32_state_and_can_be_withdrawn";
+    let Some((adapter, _)) = adapter_or_skip(test, Precision::F32) else {
         return;
     };
-    let scene = stack(on_floor(2, 10, 4, 0.0));
+    let scene = stack(on_floor(2, 10, 4, 0.3));
     let plan = Plan::compile(&scene).expect("valid");
-    let gpu = GpuBackend::with_adapter(&adapter, plan, &State::from_scene(&scene), Precision::F32);
-    let mut gpu = asking(gpu.expect("gpu"));
-    assert!(gpu.step().expect("step").contact_forces.is_some());
-    gpu.request_contact_forces(false).expect("withdrawn");
-    assert!(gpu.contact_force_tape_bytes().is_none());
-    assert!(gpu.step().expect("step").contact_forces.is_none());
+    let state = State::from_scene(&scene);
+    let load = || GpuBackend::with_adapter(&adapter, plan.clone(), &state, Precision::F32);
+    let (mut asked, mut plain) = (asking(load().expect("gpu")), load().expect("gpu"));
+    for frame in 1..=20 {
+        assert!(
+            asked.step().expect("step").contact_forces.is_some(),
+            "frame {frame}"
+        );
+        assert!(
+            plain.step().expect("step").contact_forces.is_none(),
+            "frame {frame}"
+        );
+    }
+    let (a, p) = (
+        asked.read_state().expect("a"),
+        plain.read_state().expect("p"),
+    );
+    assert_eq!(
+        state_bits(&a),
+        state_bits(&p),
+        "asking changed the gpu-f32 state"
+    );
+    asked.request_contact_forces(false).expect("withdrawn");
+    assert!(asked.contact_force_tape_bytes().is_none());
+    assert!(asked.step().expect("step").contact_forces.is_none());
 }
