@@ -166,20 +166,26 @@ impl ResidentStep for XpbdStep {
     }
 
     /// Reported from the device's own states (forces.rs), here and in
-    /// every subdivided step built so far or later.
+    /// every subdivided step built so far or later; a refused request
+    /// changes nothing.
     fn request_contact_forces(
         &mut self,
         on: &mut Resident,
         wanted: bool,
     ) -> Result<(), BackendError> {
-        let tape = match wanted {
-            true => Some(ForceTape::new(on, &self.program)?),
-            false => None,
+        let tape = |on: &Resident, step: &XpbdStep| {
+            wanted
+                .then(|| ForceTape::new(on, &step.program))
+                .transpose()
         };
-        for (refined_on, refined) in &mut self.subdivided {
-            refined.request_contact_forces(refined_on, wanted)?;
+        let own = tape(on, self)?;
+        let refined = (self.subdivided.iter())
+            .map(|(refined_on, refined)| tape(refined_on, refined))
+            .collect::<Result<Vec<_>, _>>()?;
+        for ((_, step), tape) in self.subdivided.iter_mut().zip(refined) {
+            step.forces = tape;
         }
-        self.forces = tape;
+        self.forces = own;
         Ok(())
     }
 }

@@ -147,16 +147,25 @@ fn a_retried_step_reports_the_forces_of_its_accepted_attempt_on_the_gpu() {
     let plan = Plan::compile(&retried).expect("valid");
     let state = State::from_scene(&retried);
     let mut golden = asking(CpuBackend::with_threads(plan.clone(), &state, 1).expect("cpu"));
-    let gpu = GpuBackend::with_adapter(&adapter, plan, &state, Precision::F64).expect("gpu");
-    let (want, got) = (
-        golden.step().expect("cpu"),
-        asking(gpu).step().expect("gpu"),
-    );
-    assert!(got.retries() > 0, "{got:?}");
-    assert_eq!(got.attempts, want.attempts);
-    let (got, want) = (forces_of("retried", 1, got), forces_of("retried", 1, want));
-    assert!(got.obstacle(0)[1] > 0.0, "the block lands: {got:?}");
-    assert_eq!(bits(&got), bits(&want));
+    let want = golden.step().expect("cpu");
+    let want_forces = forces_of("retried", 1, want.clone());
+    // Asked before the retries build the subdivided steps, and after
+    // (the same step again from the same state).
+    let load = || GpuBackend::with_adapter(&adapter, plan.clone(), &state, Precision::F64);
+    let mut late = load().expect("gpu");
+    assert!(late.step().expect("unasked").contact_forces.is_none());
+    late.write_state(&state).expect("back to the start");
+    for (when, mut gpu) in [
+        ("before", asking(load().expect("gpu"))),
+        ("after", asking(late)),
+    ] {
+        let got = gpu.step().expect("gpu");
+        assert!(got.retries() > 0, "{when}: {got:?}");
+        assert_eq!(got.attempts, want.attempts, "{when}");
+        let got = forces_of("retried", 1, got);
+        assert!(got.obstacle(0)[1] > 0.0, "the block lands: {got:?}");
+        assert_eq!(bits(&got), bits(&want_forces), "asked {when} the retries");
+    }
 }
 
 /// The forces of the last of `frames` steps of `scene` on the GPU.
