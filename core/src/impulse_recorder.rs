@@ -61,14 +61,6 @@ pub enum Measured {
     Positions,
 }
 
-impl Measured {
-    /// Whether [`ImpulseRecorder::before`] reads the velocities (else the
-    /// positions).
-    pub fn reads_velocities(self) -> bool {
-        matches!(self, Measured::PlaneVelocities { .. })
-    }
-}
-
 impl ImpulseRecorder {
     /// Zero impulses for `plan`'s obstacles and particles.
     pub fn new(plan: &Plan) -> Self {

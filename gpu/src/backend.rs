@@ -248,28 +248,34 @@ impl XpbdStep {
                 p.exact.iter().chain(&p.fast).chain(&p.alone),
             )?;
         }
-        if self.forces.is_some() {
-            return self.recorded_step(on);
-        }
-        if self.contacts.is_some() {
+        // With forces asked: the exact schedule and the tape's copies
+        // (forces.rs); else the chosen schedule.
+        let (outcome, block) = if self.forces.is_some() {
+            self.submit_recorded(on)?
+        } else if self.contacts.is_some() {
             let (outcomes, block) = self.submit_fitting_contact_step(on)?;
             refuse_cut_loops(on, &block)?;
-            if let Some(failed) = StatusReader::failure(&block) {
-                return Err(self.diagnosed_error(on, failed));
-            }
-            let report = read_reals(&block[16..], on.precision);
-            let outcome = outcomes
-                .first()
-                .copied()
-                .unwrap_or(crate::contact::Outcome::EMPTY);
-            return Ok(contact_report(&on.plan, &report, &outcome));
-        }
-        let block = self.submit_step(on)?;
+            (Some(first_outcome(&outcomes)), block)
+        } else {
+            (None, self.submit_step(on)?)
+        };
         if let Some(failed) = StatusReader::failure(&block) {
             return Err(self.diagnosed_error(on, failed));
         }
         let report = read_reals(&block[16..], on.precision);
-        Ok(crate::xpbd::step_report(&on.plan, &report))
+        let mut step = match outcome {
+            Some(outcome) => contact_report(&on.plan, &report, &outcome),
+            None => crate::xpbd::step_report(&on.plan, &report),
+        };
+        let clock = self.motion.as_ref().map_or(0, |m| m.step);
+        if let Some(tape) = &mut self.forces {
+            // A tape that cannot be read fails the step, rolled back.
+            match tape.forces(&on.ctx, &on.plan, &on.state, clock) {
+                Ok(forces) => step.contact_forces = Some(forces),
+                Err(e) => return Err(on.roll_back_after(e.into())),
+            }
+        }
+        Ok(step)
     }
 
     /// One submission of the step's dispatches (the chosen schedule, every
@@ -306,30 +312,6 @@ impl XpbdStep {
         stage.submit_fitting(on, &program.status, &record)
     }
 
-    /// One step with its contact forces (forces.rs): the exact schedule
-    /// with the tape's copies between its dispatches, then the tape read
-    /// back and replayed. A tape that cannot be read fails the step, the
-    /// state rolled back.
-    fn recorded_step(&mut self, on: &mut Resident) -> Result<StepReport, BackendError> {
-        let (outcome, block) = self.submit_recorded(on)?;
-        if let Some(failed) = StatusReader::failure(&block) {
-            return Err(self.diagnosed_error(on, failed));
-        }
-        let report = read_reals(&block[16..], on.precision);
-        let mut step = match outcome {
-            Some(outcome) => contact_report(&on.plan, &report, &outcome),
-            None => crate::xpbd::step_report(&on.plan, &report),
-        };
-        let clock = self.motion.as_ref().map_or(0, |m| m.step);
-        if let Some(tape) = &mut self.forces {
-            match tape.forces(&on.ctx, &on.plan, &on.state, clock) {
-                Ok(forces) => step.contact_forces = Some(forces),
-                Err(e) => return Err(on.roll_back_after(e.into())),
-            }
-        }
-        Ok(step)
-    }
-
     /// The submission of a recorded step (every list fitted, with particle
     /// contact): its contact outcome, if any, and its status block; a step
     /// whose loops were cut is refused, rolled back.
@@ -351,11 +333,7 @@ impl XpbdStep {
             };
             let (outcomes, block) = stage.submit_fitting(on, &program.status, &record)?;
             refuse_cut_loops(on, &block)?;
-            let outcome = outcomes.first().copied();
-            return Ok((
-                Some(outcome.unwrap_or(crate::contact::Outcome::EMPTY)),
-                block,
-            ));
+            return Ok((Some(first_outcome(&outcomes)), block));
         }
         program.status.reset(&on.ctx);
         let mut encoder = on.encoder();
@@ -470,6 +448,14 @@ impl XpbdStep {
             None => Ok(()),
         }
     }
+}
+
+/// World 0's contact outcome (a single world's).
+fn first_outcome(outcomes: &[crate::contact::Outcome]) -> crate::contact::Outcome {
+    outcomes
+        .first()
+        .copied()
+        .unwrap_or(crate::contact::Outcome::EMPTY)
 }
 
 /// Submits a recorded step (`encoder`, its status copied out), a state

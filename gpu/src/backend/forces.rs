@@ -58,8 +58,7 @@ enum What {
 impl What {
     /// The buffers this event copies out: what the recorder reads there
     /// (λ for a mesh's normal, p for a moving obstacle's work, x for a
-    /// mesh's normal at the substep's end); it reads zeros for the rest,
-    /// which it does not use.
+    /// mesh's normal at the substep's end); it does not read the rest.
     fn snaps(self, plan: &Plan) -> Vec<Snap> {
         let moving = |family: usize| {
             (plan.motion.as_ref())
@@ -67,22 +66,24 @@ impl What {
         };
         let mesh =
             |family: usize| matches!(plan.families[family].kind, FamilyKind::MeshContact { .. });
-        let with = |first: Snap, extra: [(bool, Snap); 2]| {
-            let rest = extra.into_iter().filter(|e| e.0).map(|e| e.1);
+        let with = |first: Snap, extra: &[(bool, Snap)]| {
+            let rest = extra.iter().filter(|e| e.0).map(|e| e.1);
             std::iter::once(first).chain(rest).collect()
         };
         match self {
             What::Before(kernel) => match measured(plan, kernel) {
-                Some(m) if m.reads_velocities() => vec![Snap::V],
-                _ => vec![Snap::X],
+                Some(Measured::PlaneVelocities { .. }) => vec![Snap::V],
+                Some(Measured::PlanePositions { .. } | Measured::Positions) | None => {
+                    vec![Snap::X]
+                }
             },
             What::After(kernel) => match measured(plan, kernel) {
                 Some(Measured::PlanePositions { family }) => with(
                     Snap::X,
-                    [(mesh(family), Snap::Lambda), (moving(family), Snap::P)],
+                    &[(mesh(family), Snap::Lambda), (moving(family), Snap::P)],
                 ),
                 Some(Measured::PlaneVelocities { family }) => {
-                    with(Snap::V, [(false, Snap::X), (moving(family), Snap::P)])
+                    with(Snap::V, &[(moving(family), Snap::P)])
                 }
                 Some(Measured::Positions) | None => vec![Snap::X],
             },
@@ -91,7 +92,7 @@ impl What {
                 let x = families().any(mesh);
                 with(
                     Snap::Lambda,
-                    [(x, Snap::X), (families().any(moving), Snap::P)],
+                    &[(x, Snap::X), (families().any(moving), Snap::P)],
                 )
             }
         }
@@ -255,6 +256,10 @@ impl ForceTape {
         let slots = self.starts[self.starts.len() - 1];
         self.recorder.clear();
         let mut now = (u32::MAX, SubstepMotion::default());
+        // What an event does not copy the recorder does not read: it keeps
+        // an earlier event's values (zeros at first).
+        let (mut x, mut v, mut p) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let mut lambda = vec![0.0; slots];
         for event in &self.events {
             if let Some(motion) = plan.motion.as_ref().filter(|_| now.0 != event.substep) {
                 let s = event.substep;
@@ -262,9 +267,6 @@ impl ForceTape {
                 let t1 = substep_time(step, plan.dt, s + 1, plan.h);
                 now = (s, motion.substep(plan.dim, t0, t1, plan.h));
             }
-            let zeros = || vec![0.0; n];
-            let (mut x, mut v, mut p) = (zeros(), zeros(), zeros());
-            let mut lambda = vec![0.0; slots];
             let mut offset = event.offset as usize;
             for &snap in &event.snaps {
                 let size = size_of(snap, self.sizes) as usize;
